@@ -1,0 +1,8 @@
+//! # fpsolve
+//!
+//! Stationary probability densities of randomly excited nonlinear oscillators, from a short
+//! model file: the model language, the derived Fokker–Planck operator, the
+//! exponential-polynomial closure (EPC) and Monte Carlo simulation.
+
+pub mod model;
+pub mod symbolic;

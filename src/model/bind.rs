@@ -1,0 +1,404 @@
+//! Binding a [`Model`]'s parameters to numbers.
+
+use std::collections::HashMap;
+
+use super::{DeltaTreatment, Interpretation, Model, Observable};
+use crate::symbolic::{Expr, Symbol};
+
+/// A parameter override, `--set name=value`; the value may mention other parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Override {
+    /// The parameter to set.
+    pub name: String,
+    /// Its new definition.
+    pub value: Expr,
+}
+
+impl Override {
+    /// An override to a plain number.
+    ///
+    /// ```
+    /// let o = fpsolve::model::Override::number("mu", 1.0);
+    /// assert_eq!(o.value.to_string(), "1");
+    /// ```
+    pub fn number(name: &str, value: f64) -> Override {
+        Override {
+            name: name.to_string(),
+            value: Expr::num(value),
+        }
+    }
+}
+
+/// Why a model could not be bound to parameter values.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BindError {
+    /// `--set` named a parameter the model does not declare.
+    #[error("unknown parameter `{name}` (the model declares: {known})")]
+    UnknownParameter {
+        /// The name given.
+        name: String,
+        /// The declared parameters, comma-separated.
+        known: String,
+    },
+    /// The same parameter was overridden twice.
+    #[error("parameter `{name}` is set more than once")]
+    DuplicateOverride {
+        /// The parameter.
+        name: String,
+    },
+    /// Parameters are defined through each other.
+    #[error("parameter `{name}` is defined through itself: {chain}")]
+    Cycle {
+        /// The parameter where the cycle was found.
+        name: String,
+        /// The cycle, `a -> b -> a`.
+        chain: String,
+    },
+    /// A parameter's value mentions something that is not a parameter.
+    #[error("the value of `{name}` mentions `{symbol}`, which is not a parameter")]
+    NotAParameter {
+        /// The parameter being evaluated.
+        name: String,
+        /// The stray symbol.
+        symbol: String,
+    },
+    /// A parameter evaluated to NaN or ±∞.
+    #[error("parameter `{name}` evaluates to {value}")]
+    NotFinite {
+        /// The parameter.
+        name: String,
+        /// Its value.
+        value: f64,
+    },
+    /// A noise intensity is negative (or not finite).
+    #[error("noise `{noise}` has intensity {value}; an intensity must be ≥ 0")]
+    NegativeIntensity {
+        /// The noise source.
+        noise: String,
+        /// The value found.
+        value: f64,
+    },
+    /// A correlation coefficient outside [−1, 1].
+    #[error("correlation of `{a}` and `{b}` is {value}; it must lie in [-1, 1]")]
+    BadCorrelation {
+        /// First source.
+        a: String,
+        /// Second source.
+        b: String,
+        /// The value found.
+        value: f64,
+    },
+    /// A barrier position that is not a finite number.
+    #[error("the impact barrier evaluates to {value}")]
+    BadBarrier {
+        /// The value found.
+        value: f64,
+    },
+}
+
+/// An impact law with its barrier at a number.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoundImpact {
+    /// Index of the state that meets the barrier.
+    pub state: usize,
+    /// The barrier's position.
+    pub at: f64,
+    /// Index of the state that jumps.
+    pub other: usize,
+    /// The post-impact value of `other`, an expression of the states only.
+    pub map: Expr,
+}
+
+/// A model whose parameters are numbers: every expression in it mentions only the states
+/// (and, in the noise matrix, nothing else). What the FPK, EPC and Monte Carlo stages consume.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoundModel {
+    pub(crate) name: String,
+    pub(crate) params: Vec<(Symbol, f64)>,
+    pub(crate) states: [Symbol; 2],
+    pub(crate) drift: [Expr; 2],
+    pub(crate) noise_names: Vec<Symbol>,
+    /// S (m×m, row-major): E[ξ_k(t) ξ_l(t+τ)] = S_kl δ(τ).
+    pub(crate) intensity: Vec<Vec<f64>>,
+    pub(crate) noise_matrix: [Vec<Expr>; 2],
+    pub(crate) interpretation: Interpretation,
+    pub(crate) impact: Option<BoundImpact>,
+    pub(crate) observables: Vec<Observable>,
+    pub(crate) delta: DeltaTreatment,
+}
+
+impl BoundModel {
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// Parameter values, in declaration order.
+    pub fn params(&self) -> &[(Symbol, f64)] {
+        &self.params
+    }
+    /// The value of one parameter.
+    pub fn param(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|(n, _)| &**n == name).map(|p| p.1)
+    }
+    /// The two state variables' names.
+    pub fn states(&self) -> &[Symbol; 2] {
+        &self.states
+    }
+    /// The drift of each state, as written (before any Wong–Zakai correction).
+    pub fn drift(&self) -> &[Expr; 2] {
+        &self.drift
+    }
+    /// The noise sources' names.
+    pub fn noise_names(&self) -> &[Symbol] {
+        &self.noise_names
+    }
+    /// The intensity matrix S, E[ξ_k(t) ξ_l(t+τ)] = S_kl δ(τ).
+    pub fn intensity(&self) -> &[Vec<f64>] {
+        &self.intensity
+    }
+    /// G_ik: how source k enters the equation of state i.
+    pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
+        &self.noise_matrix
+    }
+    /// Itô or Stratonovich.
+    pub fn interpretation(&self) -> Interpretation {
+        self.interpretation
+    }
+    /// The impact law, if any.
+    pub fn impact(&self) -> Option<&BoundImpact> {
+        self.impact.as_ref()
+    }
+    /// The observables, parameters substituted.
+    pub fn observables(&self) -> &[Observable] {
+        &self.observables
+    }
+    /// How `delta(·)` is treated in integrals.
+    pub fn delta_treatment(&self) -> DeltaTreatment {
+        self.delta
+    }
+}
+
+impl Model {
+    /// Gives every parameter a number (its default, or the override) and substitutes them.
+    ///
+    /// Overrides may be expressions of other parameters; cycles, unknown names, non-finite
+    /// values, negative intensities and correlations outside [−1, 1] are errors.
+    pub fn bind(&self, overrides: &[Override]) -> Result<BoundModel, BindError> {
+        let values = self.param_values(overrides)?;
+        let table: HashMap<&str, f64> = values.iter().map(|(n, v)| (&**n, *v)).collect();
+        let subst = |e: &Expr| e.map_symbols(&|s| table.get(&**s).map(|v| Expr::num(*v)));
+        let number = |e: &Expr| e.eval(&|s| table.get(s).copied()).unwrap_or(f64::NAN);
+
+        let m = self.noises.len();
+        let mut intensity = vec![vec![0.0; m]; m];
+        for (k, src) in self.noises.iter().enumerate() {
+            let v = number(&src.intensity);
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(BindError::NegativeIntensity {
+                    noise: src.name.to_string(),
+                    value: v,
+                });
+            }
+            intensity[k][k] = v;
+        }
+        for c in &self.correlations {
+            let rho = number(&c.coefficient);
+            if !(rho.is_finite() && (-1.0..=1.0).contains(&rho)) {
+                return Err(BindError::BadCorrelation {
+                    a: self.noises[c.a].name.to_string(),
+                    b: self.noises[c.b].name.to_string(),
+                    value: rho,
+                });
+            }
+            let s = rho * (intensity[c.a][c.a] * intensity[c.b][c.b]).sqrt();
+            intensity[c.a][c.b] = s;
+            intensity[c.b][c.a] = s;
+        }
+        let impact = match &self.impact {
+            None => None,
+            Some(law) => {
+                let at = number(&law.at);
+                if !at.is_finite() {
+                    return Err(BindError::BadBarrier { value: at });
+                }
+                Some(BoundImpact {
+                    state: law.state,
+                    at,
+                    other: law.other,
+                    map: subst(&law.map),
+                })
+            }
+        };
+        Ok(BoundModel {
+            name: self.name.clone(),
+            states: self.states.clone(),
+            drift: [subst(&self.drift[0]), subst(&self.drift[1])],
+            noise_names: self.noises.iter().map(|n| n.name.clone()).collect(),
+            intensity,
+            noise_matrix: [
+                self.noise_matrix[0].iter().map(subst).collect(),
+                self.noise_matrix[1].iter().map(subst).collect(),
+            ],
+            interpretation: self.interpretation,
+            impact,
+            observables: self
+                .observables
+                .iter()
+                .map(|o| Observable {
+                    name: o.name.clone(),
+                    expr: subst(&o.expr),
+                })
+                .collect(),
+            delta: self.delta,
+            params: values,
+        })
+    }
+
+    /// Evaluates every parameter, overrides first, in declaration order.
+    fn param_values(&self, overrides: &[Override]) -> Result<Vec<(Symbol, f64)>, BindError> {
+        let mut defs: HashMap<&str, &Expr> =
+            self.params.iter().map(|p| (&*p.name, &p.default)).collect();
+        let mut seen = std::collections::HashSet::new();
+        for o in overrides {
+            if !defs.contains_key(o.name.as_str()) {
+                return Err(BindError::UnknownParameter {
+                    name: o.name.clone(),
+                    known: self
+                        .params
+                        .iter()
+                        .map(|p| p.name.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                });
+            }
+            if !seen.insert(o.name.as_str()) {
+                return Err(BindError::DuplicateOverride {
+                    name: o.name.clone(),
+                });
+            }
+            defs.insert(o.name.as_str(), &o.value);
+        }
+        let mut memo: HashMap<String, f64> = HashMap::new();
+        let mut out = Vec::with_capacity(self.params.len());
+        for p in &self.params {
+            let mut stack = Vec::new();
+            let v = eval_param(&p.name, &defs, &mut memo, &mut stack)?;
+            out.push((p.name.clone(), v));
+        }
+        Ok(out)
+    }
+}
+
+/// Depth-first evaluation of one parameter; `stack` holds the chain being evaluated, so a
+/// name met again on it is a cycle.
+fn eval_param(
+    name: &str,
+    defs: &HashMap<&str, &Expr>,
+    memo: &mut HashMap<String, f64>,
+    stack: &mut Vec<String>,
+) -> Result<f64, BindError> {
+    if let Some(v) = memo.get(name) {
+        return Ok(*v);
+    }
+    if let Some(pos) = stack.iter().position(|s| s == name) {
+        let mut chain: Vec<&str> = stack[pos..].iter().map(String::as_str).collect();
+        chain.push(name);
+        return Err(BindError::Cycle {
+            name: name.to_string(),
+            chain: chain.join(" -> "),
+        });
+    }
+    let def = defs[name];
+    stack.push(name.to_string());
+    let mut deps = HashMap::new();
+    for s in def.symbols() {
+        if !defs.contains_key(&*s) {
+            return Err(BindError::NotAParameter {
+                name: name.to_string(),
+                symbol: s.to_string(),
+            });
+        }
+        let v = eval_param(&s, defs, memo, stack)?;
+        deps.insert(s.to_string(), v);
+    }
+    stack.pop();
+    let v = def.eval(&|s| deps.get(s).copied()).unwrap_or(f64::NAN);
+    if !v.is_finite() {
+        return Err(BindError::NotFinite {
+            name: name.to_string(),
+            value: v,
+        });
+    }
+    memo.insert(name.to_string(), v);
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{NoiseSource, Parameter};
+
+    fn tiny() -> Model {
+        let p = |n: &str, e: Expr| Parameter {
+            name: n.into(),
+            default: e,
+        };
+        Model {
+            name: "tiny".into(),
+            description: String::new(),
+            params: vec![
+                p("c", Expr::num(0.1)),
+                p("K", Expr::num(1.0) / Expr::sym("two_pi")),
+                p("two_pi", Expr::num(2.0 * std::f64::consts::PI)),
+            ],
+            states: ["x".into(), "v".into()],
+            drift: [Expr::sym("v"), -(Expr::sym("c") * Expr::sym("v"))],
+            noises: vec![NoiseSource {
+                name: "xi".into(),
+                intensity: Expr::sym("two_pi") * Expr::sym("K"),
+            }],
+            correlations: vec![],
+            noise_matrix: [vec![Expr::num(0.0)], vec![Expr::num(1.0)]],
+            interpretation: Interpretation::Stratonovich,
+            impact: None,
+            observables: vec![],
+            delta: DeltaTreatment::Exact,
+        }
+    }
+
+    #[test]
+    fn binds_defaults_in_any_order() {
+        let b = tiny().bind(&[]).unwrap();
+        assert!((b.intensity()[0][0] - 1.0).abs() < 1e-15);
+        assert_eq!(b.drift()[1].to_string(), "-0.1*v");
+    }
+
+    #[test]
+    fn overrides_may_mention_other_parameters() {
+        let o = Override {
+            name: "c".into(),
+            value: Expr::num(2.0) * Expr::sym("K"),
+        };
+        let b = tiny().bind(&[o]).unwrap();
+        assert!((b.param("c").unwrap() - 1.0 / std::f64::consts::PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn override_cycles_and_unknown_names_are_errors() {
+        let o = Override {
+            name: "two_pi".into(),
+            value: Expr::sym("K"),
+        };
+        assert!(matches!(tiny().bind(&[o]), Err(BindError::Cycle { .. })));
+        let o = Override::number("nope", 1.0);
+        assert!(matches!(
+            tiny().bind(&[o]),
+            Err(BindError::UnknownParameter { .. })
+        ));
+        let o = Override::number("K", -1.0);
+        assert!(matches!(
+            tiny().bind(&[o]),
+            Err(BindError::NegativeIntensity { .. })
+        ));
+    }
+}

@@ -1,0 +1,175 @@
+//! Model text → syntax tree → validated [`Model`] → [`BoundModel`] (numbers for parameters).
+//!
+//! A [`Model`] keeps its parameters symbolic, so that `--set` overrides and sweeps can bind
+//! it to new values cheaply; [`Model::bind`] evaluates the parameters and substitutes them,
+//! giving the [`BoundModel`] that the Fokker–Planck, EPC and Monte Carlo stages consume.
+
+mod bind;
+
+pub use bind::{BindError, BoundImpact, BoundModel, Override};
+
+use crate::symbolic::{Expr, Symbol};
+
+/// How products of state-dependent noise with white noise are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpretation {
+    /// Stratonovich: the limit of smooth, wide-band noise (Wong–Zakai), the physical default.
+    #[default]
+    Stratonovich,
+    /// Itô: the noise multiplies the state just before the increment.
+    Ito,
+}
+
+/// How `delta(·)` terms are treated inside the Galerkin integrals.
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase", tag = "kind")]
+pub enum DeltaTreatment {
+    /// Sifting: a `delta(x)` term becomes a line integral over `x = 0`.
+    #[default]
+    Exact,
+    /// A Gaussian of standard deviation `width` stands in for the delta.
+    Gaussian {
+        /// The regulariser's standard deviation (> 0), in the state's own units.
+        width: f64,
+    },
+}
+
+/// A parameter with its default value, an expression of constants and other parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parameter {
+    /// The parameter's name.
+    pub name: Symbol,
+    /// Its default, as written in the model file (`pi` and `e` already replaced by numbers).
+    pub default: Expr,
+}
+
+/// A Gaussian white-noise source ξ with E[ξ(t) ξ(t+τ)] = `intensity` · δ(τ).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NoiseSource {
+    /// The source's name, as used in `diffusion` lines.
+    pub name: Symbol,
+    /// Its intensity 2πK (an expression of parameters).
+    pub intensity: Expr,
+}
+
+/// A correlation coefficient ρ between two noise sources: their cross intensity is
+/// ρ·√(S_aa·S_bb).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Correlation {
+    /// Index of the first source in [`Model::noises`].
+    pub a: usize,
+    /// Index of the second source.
+    pub b: usize,
+    /// ρ, an expression of parameters; binding checks −1 ≤ ρ ≤ 1.
+    pub coefficient: Expr,
+}
+
+/// An impact law: when state `state` reaches `at`, state `other` jumps to `map`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImpactLaw {
+    /// Index of the state that meets the barrier.
+    pub state: usize,
+    /// Where the barrier is (an expression of parameters).
+    pub at: Expr,
+    /// Index of the state that jumps.
+    pub other: usize,
+    /// The value after the impact, an expression of the states and parameters (`r*v`).
+    pub map: Expr,
+}
+
+/// A named quantity computed from the state, whose PDF fpsolve reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Observable {
+    /// The observable's name (`y`, `ydot`).
+    pub name: Symbol,
+    /// Its definition in terms of the states (and parameters).
+    pub expr: Expr,
+}
+
+/// A validated model: two states, their drifts, noise sources, how the noise enters, and what
+/// to report. Built by [`crate::model::parse_model`]; every name in it is known, parameters
+/// are acyclic, and the noise matrix has one entry per state and source.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    pub(crate) name: String,
+    pub(crate) description: String,
+    pub(crate) params: Vec<Parameter>,
+    pub(crate) states: [Symbol; 2],
+    pub(crate) drift: [Expr; 2],
+    pub(crate) noises: Vec<NoiseSource>,
+    pub(crate) correlations: Vec<Correlation>,
+    /// `noise_matrix[i][k]`: how source k enters the equation of state i (G_ik).
+    pub(crate) noise_matrix: [Vec<Expr>; 2],
+    pub(crate) interpretation: Interpretation,
+    pub(crate) impact: Option<ImpactLaw>,
+    pub(crate) observables: Vec<Observable>,
+    pub(crate) delta: DeltaTreatment,
+}
+
+impl Model {
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The one-line description.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// The parameters in the order they were declared.
+    pub fn params(&self) -> &[Parameter] {
+        &self.params
+    }
+
+    /// The two state variables' names.
+    pub fn states(&self) -> &[Symbol; 2] {
+        &self.states
+    }
+
+    /// The drift of each state.
+    pub fn drift(&self) -> &[Expr; 2] {
+        &self.drift
+    }
+
+    /// The noise sources.
+    pub fn noises(&self) -> &[NoiseSource] {
+        &self.noises
+    }
+
+    /// The correlations declared between noise sources (absent pairs are independent).
+    pub fn correlations(&self) -> &[Correlation] {
+        &self.correlations
+    }
+
+    /// G_ik: how source k enters the equation of state i.
+    pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
+        &self.noise_matrix
+    }
+
+    /// Itô or Stratonovich.
+    pub fn interpretation(&self) -> Interpretation {
+        self.interpretation
+    }
+
+    /// The impact law, if the model has a barrier.
+    pub fn impact(&self) -> Option<&ImpactLaw> {
+        self.impact.as_ref()
+    }
+
+    /// The observables, in the order declared.
+    pub fn observables(&self) -> &[Observable] {
+        &self.observables
+    }
+
+    /// How `delta(·)` is treated in integrals.
+    pub fn delta_treatment(&self) -> DeltaTreatment {
+        self.delta
+    }
+
+    /// Index of a state by name.
+    pub fn state_index(&self, name: &str) -> Option<usize> {
+        self.states.iter().position(|s| &**s == name)
+    }
+}

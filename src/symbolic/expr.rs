@@ -1,0 +1,723 @@
+//! The expression tree shared by every stage after parsing.
+//!
+//! Expressions are kept in a small canonical vocabulary: n-ary sums and products, powers,
+//! numbers, symbols and calls. Subtraction is `a + (-1)·b`, division is `a · b^(-1)` and
+//! negation is `(-1)·a`, so that simplification and differentiation have few cases to handle;
+//! [`std::fmt::Display`] prints them back as `a - b`, `a/b` and `-a`.
+
+use std::collections::BTreeSet;
+use std::fmt;
+use std::sync::Arc;
+
+/// A name in an expression: a state variable, a parameter or a noise source.
+pub type Symbol = Arc<str>;
+
+/// The functions of the model language.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Func {
+    /// `abs(u)`, |u|.
+    Abs,
+    /// `sgn(u)`: −1, 0 or 1.
+    Sgn,
+    /// `delta(u)`: the Dirac delta, a distribution, never a pointwise value.
+    Delta,
+    /// `exp(u)`.
+    Exp,
+    /// `log(u)`, the natural logarithm.
+    Log,
+    /// `sqrt(u)`.
+    Sqrt,
+    /// `sin(u)`.
+    Sin,
+    /// `cos(u)`.
+    Cos,
+    /// `tanh(u)`.
+    Tanh,
+    /// `min(u, w)`.
+    Min,
+    /// `max(u, w)`.
+    Max,
+}
+
+impl Func {
+    /// Every function, in the order the documentation lists them.
+    pub const ALL: [Func; 11] = [
+        Func::Abs,
+        Func::Sgn,
+        Func::Delta,
+        Func::Exp,
+        Func::Log,
+        Func::Sqrt,
+        Func::Sin,
+        Func::Cos,
+        Func::Tanh,
+        Func::Min,
+        Func::Max,
+    ];
+
+    /// The name used in model files.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Func;
+    /// assert_eq!(Func::Sgn.name(), "sgn");
+    /// ```
+    pub fn name(self) -> &'static str {
+        match self {
+            Func::Abs => "abs",
+            Func::Sgn => "sgn",
+            Func::Delta => "delta",
+            Func::Exp => "exp",
+            Func::Log => "log",
+            Func::Sqrt => "sqrt",
+            Func::Sin => "sin",
+            Func::Cos => "cos",
+            Func::Tanh => "tanh",
+            Func::Min => "min",
+            Func::Max => "max",
+        }
+    }
+
+    /// Looks a function up by its model-file name.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Func;
+    /// assert_eq!(Func::from_name("tanh"), Some(Func::Tanh));
+    /// assert_eq!(Func::from_name("sinh"), None);
+    /// ```
+    pub fn from_name(name: &str) -> Option<Func> {
+        Func::ALL.into_iter().find(|f| f.name() == name)
+    }
+
+    /// How many arguments the function takes.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Func;
+    /// assert_eq!(Func::Max.arity(), 2);
+    /// assert_eq!(Func::Abs.arity(), 1);
+    /// ```
+    pub fn arity(self) -> usize {
+        match self {
+            Func::Min | Func::Max => 2,
+            _ => 1,
+        }
+    }
+
+    /// Applies the function to numbers. `delta` has no pointwise value; see [`DeltaPolicy`].
+    fn apply(self, args: &[f64], delta: DeltaPolicy) -> Result<f64, EvalError> {
+        let u = args[0];
+        Ok(match self {
+            Func::Abs => u.abs(),
+            Func::Sgn => sgn(u),
+            Func::Delta => return delta.value(u),
+            Func::Exp => u.exp(),
+            Func::Log => u.ln(),
+            Func::Sqrt => u.sqrt(),
+            Func::Sin => u.sin(),
+            Func::Cos => u.cos(),
+            Func::Tanh => u.tanh(),
+            Func::Min => u.min(args[1]),
+            Func::Max => u.max(args[1]),
+        })
+    }
+}
+
+/// The sign function with `sgn(0) = 0`, as the paper's Eq. 24 uses it.
+///
+/// ```
+/// assert_eq!(fpsolve::symbolic::sgn(-3.0), -1.0);
+/// assert_eq!(fpsolve::symbolic::sgn(0.0), 0.0);
+/// ```
+pub fn sgn(u: f64) -> f64 {
+    if u > 0.0 {
+        1.0
+    } else if u < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// What a pointwise evaluation does with `delta(u)`.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum DeltaPolicy {
+    /// Refuse: a Dirac delta has no value at a point.
+    #[default]
+    Reject,
+    /// `delta(u) = 0`: right wherever `u ≠ 0`, as in a time-stepping simulation between impacts.
+    Zero,
+    /// A Gaussian of standard deviation `width` in place of the delta.
+    Gaussian {
+        /// The regulariser's standard deviation, > 0.
+        width: f64,
+    },
+}
+
+impl DeltaPolicy {
+    /// The value that stands in for `delta(u)`.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::DeltaPolicy;
+    /// let g = DeltaPolicy::Gaussian { width: 1.0 };
+    /// assert!((g.value(0.0).unwrap() - 0.398942280401).abs() < 1e-9);
+    /// assert!(DeltaPolicy::Reject.value(0.3).is_err());
+    /// ```
+    pub fn value(self, u: f64) -> Result<f64, EvalError> {
+        match self {
+            DeltaPolicy::Reject => Err(EvalError::Delta),
+            DeltaPolicy::Zero => Ok(0.0),
+            DeltaPolicy::Gaussian { width } => {
+                let s = u / width;
+                Ok((-0.5 * s * s).exp() / (width * (2.0 * std::f64::consts::PI).sqrt()))
+            }
+        }
+    }
+}
+
+/// Why an expression could not be evaluated at a point.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EvalError {
+    /// A symbol had no value.
+    #[error("no value for `{0}`")]
+    Unbound(Symbol),
+    /// A Dirac delta was met under [`DeltaPolicy::Reject`].
+    #[error("delta(...) has no pointwise value")]
+    Delta,
+}
+
+/// A symbolic expression.
+///
+/// ```
+/// use fpsolve::symbolic::Expr;
+/// let e = Expr::sym("x") - Expr::num(1.0) / Expr::sym("y");
+/// assert_eq!(e.to_string(), "x - 1/y");
+/// let v = e.eval(&|s: &str| if s == "x" { Some(3.0) } else { Some(2.0) }).unwrap();
+/// assert_eq!(v, 2.5);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    /// A number.
+    Num(f64),
+    /// A state variable, parameter or noise source, by name.
+    Sym(Symbol),
+    /// A sum of two or more terms.
+    Add(Vec<Expr>),
+    /// A product of two or more factors.
+    Mul(Vec<Expr>),
+    /// `base ^ exponent`.
+    Pow(Box<Expr>, Box<Expr>),
+    /// A function applied to as many arguments as its [`Func::arity`].
+    Call(Func, Vec<Expr>),
+}
+
+impl Expr {
+    /// A number.
+    ///
+    /// ```
+    /// assert_eq!(fpsolve::symbolic::Expr::num(2.0).to_string(), "2");
+    /// ```
+    pub fn num(value: f64) -> Expr {
+        Expr::Num(value)
+    }
+
+    /// A symbol.
+    ///
+    /// ```
+    /// assert_eq!(fpsolve::symbolic::Expr::sym("mu").to_string(), "mu");
+    /// ```
+    pub fn sym(name: &str) -> Expr {
+        Expr::Sym(Symbol::from(name))
+    }
+
+    /// `base ^ exponent`.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// assert_eq!(Expr::pow(Expr::sym("x"), Expr::num(3.0)).to_string(), "x^3");
+    /// ```
+    pub fn pow(base: Expr, exponent: Expr) -> Expr {
+        Expr::Pow(Box::new(base), Box::new(exponent))
+    }
+
+    /// A call of a one-argument function.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{Expr, Func};
+    /// assert_eq!(Expr::call(Func::Abs, Expr::sym("v")).to_string(), "abs(v)");
+    /// ```
+    pub fn call(func: Func, arg: Expr) -> Expr {
+        Expr::Call(func, vec![arg])
+    }
+
+    /// A sum of any number of terms: none is `0`, one is itself, nested sums are flattened.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// assert_eq!(Expr::sum(vec![]), Expr::num(0.0));
+    /// assert_eq!(Expr::sum(vec![Expr::sym("x")]), Expr::sym("x"));
+    /// ```
+    pub fn sum(terms: Vec<Expr>) -> Expr {
+        let mut flat = Vec::with_capacity(terms.len());
+        for t in terms {
+            match t {
+                Expr::Add(inner) => flat.extend(inner),
+                other => flat.push(other),
+            }
+        }
+        match flat.len() {
+            0 => Expr::Num(0.0),
+            1 => flat.pop().expect("one term"),
+            _ => Expr::Add(flat),
+        }
+    }
+
+    /// A product of any number of factors: none is `1`, one is itself, nested products are
+    /// flattened.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// assert_eq!(Expr::product(vec![]), Expr::num(1.0));
+    /// ```
+    pub fn product(factors: Vec<Expr>) -> Expr {
+        let mut flat = Vec::with_capacity(factors.len());
+        for f in factors {
+            match f {
+                Expr::Mul(inner) => flat.extend(inner),
+                other => flat.push(other),
+            }
+        }
+        match flat.len() {
+            0 => Expr::Num(1.0),
+            1 => flat.pop().expect("one factor"),
+            _ => Expr::Mul(flat),
+        }
+    }
+
+    /// The number this expression is, if it is one.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// assert_eq!(Expr::num(4.0).as_num(), Some(4.0));
+    /// assert_eq!(Expr::sym("x").as_num(), None);
+    /// ```
+    pub fn as_num(&self) -> Option<f64> {
+        match self {
+            Expr::Num(v) => Some(*v),
+            _ => None,
+        }
+    }
+
+    /// Calls `visit` on every node, parents before children.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// let e = Expr::pow(Expr::sym("x"), Expr::num(2.0));
+    /// let mut n = 0;
+    /// e.walk(&mut |_| n += 1);
+    /// assert_eq!(n, 3);
+    /// ```
+    pub fn walk(&self, visit: &mut dyn FnMut(&Expr)) {
+        visit(self);
+        match self {
+            Expr::Num(_) | Expr::Sym(_) => {}
+            Expr::Add(v) | Expr::Mul(v) | Expr::Call(_, v) => v.iter().for_each(|c| c.walk(visit)),
+            Expr::Pow(b, e) => {
+                b.walk(visit);
+                e.walk(visit);
+            }
+        }
+    }
+
+    /// The symbols the expression mentions, sorted.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// let e = Expr::sym("k") * Expr::sym("z");
+    /// let names: Vec<String> = e.symbols().iter().map(|s| s.to_string()).collect();
+    /// assert_eq!(names, ["k", "z"]);
+    /// ```
+    pub fn symbols(&self) -> BTreeSet<Symbol> {
+        let mut out = BTreeSet::new();
+        self.walk(&mut |e| {
+            if let Expr::Sym(s) = e {
+                out.insert(s.clone());
+            }
+        });
+        out
+    }
+
+    /// Whether the expression mentions symbol `name`.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// assert!(Expr::sym("z").mentions("z"));
+    /// assert!(!Expr::num(1.0).mentions("z"));
+    /// ```
+    pub fn mentions(&self, name: &str) -> bool {
+        let mut found = false;
+        self.walk(&mut |e| {
+            if matches!(e, Expr::Sym(s) if &**s == name) {
+                found = true;
+            }
+        });
+        found
+    }
+
+    /// Whether the expression contains a `delta(...)`.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{Expr, Func};
+    /// assert!(Expr::call(Func::Delta, Expr::sym("z")).contains_delta());
+    /// ```
+    pub fn contains_delta(&self) -> bool {
+        let mut found = false;
+        self.walk(&mut |e| {
+            if matches!(e, Expr::Call(Func::Delta, _)) {
+                found = true;
+            }
+        });
+        found
+    }
+
+    /// Replaces every occurrence of symbol `name` by `value` (no simplification).
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// let e = (Expr::sym("k") * Expr::sym("z")).substitute("k", &Expr::num(2.0));
+    /// assert_eq!(e.to_string(), "2*z");
+    /// ```
+    pub fn substitute(&self, name: &str, value: &Expr) -> Expr {
+        self.map_symbols(&|s| (&**s == name).then(|| value.clone()))
+    }
+
+    /// Rebuilds the tree, replacing each symbol for which `f` returns `Some`.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// let e = Expr::sym("a") + Expr::sym("b");
+    /// let e = e.map_symbols(&|s| (&**s == "a").then(|| Expr::num(1.0)));
+    /// assert_eq!(e.to_string(), "1 + b");
+    /// ```
+    pub fn map_symbols(&self, f: &dyn Fn(&Symbol) -> Option<Expr>) -> Expr {
+        match self {
+            Expr::Num(_) => self.clone(),
+            Expr::Sym(s) => f(s).unwrap_or_else(|| self.clone()),
+            Expr::Add(v) => Expr::Add(v.iter().map(|c| c.map_symbols(f)).collect()),
+            Expr::Mul(v) => Expr::Mul(v.iter().map(|c| c.map_symbols(f)).collect()),
+            Expr::Call(func, v) => Expr::Call(*func, v.iter().map(|c| c.map_symbols(f)).collect()),
+            Expr::Pow(b, e) => Expr::pow(b.map_symbols(f), e.map_symbols(f)),
+        }
+    }
+
+    /// Evaluates by walking the tree; `delta(...)` is refused. For many points, compile the
+    /// expression to a [`crate::symbolic::Tape`] instead.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::Expr;
+    /// let e = Expr::pow(Expr::sym("x"), Expr::num(2.0));
+    /// assert_eq!(e.eval(&|_| Some(3.0)).unwrap(), 9.0);
+    /// ```
+    pub fn eval(&self, lookup: &dyn Fn(&str) -> Option<f64>) -> Result<f64, EvalError> {
+        self.eval_with(lookup, DeltaPolicy::Reject)
+    }
+
+    /// Evaluates by walking the tree, with `delta(...)` treated as `policy` says.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{DeltaPolicy, Expr, Func};
+    /// let e = Expr::call(Func::Delta, Expr::sym("z"));
+    /// assert_eq!(e.eval_with(&|_| Some(0.5), DeltaPolicy::Zero).unwrap(), 0.0);
+    /// ```
+    pub fn eval_with(
+        &self,
+        lookup: &dyn Fn(&str) -> Option<f64>,
+        policy: DeltaPolicy,
+    ) -> Result<f64, EvalError> {
+        Ok(match self {
+            Expr::Num(v) => *v,
+            Expr::Sym(s) => lookup(s).ok_or_else(|| EvalError::Unbound(s.clone()))?,
+            Expr::Add(v) => {
+                let mut acc = 0.0;
+                for c in v {
+                    acc += c.eval_with(lookup, policy)?;
+                }
+                acc
+            }
+            Expr::Mul(v) => {
+                let mut acc = 1.0;
+                for c in v {
+                    acc *= c.eval_with(lookup, policy)?;
+                }
+                acc
+            }
+            Expr::Pow(b, e) => powf(b.eval_with(lookup, policy)?, e.eval_with(lookup, policy)?),
+            Expr::Call(func, args) => {
+                let mut vals = [0.0; 2];
+                for (slot, a) in vals.iter_mut().zip(args) {
+                    *slot = a.eval_with(lookup, policy)?;
+                }
+                func.apply(&vals[..args.len()], policy)?
+            }
+        })
+    }
+}
+
+/// `base^exponent` with integer exponents done by repeated multiplication, so that a negative
+/// base with an integer exponent is exact and never NaN.
+///
+/// ```
+/// assert_eq!(fpsolve::symbolic::powf(-2.0, 3.0), -8.0);
+/// assert_eq!(fpsolve::symbolic::powf(4.0, 0.5), 2.0);
+/// ```
+pub fn powf(base: f64, exponent: f64) -> f64 {
+    if exponent.fract() == 0.0 && exponent.abs() <= i32::MAX as f64 {
+        base.powi(exponent as i32)
+    } else {
+        base.powf(exponent)
+    }
+}
+
+impl std::ops::Add for Expr {
+    type Output = Expr;
+    /// `a + b`, flattening nested sums (no other simplification).
+    fn add(self, rhs: Expr) -> Expr {
+        Expr::sum(vec![self, rhs])
+    }
+}
+
+impl std::ops::Sub for Expr {
+    type Output = Expr;
+    /// `a - b`, as `a + (-1)·b`.
+    fn sub(self, rhs: Expr) -> Expr {
+        self + (-rhs)
+    }
+}
+
+impl std::ops::Mul for Expr {
+    type Output = Expr;
+    /// `a · b`, flattening nested products (no other simplification).
+    fn mul(self, rhs: Expr) -> Expr {
+        Expr::product(vec![self, rhs])
+    }
+}
+
+impl std::ops::Div for Expr {
+    type Output = Expr;
+    /// `a / b`, as `a · b^(-1)`.
+    fn div(self, rhs: Expr) -> Expr {
+        self * Expr::pow(rhs, Expr::Num(-1.0))
+    }
+}
+
+impl std::ops::Neg for Expr {
+    type Output = Expr;
+    /// `-a`: a negated number stays a number, anything else becomes `(-1)·a`.
+    fn neg(self) -> Expr {
+        match self {
+            Expr::Num(v) => Expr::Num(-v),
+            other => Expr::Num(-1.0) * other,
+        }
+    }
+}
+
+/// Binding strength used by the printer: higher binds tighter.
+fn precedence(e: &Expr) -> u8 {
+    match e {
+        Expr::Add(_) => 1,
+        Expr::Mul(_) => 2,
+        Expr::Num(v) if *v < 0.0 => 2,
+        Expr::Pow(..) => 4,
+        _ => 5,
+    }
+}
+
+/// Splits a product into its leading sign, numerator factors and denominator factors
+/// (`b^(-k)` factors go below the line as `b^k`).
+fn split_fraction(factors: &[Expr]) -> (bool, Vec<Expr>, Vec<Expr>) {
+    let mut negative = false;
+    let mut num = Vec::new();
+    let mut den = Vec::new();
+    for f in factors {
+        match f {
+            Expr::Num(v) if *v == -1.0 => negative = !negative,
+            Expr::Num(v) if *v < 0.0 => {
+                negative = !negative;
+                num.push(Expr::Num(-v));
+            }
+            Expr::Pow(b, e) if matches!(**e, Expr::Num(k) if k < 0.0) => {
+                let k = -e.as_num().expect("number");
+                den.push(if k == 1.0 {
+                    (**b).clone()
+                } else {
+                    Expr::pow((**b).clone(), Expr::Num(k))
+                });
+            }
+            other => num.push(other.clone()),
+        }
+    }
+    (negative, num, den)
+}
+
+fn fmt_number(v: f64, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    if v.is_finite() && v.fract() == 0.0 && v.abs() < 1e15 {
+        write!(f, "{}", v as i64)
+    } else {
+        // `{:?}` prints the shortest text that reads back to the same f64.
+        write!(f, "{v:?}")
+    }
+}
+
+fn fmt_operand(e: &Expr, min_prec: u8, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    if precedence(e) < min_prec {
+        write!(f, "({e})")
+    } else {
+        write!(f, "{e}")
+    }
+}
+
+fn fmt_factors(factors: &[Expr], f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    for (i, x) in factors.iter().enumerate() {
+        if i > 0 {
+            f.write_str("*")?;
+        }
+        fmt_operand(x, 3, f)?;
+    }
+    Ok(())
+}
+
+impl fmt::Display for Expr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Expr::Num(v) => fmt_number(*v, f),
+            Expr::Sym(s) => f.write_str(s),
+            Expr::Add(terms) => {
+                for (i, t) in terms.iter().enumerate() {
+                    let (negative, body) = match t {
+                        Expr::Num(v) if *v < 0.0 && i > 0 => (true, Expr::Num(-v)),
+                        Expr::Mul(fs) if i > 0 => {
+                            let (neg, num, den) = split_fraction(fs);
+                            if neg {
+                                (true, Expr::product(unsplit(num, den)))
+                            } else {
+                                (false, t.clone())
+                            }
+                        }
+                        _ => (false, t.clone()),
+                    };
+                    if i > 0 {
+                        f.write_str(if negative { " - " } else { " + " })?;
+                    }
+                    // A sum inside a sum (not canonical, but printable) needs parentheses.
+                    fmt_operand(&body, 2, f)?;
+                }
+                Ok(())
+            }
+            Expr::Mul(factors) => {
+                let (negative, num, den) = split_fraction(factors);
+                if negative {
+                    f.write_str("-")?;
+                }
+                if num.is_empty() {
+                    f.write_str("1")?;
+                } else {
+                    fmt_factors(&num, f)?;
+                }
+                if !den.is_empty() {
+                    f.write_str("/")?;
+                    if den.len() == 1 && precedence(&den[0]) > 3 {
+                        write!(f, "{}", den[0])?;
+                    } else if den.len() == 1 {
+                        write!(f, "({})", den[0])?;
+                    } else {
+                        f.write_str("(")?;
+                        fmt_factors(&den, f)?;
+                        f.write_str(")")?;
+                    }
+                }
+                Ok(())
+            }
+            Expr::Pow(b, e) => {
+                // `^` is right-associative and binds tighter than unary minus: (a^b)^c and
+                // (-2)^x need parentheses on the left, a^(b^c) does not on the right.
+                fmt_operand(b, 5, f)?;
+                f.write_str("^")?;
+                match &**e {
+                    Expr::Num(v) if *v < 0.0 => {
+                        f.write_str("(")?;
+                        fmt_number(*v, f)?;
+                        f.write_str(")")
+                    }
+                    other => fmt_operand(other, 4, f),
+                }
+            }
+            Expr::Call(func, args) => {
+                write!(f, "{}(", func.name())?;
+                for (i, a) in args.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str(", ")?;
+                    }
+                    write!(f, "{a}")?;
+                }
+                f.write_str(")")
+            }
+        }
+    }
+}
+
+/// Puts a split fraction back together as a product (used to print `a - b/c`).
+fn unsplit(num: Vec<Expr>, den: Vec<Expr>) -> Vec<Expr> {
+    let mut out = num;
+    for d in den {
+        out.push(match d {
+            Expr::Pow(b, e) => Expr::pow(*b, -*e),
+            other => Expr::pow(other, Expr::Num(-1.0)),
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn x() -> Expr {
+        Expr::sym("x")
+    }
+
+    #[test]
+    fn prints_with_minimal_parentheses() {
+        let e = (x() + Expr::num(1.0)) * Expr::sym("y");
+        assert_eq!(e.to_string(), "(x + 1)*y");
+        let e = -Expr::pow(x(), Expr::num(2.0));
+        assert_eq!(e.to_string(), "-x^2");
+        let e = Expr::pow(Expr::num(-2.0), x());
+        assert_eq!(e.to_string(), "(-2)^x");
+        let e = Expr::pow(Expr::pow(x(), Expr::num(2.0)), Expr::num(3.0));
+        assert_eq!(e.to_string(), "(x^2)^3");
+        let e = Expr::pow(x(), Expr::pow(Expr::sym("y"), Expr::sym("z")));
+        assert_eq!(e.to_string(), "x^y^z");
+        let e = Expr::pow(x(), Expr::num(-1.0));
+        assert_eq!(e.to_string(), "x^(-1)");
+        let e = x() - Expr::num(2.0) * Expr::sym("y");
+        assert_eq!(e.to_string(), "x - 2*y");
+        let e = x() - (Expr::sym("y") - Expr::sym("z"));
+        assert_eq!(e.to_string(), "x - (y - z)");
+        let e = x() / (Expr::sym("y") * Expr::sym("z"));
+        assert_eq!(e.to_string(), "x/(y*z)");
+        let e = Expr::Add(vec![x(), Expr::Num(-0.5)]);
+        assert_eq!(e.to_string(), "x - 0.5");
+    }
+
+    #[test]
+    fn integer_powers_of_negative_bases_are_exact() {
+        let e = Expr::pow(x(), Expr::num(3.0));
+        assert_eq!(e.eval(&|_| Some(-2.0)).unwrap(), -8.0);
+    }
+
+    #[test]
+    fn unbound_symbols_and_deltas_are_errors() {
+        let e = x() + Expr::call(Func::Delta, x());
+        assert_eq!(e.eval(&|_| None), Err(EvalError::Unbound("x".into())));
+        assert_eq!(e.eval(&|_| Some(1.0)), Err(EvalError::Delta));
+        assert_eq!(e.eval_with(&|_| Some(1.0), DeltaPolicy::Zero), Ok(1.0));
+    }
+}
