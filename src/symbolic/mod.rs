@@ -2,7 +2,11 @@
 //! distributional rules for `abs`, `sgn` and `delta`), and compilation to a flat tape.
 
 mod delta;
+mod error;
 mod expr;
+mod tape;
 
 pub use delta::{DeltaLine, DeltaSplit};
+pub use error::SymbolicError;
 pub use expr::{powf, sgn, DeltaPolicy, EvalError, Expr, Func, Symbol};
+pub use tape::{Tape, TapeScratch};
