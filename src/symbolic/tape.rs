@@ -603,17 +603,27 @@ impl Tape {
         );
         scratch.resize(self.ops.len(), 0.0);
         let s = scratch.as_mut_slice();
-        for i in 0..self.ops.len() {
-            let op = self.ops[i];
+        for (i, &op) in self.ops.iter().enumerate() {
+            // Operands always precede their instruction, so every read is of a value already
+            // computed; one flat match keeps the dispatch to a single jump per instruction.
+            let g = |a: u32| s[a as usize];
             let v = match op {
+                Op::Const(c) => c,
                 Op::Var(k) => x[k as usize],
-                _ => {
-                    let ([a, b], n) = op.operands();
-                    // Operands always precede their instruction, so these reads are in bounds.
-                    let va = if n > 0 { s[a as usize] } else { 0.0 };
-                    let vb = if n > 1 { s[b as usize] } else { 0.0 };
-                    op.apply(va, vb)
-                }
+                Op::Add(a, b) => g(a) + g(b),
+                Op::Sub(a, b) => g(a) - g(b),
+                Op::Mul(a, b) => g(a) * g(b),
+                Op::Div(a, b) => g(a) / g(b),
+                Op::AddC(a, c) => g(a) + c,
+                Op::MulC(a, c) => g(a) * c,
+                Op::Neg(a) => -g(a),
+                Op::Recip(a) => 1.0 / g(a),
+                Op::Min(a, b) => g(a).min(g(b)),
+                Op::Max(a, b) => g(a).max(g(b)),
+                Op::Pow(a, b) => super::powf(g(a), g(b)),
+                Op::PowC(a, c) => g(a).powf(c),
+                Op::Unary(f, a) => f.apply(g(a)),
+                Op::Gauss { arg, .. } => op.apply(g(arg), 0.0),
             };
             s[i] = v;
         }
