@@ -4,9 +4,11 @@
 mod delta;
 mod error;
 mod expr;
+mod simplify;
 mod tape;
 
 pub use delta::{DeltaLine, DeltaSplit};
 pub use error::SymbolicError;
 pub use expr::{powf, sgn, DeltaPolicy, EvalError, Expr, Func, Symbol};
+pub use simplify::{expand, simplify};
 pub use tape::{Tape, TapeScratch};
