@@ -48,9 +48,9 @@ pub fn simplify(e: &Expr) -> Expr {
 /// ```
 /// use fpsolve::symbolic::{expand, Expr, Func};
 /// let z = Expr::sym("z");
-/// // The vibro-impact noise coefficient (sgn(z) + 0.1 z)^2.
-/// let e = Expr::pow(Expr::call(Func::Sgn, z.clone()) + Expr::num(0.1) * z, Expr::num(2.0));
-/// assert_eq!(expand(&e).to_string(), "0.2*abs(z) + 0.010000000000000002*z^2 + 1");
+/// // The vibro-impact noise coefficient (sgn(z) + eps z)^2 with eps = 0.5.
+/// let e = Expr::pow(Expr::call(Func::Sgn, z.clone()) + Expr::num(0.5) * z, Expr::num(2.0));
+/// assert_eq!(expand(&e).to_string(), "0.25*z^2 + abs(z) + 1");
 /// ```
 pub fn expand(e: &Expr) -> Expr {
     expanded(&simplify(e))
