@@ -2,12 +2,14 @@
 //! distributional rules for `abs`, `sgn` and `delta`), and compilation to a flat tape.
 
 mod delta;
+mod diff;
 mod error;
 mod expr;
 mod simplify;
 mod tape;
 
 pub use delta::{DeltaLine, DeltaSplit};
+pub use diff::diff;
 pub use error::SymbolicError;
 pub use expr::{powf, sgn, DeltaPolicy, EvalError, Expr, Func, Symbol};
 pub use simplify::{expand, simplify};

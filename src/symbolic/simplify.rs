@@ -163,19 +163,20 @@ fn sum(terms: Vec<Expr>) -> Expr {
         }
         i = j;
     }
-    // A sum reads best starting with a positive term: `abs(x) - x`, not `-x + abs(x)`.
-    if out.first().is_some_and(is_negative) {
-        if let Some(p) = out.iter().position(|t| !is_negative(t)) {
-            let t = out.remove(p);
-            out.insert(0, t);
-        }
-    }
     if constant.is_finite() {
         if constant != 0.0 {
             out.push(number(constant));
         }
     } else {
         out.extend(numbers.into_iter().map(Expr::Num));
+    }
+    // A sum reads best starting with a positive term: `abs(x) - x` and `1 - r`, not
+    // `-x + abs(x)` and `-r + 1`.
+    if out.first().is_some_and(is_negative) {
+        if let Some(p) = out.iter().position(|t| !is_negative(t)) {
+            let t = out.remove(p);
+            out.insert(0, t);
+        }
     }
     match out.len() {
         0 => Expr::Num(0.0),
@@ -185,7 +186,11 @@ fn sum(terms: Vec<Expr>) -> Expr {
 }
 
 fn is_negative(t: &Expr) -> bool {
-    matches!(t, Expr::Mul(fs) if matches!(fs[0], Expr::Num(c) if c < 0.0))
+    match t {
+        Expr::Num(c) => *c < 0.0,
+        Expr::Mul(fs) => matches!(fs[0], Expr::Num(c) if c < 0.0),
+        _ => false,
+    }
 }
 
 /// Splits a canonical term into its numeric coefficient and the rest.
