@@ -5,6 +5,7 @@ mod delta;
 mod diff;
 mod error;
 mod expr;
+mod sift;
 mod simplify;
 mod tape;
 
@@ -12,5 +13,6 @@ pub use delta::{DeltaLine, DeltaSplit};
 pub use diff::diff;
 pub use error::SymbolicError;
 pub use expr::{powf, sgn, DeltaPolicy, EvalError, Expr, Func, Symbol};
+pub use sift::sift;
 pub use simplify::{expand, simplify};
 pub use tape::{Tape, TapeScratch};
