@@ -5,7 +5,12 @@
 //! A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij, A_i = −m_i + Σ_j ∂_j b_ij, B_ij = ½ b_ij,
 //! where m is the Itô drift (Wong–Zakai corrected for a Stratonovich model) and b = G·S·Gᵀ.
 
-use crate::symbolic::{DeltaSplit, Expr, Symbol};
+use std::fmt;
+
+use crate::model::{BoundModel, Interpretation};
+use crate::symbolic::{
+    diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
+};
 
 /// The derived stationary FPK operator of a bound model, ready for the EPC engine.
 #[derive(Clone, Debug, PartialEq)]
@@ -14,6 +19,9 @@ pub struct FpkOperator {
     pub states: [Symbol; 2],
     /// The Itô drift m_i (Wong–Zakai correction included for Stratonovich models).
     pub drift: [Expr; 2],
+    /// The Wong–Zakai drift correction that was added to the model's drift (zero for Itô
+    /// models and for noise that does not depend on the state it multiplies).
+    pub wong_zakai: [Expr; 2],
     /// The diffusion matrix b = G·S·Gᵀ (symmetric).
     pub diffusion: [[Expr; 2]; 2],
     /// A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij, split into its regular and delta parts.
@@ -22,4 +30,325 @@ pub struct FpkOperator {
     pub a: [DeltaSplit; 2],
     /// B_ij = ½ b_ij (symmetric).
     pub b: [[DeltaSplit; 2]; 2],
+}
+
+/// Which derived quantity a failure happened in.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FpkError {
+    /// The symbolic layer refused an operation (a derivative of delta, a product with no
+    /// meaning as a distribution, …) while deriving `what`.
+    #[error("while deriving {what}: {source}")]
+    Symbolic {
+        /// The quantity being derived (`A0`, `A_v`, `b_vv`, …).
+        what: String,
+        /// The underlying failure.
+        source: SymbolicError,
+    },
+    /// The noise matrix contains a delta: white noise times a delta has no meaning here.
+    #[error("the noise matrix entry G[{state}][{noise}] = {expr} contains delta(...)")]
+    DeltaInNoise {
+        /// The state equation.
+        state: String,
+        /// The noise source.
+        noise: String,
+        /// The entry.
+        expr: String,
+    },
+}
+
+fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, FpkError> {
+    r.map_err(|source| FpkError::Symbolic {
+        what: what.into(),
+        source,
+    })
+}
+
+impl FpkOperator {
+    /// Derives the operator of a bound model.
+    pub fn derive(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+        let states = model.states().clone();
+        let g = model.noise_matrix();
+        let s = model.intensity();
+        let m_src = model.noise_names().len();
+        for (i, row) in g.iter().enumerate() {
+            for (k, e) in row.iter().enumerate() {
+                if e.contains_delta() {
+                    return Err(FpkError::DeltaInNoise {
+                        state: states[i].to_string(),
+                        noise: model.noise_names()[k].to_string(),
+                        expr: e.to_string(),
+                    });
+                }
+            }
+        }
+        // b = G S Gᵀ
+        let mut diffusion: [[Expr; 2]; 2] =
+            std::array::from_fn(|_| std::array::from_fn(|_| Expr::num(0.0)));
+        for i in 0..2 {
+            for j in 0..2 {
+                let mut terms = Vec::new();
+                for k in 0..m_src {
+                    for l in 0..m_src {
+                        if s[k][l] != 0.0 {
+                            terms.push(Expr::num(s[k][l]) * g[i][k].clone() * g[j][l].clone());
+                        }
+                    }
+                }
+                // Expanded so that sgn(z)^2 = 1 and z*sgn(z) = |z| are seen (Eq. 13's form).
+                diffusion[i][j] = simplify(&expand(&Expr::sum(terms)));
+            }
+        }
+        // Wong–Zakai: m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik.
+        let mut wong_zakai: [Expr; 2] = [Expr::num(0.0), Expr::num(0.0)];
+        if model.interpretation() == Interpretation::Stratonovich {
+            for i in 0..2 {
+                let mut terms = Vec::new();
+                for (j, xj) in states.iter().enumerate() {
+                    for k in 0..m_src {
+                        let dg = ctx(
+                            format!("d G[{}][{k}] / d{xj}", states[i]),
+                            diff(&g[i][k], xj),
+                        )?;
+                        if dg.as_num() == Some(0.0) {
+                            continue;
+                        }
+                        for l in 0..m_src {
+                            if s[k][l] != 0.0 && g[j][l].as_num() != Some(0.0) {
+                                terms.push(Expr::num(0.5 * s[k][l]) * g[j][l].clone() * dg.clone());
+                            }
+                        }
+                    }
+                }
+                wong_zakai[i] = simplify(&Expr::sum(terms));
+            }
+        }
+        let drift = [
+            simplify(&(model.drift()[0].clone() + wong_zakai[0].clone())),
+            simplify(&(model.drift()[1].clone() + wong_zakai[1].clone())),
+        ];
+        let name = |i: usize| states[i].to_string();
+        // A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij
+        let mut a0_terms = Vec::new();
+        for i in 0..2 {
+            let dm = ctx(
+                format!("d m_{} / d{}", name(i), name(i)),
+                diff(&drift[i], &states[i]),
+            )?;
+            a0_terms.push(-dm);
+            for j in 0..2 {
+                let what = format!("d2 b_{}{} / d{} d{}", name(i), name(j), name(i), name(j));
+                let d1 = ctx(what.clone(), diff(&diffusion[i][j], &states[j]))?;
+                let d2 = ctx(what, diff(&d1, &states[i]))?;
+                a0_terms.push(Expr::num(0.5) * d2);
+            }
+        }
+        let a0 = simplify(&Expr::sum(a0_terms));
+        // A_i = −m_i + Σ_j ∂_j b_ij
+        let mut a: [Expr; 2] = [Expr::num(0.0), Expr::num(0.0)];
+        for i in 0..2 {
+            let mut terms = vec![-drift[i].clone()];
+            for j in 0..2 {
+                let what = format!("d b_{}{} / d{}", name(i), name(j), name(j));
+                terms.push(ctx(what, diff(&diffusion[i][j], &states[j]))?);
+            }
+            a[i] = simplify(&Expr::sum(terms));
+        }
+        let split = |what: String, e: &Expr| ctx(what, sift(e, &states));
+        let a0 = split("A0".into(), &a0)?;
+        let a = [
+            split(format!("A_{}", name(0)), &a[0])?,
+            split(format!("A_{}", name(1)), &a[1])?,
+        ];
+        let b_row = |i: usize| -> Result<[DeltaSplit; 2], FpkError> {
+            let entry = |j: usize| {
+                let half = simplify(&(Expr::num(0.5) * diffusion[i][j].clone()));
+                split(format!("B_{}{}", name(i), name(j)), &half)
+            };
+            Ok([entry(0)?, entry(1)?])
+        };
+        let b = [b_row(0)?, b_row(1)?];
+        Ok(FpkOperator {
+            states,
+            drift,
+            wong_zakai,
+            diffusion,
+            a0,
+            a,
+            b,
+        })
+    }
+}
+
+/// Prints a split coefficient as `regular + weight*delta(x - at) + …`.
+fn fmt_split(s: &DeltaSplit, states: &[Symbol; 2], f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let mut terms: Vec<Expr> = Vec::new();
+    if s.regular.as_num() != Some(0.0) || s.lines.is_empty() {
+        terms.push(s.regular.clone());
+    }
+    for DeltaLine { axis, at, weight } in &s.lines {
+        let x = Expr::Sym(states[*axis].clone());
+        let arg = if *at == 0.0 { x } else { x - Expr::num(*at) };
+        terms.push(weight.clone() * Expr::call(crate::symbolic::Func::Delta, arg));
+    }
+    write!(f, "{:#}", Expr::sum(terms))
+}
+
+impl fmt::Display for FpkOperator {
+    /// The operator in readable mathematical form, one coefficient per line; zero entries of
+    /// the diffusion matrix and of B are left out.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let [x1, x2] = &self.states;
+        let names = [x1, x2];
+        writeln!(f, "Ito drift m (Wong-Zakai correction included):")?;
+        for i in 0..2 {
+            writeln!(f, "  m_{} = {:#}", names[i], self.drift[i])?;
+        }
+        let wz: Vec<usize> = (0..2)
+            .filter(|&i| self.wong_zakai[i].as_num() != Some(0.0))
+            .collect();
+        if wz.is_empty() {
+            writeln!(f, "  (no Wong-Zakai correction)")?;
+        }
+        for i in wz {
+            writeln!(
+                f,
+                "  Wong-Zakai correction in m_{}: {:#}",
+                names[i], self.wong_zakai[i]
+            )?;
+        }
+        writeln!(f, "Diffusion b = G S G^T:")?;
+        for i in 0..2 {
+            for j in i..2 {
+                if self.diffusion[i][j].as_num() != Some(0.0) {
+                    writeln!(
+                        f,
+                        "  b_{}{} = {:#}",
+                        names[i], names[j], self.diffusion[i][j]
+                    )?;
+                }
+            }
+        }
+        writeln!(
+            f,
+            "FPK coefficients, F = A0 + sum_i A_i dQ/dx_i + sum_ij B_ij (d2Q/dx_i dx_j + dQ/dx_i dQ/dx_j):"
+        )?;
+        write!(f, "  A0 = ")?;
+        fmt_split(&self.a0, &self.states, f)?;
+        writeln!(f)?;
+        for i in 0..2 {
+            write!(f, "  A_{} = ", names[i])?;
+            fmt_split(&self.a[i], &self.states, f)?;
+            writeln!(f)?;
+        }
+        for i in 0..2 {
+            for j in i..2 {
+                let bij = &self.b[i][j];
+                if bij.regular.as_num() != Some(0.0) || !bij.lines.is_empty() {
+                    write!(f, "  B_{}{} = ", names[i], names[j])?;
+                    fmt_split(bij, &self.states, f)?;
+                    writeln!(f)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::DeltaTreatment;
+    use crate::symbolic::Func;
+
+    fn sym(s: &str) -> Expr {
+        Expr::sym(s)
+    }
+
+    /// The paper's Eq. 10 with numbers: c = 0.1, k = 1, mu = 0.1, eps = 0.1, r = 0.95, 2πK = 1.
+    fn vibro(interpretation: Interpretation) -> BoundModel {
+        let (z, v) = (sym("z"), sym("v"));
+        let drift_v = -(Expr::num(0.1) * v.clone())
+            - z.clone()
+            - Expr::num(0.1) * Expr::pow(z.clone(), Expr::num(3.0))
+            - Expr::num(0.05)
+                * v.clone()
+                * Expr::call(Func::Abs, v.clone())
+                * Expr::call(Func::Delta, z.clone());
+        BoundModel {
+            name: "vibro".into(),
+            params: vec![],
+            states: ["z".into(), "v".into()],
+            drift: [v.clone(), drift_v],
+            noise_names: vec!["xi".into()],
+            intensity: vec![vec![1.0]],
+            noise_matrix: [
+                vec![Expr::num(0.0)],
+                vec![Expr::call(Func::Sgn, z.clone()) + Expr::num(0.1) * z],
+            ],
+            interpretation,
+            impact: None,
+            observables: vec![],
+            delta: DeltaTreatment::Exact,
+        }
+    }
+
+    fn eval(e: &Expr, z: f64, v: f64) -> f64 {
+        e.eval(&|s| match s {
+            "z" => Some(z),
+            "v" => Some(v),
+            _ => None,
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn vibro_impact_coefficients_match_eq_13() {
+        let op = FpkOperator::derive(&vibro(Interpretation::Stratonovich)).unwrap();
+        // Noise in the v-equation depends on z only: no Wong–Zakai correction.
+        assert_eq!(op.wong_zakai[1], Expr::num(0.0));
+        for (z, v) in [(0.7, -1.3), (-2.1, 0.4), (1e-3, 3.0)] {
+            let b = 0.5 * (1.0 + 0.2 * f64::abs(z) + 0.01 * z * z);
+            assert!((eval(&op.b[1][1].regular, z, v) - b).abs() < 1e-14);
+            assert!((eval(&op.a[0].regular, z, v) + v).abs() < 1e-14);
+            let av = 0.1 * v + z + 0.1 * z.powi(3);
+            assert!((eval(&op.a[1].regular, z, v) - av).abs() < 1e-14);
+            assert!((eval(&op.a0.regular, z, v) - 0.1).abs() < 1e-14);
+        }
+        assert_eq!(op.a0.lines.len(), 1);
+        assert_eq!(op.a0.lines[0].axis, 0);
+        let w = eval(&op.a0.lines[0].weight, 0.0, -2.0);
+        assert!((w - 2.0 * 0.05 * 2.0).abs() < 1e-14, "2(1-r)|v|, got {w}");
+        let w = eval(&op.a[1].lines[0].weight, 0.0, -2.0);
+        assert!((w - 0.05 * -2.0 * 2.0).abs() < 1e-14, "(1-r)v|v|, got {w}");
+        let text = op.to_string();
+        assert!(text.contains("delta(z)"), "{text}");
+    }
+
+    #[test]
+    fn wong_zakai_correction_appears_only_for_stratonovich_multiplicative_noise() {
+        // dv = (−z − 0.2 v) dt + 0.5 v ∘ dB, S = 2: correction ½·S·G·∂_vG = 0.25 v.
+        let mut m = vibro(Interpretation::Stratonovich);
+        m.drift[1] = -sym("z") - Expr::num(0.2) * sym("v");
+        m.noise_matrix[1] = vec![Expr::num(0.5) * sym("v")];
+        m.intensity = vec![vec![2.0]];
+        let strat = FpkOperator::derive(&m).unwrap();
+        assert!((eval(&strat.wong_zakai[1], 0.3, 1.7) - 0.25 * 1.7).abs() < 1e-14);
+        assert!((eval(&strat.drift[1], 0.3, 1.7) - (-0.3 - 0.2 * 1.7 + 0.25 * 1.7)).abs() < 1e-14);
+        m.interpretation = Interpretation::Ito;
+        let ito = FpkOperator::derive(&m).unwrap();
+        assert_eq!(ito.wong_zakai[1], Expr::num(0.0));
+        // b_vv = 2·0.25 v² = 0.5 v²: A_v = −m_v + ∂_v b_vv = z + 0.2 v + v, A0 = 0.2 + ½·1.
+        assert!((eval(&ito.a[1].regular, 0.3, 1.7) - (0.3 + 1.2 * 1.7)).abs() < 1e-14);
+        assert!((eval(&ito.a0.regular, 0.3, 1.7) - 0.7).abs() < 1e-14);
+    }
+
+    #[test]
+    fn a_delta_in_the_noise_matrix_is_refused() {
+        let mut m = vibro(Interpretation::Ito);
+        m.noise_matrix[1] = vec![Expr::call(Func::Delta, sym("z"))];
+        assert!(matches!(
+            FpkOperator::derive(&m),
+            Err(FpkError::DeltaInNoise { .. })
+        ));
+    }
 }

@@ -561,16 +561,41 @@ fn fmt_number(v: f64, f: &mut fmt::Formatter<'_>) -> fmt::Result {
     if v.is_finite() && v.fract() == 0.0 && v.abs() < 1e15 {
         write!(f, "{}", v as i64)
     } else {
-        // `{:?}` prints the shortest text that reads back to the same f64.
-        write!(f, "{v:?}")
+        if f.alternate() {
+            // Readable: 12 significant digits, trailing zeros dropped (0.1*0.1 prints 0.01).
+            let text = format!("{v:.11e}");
+            let (mantissa, exponent) = text.split_once('e').expect("exponent form");
+            let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+            let exponent: i32 = exponent.parse().expect("integer exponent");
+            let value: f64 = format!("{mantissa}e{exponent}").parse().expect("number");
+            if (-4..12).contains(&exponent) {
+                write!(f, "{value}")
+            } else {
+                write!(f, "{mantissa}e{exponent}")
+            }
+        } else {
+            // `{:?}` prints the shortest text that reads back to the same f64.
+            write!(f, "{v:?}")
+        }
+    }
+}
+
+/// Prints a sub-expression, keeping the alternate (`{:#}`, readable numbers) flag.
+fn fmt_child(e: &Expr, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    if f.alternate() {
+        write!(f, "{e:#}")
+    } else {
+        write!(f, "{e}")
     }
 }
 
 fn fmt_operand(e: &Expr, min_prec: u8, f: &mut fmt::Formatter<'_>) -> fmt::Result {
     if precedence(e) < min_prec {
-        write!(f, "({e})")
+        f.write_str("(")?;
+        fmt_child(e, f)?;
+        f.write_str(")")
     } else {
-        write!(f, "{e}")
+        fmt_child(e, f)
     }
 }
 
@@ -584,6 +609,8 @@ fn fmt_factors(factors: &[Expr], f: &mut fmt::Formatter<'_>) -> fmt::Result {
     Ok(())
 }
 
+/// `{}` prints numbers so that they read back exactly; `{:#}` prints them with 12 significant
+/// digits, for people (`0.1*0.1` folded shows as `0.01`).
 impl fmt::Display for Expr {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -624,9 +651,11 @@ impl fmt::Display for Expr {
                 if !den.is_empty() {
                     f.write_str("/")?;
                     if den.len() == 1 && precedence(&den[0]) > 3 {
-                        write!(f, "{}", den[0])?;
+                        fmt_child(&den[0], f)?;
                     } else if den.len() == 1 {
-                        write!(f, "({})", den[0])?;
+                        f.write_str("(")?;
+                        fmt_child(&den[0], f)?;
+                        f.write_str(")")?;
                     } else {
                         f.write_str("(")?;
                         fmt_factors(&den, f)?;
@@ -655,7 +684,7 @@ impl fmt::Display for Expr {
                     if i > 0 {
                         f.write_str(", ")?;
                     }
-                    write!(f, "{a}")?;
+                    fmt_child(a, f)?;
                 }
                 f.write_str(")")
             }
