@@ -200,8 +200,8 @@ impl fmt::Display for FpkOperator {
         let [x1, x2] = &self.states;
         let names = [x1, x2];
         writeln!(f, "Ito drift m (Wong-Zakai correction included):")?;
-        for i in 0..2 {
-            writeln!(f, "  m_{} = {:#}", names[i], self.drift[i])?;
+        for (x, m) in names.iter().zip(&self.drift) {
+            writeln!(f, "  m_{x} = {m:#}")?;
         }
         let wz: Vec<usize> = (0..2)
             .filter(|&i| self.wong_zakai[i].as_num() != Some(0.0))
@@ -235,9 +235,9 @@ impl fmt::Display for FpkOperator {
         write!(f, "  A0 = ")?;
         fmt_split(&self.a0, &self.states, f)?;
         writeln!(f)?;
-        for i in 0..2 {
-            write!(f, "  A_{} = ", names[i])?;
-            fmt_split(&self.a[i], &self.states, f)?;
+        for (x, a) in names.iter().zip(&self.a) {
+            write!(f, "  A_{x} = ")?;
+            fmt_split(a, &self.states, f)?;
             writeln!(f)?;
         }
         for i in 0..2 {
