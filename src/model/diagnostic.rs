@@ -257,7 +257,7 @@ impl SyntaxFailure {
 
 /// Folds the alternatives pest reports into what a person would expect to be told: the five
 /// binary operators are "an operator", and where a statement may start, "end of line" adds
-/// nothing.
+/// nothing, and `(` after a name is noise next to "an operator".
 fn readable_positives(positives: Vec<Rule>) -> Vec<Rule> {
     let mut out: Vec<Rule> = Vec::new();
     for r in positives {
@@ -272,6 +272,16 @@ fn readable_positives(positives: Vec<Rule>) -> Vec<Rule> {
     if out.contains(&Rule::statement) {
         out.retain(|r| *r != Rule::EOI);
     }
+    // After a name, `(` would make it a call; next to "an operator" that only distracts.
+    if out.contains(&Rule::add) {
+        out.retain(|r| *r != Rule::lparen);
+    }
+    // Operators first, the end of the line last: the order in which a reader looks.
+    out.sort_by_key(|r| match r {
+        Rule::add => 0,
+        Rule::EOI => 2,
+        _ => 1,
+    });
     out
 }
 

@@ -110,10 +110,9 @@ fn check_line_nesting(line: &str, offset: usize) -> Result<(), SyntaxFailure> {
 /// Parses a whole model file into its syntax tree.
 pub(crate) fn parse_file(source: &str) -> Result<ModelAst, SyntaxFailure> {
     check_limits(source)?;
-    let mut pairs = SdeParser::parse(Rule::file, source).map_err(SyntaxFailure::from_pest)?;
-    let file = pairs.next().map(Pair::into_inner);
+    let pairs = SdeParser::parse(Rule::file, source).map_err(SyntaxFailure::from_pest)?;
     let mut statements = Vec::new();
-    for pair in file.into_iter().flatten() {
+    for pair in pairs {
         if pair.as_rule() == Rule::statement {
             if let Some(inner) = pair.into_inner().next() {
                 statements.push(build_statement(inner));
@@ -127,9 +126,7 @@ pub(crate) fn parse_file(source: &str) -> Result<ModelAst, SyntaxFailure> {
 pub(crate) fn parse_lone_expr(source: &str) -> Result<ExprNode, SyntaxFailure> {
     check_limits(source)?;
     let mut pairs = SdeParser::parse(Rule::lone_expr, source).map_err(SyntaxFailure::from_pest)?;
-    let expr = pairs
-        .next()
-        .and_then(|p| p.into_inner().find(|p| p.as_rule() == Rule::expr));
+    let expr = pairs.find(|p| p.as_rule() == Rule::expr);
     match expr {
         Some(e) => Ok(build_expr(e)),
         // The grammar makes this unreachable; an error is still better than a panic.
@@ -379,4 +376,148 @@ fn build_primary(pratt: &PrattParser<Rule>, pair: Pair<'_, Rule>) -> ExprNode {
         _ => ExprKind::Name(pair.as_str().to_string()),
     };
     ExprNode { kind, span }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::parse_expr;
+    use crate::symbolic::Expr;
+
+    fn eval(src: &str, vars: &[(&str, f64)]) -> f64 {
+        let e = parse_expr(src).unwrap();
+        e.eval(&|s| vars.iter().find(|(n, _)| *n == s).map(|(_, v)| *v))
+            .unwrap()
+    }
+
+    fn x() -> Expr {
+        Expr::sym("x")
+    }
+
+    #[test]
+    fn power_binds_tighter_than_unary_minus() {
+        let e = parse_expr("-x^2").unwrap();
+        assert_eq!(e, -Expr::pow(x(), Expr::num(2.0)));
+        assert_eq!(eval("-x^2", &[("x", 3.0)]), -9.0);
+    }
+
+    #[test]
+    fn unary_minus_is_allowed_right_after_power() {
+        assert_eq!(
+            parse_expr("2^-1").unwrap(),
+            Expr::pow(Expr::num(2.0), Expr::num(-1.0))
+        );
+        assert_eq!(eval("2^-x*3", &[("x", 1.0)]), 1.5);
+    }
+
+    #[test]
+    fn subtraction_and_division_are_left_associative() {
+        let vars = [("a", 1.0), ("b", 2.0), ("c", 3.0)];
+        assert_eq!(eval("a-b-c", &vars), -4.0);
+        assert_eq!(eval("a-(b-c)", &vars), 2.0);
+        assert_eq!(eval("c/b/a/2", &vars), 0.75);
+        let node = parse_lone_expr("a-b-c").unwrap();
+        let ExprKind::Sum(terms) = node.kind else {
+            panic!("a-b-c is one sum node")
+        };
+        let ops: Vec<SumOp> = terms.iter().map(|t| t.0).collect();
+        assert_eq!(ops, [SumOp::Plus, SumOp::Minus, SumOp::Minus]);
+    }
+
+    #[test]
+    fn power_is_right_associative() {
+        assert_eq!(
+            parse_expr("x^y^z").unwrap(),
+            Expr::pow(x(), Expr::pow(Expr::sym("y"), Expr::sym("z")))
+        );
+        assert_eq!(eval("2^3^2", &[]), 512.0);
+    }
+
+    #[test]
+    fn numbers_in_every_accepted_form() {
+        for (text, value) in [
+            ("1", 1.0),
+            ("0.5", 0.5),
+            (".5", 0.5),
+            ("1e-3", 1e-3),
+            ("2.5E+4", 2.5e4),
+            ("7.", 7.0),
+        ] {
+            assert_eq!(eval(text, &[]), value, "{text}");
+        }
+        assert_eq!(eval("pi", &[]), std::f64::consts::PI);
+        assert_eq!(eval("e", &[]), std::f64::consts::E);
+    }
+
+    #[test]
+    fn spans_cover_what_was_written() {
+        let node = parse_lone_expr("  abs(v) * 2").unwrap();
+        assert_eq!(node.span, Span::new(2, 12));
+        let ExprKind::Product(f) = node.kind else {
+            panic!("a product")
+        };
+        assert_eq!(f[0].1.span, Span::new(2, 8));
+        assert_eq!(f[1].1.span, Span::new(11, 12));
+    }
+
+    #[test]
+    fn nesting_is_bounded_before_parsing() {
+        let ok = format!("{}x{}", "(".repeat(150), ")".repeat(150));
+        assert!(check_limits(&ok).is_ok());
+        let deep = format!("{}x{}", "(".repeat(10_000), ")".repeat(10_000));
+        let err = check_limits(&deep).unwrap_err();
+        assert!(err.message.contains("nested too deeply"), "{}", err.message);
+        // The 200th `(` opens level 201, counting the top level.
+        assert_eq!(err.span.start, MAX_NESTING - 1);
+        let minus = format!("x = {}1", "-".repeat(300));
+        assert!(check_limits(&minus).is_err());
+        let power = format!("x = 2{}", "^2".repeat(300));
+        assert!(check_limits(&power).is_err());
+        // Binary minus and long sums do not deepen the tree.
+        let sum = format!("x = 1{}", "-1".repeat(5000));
+        assert!(check_limits(&sum).is_ok());
+        assert!(parse_lone_expr(&sum[4..]).is_ok());
+        // Parentheses inside a comment or the description do not count.
+        let comment = format!("model m \"{}\" # {}", "(".repeat(300), "(".repeat(300));
+        assert!(check_limits(&comment).is_ok());
+    }
+
+    #[test]
+    fn the_deepest_accepted_nesting_parses_on_a_small_stack() {
+        let depth = MAX_NESTING - 1;
+        let src = format!("{}x{}", "(".repeat(depth), ")".repeat(depth));
+        // Test threads have small stacks; 1 MiB is half the default.
+        let handle = std::thread::Builder::new()
+            .stack_size(1 << 20)
+            .spawn(move || parse_expr(&src).map(|e| e.to_string()))
+            .unwrap();
+        assert_eq!(handle.join().unwrap().unwrap(), "x");
+    }
+
+    #[test]
+    fn long_lines_are_rejected() {
+        let line = format!("# {}", "x".repeat(MAX_LINE_BYTES));
+        let err = check_limits(&line).unwrap_err();
+        assert!(err.message.contains("too long"));
+        assert_eq!(err.span.start, 0);
+    }
+
+    #[test]
+    fn syntax_errors_name_what_was_expected() {
+        let msg = |src: &str| parse_file(src).unwrap_err().message;
+        assert_eq!(msg("drift v -c*v"), "expected `:`");
+        assert_eq!(msg("drift v: x**2"), "expected an expression");
+        assert_eq!(msg("drift v: (x + 1"), "expected an operator or `)`");
+        assert_eq!(msg("drift v: x +"), "expected an expression");
+        assert_eq!(msg("drift v: x y"), "expected an operator or end of line");
+        assert!(msg("foo bar").starts_with("expected a statement (model, param"));
+        assert_eq!(
+            msg("param a = 1 b = 2"),
+            "expected an operator, `,`, or end of line"
+        );
+        assert_eq!(
+            msg("interpretation: itoh"),
+            "expected `stratonovich` or `ito`"
+        );
+    }
 }
