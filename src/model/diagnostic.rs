@@ -55,7 +55,7 @@ impl Diagnostic {
         message: String,
         help: Option<String>,
     ) -> Diagnostic {
-        let (display, start, end, shift) = display_window(source, span);
+        let (display, start, end, column) = display_window(source, span);
         let note = help.clone().unwrap_or_else(|| message.clone());
         let variant = ErrorVariant::<Rule>::CustomError { message: note };
         let error = match pest::Span::new(&display, start, end) {
@@ -70,16 +70,25 @@ impl Diagnostic {
             Some(p) => error.with_path(p),
             None => error,
         };
-        let (line, column) = match &error.line_col {
+        let (line, shown_column) = match &error.line_col {
             LineColLocation::Pos(lc) | LineColLocation::Span(lc, _) => *lc,
         };
-        let rendered = format!("error: {message}\n{error}");
+        let mut rendered = format!("error: {message}\n{error}");
+        if shown_column != column {
+            // The line was cut in front of the span; pest counted columns in the cut line.
+            let path = path.map(|p| format!("{p}:")).unwrap_or_default();
+            rendered = rendered.replacen(
+                &format!("--> {path}{line}:{shown_column}"),
+                &format!("--> {path}{line}:{column}"),
+                1,
+            );
+        }
         Diagnostic {
             inner: Box::new(DiagnosticInner {
                 message,
                 help,
                 line,
-                column: column + shift,
+                column,
                 rendered,
             }),
         }
@@ -317,9 +326,8 @@ fn describe_rule(rule: &Rule) -> String {
 }
 
 /// Builds the text pest renders from: the source up to the offending line, then that line
-/// with control characters replaced and cut to a window around the span. Returns the text,
-/// the span's start and end in it, and how many characters were cut from the line's start
-/// (to be added back to the reported column).
+/// with control characters replaced and cut to a window around the span (marked `...` where
+/// cut). Returns the text, the span's start and end in it, and the span's true 1-based column.
 fn display_window(source: &str, span: Span) -> (String, usize, usize, usize) {
     let floor = |mut i: usize| {
         i = i.min(source.len());
@@ -337,25 +345,28 @@ fn display_window(source: &str, span: Span) -> (String, usize, usize, usize) {
         line_end -= 1;
     }
     let end = floor(span.end.max(start)).min(line_end);
+    let column = source[line_start..start].chars().count() + 1;
     let cut_from = if start - line_start > WINDOW_BEFORE {
         floor(start - WINDOW_BEFORE / 2)
     } else {
         line_start
     };
-    let shift = source[line_start..cut_from].chars().count();
     let window_end = floor((end.max(start) + WINDOW_AFTER).min(line_end));
 
     let mut display = String::with_capacity(line_start + (window_end - cut_from) + 8);
     display.push_str(&source[..line_start]);
-    let mut new_start = display.len();
-    let mut new_end = display.len();
+    if cut_from > line_start {
+        display.push_str("...");
+    }
+    let mut new_start = None;
+    let mut new_end = None;
     for (i, c) in source[cut_from..window_end].char_indices() {
         let at = cut_from + i;
         if at == start {
-            new_start = display.len();
+            new_start = Some(display.len());
         }
         if at == end {
-            new_end = display.len();
+            new_end = Some(display.len());
         }
         display.push(if c.is_control() && c != '\t' {
             '\u{fffd}'
@@ -363,13 +374,13 @@ fn display_window(source: &str, span: Span) -> (String, usize, usize, usize) {
             c
         });
     }
-    if start >= window_end {
-        new_start = display.len();
+    let tail = display.len();
+    let new_start = new_start.unwrap_or(tail);
+    let new_end = new_end.unwrap_or(tail).max(new_start);
+    if window_end < line_end {
+        display.push_str("...");
     }
-    if end >= window_end {
-        new_end = display.len();
-    }
-    (display, new_start, new_end.max(new_start), shift)
+    (display, new_start, new_end, column)
 }
 
 #[cfg(test)]
