@@ -183,3 +183,69 @@ fn bad_set_flags() {
     assert_fails_cleanly(&[m, "--set", "mu=sinh(1)"], &["unknown function `sinh`"]);
     assert_fails_cleanly(&[m, "--set", "K=-1"], &["intensity"]);
 }
+
+mod arbitrary_text {
+    use fpsolve::model::parse_model;
+    use proptest::prelude::*;
+
+    /// Lines built from the language's own tokens, so that the parser gets deep into its
+    /// rules before it fails (random unicode rarely passes the first keyword).
+    fn token_soup() -> impl Strategy<Value = String> {
+        let token = prop_oneof![
+            Just("model m"),
+            Just("param"),
+            Just("state z, v"),
+            Just("drift"),
+            Just("noise"),
+            Just("diffusion"),
+            Just("correlate"),
+            Just("impact"),
+            Just("observe"),
+            Just("delta"),
+            Just(":"),
+            Just(","),
+            Just("="),
+            Just("->"),
+            Just("("),
+            Just(")"),
+            Just("+"),
+            Just("-"),
+            Just("*"),
+            Just("/"),
+            Just("^"),
+            Just("z"),
+            Just("v"),
+            Just("xi"),
+            Just("1e"),
+            Just(".5"),
+            Just("abs"),
+            Just("max"),
+            Just("intensity"),
+            Just("\n"),
+            Just("#"),
+            Just("\""),
+            Just("gaussian"),
+            Just("exact"),
+            Just("\0"),
+            Just("é"),
+        ];
+        proptest::collection::vec(token, 0..60).prop_map(|t| t.join(" "))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        #[test]
+        fn any_text_gives_a_model_or_a_located_error(text in token_soup()) {
+            if let Err(e) = parse_model(&text, None) {
+                prop_assert!(e.line().is_some() && e.column().is_some());
+                prop_assert!(e.to_string().starts_with("error: "));
+            }
+        }
+
+        #[test]
+        fn any_unicode_gives_a_model_or_an_error(text in "\\PC{0,200}") {
+            let _ = parse_model(&text, None);
+        }
+    }
+}

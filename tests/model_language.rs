@@ -83,3 +83,59 @@ fn check_exits_zero_on_the_bundled_models() {
         assert!(stdout.starts_with("model "), "{name}:\n{stdout}");
     }
 }
+
+mod printing {
+    use fpsolve::model::parse_expr;
+    use proptest::prelude::*;
+
+    /// Random expression text in the model language, with every operator and precedence
+    /// level mixed.
+    fn expression() -> impl Strategy<Value = String> {
+        let leaf = prop_oneof![
+            Just("x".to_string()),
+            Just("y".to_string()),
+            (1u32..40).prop_map(|n| format!("{}", n as f64 / 8.0)),
+        ];
+        leaf.prop_recursive(5, 40, 2, |inner| {
+            prop_oneof![
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a} + {b}")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a} - {b}")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a}*{b}")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("{a}/({b})")),
+                (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("({a})*({b})")),
+                inner.clone().prop_map(|a| format!("-{a}")),
+                inner.clone().prop_map(|a| format!("-({a})")),
+                inner.clone().prop_map(|a| format!("({a})^2")),
+                inner.clone().prop_map(|a| format!("{a}^-1")),
+                inner.clone().prop_map(|a| format!("abs({a})")),
+                (inner.clone(), inner).prop_map(|(a, b)| format!("max({a}, {b})")),
+            ]
+        })
+    }
+
+    fn value(e: &fpsolve::symbolic::Expr) -> f64 {
+        e.eval(&|s| match s {
+            "x" => Some(0.7),
+            "y" => Some(-1.3),
+            _ => None,
+        })
+        .unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        /// Printing an expression and reading it back keeps its value. (Not always its
+        /// shape: `Expr`'s printer writes `(-1)*2*x` as `-2*x`, which reads back as `(-2)*x`.)
+        #[test]
+        fn print_then_parse_keeps_the_value(text in expression()) {
+            let first = parse_expr(&text).unwrap();
+            let printed = first.to_string();
+            let second = parse_expr(&printed).unwrap();
+            let (a, b) = (value(&first), value(&second));
+            if a.is_finite() || b.is_finite() {
+                prop_assert!((a - b).abs() <= 1e-12 * a.abs().max(1.0), "{text} -> {printed}: {a} vs {b}");
+            }
+        }
+    }
+}
