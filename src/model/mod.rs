@@ -4,9 +4,19 @@
 //! it to new values cheaply; [`Model::bind`] evaluates the parameters and substitutes them,
 //! giving the [`BoundModel`] that the Fokker–Planck, EPC and Monte Carlo stages consume.
 
+pub mod ast;
 mod bind;
+mod diagnostic;
+mod load;
+mod parse;
+mod print;
+mod validate;
 
 pub use bind::{BindError, BoundImpact, BoundModel, Override};
+pub use diagnostic::{Diagnostic, ModelError};
+pub use load::{load_model, parse_expr, parse_model};
+pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
+pub use validate::{SemanticError, MAX_PARAMETER_CHAIN};
 
 use crate::symbolic::{Expr, Symbol};
 

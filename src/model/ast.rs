@@ -1,0 +1,219 @@
+//! The syntax tree of a model file: what was written, where, before any name is resolved.
+//!
+//! Every node keeps its [`Span`] (a byte range into the source) so that the validator can
+//! point at the exact place a mistake was made. Sums and products are n-ary
+//! ([`ExprKind::Sum`], [`ExprKind::Product`]): a left-associative chain `a - b - c` is one
+//! node, so the tree's height grows only with parentheses, calls, `^` and unary minus, which
+//! the parser bounds before any recursive stage runs.
+
+/// A byte range `start..end` into the model source.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub struct Span {
+    /// First byte.
+    pub start: usize,
+    /// One past the last byte.
+    pub end: usize,
+}
+
+impl Span {
+    /// The span from `start` to `end`.
+    ///
+    /// ```
+    /// use fpsolve::model::ast::Span;
+    /// let s = Span::new(2, 5);
+    /// assert_eq!(s.len(), 3);
+    /// ```
+    pub fn new(start: usize, end: usize) -> Span {
+        Span { start, end }
+    }
+
+    /// Length in bytes.
+    ///
+    /// ```
+    /// assert!(fpsolve::model::ast::Span::new(4, 4).is_empty());
+    /// ```
+    pub fn len(&self) -> usize {
+        self.end - self.start
+    }
+
+    /// Whether the span covers no byte.
+    ///
+    /// ```
+    /// assert!(!fpsolve::model::ast::Span::new(0, 1).is_empty());
+    /// ```
+    pub fn is_empty(&self) -> bool {
+        self.end <= self.start
+    }
+
+    /// The smallest span covering both.
+    ///
+    /// ```
+    /// use fpsolve::model::ast::Span;
+    /// assert_eq!(Span::new(1, 3).to(Span::new(6, 9)), Span::new(1, 9));
+    /// ```
+    pub fn to(self, other: Span) -> Span {
+        Span::new(self.start.min(other.start), self.end.max(other.end))
+    }
+}
+
+/// A name as written, with where it was written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Ident {
+    /// The name.
+    pub name: String,
+    /// Where.
+    pub span: Span,
+}
+
+/// The sign in front of a term of a [`ExprKind::Sum`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SumOp {
+    /// `+` (also the implicit sign of the first term).
+    Plus,
+    /// `-`.
+    Minus,
+}
+
+/// The operator in front of a factor of a [`ExprKind::Product`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProductOp {
+    /// `*` (also the implicit operator of the first factor).
+    Times,
+    /// `/`.
+    Divide,
+}
+
+/// An expression node with its span.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExprNode {
+    /// What the node is.
+    pub kind: ExprKind,
+    /// Where it was written (parentheses around it excluded).
+    pub span: Span,
+}
+
+/// The kinds of expression node.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExprKind {
+    /// A numeric literal, already converted.
+    Number(f64),
+    /// A literal glued to letters or dots (`1e`, `2x`, `1.2.3`): kept so that the validator
+    /// can name it in its error.
+    MalformedNumber(String),
+    /// A name: parameter, state, noise source, or the constants `pi` and `e`.
+    Name(String),
+    /// `f(a, b, ...)`, the function not yet looked up.
+    Call {
+        /// The function's name as written.
+        func: Ident,
+        /// The arguments.
+        args: Vec<ExprNode>,
+    },
+    /// Unary minus.
+    Neg(Box<ExprNode>),
+    /// `a + b - c ...`: the first term's operator is always [`SumOp::Plus`].
+    Sum(Vec<(SumOp, ExprNode)>),
+    /// `a * b / c ...`: the first factor's operator is always [`ProductOp::Times`].
+    Product(Vec<(ProductOp, ExprNode)>),
+    /// `base ^ exponent`.
+    Pow(Box<ExprNode>, Box<ExprNode>),
+}
+
+/// `name = expression`, in `param` and `observe` lines.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Binding {
+    /// The name being defined.
+    pub name: Ident,
+    /// Its definition.
+    pub value: ExprNode,
+}
+
+/// The argument of a `delta:` line.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeltaSpec {
+    /// `exact`.
+    Exact,
+    /// `gaussian(width)`.
+    Gaussian(ExprNode),
+}
+
+/// One line of a model file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Statement {
+    /// What the line says.
+    pub kind: StatementKind,
+    /// The whole statement (comments excluded).
+    pub span: Span,
+    /// The span of its leading keyword.
+    pub keyword: Span,
+}
+
+/// The statements of the model language.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StatementKind {
+    /// `model name "description"`.
+    Model {
+        /// The model's name.
+        name: Ident,
+        /// The description without its quotes (empty if absent).
+        description: String,
+    },
+    /// `param a = 1, b = 2*a`.
+    Param(Vec<Binding>),
+    /// `state z, v`.
+    State(Vec<Ident>),
+    /// `drift v: expression`.
+    Drift {
+        /// The state whose rate this is.
+        state: Ident,
+        /// The rate.
+        expr: ExprNode,
+    },
+    /// `noise xi: intensity expression`.
+    Noise {
+        /// The source's name.
+        name: Ident,
+        /// Its intensity.
+        intensity: ExprNode,
+    },
+    /// `correlate xi, eta: rho`.
+    Correlate {
+        /// First source.
+        a: Ident,
+        /// Second source.
+        b: Ident,
+        /// The correlation coefficient.
+        coefficient: ExprNode,
+    },
+    /// `diffusion v: expression linear in the noise symbols`.
+    Diffusion {
+        /// The state whose equation the noise enters.
+        state: Ident,
+        /// The noise term.
+        expr: ExprNode,
+    },
+    /// `interpretation: ito` or `stratonovich`.
+    Interpretation(super::Interpretation),
+    /// `impact z = at: v -> map`.
+    Impact {
+        /// The state that meets the barrier.
+        state: Ident,
+        /// The barrier's position.
+        at: ExprNode,
+        /// The state that jumps.
+        other: Ident,
+        /// Its value after the impact.
+        map: ExprNode,
+    },
+    /// `observe y = abs(z), ydot = v*sgn(z)`.
+    Observe(Vec<Binding>),
+    /// `delta: exact` or `delta: gaussian(width)`.
+    Delta(DeltaSpec),
+}
+
+/// A parsed model file: its statements in order.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct ModelAst {
+    /// The statements, in file order.
+    pub statements: Vec<Statement>,
+}

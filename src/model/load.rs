@@ -1,0 +1,144 @@
+//! The entry points: model text or file → [`Model`], and lone expressions.
+
+use std::io::Read;
+use std::path::Path;
+
+use super::ast::Span;
+use super::diagnostic::{Diagnostic, ModelError, SyntaxFailure};
+use super::parse::{parse_file, parse_lone_expr, MAX_SOURCE_BYTES};
+use super::validate::{lower_free, validate, Located, SemanticError};
+use super::Model;
+use crate::symbolic::Expr;
+
+/// Parses and validates a model from its text. `path`, if given, is shown in error messages.
+///
+/// ```
+/// let src = "\
+/// model duffing \"Duffing oscillator\"
+/// param c = 0.1, k = 1, mu = 0.1, K = 1/(2*pi)
+/// state z, v
+/// drift z: v
+/// drift v: -c*v - k*z - mu*z^3
+/// noise xi: intensity 2*pi*K
+/// diffusion v: xi
+/// ";
+/// let model = fpsolve::model::parse_model(src, None).unwrap();
+/// assert_eq!(model.name(), "duffing");
+/// assert_eq!(model.drift()[1].to_string(), "-c*v - k*z - mu*z^3");
+///
+/// let err = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v +\n", None)
+///     .unwrap_err();
+/// assert_eq!((err.line(), err.column()), (Some(3), Some(13)));
+/// assert!(err.to_string().contains("expected an expression"));
+/// ```
+pub fn parse_model(source: &str, path: Option<&Path>) -> Result<Model, ModelError> {
+    let shown = path.map(|p| p.display().to_string());
+    let shown = shown.as_deref();
+    if source.len() > MAX_SOURCE_BYTES {
+        return Err(ModelError::TooLarge {
+            path: shown.unwrap_or("the model").to_string(),
+            limit: MAX_SOURCE_BYTES,
+        });
+    }
+    let ast = parse_file(source).map_err(|f| syntax_error(source, shown, f))?;
+    validate(&ast, source).map_err(|l| semantic_error(source, shown, *l))
+}
+
+/// Reads, checks and parses a model file. The bytes are checked for UTF-8 here, so that an
+/// encoding error says where the first bad byte is.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// assert_eq!(model.states()[0].as_ref(), "z");
+///
+/// let missing = fpsolve::model::load_model(std::path::Path::new("no/such.sde"));
+/// assert!(matches!(missing, Err(fpsolve::model::ModelError::Io { .. })));
+/// ```
+pub fn load_model(path: &Path) -> Result<Model, ModelError> {
+    let io = |source| ModelError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    // Read one byte past the limit: enough to know the file is too large, without reading
+    // all of whatever was passed by mistake.
+    file.take(MAX_SOURCE_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    let shown = path.display().to_string();
+    if bytes.len() > MAX_SOURCE_BYTES {
+        return Err(ModelError::TooLarge {
+            path: shown,
+            limit: MAX_SOURCE_BYTES,
+        });
+    }
+    let source = match std::str::from_utf8(&bytes) {
+        Ok(s) => s,
+        Err(e) => return Err(encoding_error(&bytes, e, &shown)),
+    };
+    parse_model(source, Some(path))
+}
+
+/// Parses a lone expression, as given to `--set name=value`. Names are not resolved (that
+/// is done when the value is bound), but functions, their arity and numbers are checked;
+/// `pi` and `e` become numbers.
+///
+/// ```
+/// let e = fpsolve::model::parse_expr("-x^2 + 2^-1").unwrap();
+/// assert_eq!(e.to_string(), "-x^2 + 2^(-1)");
+/// assert!(fpsolve::model::parse_expr("1 +").is_err());
+/// assert!(fpsolve::model::parse_expr("sinh(1)").is_err());
+/// ```
+pub fn parse_expr(source: &str) -> Result<Expr, ModelError> {
+    if source.len() > MAX_SOURCE_BYTES {
+        return Err(ModelError::TooLarge {
+            path: "the expression".into(),
+            limit: MAX_SOURCE_BYTES,
+        });
+    }
+    let node = parse_lone_expr(source).map_err(|f| syntax_error(source, None, f))?;
+    lower_free(&node).map_err(|l| semantic_error(source, None, *l))
+}
+
+fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> ModelError {
+    ModelError::Syntax(Diagnostic::new(
+        source,
+        path,
+        failure.span,
+        failure.message,
+        None,
+    ))
+}
+
+fn semantic_error(source: &str, path: Option<&str>, located: Located) -> ModelError {
+    let Located { error, span } = located;
+    let diagnostic = Diagnostic::new(source, path, span, error.to_string(), error.help());
+    match error {
+        // A malformed literal is a slip of syntax, found only when the tree is lowered.
+        SemanticError::MalformedNumber { .. } => ModelError::Syntax(diagnostic),
+        error => ModelError::Semantic {
+            error: Box::new(error),
+            diagnostic,
+        },
+    }
+}
+
+/// Points at the first byte that is not UTF-8, showing the valid text before it.
+fn encoding_error(bytes: &[u8], error: std::str::Utf8Error, path: &str) -> ModelError {
+    let valid = error.valid_up_to();
+    // The prefix is valid by construction; `from_utf8` cannot fail here.
+    let prefix = std::str::from_utf8(&bytes[..valid]).unwrap_or_default();
+    let message = format!(
+        "the file is not valid UTF-8 (byte 0x{:02X}); fpsolve reads model files as UTF-8 text",
+        bytes.get(valid).copied().unwrap_or(0)
+    );
+    ModelError::Encoding(Diagnostic::new(
+        prefix,
+        Some(path),
+        Span::new(valid, valid),
+        message,
+        Some("re-save the file as UTF-8".into()),
+    ))
+}
