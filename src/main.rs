@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
+use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, parse_expr, Override};
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
@@ -18,7 +19,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Read a model file, check it, and print it with its parameter values.
+    /// Read a model file, check it, and print it with its parameter values and its derived
+    /// drift, diffusion and Fokker-Planck coefficients.
     Check {
         /// The model file (`.sde`).
         model: PathBuf,
@@ -94,6 +96,12 @@ fn check(path: &std::path::Path, set: &[String]) -> Result<()> {
     writeln!(out, "\n# parameter values").context("writing to stdout")?;
     for (name, value) in bound.params() {
         writeln!(out, "#   {name} = {value}").context("writing to stdout")?;
+    }
+    let fpk = FpkOperator::derive(&bound)
+        .map_err(|e| anyhow::anyhow!("error: {}: {e}", path.display()))?;
+    writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
+    for line in fpk.to_string().lines() {
+        writeln!(out, "# {line}").context("writing to stdout")?;
     }
     out.flush().context("writing to stdout")?;
     Ok(())
