@@ -137,5 +137,17 @@ mod printing {
                 prop_assert!((a - b).abs() <= 1e-12 * a.abs().max(1.0), "{text} -> {printed}: {a} vs {b}");
             }
         }
+
+        /// For expressions in the canonical form the symbolic layer works in (simplified),
+        /// printing and reading back gives the same canonical tree:
+        /// simplify(parse(print(e))) == e (the printer writes factors in reading order, so the
+        /// raw parse can list them differently).
+        #[test]
+        fn simplified_expressions_print_and_parse_back_to_the_same_tree(text in expression()) {
+            let e = fpsolve::symbolic::simplify(&parse_expr(&text).unwrap());
+            let printed = e.to_string();
+            let back = fpsolve::symbolic::simplify(&parse_expr(&printed).unwrap());
+            prop_assert_eq!(&back, &e, "{} printed as {}", text, printed);
+        }
     }
 }
