@@ -143,7 +143,17 @@ impl Coefficients {
             x[axis] = t;
             eval_expr("a kink argument", u, &self.states, x)
         };
-        let n = 2000;
+        // Affine arguments (the usual abs(x), sgn(x - a)) have their root in closed form.
+        let (um, u0, up, u2) = (at(-1.0)?, at(0.0)?, at(1.0)?, at(2.5)?);
+        let slope = up - u0;
+        if slope != 0.0
+            && (u0 - um - slope).abs() <= 1e-14 * slope.abs()
+            && (u2 - u0 - 2.5 * slope).abs() <= 1e-13 * slope.abs()
+        {
+            let r = -u0 / slope;
+            return Ok(if r.abs() <= range { vec![r] } else { vec![] });
+        }
+        let n = 1000;
         let h = range / n as f64;
         let mut roots = Vec::new();
         let mut prev = at(-range)?;

@@ -394,10 +394,11 @@ impl<'a> Epc<'a> {
         let n2 = grid.g2.len();
         let stride = [grid.g1.len().div_ceil(80), n2.div_ceil(80)];
         let mut total = 0.0;
+        let p_floor = 1e-14 * grid.p.iter().copied().fold(0.0, f64::max);
         for i in (0..grid.g1.len()).step_by(stride[0]) {
             for j in (0..n2).step_by(stride[1]) {
                 let p = grid.p[i * n2 + j];
-                if p < 1e-14 * grid.p.iter().copied().fold(0.0, f64::max) {
+                if p < p_floor {
                     continue;
                 }
                 let xi = [grid.g1[i], grid.g2[j]];
@@ -419,10 +420,11 @@ impl<'a> Epc<'a> {
                 let mut xi = [0.0; 2];
                 xi[a] = xi_at;
                 xi[o] = t;
-                if !grid.inside(xi) {
+                let qx = q.eval(xi);
+                if !grid.contains(xi, qx) {
                     continue;
                 }
-                let p = (q.eval(xi) - grid.log_z).exp();
+                let p = (qx - grid.log_z).exp();
                 let mut g = [0.0; 6];
                 g[c] = prep
                     .coefs

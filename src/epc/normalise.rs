@@ -110,8 +110,8 @@ pub enum NormalisationKind {
         top_degree_max: f64,
     },
     /// exp(Q) is not integrable on the plane; it was normalised inside the ridge around the
-    /// mode, a star-shaped region bounded along each ray by the lowest point before Q rises
-    /// above its value at the mode.
+    /// mode: over the connected component of {Q ≥ pass value} that holds the mode (the pass
+    /// is the highest saddle on the way from the mode to where Q rises above Q(mode)).
     InsideRidge {
         /// Q(mode) − (highest pass value), in e-folds.
         depth: f64,
@@ -149,27 +149,32 @@ pub(crate) struct DensityGrid {
     pub h: [f64; 2],
     /// Density in ξ (∫ p dξ = 1), row-major in ξ1; zero outside the region.
     pub p: Vec<f64>,
-    /// Polar description of the region around `mode` (ξ): cut radius per ray, or none.
-    pub cut: Option<Vec<f64>>,
-    pub mode: [f64; 2],
+    /// Inside a ridge: the grid cells of the connected component of {Q ≥ pass} holding the
+    /// mode; `None` on the plane.
+    pub mask: Option<Vec<bool>>,
+    /// The pass value (Q below it is outside the region).
+    pub floor: f64,
+    /// max Q on the region (the reference of `p`).
     pub q_max: f64,
+    /// ln ∫ exp(Q) dξ over the region.
     pub log_z: f64,
 }
 
 impl DensityGrid {
-    /// Whether ξ lies in the normalisation region.
-    pub(crate) fn inside(&self, x: [f64; 2]) -> bool {
-        let Some(cut) = &self.cut else {
+    /// Whether ξ, where Q = `q`, belongs to the normalised density's support.
+    pub(crate) fn contains(&self, x: [f64; 2], q: f64) -> bool {
+        let Some(mask) = &self.mask else {
             return true;
         };
-        let d = [x[0] - self.mode[0], x[1] - self.mode[1]];
-        let r = d[0].hypot(d[1]);
-        let th = d[1].atan2(d[0]).rem_euclid(std::f64::consts::TAU);
-        let f = th / std::f64::consts::TAU * RAYS as f64;
-        let k = (f.floor() as usize) % RAYS;
-        let t = f - f.floor();
-        let rc = cut[k] * (1.0 - t) + cut[(k + 1) % RAYS] * t;
-        r <= rc
+        if q < self.floor {
+            return false;
+        }
+        let i = ((x[0] - self.g1[0]) / self.h[0]).round();
+        let j = ((x[1] - self.g2[0]) / self.h[1]).round();
+        if i < 0.0 || j < 0.0 || i as usize >= self.g1.len() || j as usize >= self.g2.len() {
+            return false;
+        }
+        mask[i as usize * self.g2.len() + j as usize]
     }
 }
 
@@ -281,10 +286,11 @@ fn explore_ray(q: &Poly, mode: [f64; 2], th: f64, q_max: f64) -> Result<RayEnd, 
             last_above = r;
         }
     }
-    if lead < 0.0 && r_dom < 1e6 {
+    if lead < 0.0 {
         Ok(RayEnd::Decays(last_above))
-    } else if lead > 0.0 && r_dom < 1e6 {
-        // Rises eventually (beyond the scan only if it is enormously far): still a pass.
+    } else if lead > 0.0 {
+        // Rises eventually (beyond the scan only if it is enormously far): the lowest point
+        // seen bounds the pass along this ray.
         Ok(RayEnd::Pass {
             r: min_r,
             value: min_v,
@@ -327,7 +333,7 @@ pub(crate) fn normalise(
     }
     let plane = ends.iter().all(|e| matches!(e, RayEnd::Decays(_)));
     let mut cut = vec![0.0; RAYS];
-    let mut kind;
+    let kind;
     if plane {
         for (c, e) in cut.iter_mut().zip(&ends) {
             if let RayEnd::Decays(r) = e {
@@ -354,7 +360,11 @@ pub(crate) fn normalise(
         // Rays only bound the pass from below; the saddle point of Q near the best ray's
         // lowest point is the true pass when Newton finds it.
         if let Some((x, v)) = saddle_near(q, pass.1) {
-            if v > pass.0 && v < q_mode {
+            // The sampled ray minima are coarse (steps of 1% of r): a saddle next to the best
+            // one is the exact pass.
+            let near = (x[0] - pass.1[0]).hypot(x[1] - pass.1[1])
+                < 0.05 * (1.0 + pass.1[0].hypot(pass.1[1]));
+            if (v > pass.0 || near) && v < q_mode {
                 pass = (v, x);
             }
         }
@@ -368,7 +378,7 @@ pub(crate) fn normalise(
             depth,
             threshold,
             pass_at: [pass.1[0] * sigma[0], pass.1[1] * sigma[1]],
-            region: "star-shaped about the mode: along each ray out to the lowest point of Q before it rises above Q(mode) (or to 40 e-folds below the mode where it never does)".into(),
+            region: "the connected component of {Q ≥ pass value} that holds the mode".into(),
         };
     }
     // Box around the region.
@@ -396,13 +406,44 @@ pub(crate) fn normalise(
         g2,
         h: [h1, h2],
         p: vec![],
-        cut: if plane { None } else { Some(cut) },
-        mode,
+        mask: None,
+        floor: f64::NEG_INFINITY,
         q_max: q_mode,
         log_z: 0.0,
     };
     let qv = q.on_grid(&grid.g1, &grid.g2);
     let n2 = grid.g2.len();
+    if let NormalisationKind::InsideRidge { depth, .. } = &kind {
+        // The region: the connected component of {Q ≥ pass} that holds the mode (what lies
+        // below the pass inside it carries less than e^-depth of the peak).
+        // One e-fold above the pass, so that the grid cannot leak across the saddle.
+        let floor = q_mode - depth + 1.0;
+        let mut mask = vec![false; qv.len()];
+        let i0 = ((mode[0] - grid.g1[0]) / h1).round() as usize;
+        let j0 = ((mode[1] - grid.g2[0]) / h2).round() as usize;
+        let mut stack = vec![(i0, j0)];
+        while let Some((i, j)) = stack.pop() {
+            let idx = i * n2 + j;
+            if mask[idx] || qv[idx] < floor || qv[idx] > q_mode + 1e-9 * (1.0 + q_mode.abs()) {
+                continue;
+            }
+            mask[idx] = true;
+            if i > 0 {
+                stack.push((i - 1, j));
+            }
+            if i + 1 < grid.g1.len() {
+                stack.push((i + 1, j));
+            }
+            if j > 0 {
+                stack.push((i, j - 1));
+            }
+            if j + 1 < n2 {
+                stack.push((i, j + 1));
+            }
+        }
+        grid.mask = Some(mask);
+        grid.floor = floor;
+    }
     let mut p = vec![0.0; qv.len()];
     let q_ref = if plane {
         qv.iter().copied().fold(q_mode, f64::max)
@@ -410,10 +451,10 @@ pub(crate) fn normalise(
         q_mode
     };
     let (mut z, mut z2) = (0.0, 0.0);
-    for (i, x1) in grid.g1.iter().enumerate() {
-        for (j, x2) in grid.g2.iter().enumerate() {
+    for i in 0..grid.g1.len() {
+        for j in 0..n2 {
             let idx = i * n2 + j;
-            if grid.inside([*x1, *x2]) {
+            if grid.mask.as_ref().map_or(true, |m| m[idx]) {
                 let v = (qv[idx] - q_ref).exp();
                 p[idx] = v;
                 z += v;
@@ -425,12 +466,16 @@ pub(crate) fn normalise(
     }
     // The box edges lie e^-40 below the peak: the trapezoid end corrections are negligible.
     let zh = z * h1 * h2;
+    if !(zh.is_finite() && zh > 0.0) {
+        return Err(NotNormalisable(format!(
+            "the normalising integral is not finite ({zh:e}) on the region"
+        )));
+    }
     let z2h = z2 * 4.0 * h1 * h2;
     p.iter_mut().for_each(|v| *v /= zh);
     grid.p = p;
     grid.q_max = q_ref;
     grid.log_z = zh.ln() + q_ref;
-    if let NormalisationKind::Plane { .. } = &mut kind {}
     let report = NormalisationReport {
         kind,
         mode: [mode[0] * sigma[0], mode[1] * sigma[1]],
@@ -481,7 +526,7 @@ mod tests {
             panic!("normalisable")
         };
         assert!(matches!(rep.kind, NormalisationKind::Plane { .. }));
-        assert_relative_eq!(grid.mode[0], 0.3, epsilon = 1e-10);
+        assert_relative_eq!(rep.mode[0], 0.3, epsilon = 1e-10);
         assert_relative_eq!(
             grid.log_z,
             (std::f64::consts::TAU).ln() + 0.045,

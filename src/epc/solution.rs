@@ -139,10 +139,11 @@ impl EpcSolution {
     /// The joint density at a point (0 outside the normalisation region).
     pub fn pdf(&self, x1: f64, x2: f64) -> f64 {
         let xi = [x1 / self.sigma[0], x2 / self.sigma[1]];
-        if !self.grid.inside(xi) {
+        let q = self.q.eval(xi);
+        if !self.grid.contains(xi, q) {
             return 0.0;
         }
-        (self.q.eval(xi) + self.log_c()).exp()
+        (q + self.log_c()).exp()
     }
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original
@@ -198,8 +199,9 @@ impl EpcSolution {
         let mut sum = 0.0;
         for &u in other {
             let xi = if axis == 0 { [t, u] } else { [u, t] };
-            if g.inside(xi) {
-                sum += (self.q.eval(xi) - g.log_z).exp();
+            let q = self.q.eval(xi);
+            if g.contains(xi, q) {
+                sum += (q - g.log_z).exp();
             }
         }
         sum * h / self.sigma[axis]
