@@ -155,9 +155,8 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
     let other = 1 - state;
     let ext = density.extent();
     let mut total = 0.0;
-    for a in 0..2 {
-        for b in 0..2 {
-            let s = sign[a][b];
+    for (a, row) in sign.iter().enumerate() {
+        for (b, &s) in row.iter().enumerate() {
             let xs = s * u;
             let quadrant = [a, b];
             // x_state = s·u must lie in the quadrant's half-line. At u = 0 the density is

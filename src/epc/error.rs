@@ -1,0 +1,88 @@
+//! The EPC engine's error type.
+
+use crate::symbolic::EvalError;
+
+/// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EpcError {
+    /// The requested polynomial degree is outside what the engine supports.
+    #[error("EPC degree {degree} is not supported (use 2 to {max})")]
+    Degree {
+        /// The degree asked for.
+        degree: usize,
+        /// The largest supported degree.
+        max: usize,
+    },
+    /// A weight override (σ) is not a positive finite number.
+    #[error("weight σ{index} = {value} must be positive and finite")]
+    Weight {
+        /// 1 or 2.
+        index: usize,
+        /// The value given.
+        value: f64,
+    },
+    /// An FPK coefficient could not be evaluated.
+    #[error("cannot evaluate {what} at ({x1}, {x2}): {source}")]
+    Eval {
+        /// Which coefficient.
+        what: String,
+        /// The point.
+        x1: f64,
+        /// The point.
+        x2: f64,
+        /// The evaluator's reason.
+        source: EvalError,
+    },
+    /// A coefficient was NaN or infinite at a quadrature point.
+    #[error("{what} is not finite at ({x1}, {x2})")]
+    NonFinite {
+        /// Which quantity.
+        what: String,
+        /// The point.
+        x1: f64,
+        /// The point.
+        x2: f64,
+    },
+    /// The quadrature order could not be raised until the assembled system settled.
+    #[error(
+        "quadrature did not converge: the assembled system still changed by {change:.2e} (relative) at {order} nodes per piece"
+    )]
+    Quadrature {
+        /// Nodes per piece at the last attempt.
+        order: usize,
+        /// Relative change between the last two orders.
+        change: f64,
+    },
+    /// The Gaussian closure (which supplies the weights σ) failed.
+    #[error("Gaussian closure failed: {reason} (smallest residual {residual:.3e})")]
+    Closure {
+        /// What went wrong.
+        reason: String,
+        /// The smallest residual norm reached.
+        residual: f64,
+    },
+    /// No Galerkin solution was found at this degree.
+    #[error(
+        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
+    )]
+    NoConvergence {
+        /// The degree.
+        degree: usize,
+        /// The methods and starts tried, comma-separated.
+        tried: String,
+        /// The smallest residual norm reached.
+        best_residual: f64,
+        /// The gradient norm of ½‖R‖² there.
+        gradient: f64,
+        /// What the evidence says about a real solution nearby.
+        verdict: String,
+    },
+    /// The solved exp(Q) cannot be normalised honestly.
+    #[error("EPC degree {degree}: density not normalisable: {reason}")]
+    NotNormalisable {
+        /// The degree.
+        degree: usize,
+        /// Why.
+        reason: String,
+    },
+}

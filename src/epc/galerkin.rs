@@ -1,0 +1,255 @@
+//! The Galerkin system of Eq. 19 in scaled variables ξ_i = x_i/σ_i, precomputed so that the
+//! residual R_k(a) = c_k + Σ_s M_ks a_s + ½ Σ_st S_kst a_s a_t and its Jacobian are plain array
+//! contractions.
+//!
+//! With Q = Σ_s a_s ξ^{e_s} (Eq. 16), test functions H_k = ξ^{e_k} φ(ξ1)φ(ξ2) (Eqs. 20–22) and
+//! F from Eq. 18, every entry is a combination of the moment tables
+//! m_c[α] = ∫ g_c(ξ) ξ^α φ(ξ1)φ(ξ2) dξ of the six scaled coefficient channels g_c
+//! (A0, A_i/σ_i, B_ij/(σ_iσ_j)), so the quadrature is done once per channel and monomial.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::coefficients::{Point, CHANNELS};
+
+/// The exponents (i, j) of the monomials x1^i x2^j with 1 ≤ i + j ≤ n, by total degree and then
+/// by the power of x2 (the order of Eq. 16).
+///
+/// ```
+/// let e = fpsolve::epc::exponents(2);
+/// assert_eq!(e, vec![(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]);
+/// ```
+pub fn exponents(degree: usize) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for d in 1..=degree {
+        for j in 0..=d {
+            out.push((d - j, j));
+        }
+    }
+    out
+}
+
+/// Moment tables of the six channels, up to total degree `max`.
+pub(crate) struct Moments {
+    max: usize,
+    table: Vec<[f64; CHANNELS]>,
+}
+
+impl Moments {
+    /// Accumulates the moments from quadrature points; `scale` is σ and `channel_scale` the
+    /// factor that makes each channel dimensionless in ξ.
+    pub(crate) fn new(points: &[Point], sigma: [f64; 2], max: usize) -> Moments {
+        let chan = [
+            1.0,
+            1.0 / sigma[0],
+            1.0 / sigma[1],
+            1.0 / (sigma[0] * sigma[0]),
+            1.0 / (sigma[0] * sigma[1]),
+            1.0 / (sigma[1] * sigma[1]),
+        ];
+        let stride = max + 1;
+        let mut table = vec![[0.0; CHANNELS]; stride * stride];
+        let mut p1 = vec![0.0; stride];
+        let mut p2 = vec![0.0; stride];
+        for p in points {
+            let xi = [p.x[0] / sigma[0], p.x[1] / sigma[1]];
+            let mut wg = [0.0; CHANNELS];
+            for c in 0..CHANNELS {
+                wg[c] = p.w * p.g[c] * chan[c];
+            }
+            if wg.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            p1[0] = 1.0;
+            p2[0] = 1.0;
+            for k in 1..stride {
+                p1[k] = p1[k - 1] * xi[0];
+                p2[k] = p2[k - 1] * xi[1];
+            }
+            for i in 0..=max {
+                let row = &mut table[i * stride..];
+                for j in 0..=(max - i) {
+                    let m = p1[i] * p2[j];
+                    let cell = &mut row[j];
+                    for c in 0..CHANNELS {
+                        cell[c] += wg[c] * m;
+                    }
+                }
+            }
+        }
+        Moments { max, table }
+    }
+
+    fn get(&self, c: usize, i: usize, j: usize) -> f64 {
+        debug_assert!(i + j <= self.max);
+        self.table[i * (self.max + 1) + j][c]
+    }
+}
+
+/// The assembled system R(a) = c + M a + ½ (S a) a in scaled variables.
+#[derive(Clone, Debug)]
+pub(crate) struct GalerkinSystem {
+    pub exps: Vec<(usize, usize)>,
+    pub c: DVector<f64>,
+    pub m: DMatrix<f64>,
+    /// S_kst = T_kst + T_kts, stored k-major: `s[(k·n + s)·n + t]`.
+    pub s: Vec<f64>,
+}
+
+impl GalerkinSystem {
+    /// Assembles the system of degree `degree` from the moment tables (needs `max ≥ 3n − 2`).
+    pub(crate) fn assemble(mom: &Moments, degree: usize) -> GalerkinSystem {
+        let exps = exponents(degree);
+        let np = exps.len();
+        let (a0, a1, a2, b11, b12, b22) = (0, 1, 2, 3, 4, 5);
+        let c = DVector::from_iterator(np, exps.iter().map(|&(i, j)| mom.get(a0, i, j)));
+        let mut m = DMatrix::zeros(np, np);
+        for (k, &(ki, kj)) in exps.iter().enumerate() {
+            for (s, &(p, q)) in exps.iter().enumerate() {
+                let (pf, qf) = (p as f64, q as f64);
+                let mut v = 0.0;
+                if p >= 1 {
+                    v += pf * mom.get(a1, ki + p - 1, kj + q);
+                }
+                if q >= 1 {
+                    v += qf * mom.get(a2, ki + p, kj + q - 1);
+                }
+                if p >= 2 {
+                    v += pf * (pf - 1.0) * mom.get(b11, ki + p - 2, kj + q);
+                }
+                if p >= 1 && q >= 1 {
+                    v += 2.0 * pf * qf * mom.get(b12, ki + p - 1, kj + q - 1);
+                }
+                if q >= 2 {
+                    v += qf * (qf - 1.0) * mom.get(b22, ki + p, kj + q - 2);
+                }
+                m[(k, s)] = v;
+            }
+        }
+        // T_kst = Σ_ij ∫ B_ij ∂_iφ_s ∂_jφ_t H_k; S = T + Tᵀ(s,t), symmetric in (s, t).
+        let mut sarr = vec![0.0; np * np * np];
+        for (k, &(ki, kj)) in exps.iter().enumerate() {
+            for (s, &(ps, qs)) in exps.iter().enumerate() {
+                for (t, &(pt, qt)) in exps.iter().enumerate().skip(s) {
+                    let (psf, qsf, ptf, qtf) = (ps as f64, qs as f64, pt as f64, qt as f64);
+                    let mut v = 0.0;
+                    if ps >= 1 && pt >= 1 {
+                        v += 2.0 * psf * ptf * mom.get(b11, ki + ps + pt - 2, kj + qs + qt);
+                    }
+                    if qs >= 1 && qt >= 1 {
+                        v += 2.0 * qsf * qtf * mom.get(b22, ki + ps + pt, kj + qs + qt - 2);
+                    }
+                    // B12 ∂1φs ∂2φt + B21 ∂2φs ∂1φt, doubled by the symmetrisation.
+                    let cross = psf * qtf + qsf * ptf;
+                    if cross != 0.0 {
+                        v += 2.0 * cross * mom.get(b12, ki + ps + pt - 1, kj + qs + qt - 1);
+                    }
+                    sarr[(k * np + s) * np + t] = v;
+                    sarr[(k * np + t) * np + s] = v;
+                }
+            }
+        }
+        GalerkinSystem {
+            exps,
+            c,
+            m,
+            s: sarr,
+        }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.exps.len()
+    }
+
+    /// (S a)_ks = Σ_t S_kst a_t.
+    fn s_times(&self, a: &DVector<f64>) -> DMatrix<f64> {
+        let n = self.len();
+        let mut out = DMatrix::zeros(n, n);
+        for k in 0..n {
+            for s in 0..n {
+                let row = &self.s[(k * n + s) * n..(k * n + s + 1) * n];
+                out[(k, s)] = row.iter().zip(a.iter()).map(|(x, y)| x * y).sum();
+            }
+        }
+        out
+    }
+
+    /// The residual R(a) and the Jacobian ∂R/∂a.
+    pub(crate) fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+        let sa = self.s_times(a);
+        let r = &self.c + &self.m * a + 0.5 * &sa * a;
+        (r, &self.m + sa)
+    }
+
+    /// The residual R(a) alone.
+    #[cfg(test)]
+    pub(crate) fn residual(&self, a: &DVector<f64>) -> DVector<f64> {
+        self.residual_and_jacobian(a).0
+    }
+
+    /// The largest absolute entry of c, M and S (for relative comparisons).
+    pub(crate) fn scale(&self) -> f64 {
+        self.c
+            .iter()
+            .chain(self.m.iter())
+            .chain(self.s.iter())
+            .fold(0.0_f64, |a, v| a.max(v.abs()))
+    }
+
+    /// The largest absolute difference to another assembly of the same degree.
+    pub(crate) fn max_difference(&self, other: &GalerkinSystem) -> f64 {
+        let d = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .fold(0.0_f64, |a, (u, v)| a.max((u - v).abs()))
+        };
+        d(self.c.as_slice(), other.c.as_slice())
+            .max(d(self.m.as_slice(), other.m.as_slice()))
+            .max(d(&self.s, &other.s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        // Points of an arbitrary smooth coefficient set on a small grid.
+        let mut pts = Vec::new();
+        for i in 0..7 {
+            for j in 0..7 {
+                let x = [i as f64 * 0.4 - 1.2, j as f64 * 0.3 - 0.9];
+                let g = [
+                    0.3 + x[0],
+                    x[1] - x[0] * x[0],
+                    0.2 * x[0] + x[1],
+                    0.5 + x[1] * x[1],
+                    0.1 * x[0],
+                    1.0 + 0.3 * x[0].abs(),
+                ];
+                pts.push(Point {
+                    x,
+                    w: 0.01 * (1.0 + i as f64 * 0.1),
+                    g,
+                });
+            }
+        }
+        let mom = Moments::new(&pts, [1.3, 0.7], 3 * 3 - 2);
+        let sys = GalerkinSystem::assemble(&mom, 3);
+        let n = sys.len();
+        let a = DVector::from_iterator(n, (0..n).map(|k| 0.1 * (k as f64 + 1.0).sin()));
+        let (r, j) = sys.residual_and_jacobian(&a);
+        for s in 0..n {
+            let h = 1e-6;
+            let mut ap = a.clone();
+            ap[s] += h;
+            let mut am = a.clone();
+            am[s] -= h;
+            let fd = (sys.residual(&ap) - sys.residual(&am)) / (2.0 * h);
+            for k in 0..n {
+                approx::assert_relative_eq!(j[(k, s)], fd[k], epsilon = 1e-7, max_relative = 1e-6);
+            }
+        }
+        assert!(r.norm() > 0.0);
+    }
+}

@@ -1,0 +1,448 @@
+//! The exponential-polynomial closure (EPC, the paper's Eqs. 14–22).
+//!
+//! For an [`FpkOperator`], find p = C·exp(Q_n) with Q_n a complete polynomial of degree n
+//! (Eq. 16) such that the residual F of Eq. 18 is orthogonal to the test functions
+//! H_k = x1^i x2^j f1(x1) f2(x2) of Eqs. 20–22, whose Gaussian factors come from a Gaussian
+//! closure of the model. The pipeline: coefficients → Gaussian closure (σ) → quadrature (exact
+//! for piecewise polynomial coefficients, checked by raising the order otherwise) → moment
+//! tables → Galerkin system → Newton / Levenberg–Marquardt (continuation in degree) → honest
+//! normalisation → [`EpcSolution`].
+//!
+//! ```
+//! use fpsolve::epc::Epc;
+//! use fpsolve::fpk::FpkOperator;
+//! use fpsolve::model::parse_model;
+//!
+//! // Linear oscillator z' = v, v' = −0.1 v − z + ξ, 2πK = 1.
+//! let text = "model linear
+//! param c = 0.1, k = 1
+//! state z, v
+//! drift z: v
+//! drift v: -c*v - k*z
+//! noise xi: intensity 1
+//! diffusion v: xi
+//! ";
+//! let model = parse_model(text, None).unwrap();
+//! let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+//! let sol = Epc::new(&fpk, model.delta_treatment()).degree(2).solve().unwrap();
+//! // Exact: variances πK/(ck) = 5 for z and πK/c = 5 for v.
+//! assert!((sol.moments[0].variance - 5.0).abs() < 1e-6);
+//! ```
+
+mod closure;
+mod coefficients;
+mod error;
+mod galerkin;
+mod normalise;
+mod quadrature;
+mod solution;
+mod solver;
+
+use std::time::Instant;
+
+use nalgebra::DVector;
+
+pub use closure::GaussianClosure;
+pub use error::EpcError;
+pub use galerkin::exponents;
+pub use normalise::{NormalisationKind, NormalisationReport};
+pub use quadrature::{normal_rule, split_normal_rule, QuadratureRule};
+pub use solution::{EpcSolution, SolveReport, StateMoments};
+pub use solver::SolveOutcome;
+
+use crate::fpk::FpkOperator;
+use crate::model::DeltaTreatment;
+use coefficients::Coefficients;
+use galerkin::{GalerkinSystem, Moments};
+use normalise::Poly;
+
+/// The largest degree the engine accepts.
+pub const MAX_DEGREE: usize = 12;
+
+/// Default least ridge depth (e-folds) for normalising inside a ridge: the mass beyond a ridge
+/// this deep is below e^-12 ≈ 6e-6 of the peak's neighbourhood.
+pub const DEFAULT_RIDGE_THRESHOLD: f64 = 12.0;
+
+/// An EPC problem: operator, delta treatment and options; [`Epc::solve`] runs it.
+#[derive(Clone, Debug)]
+pub struct Epc<'a> {
+    fpk: &'a FpkOperator,
+    treatment: DeltaTreatment,
+    degree: usize,
+    tolerance: f64,
+    sigma: [Option<f64>; 2],
+    ridge_threshold: f64,
+    quadrature_tolerance: f64,
+}
+
+/// A lower-degree solution (exponents, scaled coefficients) that starts the next degree.
+type Start = (Vec<(usize, usize)>, DVector<f64>);
+
+/// What one degree's solve leaves for the next (continuation).
+struct Prepared {
+    coefs: Coefficients,
+    sigma: [f64; 2],
+    closure: Option<GaussianClosure>,
+    closure_ms: f64,
+}
+
+impl<'a> Epc<'a> {
+    /// A problem for `fpk` with δ terms treated as `treatment`; degree 4 and ‖R‖ ≤ 1e−10 by
+    /// default.
+    pub fn new(fpk: &'a FpkOperator, treatment: DeltaTreatment) -> Epc<'a> {
+        Epc {
+            fpk,
+            treatment,
+            degree: 4,
+            tolerance: 1e-10,
+            sigma: [None, None],
+            ridge_threshold: DEFAULT_RIDGE_THRESHOLD,
+            quadrature_tolerance: 1e-10,
+        }
+    }
+
+    /// The degree n of Q (2 ≤ n ≤ [`MAX_DEGREE`]).
+    pub fn degree(mut self, n: usize) -> Self {
+        self.degree = n;
+        self
+    }
+
+    /// Newton stops when ‖R‖ (scaled variables) is at most this.
+    pub fn tolerance(mut self, tol: f64) -> Self {
+        self.tolerance = tol;
+        self
+    }
+
+    /// Overrides the weights' σ_1, σ_2 (Eqs. 21–22); `None` keeps the Gaussian closure's.
+    pub fn weights(mut self, sigma: [Option<f64>; 2]) -> Self {
+        self.sigma = sigma;
+        self
+    }
+
+    /// The least ridge depth (e-folds) accepted for normalising inside a ridge.
+    pub fn ridge_threshold(mut self, e_folds: f64) -> Self {
+        self.ridge_threshold = e_folds;
+        self
+    }
+
+    /// Relative change of the assembled system below which a raised quadrature order is
+    /// accepted (only used for coefficients that are not piecewise polynomial).
+    pub fn quadrature_tolerance(mut self, tol: f64) -> Self {
+        self.quadrature_tolerance = tol;
+        self
+    }
+
+    /// Solves at the configured degree, by continuation through the lower degrees of the same
+    /// parity (starting at 2) when a direct solve from the closure fails.
+    pub fn solve(&self) -> Result<EpcSolution, EpcError> {
+        let n = self.degree;
+        check_degree(n)?;
+        let mut chain: Vec<usize> = (2..n).filter(|d| d % 2 == n % 2 || *d == 2).collect();
+        chain.push(n);
+        self.solve_degrees(&chain).pop().expect("chain contains n")
+    }
+
+    /// Solves at each degree in turn; each solve starts from the last successful lower-degree
+    /// solution (padded with zeros) and from the Gaussian closure.
+    pub fn solve_degrees(&self, degrees: &[usize]) -> Vec<Result<EpcSolution, EpcError>> {
+        let prep = match self.prepare() {
+            Ok(p) => p,
+            Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
+        };
+        let max_n = degrees.iter().copied().max().unwrap_or(2);
+        let mut out = Vec::with_capacity(degrees.len());
+        let t0 = Instant::now();
+        let moments = match check_degree(max_n).and_then(|_| self.moments(&prep, max_n)) {
+            Ok(m) => m,
+            Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
+        };
+        let moments_ms = ms(t0);
+        let mut previous: Option<Start> = None;
+        for &n in degrees {
+            let r = check_degree(n)
+                .and_then(|_| self.solve_one(&prep, &moments, moments_ms, n, previous.as_ref()));
+            if let Ok(s) = &r {
+                previous = Some((
+                    s.exponents.clone(),
+                    DVector::from_vec(s.scaled_coefficients.clone()),
+                ));
+            }
+            out.push(r);
+        }
+        out
+    }
+
+    fn prepare(&self) -> Result<Prepared, EpcError> {
+        for (i, s) in self.sigma.iter().enumerate() {
+            if let Some(v) = s {
+                if !(v.is_finite() && *v > 0.0) {
+                    return Err(EpcError::Weight {
+                        index: i + 1,
+                        value: *v,
+                    });
+                }
+            }
+        }
+        let coefs = Coefficients::new(self.fpk);
+        let t0 = Instant::now();
+        let (sigma, closure) = match self.sigma {
+            [Some(a), Some(b)] => ([a, b], None),
+            _ => {
+                let (kinks, _) = coefs.kinks([50.0, 50.0])?;
+                let order = coefs
+                    .polynomial_degree()
+                    .map_or(16, |d| (d as usize + 6).div_ceil(2) + 2)
+                    .max(8);
+                let c = closure::gaussian_closure(&coefs, &kinks, self.treatment, order)?;
+                let sd = c.std_devs();
+                (
+                    [
+                        self.sigma[0].unwrap_or(sd[0]),
+                        self.sigma[1].unwrap_or(sd[1]),
+                    ],
+                    Some(c),
+                )
+            }
+        };
+        Ok(Prepared {
+            coefs,
+            sigma,
+            closure,
+            closure_ms: ms(t0),
+        })
+    }
+
+    /// Moment tables good for degree `n`, with the quadrature order used.
+    fn moments(&self, prep: &Prepared, n: usize) -> Result<(Moments, usize, bool), EpcError> {
+        let s = prep.sigma;
+        let (kinks, mixed) = prep.coefs.kinks([16.0 * s[0], 16.0 * s[1]])?;
+        let dmax = 3 * n - 2;
+        let build = |order: usize| -> Result<Moments, EpcError> {
+            let pts = prep
+                .coefs
+                .points([0.0, 0.0], s, &kinks, order, self.treatment)?;
+            Ok(Moments::new(&pts, s, dmax))
+        };
+        match prep.coefs.polynomial_degree() {
+            Some(d) if !mixed => {
+                let order = (dmax + d as usize + 1).div_ceil(2) + 1;
+                Ok((build(order)?, order, false))
+            }
+            _ => {
+                // Not piecewise polynomial along the axes: raise the order until the assembled
+                // system settles.
+                let mut order = (dmax + 5).div_ceil(2) + 1;
+                let mut prev = GalerkinSystem::assemble(&build(order)?, n);
+                let mut change = f64::INFINITY;
+                while order < 120 {
+                    let next_order = order + 8;
+                    let mom = build(next_order)?;
+                    let sys = GalerkinSystem::assemble(&mom, n);
+                    change = sys.max_difference(&prev) / sys.scale().max(f64::MIN_POSITIVE);
+                    order = next_order;
+                    if change < self.quadrature_tolerance {
+                        return Ok((mom, order, true));
+                    }
+                    prev = sys;
+                }
+                Err(EpcError::Quadrature { order, change })
+            }
+        }
+    }
+
+    fn solve_one(
+        &self,
+        prep: &Prepared,
+        moments: &(Moments, usize, bool),
+        moments_ms: f64,
+        n: usize,
+        previous: Option<&Start>,
+    ) -> Result<EpcSolution, EpcError> {
+        let t0 = Instant::now();
+        let sys = GalerkinSystem::assemble(&moments.0, n);
+        let assembly_ms = moments_ms + ms(t0);
+        let sigma = prep.sigma;
+        let mut starts = Vec::new();
+        if let Some((e, a)) = previous {
+            starts.push((
+                format!(
+                    "the degree-{} solution",
+                    e.iter().map(|x| x.0 + x.1).max().unwrap_or(0)
+                ),
+                solver::pad(a, e, &sys.exps),
+            ));
+        }
+        starts.push((
+            "the Gaussian closure".to_string(),
+            self.closure_start(prep, &sys.exps),
+        ));
+        let t1 = Instant::now();
+        let (a, outcome) = solver::solve(&sys, &starts, self.tolerance).map_err(|f| {
+            let verdict = if f.local_minimum {
+                "the best point is a nonzero local minimum of ‖R‖ (∇½‖R‖² ≈ 0): evidence that no real Galerkin solution lies nearby".to_string()
+            } else {
+                "the iterations stalled away from a stationary point; a solution nearby is not excluded".to_string()
+            };
+            EpcError::NoConvergence {
+                degree: n,
+                tried: f.tried.join(", "),
+                best_residual: f.best_residual,
+                gradient: f.gradient,
+                verdict,
+            }
+        })?;
+        let solve_ms = ms(t1);
+        let t2 = Instant::now();
+        let q = Poly {
+            exps: sys.exps.clone(),
+            a: a.iter().copied().collect(),
+            degree: n,
+        };
+        let (grid, norm) = normalise::normalise(&q, sigma, self.ridge_threshold).map_err(|e| {
+            EpcError::NotNormalisable {
+                degree: n,
+                reason: e.0,
+            }
+        })?;
+        let fpk_residual = self.fpk_residual(prep, &q, &grid)?;
+        let report = SolveReport {
+            degree: n,
+            method: outcome.method,
+            iterations: outcome.iterations,
+            residual: outcome.residual,
+            quadrature_order: moments.1,
+            order_checked: moments.2,
+            closure_ms: prep.closure_ms,
+            assembly_ms,
+            solve_ms,
+            normalise_ms: ms(t2),
+        };
+        Ok(EpcSolution::from_parts(
+            q,
+            grid,
+            sigma,
+            prep.closure.clone(),
+            norm,
+            report,
+            fpk_residual,
+        ))
+    }
+
+    /// The closure Gaussian (or the weights' Gaussian when σ were overridden) as a start.
+    fn closure_start(&self, prep: &Prepared, exps: &[(usize, usize)]) -> DVector<f64> {
+        let s = prep.sigma;
+        let (mean, p) = match &prep.closure {
+            Some(c) => (c.mean, c.covariance),
+            None => ([0.0; 2], [[s[0] * s[0], 0.0], [0.0, s[1] * s[1]]]),
+        };
+        // In scaled variables: mean/σ, covariance/(σσ).
+        let m = [mean[0] / s[0], mean[1] / s[1]];
+        let p = [
+            [p[0][0] / (s[0] * s[0]), p[0][1] / (s[0] * s[1])],
+            [p[0][1] / (s[0] * s[1]), p[1][1] / (s[1] * s[1])],
+        ];
+        let det = p[0][0] * p[1][1] - p[0][1] * p[0][1];
+        let l = [
+            [p[1][1] / det, -p[0][1] / det],
+            [-p[0][1] / det, p[0][0] / det],
+        ];
+        // −½(ξ−m)ᵀΛ(ξ−m) without its constant.
+        DVector::from_iterator(
+            exps.len(),
+            exps.iter().map(|&e| match e {
+                (1, 0) => l[0][0] * m[0] + l[0][1] * m[1],
+                (0, 1) => l[1][0] * m[0] + l[1][1] * m[1],
+                (2, 0) => -0.5 * l[0][0],
+                (1, 1) => -l[0][1],
+                (0, 2) => -0.5 * l[1][1],
+                _ => 0.0,
+            }),
+        )
+    }
+
+    /// ∫|F|·p dx with F of Eq. 18 as a measure: the regular part on (a sub-grid of) the
+    /// normalisation grid, the δ lines as line integrals.
+    fn fpk_residual(
+        &self,
+        prep: &Prepared,
+        q: &Poly,
+        grid: &normalise::DensityGrid,
+    ) -> Result<f64, EpcError> {
+        let s = prep.sigma;
+        let chan = [
+            1.0,
+            1.0 / s[0],
+            1.0 / s[1],
+            1.0 / (s[0] * s[0]),
+            1.0 / (s[0] * s[1]),
+            1.0 / (s[1] * s[1]),
+        ];
+        let f_of = |g: [f64; 6], xi: [f64; 2]| {
+            let (d, h) = q.derivs(xi);
+            chan[0] * g[0]
+                + chan[1] * g[1] * d[0]
+                + chan[2] * g[2] * d[1]
+                + chan[3] * g[3] * (h[0][0] + d[0] * d[0])
+                + 2.0 * chan[4] * g[4] * (h[0][1] + d[0] * d[1])
+                + chan[5] * g[5] * (h[1][1] + d[1] * d[1])
+        };
+        let n2 = grid.g2.len();
+        let stride = [grid.g1.len().div_ceil(80), n2.div_ceil(80)];
+        let mut total = 0.0;
+        let p_floor = 1e-14 * grid.p.iter().copied().fold(0.0, f64::max);
+        for i in (0..grid.g1.len()).step_by(stride[0]) {
+            for j in (0..n2).step_by(stride[1]) {
+                let p = grid.p[i * n2 + j];
+                if p < p_floor {
+                    continue;
+                }
+                let xi = [grid.g1[i], grid.g2[j]];
+                let g = prep.coefs.regular_at([xi[0] * s[0], xi[1] * s[1]])?;
+                total += f_of(g, xi).abs() * p;
+            }
+        }
+        total *= grid.h[0] * stride[0] as f64 * grid.h[1] * stride[1] as f64;
+        for (c, line) in prep.coefs.lines() {
+            let a = line.axis;
+            let o = 1 - a;
+            let (other, ho) = if o == 0 {
+                (&grid.g1, grid.h[0])
+            } else {
+                (&grid.g2, grid.h[1])
+            };
+            let xi_at = line.at / s[a];
+            for &t in other.iter() {
+                let mut xi = [0.0; 2];
+                xi[a] = xi_at;
+                xi[o] = t;
+                let qx = q.eval(xi);
+                if !grid.contains(xi, qx) {
+                    continue;
+                }
+                let p = (qx - grid.log_z).exp();
+                let mut g = [0.0; 6];
+                g[c] = prep
+                    .coefs
+                    .line_weight(c, line, [xi[0] * s[0], xi[1] * s[1]])?;
+                // δ(x_a − at) = δ(ξ_a − ξ_at)/σ_a.
+                total += f_of(g, xi).abs() * p * ho / s[a];
+            }
+        }
+        Ok(total)
+    }
+}
+
+fn check_degree(n: usize) -> Result<(), EpcError> {
+    if (2..=MAX_DEGREE).contains(&n) {
+        Ok(())
+    } else {
+        Err(EpcError::Degree {
+            degree: n,
+            max: MAX_DEGREE,
+        })
+    }
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,562 @@
+//! Normalising C·exp(Q) honestly: on the plane when the top-degree part of Q is negative
+//! definite; otherwise inside the ridge that separates the mode from where exp(Q) grows again,
+//! if that ridge is deep enough; otherwise not at all.
+//!
+//! Everything here works in scaled variables ξ; the integral uses the trapezoid rule on a
+//! tensor grid reaching exp(Q − Qmax) < e^−40 (spectrally accurate for this smooth, decaying
+//! integrand; its error is estimated against the grid of twice the spacing).
+
+use serde::Serialize;
+
+/// Below this many e-folds from the mode the density is treated as zero when choosing the box.
+const TAIL_E_FOLDS: f64 = 40.0;
+/// Number of rays used to explore Q around the mode.
+const RAYS: usize = 720;
+
+/// A polynomial Q(ξ) = Σ a_s ξ1^i ξ2^j.
+#[derive(Clone, Debug)]
+pub(crate) struct Poly {
+    pub exps: Vec<(usize, usize)>,
+    pub a: Vec<f64>,
+    pub degree: usize,
+}
+
+impl Poly {
+    pub(crate) fn eval(&self, x: [f64; 2]) -> f64 {
+        self.exps
+            .iter()
+            .zip(&self.a)
+            .map(|(&(i, j), a)| a * x[0].powi(i as i32) * x[1].powi(j as i32))
+            .sum()
+    }
+
+    /// Gradient and Hessian.
+    pub(crate) fn derivs(&self, x: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        let p = |v: f64, k: usize, d: usize| -> f64 {
+            if k < d {
+                0.0
+            } else {
+                let c: f64 = ((k - d + 1)..=k).map(|t| t as f64).product();
+                c * v.powi((k - d) as i32)
+            }
+        };
+        let mut g = [0.0; 2];
+        let mut h = [[0.0; 2]; 2];
+        for (&(i, j), a) in self.exps.iter().zip(&self.a) {
+            g[0] += a * p(x[0], i, 1) * p(x[1], j, 0);
+            g[1] += a * p(x[0], i, 0) * p(x[1], j, 1);
+            h[0][0] += a * p(x[0], i, 2) * p(x[1], j, 0);
+            h[0][1] += a * p(x[0], i, 1) * p(x[1], j, 1);
+            h[1][1] += a * p(x[0], i, 0) * p(x[1], j, 2);
+        }
+        h[1][0] = h[0][1];
+        (g, h)
+    }
+
+    /// Coefficients q_d of Q(m + r u) as a polynomial in r.
+    fn along_ray(&self, m: [f64; 2], u: [f64; 2]) -> Vec<f64> {
+        let mut q = vec![0.0; self.degree + 1];
+        let binom = |n: usize, k: usize| -> f64 {
+            (0..k).fold(1.0, |acc, t| acc * (n - t) as f64 / (t + 1) as f64)
+        };
+        for (&(i, j), a) in self.exps.iter().zip(&self.a) {
+            // (m0 + r u0)^i (m1 + r u1)^j
+            for k in 0..=i {
+                let ck = binom(i, k) * m[0].powi((i - k) as i32) * u[0].powi(k as i32);
+                for l in 0..=j {
+                    let cl = binom(j, l) * m[1].powi((j - l) as i32) * u[1].powi(l as i32);
+                    q[k + l] += a * ck * cl;
+                }
+            }
+        }
+        q
+    }
+
+    /// Values on a tensor grid, row-major in ξ1 (index i·n2 + j).
+    pub(crate) fn on_grid(&self, g1: &[f64], g2: &[f64]) -> Vec<f64> {
+        let n = self.degree;
+        let mut out = Vec::with_capacity(g1.len() * g2.len());
+        let mut cj = vec![0.0; n + 1];
+        for &x1 in g1 {
+            cj.iter_mut().for_each(|v| *v = 0.0);
+            for (&(i, j), a) in self.exps.iter().zip(&self.a) {
+                cj[j] += a * x1.powi(i as i32);
+            }
+            for &x2 in g2 {
+                let mut v = 0.0;
+                for c in cj.iter().rev() {
+                    v = v * x2 + c;
+                }
+                out.push(v);
+            }
+        }
+        out
+    }
+}
+
+fn horner(q: &[f64], r: f64) -> f64 {
+    q.iter().rev().fold(0.0, |acc, c| acc * r + c)
+}
+
+/// How the density was normalised.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NormalisationKind {
+    /// exp(Q) is integrable on the whole plane: the top-degree part of Q is negative definite
+    /// (`top_degree_max` < 0), or it is only semidefinite and along every one of 720 rays from
+    /// the mode the highest non-vanishing power of Q(mode + r·u) has a negative coefficient.
+    Plane {
+        /// max over the unit circle of the degree-n part.
+        top_degree_max: f64,
+    },
+    /// exp(Q) is not integrable on the plane; it was normalised inside the ridge around the
+    /// mode: over the connected component of {Q ≥ pass value} that holds the mode (the pass
+    /// is the highest saddle on the way from the mode to where Q rises above Q(mode)).
+    InsideRidge {
+        /// Q(mode) − (highest pass value), in e-folds.
+        depth: f64,
+        /// The threshold the depth had to reach.
+        threshold: f64,
+        /// Where the highest pass is (original units).
+        pass_at: [f64; 2],
+        /// How the region is bounded.
+        region: String,
+    },
+}
+
+/// The normalisation's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NormalisationReport {
+    /// Plane or inside a ridge.
+    pub kind: NormalisationKind,
+    /// The mode (original units).
+    pub mode: [f64; 2],
+    /// ln C, with p(x) = C·exp(Q(x)) in original units.
+    pub log_c: f64,
+    /// Grid points per axis and the spacing (scaled units).
+    pub grid: [usize; 2],
+    /// Trapezoid spacing in scaled units.
+    pub spacing: [f64; 2],
+    /// |Z_h − Z_2h| / Z_h: the estimated relative error of the normalising integral.
+    pub error_estimate: f64,
+}
+
+/// The normalised density on a grid in scaled variables.
+#[derive(Clone, Debug)]
+pub(crate) struct DensityGrid {
+    pub g1: Vec<f64>,
+    pub g2: Vec<f64>,
+    pub h: [f64; 2],
+    /// Density in ξ (∫ p dξ = 1), row-major in ξ1; zero outside the region.
+    pub p: Vec<f64>,
+    /// Inside a ridge: the grid cells of the connected component of {Q ≥ pass} holding the
+    /// mode; `None` on the plane.
+    pub mask: Option<Vec<bool>>,
+    /// The pass value (Q below it is outside the region).
+    pub floor: f64,
+    /// max Q on the region (the reference of `p`).
+    pub q_max: f64,
+    /// ln ∫ exp(Q) dξ over the region.
+    pub log_z: f64,
+}
+
+impl DensityGrid {
+    /// Whether ξ, where Q = `q`, belongs to the normalised density's support.
+    pub(crate) fn contains(&self, x: [f64; 2], q: f64) -> bool {
+        let Some(mask) = &self.mask else {
+            return true;
+        };
+        if q < self.floor {
+            return false;
+        }
+        let i = ((x[0] - self.g1[0]) / self.h[0]).round();
+        let j = ((x[1] - self.g2[0]) / self.h[1]).round();
+        if i < 0.0 || j < 0.0 || i as usize >= self.g1.len() || j as usize >= self.g2.len() {
+            return false;
+        }
+        mask[i as usize * self.g2.len() + j as usize]
+    }
+}
+
+/// Why normalisation failed.
+pub(crate) struct NotNormalisable(pub String);
+
+/// Finds a local maximum of Q by Newton ascent from the best point of a coarse grid.
+fn find_mode(q: &Poly) -> Result<[f64; 2], NotNormalisable> {
+    let mut best = ([0.0, 0.0], q.eval([0.0, 0.0]));
+    for i in -16..=16 {
+        for j in -16..=16 {
+            let x = [i as f64 * 0.25, j as f64 * 0.25];
+            let v = q.eval(x);
+            if v > best.1 {
+                best = (x, v);
+            }
+        }
+    }
+    let mut x = best.0;
+    for _ in 0..100 {
+        let (g, h) = q.derivs(x);
+        let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+        let newton_ok = h[0][0] < 0.0 && det > 0.0;
+        let step = if newton_ok {
+            [
+                -(h[1][1] * g[0] - h[0][1] * g[1]) / det,
+                -(-h[1][0] * g[0] + h[0][0] * g[1]) / det,
+            ]
+        } else {
+            [0.05 * g[0], 0.05 * g[1]]
+        };
+        let mut t = 1.0;
+        let q0 = q.eval(x);
+        while t > 1e-12 {
+            let xn = [x[0] + t * step[0], x[1] + t * step[1]];
+            if q.eval(xn) >= q0 {
+                x = xn;
+                break;
+            }
+            t *= 0.5;
+        }
+        if g[0].hypot(g[1]) < 1e-12 {
+            break;
+        }
+    }
+    let (g, h) = q.derivs(x);
+    let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+    if !(h[0][0] < 0.0 && det > 0.0 && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[0][0].abs())) {
+        return Err(NotNormalisable(format!(
+            "Q has no local maximum near the origin (stopped at ξ = ({:.3}, {:.3}))",
+            x[0], x[1]
+        )));
+    }
+    Ok(x)
+}
+
+/// The cut radius along a ray: either where Q falls TAIL_E_FOLDS below `q_max` for good, or
+/// (if Q rises above `q_max` again) the lowest point before that rise.
+enum RayEnd {
+    Decays(f64),
+    Pass { r: f64, value: f64 },
+}
+
+fn explore_ray(q: &Poly, mode: [f64; 2], th: f64, q_max: f64) -> Result<RayEnd, NotNormalisable> {
+    let u = [th.cos(), th.sin()];
+    let mut c = q.along_ray(mode, u);
+    // Leading coefficients that vanish to rounding (e.g. along a direction the top-degree
+    // part does not involve) are dropped, so that the next term decides.
+    let big = c.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    while c.len() > 2 && c[c.len() - 1].abs() <= 1e-12 * big {
+        c.pop();
+    }
+    let n = c.len() - 1;
+    let lead = c[n];
+    // Beyond r_dom (Fujiwara's bound on the roots of dQ/dr) dQ/dr has the leading sign.
+    let b: Vec<f64> = (1..=n).map(|d| d as f64 * c[d]).collect();
+    let m = b.len() - 1;
+    let r_dom = if m == 0 {
+        1.0
+    } else {
+        (1..=m)
+            .map(|k| {
+                let ratio = (b[m - k] / b[m]).abs() / if k == m { 2.0 } else { 1.0 };
+                2.0 * ratio.powf(1.0 / k as f64)
+            })
+            .fold(1.0, f64::max)
+    };
+    let r_stop = r_dom.min(1e6) * 1.05 + 1.0;
+    let (mut r, mut last_above) = (0.0_f64, 0.0);
+    let (mut min_r, mut min_v) = (0.0, q_max);
+    loop {
+        r += 0.01 * (1.0 + r);
+        let v = horner(&c, r);
+        // Past r_dom Q is monotone along the ray: stop once it has also fallen below the tail.
+        if r > 1e6 || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
+            break;
+        }
+        if v > q_max + 1e-9 * (1.0 + q_max.abs()) {
+            return Ok(RayEnd::Pass {
+                r: min_r,
+                value: min_v,
+            });
+        }
+        if v < min_v {
+            min_v = v;
+            min_r = r;
+        }
+        if v >= q_max - TAIL_E_FOLDS {
+            last_above = r;
+        }
+    }
+    if lead < 0.0 {
+        Ok(RayEnd::Decays(last_above))
+    } else if lead > 0.0 {
+        // Rises eventually (beyond the scan only if it is enormously far): the lowest point
+        // seen bounds the pass along this ray.
+        Ok(RayEnd::Pass {
+            r: min_r,
+            value: min_v,
+        })
+    } else {
+        Err(NotNormalisable(format!(
+            "Q is flat to leading order along the direction θ = {th:.3} rad"
+        )))
+    }
+}
+
+/// Normalises exp(Q) (Q in scaled variables). `threshold` is the least ridge depth accepted.
+pub(crate) fn normalise(
+    q: &Poly,
+    sigma: [f64; 2],
+    threshold: f64,
+) -> Result<(DensityGrid, NormalisationReport), NotNormalisable> {
+    let n = q.degree;
+    let top = Poly {
+        exps: q.exps.clone(),
+        a: q.exps
+            .iter()
+            .zip(&q.a)
+            .map(|(&(i, j), a)| if i + j == n { *a } else { 0.0 })
+            .collect(),
+        degree: n,
+    };
+    let top_max = (0..RAYS)
+        .map(|k| {
+            let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
+            top.eval([th.cos(), th.sin()])
+        })
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mode = find_mode(q)?;
+    let q_mode = q.eval(mode);
+    let mut ends = Vec::with_capacity(RAYS);
+    for k in 0..RAYS {
+        let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
+        ends.push(explore_ray(q, mode, th, q_mode)?);
+    }
+    let plane = ends.iter().all(|e| matches!(e, RayEnd::Decays(_)));
+    let mut cut = vec![0.0; RAYS];
+    let kind;
+    if plane {
+        for (c, e) in cut.iter_mut().zip(&ends) {
+            if let RayEnd::Decays(r) = e {
+                *c = *r;
+            }
+        }
+        kind = NormalisationKind::Plane {
+            top_degree_max: top_max,
+        };
+    } else {
+        let mut pass = (f64::NEG_INFINITY, [0.0; 2]);
+        for (k, (c, e)) in cut.iter_mut().zip(&ends).enumerate() {
+            let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
+            match e {
+                RayEnd::Decays(r) => *c = *r,
+                RayEnd::Pass { r, value } => {
+                    *c = *r;
+                    if *value > pass.0 {
+                        pass = (*value, [mode[0] + r * th.cos(), mode[1] + r * th.sin()]);
+                    }
+                }
+            }
+        }
+        // Rays only bound the pass from below; the saddle point of Q near the best ray's
+        // lowest point is the true pass when Newton finds it.
+        if let Some((x, v)) = saddle_near(q, pass.1) {
+            // The sampled ray minima are coarse (steps of 1% of r): a saddle next to the best
+            // one is the exact pass.
+            let near = (x[0] - pass.1[0]).hypot(x[1] - pass.1[1])
+                < 0.05 * (1.0 + pass.1[0].hypot(pass.1[1]));
+            if (v > pass.0 || near) && v < q_mode {
+                pass = (v, x);
+            }
+        }
+        let depth = q_mode - pass.0;
+        if depth < threshold {
+            return Err(NotNormalisable(format!(
+                "exp(Q) grows without bound (degree-{n} part max {top_max:.3e} on the unit circle) and the ridge around the mode is only {depth:.2} e-folds deep (threshold {threshold})"
+            )));
+        }
+        kind = NormalisationKind::InsideRidge {
+            depth,
+            threshold,
+            pass_at: [pass.1[0] * sigma[0], pass.1[1] * sigma[1]],
+            region: "the connected component of {Q ≥ pass value} that holds the mode".into(),
+        };
+    }
+    // Box around the region.
+    let mut lo = mode;
+    let mut hi = mode;
+    for (k, r) in cut.iter().enumerate() {
+        let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
+        let p = [mode[0] + r * th.cos(), mode[1] + r * th.sin()];
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let axis = |a: usize| -> (Vec<f64>, f64) {
+        let (l, u) = (lo[a] - 0.2, hi[a] + 0.2);
+        let cells = (((u - l) / 0.06).ceil() as usize).clamp(64, 1200);
+        let cells = cells + cells % 2; // even, so that the 2h grid is a sub-grid
+        let h = (u - l) / cells as f64;
+        ((0..=cells).map(|i| l + i as f64 * h).collect(), h)
+    };
+    let (g1, h1) = axis(0);
+    let (g2, h2) = axis(1);
+    let mut grid = DensityGrid {
+        g1,
+        g2,
+        h: [h1, h2],
+        p: vec![],
+        mask: None,
+        floor: f64::NEG_INFINITY,
+        q_max: q_mode,
+        log_z: 0.0,
+    };
+    let qv = q.on_grid(&grid.g1, &grid.g2);
+    let n2 = grid.g2.len();
+    if let NormalisationKind::InsideRidge { depth, .. } = &kind {
+        // The region: the connected component of {Q ≥ pass} that holds the mode (what lies
+        // below the pass inside it carries less than e^-depth of the peak).
+        // One e-fold above the pass, so that the grid cannot leak across the saddle.
+        let floor = q_mode - depth + 1.0;
+        let mut mask = vec![false; qv.len()];
+        let i0 = ((mode[0] - grid.g1[0]) / h1).round() as usize;
+        let j0 = ((mode[1] - grid.g2[0]) / h2).round() as usize;
+        let mut stack = vec![(i0, j0)];
+        while let Some((i, j)) = stack.pop() {
+            let idx = i * n2 + j;
+            if mask[idx] || qv[idx] < floor || qv[idx] > q_mode + 1e-9 * (1.0 + q_mode.abs()) {
+                continue;
+            }
+            mask[idx] = true;
+            if i > 0 {
+                stack.push((i - 1, j));
+            }
+            if i + 1 < grid.g1.len() {
+                stack.push((i + 1, j));
+            }
+            if j > 0 {
+                stack.push((i, j - 1));
+            }
+            if j + 1 < n2 {
+                stack.push((i, j + 1));
+            }
+        }
+        grid.mask = Some(mask);
+        grid.floor = floor;
+    }
+    let mut p = vec![0.0; qv.len()];
+    let q_ref = if plane {
+        qv.iter().copied().fold(q_mode, f64::max)
+    } else {
+        q_mode
+    };
+    let (mut z, mut z2) = (0.0, 0.0);
+    for i in 0..grid.g1.len() {
+        for j in 0..n2 {
+            let idx = i * n2 + j;
+            if grid.mask.as_ref().map_or(true, |m| m[idx]) {
+                let v = (qv[idx] - q_ref).exp();
+                p[idx] = v;
+                z += v;
+                if i % 2 == 0 && j % 2 == 0 {
+                    z2 += v;
+                }
+            }
+        }
+    }
+    // The box edges lie e^-40 below the peak: the trapezoid end corrections are negligible.
+    let zh = z * h1 * h2;
+    if !(zh.is_finite() && zh > 0.0) {
+        return Err(NotNormalisable(format!(
+            "the normalising integral is not finite ({zh:e}) on the region"
+        )));
+    }
+    let z2h = z2 * 4.0 * h1 * h2;
+    p.iter_mut().for_each(|v| *v /= zh);
+    grid.p = p;
+    grid.q_max = q_ref;
+    grid.log_z = zh.ln() + q_ref;
+    let report = NormalisationReport {
+        kind,
+        mode: [mode[0] * sigma[0], mode[1] * sigma[1]],
+        log_c: -grid.log_z - (sigma[0] * sigma[1]).ln(),
+        grid: [grid.g1.len(), grid.g2.len()],
+        spacing: [h1, h2],
+        error_estimate: ((zh - z2h) / zh).abs(),
+    };
+    Ok((grid, report))
+}
+
+/// Newton on ∇Q = 0 from `x`; returns a saddle (indefinite Hessian) if it converges to one.
+fn saddle_near(q: &Poly, mut x: [f64; 2]) -> Option<([f64; 2], f64)> {
+    for _ in 0..60 {
+        let (g, h) = q.derivs(x);
+        let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+        if det.abs() < 1e-300 {
+            return None;
+        }
+        let step = [
+            -(h[1][1] * g[0] - h[0][1] * g[1]) / det,
+            -(-h[1][0] * g[0] + h[0][0] * g[1]) / det,
+        ];
+        x = [x[0] + step[0], x[1] + step[1]];
+        if step[0].hypot(step[1]) < 1e-12 * (1.0 + x[0].hypot(x[1])) {
+            let (_, h) = q.derivs(x);
+            let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+            return (det < 0.0).then(|| (x, q.eval(x)));
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn gaussian_normalises_on_the_plane() {
+        // Q = −ξ1²/2 − ξ2²/2 + 0.3 ξ1: mode at (0.3, 0), Z = 2π e^{0.045}.
+        let q = Poly {
+            exps: vec![(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)],
+            a: vec![0.3, 0.0, -0.5, 0.0, -0.5],
+            degree: 2,
+        };
+        let Ok((grid, rep)) = normalise(&q, [1.0, 1.0], 12.0) else {
+            panic!("normalisable")
+        };
+        assert!(matches!(rep.kind, NormalisationKind::Plane { .. }));
+        assert_relative_eq!(rep.mode[0], 0.3, epsilon = 1e-10);
+        assert_relative_eq!(
+            grid.log_z,
+            (std::f64::consts::TAU).ln() + 0.045,
+            epsilon = 1e-10
+        );
+    }
+
+    #[test]
+    fn growing_q_is_cut_at_its_ridge_or_refused() {
+        // Q = −ξ1²/2 − ξ2²/2 + b ξ1³: unbounded along +ξ1 when b > 0; saddle at ξ1 = 1/(3b),
+        // depth 1/(54 b²).
+        for (b, ok) in [(0.02, true), (0.1, false)] {
+            let q = Poly {
+                exps: vec![(2, 0), (0, 2), (3, 0)],
+                a: vec![-0.5, -0.5, b],
+                degree: 3,
+            };
+            match normalise(&q, [1.0, 1.0], 12.0) {
+                Ok((_, rep)) => {
+                    assert!(ok);
+                    let NormalisationKind::InsideRidge { depth, .. } = rep.kind else {
+                        panic!("ridge expected")
+                    };
+                    assert_relative_eq!(depth, 1.0 / (54.0 * b * b), max_relative = 1e-9);
+                }
+                Err(NotNormalisable(msg)) => {
+                    assert!(!ok, "{msg}");
+                    assert!(msg.contains("e-folds"));
+                }
+            }
+        }
+    }
+}
