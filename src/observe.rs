@@ -9,6 +9,7 @@
 //! the kernel width (p_h = p + a·h² + O(h⁴)), accurate to about 1e−4 relative where the
 //! density is smooth (see the tests).
 
+use crate::epc::EpcSolution;
 use crate::symbolic::{simplify, Expr, Func, Symbol};
 
 /// A joint density of the two states that observables can be computed from.
@@ -18,6 +19,19 @@ pub trait JointDensity: Sync {
     /// A box `[[lo1, hi1], [lo2, hi2]]` outside which the density is negligible (below about
     /// 1e−16 of its peak) or zero.
     fn extent(&self) -> [[f64; 2]; 2];
+}
+
+impl JointDensity for EpcSolution {
+    fn pdf(&self, x: [f64; 2]) -> f64 {
+        EpcSolution::pdf(self, x[0], x[1])
+    }
+
+    /// The normalisation grid, which reaches e^−40 of the peak (or the ridge region).
+    fn extent(&self) -> [[f64; 2]; 2] {
+        let g = &self.grid;
+        let ends = |v: &[f64], s: f64| [v[0] * s, v[v.len() - 1] * s];
+        [ends(&g.g1, self.sigma[0]), ends(&g.g2, self.sigma[1])]
+    }
 }
 
 /// How an observable is computed from the states.
