@@ -8,4 +8,5 @@ pub mod epc;
 pub mod fpk;
 pub mod model;
 pub mod observe;
+pub mod study;
 pub mod symbolic;

@@ -1,0 +1,334 @@
+//! A study: one model, one set of parameter values, EPC at several degrees, and the PDFs of
+//! its states and observables on common grids — what `fpsolve solve` and the main job report.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::epc::{Epc, EpcError, EpcSolution};
+use crate::fpk::{FpkError, FpkOperator};
+use crate::model::{BindError, BoundModel, Model, Override};
+use crate::observe::{observable_pdf, JointDensity, ObservableMap};
+use crate::symbolic::{Expr, Symbol};
+
+/// Why a study could not run at all (a failing degree is not this: it is kept in the study).
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// The parameters could not be bound.
+    #[error(transparent)]
+    Bind(#[from] BindError),
+    /// The FPK operator could not be derived.
+    #[error(transparent)]
+    Fpk(#[from] FpkError),
+    /// No degree was asked for.
+    #[error("no EPC degree was asked for")]
+    NoDegree,
+}
+
+/// A quantity whose PDF a study reports: a state or an observable.
+#[derive(Clone, Debug)]
+pub struct Quantity {
+    /// Its name (`z`, `y`, …).
+    pub name: String,
+    /// How it is computed from the states.
+    pub map: ObservableMap,
+}
+
+/// Mean, standard deviation and kurtosis of a quantity under one EPC solution.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct QuantityStats {
+    /// The quantity's name.
+    pub name: String,
+    /// E[g].
+    pub mean: f64,
+    /// √Var[g].
+    pub std_dev: f64,
+    /// E[(g − mean)⁴] / Var[g]².
+    pub kurtosis: f64,
+}
+
+/// The outcome at one degree.
+#[derive(Debug)]
+pub struct DegreeResult {
+    /// The degree n.
+    pub degree: usize,
+    /// The solution, or why there is none.
+    pub outcome: Result<EpcSolution, EpcError>,
+    /// Statistics of each state, then each observable (empty when the degree failed).
+    pub stats: Vec<QuantityStats>,
+    /// Time of the degree's solve (closure, assembly, solver, normalisation), in milliseconds.
+    pub wall_ms: f64,
+}
+
+/// The PDF of one quantity on a grid, one column per converged degree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PdfCurves {
+    /// The quantity's name.
+    pub name: String,
+    /// The grid.
+    pub x: Vec<f64>,
+    /// `(degree, pdf on the grid)` for every converged degree.
+    pub columns: Vec<(usize, Vec<f64>)>,
+}
+
+/// A finished study.
+#[derive(Debug)]
+pub struct Study {
+    /// The bound model.
+    pub model: BoundModel,
+    /// One result per degree asked, in order.
+    pub degrees: Vec<DegreeResult>,
+    /// PDFs of the states, then of the observables.
+    pub curves: Vec<PdfCurves>,
+    /// Total wall time in milliseconds.
+    pub wall_ms: f64,
+}
+
+/// Grid points per PDF curve.
+const GRID_POINTS: usize = 401;
+/// The grid reaches where the density is this fraction of its peak.
+const TAIL: f64 = 1e-8;
+
+impl Study {
+    /// Binds the model, derives its FPK operator and solves EPC at each degree (each degree
+    /// continued from the previous one), then computes the PDFs of the states and the
+    /// observables on grids reaching 1e−8 of their peaks.
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// use fpsolve::study::Study;
+    /// let text = "model linear
+    /// param c = 0.1, k = 1
+    /// state z, v
+    /// drift z: v
+    /// drift v: -c*v - k*z
+    /// noise xi: intensity 1
+    /// diffusion v: xi
+    /// observe y = abs(z)
+    /// ";
+    /// let model = parse_model(text, None).unwrap();
+    /// let study = Study::run(&model, &[], &[2]).unwrap();
+    /// assert!(study.degrees[0].outcome.is_ok());
+    /// let y = study.curves.iter().find(|c| c.name == "y").unwrap();
+    /// assert_eq!(y.x[0], 0.0); // |z| has no mass below 0: its grid starts at the barrier
+    /// ```
+    pub fn run(
+        model: &Model,
+        overrides: &[Override],
+        degrees: &[usize],
+    ) -> Result<Study, StudyError> {
+        if degrees.is_empty() {
+            return Err(StudyError::NoDegree);
+        }
+        let start = Instant::now();
+        let bound = model.bind(overrides)?;
+        let fpk = FpkOperator::derive(&bound)?;
+        let quantities = quantities(&bound);
+        let epc = Epc::new(&fpk, bound.delta_treatment());
+        let mut results: Vec<DegreeResult> = epc
+            .solve_degrees(degrees)
+            .into_iter()
+            .zip(degrees)
+            .map(|(outcome, &degree)| DegreeResult {
+                degree,
+                wall_ms: outcome.as_ref().map_or(0.0, |s| {
+                    let r = &s.solve;
+                    r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+                }),
+                outcome,
+                stats: Vec::new(),
+            })
+            .collect();
+        let curves: Vec<PdfCurves> = {
+            let solutions: Vec<(usize, &EpcSolution)> = results
+                .iter()
+                .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.degree, s)))
+                .collect();
+            quantities.iter().map(|q| curves(q, &solutions)).collect()
+        };
+        for r in &mut results {
+            for c in &curves {
+                if let Some((_, p)) = c.columns.iter().find(|(d, _)| *d == r.degree) {
+                    r.stats.push(stats(&c.name, &c.x, p));
+                }
+            }
+        }
+        Ok(Study {
+            model: bound,
+            degrees: results,
+            curves,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// Whether every degree converged.
+    pub fn all_converged(&self) -> bool {
+        self.degrees.iter().all(|d| d.outcome.is_ok())
+    }
+}
+
+/// The states (as themselves), then the observables.
+fn quantities(model: &BoundModel) -> Vec<Quantity> {
+    let states: &[Symbol; 2] = model.states();
+    let mut out: Vec<Quantity> = states
+        .iter()
+        .map(|s| Quantity {
+            name: s.to_string(),
+            map: ObservableMap::classify(&Expr::Sym(s.clone()), states),
+        })
+        .collect();
+    out.extend(model.observables().iter().map(|o| Quantity {
+        name: o.name.to_string(),
+        map: ObservableMap::classify(&o.expr, states),
+    }));
+    out
+}
+
+/// The interval of values a quantity can take where the density lives.
+fn value_range(sol: &EpcSolution, q: &Quantity) -> [f64; 2] {
+    let ext = JointDensity::extent(sol);
+    match &q.map {
+        ObservableMap::SignedState { state, .. } => {
+            let r = ext[*state][0].abs().max(ext[*state][1].abs());
+            [-r, r]
+        }
+        ObservableMap::General { expr, states } => {
+            let mut lo = f64::INFINITY;
+            let mut hi = f64::NEG_INFINITY;
+            let n = 120;
+            for i in 0..=n {
+                for j in 0..=n {
+                    let x1 = ext[0][0] + (ext[0][1] - ext[0][0]) * i as f64 / n as f64;
+                    let x2 = ext[1][0] + (ext[1][1] - ext[1][0]) * j as f64 / n as f64;
+                    if sol.pdf(x1, x2) <= 0.0 {
+                        continue;
+                    }
+                    let g = expr
+                        .eval(&|s| {
+                            if s == &*states[0] {
+                                Some(x1)
+                            } else if s == &*states[1] {
+                                Some(x2)
+                            } else {
+                                None
+                            }
+                        })
+                        .unwrap_or(f64::NAN);
+                    if g.is_finite() {
+                        lo = lo.min(g);
+                        hi = hi.max(g);
+                    }
+                }
+            }
+            [lo, hi]
+        }
+    }
+}
+
+fn pdf_on(sol: &EpcSolution, q: &Quantity, x: &[f64]) -> Vec<f64> {
+    match &q.map {
+        // Points are independent line integrals: spread them over the threads.
+        ObservableMap::SignedState { .. } => x
+            .par_iter()
+            .map(|&u| observable_pdf(sol, &q.map, &[u])[0])
+            .collect(),
+        ObservableMap::General { .. } => observable_pdf(sol, &q.map, x),
+    }
+}
+
+fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// The window of a scanned density where it is at least `TAIL` of its peak, widened by one
+/// scan step.
+fn window(x: &[f64], p: &[f64]) -> Option<[f64; 2]> {
+    let peak = p.iter().copied().fold(0.0, f64::max);
+    if peak <= 0.0 {
+        return None;
+    }
+    let first = p.iter().position(|v| *v >= TAIL * peak)?;
+    let last = p.iter().rposition(|v| *v >= TAIL * peak)?;
+    let lo = x[first.saturating_sub(1)];
+    let hi = x[(last + 1).min(x.len() - 1)];
+    Some([lo, hi])
+}
+
+fn curves(q: &Quantity, solutions: &[(usize, &EpcSolution)]) -> PdfCurves {
+    // Scan each degree's density, take the union of the windows, then evaluate every degree
+    // on one common grid.
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for (_, sol) in solutions {
+        let [a, b] = value_range(sol, q);
+        let scan = linspace(a, b, 241);
+        let p = pdf_on(sol, q, &scan);
+        if let Some([a, b]) = window(&scan, &p) {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    // A quantity like |z| has its support edge at 0: start the grid exactly there.
+    if non_negative(q) {
+        lo = lo.max(0.0);
+    }
+    if lo >= hi {
+        return PdfCurves {
+            name: q.name.clone(),
+            x: Vec::new(),
+            columns: Vec::new(),
+        };
+    }
+    let x = linspace(lo, hi, GRID_POINTS);
+    let columns = solutions
+        .iter()
+        .map(|(degree, sol)| (*degree, pdf_on(sol, q, &x)))
+        .collect();
+    PdfCurves {
+        name: q.name.clone(),
+        x,
+        columns,
+    }
+}
+
+/// Whether a signed-state quantity only takes values ≥ 0 (like |z|): every quadrant maps
+/// its half-line of the state to the non-negative side.
+fn non_negative(q: &Quantity) -> bool {
+    let ObservableMap::SignedState { state, sign } = &q.map else {
+        return false;
+    };
+    (0..2).all(|a| {
+        (0..2).all(|b| {
+            let half = if *state == 0 { a } else { b };
+            let side = if half == 1 { 1.0 } else { -1.0 };
+            sign[a][b] * side > 0.0
+        })
+    })
+}
+
+/// Moments of a quantity from its PDF on the grid (composite Simpson; the grid has an odd
+/// number of points and reaches 1e−8 of the peak).
+fn stats(name: &str, x: &[f64], p: &[f64]) -> QuantityStats {
+    let h = x[1] - x[0];
+    let simpson = |f: &dyn Fn(f64, f64) -> f64| -> f64 {
+        let n = x.len();
+        let mut s = f(x[0], p[0]) + f(x[n - 1], p[n - 1]);
+        for i in 1..n - 1 {
+            s += f(x[i], p[i]) * if i % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        s * h / 3.0
+    };
+    let mass = simpson(&|_, p| p);
+    let mean = simpson(&|x, p| x * p) / mass;
+    let var = simpson(&|x, p| (x - mean).powi(2) * p) / mass;
+    let m4 = simpson(&|x, p| (x - mean).powi(4) * p) / mass;
+    QuantityStats {
+        name: name.to_string(),
+        mean,
+        std_dev: var.sqrt(),
+        kurtosis: m4 / (var * var),
+    }
+}
