@@ -332,3 +332,85 @@ fn stats(name: &str, x: &[f64], p: &[f64]) -> QuantityStats {
         kurtosis: m4 / (var * var),
     }
 }
+
+/// A parameter and its value, for reports.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParamValue {
+    /// The parameter's name.
+    pub name: String,
+    /// Its value.
+    pub value: f64,
+}
+
+/// One degree in a study's summary.
+#[derive(Debug, Serialize)]
+pub struct DegreeSummary<'a> {
+    /// The degree n.
+    pub degree: usize,
+    /// Whether EPC converged at this degree.
+    pub converged: bool,
+    /// Why not, if it did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Solve time (closure, assembly, solver, normalisation) in milliseconds.
+    pub solve_ms: f64,
+    /// Mean, standard deviation and kurtosis of each state and observable.
+    pub stats: &'a [QuantityStats],
+    /// The solution: coefficients with exponents, weights' σ, iterations, residual,
+    /// normalisation, moments of the states.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solution: Option<&'a EpcSolution>,
+}
+
+/// What `summary.json` holds.
+#[derive(Debug, Serialize)]
+pub struct StudySummary<'a> {
+    /// The model's name.
+    pub model: &'a str,
+    /// Parameter values used.
+    pub parameters: Vec<ParamValue>,
+    /// How δ terms were integrated.
+    pub delta_treatment: crate::model::DeltaTreatment,
+    /// Itô or Stratonovich.
+    pub interpretation: crate::model::Interpretation,
+    /// One entry per degree asked.
+    pub degrees: Vec<DegreeSummary<'a>>,
+    /// Whether every degree converged.
+    pub all_converged: bool,
+    /// Total wall time of the study in milliseconds.
+    pub wall_ms: f64,
+}
+
+impl Study {
+    /// The study as the data of `summary.json`.
+    pub fn summary(&self) -> StudySummary<'_> {
+        StudySummary {
+            model: self.model.name(),
+            parameters: self
+                .model
+                .params()
+                .iter()
+                .map(|(n, v)| ParamValue {
+                    name: n.to_string(),
+                    value: *v,
+                })
+                .collect(),
+            delta_treatment: self.model.delta_treatment(),
+            interpretation: self.model.interpretation(),
+            degrees: self
+                .degrees
+                .iter()
+                .map(|d| DegreeSummary {
+                    degree: d.degree,
+                    converged: d.outcome.is_ok(),
+                    error: d.outcome.as_ref().err().map(|e| e.to_string()),
+                    solve_ms: d.wall_ms,
+                    stats: &d.stats,
+                    solution: d.outcome.as_ref().ok(),
+                })
+                .collect(),
+            all_converged: self.all_converged(),
+            wall_ms: self.wall_ms,
+        }
+    }
+}
