@@ -6,4 +6,5 @@
 
 pub mod fpk;
 pub mod model;
+pub mod report;
 pub mod symbolic;
