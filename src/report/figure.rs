@@ -187,8 +187,9 @@ fn drawing_error<E: std::fmt::Display>(e: E) -> FigureError {
     FigureError::Drawing(e.to_string())
 }
 
-fn font_of(size: u32) -> FontDesc<'static> {
-    (font::FAMILY, size).into_font()
+/// The font at `size` pixels times the supersampling factor `k`.
+fn font_of(size: u32, k: u32) -> FontDesc<'static> {
+    (font::FAMILY, size * k).into_font()
 }
 
 fn check_series(
@@ -346,18 +347,21 @@ fn emptiest_corner(data: impl Iterator<Item = (f64, f64)>) -> SeriesLabelPositio
 struct Pen {
     colour: RGBColor,
     dash: Option<(u32, u32)>,
+    /// Supersampling factor: every length in pixels is multiplied by it.
+    k: u32,
 }
 
 impl Pen {
-    fn nth(i: usize) -> Self {
+    fn nth(i: usize, k: u32) -> Self {
         Self {
             colour: PALETTE[i % PALETTE.len()],
             dash: DASHES[i % DASHES.len()],
+            k,
         }
     }
 
     fn style(self) -> ShapeStyle {
-        self.colour.stroke_width(STROKE)
+        self.colour.stroke_width(STROKE * self.k)
     }
 
     fn draw<'a, DB: DrawingBackend + 'a>(
@@ -370,7 +374,12 @@ impl Pen {
                 .draw_series(LineSeries::new(run, self.style()))
                 .map(|_| ()),
             Some((dash, gap)) => chart
-                .draw_series(DashedLineSeries::new(run, dash, gap, self.style()))
+                .draw_series(DashedLineSeries::new(
+                    run,
+                    dash * self.k,
+                    gap * self.k,
+                    self.style(),
+                ))
                 .map(|_| ()),
         }
         .map_err(drawing_error)
@@ -379,22 +388,32 @@ impl Pen {
     /// Gives `anno` this pen's legend glyph: a short line sample in the curve's style.
     fn legend<'a, DB: DrawingBackend + 'a>(self, anno: &mut SeriesAnno<'a, DB>) {
         let style = self.style();
+        let (k, len) = (self.k, 28 * self.k as i32);
         match self.dash {
-            None => anno.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 28, y)], style)),
+            None => anno.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + len, y)], style)),
             // Shorter dashes in the legend so that a full period fits in the sample.
             Some((dash, gap)) => anno.legend(move |(x, y)| {
-                DashedPathElement::new(vec![(x, y), (x + 28, y)], dash.min(8), gap.min(4), style)
+                DashedPathElement::new(
+                    vec![(x, y), (x + len, y)],
+                    dash.min(8) * k,
+                    gap.min(4) * k,
+                    style,
+                )
             }),
         };
     }
 }
 
 /// Gives `anno` the reference's legend glyph: a marker with an error bar.
-fn reference_legend<'a, DB: DrawingBackend + 'a>(anno: &mut SeriesAnno<'a, DB>) {
-    anno.legend(|(x, y)| {
-        EmptyElement::at((x + 14, y))
-            + Circle::new((0, 0), 3, REFERENCE_COLOUR.filled())
-            + PathElement::new(vec![(0, -7), (0, 7)], REFERENCE_COLOUR.stroke_width(1))
+fn reference_legend<'a, DB: DrawingBackend + 'a>(anno: &mut SeriesAnno<'a, DB>, k: u32) {
+    let ki = k as i32;
+    anno.legend(move |(x, y)| {
+        EmptyElement::at((x + 14 * ki, y))
+            + Circle::new((0, 0), 3 * k, REFERENCE_COLOUR.filled())
+            + PathElement::new(
+                vec![(0, -7 * ki), (0, 7 * ki)],
+                REFERENCE_COLOUR.stroke_width(k),
+            )
     });
 }
 
@@ -405,6 +424,7 @@ fn draw_points<'a, DB: DrawingBackend + 'a>(
     points: &Points,
     floor: f64,
     ceiling: f64,
+    k: u32,
 ) -> Result<(), FigureError> {
     let visible = || {
         points
@@ -414,7 +434,7 @@ fn draw_points<'a, DB: DrawingBackend + 'a>(
             .zip(&points.stderr)
             .filter(move |((_, &y), _)| y.is_finite() && y >= floor)
     };
-    let bar_style = REFERENCE_COLOUR.mix(0.75).stroke_width(1);
+    let bar_style = REFERENCE_COLOUR.mix(0.75).stroke_width(k);
     chart
         .draw_series(
             visible()
@@ -428,7 +448,7 @@ fn draw_points<'a, DB: DrawingBackend + 'a>(
         .map_err(drawing_error)?;
     chart
         .draw_series(
-            visible().map(|((&x, &y), _)| Circle::new((x, y), 3, REFERENCE_COLOUR.filled())),
+            visible().map(|((&x, &y), _)| Circle::new((x, y), 3 * k, REFERENCE_COLOUR.filled())),
         )
         .map_err(drawing_error)?;
     Ok(())
@@ -469,6 +489,7 @@ impl PdfFigure {
     fn draw<'b, DB: DrawingBackend + 'b>(
         &self,
         root: DrawingArea<DB, Shift>,
+        k: u32,
     ) -> Result<(), FigureError> {
         self.check()?;
         if !font::register() {
@@ -497,23 +518,32 @@ impl PdfFigure {
         let log_bottom = 10f64.powf(smallest.max(y_max * 1e-8).log10().floor());
 
         root.fill(&WHITE).map_err(drawing_error)?;
+        // The title sits below a small top margin: plotters places glyphs from the font's
+        // nominal height, which lets tall capitals touch the image edge.
         let body = root
-            .titled(&self.title, font_of(26).color(&BLACK))
+            .margin(8 * k, 0, 0, 0)
+            .titled(&self.title, font_of(26, k).color(&BLACK))
             .map_err(drawing_error)?;
         let panels = body.split_evenly((1, 2));
 
         // Linear panel, with the legend.
         let mut lin = ChartBuilder::on(&panels[0])
-            .caption("linear scale", font_of(19))
-            .margin(12)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(78)
+            .caption("linear scale", font_of(19, k))
+            .margin(12 * k)
+            .margin_right(24 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(78 * k)
             .build_cartesian_2d(x_lo..x_hi, lin_y.0..lin_y.1)
             .map_err(drawing_error)?;
-        mesh(&mut lin, &self.variable_label, "probability density", false)?;
+        mesh(
+            &mut lin,
+            &self.variable_label,
+            "probability density",
+            false,
+            k,
+        )?;
         for (i, curve) in self.curves.iter().enumerate() {
-            let pen = Pen::nth(i);
+            let pen = Pen::nth(i, k);
             for run in visible_runs(&curve.x, &curve.y, f64::NEG_INFINITY) {
                 pen.draw(&mut lin, run)?;
             }
@@ -524,12 +554,12 @@ impl PdfFigure {
             pen.legend(anno);
         }
         if let Some(points) = &self.points {
-            draw_points(&mut lin, points, f64::NEG_INFINITY, f64::INFINITY)?;
+            draw_points(&mut lin, points, f64::NEG_INFINITY, f64::INFINITY, k)?;
             let anno = lin
                 .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
                 .map_err(drawing_error)?
                 .label(points.label.as_str());
-            reference_legend(anno);
+            reference_legend(anno, k);
         }
         let scaled = self
             .curves
@@ -542,27 +572,33 @@ impl PdfFigure {
                 (y - lin_y.0) / (lin_y.1 - lin_y.0),
             )
         }));
-        legend(&mut lin, corner)?;
+        legend(&mut lin, corner, k)?;
 
         // Log panel.
         let mut log = ChartBuilder::on(&panels[1])
-            .caption("log scale", font_of(19))
-            .margin(12)
-            .margin_right(24)
-            .x_label_area_size(52)
-            .y_label_area_size(78)
+            .caption("log scale", font_of(19, k))
+            .margin(12 * k)
+            .margin_right(24 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(78 * k)
             .build_cartesian_2d(x_lo..x_hi, (log_bottom..log_top).log_scale())
             .map_err(drawing_error)?;
-        log_minor_grid(&mut log, (x_lo, x_hi), (log_bottom, log_top))?;
-        mesh(&mut log, &self.variable_label, "probability density", true)?;
+        log_minor_grid(&mut log, (x_lo, x_hi), (log_bottom, log_top), k)?;
+        mesh(
+            &mut log,
+            &self.variable_label,
+            "probability density",
+            true,
+            k,
+        )?;
         for (i, curve) in self.curves.iter().enumerate() {
-            let pen = Pen::nth(i);
+            let pen = Pen::nth(i, k);
             for run in visible_runs(&curve.x, &curve.y, log_bottom) {
                 pen.draw(&mut log, run)?;
             }
         }
         if let Some(points) = &self.points {
-            draw_points(&mut log, points, log_bottom, log_top)?;
+            draw_points(&mut log, points, log_bottom, log_top, k)?;
         }
         root.present().map_err(drawing_error)
     }
@@ -573,7 +609,7 @@ impl PdfFigure {
     /// A [`FigureError`] for invalid data (mismatched lengths, non-finite abscissae, infinite
     /// values, negative standard errors, nothing positive to show) or a drawing failure.
     pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
-        render_png(PDF_SIZE, |root| self.draw(root))
+        render_png(PDF_SIZE, |root, k| self.draw(root, k))
     }
 
     /// The figure as SVG text.
@@ -581,7 +617,7 @@ impl PdfFigure {
     /// # Errors
     /// As [`render_png`](Self::render_png).
     pub fn render_svg(&self) -> Result<String, FigureError> {
-        render_svg(PDF_SIZE, |root| self.draw(root))
+        render_svg(PDF_SIZE, |root, k| self.draw(root, k))
     }
 
     /// Writes `<stem>.png` and `<stem>.svg` into `dir`, each atomically.
@@ -597,6 +633,7 @@ impl LineFigure {
     fn draw<'b, DB: DrawingBackend + 'b>(
         &self,
         root: DrawingArea<DB, Shift>,
+        k: u32,
     ) -> Result<(), FigureError> {
         for s in &self.series {
             check_series(&s.label, &s.x, &s.y, None)?;
@@ -613,16 +650,16 @@ impl LineFigure {
 
         root.fill(&WHITE).map_err(drawing_error)?;
         let mut chart = ChartBuilder::on(&root)
-            .caption(&self.title, font_of(24))
-            .margin(14)
-            .margin_right(28)
-            .x_label_area_size(52)
-            .y_label_area_size(86)
+            .caption(&self.title, font_of(24, k))
+            .margin(14 * k)
+            .margin_right(28 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(86 * k)
             .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
             .map_err(drawing_error)?;
-        mesh(&mut chart, &self.x_label, &self.y_label, false)?;
+        mesh(&mut chart, &self.x_label, &self.y_label, false, k)?;
         for (i, s) in self.series.iter().enumerate() {
-            let pen = Pen::nth(i);
+            let pen = Pen::nth(i, k);
             for run in visible_runs(&s.x, &s.y, f64::NEG_INFINITY) {
                 pen.draw(&mut chart, run)?;
             }
@@ -631,7 +668,7 @@ impl LineFigure {
                     s.x.iter()
                         .zip(&s.y)
                         .filter(|(_, y)| y.is_finite())
-                        .map(|(&x, &y)| Circle::new((x, y), 4, pen.colour.filled())),
+                        .map(|(&x, &y)| Circle::new((x, y), 4 * k, pen.colour.filled())),
                 )
                 .map_err(drawing_error)?
                 .label(s.label.as_str());
@@ -644,7 +681,7 @@ impl LineFigure {
                 .filter(|(_, y)| y.is_finite())
                 .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - y_lo) / (y_hi - y_lo))),
         );
-        legend(&mut chart, corner)?;
+        legend(&mut chart, corner, k)?;
         root.present().map_err(drawing_error)
     }
 
@@ -654,7 +691,7 @@ impl LineFigure {
     /// A [`FigureError`] for invalid data (mismatched lengths, non-finite abscissae, infinite
     /// values, no finite value at all) or a drawing failure.
     pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
-        render_png(LINE_SIZE, |root| self.draw(root))
+        render_png(LINE_SIZE, |root, k| self.draw(root, k))
     }
 
     /// The chart as SVG text.
@@ -662,7 +699,7 @@ impl LineFigure {
     /// # Errors
     /// As [`render_png`](Self::render_png).
     pub fn render_svg(&self) -> Result<String, FigureError> {
-        render_svg(LINE_SIZE, |root| self.draw(root))
+        render_svg(LINE_SIZE, |root, k| self.draw(root, k))
     }
 
     /// Writes `<stem>.png` and `<stem>.svg` into `dir`, each atomically.
@@ -681,16 +718,17 @@ fn mesh<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64> + ValueFormatter
     x_label: &str,
     y_label: &str,
     log_y: bool,
+    k: u32,
 ) -> Result<(), FigureError> {
     let decades = |v: &f64| decade_label(*v);
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(x_label)
         .y_desc(y_label)
-        .label_style(font_of(15))
-        .axis_desc_style(font_of(18))
+        .label_style(font_of(15, k))
+        .axis_desc_style(font_of(18, k))
         .bold_line_style(RGBColor(205, 205, 205))
         .light_line_style(RGBColor(240, 240, 240))
-        .axis_style(BLACK.stroke_width(1))
+        .axis_style(BLACK.stroke_width(k))
         .x_labels(9)
         .y_labels(10)
         .x_max_light_lines(2)
@@ -706,6 +744,7 @@ fn log_minor_grid<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
     (x_lo, x_hi): (f64, f64),
     (bottom, top): (f64, f64),
+    k: u32,
 ) -> Result<(), FigureError> {
     let first = bottom.log10().floor() as i32;
     let last = top.log10().ceil() as i32;
@@ -713,9 +752,12 @@ fn log_minor_grid<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
         .flat_map(|k| (2..10).map(move |m| f64::from(m) * 10f64.powi(k)))
         .filter(|&v| v > bottom && v < top);
     chart
-        .draw_series(
-            levels.map(|v| PathElement::new(vec![(x_lo, v), (x_hi, v)], RGBColor(236, 236, 236))),
-        )
+        .draw_series(levels.map(|v| {
+            PathElement::new(
+                vec![(x_lo, v), (x_hi, v)],
+                RGBColor(242, 242, 242).stroke_width(k),
+            )
+        }))
         .map_err(drawing_error)?;
     Ok(())
 }
@@ -723,25 +765,53 @@ fn log_minor_grid<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
 fn legend<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
     position: SeriesLabelPosition,
+    k: u32,
 ) -> Result<(), FigureError> {
     chart
         .configure_series_labels()
         .position(position)
-        .margin(12)
-        .legend_area_size(40)
-        .label_font(font_of(16))
+        .margin(12 * k)
+        .legend_area_size(40 * k)
+        .label_font(font_of(16, k))
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK.mix(0.5))
         .draw()
         .map_err(drawing_error)
 }
 
+/// Supersampling factor of PNG output. plotters' bitmap backend draws lines without
+/// antialiasing; drawing at this multiple of the size and averaging blocks of pixels gives
+/// smooth curves and text at about the cost of one more render.
+const SUPERSAMPLE: u32 = 2;
+
 fn render_png(
     size: (u32, u32),
-    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), FigureError>,
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>, u32) -> Result<(), FigureError>,
 ) -> Result<Vec<u8>, FigureError> {
-    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
-    draw(BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area())?;
+    let k = SUPERSAMPLE;
+    let (w, h) = (size.0 as usize, size.1 as usize);
+    let big_w = w * k as usize;
+    let mut big = vec![0u8; big_w * h * k as usize * 3];
+    draw(
+        BitMapBackend::with_buffer(&mut big, (size.0 * k, size.1 * k)).into_drawing_area(),
+        k,
+    )?;
+    let block = (k * k) as usize;
+    let mut rgb = vec![0u8; w * h * 3];
+    for (i, pixel) in rgb.chunks_exact_mut(3).enumerate() {
+        let (row, col) = (i / w, i % w);
+        for (c, out) in pixel.iter_mut().enumerate() {
+            let mut sum = 0usize;
+            for dy in 0..k as usize {
+                let line = (row * k as usize + dy) * big_w;
+                for dx in 0..k as usize {
+                    sum += usize::from(big[(line + col * k as usize + dx) * 3 + c]);
+                }
+            }
+            // Rounded mean of the block, which fits in a byte.
+            *out = ((sum + block / 2) / block) as u8;
+        }
+    }
     let mut png_bytes = Vec::new();
     let mut encoder = png::Encoder::new(&mut png_bytes, size.0, size.1);
     encoder.set_color(png::ColorType::Rgb);
@@ -755,10 +825,13 @@ fn render_png(
 
 fn render_svg(
     size: (u32, u32),
-    draw: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), FigureError>,
+    draw: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>, u32) -> Result<(), FigureError>,
 ) -> Result<String, FigureError> {
     let mut svg = String::new();
-    draw(SVGBackend::with_string(&mut svg, size).into_drawing_area())?;
+    draw(
+        SVGBackend::with_string(&mut svg, size).into_drawing_area(),
+        1,
+    )?;
     Ok(svg)
 }
 
