@@ -254,7 +254,7 @@ fn pdf_figure_renders_png_and_svg_with_the_bundled_font() {
     assert!(dark_title > 300, "title has {dark_title} dark pixels");
 
     let svg = std::fs::read_to_string(&files.svg).unwrap();
-    assert!(svg.starts_with("<svg"));
+    assert!(svg.starts_with(r#"<svg width="1500" height="620" viewBox="0 0 3000 1240""#));
     for label in [
         "Duffing oscillator: PDF of displacement",
         "linear scale",
