@@ -507,8 +507,9 @@ impl PdfFigure {
             padded(x_lo, x_hi, 0.0)
         };
         let lin_y = (y_min.min(0.0), y_max * 1.08);
-        // Log panel: from a little above the peak down to the smallest positive value shown,
-        // but never below 1e-8 of the peak (the tail beyond that is round-off, not density).
+        // Log panel, whole decades: from above the peak down to the smallest positive value
+        // shown, but not much below 1e-8 of the peak. Eight decades show every tail a Monte
+        // Carlo run can resolve; more would squeeze the part where methods differ.
         let smallest = y_values
             .iter()
             .copied()
