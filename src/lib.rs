@@ -7,6 +7,10 @@
 pub mod epc;
 pub mod fpk;
 pub mod model;
+pub mod epc;
+pub mod fpk;
+pub mod model;
 pub mod observe;
+pub mod report;
 pub mod study;
 pub mod symbolic;

@@ -1,0 +1,982 @@
+//! Figures: a PDF comparison (linear and log panels side by side, like the comparison figures of
+//! the EPC papers) and a plain line chart for moments against a swept parameter. Each renders
+//! to PNG and SVG with the bundled font.
+
+use std::path::PathBuf;
+
+use plotters::chart::SeriesAnno;
+use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+
+use super::{font, OutputDir, ReportError};
+
+/// A line: one method's density (or one moment) sampled at `x`. A NaN in `y` leaves a gap.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curve {
+    /// Legend text.
+    pub label: String,
+    /// Abscissae, finite.
+    pub x: Vec<f64>,
+    /// Ordinates, as many as `x`; NaN marks a missing value, ±∞ is refused.
+    pub y: Vec<f64>,
+}
+
+/// Markers with vertical error bars, e.g. a Monte Carlo histogram: bars span `y ± stderr`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Points {
+    /// Legend text.
+    pub label: String,
+    /// Abscissae (bin centres), finite.
+    pub x: Vec<f64>,
+    /// Values, as many as `x`; NaN marks a missing value.
+    pub y: Vec<f64>,
+    /// Standard errors, as many as `x`, each ≥ 0; NaN draws no bar.
+    pub stderr: Vec<f64>,
+}
+
+/// A comparison of densities of one variable: approximate solutions as lines, a reference
+/// (Monte Carlo) as points with error bars. Rendered as two panels side by side: linear scale
+/// (the bulk of the distribution) and log scale (the tails, down to 1e-8 of the peak).
+///
+/// ```no_run
+/// use fpsolve::report::{Curve, OutputDir, PdfFigure, Points};
+///
+/// let x: Vec<f64> = (0..=200).map(|i| -4.0 + 0.04 * f64::from(i)).collect();
+/// let gauss = |x: f64| (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt();
+/// let figure = PdfFigure {
+///     title: "Duffing oscillator, PDF of displacement".into(),
+///     variable_label: "y".into(),
+///     curves: vec![Curve { label: "exact".into(), x: x.clone(), y: x.iter().map(|&v| gauss(v)).collect() }],
+///     points: Some(Points {
+///         label: "Monte Carlo".into(),
+///         x: vec![-1.0, 0.0, 1.0],
+///         y: vec![0.24, 0.40, 0.24],
+///         stderr: vec![0.01, 0.01, 0.01],
+///     }),
+/// };
+/// let files = figure.write(&OutputDir::create("out")?, "pdf_y")?;
+/// println!("{} {}", files.png.display(), files.svg.display());
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct PdfFigure {
+    /// Title above both panels.
+    pub title: String,
+    /// Name of the variable on the horizontal axis, e.g. `y` or `dy/dt`.
+    pub variable_label: String,
+    /// Densities drawn as lines, each with its own colour and dash pattern.
+    pub curves: Vec<Curve>,
+    /// A reference drawn as markers with error bars.
+    pub points: Option<Points>,
+}
+
+/// A line chart of several series against one parameter, e.g. moments of the response against
+/// the noise intensity.
+///
+/// ```no_run
+/// use fpsolve::report::{Curve, LineFigure, OutputDir};
+///
+/// let figure = LineFigure {
+///     title: "Mean square displacement".into(),
+///     x_label: "K".into(),
+///     y_label: "E[y²]".into(),
+///     series: vec![Curve { label: "EPC n=4".into(), x: vec![0.1, 0.2, 0.4], y: vec![0.05, 0.09, 0.15] }],
+/// };
+/// figure.write(&OutputDir::create("out")?, "msd_vs_k")?;
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineFigure {
+    /// Title above the chart.
+    pub title: String,
+    /// Horizontal axis label.
+    pub x_label: String,
+    /// Vertical axis label.
+    pub y_label: String,
+    /// The series, each drawn with markers and a line in its own colour and dash pattern.
+    pub series: Vec<Curve>,
+}
+
+/// The two files a figure was written to.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FigureFiles {
+    /// The raster image.
+    pub png: PathBuf,
+    /// The vector image.
+    pub svg: PathBuf,
+}
+
+/// Why a figure could not be drawn.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FigureError {
+    /// Nothing to draw: no series, or no finite value in any of them.
+    #[error("nothing to draw: no finite data")]
+    NoData,
+    /// A density figure whose data has no positive value, so its log panel has no range.
+    #[error("no positive density value to draw on a log scale")]
+    NoPositiveValues,
+    /// Two vectors of one series with different lengths.
+    #[error("`{series}`: {field} has {found} values for {expected} abscissae")]
+    LengthMismatch {
+        /// The series' label.
+        series: String,
+        /// Which vector: `y` or `stderr`.
+        field: &'static str,
+        /// Length of `x`.
+        expected: usize,
+        /// Length of the other vector.
+        found: usize,
+    },
+    /// An abscissa that is NaN or ±∞.
+    #[error("`{series}`: x[{index}] is {value}, not a finite number")]
+    NonFiniteX {
+        /// The series' label.
+        series: String,
+        /// Index of the value.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// An infinite ordinate, or a negative or infinite standard error.
+    #[error("`{series}`: {field}[{index}] is {value}")]
+    BadValue {
+        /// The series' label.
+        series: String,
+        /// Which vector: `y` or `stderr`.
+        field: &'static str,
+        /// Index of the value.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// The bundled font could not be loaded (a build defect).
+    #[error("the bundled font could not be loaded")]
+    Font,
+    /// plotters failed to draw.
+    #[error("drawing failed: {0}")]
+    Drawing(String),
+    /// The PNG encoder failed.
+    #[error("PNG encoding failed: {0}")]
+    Encoding(String),
+}
+
+const PDF_SIZE: (u32, u32) = (1500, 620);
+const LINE_SIZE: (u32, u32) = (900, 600);
+
+/// Colour-blind-safe colours (Okabe & Ito), in the order curves get them.
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+];
+
+/// Dash patterns as (dash, gap) in pixels; `None` is solid. Cycled at a different period from
+/// the palette so that curves stay distinguishable in greyscale print too.
+const DASHES: [Option<(u32, u32)>; 4] = [None, Some((12, 6)), Some((3, 4)), Some((18, 5))];
+
+const REFERENCE_COLOUR: RGBColor = RGBColor(20, 20, 20);
+const STROKE: u32 = 2;
+
+fn drawing_error<E: std::fmt::Display>(e: E) -> FigureError {
+    FigureError::Drawing(e.to_string())
+}
+
+/// The font at `size` pixels times the supersampling factor `k`.
+fn font_of(size: u32, k: u32) -> FontDesc<'static> {
+    (font::FAMILY, size * k).into_font()
+}
+
+fn check_series(
+    label: &str,
+    x: &[f64],
+    y: &[f64],
+    stderr: Option<&[f64]>,
+) -> Result<(), FigureError> {
+    let length = |field, v: &[f64]| {
+        if v.len() == x.len() {
+            Ok(())
+        } else {
+            Err(FigureError::LengthMismatch {
+                series: label.to_string(),
+                field,
+                expected: x.len(),
+                found: v.len(),
+            })
+        }
+    };
+    length("y", y)?;
+    if let Some(se) = stderr {
+        length("stderr", se)?;
+    }
+    if let Some((index, &value)) = x.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(FigureError::NonFiniteX {
+            series: label.to_string(),
+            index,
+            value,
+        });
+    }
+    let bad =
+        |field, v: &[f64], ok: fn(f64) -> bool| match v.iter().enumerate().find(|(_, &v)| !ok(v)) {
+            Some((index, &value)) => Err(FigureError::BadValue {
+                series: label.to_string(),
+                field,
+                index,
+                value,
+            }),
+            None => Ok(()),
+        };
+    bad("y", y, |v| !v.is_infinite())?;
+    if let Some(se) = stderr {
+        bad("stderr", se, |v| v.is_nan() || (v >= 0.0 && v.is_finite()))?;
+    }
+    Ok(())
+}
+
+/// Splits a polyline into the runs that lie at or above `floor`, dropping NaN points. A segment
+/// that crosses the floor is cut where the straight line between its ends meets it, so a curve
+/// on the log panel ends exactly on the bottom axis instead of stopping short or leaking below.
+fn visible_runs(x: &[f64], y: &[f64], floor: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut runs = Vec::new();
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    let mut finish = |run: &mut Vec<(f64, f64)>| {
+        if run.len() >= 2 {
+            runs.push(std::mem::take(run));
+        } else {
+            run.clear();
+        }
+    };
+    for i in 0..x.len() {
+        let (xi, yi) = (x[i], y[i]);
+        if yi.is_nan() {
+            finish(&mut run);
+            continue;
+        }
+        let above = yi >= floor;
+        match (i.checked_sub(1).map(|j| (x[j], y[j])), above) {
+            (Some((xp, yp)), _) if !yp.is_nan() && (yp >= floor) != above => {
+                let t = (floor - yp) / (yi - yp);
+                let cross = (xp + t * (xi - xp), floor);
+                if above {
+                    run.push(cross);
+                    run.push((xi, yi));
+                } else {
+                    run.push(cross);
+                    finish(&mut run);
+                }
+            }
+            (_, true) => run.push((xi, yi)),
+            (_, false) => {}
+        }
+    }
+    finish(&mut run);
+    runs
+}
+
+/// `10⁻³` for exact decades, scientific notation otherwise.
+fn decade_label(v: f64) -> String {
+    let e = v.log10();
+    if (e - e.round()).abs() > 1e-6 {
+        return format!("{v:.0e}");
+    }
+    let digits: String = format!("{}", e.round() as i64)
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            d => ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹']
+                [d.to_digit(10).unwrap_or(0) as usize],
+        })
+        .collect();
+    format!("10{digits}")
+}
+
+/// (min, max) of the finite values, if any.
+fn finite_range<'a>(values: impl IntoIterator<Item = &'a f64>) -> Option<(f64, f64)> {
+    values
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, &v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// Widens a degenerate range so that the axis has a span.
+fn padded(lo: f64, hi: f64, fraction: f64) -> (f64, f64) {
+    if hi > lo {
+        let pad = fraction * (hi - lo);
+        (lo - pad, hi + pad)
+    } else {
+        let pad = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        (lo - pad, hi + pad)
+    }
+}
+
+/// The corner of the plot with the fewest data points in it, for the legend. `data` holds
+/// positions scaled to [0, 1] on both axes.
+fn emptiest_corner(data: impl Iterator<Item = (f64, f64)>) -> SeriesLabelPosition {
+    // Legend boxes take roughly the outer 40% of the width and 35% of the height.
+    let mut counts = [0usize; 4];
+    for (u, v) in data {
+        let right = u > 0.6;
+        let left = u < 0.4;
+        let top = v > 0.65;
+        let bottom = v < 0.35;
+        counts[0] += usize::from(right && top);
+        counts[1] += usize::from(left && top);
+        counts[2] += usize::from(right && bottom);
+        counts[3] += usize::from(left && bottom);
+    }
+    let best = (0..4).min_by_key(|&i| counts[i]).unwrap_or(0);
+    [
+        SeriesLabelPosition::UpperRight,
+        SeriesLabelPosition::UpperLeft,
+        SeriesLabelPosition::LowerRight,
+        SeriesLabelPosition::LowerLeft,
+    ][best]
+        .clone()
+}
+
+/// Line style and legend glyph of the `i`-th curve.
+#[derive(Clone, Copy)]
+struct Pen {
+    colour: RGBColor,
+    dash: Option<(u32, u32)>,
+    /// Supersampling factor: every length in pixels is multiplied by it.
+    k: u32,
+}
+
+impl Pen {
+    fn nth(i: usize, k: u32) -> Self {
+        Self {
+            colour: PALETTE[i % PALETTE.len()],
+            dash: DASHES[i % DASHES.len()],
+            k,
+        }
+    }
+
+    fn style(self) -> ShapeStyle {
+        self.colour.stroke_width(STROKE * self.k)
+    }
+
+    fn draw<'a, DB: DrawingBackend + 'a>(
+        self,
+        chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, impl Ranged<ValueType = f64>>>,
+        run: Vec<(f64, f64)>,
+    ) -> Result<(), FigureError> {
+        match self.dash {
+            None => chart
+                .draw_series(LineSeries::new(run, self.style()))
+                .map(|_| ()),
+            Some((dash, gap)) => chart
+                .draw_series(DashedLineSeries::new(
+                    run,
+                    dash * self.k,
+                    gap * self.k,
+                    self.style(),
+                ))
+                .map(|_| ()),
+        }
+        .map_err(drawing_error)
+    }
+
+    /// Gives `anno` this pen's legend glyph: a short line sample in the curve's style.
+    fn legend<'a, DB: DrawingBackend + 'a>(self, anno: &mut SeriesAnno<'a, DB>) {
+        let style = self.style();
+        let (k, len) = (self.k, 28 * self.k as i32);
+        match self.dash {
+            None => anno.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + len, y)], style)),
+            // Shorter dashes in the legend so that a full period fits in the sample.
+            Some((dash, gap)) => anno.legend(move |(x, y)| {
+                DashedPathElement::new(
+                    vec![(x, y), (x + len, y)],
+                    dash.min(8) * k,
+                    gap.min(4) * k,
+                    style,
+                )
+            }),
+        };
+    }
+}
+
+/// Gives `anno` the reference's legend glyph: a marker with an error bar.
+fn reference_legend<'a, DB: DrawingBackend + 'a>(anno: &mut SeriesAnno<'a, DB>, k: u32) {
+    let ki = k as i32;
+    anno.legend(move |(x, y)| {
+        EmptyElement::at((x + 14 * ki, y))
+            + Circle::new((0, 0), 3 * k, REFERENCE_COLOUR.filled())
+            + PathElement::new(
+                vec![(0, -7 * ki), (0, 7 * ki)],
+                REFERENCE_COLOUR.stroke_width(k),
+            )
+    });
+}
+
+/// Draws markers with error bars; bars are cut at `[floor, ceiling]` (on the log panel a bar
+/// reaching zero or below runs to the bottom axis, meaning "consistent with zero").
+fn draw_points<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, impl Ranged<ValueType = f64>>>,
+    points: &Points,
+    floor: f64,
+    ceiling: f64,
+    k: u32,
+) -> Result<(), FigureError> {
+    let visible = || {
+        points
+            .x
+            .iter()
+            .zip(&points.y)
+            .zip(&points.stderr)
+            .filter(move |((_, &y), _)| y.is_finite() && y >= floor)
+    };
+    let bar_style = REFERENCE_COLOUR.mix(0.75).stroke_width(k);
+    chart
+        .draw_series(
+            visible()
+                .filter(|(_, se)| se.is_finite() && **se > 0.0)
+                .map(|((&x, &y), &se)| {
+                    let lo = (y - se).max(floor);
+                    let hi = (y + se).min(ceiling);
+                    PathElement::new(vec![(x, lo), (x, hi)], bar_style)
+                }),
+        )
+        .map_err(drawing_error)?;
+    chart
+        .draw_series(
+            visible().map(|((&x, &y), _)| Circle::new((x, y), 3 * k, REFERENCE_COLOUR.filled())),
+        )
+        .map_err(drawing_error)?;
+    Ok(())
+}
+
+impl PdfFigure {
+    fn check(&self) -> Result<(), FigureError> {
+        for c in &self.curves {
+            check_series(&c.label, &c.x, &c.y, None)?;
+        }
+        if let Some(p) = &self.points {
+            check_series(&p.label, &p.x, &p.y, Some(&p.stderr))?;
+        }
+        Ok(())
+    }
+
+    fn all_x(&self) -> impl Iterator<Item = &f64> {
+        self.curves
+            .iter()
+            .flat_map(|c| &c.x)
+            .chain(self.points.iter().flat_map(|p| &p.x))
+    }
+
+    /// Every value the y axes must show: curve values and the tops of error bars.
+    fn all_y(&self) -> impl Iterator<Item = f64> + '_ {
+        let tops = self.points.iter().flat_map(|p| {
+            p.y.iter()
+                .zip(&p.stderr)
+                .map(|(&y, &se)| if se.is_finite() { y + se } else { y })
+        });
+        self.curves
+            .iter()
+            .flat_map(|c| c.y.iter().copied())
+            .chain(self.points.iter().flat_map(|p| p.y.iter().copied()))
+            .chain(tops)
+    }
+
+    fn draw<'b, DB: DrawingBackend + 'b>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+        k: u32,
+    ) -> Result<(), FigureError> {
+        self.check()?;
+        if !font::register() {
+            return Err(FigureError::Font);
+        }
+        let (x_lo, x_hi) = finite_range(self.all_x()).ok_or(FigureError::NoData)?;
+        let y_values: Vec<f64> = self.all_y().filter(|v| v.is_finite()).collect();
+        let (y_min, y_max) = finite_range(&y_values).ok_or(FigureError::NoData)?;
+        if y_max <= 0.0 {
+            return Err(FigureError::NoPositiveValues);
+        }
+        let (x_lo, x_hi) = if x_hi > x_lo {
+            (x_lo, x_hi)
+        } else {
+            padded(x_lo, x_hi, 0.0)
+        };
+        let lin_y = (y_min.min(0.0), y_max * 1.08);
+        // Log panel, whole decades: from above the peak down to the smallest positive value
+        // shown, but not much below 1e-8 of the peak. Eight decades show every tail a Monte
+        // Carlo run can resolve; more would squeeze the part where methods differ.
+        let smallest = y_values
+            .iter()
+            .copied()
+            .filter(|&v| v > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let log_top = 10f64.powf((y_max * 1.1).log10().ceil());
+        let log_bottom = 10f64.powf(smallest.max(y_max * 1e-8).log10().floor());
+
+        root.fill(&WHITE).map_err(drawing_error)?;
+        // The title sits below a small top margin: plotters places glyphs from the font's
+        // nominal height, which lets tall capitals touch the image edge.
+        let body = root
+            .margin(8 * k, 0, 0, 0)
+            .titled(&self.title, font_of(26, k).color(&BLACK))
+            .map_err(drawing_error)?;
+        let panels = body.split_evenly((1, 2));
+
+        // Linear panel, with the legend.
+        let mut lin = ChartBuilder::on(&panels[0])
+            .caption("linear scale", font_of(19, k))
+            .margin(12 * k)
+            .margin_right(24 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(78 * k)
+            .build_cartesian_2d(x_lo..x_hi, lin_y.0..lin_y.1)
+            .map_err(drawing_error)?;
+        mesh(
+            &mut lin,
+            &self.variable_label,
+            "probability density",
+            false,
+            k,
+        )?;
+        for (i, curve) in self.curves.iter().enumerate() {
+            let pen = Pen::nth(i, k);
+            for run in visible_runs(&curve.x, &curve.y, f64::NEG_INFINITY) {
+                pen.draw(&mut lin, run)?;
+            }
+            let anno = lin
+                .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+                .map_err(drawing_error)?
+                .label(curve.label.as_str());
+            pen.legend(anno);
+        }
+        if let Some(points) = &self.points {
+            draw_points(&mut lin, points, f64::NEG_INFINITY, f64::INFINITY, k)?;
+            let anno = lin
+                .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+                .map_err(drawing_error)?
+                .label(points.label.as_str());
+            reference_legend(anno, k);
+        }
+        let scaled = self
+            .curves
+            .iter()
+            .flat_map(|c| c.x.iter().zip(&c.y))
+            .chain(self.points.iter().flat_map(|p| p.x.iter().zip(&p.y)));
+        let corner = emptiest_corner(scaled.filter(|(_, y)| y.is_finite()).map(|(&x, &y)| {
+            (
+                (x - x_lo) / (x_hi - x_lo),
+                (y - lin_y.0) / (lin_y.1 - lin_y.0),
+            )
+        }));
+        legend(&mut lin, corner, k)?;
+
+        // Log panel.
+        let mut log = ChartBuilder::on(&panels[1])
+            .caption("log scale", font_of(19, k))
+            .margin(12 * k)
+            .margin_right(24 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(78 * k)
+            .build_cartesian_2d(x_lo..x_hi, (log_bottom..log_top).log_scale())
+            .map_err(drawing_error)?;
+        log_minor_grid(&mut log, (x_lo, x_hi), (log_bottom, log_top), k)?;
+        mesh(
+            &mut log,
+            &self.variable_label,
+            "probability density",
+            true,
+            k,
+        )?;
+        for (i, curve) in self.curves.iter().enumerate() {
+            let pen = Pen::nth(i, k);
+            for run in visible_runs(&curve.x, &curve.y, log_bottom) {
+                pen.draw(&mut log, run)?;
+            }
+        }
+        if let Some(points) = &self.points {
+            draw_points(&mut log, points, log_bottom, log_top, k)?;
+        }
+        root.present().map_err(drawing_error)
+    }
+
+    /// The figure as PNG bytes.
+    ///
+    /// # Errors
+    /// A [`FigureError`] for invalid data (mismatched lengths, non-finite abscissae, infinite
+    /// values, negative standard errors, nothing positive to show) or a drawing failure.
+    pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
+        render_png(PDF_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// The figure as SVG text.
+    ///
+    /// # Errors
+    /// As [`render_png`](Self::render_png).
+    pub fn render_svg(&self) -> Result<String, FigureError> {
+        render_svg(PDF_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// Writes `<stem>.png` and `<stem>.svg` into `dir`, each atomically.
+    ///
+    /// # Errors
+    /// [`ReportError::Figure`] naming the file, or as [`OutputDir::write_atomic`].
+    pub fn write(&self, dir: &OutputDir, stem: &str) -> Result<FigureFiles, ReportError> {
+        write_both(dir, stem, || self.render_png(), || self.render_svg())
+    }
+}
+
+impl LineFigure {
+    fn draw<'b, DB: DrawingBackend + 'b>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+        k: u32,
+    ) -> Result<(), FigureError> {
+        for s in &self.series {
+            check_series(&s.label, &s.x, &s.y, None)?;
+        }
+        if !font::register() {
+            return Err(FigureError::Font);
+        }
+        let (x_lo, x_hi) =
+            finite_range(self.series.iter().flat_map(|s| &s.x)).ok_or(FigureError::NoData)?;
+        let (y_lo, y_hi) =
+            finite_range(self.series.iter().flat_map(|s| &s.y)).ok_or(FigureError::NoData)?;
+        let (x_lo, x_hi) = padded(x_lo, x_hi, 0.03);
+        let (y_lo, y_hi) = padded(y_lo, y_hi, 0.06);
+
+        root.fill(&WHITE).map_err(drawing_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&self.title, font_of(24, k))
+            .margin(14 * k)
+            .margin_right(28 * k)
+            .x_label_area_size(52 * k)
+            .y_label_area_size(86 * k)
+            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
+            .map_err(drawing_error)?;
+        mesh(&mut chart, &self.x_label, &self.y_label, false, k)?;
+        for (i, s) in self.series.iter().enumerate() {
+            let pen = Pen::nth(i, k);
+            for run in visible_runs(&s.x, &s.y, f64::NEG_INFINITY) {
+                pen.draw(&mut chart, run)?;
+            }
+            let anno = chart
+                .draw_series(
+                    s.x.iter()
+                        .zip(&s.y)
+                        .filter(|(_, y)| y.is_finite())
+                        .map(|(&x, &y)| Circle::new((x, y), 4 * k, pen.colour.filled())),
+                )
+                .map_err(drawing_error)?
+                .label(s.label.as_str());
+            pen.legend(anno);
+        }
+        let corner = emptiest_corner(
+            self.series
+                .iter()
+                .flat_map(|s| s.x.iter().zip(&s.y))
+                .filter(|(_, y)| y.is_finite())
+                .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - y_lo) / (y_hi - y_lo))),
+        );
+        legend(&mut chart, corner, k)?;
+        root.present().map_err(drawing_error)
+    }
+
+    /// The chart as PNG bytes.
+    ///
+    /// # Errors
+    /// A [`FigureError`] for invalid data (mismatched lengths, non-finite abscissae, infinite
+    /// values, no finite value at all) or a drawing failure.
+    pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
+        render_png(LINE_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// The chart as SVG text.
+    ///
+    /// # Errors
+    /// As [`render_png`](Self::render_png).
+    pub fn render_svg(&self) -> Result<String, FigureError> {
+        render_svg(LINE_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// Writes `<stem>.png` and `<stem>.svg` into `dir`, each atomically.
+    ///
+    /// # Errors
+    /// [`ReportError::Figure`] naming the file, or as [`OutputDir::write_atomic`].
+    pub fn write(&self, dir: &OutputDir, stem: &str) -> Result<FigureFiles, ReportError> {
+        write_both(dir, stem, || self.render_png(), || self.render_svg())
+    }
+}
+
+/// Axes, tick labels and grid. On a log axis the minor grid is drawn by [`log_minor_grid`]
+/// instead, because plotters spaces light lines evenly in pixels, not at 2·10ᵏ … 9·10ᵏ.
+fn mesh<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64> + ValueFormatter<f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    x_label: &str,
+    y_label: &str,
+    log_y: bool,
+    k: u32,
+) -> Result<(), FigureError> {
+    let decades = |v: &f64| decade_label(*v);
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x_label)
+        .y_desc(y_label)
+        .label_style(font_of(15, k))
+        .axis_desc_style(font_of(18, k))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .light_line_style(RGBColor(240, 240, 240))
+        .axis_style(BLACK.stroke_width(k))
+        .x_labels(9)
+        .y_labels(10)
+        .x_max_light_lines(2)
+        .y_max_light_lines(if log_y { 0 } else { 2 });
+    if log_y {
+        mesh.y_label_formatter(&decades);
+    }
+    mesh.draw().map_err(drawing_error)
+}
+
+/// Light horizontal lines at m·10ᵏ, m = 2…9, inside `[bottom, top]`.
+fn log_minor_grid<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    (x_lo, x_hi): (f64, f64),
+    (bottom, top): (f64, f64),
+    k: u32,
+) -> Result<(), FigureError> {
+    let first = bottom.log10().floor() as i32;
+    let last = top.log10().ceil() as i32;
+    let levels = (first..last)
+        .flat_map(|k| (2..10).map(move |m| f64::from(m) * 10f64.powi(k)))
+        .filter(|&v| v > bottom && v < top);
+    chart
+        .draw_series(levels.map(|v| {
+            PathElement::new(
+                vec![(x_lo, v), (x_hi, v)],
+                RGBColor(242, 242, 242).stroke_width(k),
+            )
+        }))
+        .map_err(drawing_error)?;
+    Ok(())
+}
+
+fn legend<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    position: SeriesLabelPosition,
+    k: u32,
+) -> Result<(), FigureError> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .margin(12 * k)
+        .legend_area_size(40 * k)
+        .label_font(font_of(16, k))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.5))
+        .draw()
+        .map_err(drawing_error)
+}
+
+/// Supersampling factor of PNG output. plotters' bitmap backend draws lines without
+/// antialiasing; drawing at this multiple of the size and averaging blocks of pixels gives
+/// smooth curves and text at about the cost of one more render.
+const SUPERSAMPLE: u32 = 2;
+
+fn render_png(
+    size: (u32, u32),
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>, u32) -> Result<(), FigureError>,
+) -> Result<Vec<u8>, FigureError> {
+    let k = SUPERSAMPLE;
+    let (w, h) = (size.0 as usize, size.1 as usize);
+    let big_w = w * k as usize;
+    let mut big = vec![0u8; big_w * h * k as usize * 3];
+    draw(
+        BitMapBackend::with_buffer(&mut big, (size.0 * k, size.1 * k)).into_drawing_area(),
+        k,
+    )?;
+    let block = (k * k) as usize;
+    let mut rgb = vec![0u8; w * h * 3];
+    for (i, pixel) in rgb.chunks_exact_mut(3).enumerate() {
+        let (row, col) = (i / w, i % w);
+        for (c, out) in pixel.iter_mut().enumerate() {
+            let mut sum = 0usize;
+            for dy in 0..k as usize {
+                let line = (row * k as usize + dy) * big_w;
+                for dx in 0..k as usize {
+                    sum += usize::from(big[(line + col * k as usize + dx) * 3 + c]);
+                }
+            }
+            // Rounded mean of the block, which fits in a byte.
+            *out = ((sum + block / 2) / block) as u8;
+        }
+    }
+    let mut png_bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut png_bytes, size.0, size.1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let encode = |e: png::EncodingError| FigureError::Encoding(e.to_string());
+    let mut writer = encoder.write_header().map_err(encode)?;
+    writer.write_image_data(&rgb).map_err(encode)?;
+    writer.finish().map_err(encode)?;
+    Ok(png_bytes)
+}
+
+fn render_svg(
+    size: (u32, u32),
+    draw: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>, u32) -> Result<(), FigureError>,
+) -> Result<String, FigureError> {
+    // plotters writes integer pixel coordinates; drawing at twice the size under a viewBox
+    // keeps half-pixel detail, so steep tails and dashes do not look stepped when zoomed.
+    let k = SUPERSAMPLE;
+    let mut svg = String::new();
+    draw(
+        SVGBackend::with_string(&mut svg, (size.0 * k, size.1 * k)).into_drawing_area(),
+        k,
+    )?;
+    let drawn = format!(r#"<svg width="{}" height="{}" "#, size.0 * k, size.1 * k);
+    if !svg.starts_with(&drawn) {
+        return Err(FigureError::Drawing(
+            "unexpected SVG header from plotters".into(),
+        ));
+    }
+    Ok(svg.replacen(
+        &drawn,
+        &format!(r#"<svg width="{}" height="{}" "#, size.0, size.1),
+        1,
+    ))
+}
+
+fn write_both(
+    dir: &OutputDir,
+    stem: &str,
+    png: impl FnOnce() -> Result<Vec<u8>, FigureError>,
+    svg: impl FnOnce() -> Result<String, FigureError>,
+) -> Result<FigureFiles, ReportError> {
+    let png_name = format!("{stem}.png");
+    let svg_name = format!("{stem}.svg");
+    let png_path = dir.file_path(&png_name)?;
+    let svg_path = dir.file_path(&svg_name)?;
+    let png_bytes = png().map_err(|source| ReportError::Figure {
+        path: png_path,
+        source,
+    })?;
+    let svg_text = svg().map_err(|source| ReportError::Figure {
+        path: svg_path,
+        source,
+    })?;
+    Ok(FigureFiles {
+        png: dir.write_atomic(&png_name, &png_bytes)?,
+        svg: dir.write_atomic(&svg_name, svg_text.as_bytes())?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn runs_are_cut_at_the_floor_and_at_gaps() {
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let y = [1e-10, 1e-2, 1.0, f64::NAN, 1.0, 0.5, 0.0];
+        let runs = visible_runs(&x, &y, 1e-3);
+        assert_eq!(runs.len(), 2);
+        // Entering: the crossing lies on the segment (0, 1e-10)–(1, 1e-2) where y = 1e-3.
+        let t = (1e-3 - 1e-10) / (1e-2 - 1e-10);
+        assert_relative_eq!(runs[0][0].0, t, max_relative = 1e-12);
+        assert_relative_eq!(runs[0][0].1, 1e-3);
+        assert_eq!(&runs[0][1..], &[(1.0, 1e-2), (2.0, 1.0)]);
+        // Leaving through zero: cut where the segment (5, 0.5)–(6, 0) meets 1e-3.
+        let last = *runs[1].last().unwrap();
+        assert_relative_eq!(
+            last.0,
+            5.0 + (1e-3 - 0.5) / (0.0 - 0.5),
+            max_relative = 1e-12
+        );
+        assert_relative_eq!(last.1, 1e-3);
+        assert_eq!(runs[1].len(), 3);
+        // Without a floor only the NaN splits.
+        let all = visible_runs(&x, &y, f64::NEG_INFINITY);
+        assert_eq!(all.iter().map(Vec::len).collect::<Vec<_>>(), vec![3, 3]);
+    }
+
+    #[test]
+    fn decade_labels() {
+        assert_eq!(decade_label(1e-8), "10⁻⁸");
+        assert_eq!(decade_label(1.0), "10⁰");
+        assert_eq!(decade_label(10.0), "10¹");
+        assert_eq!(decade_label(1e-12), "10⁻¹²");
+        assert_eq!(decade_label(2e-3), "2e-3");
+    }
+
+    #[test]
+    fn legend_goes_where_the_data_is_not() {
+        // A density peaked at the left edge: the upper-left corner is busy.
+        let data = (0..50).map(|i| {
+            let u = f64::from(i) / 49.0;
+            (u, (-5.0 * u).exp())
+        });
+        assert!(matches!(
+            emptiest_corner(data),
+            SeriesLabelPosition::UpperRight
+        ));
+        let rising = (0..50).map(|i| {
+            let u = f64::from(i) / 49.0;
+            (u, u)
+        });
+        assert!(matches!(
+            emptiest_corner(rising),
+            SeriesLabelPosition::UpperLeft
+        ));
+    }
+
+    #[test]
+    fn invalid_data_is_refused_before_drawing() {
+        let mut fig = PdfFigure {
+            title: "t".into(),
+            variable_label: "y".into(),
+            curves: vec![Curve {
+                label: "a".into(),
+                x: vec![0.0, 1.0],
+                y: vec![1.0],
+            }],
+            points: None,
+        };
+        assert!(matches!(
+            fig.render_svg(),
+            Err(FigureError::LengthMismatch { field: "y", .. })
+        ));
+        fig.curves[0].y = vec![1.0, f64::INFINITY];
+        assert!(matches!(
+            fig.render_svg(),
+            Err(FigureError::BadValue { index: 1, .. })
+        ));
+        fig.curves[0].y = vec![0.0, -1.0];
+        assert_eq!(fig.render_svg(), Err(FigureError::NoPositiveValues));
+        fig.curves[0].y = vec![f64::NAN, f64::NAN];
+        assert_eq!(fig.render_svg(), Err(FigureError::NoData));
+        fig.curves[0].y = vec![0.5, 0.5];
+        fig.points = Some(Points {
+            label: "mc".into(),
+            x: vec![0.5],
+            y: vec![0.4],
+            stderr: vec![-0.1],
+        });
+        assert!(matches!(
+            fig.render_svg(),
+            Err(FigureError::BadValue {
+                field: "stderr",
+                ..
+            })
+        ));
+        fig.points = None;
+        fig.curves[0].x[0] = f64::NAN;
+        assert!(matches!(
+            fig.render_svg(),
+            Err(FigureError::NonFiniteX { index: 0, .. })
+        ));
+    }
+}

@@ -1,0 +1,97 @@
+//! The report stage: CSV tables, JSON summaries and figures, written atomically into an
+//! output directory.
+//!
+//! This stage takes plain data (grids, columns, curves, any `Serialize` value) and knows nothing
+//! of how it was computed, so the EPC solver, the Monte Carlo simulator and the CLI can all
+//! hand their results here without this module depending on them.
+//!
+//! Every file goes through [`OutputDir::write_atomic`]: a run that dies part-way leaves either
+//! the old file or the complete new one, never a truncated file with the final name.
+//!
+//! ```
+//! use fpsolve::report::{write_json, OutputDir, PdfTable};
+//!
+//! # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-report-{}", std::process::id()));
+//! let dir = OutputDir::create(&tmp)?;
+//! let table = PdfTable {
+//!     variable: "y".into(),
+//!     x: vec![0.0, 0.5, 1.0],
+//!     columns: vec![("epc_n4".into(), vec![0.8, 0.6, 0.2])],
+//! };
+//! table.write_csv(&dir, "pdf_y.csv")?;
+//! write_json(&dir, "summary.json", &serde_json::json!({ "mean": 0.41 }))?;
+//! assert!(tmp.join("pdf_y.csv").is_file() && tmp.join("summary.json").is_file());
+//! # std::fs::remove_dir_all(&tmp).unwrap();
+//! # Ok::<(), fpsolve::report::ReportError>(())
+//! ```
+
+mod csv;
+mod figure;
+mod font;
+mod json;
+mod output;
+
+use std::path::PathBuf;
+
+pub use csv::{PdfTable, TableError};
+pub use figure::{Curve, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
+pub use json::write_json;
+pub use output::OutputDir;
+
+/// Why writing or reading a report file failed. Every variant names the file (or directory)
+/// concerned, so a message is actionable on its own.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// An operating-system error while creating, writing, syncing, renaming or reading.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or directory concerned.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A file name that is not a plain name inside the output directory (empty, `.`/`..`,
+    /// or containing a path separator).
+    #[error("{}: `{name}` is not a plain file name", path.display())]
+    BadFileName {
+        /// The output directory.
+        path: PathBuf,
+        /// The rejected name.
+        name: String,
+    },
+    /// A table that cannot be written, or a CSV file that cannot be read back.
+    #[error("{}: {source}", path.display())]
+    Table {
+        /// The CSV file.
+        path: PathBuf,
+        /// What is wrong with the table or the text.
+        source: TableError,
+    },
+    /// A value that contains NaN or ±∞ where JSON needs a number (serde_json would silently
+    /// write `null`).
+    #[error("{}: field `{field}` is {value}, which JSON cannot represent", path.display())]
+    NonFiniteJson {
+        /// The JSON file.
+        path: PathBuf,
+        /// JSONPath of the offending field, e.g. `$.moments.mean[2]`.
+        field: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// A value that serde refused to serialise (e.g. a map with non-string keys).
+    #[error("{}: {source}", path.display())]
+    Json {
+        /// The JSON file.
+        path: PathBuf,
+        /// The serialiser's error.
+        source: serde_json::Error,
+    },
+    /// A figure that cannot be drawn from the data given, or a drawing failure.
+    #[error("{}: {source}", path.display())]
+    Figure {
+        /// The figure file.
+        path: PathBuf,
+        /// What went wrong.
+        source: FigureError,
+    },
+}

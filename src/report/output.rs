@@ -1,0 +1,211 @@
+//! The output directory and atomic file replacement.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::ReportError;
+
+/// A directory that report files are written into, each one atomically.
+///
+/// ```
+/// use fpsolve::report::OutputDir;
+///
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-outdir-{}", std::process::id()));
+/// let dir = OutputDir::create(tmp.join("run-1"))?; // parents are created too
+/// let written = dir.write_atomic("notes.txt", b"first")?;
+/// dir.write_atomic("notes.txt", b"second")?; // replaces the old content in one step
+/// assert_eq!(std::fs::read(&written).unwrap(), b"second");
+/// # std::fs::remove_dir_all(&tmp).unwrap();
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutputDir {
+    path: PathBuf,
+}
+
+/// Distinguishes concurrent writers of the same name within one process; the process id
+/// distinguishes processes.
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+impl OutputDir {
+    /// Creates the directory (and its parents) if needed and returns a handle to it.
+    ///
+    /// # Errors
+    /// [`ReportError::Io`] if the directory cannot be created or the path exists and is not a
+    /// directory.
+    pub fn create(path: impl AsRef<Path>) -> Result<Self, ReportError> {
+        let path = path.as_ref().to_path_buf();
+        fs::create_dir_all(&path).map_err(|source| ReportError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        Ok(Self { path })
+    }
+
+    /// The directory's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Writes `bytes` to the file `name` in this directory, atomically: the bytes go to a
+    /// hidden temporary file in the same directory, are flushed to disk, and the temporary file
+    /// is then renamed over `name`. Readers (and a later run after a crash) see either the old
+    /// file or the complete new one. Returns the final path.
+    ///
+    /// # Errors
+    /// [`ReportError::BadFileName`] if `name` is not a plain file name (so nothing can be written
+    /// outside the directory), [`ReportError::Io`] if any step fails; the temporary file is
+    /// removed on failure.
+    pub fn write_atomic(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, ReportError> {
+        self.check_name(name)?;
+        let target = self.path.join(name);
+        let temp = self.path.join(format!(
+            ".{name}.{}.{}.tmp",
+            std::process::id(),
+            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
+        let io_err = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| ReportError::Io { path, source }
+        };
+        let written = (|| {
+            let mut file = OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&temp)
+                .map_err(io_err(&temp))?;
+            file.write_all(bytes).map_err(io_err(&temp))?;
+            // Without the sync, a crash soon after the rename can leave `name` pointing at an
+            // empty or partial file on some file systems.
+            file.sync_all().map_err(io_err(&temp))?;
+            drop(file);
+            fs::rename(&temp, &target).map_err(io_err(&target))
+        })();
+        if let Err(err) = written {
+            // Best effort: the temporary may not exist if creating it was what failed.
+            let _ = fs::remove_file(&temp);
+            return Err(err);
+        }
+        sync_dir(&self.path)?;
+        Ok(target)
+    }
+
+    pub(super) fn check_name(&self, name: &str) -> Result<(), ReportError> {
+        let plain = !name.is_empty()
+            && name != "."
+            && name != ".."
+            && !name.contains(['/', '\\', '\0'])
+            && Path::new(name).file_name().is_some_and(|f| f == name);
+        if plain {
+            Ok(())
+        } else {
+            Err(ReportError::BadFileName {
+                path: self.path.clone(),
+                name: name.to_string(),
+            })
+        }
+    }
+
+    /// The path `name` would be written to, after checking it is a plain file name.
+    pub(super) fn file_path(&self, name: &str) -> Result<PathBuf, ReportError> {
+        self.check_name(name)?;
+        Ok(self.path.join(name))
+    }
+}
+
+/// Makes the rename itself durable: the new directory entry is only on disk once the directory
+/// is synced. Windows cannot open directories as files, and NTFS journals renames, so there it
+/// is skipped.
+fn sync_dir(dir: &Path) -> Result<(), ReportError> {
+    if cfg!(unix) {
+        File::open(dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|source| ReportError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        std::env::temp_dir().join(format!("fpsolve-output-{tag}-{}", std::process::id()))
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn replaces_content_and_leaves_no_temporaries() {
+        let root = scratch("replace");
+        let dir = OutputDir::create(&root).unwrap();
+        let long = vec![b'x'; 10_000];
+        dir.write_atomic("a.csv", &long).unwrap();
+        let path = dir.write_atomic("a.csv", b"short").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"short");
+        assert_eq!(entries(&root), vec!["a.csv".to_string()]);
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn refuses_names_that_leave_the_directory() {
+        let root = scratch("names");
+        let dir = OutputDir::create(&root).unwrap();
+        for bad in [
+            "",
+            ".",
+            "..",
+            "../x.csv",
+            "sub/x.csv",
+            "/etc/passwd",
+            "a\\b",
+        ] {
+            match dir.write_atomic(bad, b"x") {
+                Err(ReportError::BadFileName { name, .. }) => assert_eq!(name, bad),
+                other => panic!("{bad:?}: expected BadFileName, got {other:?}"),
+            }
+        }
+        assert!(entries(&root).is_empty());
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn failed_write_names_the_path_and_cleans_up() {
+        let root = scratch("fail");
+        let dir = OutputDir::create(&root).unwrap();
+        // A directory in the way makes the final rename fail after the temporary was written.
+        fs::create_dir(root.join("taken")).unwrap();
+        fs::write(root.join("taken").join("inner"), b"keep").unwrap();
+        match dir.write_atomic("taken", b"new") {
+            Err(ReportError::Io { path, .. }) => assert_eq!(path, root.join("taken")),
+            other => panic!("expected Io error, got {other:?}"),
+        }
+        assert_eq!(entries(&root), vec!["taken".to_string()]);
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn create_fails_on_a_file() {
+        let root = scratch("file");
+        fs::create_dir_all(&root).unwrap();
+        let file = root.join("plain");
+        fs::write(&file, b"x").unwrap();
+        match OutputDir::create(&file) {
+            Err(ReportError::Io { path, .. }) => assert_eq!(path, file),
+            other => panic!("expected Io error, got {other:?}"),
+        }
+        fs::remove_dir_all(&root).unwrap();
+    }
+}
