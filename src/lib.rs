@@ -4,6 +4,7 @@
 //! model file: the model language, the derived Fokker–Planck operator, the
 //! exponential-polynomial closure (EPC) and Monte Carlo simulation.
 
+pub mod fpk;
+pub mod mc;
 pub mod model;
 pub mod symbolic;
-pub mod fpk;

@@ -1,0 +1,59 @@
+//! Why a Monte Carlo run could not be set up, run or merged.
+
+/// Errors of the Monte Carlo stage.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum McError {
+    /// A configuration value is out of range (`dt ≤ 0`, no trajectories, …).
+    #[error("invalid Monte Carlo setting `{name}`: {reason}")]
+    BadSetting {
+        /// The setting.
+        name: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// An expression of the model mentions a name that is neither state (parameters should
+    /// have been bound to numbers already).
+    #[error("`{expr}` mentions `{symbol}`, which is not a state of the model")]
+    UnboundSymbol {
+        /// The expression, printed.
+        expr: String,
+        /// The stray name.
+        symbol: String,
+    },
+    /// The noise intensity matrix has no real square root (it is not positive semi-definite).
+    #[error("the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value})")]
+    IntensityNotPsd {
+        /// Index of the failing pivot.
+        pivot: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// The burn-in could not be estimated because the linearised drift at the origin has no
+    /// decaying mode; set it explicitly.
+    #[error(
+        "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate} \
+         (not > 0); set the burn-in time explicitly"
+    )]
+    NoDecay {
+        /// The slowest decay rate found (≤ 0 or not finite).
+        rate: f64,
+    },
+    /// A histogram grid refers to a quantity the model does not have.
+    #[error("a grid is given for `{name}`, which is neither a state nor an observable")]
+    UnknownQuantity {
+        /// The name given.
+        name: String,
+    },
+    /// The pilot run that chooses the histogram grids found no finite samples of a quantity.
+    #[error("the pilot run found no finite values of `{name}`; give its grid explicitly")]
+    NoPilotRange {
+        /// The quantity.
+        name: String,
+    },
+    /// Shards given to a merge do not belong to the same run or do not cover it exactly.
+    #[error("cannot merge shards: {reason}")]
+    ShardMismatch {
+        /// What is inconsistent.
+        reason: String,
+    },
+}
