@@ -80,6 +80,7 @@ fn vibro_impact_with_elastic_impacts_folds_the_duffing_density() {
     let model = bind(vibro_impact(p));
     let config = McConfig {
         trajectories: 2048,
+        lanes: 64,
         samples: 400,
         spacing: 0.5,
         seed: 11,
@@ -115,6 +116,7 @@ fn linear_variance(scheme: SchemeChoice, dt: f64) -> McResult {
         dt,
         spacing: 0.5,
         trajectories: 1024,
+        lanes: 32,
         samples: 400,
         seed: 5,
         scheme,
@@ -158,6 +160,7 @@ fn weak_error_shrinks_at_second_order_when_dt_halves() {
             dt,
             spacing: 1.0,
             trajectories: 1024,
+            lanes: 32,
             samples: 1500,
             seed: 3,
             ..McConfig::default()

@@ -168,7 +168,7 @@ fn run_batch_once(
         .collect();
     let n_obs = st.quantities.len() - 2;
     let mut obs = vec![0.0; n_obs * lanes];
-    let mut scratch = Vec::new();
+    let mut scratch = super::eval::Scratch::new();
     let mut blown: Vec<(usize, u64, Option<LastState>)> = Vec::new();
     let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
     let mut step = st.burn_in_steps;

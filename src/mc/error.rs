@@ -20,6 +20,9 @@ pub enum McError {
         /// The stray name.
         symbol: String,
     },
+    /// A model expression could not be compiled for evaluation.
+    #[error("cannot compile the model for simulation: {0}")]
+    Compile(#[from] crate::symbolic::SymbolicError),
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
     #[error("the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value})")]
     IntensityNotPsd {

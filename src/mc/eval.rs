@@ -1,31 +1,58 @@
 //! Model evaluation for the simulator: expressions of the two states, compiled once and
 //! evaluated over a whole batch of trajectories at a time (structure-of-arrays).
 //!
-//! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`]. The
-//! compiler here is a small register tape without common-subexpression sharing; when the
-//! crate's `symbolic::Tape` is available, only [`compile`] has to change.
+//! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`], which
+//! uses the crate's compiled [`Tape`]. A minimal register tape of this module's own is kept
+//! as [`compile_register`], the reference the tape is benchmarked and tested against.
 
 use super::McError;
-use crate::symbolic::{powf, sgn, Expr, Func};
+use crate::symbolic::{powf, sgn, DeltaPolicy, Expr, Func, Tape, TapeScratch};
+
+/// Working memory of a kernel's batch evaluation.
+pub(crate) type Scratch = TapeScratch;
 
 /// Expressions of the states `(x, v)`, evaluated for many points at once.
 pub(crate) trait BatchKernel: Send + Sync {
-    /// How many expressions the kernel evaluates.
-    fn outputs(&self) -> usize;
     /// Evaluates every output at the points `(x[i], v[i])`: output `j` at point `i` goes to
     /// `out[j * n + i]`, `n = x.len()`. `scratch` is the caller's reusable buffer.
-    fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Vec<f64>);
+    fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch);
     /// Evaluates every output at one point.
-    fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
-        debug_assert_eq!(out.len(), self.outputs());
-        let mut scratch = Vec::new();
-        self.eval_batch(&[x], &[v], out, &mut scratch);
-    }
+    fn eval_point(&self, x: f64, v: f64, out: &mut [f64]);
 }
 
 /// Compiles `exprs` (expressions of the states named `states`) with `delta(·) = 0`, as is
 /// right between impacts.
 pub(crate) fn compile(exprs: &[Expr], states: [&str; 2]) -> Result<Box<dyn BatchKernel>, McError> {
+    Ok(Box::new(Tape::compile(exprs, &states, DeltaPolicy::Zero)?))
+}
+
+impl BatchKernel for Tape {
+    fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch) {
+        let n = x.len();
+        let out = &mut out[..n * self.n_outputs()];
+        // The hot kernels have one output: no allocation for them.
+        match self.n_outputs() {
+            0 => {}
+            1 => Tape::eval_batch(self, &[x, v], &mut [out], scratch),
+            _ => {
+                let mut rows: Vec<&mut [f64]> = out.chunks_mut(n).collect();
+                Tape::eval_batch(self, &[x, v], &mut rows, scratch)
+            }
+        }
+    }
+
+    fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
+        let mut scratch = Vec::new();
+        self.eval(&[x, v], &mut scratch, out);
+    }
+}
+
+/// Compiles `exprs` to this module's register tape (no sharing of subexpressions).
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) fn compile_register(
+    exprs: &[Expr],
+    states: [&str; 2],
+) -> Result<Box<dyn BatchKernel>, McError> {
     let mut tape = RegisterTape {
         ops: Vec::new(),
         outputs: Vec::new(),
@@ -202,13 +229,14 @@ fn map1(dst: &mut [f64], a: &Col, f: impl Fn(f64) -> f64) {
 }
 
 impl BatchKernel for RegisterTape {
-    fn outputs(&self) -> usize {
-        self.outputs.len()
+    fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
+        self.eval_batch(&[x], &[v], out, &mut TapeScratch::new());
     }
 
-    fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Vec<f64>) {
+    fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], _scratch: &mut Scratch) {
         let n = x.len();
-        scratch.resize(self.ops.len() * n, 0.0);
+        let mut regs = vec![0.0; self.ops.len() * n];
+        let scratch = &mut regs;
         for (k, op) in self.ops.iter().enumerate() {
             // Operands always precede their instruction, so the registers split cleanly
             // into the (read) past and the (written) current one.
@@ -295,32 +323,36 @@ mod tests {
             Expr::Call(Func::Max, vec![z(), Expr::call(Func::Tanh, v())]),
             Expr::num(3.0),
         ];
-        let k = compile(&exprs, ["z", "v"]).unwrap();
-        let xs = [-1.5, -0.0, 0.0, 0.7, 2.0];
-        let vs = [0.3, -2.0, 1.0, -0.1, 0.0];
-        let mut out = vec![0.0; exprs.len() * xs.len()];
-        let mut scratch = Vec::new();
-        k.eval_batch(&xs, &vs, &mut out, &mut scratch);
-        for (j, e) in exprs.iter().enumerate() {
-            for i in 0..xs.len() {
-                let want = e
-                    .eval_with(
-                        &|s| Some(if s == "z" { xs[i] } else { vs[i] }),
-                        DeltaPolicy::Zero,
-                    )
-                    .unwrap();
-                let got = out[j * xs.len() + i];
-                assert!(
-                    (got - want).abs() <= 1e-14 * want.abs().max(1.0),
-                    "{e} at ({}, {}): {got} vs {want}",
-                    xs[i],
-                    vs[i]
-                );
+        for k in [
+            compile(&exprs, ["z", "v"]).unwrap(),
+            compile_register(&exprs, ["z", "v"]).unwrap(),
+        ] {
+            let xs = [-1.5, -0.0, 0.0, 0.7, 2.0];
+            let vs = [0.3, -2.0, 1.0, -0.1, 0.0];
+            let mut out = vec![0.0; exprs.len() * xs.len()];
+            let mut scratch = Scratch::new();
+            k.eval_batch(&xs, &vs, &mut out, &mut scratch);
+            for (j, e) in exprs.iter().enumerate() {
+                for i in 0..xs.len() {
+                    let want = e
+                        .eval_with(
+                            &|s| Some(if s == "z" { xs[i] } else { vs[i] }),
+                            DeltaPolicy::Zero,
+                        )
+                        .unwrap();
+                    let got = out[j * xs.len() + i];
+                    assert!(
+                        (got - want).abs() <= 1e-14 * want.abs().max(1.0),
+                        "{e} at ({}, {}): {got} vs {want}",
+                        xs[i],
+                        vs[i]
+                    );
+                }
             }
+            let mut one = vec![0.0; exprs.len()];
+            k.eval_point(0.7, -0.1, &mut one);
+            assert_eq!(one[1], 1.0 + 0.2 * 0.7);
         }
-        let mut one = vec![0.0; exprs.len()];
-        k.eval_point(0.7, -0.1, &mut one);
-        assert_eq!(one[1], 1.0 + 0.2 * 0.7);
     }
 
     #[test]

@@ -72,7 +72,8 @@ pub struct McConfig {
     pub burn_in: BurnIn,
     /// Seed of all random streams (default 0).
     pub seed: u64,
-    /// Trajectories per statistics batch, run together structure-of-arrays (default 64).
+    /// Trajectories per statistics batch, run together structure-of-arrays (default 128, the
+    /// compiled tape's block length).
     pub lanes: usize,
     /// Bins of the grids chosen automatically (default 100).
     pub bins: usize,
@@ -94,7 +95,7 @@ impl Default for McConfig {
             samples: 1000,
             burn_in: BurnIn::DecayTimes(10.0),
             seed: 0,
-            lanes: 64,
+            lanes: 256,
             bins: 100,
             grids: Vec::new(),
             increments: Increments::default(),
