@@ -11,15 +11,6 @@ pub enum McError {
         /// What is wrong with it.
         reason: String,
     },
-    /// An expression of the model mentions a name that is neither state (parameters should
-    /// have been bound to numbers already).
-    #[error("`{expr}` mentions `{symbol}`, which is not a state of the model")]
-    UnboundSymbol {
-        /// The expression, printed.
-        expr: String,
-        /// The stray name.
-        symbol: String,
-    },
     /// A model expression could not be compiled for evaluation.
     #[error("cannot compile the model for simulation: {0}")]
     Compile(#[from] crate::symbolic::SymbolicError),
