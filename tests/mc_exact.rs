@@ -1,7 +1,9 @@
 //! Monte Carlo against exact stationary solutions, with tolerances from the run's own
 //! standard errors.
 
-use fpsolve::mc::reference::{linear_oscillator, vibro_impact, VibroImpact};
+use fpsolve::mc::reference::{
+    linear_oscillator, reflecting_vibro_impact, vibro_impact, VibroImpact,
+};
 use fpsolve::mc::{
     merge_shards, Grid, McConfig, McResult, QuantityStats, SchemeChoice, Shard, ShardOutput,
     Simulation,
@@ -276,4 +278,71 @@ fn a_different_seed_gives_different_numbers() {
     }));
     let b = Simulation::new(&model, &config).unwrap().run();
     assert_ne!(a.quantities[0].mean.value, b.quantities[0].mean.value);
+}
+
+/// The Zhuravlev form (pass-through, v → r·v) and the original coordinates (reflection,
+/// ẏ → −r·ẏ) are the same process for trajectories: their y and ẏ histograms must agree
+/// within the two runs' combined error bars, for inelastic impacts and parametric noise.
+#[test]
+fn zhuravlev_and_reflecting_forms_agree_for_inelastic_impacts() {
+    let p = VibroImpact {
+        c: 0.3,
+        k: 1.0,
+        mu: 0.5,
+        eps: 0.4,
+        r: 0.6,
+        big_k: 0.08,
+    };
+    let grids = || {
+        vec![
+            ("y".to_string(), Grid::new(0.0, 1.5, 30).unwrap()),
+            ("ydot".to_string(), Grid::new(-1.5, 1.5, 30).unwrap()),
+        ]
+    };
+    let config = |seed: u64| McConfig {
+        trajectories: 2048,
+        lanes: 64,
+        samples: 300,
+        spacing: 0.5,
+        seed,
+        grids: grids(),
+        ..McConfig::default()
+    };
+    let zh = Simulation::new(&bind(vibro_impact(p)), &config(1))
+        .unwrap()
+        .run();
+    let re = Simulation::new(&bind(reflecting_vibro_impact(p)), &config(2))
+        .unwrap()
+        .run();
+    assert_eq!(
+        re.quantity("y").unwrap().underflow,
+        0,
+        "the reflecting form left y ≥ 0"
+    );
+    let mut worst: f64 = 0.0;
+    for name in ["y", "ydot"] {
+        let (a, b) = (zh.quantity(name).unwrap(), re.quantity(name).unwrap());
+        let peak = a.density.iter().cloned().fold(0.0, f64::max);
+        for j in 0..a.grid.bins {
+            if a.density[j] < 1e-2 * peak {
+                continue;
+            }
+            let se = (a.stderr[j].powi(2) + b.stderr[j].powi(2)).sqrt();
+            let z = (a.density[j] - b.density[j]) / se;
+            assert!(
+                z.abs() < 4.5,
+                "{name} bin {j}: {} vs {} ({z:.1} se)",
+                a.density[j],
+                b.density[j]
+            );
+            worst = worst.max(z.abs());
+        }
+    }
+    let (ra, rb) = (zh.impacts.unwrap().rate, re.impacts.unwrap().rate);
+    let z = (ra.value - rb.value) / (ra.stderr.powi(2) + rb.stderr.powi(2)).sqrt();
+    eprintln!(
+        "worst bin {worst:.2} se; impact rates {:.4} vs {:.4} ({z:.1} se)",
+        ra.value, rb.value
+    );
+    assert!(z.abs() < 4.5);
 }

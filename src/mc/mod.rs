@@ -95,7 +95,7 @@ impl Default for McConfig {
             samples: 1000,
             burn_in: BurnIn::DecayTimes(10.0),
             seed: 0,
-            lanes: 256,
+            lanes: 128,
             bins: 100,
             grids: Vec::new(),
             increments: Increments::default(),
@@ -304,4 +304,154 @@ fn auto_grid(stats: &QuantityStats, bins: usize) -> Result<Grid, McError> {
         hi = 0.0;
     }
     Grid::new(lo, hi, bins)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mc::reference::{duffing, linear_oscillator, vibro_impact, VibroImpact};
+
+    fn small(trajectories: u64) -> McConfig {
+        McConfig {
+            trajectories,
+            lanes: 16,
+            samples: 100,
+            ..McConfig::default()
+        }
+    }
+
+    #[test]
+    fn blown_up_trajectories_are_reported_and_left_out() {
+        // A softening spring, k z − z³: trajectories that cross |z| = 1 run off to infinity.
+        let model = duffing(0.5, 1.0, -1.0, 0.12).bind(&[]).unwrap();
+        let config = McConfig {
+            grids: vec![
+                ("z".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+                ("v".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+            ],
+            ..small(64)
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        let res = sim.run();
+        let total = sim.settings().trajectories();
+        let lost = res.blowups.len() as u64;
+        assert!(lost > 0 && lost < total, "{lost} of {total} blew up");
+        assert_eq!(res.trajectories, total - lost);
+        let mut seen = std::collections::HashSet::new();
+        for b in &res.blowups {
+            assert!(b.trajectory < total && seen.insert(b.trajectory));
+            assert_eq!(b.params.len(), 4);
+            if let Some(last) = &b.last_finite {
+                assert!(last.step < b.step && last.state.iter().all(|s| s.is_finite()));
+            }
+        }
+        let z = res.quantity("z").unwrap();
+        assert!(z.mean.value.is_finite() && z.variance.value.is_finite());
+        assert_eq!(z.samples, res.trajectories * 100);
+        assert_eq!(z.invalid, 0);
+    }
+
+    #[test]
+    fn schemes_are_chosen_from_the_model_form() {
+        let lin = linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+        let sim = Simulation::new(&lin, &small(32)).unwrap();
+        assert_eq!(sim.settings().scheme, SchemeKind::MechanicalStrang);
+        let general = McConfig {
+            scheme: SchemeChoice::General,
+            ..small(32)
+        };
+        let sim = Simulation::new(&lin, &general).unwrap();
+        assert_eq!(sim.settings().scheme, SchemeKind::Heun);
+        // Noise in the x-equation: not mechanical.
+        let mut m = linear_oscillator(0.5, 1.0, 1.0);
+        m.noise_matrix[0] = vec![crate::symbolic::Expr::num(0.1)];
+        let sim = Simulation::new(&m.bind(&[]).unwrap(), &small(32)).unwrap();
+        assert_eq!(sim.settings().scheme, SchemeKind::Heun);
+        m.interpretation = crate::model::Interpretation::Ito;
+        let sim = Simulation::new(&m.bind(&[]).unwrap(), &small(32)).unwrap();
+        assert_eq!(sim.settings().scheme, SchemeKind::EulerMaruyama);
+    }
+
+    #[test]
+    fn burn_in_is_ten_decay_times_of_the_linearisation() {
+        // z'' + 0.4 z' + z: eigenvalues −0.2 ± i·0.98, decay time 5.
+        let lin = linear_oscillator(0.4, 1.0, 1.0).bind(&[]).unwrap();
+        let sim = Simulation::new(&lin, &small(32)).unwrap();
+        assert_eq!(sim.settings().burn_in_steps, 5000);
+        // Overdamped z'' + 5 z' + 4 z: eigenvalues −1 and −4, the slow one decides.
+        let od = linear_oscillator(5.0, 4.0, 1.0).bind(&[]).unwrap();
+        let sim = Simulation::new(&od, &small(32)).unwrap();
+        assert_eq!(sim.settings().burn_in_steps, 1000);
+        // No damping: nothing to estimate from.
+        let free = linear_oscillator(0.0, 1.0, 1.0).bind(&[]).unwrap();
+        assert!(matches!(
+            Simulation::new(&free, &small(32)),
+            Err(McError::NoDecay { .. })
+        ));
+    }
+
+    #[test]
+    fn automatic_grids_cover_the_pilot_and_fold_at_zero() {
+        let p = VibroImpact {
+            c: 0.5,
+            k: 1.0,
+            mu: 1.0,
+            eps: 0.0,
+            r: 0.9,
+            big_k: 0.1,
+        };
+        let m = vibro_impact(p).bind(&[]).unwrap();
+        let sim = Simulation::new(&m, &small(32)).unwrap();
+        let q = &sim.settings().quantities;
+        let names: Vec<&str> = q.iter().map(|q| q.name.as_str()).collect();
+        assert_eq!(names, ["z", "v", "y", "ydot"]);
+        assert_eq!(q[2].grid.lo, 0.0, "y = |z| is never negative");
+        assert!(q[0].grid.lo < -0.5 && q[0].grid.hi > 0.5);
+        assert_eq!(q[0].grid.bins, 100);
+    }
+
+    #[test]
+    fn bad_settings_are_errors() {
+        let lin = linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+        let bad = |c: McConfig| Simulation::new(&lin, &c).err().unwrap();
+        assert!(matches!(
+            bad(McConfig {
+                dt: 0.0,
+                ..small(32)
+            }),
+            McError::BadSetting { name: "dt", .. }
+        ));
+        assert!(matches!(
+            bad(McConfig {
+                spacing: 0.015,
+                ..small(32)
+            }),
+            McError::BadSetting {
+                name: "spacing",
+                ..
+            }
+        ));
+        assert!(matches!(
+            bad(small(16)),
+            McError::BadSetting {
+                name: "trajectories",
+                ..
+            }
+        ));
+        let unknown = McConfig {
+            grids: vec![("w".into(), Grid::new(0.0, 1.0, 2).unwrap())],
+            ..small(32)
+        };
+        assert!(matches!(bad(unknown), McError::UnknownQuantity { .. }));
+    }
+
+    #[test]
+    fn fully_correlated_sources_have_a_singular_square_root() {
+        let l = scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
+        assert_eq!(l, vec![2.0, 0.0, 1.0, 0.0]);
+        assert!(matches!(
+            scheme::psd_sqrt(&[vec![1.0, 2.0], vec![2.0, 1.0]]),
+            Err(McError::IntensityNotPsd { .. })
+        ));
+    }
 }

@@ -143,3 +143,42 @@ pub fn vibro_impact(p: VibroImpact) -> Model {
     ];
     m
 }
+
+/// The paper's oscillator in its original coordinates (Eqs. 1–2): `y'' + c y' + k y + μ y³ =
+/// (1 + ε y) ξ(t)` for `y > 0`, with the reflecting impact law `y = 0: ẏ → −r·ẏ`. States `y`,
+/// `ydot`. Simulated directly, it must give the same stationary law as [`vibro_impact`] does
+/// through the Zhuravlev map, for any r (the transformation is exact for trajectories).
+///
+/// ```
+/// use fpsolve::mc::reference::{reflecting_vibro_impact, VibroImpact};
+/// let p = VibroImpact { c: 0.1, k: 1.0, mu: 0.5, eps: 0.1, r: 0.9, big_k: 0.1 };
+/// assert_eq!(reflecting_vibro_impact(p).states()[0].as_ref(), "y");
+/// ```
+pub fn reflecting_vibro_impact(p: VibroImpact) -> Model {
+    let (y, v) = (s("y"), s("ydot"));
+    let force =
+        -(s("c") * v.clone()) - s("k") * y.clone() - s("mu") * Expr::pow(y.clone(), Expr::num(3.0));
+    let mut m = oscillator(
+        "vibro-impact-reflecting",
+        vec![
+            param("c", p.c),
+            param("k", p.k),
+            param("mu", p.mu),
+            param("eps", p.eps),
+            param("r", p.r),
+            param("K", p.big_k),
+        ],
+        force,
+        Expr::num(2.0 * std::f64::consts::PI) * s("K"),
+    );
+    m.states = ["y".into(), "ydot".into()];
+    m.drift[0] = v.clone();
+    m.noise_matrix[1] = vec![Expr::num(1.0) + s("eps") * y];
+    m.impact = Some(ImpactLaw {
+        state: 0,
+        at: Expr::num(0.0),
+        other: 1,
+        map: -(s("r") * v),
+    });
+    m
+}
