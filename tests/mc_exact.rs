@@ -280,6 +280,41 @@ fn a_different_seed_gives_different_numbers() {
     assert_ne!(a.quantities[0].mean.value, b.quantities[0].mean.value);
 }
 
+/// Checks that two runs estimate the same law: every histogram bin of `names` above 1% of
+/// the peak, and the impact rate, agree within 4.5 combined standard errors. Returns the
+/// worst bin deviation, both impact rates and their deviation, in standard errors.
+fn same_law(
+    a: &McResult,
+    b: &McResult,
+    names: &[&str],
+) -> (f64, fpsolve::mc::Estimate, fpsolve::mc::Estimate, f64) {
+    let mut worst: f64 = 0.0;
+    for &name in names {
+        let (qa, qb) = (a.quantity(name).unwrap(), b.quantity(name).unwrap());
+        let peak = qa.density.iter().cloned().fold(0.0, f64::max);
+        for j in 0..qa.grid.bins {
+            if qa.density[j] < 1e-2 * peak {
+                continue;
+            }
+            let se = (qa.stderr[j].powi(2) + qb.stderr[j].powi(2)).sqrt();
+            let z = (qa.density[j] - qb.density[j]) / se;
+            assert!(
+                z.abs() < 4.5,
+                "{name} bin {j}: {} vs {} ({z:.1} se)",
+                qa.density[j],
+                qb.density[j]
+            );
+            worst = worst.max(z.abs());
+        }
+    }
+    let (ra, rb) = (
+        a.impacts.as_ref().unwrap().rate,
+        b.impacts.as_ref().unwrap().rate,
+    );
+    let z = (ra.value - rb.value) / (ra.stderr.powi(2) + rb.stderr.powi(2)).sqrt();
+    (worst, ra, rb, z)
+}
+
 /// The Zhuravlev form (pass-through, v → r·v) and the original coordinates (reflection,
 /// ẏ → −r·ẏ) are the same process for trajectories: their y and ẏ histograms must agree
 /// within the two runs' combined error bars, for inelastic impacts and parametric noise.
@@ -319,29 +354,48 @@ fn zhuravlev_and_reflecting_forms_agree_for_inelastic_impacts() {
         0,
         "the reflecting form left y ≥ 0"
     );
-    let mut worst: f64 = 0.0;
-    for name in ["y", "ydot"] {
-        let (a, b) = (zh.quantity(name).unwrap(), re.quantity(name).unwrap());
-        let peak = a.density.iter().cloned().fold(0.0, f64::max);
-        for j in 0..a.grid.bins {
-            if a.density[j] < 1e-2 * peak {
-                continue;
-            }
-            let se = (a.stderr[j].powi(2) + b.stderr[j].powi(2)).sqrt();
-            let z = (a.density[j] - b.density[j]) / se;
-            assert!(
-                z.abs() < 4.5,
-                "{name} bin {j}: {} vs {} ({z:.1} se)",
-                a.density[j],
-                b.density[j]
-            );
-            worst = worst.max(z.abs());
-        }
-    }
-    let (ra, rb) = (zh.impacts.unwrap().rate, re.impacts.unwrap().rate);
-    let z = (ra.value - rb.value) / (ra.stderr.powi(2) + rb.stderr.powi(2)).sqrt();
+    let (worst, ra, rb, z) = same_law(&zh, &re, &["y", "ydot"]);
     eprintln!(
         "worst bin {worst:.2} se; impact rates {:.4} vs {:.4} ({z:.1} se)",
+        ra.value, rb.value
+    );
+    assert!(z.abs() < 4.5);
+}
+
+#[test]
+fn general_scheme_with_events_matches_the_splitting() {
+    let p = VibroImpact {
+        c: 0.3,
+        k: 1.0,
+        mu: 0.5,
+        eps: 0.4,
+        r: 0.6,
+        big_k: 0.08,
+    };
+    let config = |seed: u64, scheme| McConfig {
+        trajectories: 2048,
+        lanes: 64,
+        samples: 300,
+        spacing: 0.5,
+        seed,
+        scheme,
+        grids: vec![
+            ("y".to_string(), Grid::new(0.0, 1.5, 30).unwrap()),
+            ("ydot".to_string(), Grid::new(-1.5, 1.5, 30).unwrap()),
+        ],
+        ..McConfig::default()
+    };
+    let model = bind(vibro_impact(p));
+    let a = Simulation::new(&model, &config(1, SchemeChoice::Auto))
+        .unwrap()
+        .run();
+    let b = Simulation::new(&model, &config(2, SchemeChoice::General))
+        .unwrap()
+        .run();
+    assert_eq!(b.settings.scheme, fpsolve::mc::SchemeKind::Heun);
+    let (worst, ra, rb, z) = same_law(&a, &b, &["y", "ydot"]);
+    eprintln!(
+        "general vs splitting: worst bin {worst:.2} se; impact rates {:.4} vs {:.4} ({z:.1} se)",
         ra.value, rb.value
     );
     assert!(z.abs() < 4.5);
