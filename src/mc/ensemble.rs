@@ -164,7 +164,7 @@ fn run_batch_once(
     let mut acc: Vec<Accumulator> = st
         .quantities
         .iter()
-        .map(|q| Accumulator::new(q.grid))
+        .map(|q| Accumulator::new(q.grid, lanes))
         .collect();
     let n_obs = st.quantities.len() - 2;
     let mut obs = vec![0.0; n_obs * lanes];
@@ -215,7 +215,7 @@ fn run_batch_once(
         index,
         recorded,
         impacts,
-        quantities: acc.into_iter().map(|a| a.out).collect(),
+        quantities: acc.into_iter().map(Accumulator::finish).collect(),
         blowups,
     };
     (summary, blown)
