@@ -29,14 +29,20 @@ impl BatchKernel for Tape {
     fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch) {
         let n = x.len();
         let out = &mut out[..n * self.n_outputs()];
-        // The hot kernels have one output: no allocation for them.
-        match self.n_outputs() {
-            0 => {}
-            1 => Tape::eval_batch(self, &[x, v], &mut [out], scratch),
-            _ => {
-                let mut rows: Vec<&mut [f64]> = out.chunks_mut(n).collect();
-                Tape::eval_batch(self, &[x, v], &mut rows, scratch)
-            }
+        // Output rows as slices of `out`, on the stack for the kernels the schemes use.
+        const STACK_ROWS: usize = 8;
+        let k = self.n_outputs();
+        if k == 0 || n == 0 {
+            return;
+        }
+        if k <= STACK_ROWS {
+            let mut chunks = out.chunks_mut(n);
+            let mut rows: [&mut [f64]; STACK_ROWS] =
+                std::array::from_fn(|_| chunks.next().unwrap_or(&mut []));
+            Tape::eval_batch(self, &[x, v], &mut rows[..k], scratch);
+        } else {
+            let mut rows: Vec<&mut [f64]> = out.chunks_mut(n).collect();
+            Tape::eval_batch(self, &[x, v], &mut rows, scratch);
         }
     }
 
