@@ -106,7 +106,7 @@ fn bench(c: &mut Criterion) {
         ),
     ] {
         let sim = simulation(inc, scheme);
-        g.bench_function(name, |b| b.iter(|| one.install(|| sim.run())));
+        g.bench_function(name, |b| b.iter(|| one.install(|| sim.run().unwrap())));
     }
     // Both cores: the throughput behind "1e9 samples at spacing 0.1 in under a minute".
     let two = rayon::ThreadPoolBuilder::new()
@@ -115,7 +115,7 @@ fn bench(c: &mut Criterion) {
         .unwrap();
     let sim = simulation(Increments::ThreePoint, SchemeChoice::Auto);
     g.bench_function("batched_three_point_2_threads", |b| {
-        b.iter(|| two.install(|| sim.run()))
+        b.iter(|| two.install(|| sim.run().unwrap()))
     });
     g.finish();
 }

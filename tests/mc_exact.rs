@@ -92,7 +92,7 @@ fn vibro_impact_with_elastic_impacts_folds_the_duffing_density() {
         ],
         ..McConfig::default()
     };
-    let res = Simulation::new(&model, &config).unwrap().run();
+    let res = Simulation::new(&model, &config).unwrap().run().unwrap();
     assert!(res.blowups.is_empty());
     let beta = p.c / (std::f64::consts::PI * p.big_k);
     let pz = normalised(
@@ -124,7 +124,7 @@ fn linear_variance(scheme: SchemeChoice, dt: f64) -> McResult {
         scheme,
         ..McConfig::default()
     };
-    Simulation::new(&model, &config).unwrap().run()
+    Simulation::new(&model, &config).unwrap().run().unwrap()
 }
 
 #[test]
@@ -167,7 +167,7 @@ fn weak_error_shrinks_at_second_order_when_dt_halves() {
             seed: 3,
             ..McConfig::default()
         };
-        let v = Simulation::new(&model, &config).unwrap().run();
+        let v = Simulation::new(&model, &config).unwrap().run().unwrap();
         v.quantity("v").unwrap().variance
     };
     let (coarse, fine) = (run(0.5), run(0.25));
@@ -219,7 +219,7 @@ fn results_are_bit_identical_across_thread_counts() {
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| sim.run())
+        pool.install(|| sim.run().unwrap())
     };
     let one = run_with(1);
     let two = run_with(2);
@@ -234,7 +234,7 @@ fn results_are_bit_identical_across_thread_counts() {
 #[test]
 fn merged_shards_equal_the_unsharded_run_bit_for_bit() {
     let (sim, _) = small_vibro_run();
-    let whole = sim.run();
+    let whole = sim.run().unwrap();
     for count in [2, 3, 8] {
         // Shards go through JSON, as on a cluster, and arrive in any order.
         let mut shards: Vec<ShardOutput> = (0..count)
@@ -261,7 +261,7 @@ fn merged_shards_equal_the_unsharded_run_bit_for_bit() {
 #[test]
 fn a_different_seed_gives_different_numbers() {
     let (sim, mut config) = small_vibro_run();
-    let a = sim.run();
+    let a = sim.run().unwrap();
     config.seed += 1;
     config.grids = a
         .quantities
@@ -276,7 +276,7 @@ fn a_different_seed_gives_different_numbers() {
         r: 0.8,
         big_k: 0.05,
     }));
-    let b = Simulation::new(&model, &config).unwrap().run();
+    let b = Simulation::new(&model, &config).unwrap().run().unwrap();
     assert_ne!(a.quantities[0].mean.value, b.quantities[0].mean.value);
 }
 
@@ -345,10 +345,12 @@ fn zhuravlev_and_reflecting_forms_agree_for_inelastic_impacts() {
     };
     let zh = Simulation::new(&bind(vibro_impact(p)), &config(1))
         .unwrap()
-        .run();
+        .run()
+        .unwrap();
     let re = Simulation::new(&bind(reflecting_vibro_impact(p)), &config(2))
         .unwrap()
-        .run();
+        .run()
+        .unwrap();
     assert_eq!(
         re.quantity("y").unwrap().underflow,
         0,
@@ -388,10 +390,12 @@ fn general_scheme_with_events_matches_the_splitting() {
     let model = bind(vibro_impact(p));
     let a = Simulation::new(&model, &config(1, SchemeChoice::Auto))
         .unwrap()
-        .run();
+        .run()
+        .unwrap();
     let b = Simulation::new(&model, &config(2, SchemeChoice::General))
         .unwrap()
-        .run();
+        .run()
+        .unwrap();
     assert_eq!(b.settings.scheme, fpsolve::mc::SchemeKind::Heun);
     let (worst, ra, rb, z) = same_law(&a, &b, &["y", "ydot"]);
     eprintln!(

@@ -8,6 +8,7 @@ use super::histogram::{finalize, Accumulator, Estimate, Grid, QuantityBatch, Qua
 use super::rng::Increments;
 use super::scheme::{BatchState, Plan, SchemeKind};
 use super::shard::exact;
+use super::McError;
 
 /// A parameter value, as a run records it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -250,8 +251,17 @@ pub(crate) fn run_batches(
         .collect()
 }
 
-/// Reduces batch summaries (all of a run's, in batch order) to the run's result.
-pub(crate) fn finalize_run(st: &RunSettings, batches: &[&BatchSummary]) -> McResult {
+/// Reduces batch summaries (all of a run's, in batch order) to the run's result; an error
+/// if no trajectory survived.
+pub(crate) fn finalize_run(
+    st: &RunSettings,
+    batches: &[&BatchSummary],
+) -> Result<McResult, McError> {
+    if batches.iter().all(|b| b.recorded == 0) {
+        return Err(McError::AllBlewUp {
+            blowups: batches.iter().map(|b| b.blowups.len()).sum(),
+        });
+    }
     let quantities = st
         .quantities
         .iter()
@@ -279,7 +289,7 @@ pub(crate) fn finalize_run(st: &RunSettings, batches: &[&BatchSummary]) -> McRes
             },
         }
     });
-    McResult {
+    Ok(McResult {
         settings: st.clone(),
         trajectories,
         quantities,
@@ -288,5 +298,5 @@ pub(crate) fn finalize_run(st: &RunSettings, batches: &[&BatchSummary]) -> McRes
             .iter()
             .flat_map(|b| b.blowups.iter().cloned())
             .collect(),
-    }
+    })
 }

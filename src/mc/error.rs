@@ -44,6 +44,12 @@ pub enum McError {
         /// The quantity.
         name: String,
     },
+    /// Every trajectory of the run blew up: there is nothing to estimate from.
+    #[error("all {blowups} trajectories blew up (non-finite state); see their list for where")]
+    AllBlewUp {
+        /// How many trajectories were run.
+        blowups: usize,
+    },
     /// Shards given to a merge do not belong to the same run or do not cover it exactly.
     #[error("cannot merge shards: {reason}")]
     ShardMismatch {

@@ -207,7 +207,8 @@ pub struct QuantityStats {
     pub max: f64,
 }
 
-/// A Monte Carlo estimate with its standard error.
+/// A Monte Carlo estimate with its standard error (infinite when fewer than two statistics
+/// batches have samples).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
     /// The estimate.
@@ -278,15 +279,21 @@ pub(crate) fn finalize(
         .collect();
     let (m1, var, kurt) = central(&sums, n);
     // Per-batch values for the moments' standard errors.
+    // Batches that lost every trajectory to blow-ups carry no moments.
     let per_batch: Vec<(f64, f64, f64)> = batches
         .iter()
         .zip(&n_b)
+        .filter(|(_, &k)| k > 0.0)
         .map(|(b, &k)| central(&b.sums, k))
         .collect();
     let spread = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| -> f64 {
-        let mean = per_batch.iter().map(pick).sum::<f64>() / nb;
+        let m = per_batch.len() as f64;
+        if m < 2.0 {
+            return f64::INFINITY;
+        }
+        let mean = per_batch.iter().map(pick).sum::<f64>() / m;
         let ss: f64 = per_batch.iter().map(|t| (pick(t) - mean).powi(2)).sum();
-        (ss / (nb - 1.0) / nb).sqrt()
+        (ss / (m - 1.0) / m).sqrt()
     };
     QuantityStats {
         name: name.to_string(),

@@ -13,7 +13,7 @@
 //! // A linear oscillator z'' + c z' + k z = ξ: Var z = S/(2ck).
 //! let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
 //! let config = McConfig { trajectories: 256, samples: 200, seed: 1, ..McConfig::default() };
-//! let result = Simulation::new(&model, &config).unwrap().run();
+//! let result = Simulation::new(&model, &config).unwrap().run().unwrap();
 //! let var = result.quantity("z").unwrap().variance;
 //! assert!((var.value - 1.0).abs() < 5.0 * var.stderr + 0.02);
 //! ```
@@ -239,7 +239,9 @@ impl Simulation {
             };
             let summaries = run_batches(&plan, &pilot, 0..PILOT_BATCHES);
             let refs: Vec<_> = summaries.iter().collect();
-            let res = finalize_run(&pilot, &refs);
+            let res = finalize_run(&pilot, &refs).map_err(|_| McError::NoPilotRange {
+                name: settings.quantities[0].name.clone(),
+            })?;
             for (spec, stats) in settings.quantities.iter_mut().zip(&res.quantities) {
                 if !given(&spec.name) {
                     spec.grid = auto_grid(stats, config.bins)?;
@@ -254,8 +256,9 @@ impl Simulation {
         &self.settings
     }
 
-    /// Runs the whole simulation.
-    pub fn run(&self) -> McResult {
+    /// Runs the whole simulation. Trajectories that blow up are listed in the result and left
+    /// out; if all do, that is an error.
+    pub fn run(&self) -> Result<McResult, McError> {
         let summaries = run_batches(&self.plan, &self.settings, 0..self.settings.batches);
         let refs: Vec<_> = summaries.iter().collect();
         finalize_run(&self.settings, &refs)
@@ -332,7 +335,7 @@ mod tests {
             ..small(64)
         };
         let sim = Simulation::new(&model, &config).unwrap();
-        let res = sim.run();
+        let res = sim.run().unwrap();
         let total = sim.settings().trajectories();
         let lost = res.blowups.len() as u64;
         assert!(lost > 0 && lost < total, "{lost} of {total} blew up");
@@ -349,6 +352,21 @@ mod tests {
         assert!(z.mean.value.is_finite() && z.variance.value.is_finite());
         assert_eq!(z.samples, res.trajectories * 100);
         assert_eq!(z.invalid, 0);
+    }
+
+    #[test]
+    fn a_run_where_every_trajectory_blows_up_is_an_error() {
+        // Strong noise over a low barrier: every trajectory escapes to infinity.
+        let model = duffing(0.5, 1.0, -1.0, 5.0).bind(&[]).unwrap();
+        let config = McConfig {
+            grids: vec![
+                ("z".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+                ("v".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+            ],
+            ..small(32)
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        assert_eq!(sim.run(), Err(McError::AllBlewUp { blowups: 32 }));
     }
 
     #[test]

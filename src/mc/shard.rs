@@ -112,7 +112,7 @@ pub fn merge_shards(shards: &[ShardOutput]) -> Result<McResult, McError> {
         }
         batches.extend(s.batches.iter());
     }
-    Ok(finalize_run(&first.settings, &batches))
+    finalize_run(&first.settings, &batches)
 }
 
 /// Serde helpers writing `f64` as its shortest round-trip decimal string (`"0.1"`, `"inf"`),
