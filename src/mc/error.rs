@@ -14,6 +14,17 @@ pub enum McError {
     /// A model expression could not be compiled for evaluation.
     #[error("cannot compile the model for simulation: {0}")]
     Compile(#[from] crate::symbolic::SymbolicError),
+    /// A drift or noise coefficient has a `delta(...)` term but the model has no impact law:
+    /// a time-stepping simulation never sees a delta (it is zero off a line the trajectories
+    /// cross in no time), so the term would silently vanish.
+    #[error(
+        "`{expr}` contains delta(...) but the model has no impact law; a simulation needs the \
+         impact as an event (`impact` line) to represent it"
+    )]
+    DeltaWithoutImpact {
+        /// The expression with the delta, printed.
+        expr: String,
+    },
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
     #[error("the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value})")]
     IntensityNotPsd {

@@ -464,6 +464,24 @@ mod tests {
     }
 
     #[test]
+    fn a_delta_term_without_an_impact_law_is_an_error() {
+        let p = VibroImpact {
+            c: 0.5,
+            k: 1.0,
+            mu: 1.0,
+            eps: 0.0,
+            r: 0.9,
+            big_k: 0.1,
+        };
+        let mut m = vibro_impact(p);
+        m.impact = None;
+        assert!(matches!(
+            Simulation::new(&m.bind(&[]).unwrap(), &small(32)),
+            Err(McError::DeltaWithoutImpact { .. })
+        ));
+    }
+
+    #[test]
     fn fully_correlated_sources_have_a_singular_square_root() {
         let l = scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
         assert_eq!(l, vec![2.0, 0.0, 1.0, 0.0]);

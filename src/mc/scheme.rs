@@ -162,6 +162,14 @@ impl Plan {
             && g[0].iter().all(is_zero)
             && g[1].iter().all(|e| !e.mentions(v))
             && mechanical_barrier;
+        let mut coefficients = model.drift.iter().chain(g[0].iter()).chain(g[1].iter());
+        if model.impact.is_none() {
+            if let Some(e) = coefficients.find(|e| e.contains_delta()) {
+                return Err(McError::DeltaWithoutImpact {
+                    expr: e.to_string(),
+                });
+            }
+        }
         let sqrt_s = psd_sqrt(s)?;
         let (kind, dynamics) = if mechanical {
             // σ = √(Σ_kl G_1k S_kl G_1l), built symbolically so it compiles as one expression;
