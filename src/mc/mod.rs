@@ -481,6 +481,69 @@ mod tests {
         ));
     }
 
+    /// `v' = −c v − k z + ξ₀ + σ v ξ₁` (independent sources of intensities s₀, s₁): the
+    /// stationary E[v²] is s₀/(2c − s₁σ²) read as Itô and s₀/(2c − 2s₁σ²) read as
+    /// Stratonovich (Wong–Zakai adds ½s₁σ²·v to the drift).
+    fn velocity_noise(interpretation: crate::model::Interpretation, seed: u64) -> McResult {
+        use crate::model::NoiseSource;
+        use crate::symbolic::Expr;
+        let mut m = linear_oscillator(0.5, 1.0, 1.0);
+        m.noises.push(NoiseSource {
+            name: "xi1".into(),
+            intensity: Expr::num(1.0),
+        });
+        m.noise_matrix = [
+            vec![Expr::num(0.0), Expr::num(0.0)],
+            vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
+        ];
+        m.interpretation = interpretation;
+        let config = McConfig {
+            dt: 0.005,
+            spacing: 0.5,
+            trajectories: 512,
+            lanes: 16,
+            samples: 200,
+            seed,
+            grids: vec![
+                ("z".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
+                ("v".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
+            ],
+            ..McConfig::default()
+        };
+        Simulation::new(&m.bind(&[]).unwrap(), &config)
+            .unwrap()
+            .run()
+            .unwrap()
+    }
+
+    #[test]
+    fn ito_and_stratonovich_readings_reach_their_own_exact_variances() {
+        use crate::model::Interpretation;
+        for (interp, exact, kind) in [
+            (
+                Interpretation::Ito,
+                1.0 / (1.0 - 0.25),
+                SchemeKind::EulerMaruyama,
+            ),
+            (
+                Interpretation::Stratonovich,
+                1.0 / (1.0 - 0.5),
+                SchemeKind::Heun,
+            ),
+        ] {
+            let res = velocity_noise(interp, 4);
+            assert_eq!(res.settings.scheme, kind);
+            let var = res.quantity("v").unwrap().variance;
+            eprintln!("{interp:?}: {} ± {} (exact {exact})", var.value, var.stderr);
+            assert!(
+                (var.value - exact).abs() < 4.5 * var.stderr,
+                "{interp:?}: {} ± {} vs {exact}",
+                var.value,
+                var.stderr
+            );
+        }
+    }
+
     #[test]
     fn fully_correlated_sources_have_a_singular_square_root() {
         let l = scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
