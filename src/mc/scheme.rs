@@ -663,3 +663,36 @@ fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64]) -> [f64; 2] {
         p[1] + 0.5 * (incr(&e0, 1) + incr(&e1, 1)),
     ]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mc::reference::{vibro_impact, VibroImpact};
+
+    #[test]
+    fn vector_width_does_not_change_a_bit() {
+        let p = VibroImpact {
+            c: 0.2,
+            k: 1.0,
+            mu: 0.5,
+            eps: 0.3,
+            r: 0.7,
+            big_k: 0.1,
+        };
+        let model = vibro_impact(p).bind(&[]).unwrap();
+        for choice in [SchemeChoice::Auto, SchemeChoice::General] {
+            let plan = Plan::new(&model, choice).unwrap();
+            let spread = plan.initial_spread();
+            let mut a = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
+            let mut b = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
+            a.advance(&plan, 500, 0.01);
+            b.advance_body(&plan, 500, 0.01);
+            for i in 0..37 {
+                assert_eq!(a.x[i].to_bits(), b.x[i].to_bits());
+                assert_eq!(a.v[i].to_bits(), b.v[i].to_bits());
+            }
+            assert_eq!(a.impacts, b.impacts);
+            assert!(a.impacts.iter().sum::<u64>() > 0);
+        }
+    }
+}
