@@ -146,6 +146,8 @@ impl Accumulator {
             mx[i] = if ok { mx[i].max(q) } else { mx[i] };
             // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
             let slot = ((q - lo) * inv_w + 1.0).max(0.0).min(top) as u32;
+            // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
+            let slot = if q < lo { 0 } else { slot };
             let slot = if finite { slot } else { invalid };
             idx[i] = if record[i] { slot } else { skipped };
         }
@@ -340,13 +342,16 @@ mod tests {
             0.5,
             -7.0,
             f64::INFINITY,
+            -1e-18,
         ];
-        let rec = [true, true, true, true, true, true, true, false, true, true];
+        let rec = [
+            true, true, true, true, true, true, true, false, true, true, true,
+        ];
         let mut a = Accumulator::new(g, vals.len());
         a.add(&vals, &rec);
         let out = a.finish();
         assert_eq!(out.counts, vec![2, 1, 0, 1]);
-        assert_eq!((out.under, out.over, out.invalid), (2, 1, 2));
+        assert_eq!((out.under, out.over, out.invalid), (3, 1, 2));
         assert_eq!((out.min, out.max), (-7.0, 1.0));
     }
 
