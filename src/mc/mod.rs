@@ -64,7 +64,9 @@ pub struct McConfig {
     pub dt: f64,
     /// Time between recorded samples, a whole number of steps (default 0.1).
     pub spacing: f64,
-    /// Number of trajectories, rounded up to whole statistics batches (default 4096).
+    /// Number of trajectories, rounded up to whole statistics batches (default 4096). Error
+    /// bars come from the spread over batches: at least two are required, ~30 or more give
+    /// trustworthy ones.
     pub trajectories: u64,
     /// Samples recorded per trajectory (default 1000).
     pub samples: u64,
