@@ -6,9 +6,7 @@
 
 pub mod epc;
 pub mod fpk;
-pub mod model;
-pub mod epc;
-pub mod fpk;
+pub mod mc;
 pub mod model;
 pub mod observe;
 pub mod report;

@@ -1,0 +1,380 @@
+//! Streaming histograms and moments on fixed grids: no sample is kept, only bin counts and
+//! power sums per statistics batch.
+
+use serde::{Deserialize, Serialize};
+
+use super::shard::exact;
+use super::McError;
+
+/// A fixed histogram grid: `bins` equal bins covering `[lo, hi)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Grid {
+    /// Left edge of the first bin.
+    #[serde(with = "exact")]
+    pub lo: f64,
+    /// Right edge of the last bin.
+    #[serde(with = "exact")]
+    pub hi: f64,
+    /// Number of bins (≥ 1).
+    pub bins: usize,
+}
+
+impl Grid {
+    /// A grid of `bins` bins on `[lo, hi)`.
+    ///
+    /// ```
+    /// let g = fpsolve::mc::Grid::new(0.0, 2.0, 4).unwrap();
+    /// assert_eq!(g.width(), 0.5);
+    /// assert!(fpsolve::mc::Grid::new(1.0, 1.0, 4).is_err());
+    /// ```
+    pub fn new(lo: f64, hi: f64, bins: usize) -> Result<Grid, McError> {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) || bins == 0 {
+            return Err(McError::BadSetting {
+                name: "grid",
+                reason: format!("need finite lo < hi and bins ≥ 1, got [{lo}, {hi}) with {bins}"),
+            });
+        }
+        Ok(Grid { lo, hi, bins })
+    }
+
+    /// The width of one bin.
+    pub fn width(&self) -> f64 {
+        (self.hi - self.lo) / self.bins as f64
+    }
+
+    /// The centres of the bins.
+    ///
+    /// ```
+    /// let g = fpsolve::mc::Grid::new(0.0, 1.0, 2).unwrap();
+    /// assert_eq!(g.centers(), vec![0.25, 0.75]);
+    /// ```
+    pub fn centers(&self) -> Vec<f64> {
+        let w = self.width();
+        (0..self.bins)
+            .map(|j| self.lo + (j as f64 + 0.5) * w)
+            .collect()
+    }
+}
+
+/// One quantity's statistics over one batch: bin counts, out-of-range and invalid counts,
+/// power sums of `q − shift` (`shift` is the grid's centre, to keep the sums well
+/// conditioned), and the extremes of the finite values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(crate) struct QuantityBatch {
+    pub(crate) counts: Vec<u64>,
+    pub(crate) under: u64,
+    pub(crate) over: u64,
+    /// Non-finite values of an observable at a finite state.
+    pub(crate) invalid: u64,
+    #[serde(with = "exact::array4")]
+    pub(crate) sums: [f64; 4],
+    #[serde(with = "exact")]
+    pub(crate) min: f64,
+    #[serde(with = "exact")]
+    pub(crate) max: f64,
+}
+
+/// Accumulates one quantity of one batch, lane-parallel: power sums and extremes per lane
+/// (vectorised), bin indices computed for all lanes and then counted. [`Accumulator::finish`]
+/// adds the lanes up in lane order.
+pub(crate) struct Accumulator {
+    grid: Grid,
+    inv_width: f64,
+    shift: f64,
+    /// Slots: 0 below the grid, 1..=bins the bins, bins+1 above, bins+2 lanes not recorded,
+    /// bins+3 non-finite values.
+    slots: Vec<u64>,
+    index: Vec<u32>,
+    sums: [Vec<f64>; 4],
+    min: Vec<f64>,
+    max: Vec<f64>,
+}
+
+impl Accumulator {
+    pub(crate) fn new(grid: Grid, lanes: usize) -> Accumulator {
+        Accumulator {
+            grid,
+            inv_width: grid.bins as f64 / (grid.hi - grid.lo),
+            shift: 0.5 * (grid.lo + grid.hi),
+            slots: vec![0; grid.bins + 4],
+            index: vec![0; lanes],
+            sums: std::array::from_fn(|_| vec![0.0; lanes]),
+            min: vec![f64::INFINITY; lanes],
+            max: vec![f64::NEG_INFINITY; lanes],
+        }
+    }
+
+    /// Adds one sample value per lane, for the lanes with `record[i]`.
+    pub(crate) fn add(&mut self, values: &[f64], record: &[bool]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above. The arithmetic is IEEE-exact
+            // whatever the vector width (no fused multiply-add), so results do not change.
+            unsafe { self.add_avx2(values, record) };
+            return;
+        }
+        self.add_body(values, record);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_avx2(&mut self, values: &[f64], record: &[bool]) {
+        self.add_body(values, record);
+    }
+
+    #[inline(always)]
+    fn add_body(&mut self, values: &[f64], record: &[bool]) {
+        let n = values.len();
+        let (values, record) = (&values[..n], &record[..n]);
+        let (lo, inv_w, shift) = (self.grid.lo, self.inv_width, self.shift);
+        let top = (self.grid.bins + 1) as f64;
+        let (skipped, invalid) = (self.grid.bins as u32 + 2, self.grid.bins as u32 + 3);
+        let [s1, s2, s3, s4] = &mut self.sums;
+        let (s1, s2, s3, s4) = (&mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n]);
+        let (mn, mx, idx) = (&mut self.min[..n], &mut self.max[..n], &mut self.index[..n]);
+        for i in 0..n {
+            let q = values[i];
+            let finite = q.is_finite();
+            let ok = record[i] && finite;
+            let d = if ok { q - shift } else { 0.0 };
+            let d2 = d * d;
+            s1[i] += d;
+            s2[i] += d2;
+            s3[i] += d2 * d;
+            s4[i] += d2 * d2;
+            mn[i] = if ok { mn[i].min(q) } else { mn[i] };
+            mx[i] = if ok { mx[i].max(q) } else { mx[i] };
+            // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
+            let slot = ((q - lo) * inv_w + 1.0).max(0.0).min(top) as u32;
+            // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
+            let slot = if q < lo { 0 } else { slot };
+            let slot = if finite { slot } else { invalid };
+            idx[i] = if record[i] { slot } else { skipped };
+        }
+        for &k in idx.iter() {
+            self.slots[k as usize] += 1;
+        }
+    }
+
+    /// The batch's statistics, lanes added in order.
+    pub(crate) fn finish(self) -> QuantityBatch {
+        let bins = self.grid.bins;
+        let mut sums = [0.0; 4];
+        for (total, lanes) in sums.iter_mut().zip(&self.sums) {
+            *total = lanes.iter().sum();
+        }
+        QuantityBatch {
+            counts: self.slots[1..=bins].to_vec(),
+            under: self.slots[0],
+            over: self.slots[bins + 1],
+            invalid: self.slots[bins + 3],
+            sums,
+            min: self.min.iter().cloned().fold(f64::INFINITY, f64::min),
+            max: self.max.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+}
+
+/// The summary statistics of one quantity over a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QuantityStats {
+    /// The state's or observable's name.
+    pub name: String,
+    /// Whether it is a state (`true`) or an observable.
+    pub is_state: bool,
+    /// The histogram grid.
+    pub grid: Grid,
+    /// Density estimate per bin: count / (finite samples · bin width), so it integrates to the
+    /// fraction of samples inside the grid.
+    pub density: Vec<f64>,
+    /// Standard error of each bin's density, from the spread over statistics batches.
+    pub stderr: Vec<f64>,
+    /// Finite samples recorded.
+    pub samples: u64,
+    /// Samples below the grid.
+    pub underflow: u64,
+    /// Samples at or above the grid's right edge.
+    pub overflow: u64,
+    /// Non-finite values of the quantity at a finite state (excluded from all statistics).
+    pub invalid: u64,
+    /// Sample mean and its standard error.
+    pub mean: Estimate,
+    /// Sample variance and its standard error.
+    pub variance: Estimate,
+    /// Kurtosis m₄/m₂² (3 for a Gaussian) and its standard error.
+    pub kurtosis: Estimate,
+    /// Smallest finite value seen.
+    pub min: f64,
+    /// Largest finite value seen.
+    pub max: f64,
+}
+
+/// A Monte Carlo estimate with its standard error (infinite when fewer than two statistics
+/// batches have samples).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// The estimate.
+    pub value: f64,
+    /// Its standard error (from the spread over statistics batches).
+    pub stderr: f64,
+}
+
+/// Central moments (mean, variance, kurtosis) from shifted power sums over `n` samples.
+fn central(sums: &[f64; 4], n: f64) -> (f64, f64, f64) {
+    let m1 = sums[0] / n;
+    let r2 = sums[1] / n;
+    let r3 = sums[2] / n;
+    let r4 = sums[3] / n;
+    let var = r2 - m1 * m1;
+    let c4 = r4 - 4.0 * m1 * r3 + 6.0 * m1 * m1 * r2 - 3.0 * m1.powi(4);
+    (m1, var, c4 / (var * var))
+}
+
+/// Combines one quantity's batch statistics, in batch order, into [`QuantityStats`].
+///
+/// Standard errors treat the batches as independent replicas; the density's uses the ratio
+/// estimator Var(p̂_j) ≈ B/(B−1) Σ_b (c_bj − p̂_j n_b)² / (N w)², which allows batches of
+/// unequal size (batches that lost trajectories to blow-ups).
+pub(crate) fn finalize(
+    name: &str,
+    is_state: bool,
+    grid: Grid,
+    batches: &[&QuantityBatch],
+) -> QuantityStats {
+    let nb = batches.len() as f64;
+    let w = grid.width();
+    let shift = 0.5 * (grid.lo + grid.hi);
+    let finite = |b: &QuantityBatch| b.counts.iter().sum::<u64>() + b.under + b.over;
+    let n_b: Vec<f64> = batches.iter().map(|b| finite(b) as f64).collect();
+    let n: f64 = n_b.iter().sum();
+    let mut counts = vec![0u64; grid.bins];
+    let (mut under, mut over, mut invalid) = (0, 0, 0);
+    let mut sums = [0.0; 4];
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for b in batches {
+        for (c, bc) in counts.iter_mut().zip(&b.counts) {
+            *c += bc;
+        }
+        under += b.under;
+        over += b.over;
+        invalid += b.invalid;
+        for k in 0..4 {
+            sums[k] += b.sums[k];
+        }
+        min = min.min(b.min);
+        max = max.max(b.max);
+    }
+    let density: Vec<f64> = counts.iter().map(|&c| c as f64 / (n * w)).collect();
+    let stderr: Vec<f64> = (0..grid.bins)
+        .map(|j| {
+            let f = counts[j] as f64 / n;
+            let ss: f64 = batches
+                .iter()
+                .zip(&n_b)
+                .map(|(b, &nb_)| {
+                    let d = b.counts[j] as f64 - f * nb_;
+                    d * d
+                })
+                .sum();
+            (nb / (nb - 1.0) * ss).sqrt() / (n * w)
+        })
+        .collect();
+    let (m1, var, kurt) = central(&sums, n);
+    // Per-batch values for the moments' standard errors.
+    // Batches that lost every trajectory to blow-ups carry no moments.
+    let per_batch: Vec<(f64, f64, f64)> = batches
+        .iter()
+        .zip(&n_b)
+        .filter(|(_, &k)| k > 0.0)
+        .map(|(b, &k)| central(&b.sums, k))
+        .collect();
+    let spread = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| -> f64 {
+        let m = per_batch.len() as f64;
+        if m < 2.0 {
+            return f64::INFINITY;
+        }
+        let mean = per_batch.iter().map(pick).sum::<f64>() / m;
+        let ss: f64 = per_batch.iter().map(|t| (pick(t) - mean).powi(2)).sum();
+        (ss / (m - 1.0) / m).sqrt()
+    };
+    QuantityStats {
+        name: name.to_string(),
+        is_state,
+        grid,
+        density,
+        stderr,
+        samples: n as u64,
+        underflow: under,
+        overflow: over,
+        invalid,
+        mean: Estimate {
+            value: shift + m1,
+            stderr: spread(&|t| t.0),
+        },
+        variance: Estimate {
+            value: var,
+            stderr: spread(&|t| t.1),
+        },
+        kurtosis: Estimate {
+            value: kurt,
+            stderr: spread(&|t| t.2),
+        },
+        min,
+        max,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_edges_and_out_of_range_values() {
+        let g = Grid::new(0.0, 1.0, 4).unwrap();
+        let vals = [
+            0.0,
+            0.2499,
+            0.25,
+            0.99,
+            1.0,
+            -0.1,
+            f64::NAN,
+            0.5,
+            -7.0,
+            f64::INFINITY,
+            -1e-18,
+        ];
+        let rec = [
+            true, true, true, true, true, true, true, false, true, true, true,
+        ];
+        let mut a = Accumulator::new(g, vals.len());
+        a.add(&vals, &rec);
+        let out = a.finish();
+        assert_eq!(out.counts, vec![2, 1, 0, 1]);
+        assert_eq!((out.under, out.over, out.invalid), (3, 1, 2));
+        assert_eq!((out.min, out.max), (-7.0, 1.0));
+    }
+
+    #[test]
+    fn moments_and_errors_of_known_batches() {
+        // Two batches of the values {0, 1, 2, 3} and {1, 2, 3, 4}.
+        let g = Grid::new(0.0, 5.0, 5).unwrap();
+        let mut a = Accumulator::new(g, 4);
+        a.add(&[0.0, 1.0, 2.0, 3.0], &[true; 4]);
+        let mut b = Accumulator::new(g, 2);
+        b.add(&[1.0, 2.0], &[true; 2]);
+        b.add(&[3.0, 4.0], &[true; 2]);
+        let s = finalize("q", true, g, &[&a.finish(), &b.finish()]);
+        assert_eq!(s.samples, 8);
+        approx::assert_relative_eq!(s.mean.value, 2.0, epsilon = 1e-14);
+        // Batch means 1.5 and 2.5: standard error 0.5.
+        approx::assert_relative_eq!(s.mean.stderr, 0.5, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.variance.value, 1.5, epsilon = 1e-14);
+        // Values 0,1,1,2,2,3,3,4 about 2: m4 = (16+1+1+0+0+1+1+16)/8 = 4.5, m2 = 1.5.
+        approx::assert_relative_eq!(s.kurtosis.value, 2.0, epsilon = 1e-14);
+        assert_eq!(s.density, vec![1.0 / 8.0, 0.25, 0.25, 0.25, 1.0 / 8.0]);
+        // Bin 0: counts 1 and 0 against 0.5 expected each: B/(B−1)·(0.25+0.25) = 1 → 1/8.
+        approx::assert_relative_eq!(s.stderr[0], 1.0 / 8.0, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.stderr[2], 0.0, epsilon = 1e-14);
+    }
+}
