@@ -63,15 +63,17 @@ pub enum EpcError {
     },
     /// No Galerkin solution was found at this degree.
     #[error(
-        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
+        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} (needed ≤ {threshold:.1e}) with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
     )]
     NoConvergence {
         /// The degree.
         degree: usize,
         /// The methods and starts tried, comma-separated.
         tried: String,
-        /// The smallest residual norm reached.
+        /// The smallest residual norm ‖R‖ reached.
         best_residual: f64,
+        /// The ‖R‖ a converged solve must reach.
+        threshold: f64,
         /// The gradient norm of ½‖R‖² there.
         gradient: f64,
         /// What the evidence says about a real solution nearby.

@@ -14,8 +14,11 @@ pub struct SolveReport {
     pub method: String,
     /// Its iterations.
     pub iterations: usize,
-    /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)).
+    /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)), recomputed from the
+    /// returned coefficients.
     pub residual: f64,
+    /// The bound ‖R‖ had to reach: tolerance·max(1, ‖R‖ at the Gaussian-closure start).
+    pub residual_threshold: f64,
     /// Gauss nodes per piece of each axis.
     pub quadrature_order: usize,
     /// Whether the order came from a convergence check (non-polynomial coefficients).
