@@ -1,6 +1,6 @@
 //! The EPC engine's error type.
 
-use crate::symbolic::EvalError;
+use crate::symbolic::{EvalError, SymbolicError};
 
 /// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -32,6 +32,14 @@ pub enum EpcError {
         x2: f64,
         /// The evaluator's reason.
         source: EvalError,
+    },
+    /// An FPK coefficient could not be compiled for evaluation.
+    #[error("cannot compile {what}: {source}")]
+    Compile {
+        /// Which coefficients.
+        what: String,
+        /// The compiler's reason.
+        source: SymbolicError,
     },
     /// A coefficient was NaN or infinite at a quadrature point.
     #[error("{what} is not finite at ({x1}, {x2})")]

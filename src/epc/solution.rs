@@ -23,14 +23,16 @@ pub struct SolveReport {
     pub quadrature_order: usize,
     /// Whether the order came from a convergence check (non-polynomial coefficients).
     pub order_checked: bool,
-    /// Milliseconds for the closure, assembly, Newton and normalisation (+ observables).
+    /// Milliseconds for the Gaussian closure (shared by all degrees of one problem).
     pub closure_ms: f64,
-    /// Assembly time.
+    /// Milliseconds for the quadrature moment tables (shared) and this degree's assembly.
     pub assembly_ms: f64,
-    /// Solver time.
+    /// Milliseconds in the nonlinear solver at this degree.
     pub solve_ms: f64,
-    /// Normalisation and observables time.
+    /// Milliseconds for the normalisation (region, grid, normalising integral).
     pub normalise_ms: f64,
+    /// Milliseconds for the FPK residual indicator ∫|F|·p dx.
+    pub fpk_residual_ms: f64,
 }
 
 /// Moments and tails of one state.

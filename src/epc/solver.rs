@@ -46,9 +46,20 @@ fn newton(
     let mut a = a0.clone();
     let (mut r, mut j) = sys.residual_and_jacobian(&a);
     let mut norm = r.norm();
+    // ‖R‖ eight iterations ago: damped Newton that gains less than 10% over eight steps is
+    // crawling along a valley towards a nonzero minimum (near a root it converges
+    // quadratically), which Levenberg–Marquardt handles better.
+    let mut history = std::collections::VecDeque::with_capacity(9);
     for it in 0..max_iter {
         if norm <= tol {
             return (a, norm, it, true);
+        }
+        history.push_back(norm);
+        if history.len() > 8 {
+            let old = history.pop_front().expect("non-empty");
+            if norm > 0.9 * old {
+                return (a, norm, it, false);
+            }
         }
         let Some(step) = j.clone().lu().solve(&(-&r)) else {
             return (a, norm, it, false);
@@ -58,7 +69,8 @@ fn newton(
         }
         let mut t = 1.0;
         let mut accepted = false;
-        for _ in 0..40 {
+        // t down to 2^-20: a Newton direction that only helps at shorter steps is useless here.
+        for _ in 0..20 {
             let an = &a + t * &step;
             let (rn, jn) = sys.residual_and_jacobian(&an);
             let nn = rn.norm();
@@ -84,9 +96,11 @@ fn newton(
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum LmStop {
     Converged,
-    /// No descent is possible any more (the gradient vanished, no damping gave a decrease, or
-    /// ‖R‖ stopped decreasing): a numerical local minimum of ‖R‖.
+    /// No descent is possible any more (no damping gave a decrease, or ‖R‖ stopped
+    /// decreasing): a numerical local minimum of ‖R‖.
     Stationary,
+    /// The gradient JᵀR vanished: a critical point of ½‖R‖², possibly a saddle or maximum.
+    Critical,
     /// The iteration limit came first.
     IterationLimit,
 }
@@ -120,7 +134,7 @@ fn levenberg_marquardt(
         let jtj = &jt * &j;
         let g = &jt * &r;
         if g.norm() <= 1e-14 * (1.0 + jtj.norm()) * norm.max(1e-300) {
-            return (a, norm, it, LmStop::Stationary);
+            return (a, norm, it, LmStop::Critical);
         }
         let mut improved = false;
         for _ in 0..30 {
@@ -200,13 +214,17 @@ pub(crate) fn solve(
         }
         keep(&a, n, false, &mut best);
     }
+    // A run that ends at a stationary point whose ‖R‖ is far above the threshold has found a
+    // genuine nonzero minimum: perturbing it would only find the same minimum again.
+    let mut clearly_nonzero = false;
     for (name, a0) in starts {
         let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold, 400);
         tried.push(format!("Levenberg-Marquardt from {name}"));
         if stop == LmStop::Converged {
             return Ok(done(a, format!("levenberg-marquardt from {name}"), it));
         }
-        keep(&a, n, stop == LmStop::Stationary, &mut best);
+        clearly_nonzero |= stop == LmStop::Stationary && n > 1e3 * threshold;
+        keep(&a, n, stop != LmStop::IterationLimit, &mut best);
     }
     // Multistart: deterministic perturbations of the best point, relative to its size.
     let (centre, _, _) = best.clone().expect("at least one start");
@@ -218,7 +236,8 @@ pub(crate) fn solve(
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
     };
-    for trial in 0..PERTURBED_STARTS {
+    let perturbed = if clearly_nonzero { 0 } else { PERTURBED_STARTS };
+    for trial in 0..perturbed {
         let amp = 0.05 * scale * (1 + trial % 4) as f64;
         let a0 = DVector::from_iterator(centre.len(), centre.iter().map(|v| v + amp * next()));
         let (a, n, it, stop) = levenberg_marquardt(sys, &a0, threshold, 400);
@@ -233,11 +252,13 @@ pub(crate) fn solve(
                 it,
             ));
         }
-        keep(&a, n, stop == LmStop::Stationary, &mut best);
+        keep(&a, n, stop != LmStop::IterationLimit, &mut best);
     }
-    tried.push(format!(
-        "Levenberg-Marquardt from {PERTURBED_STARTS} perturbed starts"
-    ));
+    if perturbed > 0 {
+        tried.push(format!(
+            "Levenberg-Marquardt from {perturbed} perturbed starts"
+        ));
+    }
     let (a, _, stationary) = best.expect("at least one start");
     let (r, j) = sys.residual_and_jacobian(&a);
     Err(SolveFailure {
