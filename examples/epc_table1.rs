@@ -49,6 +49,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Err(e) => println!("  error: {e}"),
             }
         }
+        // Degree 6: follow its solution from the exact r = 1, ε = 0 case to this case.
+        let at = |l: f64| {
+            let b = model
+                .bind(&[
+                    Override::number("mu", mu),
+                    Override::number("r", 1.0 - 0.05 * l),
+                    Override::number("eps", eps * l),
+                ])
+                .map_err(|e| e.to_string())?;
+            FpkOperator::derive(&b).map_err(|e| e.to_string())
+        };
+        match Epc::new(&fpk, model.delta_treatment()).degree(6).branch(&at) {
+            Ok(b) => match b.end {
+                fpsolve::epc::BranchEnd::Fold { lambda } => println!(
+                    "  degree-6 branch from (r=1, eps=0) folds at lambda={lambda:.4} (r={:.4}, eps={:.4}) after {} points",
+                    1.0 - 0.05 * lambda,
+                    eps * lambda,
+                    b.points.len()
+                ),
+                end => println!("  degree-6 branch: {end:?} after {} points", b.points.len()),
+            },
+            Err(e) => println!("  degree-6 branch: {e}"),
+        }
         for n in [4, 6, 8] {
             let t = std::time::Instant::now();
             let ok = Epc::new(&fpk, model.delta_treatment())

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use approx::assert_relative_eq;
-use fpsolve::epc::{Epc, EpcError, EpcSolution, NormalisationKind};
+use fpsolve::epc::{BranchEnd, Epc, EpcError, EpcSolution, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, DeltaTreatment, Override};
 
@@ -238,4 +238,36 @@ fn bad_inputs_are_typed_errors() {
             .solve(),
         Err(EpcError::Weight { .. })
     ));
+}
+
+/// Table 1 case 1 at degree 6: follow the degree-6 solution from the exactly solvable
+/// r = 1, ε = 0 (where it is the Duffing density, top coefficients zero) along
+/// r = 1 − 0.05λ, ε = 0.1λ to case 1 (λ = 1).
+#[test]
+fn table1_case1_degree6_branch_from_the_exact_case() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    let model = load_model(&path).unwrap();
+    let at = |l: f64| {
+        let bound = model
+            .bind(&[
+                Override::number("r", 1.0 - 0.05 * l),
+                Override::number("eps", 0.1 * l),
+            ])
+            .map_err(|e| e.to_string())?;
+        FpkOperator::derive(&bound).map_err(|e| e.to_string())
+    };
+    let target = at(1.0).unwrap();
+    let epc = Epc::new(&target, model.delta_treatment()).degree(6);
+    assert!(matches!(epc.solve(), Err(EpcError::NoConvergence { .. })));
+    let branch = epc.branch(&at).unwrap();
+    // Every point is a genuine solution of its system.
+    assert!(
+        branch.points.iter().all(|p| p.residual < 1e-9),
+        "{branch:?}"
+    );
+    // The branch folds back at λ ≈ 0.257 (r ≈ 0.987, ε ≈ 0.026), long before case 1.
+    let BranchEnd::Fold { lambda } = branch.end else {
+        panic!("expected a fold: {branch:?}")
+    };
+    assert!((0.24..0.27).contains(&lambda), "fold at λ = {lambda}");
 }

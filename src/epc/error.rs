@@ -41,6 +41,14 @@ pub enum EpcError {
         /// The compiler's reason.
         source: SymbolicError,
     },
+    /// A member of a continuation family could not be built.
+    #[error("the family's operator at λ = {lambda} could not be built: {reason}")]
+    Family {
+        /// The family parameter.
+        lambda: f64,
+        /// Why.
+        reason: String,
+    },
     /// A coefficient was NaN or infinite at a quadrature point.
     #[error("{what} is not finite at ({x1}, {x2})")]
     NonFinite {

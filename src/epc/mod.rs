@@ -31,6 +31,7 @@
 
 mod closure;
 mod coefficients;
+mod continuation;
 mod error;
 mod galerkin;
 mod normalise;
@@ -43,6 +44,7 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 pub use closure::GaussianClosure;
+pub use continuation::{Branch, BranchEnd, BranchPoint};
 pub use error::EpcError;
 pub use galerkin::exponents;
 pub use normalise::{NormalisationKind, NormalisationReport};
@@ -193,6 +195,65 @@ impl<'a> Epc<'a> {
             out.push(r);
         }
         out
+    }
+
+    /// Follows the degree-n Galerkin solution along a family of operators `family(λ)` from
+    /// λ = 0 (where it must have a real solution, found by [`Epc::solve`] with this problem's
+    /// weights) to λ = 1 (normally this problem's operator) by pseudo-arclength continuation,
+    /// with the weights σ of this problem held fixed. The answer says whether the branch
+    /// reaches λ = 1 or folds back first, which is evidence about whether the target has a
+    /// real solution connected to the λ = 0 one.
+    ///
+    /// ```
+    /// use fpsolve::epc::{BranchEnd, Epc};
+    /// use fpsolve::fpk::FpkOperator;
+    /// use fpsolve::model::{parse_model, Override};
+    ///
+    /// let model = parse_model("model lin
+    /// param c = 0.1
+    /// state z, v
+    /// drift z: v
+    /// drift v: -c*v - z
+    /// noise xi: intensity 1
+    /// diffusion v: xi
+    /// ", None).unwrap();
+    /// let at = |c: f64| FpkOperator::derive(&model.bind(&[Override::number("c", c)]).unwrap())
+    ///     .map_err(|e| e.to_string());
+    /// let target = at(0.2).unwrap();
+    /// let family = |l: f64| at(0.1 + 0.1 * l);
+    /// let branch = Epc::new(&target, model.delta_treatment()).degree(2).branch(&family).unwrap();
+    /// assert_eq!(branch.end, BranchEnd::Reached);
+    /// ```
+    pub fn branch(
+        &self,
+        family: &dyn Fn(f64) -> Result<FpkOperator, String>,
+    ) -> Result<Branch, EpcError> {
+        let n = self.degree;
+        check_degree(n)?;
+        let sigma = self.prepare()?.sigma;
+        let member = |l: f64| family(l).map_err(|reason| EpcError::Family { lambda: l, reason });
+        let fixed = [Some(sigma[0]), Some(sigma[1])];
+        let start = {
+            let op = member(0.0)?;
+            let sol = Epc {
+                fpk: &op,
+                ..self.clone()
+            }
+            .weights(fixed)
+            .solve()?;
+            DVector::from_vec(sol.scaled_coefficients)
+        };
+        let system = |l: f64| -> Result<GalerkinSystem, EpcError> {
+            let op = member(l)?;
+            let epc = Epc {
+                fpk: &op,
+                ..self.clone()
+            }
+            .weights(fixed);
+            let prep = epc.prepare()?;
+            Ok(GalerkinSystem::assemble(&epc.moments(&prep, n)?.0, n))
+        };
+        continuation::follow(&system, start, n)
     }
 
     fn prepare(&self) -> Result<Prepared, EpcError> {
