@@ -1,162 +1,181 @@
-//! EPC against exact stationary densities, and the vibro-impact operator of the paper (Eq. 13).
+//! EPC against exact stationary densities and on the paper's vibro-impact model (Eq. 13), all
+//! through the real pipeline: model file → `Model::bind` (with `--set`-style overrides) →
+//! `FpkOperator::derive` → `Epc`.
+
+use std::path::Path;
 
 use approx::assert_relative_eq;
-use fpsolve::epc::{Epc, EpcError, NormalisationKind};
+use fpsolve::epc::{BranchEnd, Epc, EpcError, EpcSolution, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
-use fpsolve::model::DeltaTreatment;
-use fpsolve::symbolic::{DeltaLine, DeltaSplit, Expr, Func};
+use fpsolve::model::{load_model, DeltaTreatment, Override};
 
-fn n(v: f64) -> Expr {
-    Expr::num(v)
+/// The operator and delta treatment of `models/<file>` with parameters overridden.
+fn operator(file: &str, set: &[(&str, f64)]) -> (FpkOperator, DeltaTreatment) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models")
+        .join(file);
+    let model = load_model(&path).unwrap_or_else(|e| panic!("{file}: {e}"));
+    let overrides: Vec<Override> = set.iter().map(|(n, v)| Override::number(n, *v)).collect();
+    let bound = model.bind(&overrides).unwrap();
+    (
+        FpkOperator::derive(&bound).unwrap(),
+        model.delta_treatment(),
+    )
 }
-fn z() -> Expr {
-    Expr::sym("z")
+
+/// A model with a known stationary density p ∝ exp(Σ q_ij z^i v^j) (original variables).
+struct Exact {
+    file: &'static str,
+    set: Vec<(&'static str, f64)>,
+    /// The exact Q's nonzero coefficients.
+    q: Vec<((usize, usize), f64)>,
+    /// Degrees at which EPC must reproduce Q (every degree ≥ deg Q).
+    degrees: Vec<usize>,
 }
-fn v() -> Expr {
-    Expr::sym("v")
-}
-fn reg(e: Expr) -> DeltaSplit {
-    DeltaSplit {
-        regular: e,
-        lines: vec![],
+
+/// Energy-type densities exp(−f (v²/2 + k z²/2 + μ z⁴/4)).
+fn energy(f: f64, k: f64, mu: f64) -> Vec<((usize, usize), f64)> {
+    let mut q = vec![((0, 2), -f / 2.0), ((2, 0), -f * k / 2.0)];
+    if mu != 0.0 {
+        q.push(((4, 0), -f * mu / 4.0));
     }
-}
-fn abs(e: Expr) -> Expr {
-    Expr::call(Func::Abs, e)
+    q
 }
 
-/// The paper's Eq. 13 operator (states z, v): c, k, μ, 2πK, r, ε.
-fn vibro_impact(c: f64, k: f64, mu: f64, two_pi_k: f64, r: f64, eps: f64) -> FpkOperator {
-    let pk = 0.5 * two_pi_k;
-    let z3 = Expr::pow(z(), n(3.0));
-    let b_vv = n(pk) * (n(1.0) + n(2.0 * eps) * abs(z()) + n(eps * eps) * Expr::pow(z(), n(2.0)));
-    let line = |w: Expr| DeltaLine {
-        axis: 0,
-        at: 0.0,
-        weight: w,
-    };
-    let lines_a0 = if r < 1.0 {
-        vec![line(n(2.0 * (1.0 - r)) * abs(v()))]
-    } else {
-        vec![]
-    };
-    let lines_av = if r < 1.0 {
-        vec![line(n(1.0 - r) * v() * abs(v()))]
-    } else {
-        vec![]
-    };
-    FpkOperator {
-        states: ["z".into(), "v".into()],
-        drift: [v(), n(-c) * v() - n(k) * z() - n(mu) * z3.clone()],
-        wong_zakai: [n(0.0), n(0.0)],
-        diffusion: [[n(0.0), n(0.0)], [n(0.0), n(2.0) * b_vv.clone()]],
-        a0: DeltaSplit {
-            regular: n(c),
-            lines: lines_a0,
+fn registry() -> Vec<Exact> {
+    // 2πK = 1 in every file: πK = 1/2.
+    vec![
+        Exact {
+            file: "linear.sde",
+            set: vec![("c", 0.3), ("k", 2.0)],
+            q: energy(0.3 / 0.5, 2.0, 0.0),
+            degrees: vec![2, 4],
         },
-        a: [
-            reg(-v()),
-            DeltaSplit {
-                regular: n(c) * v() + n(k) * z() + n(mu) * z3,
-                lines: lines_av,
-            },
-        ],
-        b: [[reg(n(0.0)), reg(n(0.0))], [reg(n(0.0)), reg(b_vv)]],
-    }
+        Exact {
+            file: "duffing.sde",
+            set: vec![],
+            q: energy(0.1 / 0.5, 1.0, 0.1),
+            degrees: vec![4, 6],
+        },
+        Exact {
+            file: "duffing.sde",
+            set: vec![("mu", 1.0)],
+            q: energy(0.1 / 0.5, 1.0, 1.0),
+            degrees: vec![4],
+        },
+        // (1 + εx)² damping with (1 + εx) noise: β/(πK) = 0.4.
+        Exact {
+            file: "parametric.sde",
+            set: vec![],
+            q: energy(0.2 / 0.5, 1.0, 0.5),
+            degrees: vec![4, 6],
+        },
+        // The vibro-impact model without impacts (r = 1) or parametric noise (ε = 0) is the
+        // Duffing oscillator: the Stratonovich reading and sgn(z)² = 1 must both come out right.
+        Exact {
+            file: "vibro_duffing.sde",
+            set: vec![("r", 1.0), ("eps", 0.0)],
+            q: energy(0.1 / 0.5, 1.0, 0.1),
+            degrees: vec![4, 6],
+        },
+    ]
 }
 
-/// ẍ + β(1+εx)²ẋ + x + μx³ = (1+εx)ξ (Itô form as given): m_v = −β(1+εx)²v − x − μx³,
-/// b_vv = 2πK(1+εx)².
-fn parametric(beta: f64, eps: f64, mu: f64, two_pi_k: f64) -> FpkOperator {
-    let s2 = Expr::pow(n(1.0) + n(eps) * z(), n(2.0));
-    let m_v = n(-beta) * s2.clone() * v() - z() - n(mu) * Expr::pow(z(), n(3.0));
-    let b = n(two_pi_k) * s2.clone();
-    // A0 = −∂_v m_v + ½∂_v²b = β(1+εx)², A_z = −v, A_v = −m_v, B_vv = b/2.
-    FpkOperator {
-        states: ["z".into(), "v".into()],
-        drift: [v(), m_v.clone()],
-        wong_zakai: [n(0.0), n(0.0)],
-        diffusion: [[n(0.0), n(0.0)], [n(0.0), b.clone()]],
-        a0: reg(n(beta) * s2.clone()),
-        a: [reg(-v()), reg(-m_v)],
-        b: [[reg(n(0.0)), reg(n(0.0))], [reg(n(0.0)), reg(n(0.5) * b)]],
+/// ln ∫∫ exp(Q) dz dv for a Q without z–v cross terms, by trapezoid sums (spectrally accurate
+/// here) over boxes reaching e^-60 of the peak.
+fn log_z_exact(q: &[((usize, usize), f64)]) -> f64 {
+    let part = |axis: usize| {
+        let poly = |t: f64| -> f64 {
+            q.iter()
+                .filter(|((i, j), _)| if axis == 0 { *j == 0 } else { *i == 0 })
+                .map(|((i, j), a)| a * t.powi((i + j) as i32))
+                .sum()
+        };
+        let mut half = 1.0;
+        while poly(half) > -60.0 {
+            half *= 1.5;
+        }
+        let n = 4000;
+        let h = 2.0 * half / n as f64;
+        (0..=n)
+            .map(|i| poly(-half + i as f64 * h).exp())
+            .sum::<f64>()
+            * h
+    };
+    (part(0) * part(1)).ln()
+}
+
+fn check_exact(case: &Exact, sol: &EpcSolution) {
+    let label = format!("{} {:?} degree {}", case.file, case.set, sol.degree);
+    for (e, a) in sol.exponents.iter().zip(&sol.coefficients) {
+        let want = case.q.iter().find(|(f, _)| f == e).map_or(0.0, |(_, v)| *v);
+        assert!(
+            (a - want).abs() <= 1e-7 * (1.0 + want.abs()),
+            "{label}: coefficient {e:?} = {a}, exact {want}"
+        );
     }
+    assert!(
+        matches!(sol.normalisation.kind, NormalisationKind::Plane { .. }),
+        "{label}: {:?}",
+        sol.normalisation.kind
+    );
+    assert!(
+        sol.solve.residual <= sol.solve.residual_threshold,
+        "{label}"
+    );
+    assert!(
+        sol.fpk_residual < 1e-6,
+        "{label}: ∫|F|p = {}",
+        sol.fpk_residual
+    );
+    // Normalisation: ln C against the exact normalising integral, and p at a few points.
+    let log_z = log_z_exact(&case.q);
+    assert_relative_eq!(sol.log_c(), -log_z, epsilon = 1e-6);
+    for (z, v) in [(0.0, 0.0), (1.0, -0.5), (-2.0, 3.0)] {
+        let q: f64 = case
+            .q
+            .iter()
+            .map(|((i, j), a)| a * f64::powi(z, *i as i32) * f64::powi(v, *j as i32))
+            .sum();
+        assert_relative_eq!(sol.pdf(z, v), (q - log_z).exp(), max_relative = 1e-6);
+    }
+    // v is Gaussian in every case of the registry: Var v = −1/(2 q_02).
+    let q02 = case.q.iter().find(|(e, _)| *e == (0, 2)).unwrap().1;
+    assert_relative_eq!(sol.moments[1].variance, -0.5 / q02, max_relative = 1e-6);
 }
 
 #[test]
-fn duffing_degree_4_is_exact() {
-    for mu in [0.1, 1.0] {
-        let (c, k) = (0.1, 1.0);
-        let fpk = vibro_impact(c, k, mu, 1.0, 1.0, 0.0);
-        let sol = Epc::new(&fpk, DeltaTreatment::Exact)
-            .degree(4)
-            .solve()
-            .unwrap();
-        let f = c / 0.5; // c/(πK)
-        assert_relative_eq!(sol.coefficient(0, 2), -f / 2.0, max_relative = 1e-8);
-        assert_relative_eq!(sol.coefficient(2, 0), -f * k / 2.0, max_relative = 1e-8);
-        assert_relative_eq!(sol.coefficient(4, 0), -f * mu / 4.0, max_relative = 1e-8);
-        for (e, a) in sol.exponents.iter().zip(&sol.coefficients) {
-            if ![(0, 2), (2, 0), (4, 0)].contains(e) {
-                assert!(a.abs() < 1e-9, "{e:?}: {a}");
+fn exact_densities_are_reproduced() {
+    for case in registry() {
+        let (fpk, treatment) = operator(case.file, &case.set);
+        let mut degrees = vec![2];
+        degrees.extend(case.degrees.iter().copied().filter(|d| *d > 2));
+        let res = Epc::new(&fpk, treatment).solve_degrees(&degrees);
+        for (d, r) in degrees.iter().zip(res) {
+            let sol = r.unwrap_or_else(|e| panic!("{} degree {d}: {e}", case.file));
+            if case.degrees.contains(d) {
+                check_exact(&case, &sol);
             }
         }
-        assert!(matches!(
-            sol.normalisation.kind,
-            NormalisationKind::Plane { .. }
-        ));
-        assert!(sol.fpk_residual < 1e-8, "{}", sol.fpk_residual);
-        // Velocity is exactly Gaussian with variance πK/c.
-        assert_relative_eq!(sol.moments[1].variance, 5.0, max_relative = 1e-8);
     }
 }
 
 #[test]
-fn parametric_class_is_exact_at_degrees_4_and_6() {
-    let (beta, eps, mu, tpk) = (0.2, 0.3, 0.5, 1.0);
-    let fpk = parametric(beta, eps, mu, tpk);
-    let f = beta / (0.5 * tpk);
-    for r in Epc::new(&fpk, DeltaTreatment::Exact)
-        .solve_degrees(&[2, 4, 6])
-        .into_iter()
-        .skip(1)
-    {
-        let sol = r.unwrap();
-        assert_relative_eq!(sol.coefficient(0, 2), -f / 2.0, max_relative = 1e-7);
-        assert_relative_eq!(sol.coefficient(2, 0), -f / 2.0, max_relative = 1e-7);
-        assert_relative_eq!(sol.coefficient(4, 0), -f * mu / 4.0, max_relative = 1e-7);
-        assert!(sol.coefficient(1, 1).abs() < 1e-8);
-        assert!(sol.coefficient(3, 0).abs() < 1e-8);
-    }
-}
-
-#[test]
-fn linear_oscillator_degree_2_is_the_exact_gaussian() {
+fn linear_oscillator_closure_is_exact() {
     let (c, k) = (0.3, 2.0);
-    let fpk = vibro_impact(c, k, 0.0, 1.0, 1.0, 0.0);
-    let sol = Epc::new(&fpk, DeltaTreatment::Exact)
-        .degree(2)
-        .solve()
-        .unwrap();
-    assert_relative_eq!(sol.moments[0].variance, 0.5 / (c * k), max_relative = 1e-8);
-    assert_relative_eq!(sol.moments[1].variance, 0.5 / c, max_relative = 1e-8);
+    let (fpk, treatment) = operator("linear.sde", &[("c", c), ("k", k)]);
+    let sol = Epc::new(&fpk, treatment).degree(2).solve().unwrap();
     let cl = sol.closure.as_ref().unwrap();
     assert_relative_eq!(cl.covariance[0][0], 0.5 / (c * k), max_relative = 1e-10);
+    assert_relative_eq!(cl.covariance[1][1], 0.5 / c, max_relative = 1e-10);
     assert!(cl.covariance[0][1].abs() < 1e-10);
-    // Normalisation: the density at the mode is 1/(2π σ1 σ2).
-    let s = [(0.5 / (c * k)).sqrt(), (0.5 / c).sqrt()];
-    assert_relative_eq!(
-        sol.pdf(0.0, 0.0),
-        1.0 / (std::f64::consts::TAU * s[0] * s[1]),
-        max_relative = 1e-8
-    );
     assert_relative_eq!(sol.tail_probability(1, 0.0), 1.0, max_relative = 1e-6);
 }
 
 #[test]
 fn vibro_impact_degree_2_is_the_closure_and_degree_4_improves() {
-    let fpk = vibro_impact(0.1, 1.0, 0.1, 1.0, 0.95, 0.1);
-    let res = Epc::new(&fpk, DeltaTreatment::Exact).solve_degrees(&[2, 4]);
+    let (fpk, treatment) = operator("vibro_duffing.sde", &[]);
+    let res = Epc::new(&fpk, treatment).solve_degrees(&[2, 4]);
     let s2 = res[0].as_ref().unwrap();
     let cl = s2.closure.as_ref().unwrap();
     // Zero mean, uncorrelated closure; EPC-2 with its weights is the closure Gaussian.
@@ -184,7 +203,7 @@ fn vibro_impact_degree_2_is_the_closure_and_degree_4_improves() {
 
 #[test]
 fn regulariser_converges_to_the_exact_treatment() {
-    let fpk = vibro_impact(0.1, 1.0, 0.1, 1.0, 0.95, 0.1);
+    let (fpk, _) = operator("vibro_duffing.sde", &[]);
     let exact = Epc::new(&fpk, DeltaTreatment::Exact)
         .degree(2)
         .solve()
@@ -208,15 +227,47 @@ fn regulariser_converges_to_the_exact_treatment() {
 
 #[test]
 fn bad_inputs_are_typed_errors() {
-    let fpk = vibro_impact(0.1, 1.0, 0.1, 1.0, 0.95, 0.1);
+    let (fpk, treatment) = operator("vibro_duffing.sde", &[]);
     assert!(matches!(
-        Epc::new(&fpk, DeltaTreatment::Exact).degree(1).solve(),
+        Epc::new(&fpk, treatment).degree(1).solve(),
         Err(EpcError::Degree { .. })
     ));
     assert!(matches!(
-        Epc::new(&fpk, DeltaTreatment::Exact)
+        Epc::new(&fpk, treatment)
             .weights([Some(-1.0), None])
             .solve(),
         Err(EpcError::Weight { .. })
     ));
+}
+
+/// Table 1 case 1 at degree 6: follow the degree-6 solution from the exactly solvable
+/// r = 1, ε = 0 (where it is the Duffing density, top coefficients zero) along
+/// r = 1 − 0.05λ, ε = 0.1λ to case 1 (λ = 1).
+#[test]
+fn table1_case1_degree6_branch_from_the_exact_case() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    let model = load_model(&path).unwrap();
+    let at = |l: f64| {
+        let bound = model
+            .bind(&[
+                Override::number("r", 1.0 - 0.05 * l),
+                Override::number("eps", 0.1 * l),
+            ])
+            .map_err(|e| e.to_string())?;
+        FpkOperator::derive(&bound).map_err(|e| e.to_string())
+    };
+    let target = at(1.0).unwrap();
+    let epc = Epc::new(&target, model.delta_treatment()).degree(6);
+    assert!(matches!(epc.solve(), Err(EpcError::NoConvergence { .. })));
+    let branch = epc.branch(&at).unwrap();
+    // Every point is a genuine solution of its system.
+    assert!(
+        branch.points.iter().all(|p| p.residual < 1e-9),
+        "{branch:?}"
+    );
+    // The branch folds back at λ ≈ 0.257 (r ≈ 0.987, ε ≈ 0.026), long before case 1.
+    let BranchEnd::Fold { lambda } = branch.end else {
+        panic!("expected a fold: {branch:?}")
+    };
+    assert!((0.24..0.27).contains(&lambda), "fold at λ = {lambda}");
 }

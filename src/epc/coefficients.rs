@@ -3,7 +3,7 @@
 
 use crate::fpk::FpkOperator;
 use crate::model::DeltaTreatment;
-use crate::symbolic::{DeltaLine, DeltaPolicy, Expr, Func, Symbol};
+use crate::symbolic::{DeltaLine, DeltaPolicy, Expr, Func, Symbol, Tape, TapeScratch};
 
 use super::quadrature::{normal_pdf, regularised_rule, split_normal_rule};
 use super::EpcError;
@@ -12,12 +12,16 @@ use super::EpcError;
 pub(crate) const CHANNELS: usize = 6;
 const NAMES: [&str; CHANNELS] = ["A0", "A1", "A2", "B11", "B12", "B22"];
 
-/// The operator's coefficients, one regular part and a list of delta lines per channel.
+/// The operator's coefficients, one regular part and a list of delta lines per channel, with
+/// the regular parts compiled into one tape and each line weight into its own (every point
+/// evaluation of the engine goes through these tapes).
 #[derive(Clone, Debug)]
 pub(crate) struct Coefficients {
     states: [Symbol; 2],
     regular: [Expr; CHANNELS],
     lines: [Vec<DeltaLine>; CHANNELS],
+    regular_tape: Tape,
+    line_tapes: [Vec<Tape>; CHANNELS],
 }
 
 /// A quadrature point: position, weight and the six coefficient values (original units).
@@ -28,8 +32,8 @@ pub(crate) struct Point {
     pub g: [f64; CHANNELS],
 }
 
-/// Evaluates one coefficient expression at a point. Every coefficient evaluation of the engine
-/// goes through here, so that a compiled tape can replace the tree walk in one place.
+/// Evaluates a (kink-argument) expression at a point by walking its tree: used only for the
+/// few evaluations of root finding, never for coefficients at quadrature points.
 fn eval_expr(what: &str, e: &Expr, states: &[Symbol; 2], x: [f64; 2]) -> Result<f64, EpcError> {
     let lookup = |s: &str| {
         if s == &*states[0] {
@@ -59,12 +63,20 @@ fn eval_expr(what: &str, e: &Expr, states: &[Symbol; 2], x: [f64; 2]) -> Result<
     }
 }
 
-fn is_zero(e: &Expr) -> bool {
-    e.as_num() == Some(0.0)
+/// The first non-finite value of a batch, as an error naming the channel and the point.
+fn check_finite(what: &str, values: &[f64], x1: &[f64], x2: &[f64]) -> Result<(), EpcError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(p) => Err(EpcError::NonFinite {
+            what: what.to_string(),
+            x1: x1[p],
+            x2: x2[p],
+        }),
+    }
 }
 
 impl Coefficients {
-    pub(crate) fn new(fpk: &FpkOperator) -> Coefficients {
+    pub(crate) fn new(fpk: &FpkOperator) -> Result<Coefficients, EpcError> {
         let parts = [
             &fpk.a0,
             &fpk.a[0],
@@ -73,11 +85,60 @@ impl Coefficients {
             &fpk.b[0][1],
             &fpk.b[1][1],
         ];
-        Coefficients {
-            states: fpk.states.clone(),
-            regular: parts.map(|p| p.regular.clone()),
-            lines: parts.map(|p| p.lines.clone()),
+        let regular = parts.map(|p| p.regular.clone());
+        let lines = parts.map(|p| p.lines.clone());
+        let vars = [&*fpk.states[0], &*fpk.states[1]];
+        let compile = |what: &str, exprs: &[Expr]| {
+            Tape::compile(exprs, &vars, DeltaPolicy::Reject).map_err(|source| EpcError::Compile {
+                what: what.to_string(),
+                source,
+            })
+        };
+        let regular_tape = compile("the regular FPK coefficients", &regular)?;
+        let mut line_tapes: [Vec<Tape>; CHANNELS] = Default::default();
+        for (c, ls) in lines.iter().enumerate() {
+            for l in ls {
+                line_tapes[c].push(compile(NAMES[c], std::slice::from_ref(&l.weight))?);
+            }
         }
+        Ok(Coefficients {
+            states: fpk.states.clone(),
+            regular,
+            lines,
+            regular_tape,
+            line_tapes,
+        })
+    }
+
+    /// The six regular channels at the points (x1[p], x2[p]): `out[c][p]`.
+    pub(crate) fn regular_batch(
+        &self,
+        x1: &[f64],
+        x2: &[f64],
+        scratch: &mut TapeScratch,
+    ) -> Result<Vec<Vec<f64>>, EpcError> {
+        let mut out = vec![vec![0.0; x1.len()]; CHANNELS];
+        self.regular_tape.eval_batch(&[x1, x2], &mut out, scratch);
+        for (c, v) in out.iter().enumerate() {
+            check_finite(NAMES[c], v, x1, x2)?;
+        }
+        Ok(out)
+    }
+
+    /// Line `k` of channel `c`'s weight at the points (x1[p], x2[p]).
+    fn line_batch(
+        &self,
+        c: usize,
+        k: usize,
+        x1: &[f64],
+        x2: &[f64],
+        scratch: &mut TapeScratch,
+    ) -> Result<Vec<f64>, EpcError> {
+        let mut out = [vec![0.0; x1.len()]];
+        self.line_tapes[c][k].eval_batch(&[x1, x2], &mut out, scratch);
+        let [v] = out;
+        check_finite(NAMES[c], &v, x1, x2)?;
+        Ok(v)
     }
 
     /// All expressions (regular parts and line weights).
@@ -179,33 +240,30 @@ impl Coefficients {
         Ok(roots)
     }
 
-    /// The regular parts of the six channels at a point.
-    pub(crate) fn regular_at(&self, x: [f64; 2]) -> Result<[f64; CHANNELS], EpcError> {
-        let mut g = [0.0; CHANNELS];
-        for (c, v) in g.iter_mut().enumerate() {
-            if !is_zero(&self.regular[c]) {
-                *v = eval_expr(NAMES[c], &self.regular[c], &self.states, x)?;
-            }
-        }
-        Ok(g)
-    }
-
-    /// The delta lines as (channel, line).
-    pub(crate) fn lines(&self) -> impl Iterator<Item = (usize, &DeltaLine)> {
+    /// The delta lines as (channel, index within the channel, line).
+    pub(crate) fn lines(&self) -> impl Iterator<Item = (usize, usize, &DeltaLine)> {
         self.lines
             .iter()
             .enumerate()
-            .flat_map(|(c, ls)| ls.iter().map(move |l| (c, l)))
+            .flat_map(|(c, ls)| ls.iter().enumerate().map(move |(k, l)| (c, k, l)))
     }
 
-    /// A line's weight at a point of the line.
-    pub(crate) fn line_weight(
+    /// Line `k` of channel `c`'s weight at points of the line, given by the other state's
+    /// values `along` (the weight is sifted: evaluated on the line).
+    pub(crate) fn line_weights(
         &self,
         c: usize,
-        line: &DeltaLine,
-        x: [f64; 2],
-    ) -> Result<f64, EpcError> {
-        eval_expr(NAMES[c], &line.weight, &self.states, x)
+        k: usize,
+        along: &[f64],
+        scratch: &mut TapeScratch,
+    ) -> Result<Vec<f64>, EpcError> {
+        let line = &self.lines[c][k];
+        let at = vec![line.at; along.len()];
+        if line.axis == 0 {
+            self.line_batch(c, k, &at, along, scratch)
+        } else {
+            self.line_batch(c, k, along, &at, scratch)
+        }
     }
 
     /// Quadrature points for integrals ∫ G(x)·ref(x) dx, ref = φ(ξ1)φ(ξ2)/(s1 s2) with
@@ -224,51 +282,61 @@ impl Coefficients {
             let splits: Vec<f64> = kinks[a].iter().map(|v| to_xi(a, v)).collect();
             split_normal_rule(&splits, order)
         });
-        let active: Vec<usize> = (0..CHANNELS)
-            .filter(|&c| !is_zero(&self.regular[c]))
-            .collect();
-        let mut pts = Vec::with_capacity(rules[0].nodes.len() * rules[1].nodes.len());
-        for (t1, w1) in rules[0].nodes.iter().zip(&rules[0].weights) {
-            for (t2, w2) in rules[1].nodes.iter().zip(&rules[1].weights) {
-                let x = [centre[0] + scale[0] * t1, centre[1] + scale[1] * t2];
-                let mut g = [0.0; CHANNELS];
-                for &c in &active {
-                    g[c] = eval_expr(NAMES[c], &self.regular[c], &self.states, x)?;
-                }
-                pts.push(Point { x, w: w1 * w2, g });
+        let mut scratch = TapeScratch::new();
+        let (n1, n2) = (rules[0].nodes.len(), rules[1].nodes.len());
+        let mut x1 = Vec::with_capacity(n1 * n2);
+        let mut x2 = Vec::with_capacity(n1 * n2);
+        for t1 in &rules[0].nodes {
+            for t2 in &rules[1].nodes {
+                x1.push(centre[0] + scale[0] * t1);
+                x2.push(centre[1] + scale[1] * t2);
             }
         }
-        for c in 0..CHANNELS {
-            for line in &self.lines[c] {
-                let a = line.axis;
-                let o = 1 - a;
-                let xi_at = to_xi(a, &line.at);
-                let along = match treatment {
-                    DeltaTreatment::Exact => super::quadrature::QuadratureRule {
-                        nodes: vec![xi_at],
-                        weights: vec![normal_pdf(xi_at)],
-                    },
-                    DeltaTreatment::Gaussian { width } => {
-                        regularised_rule(xi_at, width / scale[a], order)
-                    }
-                };
-                let rule_o = &rules[o];
-                for (ta, wa) in along.nodes.iter().zip(&along.weights) {
-                    for (to, wo) in rule_o.nodes.iter().zip(&rule_o.weights) {
-                        let mut x = [0.0; 2];
-                        x[a] = centre[a] + scale[a] * ta;
-                        x[o] = centre[o] + scale[o] * to;
-                        let mut g = [0.0; CHANNELS];
-                        // The weight is sifted: a function of the other state only.
-                        let mut on_line = x;
-                        on_line[a] = line.at;
-                        g[c] = eval_expr(NAMES[c], &line.weight, &self.states, on_line)?;
-                        pts.push(Point {
-                            x,
-                            w: wa * wo / scale[a],
-                            g,
-                        });
-                    }
+        let g = self.regular_batch(&x1, &x2, &mut scratch)?;
+        let mut pts = Vec::with_capacity(n1 * n2);
+        for (i1, w1) in rules[0].weights.iter().enumerate() {
+            for (i2, w2) in rules[1].weights.iter().enumerate() {
+                let p = i1 * n2 + i2;
+                pts.push(Point {
+                    x: [x1[p], x2[p]],
+                    w: w1 * w2,
+                    g: std::array::from_fn(|c| g[c][p]),
+                });
+            }
+        }
+        for (c, k, line) in self.lines() {
+            let a = line.axis;
+            let o = 1 - a;
+            let xi_at = to_xi(a, &line.at);
+            let along = match treatment {
+                DeltaTreatment::Exact => super::quadrature::QuadratureRule {
+                    nodes: vec![xi_at],
+                    weights: vec![normal_pdf(xi_at)],
+                },
+                DeltaTreatment::Gaussian { width } => {
+                    regularised_rule(xi_at, width / scale[a], order)
+                }
+            };
+            let rule_o = &rules[o];
+            let xo: Vec<f64> = rule_o
+                .nodes
+                .iter()
+                .map(|to| centre[o] + scale[o] * to)
+                .collect();
+            // The weight is sifted: a function of the other state only, evaluated on the line.
+            let wline = self.line_weights(c, k, &xo, &mut scratch)?;
+            for (ta, wa) in along.nodes.iter().zip(&along.weights) {
+                for ((xo, wo), wl) in xo.iter().zip(&rule_o.weights).zip(&wline) {
+                    let mut x = [0.0; 2];
+                    x[a] = centre[a] + scale[a] * ta;
+                    x[o] = *xo;
+                    let mut g = [0.0; CHANNELS];
+                    g[c] = *wl;
+                    pts.push(Point {
+                        x,
+                        w: wa * wo / scale[a],
+                        g,
+                    });
                 }
             }
         }
@@ -344,6 +412,8 @@ mod tests {
                 Expr::num(0.0),
             ],
             lines: Default::default(),
+            regular_tape: Tape::compile(&[], &["z", "v"], DeltaPolicy::Reject).unwrap(),
+            line_tapes: Default::default(),
         };
         let (k, mixed) = c.kinks([3.0, 3.0]).unwrap();
         assert!(!mixed);

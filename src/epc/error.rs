@@ -1,6 +1,6 @@
 //! The EPC engine's error type.
 
-use crate::symbolic::EvalError;
+use crate::symbolic::{EvalError, SymbolicError};
 
 /// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -33,6 +33,22 @@ pub enum EpcError {
         /// The evaluator's reason.
         source: EvalError,
     },
+    /// An FPK coefficient could not be compiled for evaluation.
+    #[error("cannot compile {what}: {source}")]
+    Compile {
+        /// Which coefficients.
+        what: String,
+        /// The compiler's reason.
+        source: SymbolicError,
+    },
+    /// A member of a continuation family could not be built.
+    #[error("the family's operator at λ = {lambda} could not be built: {reason}")]
+    Family {
+        /// The family parameter.
+        lambda: f64,
+        /// Why.
+        reason: String,
+    },
     /// A coefficient was NaN or infinite at a quadrature point.
     #[error("{what} is not finite at ({x1}, {x2})")]
     NonFinite {
@@ -63,15 +79,17 @@ pub enum EpcError {
     },
     /// No Galerkin solution was found at this degree.
     #[error(
-        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
+        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} (needed ≤ {threshold:.1e}) with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
     )]
     NoConvergence {
         /// The degree.
         degree: usize,
         /// The methods and starts tried, comma-separated.
         tried: String,
-        /// The smallest residual norm reached.
+        /// The smallest residual norm ‖R‖ reached.
         best_residual: f64,
+        /// The ‖R‖ a converged solve must reach.
+        threshold: f64,
         /// The gradient norm of ½‖R‖² there.
         gradient: f64,
         /// What the evidence says about a real solution nearby.

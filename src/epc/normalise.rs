@@ -3,15 +3,26 @@
 //! if that ridge is deep enough; otherwise not at all.
 //!
 //! Everything here works in scaled variables ξ; the integral uses the trapezoid rule on a
-//! tensor grid reaching exp(Q − Qmax) < e^−40 (spectrally accurate for this smooth, decaying
-//! integrand; its error is estimated against the grid of twice the spacing).
+//! tensor grid reaching exp(Q − Qmax) < e^−40 on the plane, or the ridge region's edge
+//! (spectrally accurate for a smooth, decaying integrand). The spacing starts at 0.2 and is
+//! halved until the sums on spacings h and 2h agree to 1e−9 (inside a ridge, to the larger of
+//! 1e−9 and e^-(depth−1), the density at the region's edge relative to the peak);
+//! |Z_h − Z_2h|/Z_h is reported as the error estimate.
 
 use serde::Serialize;
 
 /// Below this many e-folds from the mode the density is treated as zero when choosing the box.
 const TAIL_E_FOLDS: f64 = 40.0;
-/// Number of rays used to explore Q around the mode.
+/// Number of rays used to explore Q around the mode (half a degree apart).
 const RAYS: usize = 720;
+/// First trapezoid spacing tried (scaled units: the weights' σ are 1).
+const START_SPACING: f64 = 0.2;
+/// Fewest cells per axis of the normalisation grid (even).
+const MIN_CELLS: usize = 48;
+/// Most cells per axis: refinement stops there and reports its error estimate as it is.
+const MAX_CELLS: usize = 1600;
+/// Relative agreement of Z_h and Z_2h at which the grid is accepted.
+const NORMALISATION_TOLERANCE: f64 = 1e-9;
 
 /// A polynomial Q(ξ) = Σ a_s ξ1^i ξ2^j.
 #[derive(Clone, Debug)]
@@ -381,23 +392,82 @@ pub(crate) fn normalise(
             region: "the connected component of {Q ≥ pass value} that holds the mode".into(),
         };
     }
-    // Box around the region.
+    // The region's reach along each ray: where Q last stands above the floor (the region's
+    // edge inside a ridge; TAIL_E_FOLDS below the peak on the plane), up to the ray's cut.
+    let floor = match &kind {
+        NormalisationKind::InsideRidge { depth, .. } => q_mode - depth + 1.0,
+        NormalisationKind::Plane { .. } => q_mode - TAIL_E_FOLDS,
+    };
     let mut lo = mode;
     let mut hi = mode;
-    for (k, r) in cut.iter().enumerate() {
+    for (k, &limit) in cut.iter().enumerate() {
         let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
-        let p = [mode[0] + r * th.cos(), mode[1] + r * th.sin()];
+        let u = [th.cos(), th.sin()];
+        let c = q.along_ray(mode, u);
+        let (mut r, mut reach) = (0.0_f64, 0.0);
+        while r < limit {
+            r = (r + 0.01 * (1.0 + r)).min(limit);
+            if horner(&c, r) >= floor {
+                reach = r;
+            }
+        }
         for a in 0..2 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
+            let p = mode[a] + (reach + 0.01 * (1.0 + reach)) * u[a];
+            lo[a] = lo[a].min(p);
+            hi[a] = hi[a].max(p);
         }
     }
+    // Trapezoid sums on grids of halving spacing until Z_h and Z_2h agree to
+    // NORMALISATION_TOLERANCE (spectral convergence on the plane; first order at a ridge's
+    // edge, where the density is below e^-(depth-1) of the peak).
+    let mut cells = [0, 1].map(|a| {
+        let c = ((hi[a] - lo[a] + 0.4) / START_SPACING).ceil() as usize;
+        (c + c % 2).max(MIN_CELLS)
+    });
+    loop {
+        let (grid, z, z2) = integrate(q, &kind, mode, q_mode, floor, lo, hi, cells)?;
+        let err = ((z - z2) / z).abs();
+        // Inside a ridge the region's own edge is uncertain at the e^-(depth-1) level of the
+        // peak: integrating more precisely than that buys nothing.
+        let tolerance = match &kind {
+            NormalisationKind::InsideRidge { depth, .. } => {
+                NORMALISATION_TOLERANCE.max((1.0 - depth).exp())
+            }
+            NormalisationKind::Plane { .. } => NORMALISATION_TOLERANCE,
+        };
+        let at_cap = cells.iter().any(|c| 2 * c > MAX_CELLS);
+        if err <= tolerance || at_cap {
+            let report = NormalisationReport {
+                kind,
+                mode: [mode[0] * sigma[0], mode[1] * sigma[1]],
+                log_c: -grid.log_z - (sigma[0] * sigma[1]).ln(),
+                grid: [grid.g1.len(), grid.g2.len()],
+                spacing: grid.h,
+                error_estimate: err,
+            };
+            return Ok((grid, report));
+        }
+        cells = cells.map(|c| 2 * c);
+    }
+}
+
+/// The trapezoid sum of exp(Q) on a grid of `cells` over the box (widened by 0.2), inside the
+/// ridge's region when there is one: the normalised grid, Z_h and Z_2h.
+#[allow(clippy::too_many_arguments)]
+fn integrate(
+    q: &Poly,
+    kind: &NormalisationKind,
+    mode: [f64; 2],
+    q_mode: f64,
+    floor: f64,
+    lo: [f64; 2],
+    hi: [f64; 2],
+    cells: [usize; 2],
+) -> Result<(DensityGrid, f64, f64), NotNormalisable> {
     let axis = |a: usize| -> (Vec<f64>, f64) {
         let (l, u) = (lo[a] - 0.2, hi[a] + 0.2);
-        let cells = (((u - l) / 0.06).ceil() as usize).clamp(64, 1200);
-        let cells = cells + cells % 2; // even, so that the 2h grid is a sub-grid
-        let h = (u - l) / cells as f64;
-        ((0..=cells).map(|i| l + i as f64 * h).collect(), h)
+        let h = (u - l) / cells[a] as f64;
+        ((0..=cells[a]).map(|i| l + i as f64 * h).collect(), h)
     };
     let (g1, h1) = axis(0);
     let (g2, h2) = axis(1);
@@ -413,11 +483,11 @@ pub(crate) fn normalise(
     };
     let qv = q.on_grid(&grid.g1, &grid.g2);
     let n2 = grid.g2.len();
-    if let NormalisationKind::InsideRidge { depth, .. } = &kind {
-        // The region: the connected component of {Q ≥ pass} that holds the mode (what lies
-        // below the pass inside it carries less than e^-depth of the peak).
-        // One e-fold above the pass, so that the grid cannot leak across the saddle.
-        let floor = q_mode - depth + 1.0;
+    let plane = matches!(kind, NormalisationKind::Plane { .. });
+    if !plane {
+        // The region: the connected component of {Q ≥ floor} that holds the mode, the floor
+        // one e-fold above the pass so that the grid cannot leak across the saddle (what lies
+        // below the floor inside the region carries less than e^-(depth-1) of the peak).
         let mut mask = vec![false; qv.len()];
         let i0 = ((mode[0] - grid.g1[0]) / h1).round() as usize;
         let j0 = ((mode[1] - grid.g2[0]) / h2).round() as usize;
@@ -444,12 +514,12 @@ pub(crate) fn normalise(
         grid.mask = Some(mask);
         grid.floor = floor;
     }
-    let mut p = vec![0.0; qv.len()];
     let q_ref = if plane {
         qv.iter().copied().fold(q_mode, f64::max)
     } else {
         q_mode
     };
+    let mut p = vec![0.0; qv.len()];
     let (mut z, mut z2) = (0.0, 0.0);
     for i in 0..grid.g1.len() {
         for j in 0..n2 {
@@ -464,7 +534,7 @@ pub(crate) fn normalise(
             }
         }
     }
-    // The box edges lie e^-40 below the peak: the trapezoid end corrections are negligible.
+    // The box edges lie where the density is negligible: the trapezoid end corrections vanish.
     let zh = z * h1 * h2;
     if !(zh.is_finite() && zh > 0.0) {
         return Err(NotNormalisable(format!(
@@ -476,15 +546,7 @@ pub(crate) fn normalise(
     grid.p = p;
     grid.q_max = q_ref;
     grid.log_z = zh.ln() + q_ref;
-    let report = NormalisationReport {
-        kind,
-        mode: [mode[0] * sigma[0], mode[1] * sigma[1]],
-        log_c: -grid.log_z - (sigma[0] * sigma[1]).ln(),
-        grid: [grid.g1.len(), grid.g2.len()],
-        spacing: [h1, h2],
-        error_estimate: ((zh - z2h) / zh).abs(),
-    };
-    Ok((grid, report))
+    Ok((grid, zh, z2h))
 }
 
 /// Newton on ∇Q = 0 from `x`; returns a saddle (indefinite Hessian) if it converges to one.

@@ -14,20 +14,25 @@ pub struct SolveReport {
     pub method: String,
     /// Its iterations.
     pub iterations: usize,
-    /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)).
+    /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)), recomputed from the
+    /// returned coefficients.
     pub residual: f64,
+    /// The bound ‖R‖ had to reach: tolerance·max(1, ‖R‖ at the Gaussian-closure start).
+    pub residual_threshold: f64,
     /// Gauss nodes per piece of each axis.
     pub quadrature_order: usize,
     /// Whether the order came from a convergence check (non-polynomial coefficients).
     pub order_checked: bool,
-    /// Milliseconds for the closure, assembly, Newton and normalisation (+ observables).
+    /// Milliseconds for the Gaussian closure (shared by all degrees of one problem).
     pub closure_ms: f64,
-    /// Assembly time.
+    /// Milliseconds for the quadrature moment tables (shared) and this degree's assembly.
     pub assembly_ms: f64,
-    /// Solver time.
+    /// Milliseconds in the nonlinear solver at this degree.
     pub solve_ms: f64,
-    /// Normalisation and observables time.
+    /// Milliseconds for the normalisation (region, grid, normalising integral).
     pub normalise_ms: f64,
+    /// Milliseconds for the FPK residual indicator ∫|F|·p dx.
+    pub fpk_residual_ms: f64,
 }
 
 /// Moments and tails of one state.
