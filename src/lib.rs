@@ -6,6 +6,7 @@
 
 pub mod epc;
 pub mod fpk;
+pub mod job;
 pub mod mc;
 pub mod model;
 pub mod observe;

@@ -81,6 +81,8 @@ pub struct Study {
     pub degrees: Vec<DegreeResult>,
     /// PDFs of the states, then of the observables.
     pub curves: Vec<PdfCurves>,
+    /// The states, then the observables, with how each is computed.
+    pub quantities: Vec<Quantity>,
     /// Total wall time in milliseconds.
     pub wall_ms: f64,
 }
@@ -158,8 +160,21 @@ impl Study {
             model: bound,
             degrees: results,
             curves,
+            quantities,
             wall_ms: start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// The PDF of quantity `name` at the points `x`, one column per converged degree (`None`
+    /// if there is no such quantity).
+    pub fn pdf_at(&self, name: &str, x: &[f64]) -> Option<Vec<(usize, Vec<f64>)>> {
+        let q = self.quantities.iter().find(|q| q.name == name)?;
+        Some(
+            self.degrees
+                .iter()
+                .filter_map(|d| d.outcome.as_ref().ok().map(|s| (d.degree, pdf_on(s, q, x))))
+                .collect(),
+        )
     }
 
     /// Whether every degree converged.

@@ -1,0 +1,395 @@
+//! The jobs the command line runs, as library functions: a study (EPC at several degrees,
+//! PDFs of states or observables), optionally a Monte Carlo reference on the same grids, the
+//! EPC-vs-MC distances, and the files: `pdf_<name>.csv`, `summary.json`, figures.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
+use crate::model::{Model, Override};
+use crate::report::{write_json, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
+use crate::study::{Study, StudyError, StudySummary};
+
+/// What a job reports PDFs of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// The model's observables (the states when it declares none): the main job.
+    Observables,
+    /// The states' marginals: `fpsolve solve`.
+    States,
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct JobSpec {
+    /// EPC degrees, solved in order with continuation.
+    pub degrees: Vec<usize>,
+    /// Parameter overrides.
+    pub overrides: Vec<Override>,
+    /// States or observables.
+    pub target: Target,
+    /// Monte Carlo settings, if a Monte Carlo reference is wanted. Its grids are set by the
+    /// job to the EPC grids.
+    pub mc: Option<McConfig>,
+    /// Bins of each Monte Carlo histogram.
+    pub mc_bins: usize,
+    /// Whether to render figures.
+    pub figures: bool,
+}
+
+/// Hears about a job's progress (a progress bar in the command line; nothing in tests).
+pub trait Progress: Sync {
+    /// A new stage begins.
+    fn stage(&self, _message: &str) {}
+    /// Monte Carlo progress: `done` of `total` parts finished.
+    fn advance(&self, _done: u64, _total: u64) {}
+}
+
+/// Progress that goes nowhere.
+pub struct Quiet;
+impl Progress for Quiet {}
+
+/// Why a job failed as a whole.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The study could not run.
+    #[error(transparent)]
+    Study(#[from] StudyError),
+    /// The Monte Carlo run failed.
+    #[error("Monte Carlo: {0}")]
+    Mc(#[from] McError),
+    /// A file could not be written.
+    #[error(transparent)]
+    Report(#[from] ReportError),
+}
+
+/// The distance between one EPC degree and Monte Carlo for one quantity.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Comparison {
+    /// The quantity.
+    pub quantity: String,
+    /// The EPC degree.
+    pub degree: usize,
+    /// L1 = ∫|p_EPC − p_MC| over the histogram grid.
+    pub l1: f64,
+    /// max |log10(p_EPC/p_MC)| over the bins where p_MC > 1e−3 of its peak.
+    pub max_log10_ratio_1e3: f64,
+    /// The same over the bins where p_MC > 1e−5 of its peak.
+    pub max_log10_ratio_1e5: f64,
+}
+
+/// What `summary.json` holds.
+#[derive(Serialize)]
+struct Summary<'a> {
+    #[serde(flatten)]
+    study: StudySummary<'a>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo: Option<&'a McResult>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo_wall_s: Option<f64>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    epc_vs_mc: Vec<Comparison>,
+}
+
+/// A finished job.
+#[derive(Debug)]
+pub struct JobReport {
+    /// The study.
+    pub study: Study,
+    /// The Monte Carlo result, if one was run.
+    pub mc: Option<McResult>,
+    /// Its wall time in seconds.
+    pub mc_wall_s: f64,
+    /// EPC-vs-MC distances (empty without Monte Carlo).
+    pub comparisons: Vec<Comparison>,
+    /// The files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Runs a job and writes its files into `out`.
+pub fn run(
+    model: &Model,
+    spec: &JobSpec,
+    out: &OutputDir,
+    progress: &dyn Progress,
+) -> Result<JobReport, JobError> {
+    progress.stage("solving EPC");
+    let study = Study::run(model, &spec.overrides, &spec.degrees)?;
+    let n_states = 2;
+    let names: Vec<String> = match spec.target {
+        Target::States => study.quantities[..n_states]
+            .iter()
+            .map(|q| q.name.clone())
+            .collect(),
+        Target::Observables if study.quantities.len() > n_states => study.quantities[n_states..]
+            .iter()
+            .map(|q| q.name.clone())
+            .collect(),
+        Target::Observables => study.quantities.iter().map(|q| q.name.clone()).collect(),
+    };
+
+    let mut mc = None;
+    let mut mc_wall_s = 0.0;
+    if let Some(config) = &spec.mc {
+        progress.stage("Monte Carlo");
+        let mut config = config.clone();
+        for c in &study.curves {
+            if c.x.len() >= 2 && !config.grids.iter().any(|(n, _)| n == &c.name) {
+                let grid = Grid::new(c.x[0], c.x[c.x.len() - 1], spec.mc_bins)?;
+                config.grids.push((c.name.clone(), grid));
+            }
+        }
+        let t = Instant::now();
+        mc = Some(simulate(&study, &config, progress)?);
+        mc_wall_s = t.elapsed().as_secs_f64();
+    }
+
+    progress.stage("writing results");
+    let mut files = Vec::new();
+    let mut comparisons = Vec::new();
+    for name in &names {
+        let curve = study
+            .curves
+            .iter()
+            .find(|c| &c.name == name)
+            .expect("a curve per quantity");
+        let mc_q = mc.as_ref().and_then(|m| m.quantity(name));
+        // With Monte Carlo the table is on its bin centres; without, on the EPC grid.
+        let (x, columns) = match mc_q {
+            Some(q) => {
+                let x = q.grid.centers();
+                let cols = study.pdf_at(name, &x).unwrap_or_default();
+                (x, cols)
+            }
+            None => (curve.x.clone(), curve.columns.clone()),
+        };
+        if x.is_empty() {
+            continue;
+        }
+        let mut table_columns: Vec<(String, Vec<f64>)> = columns
+            .iter()
+            .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
+            .collect();
+        if let Some(q) = mc_q {
+            table_columns.push(("mc".into(), q.density.clone()));
+            table_columns.push(("mc_stderr".into(), q.stderr.clone()));
+            for (d, p) in &columns {
+                comparisons.push(compare(name, *d, p, &q.density, q.grid.width()));
+            }
+        }
+        let table = PdfTable {
+            variable: name.clone(),
+            x,
+            columns: table_columns,
+        };
+        files.push(table.write_csv(out, &format!("pdf_{name}.csv"))?);
+        if spec.figures && !curve.x.is_empty() {
+            let figure = PdfFigure {
+                title: format!("{}: PDF of {name}", study.model.name()),
+                variable_label: name.clone(),
+                curves: curve
+                    .columns
+                    .iter()
+                    .map(|(d, p)| Curve {
+                        label: epc_label(&study, *d),
+                        x: curve.x.clone(),
+                        y: p.clone(),
+                    })
+                    .collect(),
+                points: mc_q.map(|q| Points {
+                    label: "Monte Carlo".into(),
+                    x: q.grid.centers(),
+                    y: q.density.clone(),
+                    stderr: q.stderr.clone(),
+                }),
+            };
+            let written = figure.write(out, &format!("pdf_{name}"))?;
+            files.push(written.png);
+            files.push(written.svg);
+        }
+    }
+    let summary = Summary {
+        study: study.summary(),
+        monte_carlo: mc.as_ref(),
+        monte_carlo_wall_s: mc.as_ref().map(|_| mc_wall_s),
+        epc_vs_mc: comparisons.clone(),
+    };
+    files.push(write_json(out, "summary.json", &summary)?);
+    Ok(JobReport {
+        study,
+        mc,
+        mc_wall_s,
+        comparisons,
+        files,
+    })
+}
+
+/// The legend text of a degree's curve, saying when the density is normalised inside a ridge.
+fn epc_label(study: &Study, degree: usize) -> String {
+    let ridge = study
+        .degrees
+        .iter()
+        .find(|d| d.degree == degree)
+        .and_then(|d| d.outcome.as_ref().ok())
+        .and_then(|s| match &s.normalisation.kind {
+            crate::epc::NormalisationKind::InsideRidge { depth, .. } => Some(*depth),
+            crate::epc::NormalisationKind::Plane { .. } => None,
+        });
+    match ridge {
+        Some(depth) => format!("EPC n = {degree} (inside ridge, {depth:.1} e-folds)"),
+        None => format!("EPC n = {degree}"),
+    }
+}
+
+/// Runs the Monte Carlo in consecutive shards so that progress can be shown; merging the
+/// shards gives exactly the unsplit result (the statistics batches are the unit of both).
+fn simulate(
+    study: &Study,
+    config: &McConfig,
+    progress: &dyn Progress,
+) -> Result<McResult, McError> {
+    let sim = Simulation::new(&study.model, config)?;
+    let batches = sim.settings().batches;
+    let threads = rayon::current_num_threads() as u64;
+    // Enough batches per part to keep every thread busy, at most 50 parts.
+    let parts = (batches / (2 * threads).max(1)).clamp(1, 50);
+    let mut outputs = Vec::with_capacity(parts as usize);
+    for k in 0..parts {
+        outputs.push(sim.run_shard(Shard::new(k, parts)?)?);
+        progress.advance(k + 1, parts);
+    }
+    merge_shards(&outputs)
+}
+
+/// L1 distance and the worst log-ratios between an EPC density and a histogram.
+fn compare(name: &str, degree: usize, epc: &[f64], mc: &[f64], width: f64) -> Comparison {
+    let l1 = epc.iter().zip(mc).map(|(a, b)| (a - b).abs()).sum::<f64>() * width;
+    let peak = mc.iter().copied().fold(0.0, f64::max);
+    let worst = |level: f64| {
+        epc.iter()
+            .zip(mc)
+            .filter(|(_, m)| **m > level * peak)
+            .map(|(e, m)| {
+                if *e > 0.0 {
+                    (e / m).log10().abs()
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(0.0, f64::max)
+    };
+    Comparison {
+        quantity: name.to_string(),
+        degree,
+        l1,
+        max_log10_ratio_1e3: worst(1e-3),
+        max_log10_ratio_1e5: worst(1e-5),
+    }
+}
+
+/// The short table the command line prints after a job.
+pub fn table(report: &JobReport) -> String {
+    use std::fmt::Write;
+    let study = &report.study;
+    let mut s = String::new();
+    let params: Vec<String> = study
+        .model
+        .params()
+        .iter()
+        .map(|(n, v)| format!("{n} = {v:.6}"))
+        .collect();
+    let _ = writeln!(s, "{}: {}", study.model.name(), params.join(", "));
+    let _ = writeln!(
+        s,
+        "{:>6} {:>6} {:>10} {:>10}  normalisation",
+        "degree", "iters", "residual", "solve ms"
+    );
+    for d in &study.degrees {
+        match &d.outcome {
+            Ok(sol) => {
+                let norm = match &sol.normalisation.kind {
+                    crate::epc::NormalisationKind::Plane { .. } => "plane".to_string(),
+                    crate::epc::NormalisationKind::InsideRidge { depth, .. } => {
+                        format!("inside ridge, {depth:.1} e-folds below the mode")
+                    }
+                };
+                let _ = writeln!(
+                    s,
+                    "{:>6} {:>6} {:>10.2e} {:>10.1}  {}",
+                    d.degree, sol.solve.iterations, sol.solve.residual, d.wall_ms, norm
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(s, "{:>6}  failed: {e}", d.degree);
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        "{:>8} {:>6} {:>12} {:>12} {:>10}",
+        "quantity", "degree", "mean", "std dev", "kurtosis"
+    );
+    for d in &study.degrees {
+        for st in &d.stats {
+            let _ = writeln!(
+                s,
+                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}",
+                st.name, d.degree, st.mean, st.std_dev, st.kurtosis
+            );
+        }
+    }
+    if let Some(mc) = &report.mc {
+        let _ = writeln!(
+            s,
+            "Monte Carlo: {} trajectories, {:.3e} samples, {:.1} s",
+            mc.trajectories,
+            mc.quantities.first().map_or(0, |q| q.samples) as f64,
+            report.mc_wall_s
+        );
+        for q in &mc.quantities {
+            let sd = q.variance.value.sqrt();
+            let _ = writeln!(
+                s,
+                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e})",
+                q.name,
+                "mc",
+                q.mean.value,
+                sd,
+                q.kurtosis.value,
+                q.mean.stderr,
+                q.variance.stderr / (2.0 * sd),
+                q.kurtosis.stderr
+            );
+        }
+        for c in &report.comparisons {
+            let _ = writeln!(
+                s,
+                "EPC n = {} vs MC, {}: L1 = {:.4}, max|log10 ratio| = {:.3} (MC > 1e-3 peak), {:.3} (> 1e-5 peak)",
+                c.degree, c.quantity, c.l1, c.max_log10_ratio_1e3, c.max_log10_ratio_1e5
+            );
+        }
+    }
+    s
+}
+
+/// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
+/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`) per state and observable, and
+/// `mc_summary.json`. A merged set of shards writes exactly what the unsplit run writes.
+pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, ReportError> {
+    let mut files = Vec::new();
+    for q in &result.quantities {
+        let table = PdfTable {
+            variable: q.name.clone(),
+            x: q.grid.centers(),
+            columns: vec![
+                ("mc".into(), q.density.clone()),
+                ("mc_stderr".into(), q.stderr.clone()),
+            ],
+        };
+        files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
+    }
+    files.push(write_json(out, "mc_summary.json", result)?);
+    Ok(files)
+}
