@@ -275,7 +275,7 @@ fn parse_count(text: &str, what: &str) -> Result<u64> {
         .trim()
         .parse()
         .map_err(|_| anyhow!("{what} `{text}` is not a number"))?;
-    if !(v.is_finite() && v >= 1.0 && v <= 1e15) {
+    if !(v.is_finite() && (1.0..=1e15).contains(&v)) {
         bail!("{what} `{text}` must be between 1 and 1e15");
     }
     Ok(v.round() as u64)
