@@ -40,11 +40,11 @@ pub struct Quantity {
 pub struct QuantityStats {
     /// The quantity's name.
     pub name: String,
-    /// E[g].
+    /// E\[g\].
     pub mean: f64,
-    /// √Var[g].
+    /// √Var\[g\].
     pub std_dev: f64,
-    /// E[(g − mean)⁴] / Var[g]².
+    /// E\[(g − mean)⁴\] / Var\[g\]².
     pub kurtosis: f64,
 }
 

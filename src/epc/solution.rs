@@ -38,9 +38,9 @@ pub struct SolveReport {
 /// Moments and tails of one state.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StateMoments {
-    /// E[x].
+    /// E\[x\].
     pub mean: f64,
-    /// Var[x].
+    /// Var\[x\].
     pub variance: f64,
     /// E[(x−m)⁴]/Var².
     pub kurtosis: f64,
