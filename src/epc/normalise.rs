@@ -451,6 +451,9 @@ pub(crate) fn normalise(
     }
 }
 
+/// The largest normalisation grid, in points (64 MB of f64 per array).
+const MAX_GRID_POINTS: f64 = 8.0e6;
+
 /// The trapezoid sum of exp(Q) on a grid of `cells` over the box (widened by 0.2), inside the
 /// ridge's region when there is one: the normalised grid, Z_h and Z_2h.
 #[allow(clippy::too_many_arguments)]
@@ -464,6 +467,16 @@ fn integrate(
     hi: [f64; 2],
     cells: [usize; 2],
 ) -> Result<(DensityGrid, f64, f64), NotNormalisable> {
+    // A density spread over a box this many cells wide (scaled units, where the weights'
+    // σ is 1) is not one the grid can resolve: refuse rather than allocate without bound.
+    let points = (cells[0] as f64 + 1.0) * (cells[1] as f64 + 1.0);
+    if !(points.is_finite() && points <= MAX_GRID_POINTS) {
+        return Err(NotNormalisable(format!(
+            "the density spreads over [{:.3e}, {:.3e}] x [{:.3e}, {:.3e}] (scaled units): \
+             normalising it would take a grid of {points:.2e} points (limit {MAX_GRID_POINTS:.0e})",
+            lo[0], hi[0], lo[1], hi[1]
+        )));
+    }
     let axis = |a: usize| -> (Vec<f64>, f64) {
         let (l, u) = (lo[a] - 0.2, hi[a] + 0.2);
         let h = (u - l) / cells[a] as f64;
