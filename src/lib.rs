@@ -103,6 +103,7 @@
 //! failure means).
 
 pub mod epc;
+mod error;
 pub mod fpk;
 pub mod job;
 pub mod mc;
@@ -111,3 +112,5 @@ pub mod observe;
 pub mod report;
 pub mod study;
 pub mod symbolic;
+
+pub use error::Error;

@@ -8,7 +8,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
-use fpsolve::mc::{merge_shards, BurnIn, McConfig, Shard, ShardOutput, Simulation};
+use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
 use fpsolve::report::{write_json, OutputDir};
 
@@ -91,6 +91,11 @@ struct McArgs {
     /// Independent trajectories.
     #[arg(long, default_value_t = 4096)]
     trajectories: u64,
+    /// Histogram grid of a state or observable: `--grid y=0:8:300` (lo:hi:bins). May be
+    /// repeated; quantities without one get a grid from a short pilot run (or, in the main
+    /// job, the EPC grid).
+    #[arg(long = "grid", value_name = "NAME=LO:HI:BINS")]
+    grid: Vec<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -296,6 +301,26 @@ fn mc_config(args: &McArgs, samples: &str) -> Result<McConfig> {
         bail!("--trajectories must be at least 1");
     }
     let per_trajectory = samples.div_ceil(args.trajectories).max(1);
+    let mut grids = Vec::new();
+    for g in &args.grid {
+        let parsed = g.split_once('=').and_then(|(name, spec)| {
+            let parts: Vec<&str> = spec.split(':').collect();
+            let [lo, hi, bins] = parts.as_slice() else {
+                return None;
+            };
+            Some((
+                name.trim().to_string(),
+                lo.trim().parse::<f64>().ok()?,
+                hi.trim().parse::<f64>().ok()?,
+                bins.trim().parse::<usize>().ok()?,
+            ))
+        });
+        let Some((name, lo, hi, bins)) = parsed else {
+            bail!("--grid `{g}`: expected NAME=LO:HI:BINS");
+        };
+        let grid = Grid::new(lo, hi, bins).map_err(|e| anyhow!("--grid `{g}`: {e}"))?;
+        grids.push((name, grid));
+    }
     Ok(McConfig {
         dt: args.dt,
         spacing: args.spacing,
@@ -306,6 +331,7 @@ fn mc_config(args: &McArgs, samples: &str) -> Result<McConfig> {
             None => McConfig::default().burn_in,
         },
         seed: args.seed,
+        grids,
         ..McConfig::default()
     })
 }

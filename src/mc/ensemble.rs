@@ -147,7 +147,7 @@ impl McResult {
     }
 }
 
-/// Runs statistics batch `index` (all its trajectories from the origin), leaving out the
+/// Runs statistics batch `index` (all its trajectories from their start), leaving out the
 /// lanes in `excluded`; returns its summary and the lanes that blew up.
 fn run_batch_once(
     plan: &Plan,
