@@ -205,6 +205,21 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
     total
 }
 
+/// The value of an expression of the two states at `x`; NaN where it has none (an unbound
+/// symbol or a domain error), which callers leave out.
+pub(crate) fn eval_at(expr: &Expr, states: &[Symbol; 2], x: [f64; 2]) -> f64 {
+    expr.eval(&|s| {
+        if s == &*states[0] {
+            Some(x[0])
+        } else if s == &*states[1] {
+            Some(x[1])
+        } else {
+            None
+        }
+    })
+    .unwrap_or(f64::NAN)
+}
+
 /// Adaptive Gauss–Kronrod (7–15) quadrature of `f` over [a, b] to relative tolerance `rel`
 /// (with a floor of 1e−300 absolute, so an integrand that is zero gives zero).
 pub fn integrate(f: &dyn Fn(f64) -> f64, a: f64, b: f64, rel: f64) -> f64 {
@@ -307,16 +322,7 @@ fn kernel_pdf(
             if p <= 0.0 {
                 continue;
             }
-            let lookup = |s: &str| {
-                if s == &*states[0] {
-                    Some(x1)
-                } else if s == &*states[1] {
-                    Some(x2)
-                } else {
-                    None
-                }
-            };
-            let g = expr.eval(&lookup).unwrap_or(f64::NAN);
+            let g = eval_at(expr, states, [x1, x2]);
             if g.is_finite() {
                 samples.push((g, p * cell));
             }

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::epc::{Epc, EpcError, EpcSolution};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::observe::{observable_pdf, JointDensity, ObservableMap};
+use crate::observe::{eval_at, observable_pdf, JointDensity, ObservableMap};
 use crate::symbolic::{Expr, Symbol};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
@@ -219,17 +219,7 @@ fn value_range(sol: &EpcSolution, q: &Quantity) -> [f64; 2] {
                     if sol.pdf(x1, x2) <= 0.0 {
                         continue;
                     }
-                    let g = expr
-                        .eval(&|s| {
-                            if s == &*states[0] {
-                                Some(x1)
-                            } else if s == &*states[1] {
-                                Some(x2)
-                            } else {
-                                None
-                            }
-                        })
-                        .unwrap_or(f64::NAN);
+                    let g = eval_at(expr, states, [x1, x2]);
                     if g.is_finite() {
                         lo = lo.min(g);
                         hi = hi.max(g);
