@@ -348,6 +348,20 @@ pub fn table(report: &JobReport) -> String {
             mc.quantities.first().map_or(0, |q| q.samples) as f64,
             report.mc_wall_s
         );
+        if let Some(impacts) = &mc.impacts {
+            let _ = writeln!(
+                s,
+                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time",
+                impacts.count, impacts.rate.value, impacts.rate.stderr
+            );
+        }
+        if !mc.blowups.is_empty() {
+            let _ = writeln!(
+                s,
+                "warning: {} trajectories blew up (non-finite state) and were left out; see summary.json",
+                mc.blowups.len()
+            );
+        }
         for q in &mc.quantities {
             let sd = q.variance.value.sqrt();
             let _ = writeln!(
