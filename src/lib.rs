@@ -110,4 +110,5 @@ pub mod model;
 pub mod observe;
 pub mod report;
 pub mod study;
+pub mod sweep;
 pub mod symbolic;
