@@ -478,6 +478,8 @@ pub struct PointStats {
     /// P(|g| > a) for each threshold a of [`SweepResult::tail_thresholds`] (empty when no
     /// threshold could be set); `None` where a lies beyond the tabulated PDF on both sides
     /// (the density there is below about 1e−8 of its peak, so the tail is not resolved).
+    /// Accurate to a few per mille while P ≳ 1e−7; smaller values lean on an exponential
+    /// continuation of the curve beyond its last point and are good to a few per cent.
     pub tail: Vec<Option<f64>>,
 }
 
