@@ -111,6 +111,7 @@ pub mod model;
 pub mod observe;
 pub mod report;
 pub mod study;
+pub mod sweep;
 pub mod symbolic;
 
 pub use error::Error;
