@@ -11,6 +11,7 @@ use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
 use fpsolve::report::{write_json, OutputDir};
+use fpsolve::sweep::{Sweep, SweepSpec};
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
 ///
@@ -135,6 +136,24 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
     },
+    /// Solve at every point of a parameter sweep in parallel: `--set eps=-0.3:0.3:13`
+    /// (lo:hi:count), `--set mu=0.1,1` (a list), other `--set` fixed. Writes sweep.csv,
+    /// sweep.json and figures of moments and tail probabilities.
+    Sweep {
+        /// The model file (`.sde`).
+        model: PathBuf,
+        #[command(flatten)]
+        set: SetArgs,
+        /// The EPC degree solved at each point (continued from degree 2).
+        #[arg(long, default_value_t = 4)]
+        degree: usize,
+        /// Output directory (default: out/<model name>_sweep).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// Merge the shard files of `simulate --shard` found in the given directories.
     Merge {
         /// Directories holding shard_K_of_N.json files.
@@ -213,6 +232,13 @@ fn run(cli: Cli) -> Result<(), Failure> {
             out,
         )?),
         Some(Command::Merge { dirs, out }) => Ok(merge(&dirs, &out)?),
+        Some(Command::Sweep {
+            model,
+            set,
+            degree,
+            out,
+            threads,
+        }) => sweep(&model, &set.set, degree, out, threads),
         None => {
             let Some(model) = cli.run.model else {
                 return Err(anyhow!(
@@ -290,15 +316,7 @@ fn parse_count(text: &str, what: &str) -> Result<u64> {
 
 fn mc_config(args: &McArgs, samples: &str) -> Result<McConfig> {
     let samples = parse_count(samples, "the number of Monte Carlo samples")?;
-    if let Some(n) = args.threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .context("setting up the worker threads")?;
-    }
+    set_threads(args.threads)?;
     if args.trajectories == 0 {
         bail!("--trajectories must be at least 1");
     }
@@ -473,6 +491,53 @@ fn simulate(
             let files = job::write_mc(&result, &out).map_err(|e| anyhow!("{e}"))?;
             println!("wrote {} files to {}", files.len(), dir.display());
         }
+    }
+    Ok(())
+}
+
+fn set_threads(threads: Option<usize>) -> Result<()> {
+    if let Some(n) = threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("setting up the worker threads")?;
+    }
+    Ok(())
+}
+
+fn sweep(
+    path: &Path,
+    set: &[String],
+    degree: usize,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+) -> Result<(), Failure> {
+    set_threads(threads)?;
+    let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
+    let spec = SweepSpec::parse(set).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    spec.validate(&model)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let dir = out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", model.name())));
+    let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
+    let t = std::time::Instant::now();
+    let result = Sweep::run(&model, &spec, degree);
+    let files = result.write(&out).map_err(|e| anyhow!("{e}"))?;
+    println!(
+        "{} of {} points converged at degree {degree} in {:.1} s; wrote {} files to {}",
+        result.converged(),
+        spec.len(),
+        t.elapsed().as_secs_f64(),
+        files.len(),
+        dir.display()
+    );
+    if result.converged() < spec.len() {
+        return Err(Failure::Partial(format!(
+            "error: {} points failed (reported in sweep.csv and sweep.json; the others were kept)",
+            spec.len() - result.converged()
+        )));
     }
     Ok(())
 }

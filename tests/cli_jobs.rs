@@ -212,3 +212,30 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
     };
     assert!(l1(4) < l1(2), "L1 n=4 {} vs n=2 {}", l1(4), l1(2));
 }
+
+#[test]
+fn sweep_writes_its_table_and_figures_and_refuses_unknown_parameters() {
+    let dir = temp_dir("sweep");
+    let out = fpsolve(&[
+        "sweep",
+        "models/linear.sde",
+        "--set",
+        "c=0.1:0.3:3",
+        "--set",
+        "k=1,2",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 6, "{csv}");
+    assert!(dir.join("sweep.json").exists());
+    assert!(dir.join("sweep_std_dev.png").exists());
+    let out = fpsolve(&["sweep", "models/linear.sde", "--set", "nope=1:2:3"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("nope"));
+}

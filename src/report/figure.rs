@@ -734,10 +734,24 @@ fn mesh<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64> + ValueFormatter
         .y_labels(10)
         .x_max_light_lines(2)
         .y_max_light_lines(if log_y { 0 } else { 2 });
+    mesh.x_label_formatter(&linear_tick);
     if log_y {
         mesh.y_label_formatter(&decades);
+    } else {
+        mesh.y_label_formatter(&linear_tick);
     }
     mesh.draw().map_err(drawing_error)
+}
+
+/// A linear-axis tick label: rounded to 9 decimals so that a tick computed as −1e−17 reads
+/// `0`, not `-0.0`, and 0.30000000000000004 reads `0.3`.
+fn linear_tick(v: &f64) -> String {
+    let r = (v * 1e9).round() / 1e9;
+    if r == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{r}")
+    }
 }
 
 /// Light horizontal lines at m·10ᵏ, m = 2…9, inside `[bottom, top]`.
