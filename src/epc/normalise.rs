@@ -233,7 +233,20 @@ fn find_mode(q: &Poly) -> Result<[f64; 2], NotNormalisable> {
     }
     let (g, h) = q.derivs(x);
     let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-    if !(h[0][0] < 0.0 && det > 0.0 && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[0][0].abs())) {
+    let strict = h[0][0] < 0.0 && det > 0.0 && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[0][0].abs());
+    // A degenerate maximum (e.g. Q = −c(ξ1² + ξ2²)², whose Hessian vanishes at the mode):
+    // a stationary point above every point of small circles around it.
+    let degenerate = || {
+        let q0 = q.eval(x);
+        g[0].hypot(g[1]) < 1e-9
+            && [1e-3, 1e-2, 1e-1].iter().all(|&rho| {
+                (0..64).all(|k| {
+                    let th = k as f64 / 64.0 * std::f64::consts::TAU;
+                    q.eval([x[0] + rho * th.cos(), x[1] + rho * th.sin()]) < q0
+                })
+            })
+    };
+    if !(strict || degenerate()) {
         return Err(NotNormalisable(format!(
             "Q has no local maximum near the origin (stopped at ξ = ({:.3}, {:.3}))",
             x[0], x[1]
@@ -633,5 +646,37 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn purely_quartic_q_has_a_degenerate_mode_and_normalises() {
+        // Q = −(ξ1² + ξ2²)²: zero Hessian at the mode; Z = ∫ e^{−r⁴} dξ = π^{3/2}/2.
+        let q = Poly {
+            exps: vec![(2, 0), (0, 2), (4, 0), (2, 2), (0, 4)],
+            a: vec![0.0, 0.0, -1.0, -2.0, -1.0],
+            degree: 4,
+        };
+        let Ok((grid, rep)) = normalise(&q, [1.0, 1.0], 12.0) else {
+            panic!("normalisable")
+        };
+        assert!(matches!(rep.kind, NormalisationKind::Plane { .. }));
+        assert_relative_eq!(rep.mode[0], 0.0, epsilon = 1e-12);
+        assert_relative_eq!(
+            grid.log_z,
+            (std::f64::consts::PI.powf(1.5) / 2.0).ln(),
+            epsilon = 1e-8
+        );
+    }
+
+    #[test]
+    fn a_saddle_is_not_a_mode() {
+        // Q = ξ1² − ξ2² − ξ1⁴ − ξ2⁴ has a saddle at the origin and modes at (±1/√2, 0).
+        let q = Poly {
+            exps: vec![(2, 0), (0, 2), (4, 0), (0, 4)],
+            a: vec![1.0, -1.0, -1.0, -1.0],
+            degree: 4,
+        };
+        let mode = find_mode(&q).ok().expect("a mode");
+        assert_relative_eq!(mode[0].abs(), 0.5_f64.sqrt(), epsilon = 1e-8);
     }
 }
