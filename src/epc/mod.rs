@@ -598,10 +598,11 @@ impl<'a> Epc<'a> {
                 xi[a] = xi_at;
                 xi[o] = t;
                 let qx = q.eval(xi);
-                if !grid.contains(xi, qx) {
+                let wq = grid.weight(xi, qx);
+                if wq == 0.0 {
                     continue;
                 }
-                let p = (qx - grid.log_z).exp();
+                let p = (qx - grid.log_z).exp() * wq;
                 let mut g = [0.0; 6];
                 g[c] = *wt;
                 // δ(x_a − at) = δ(ξ_a − ξ_at)/σ_a.
