@@ -155,6 +155,7 @@ pub(crate) fn trace(
         let mut yc = yp.clone();
         let mut ok = false;
         let mut lin = None;
+        let mut last_step = f64::INFINITY;
         for _ in 0..12 {
             let a = yc.rows(0, np).into_owned();
             let (h, j, hl) = eval(&a, yc[np])?;
@@ -166,7 +167,12 @@ pub(crate) fn trace(
             let mut f = h.insert_row(np, t.dot(&(&yc - &yp)));
             f.neg_mut();
             match augmented(&j, &hl, &t).lu().solve(&f) {
-                Some(d) if d.iter().all(|v| v.is_finite()) => yc += d,
+                // Near the path Newton contracts fast; a correction that does not at least
+                // halve means the predictor went too far: give up and shorten the step.
+                Some(d) if d.iter().all(|v| v.is_finite()) && d.norm() < 0.5 * last_step => {
+                    last_step = d.norm();
+                    yc += d;
+                }
                 _ => break,
             }
         }

@@ -359,7 +359,10 @@ pub(crate) fn solve(
     // root it reaches is the one connected to the Gaussian closure.
     let mut paths: Vec<HomotopyPath> = Vec::new();
     let first_newton = usize::from(family.is_some());
-    for k in 0..first_newton + starts.len() {
+    // One Newton homotopy, from the first start (the lower-degree solution when there is
+    // one): further ones rarely reach a root the others miss and each costs as much as a
+    // failed LM run.
+    for k in 0..first_newton + starts.len().min(1) {
         let path = match family {
             Some((gauss, a_g)) if k == 0 => operator_homotopy(sys, gauss, a_g),
             _ => {
