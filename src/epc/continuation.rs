@@ -247,7 +247,7 @@ pub(crate) fn trace(
         }
         y = yc;
         t = tn;
-        ds = (ds * 1.5).min(opts.max_step);
+        ds = (ds * 2.0).min(opts.max_step);
     }
     done(points, PathEnd::Budget { lambda: y[np] }, lambda_max, folds)
 }

@@ -161,11 +161,11 @@ impl<'a> Epc<'a> {
         let moments_ms = ms(t0);
         let mut previous: Option<Start> = None;
         for &d in &chain[..chain.len() - 1] {
-            if let Ok(c) = self.solve_coefficients(&prep, &moments, d, previous.as_ref()) {
+            if let Ok(c) = self.solve_coefficients(&prep, &moments, d, previous.as_ref(), false) {
                 previous = Some((c.sys.exps.clone(), c.a));
             }
         }
-        let c = self.solve_coefficients(&prep, &moments, n, previous.as_ref())?;
+        let c = self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true)?;
         self.finish(&prep, &moments, moments_ms, c)
     }
 
@@ -187,7 +187,7 @@ impl<'a> Epc<'a> {
         let mut out = Vec::with_capacity(degrees.len());
         for &n in degrees {
             let r = check_degree(n)
-                .and_then(|_| self.solve_coefficients(&prep, &moments, n, previous.as_ref()))
+                .and_then(|_| self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true))
                 .and_then(|c| {
                     previous = Some((c.sys.exps.clone(), c.a.clone()));
                     self.finish(&prep, &moments, moments_ms, c)
@@ -334,13 +334,17 @@ impl<'a> Epc<'a> {
         }
     }
 
-    /// Assembles the degree-`n` system and solves it for Q's scaled coefficients.
+    /// Assembles the degree-`n` system and solves it for Q's scaled coefficients. `full`
+    /// adds the homotopy fallbacks (left out for the intermediate degrees of a continuation in
+    /// degree, which only supply starts: they would slow down solves whose target degree
+    /// Newton solves directly).
     fn solve_coefficients(
         &self,
         prep: &Prepared,
         moments: &(Moments, usize, bool),
         n: usize,
         previous: Option<&Start>,
+        full: bool,
     ) -> Result<Solved, EpcError> {
         let t0 = Instant::now();
         let sys = GalerkinSystem::assemble(&moments.0, n);
@@ -357,11 +361,21 @@ impl<'a> Epc<'a> {
         }
         let closure_start = self.closure_start(prep, &sys.exps);
         let reference = sys.residual_and_jacobian(&closure_start).0.norm();
-        let gauss = GalerkinSystem::assemble(&self.gaussian_exact_moments(prep, &moments.0), n);
         starts.push(("the Gaussian closure".to_string(), closure_start.clone()));
         let t1 = Instant::now();
-        let family = Some((&gauss, &closure_start));
-        let (a, outcome) = solver::solve(&sys, &starts, family, self.tolerance, reference).map_err(|f| {
+        let family = || {
+            let gauss = GalerkinSystem::assemble(&self.gaussian_exact_moments(prep, &moments.0), n);
+            (gauss, closure_start.clone())
+        };
+        let (a, outcome) = solver::solve(
+            &sys,
+            &starts,
+            if full { Some(&family) } else { None },
+            full,
+            self.tolerance,
+            reference,
+        )
+        .map_err(|f| {
             let verdict = if f.local_minimum {
                 "it is a local minimum of ‖R‖ (Levenberg–Marquardt finds no descent), which by itself does not exclude real solutions elsewhere".to_string()
             } else {

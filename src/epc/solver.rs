@@ -129,7 +129,7 @@ impl HomotopyPath {
             PathEnd::Fold { lambda } => format!("turned back at λ = {lambda:.4}"),
             PathEnd::Stalled { lambda } => format!("stalled at λ = {lambda:.4}"),
             PathEnd::Escaped { lambda } => {
-                format!("left the bounded region (‖a‖ or λ < −0.1) at λ = {lambda:.4}")
+                format!("left the bounded region (‖a‖ or λ < 0) at λ = {lambda:.4}")
             }
             PathEnd::Budget { lambda } => {
                 format!("was still going at λ = {lambda:.4} after {HOMOTOPY_STEPS} steps")
@@ -170,7 +170,7 @@ fn homotopy(
         first_step: 0.05 * scale,
         max_step: 0.5 * scale,
         max_norm: 100.0 * scale,
-        min_lambda: -0.1,
+        min_lambda: 0.0,
     };
     match continuation::trace(eval, a0.clone(), opts) {
         Ok(path) => HomotopyPath {
@@ -311,14 +311,19 @@ fn levenberg_marquardt(
 /// Perturbed Levenberg–Marquardt starts tried after the given starts have failed.
 const PERTURBED_STARTS: usize = 4;
 
-/// Solves the system from the given starts (in order): Newton from each, then LM from each,
-/// then LM from perturbations of the best point. `tol` is relative to
-/// `max(1, reference_residual)`, where `reference_residual` is ‖R‖ at the Gaussian-closure
-/// start (see the module docs).
+/// The Gaussian-exact system and its exact root, built only when Newton has failed.
+pub(crate) type GaussianFamily<'a> = dyn Fn() -> (GalerkinSystem, DVector<f64>) + 'a;
+
+/// Solves the system from the given starts (in order): Newton from each, then the operator
+/// homotopy from `family` (when given) and, if `newton_homotopy`, a Newton homotopy from the
+/// first start, then LM from each start and from perturbations of the best point. `tol` is
+/// relative to `max(1, reference_residual)`, where `reference_residual` is ‖R‖ at the
+/// Gaussian-closure start (see the module docs).
 pub(crate) fn solve(
     sys: &GalerkinSystem,
     starts: &[(String, DVector<f64>)],
-    family: Option<(&GalerkinSystem, &DVector<f64>)>,
+    family: Option<&GaussianFamily>,
+    newton_homotopy_too: bool,
     tol: f64,
     reference_residual: f64,
 ) -> Result<(DVector<f64>, SolveOutcome), SolveFailure> {
@@ -362,9 +367,17 @@ pub(crate) fn solve(
     // One Newton homotopy, from the first start (the lower-degree solution when there is
     // one): further ones rarely reach a root the others miss and each costs as much as a
     // failed LM run.
-    for k in 0..first_newton + starts.len().min(1) {
+    let newton_paths = if newton_homotopy_too {
+        starts.len().min(1)
+    } else {
+        0
+    };
+    for k in 0..first_newton + newton_paths {
         let path = match family {
-            Some((gauss, a_g)) if k == 0 => operator_homotopy(sys, gauss, a_g),
+            Some(build) if k == 0 => {
+                let (gauss, a_g) = build();
+                operator_homotopy(sys, &gauss, &a_g)
+            }
             _ => {
                 let (name, a0) = &starts[k - first_newton];
                 newton_homotopy(sys, a0, name)
@@ -470,7 +483,7 @@ mod tests {
     fn fallback_reports_the_norm_of_r_not_the_cost() {
         let sys = square_minus_one();
         let start = DVector::from_vec(vec![0.0]);
-        let (a, out) = solve(&sys, &[("zero".into(), start)], None, 1e-10, 1.0).unwrap();
+        let (a, out) = solve(&sys, &[("zero".into(), start)], None, true, 1e-10, 1.0).unwrap();
         assert!(
             out.method.starts_with("levenberg-marquardt"),
             "{}",
@@ -490,7 +503,7 @@ mod tests {
         sys.c[0] = -1e6;
         sys.s[0] = 2e6;
         let start = DVector::from_vec(vec![0.5]);
-        let (a, out) = solve(&sys, &[("half".into(), start)], None, 1e-10, 1e6).unwrap();
+        let (a, out) = solve(&sys, &[("half".into(), start)], None, true, 1e-10, 1e6).unwrap();
         approx::assert_relative_eq!(out.threshold, 1e-4);
         assert_eq!(out.method, "newton from half");
         assert!(out.residual <= 1e-4);
@@ -503,7 +516,7 @@ mod tests {
         let mut sys = square_minus_one();
         sys.c[0] = 1.0;
         let start = DVector::from_vec(vec![0.7]);
-        let f = solve(&sys, &[("0.7".into(), start)], None, 1e-10, 1.0).unwrap_err();
+        let f = solve(&sys, &[("0.7".into(), start)], None, true, 1e-10, 1.0).unwrap_err();
         approx::assert_relative_eq!(f.best_residual, 1.0, max_relative = 1e-6);
         assert!(f.local_minimum);
         // The Newton homotopy R(a) = (1 − λ)R(0.7) folds where R' = 0 and never reaches λ = 1;
