@@ -128,9 +128,10 @@ impl HomotopyPath {
             }
             PathEnd::Fold { lambda } => format!("turned back at λ = {lambda:.4}"),
             PathEnd::Stalled { lambda } => format!("stalled at λ = {lambda:.4}"),
-            PathEnd::Escaped { lambda } => {
-                format!("left the bounded region (‖a‖ or λ < 0) at λ = {lambda:.4}")
-            }
+            PathEnd::Escaped { lambda } if *lambda < 0.0 => "came back below λ = 0".to_string(),
+            PathEnd::Escaped { lambda } => format!(
+                "diverged (‖a‖ beyond {HOMOTOPY_NORM_FACTOR} times its start's) at λ = {lambda:.4}"
+            ),
             PathEnd::Budget { lambda } => {
                 format!("was still going at λ = {lambda:.4} after {HOMOTOPY_STEPS} steps")
             }
@@ -149,10 +150,12 @@ impl HomotopyPath {
         } else {
             ": this path does not lead to a solution"
         };
-        format!(
-            "the {} (max λ = {:.4}) {folds}{end}{meaning}",
-            self.name, self.lambda_max
-        )
+        let reach = if self.folds.is_empty() {
+            format!(" (largest λ reached {:.4})", self.lambda_max)
+        } else {
+            String::new()
+        };
+        format!("the {}{reach} {folds}{end}{meaning}", self.name)
     }
 }
 
@@ -169,7 +172,7 @@ fn homotopy(
         max_steps: HOMOTOPY_STEPS,
         first_step: 0.05 * scale,
         max_step: 0.5 * scale,
-        max_norm: 100.0 * scale,
+        max_norm: HOMOTOPY_NORM_FACTOR * scale,
         min_lambda: 0.0,
     };
     match continuation::trace(eval, a0.clone(), opts) {
@@ -226,6 +229,9 @@ fn operator_homotopy(
         true,
     )
 }
+
+/// A homotopy path whose ‖a‖ exceeds this many times 1 + ‖a0‖ counts as diverged.
+const HOMOTOPY_NORM_FACTOR: f64 = 100.0;
 
 /// Most continuation steps of one homotopy path.
 const HOMOTOPY_STEPS: usize = 200;
