@@ -258,7 +258,16 @@ fn table1_case1_degree6_branch_from_the_exact_case() {
     };
     let target = at(1.0).unwrap();
     let epc = Epc::new(&target, model.delta_treatment()).degree(6);
-    assert!(matches!(epc.solve(), Err(EpcError::NoConvergence { .. })));
+    let err = epc.solve().unwrap_err();
+    assert!(matches!(err, EpcError::NoConvergence { .. }), "{err}");
+    // The message claims only what was shown: the operator homotopy from the Gaussian-exact
+    // operator folds before the model, the best point is a local minimum (no more).
+    let text = err.to_string();
+    assert!(
+        text.contains("the operator homotopy from the Gaussian-exact operator folded at λ = 0.4"),
+        "{text}"
+    );
+    assert!(!text.contains("lies nearby"), "{text}");
     let branch = epc.branch(&at).unwrap();
     // Every point is a genuine solution of its system.
     assert!(

@@ -569,13 +569,12 @@ diffusion v: xi
 }
 
 /// The exact Q is a root of the degree-4 Galerkin system (‖R‖ ~ 1e−15 there, smallest
-/// singular value of ∂R/∂a ~ 0.06), yet Newton and Levenberg–Marquardt from the degree-2
-/// solution and from the Gaussian closure stop at a nonzero local minimum of ‖R‖ (3e−2 to
-/// 5e−2) and the error says "evidence that no real Galerkin solution lies nearby". This is why
-/// degree 4 fails for van_der_pol.sde: the solver's starts are too far from crater-shaped
-/// (or purely quartic) Q.
+/// singular value of ∂R/∂a ~ 0.06), but Newton from the degree-2 solution and from the Gaussian
+/// closure misses it and Levenberg–Marquardt stops at a nonzero local minimum of ‖R‖ (3e−2 to
+/// 5e−2); a Newton homotopy reaches a different, asymmetric root at a = −0.1. The operator
+/// homotopy (from an operator whose exact density is the closure Gaussian to the model's)
+/// reaches the exact one, including the purely quartic Q at a = 0 (a degenerate mode).
 #[test]
-#[ignore = "EPC solver misses an existing degree-4 root (src/epc/solver.rs starts)"]
 fn epc_finds_the_exact_energy_damped_density() {
     for a in [-0.1, 0.0, 0.1] {
         let (model, fpk) = energy_damped(a);

@@ -79,7 +79,7 @@ pub enum EpcError {
     },
     /// No Galerkin solution was found at this degree.
     #[error(
-        "EPC degree {degree}: no solution found (tried {tried}); smallest ‖R‖ = {best_residual:.3e} (needed ≤ {threshold:.1e}) with ‖JᵀR‖ = {gradient:.3e}: {verdict}"
+        "EPC degree {degree}: no solution found from these starts ({tried}); the best point has ‖R‖ = {best_residual:.3e} (needed ≤ {threshold:.1e}) and ‖JᵀR‖ = {gradient:.3e}: {verdict}{continuation}"
     )]
     NoConvergence {
         /// The degree.
@@ -92,8 +92,11 @@ pub enum EpcError {
         threshold: f64,
         /// The gradient norm of ½‖R‖² there.
         gradient: f64,
-        /// What the evidence says about a real solution nearby.
+        /// What the best point is (a local minimum of ‖R‖ or a stalled iterate).
         verdict: String,
+        /// What each homotopy path showed ("; "-separated, each starting with "; "), the
+        /// only evidence the error gives about whether a real solution exists.
+        continuation: String,
     },
     /// The solved exp(Q) cannot be normalised honestly.
     #[error("EPC degree {degree}: density not normalisable: {reason}")]

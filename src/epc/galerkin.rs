@@ -79,7 +79,35 @@ impl Moments {
         Moments { max, table }
     }
 
-    fn get(&self, c: usize, i: usize, j: usize) -> f64 {
+    /// The moment tables of channels that are affine in ξ, ĝ_c(ξ) = k_c[0] + k_c[1] ξ1 +
+    /// k_c[2] ξ2, computed exactly from the standard normal moments.
+    pub(crate) fn affine(k: &[[f64; 3]; CHANNELS], max: usize) -> Moments {
+        // E[t^m] for t ~ N(0, 1): (m − 1)!! for even m, 0 for odd m.
+        let mut nm = vec![0.0; max + 2];
+        nm[0] = 1.0;
+        for m in 2..max + 2 {
+            nm[m] = (m - 1) as f64 * nm[m - 2];
+        }
+        let stride = max + 1;
+        let mut table = vec![[0.0; CHANNELS]; stride * stride];
+        for i in 0..=max {
+            for j in 0..=(max - i) {
+                for (c, kc) in k.iter().enumerate() {
+                    table[i * stride + j][c] = kc[0] * nm[i] * nm[j]
+                        + kc[1] * nm[i + 1] * nm[j]
+                        + kc[2] * nm[i] * nm[j + 1];
+                }
+            }
+        }
+        Moments { max, table }
+    }
+
+    /// The highest total degree tabulated.
+    pub(crate) fn max_degree(&self) -> usize {
+        self.max
+    }
+
+    pub(crate) fn get(&self, c: usize, i: usize, j: usize) -> f64 {
         debug_assert!(i + j <= self.max);
         self.table[i * (self.max + 1) + j][c]
     }

@@ -2,12 +2,18 @@
 //! definite; otherwise inside the ridge that separates the mode from where exp(Q) grows again,
 //! if that ridge is deep enough; otherwise not at all.
 //!
+//! Inside a ridge the density is exp(Q) on the region (the connected component of
+//! {Q > floor} holding the mode, the floor one e-fold above the pass) times a C^∞ cutoff that
+//! falls from 1 to 0 across the last e-fold above the floor: the region's edge is the smooth
+//! level set Q = floor and the density is continuous there, so that integrals of it (the
+//! normalisation here, line integrals in `observe`) converge fast.
+//!
 //! Everything here works in scaled variables ξ; the integral uses the trapezoid rule on a
 //! tensor grid reaching exp(Q − Qmax) < e^−40 on the plane, or the ridge region's edge
 //! (spectrally accurate for a smooth, decaying integrand). The spacing starts at 0.2 and is
 //! halved until the sums on spacings h and 2h agree to 1e−9 (inside a ridge, to the larger of
-//! 1e−9 and e^-(depth−1), the density at the region's edge relative to the peak);
-//! |Z_h − Z_2h|/Z_h is reported as the error estimate.
+//! 1e−9 and e^-(depth−1), the share of the mass near the region's edge); |Z_h − Z_2h|/Z_h is
+//! reported as the error estimate.
 
 use serde::Serialize;
 
@@ -121,7 +127,8 @@ pub enum NormalisationKind {
         top_degree_max: f64,
     },
     /// exp(Q) is not integrable on the plane; it was normalised inside the ridge around the
-    /// mode: over the connected component of {Q ≥ pass value} that holds the mode (the pass
+    /// mode: over the connected component of {Q > pass value + 1} that holds the mode, with a
+    /// smooth cutoff across the last e-fold above that level (the pass
     /// is the highest saddle on the way from the mode to where Q rises above Q(mode)).
     InsideRidge {
         /// Q(mode) − (highest pass value), in e-folds.
@@ -160,8 +167,11 @@ pub(crate) struct DensityGrid {
     pub h: [f64; 2],
     /// Density in ξ (∫ p dξ = 1), row-major in ξ1; zero outside the region.
     pub p: Vec<f64>,
-    /// Inside a ridge: the grid cells of the connected component of {Q ≥ pass} holding the
-    /// mode; `None` on the plane.
+    /// Inside a ridge: the grid points of the connected component of {Q ≥ floor} holding the
+    /// mode, dilated by one point (4-neighbours); `None` on the plane. The region is
+    /// {Q ≥ floor} ∩ (cells of these points), so its edge is the smooth level set Q = floor
+    /// wherever the component is more than a cell away from others (no staircase along the
+    /// cell boundaries), and at grid points it is exactly the component.
     pub mask: Option<Vec<bool>>,
     /// The pass value (Q below it is outside the region).
     pub floor: f64,
@@ -172,20 +182,45 @@ pub(crate) struct DensityGrid {
 }
 
 impl DensityGrid {
-    /// Whether ξ, where Q = `q`, belongs to the normalised density's support.
-    pub(crate) fn contains(&self, x: [f64; 2], q: f64) -> bool {
+    /// The factor (0 to 1) that multiplies exp(Q) at ξ, where Q = `q`: 1 on the plane; inside
+    /// a ridge 0 outside the region and, within it, the smooth cutoff [`taper`] across the
+    /// last [`TAPER_E_FOLDS`] above the floor, so that the density falls continuously (with
+    /// all its derivatives) to 0 at the region's edge instead of jumping there.
+    pub(crate) fn weight(&self, x: [f64; 2], q: f64) -> f64 {
         let Some(mask) = &self.mask else {
-            return true;
+            return 1.0;
         };
-        if q < self.floor {
-            return false;
+        // The same bound on Q as the flood fill that built the mask (the mode is the region's
+        // maximum; what rises above it lies beyond the ridge).
+        if q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()) {
+            return 0.0;
         }
         let i = ((x[0] - self.g1[0]) / self.h[0]).round();
         let j = ((x[1] - self.g2[0]) / self.h[1]).round();
         if i < 0.0 || j < 0.0 || i as usize >= self.g1.len() || j as usize >= self.g2.len() {
-            return false;
+            return 0.0;
         }
-        mask[i as usize * self.g2.len() + j as usize]
+        if mask[i as usize * self.g2.len() + j as usize] {
+            taper((q - self.floor) / TAPER_E_FOLDS)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Width (e-folds of Q) of the smooth cutoff inside a ridge region, above its floor.
+pub(crate) const TAPER_E_FOLDS: f64 = 1.0;
+
+/// A C^∞ step: 0 for t ≤ 0, 1 for t ≥ 1, e^{−1/t}/(e^{−1/t} + e^{−1/(1−t)}) between.
+pub(crate) fn taper(t: f64) -> f64 {
+    if t <= 0.0 {
+        0.0
+    } else if t >= 1.0 {
+        1.0
+    } else {
+        let a = (-1.0 / t).exp();
+        let b = (-1.0 / (1.0 - t)).exp();
+        a / (a + b)
     }
 }
 
@@ -233,7 +268,20 @@ fn find_mode(q: &Poly) -> Result<[f64; 2], NotNormalisable> {
     }
     let (g, h) = q.derivs(x);
     let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
-    if !(h[0][0] < 0.0 && det > 0.0 && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[0][0].abs())) {
+    let strict = h[0][0] < 0.0 && det > 0.0 && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[0][0].abs());
+    // A degenerate maximum (e.g. Q = −c(ξ1² + ξ2²)², whose Hessian vanishes at the mode):
+    // a stationary point above every point of small circles around it.
+    let degenerate = || {
+        let q0 = q.eval(x);
+        g[0].hypot(g[1]) < 1e-9
+            && [1e-3, 1e-2, 1e-1].iter().all(|&rho| {
+                (0..64).all(|k| {
+                    let th = k as f64 / 64.0 * std::f64::consts::TAU;
+                    q.eval([x[0] + rho * th.cos(), x[1] + rho * th.sin()]) < q0
+                })
+            })
+    };
+    if !(strict || degenerate()) {
         return Err(NotNormalisable(format!(
             "Q has no local maximum near the origin (stopped at ξ = ({:.3}, {:.3}))",
             x[0], x[1]
@@ -389,7 +437,7 @@ pub(crate) fn normalise(
             depth,
             threshold,
             pass_at: [pass.1[0] * sigma[0], pass.1[1] * sigma[1]],
-            region: "the connected component of {Q ≥ pass value} that holds the mode".into(),
+            region: "the connected component of {Q > pass value + 1} that holds the mode, exp(Q) cut off smoothly across the last e-fold above that level".into(),
         };
     }
     // The region's reach along each ray: where Q last stands above the floor (the region's
@@ -427,8 +475,9 @@ pub(crate) fn normalise(
     loop {
         let (grid, z, z2) = integrate(q, &kind, mode, q_mode, floor, lo, hi, cells)?;
         let err = ((z - z2) / z).abs();
-        // Inside a ridge the region's own edge is uncertain at the e^-(depth-1) level of the
-        // peak: integrating more precisely than that buys nothing.
+        // Inside a ridge the mass near the edge, where the cutoff makes the integrand vary on
+        // a short scale, is of order e^-(depth-1) of the total: resolving it beyond that level
+        // would cost a much finer grid (8x per axis for Table 1 case 1) and buy nothing.
         let tolerance = match &kind {
             NormalisationKind::InsideRidge { depth, .. } => {
                 NORMALISATION_TOLERANCE.max((1.0 - depth).exp())
@@ -524,7 +573,30 @@ fn integrate(
                 stack.push((i, j + 1));
             }
         }
-        grid.mask = Some(mask);
+        // Dilation: a grid point next to the component with Q ≥ floor is in it already (the
+        // fill is 4-connected), so at grid points membership is unchanged and the trapezoid
+        // sum below integrates exactly the density `contains` admits.
+        let n1 = grid.g1.len();
+        let mut dilated = mask.clone();
+        for i in 0..n1 {
+            for j in 0..n2 {
+                if mask[i * n2 + j] {
+                    if i > 0 {
+                        dilated[(i - 1) * n2 + j] = true;
+                    }
+                    if i + 1 < n1 {
+                        dilated[(i + 1) * n2 + j] = true;
+                    }
+                    if j > 0 {
+                        dilated[i * n2 + j - 1] = true;
+                    }
+                    if j + 1 < n2 {
+                        dilated[i * n2 + j + 1] = true;
+                    }
+                }
+            }
+        }
+        grid.mask = Some(dilated);
         grid.floor = floor;
     }
     let q_ref = if plane {
@@ -537,8 +609,17 @@ fn integrate(
     for i in 0..grid.g1.len() {
         for j in 0..n2 {
             let idx = i * n2 + j;
-            if grid.mask.as_ref().map_or(true, |m| m[idx]) {
-                let v = (qv[idx] - q_ref).exp();
+            // The points `contains` admits: on the plane all, inside a ridge the component.
+            let inside = grid.mask.as_ref().map_or(true, |m| {
+                m[idx] && qv[idx] >= floor && qv[idx] <= q_mode + 1e-9 * (1.0 + q_mode.abs())
+            });
+            if inside {
+                let w = if plane {
+                    1.0
+                } else {
+                    taper((qv[idx] - floor) / TAPER_E_FOLDS)
+                };
+                let v = (qv[idx] - q_ref).exp() * w;
                 p[idx] = v;
                 z += v;
                 if i % 2 == 0 && j % 2 == 0 {
@@ -633,5 +714,96 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn purely_quartic_q_has_a_degenerate_mode_and_normalises() {
+        // Q = −(ξ1² + ξ2²)²: zero Hessian at the mode; Z = ∫ e^{−r⁴} dξ = π^{3/2}/2.
+        let q = Poly {
+            exps: vec![(2, 0), (0, 2), (4, 0), (2, 2), (0, 4)],
+            a: vec![0.0, 0.0, -1.0, -2.0, -1.0],
+            degree: 4,
+        };
+        let Ok((grid, rep)) = normalise(&q, [1.0, 1.0], 12.0) else {
+            panic!("normalisable")
+        };
+        assert!(matches!(rep.kind, NormalisationKind::Plane { .. }));
+        assert_relative_eq!(rep.mode[0], 0.0, epsilon = 1e-12);
+        assert_relative_eq!(
+            grid.log_z,
+            (std::f64::consts::PI.powf(1.5) / 2.0).ln(),
+            epsilon = 1e-8
+        );
+    }
+
+    #[test]
+    fn a_saddle_is_not_a_mode() {
+        // Q = ξ1² − ξ2² − ξ1⁴ − ξ2⁴ has a saddle at the origin and modes at (±1/√2, 0).
+        let q = Poly {
+            exps: vec![(2, 0), (0, 2), (4, 0), (0, 4)],
+            a: vec![1.0, -1.0, -1.0, -1.0],
+            degree: 4,
+        };
+        let mode = find_mode(&q).ok().expect("a mode");
+        assert_relative_eq!(mode[0].abs(), 0.5_f64.sqrt(), epsilon = 1e-8);
+    }
+
+    #[test]
+    fn density_inside_a_ridge_integrates_to_one_and_vanishes_continuously_at_the_edge() {
+        // Q = −ξ1²/2 − ξ2²/2 + b ξ1³ with a shallow ridge (depth 1/(54 b²) ≈ 3.8 e-folds, so
+        // the density at the edge is a few % of the peak and any mismatch between the region
+        // of the sum and the region of `weight` would show).
+        let b = 0.07;
+        let q = Poly {
+            exps: vec![(2, 0), (0, 2), (3, 0)],
+            a: vec![-0.5, -0.5, b],
+            degree: 3,
+        };
+        let Ok((grid, rep)) = normalise(&q, [1.0, 1.0], 3.0) else {
+            panic!("normalisable")
+        };
+        let NormalisationKind::InsideRidge { depth, .. } = rep.kind else {
+            panic!("ridge expected")
+        };
+        let density = |x: [f64; 2]| {
+            let v = q.eval(x);
+            (v - grid.log_z).exp() * grid.weight(x, v)
+        };
+        // Midpoint rule on a grid unrelated to the normalisation grid.
+        let (n, lo, hi) = (1500, [-5.0, -4.0], [6.0, 4.0]);
+        let h = [(hi[0] - lo[0]) / n as f64, (hi[1] - lo[1]) / n as f64];
+        let mut total = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                total += density([
+                    lo[0] + (i as f64 + 0.5) * h[0],
+                    lo[1] + (j as f64 + 0.5) * h[1],
+                ]);
+            }
+        }
+        total *= h[0] * h[1];
+        assert!(
+            (total - 1.0).abs() < 1e-4,
+            "∫ p = {total} (error estimate {:e})",
+            rep.error_estimate
+        );
+        // Along ξ2 = 0 towards the pass the density falls continuously to 0: the last positive
+        // value is far below the density at the floor, e^-(depth-1) of the peak.
+        let peak = density([0.0, 0.0]);
+        let at_floor = peak * (1.0 - depth).exp();
+        let mut last = peak;
+        let mut x = 0.0;
+        while density([x, 0.0]) > 0.0 {
+            last = density([x, 0.0]);
+            x += 1e-4;
+        }
+        assert!(
+            x < 1.0 / (3.0 * b),
+            "the region stops before the pass at {x}"
+        );
+        assert!(
+            last < 1e-3 * at_floor,
+            "jump of {last:e} at the edge ({at_floor:e} at the floor)"
+        );
     }
 }

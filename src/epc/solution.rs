@@ -141,14 +141,18 @@ impl EpcSolution {
         self.normalisation.log_c
     }
 
-    /// The joint density at a point (0 outside the normalisation region).
+    /// The joint density at a point: C·exp(Q) on the plane; inside a ridge
+    /// ([`NormalisationKind::InsideRidge`](super::NormalisationKind::InsideRidge)) 0 outside
+    /// the region and cut off smoothly to 0 across the last e-fold above its edge, the same
+    /// density the normalising integral integrates.
     pub fn pdf(&self, x1: f64, x2: f64) -> f64 {
         let xi = [x1 / self.sigma[0], x2 / self.sigma[1]];
         let q = self.q.eval(xi);
-        if !self.grid.contains(xi, q) {
+        let w = self.grid.weight(xi, q);
+        if w == 0.0 {
             return 0.0;
         }
-        (q + self.log_c()).exp()
+        (q + self.log_c()).exp() * w
     }
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original
@@ -205,8 +209,9 @@ impl EpcSolution {
         for &u in other {
             let xi = if axis == 0 { [t, u] } else { [u, t] };
             let q = self.q.eval(xi);
-            if g.contains(xi, q) {
-                sum += (q - g.log_z).exp();
+            let w = g.weight(xi, q);
+            if w > 0.0 {
+                sum += (q - g.log_z).exp() * w;
             }
         }
         sum * h / self.sigma[axis]

@@ -1,8 +1,13 @@
-//! Solving R(a) = 0: Newton with a backtracking line search on ½‖R‖², then
-//! Levenberg–Marquardt (globally convergent to a stationary point of ½‖R‖²) from the same and
-//! from perturbed starts. A failure says what was tried and what the best point looks like: a
-//! nonzero ‖R‖ with ‖JᵀR‖ ≈ 0 is a local minimum of the residual, evidence that no real
-//! Galerkin solution lies nearby.
+//! Solving R(a) = 0: Newton with a backtracking line search on ½‖R‖² from each start; then
+//! globally convergent homotopies followed by pseudo-arclength continuation through folds in λ
+//! (the paper recommends homotopy methods when Newton's start is poor, Section 2): first the
+//! operator homotopy (1 − λ)R_G + λR, where R_G is the Galerkin system of an operator whose
+//! exact density is the Gaussian-closure start, then the Newton homotopy R(a) − (1 − λ)R(a0)
+//! from each start; then Levenberg–Marquardt (globally convergent to a stationary point of
+//! ½‖R‖²) from the same and from perturbed starts. A failure says what was tried, what the best
+//! point looks like, and what each homotopy path showed: a fold in the operator homotopy is the
+//! only evidence it gives that the real solution connected to the Gaussian one does not reach
+//! the model; a nonzero local minimum of ‖R‖ by itself shows nothing about solutions elsewhere.
 //!
 //! Every method reports and judges ‖R‖ itself (the Euclidean norm of the Galerkin residual in
 //! scaled variables), never the cost ½‖R‖²: a solve has converged when
@@ -12,7 +17,9 @@
 use nalgebra::DVector;
 use serde::Serialize;
 
+use super::continuation::{self, PathEnd, TraceOptions};
 use super::galerkin::GalerkinSystem;
+use super::EpcError;
 
 /// How a solve ended.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -35,6 +42,8 @@ pub(crate) struct SolveFailure {
     pub best_residual: f64,
     pub gradient: f64,
     pub local_minimum: bool,
+    /// The homotopy paths followed, in order.
+    pub paths: Vec<HomotopyPath>,
 }
 
 fn newton(
@@ -91,6 +100,141 @@ fn newton(
     }
     (a.clone(), norm, max_iter, norm <= tol)
 }
+
+/// How one homotopy path ended.
+#[derive(Clone, Debug)]
+pub(crate) struct HomotopyPath {
+    /// What was followed from where, e.g. "Newton homotopy from the Gaussian closure".
+    pub name: String,
+    /// Whether λ is a deformation of the operator (a fold then shows that the solution branch
+    /// connected to the start does not reach the model) rather than of the residual.
+    pub operator: bool,
+    /// How the path ended.
+    pub end: PathEnd,
+    /// The largest λ reached.
+    pub lambda_max: f64,
+    /// λ at each fold (where the path turned back to decreasing λ).
+    pub folds: Vec<f64>,
+    /// Accepted continuation steps.
+    pub steps: usize,
+}
+
+impl HomotopyPath {
+    /// What the path showed, in words, claiming only what the continuation established.
+    pub(crate) fn describe(&self) -> String {
+        let end = match &self.end {
+            PathEnd::Reached(_) => {
+                "reached λ = 1, where Newton did not converge to the threshold".to_string()
+            }
+            PathEnd::Fold { lambda } => format!("turned back at λ = {lambda:.4}"),
+            PathEnd::Stalled { lambda } => format!("stalled at λ = {lambda:.4}"),
+            PathEnd::Escaped { lambda } if *lambda < 0.0 => "came back below λ = 0".to_string(),
+            PathEnd::Escaped { lambda } => format!(
+                "diverged (‖a‖ beyond {HOMOTOPY_NORM_FACTOR} times its start's) at λ = {lambda:.4}"
+            ),
+            PathEnd::Budget { lambda } => {
+                format!("was still going at λ = {lambda:.4} after {HOMOTOPY_STEPS} steps")
+            }
+        };
+        let folds = match self.folds.as_slice() {
+            [] => String::new(),
+            [l] => format!("folded at λ = {l:.4}, then "),
+            f => format!("folded {} times (first at λ = {:.4}), then ", f.len(), f[0]),
+        };
+        let meaning = if matches!(self.end, PathEnd::Reached(_)) {
+            ""
+        } else if self.operator && !self.folds.is_empty() {
+            // A fold in a deformation of the operator is where the real solution connected to
+            // the start meets another and both turn complex.
+            ": the solution branch connected to the Gaussian-exact one does not reach the model along this path (real solutions off this path are not excluded)"
+        } else {
+            ": this path does not lead to a solution"
+        };
+        let reach = if self.folds.is_empty() {
+            format!(" (largest λ reached {:.4})", self.lambda_max)
+        } else {
+            String::new()
+        };
+        format!("the {}{reach} {folds}{end}{meaning}", self.name)
+    }
+}
+
+/// Follows a homotopy through folds in λ from (a0, 0) towards λ = 1.
+fn homotopy(
+    eval: &continuation::Homotopy,
+    a0: &DVector<f64>,
+    name: String,
+    operator: bool,
+) -> HomotopyPath {
+    let scale = 1.0 + a0.norm();
+    let opts = TraceOptions {
+        stop_at_fold: false,
+        max_steps: HOMOTOPY_STEPS,
+        first_step: 0.05 * scale,
+        max_step: 0.5 * scale,
+        max_norm: HOMOTOPY_NORM_FACTOR * scale,
+        min_lambda: 0.0,
+    };
+    match continuation::trace(eval, a0.clone(), opts) {
+        Ok(path) => HomotopyPath {
+            name,
+            operator,
+            steps: path.points.len() - 1,
+            end: path.end,
+            lambda_max: path.lambda_max,
+            folds: path.folds,
+        },
+        // The evaluations of this module cannot fail; an error would end the path at its start.
+        Err(_) => HomotopyPath {
+            name,
+            operator,
+            end: PathEnd::Stalled { lambda: 0.0 },
+            lambda_max: 0.0,
+            folds: Vec::new(),
+            steps: 0,
+        },
+    }
+}
+
+/// Follows the Newton homotopy H(a, λ) = R(a) − (1 − λ) R(a0) from (a0, 0), through folds in
+/// λ, towards λ = 1 where H = R. Unlike damped Newton, the path does not stop where ‖R‖ has a
+/// nonzero local minimum: it turns back in λ there and goes on.
+fn newton_homotopy(sys: &GalerkinSystem, a0: &DVector<f64>, start: &str) -> HomotopyPath {
+    let r0 = sys.residual_and_jacobian(a0).0;
+    let eval = |a: &DVector<f64>, l: f64| -> Result<continuation::Linearised, EpcError> {
+        let (r, j) = sys.residual_and_jacobian(a);
+        Ok((r - (1.0 - l) * &r0, j, r0.clone()))
+    };
+    homotopy(&eval, a0, format!("Newton homotopy from {start}"), false)
+}
+
+/// Follows the family R_λ = (1 − λ) R_G + λ R from its exact root `a_g` of R_G at λ = 0 (the
+/// Galerkin system of an operator for which the Gaussian exp(Q(a_g)) is exact) through folds
+/// in λ towards λ = 1.
+fn operator_homotopy(
+    sys: &GalerkinSystem,
+    gauss: &GalerkinSystem,
+    a_g: &DVector<f64>,
+) -> HomotopyPath {
+    let eval = |a: &DVector<f64>, l: f64| -> Result<continuation::Linearised, EpcError> {
+        let (r, j) = sys.residual_and_jacobian(a);
+        let (rg, jg) = gauss.residual_and_jacobian(a);
+        let dl = &r - &rg;
+        Ok((rg + l * &dl, &jg + l * (j - &jg), dl))
+    };
+    homotopy(
+        &eval,
+        a_g,
+        "operator homotopy from the Gaussian-exact operator".to_string(),
+        true,
+    )
+}
+
+/// A homotopy path whose ‖a‖ exceeds this many times 1 + ‖a0‖ counts as diverged.
+const HOMOTOPY_NORM_FACTOR: f64 = 100.0;
+
+/// Most continuation steps of one homotopy path.
+const HOMOTOPY_STEPS: usize = 200;
 
 /// Why a Levenberg–Marquardt run stopped.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -173,13 +317,19 @@ fn levenberg_marquardt(
 /// Perturbed Levenberg–Marquardt starts tried after the given starts have failed.
 const PERTURBED_STARTS: usize = 4;
 
-/// Solves the system from the given starts (in order): Newton from each, then LM from each,
-/// then LM from perturbations of the best point. `tol` is relative to
-/// `max(1, reference_residual)`, where `reference_residual` is ‖R‖ at the Gaussian-closure
-/// start (see the module docs).
+/// The Gaussian-exact system and its exact root, built only when Newton has failed.
+pub(crate) type GaussianFamily<'a> = dyn Fn() -> (GalerkinSystem, DVector<f64>) + 'a;
+
+/// Solves the system from the given starts (in order): Newton from each, then the operator
+/// homotopy from `family` (when given) and, if `newton_homotopy`, a Newton homotopy from the
+/// first start, then LM from each start and from perturbations of the best point. `tol` is
+/// relative to `max(1, reference_residual)`, where `reference_residual` is ‖R‖ at the
+/// Gaussian-closure start (see the module docs).
 pub(crate) fn solve(
     sys: &GalerkinSystem,
     starts: &[(String, DVector<f64>)],
+    family: Option<&GaussianFamily>,
+    newton_homotopy_too: bool,
     tol: f64,
     reference_residual: f64,
 ) -> Result<(DVector<f64>, SolveOutcome), SolveFailure> {
@@ -213,6 +363,41 @@ pub(crate) fn solve(
             return Ok(done(a, format!("newton from {name}"), it));
         }
         keep(&a, n, false, &mut best);
+    }
+    // Globally convergent fallbacks (the paper's recommendation for poor starts): homotopy
+    // paths followed by pseudo-arclength continuation through folds in λ. The operator
+    // homotopy comes first: it starts at an exact solution and deforms the operator, so the
+    // root it reaches is the one connected to the Gaussian closure.
+    let mut paths: Vec<HomotopyPath> = Vec::new();
+    let first_newton = usize::from(family.is_some());
+    // One Newton homotopy, from the first start (the lower-degree solution when there is
+    // one): further ones rarely reach a root the others miss and each costs as much as a
+    // failed LM run.
+    let newton_paths = if newton_homotopy_too {
+        starts.len().min(1)
+    } else {
+        0
+    };
+    for k in 0..first_newton + newton_paths {
+        let path = match family {
+            Some(build) if k == 0 => {
+                let (gauss, a_g) = build();
+                operator_homotopy(sys, &gauss, &a_g)
+            }
+            _ => {
+                let (name, a0) = &starts[k - first_newton];
+                newton_homotopy(sys, a0, name)
+            }
+        };
+        tried.push(path.name.clone());
+        if let PathEnd::Reached(a) = &path.end {
+            let n = sys.residual_and_jacobian(a).0.norm();
+            if n <= threshold {
+                return Ok(done(a.clone(), path.name.to_lowercase(), path.steps));
+            }
+            keep(a, n, false, &mut best);
+        }
+        paths.push(path);
     }
     // A run that ends at a stationary point whose ‖R‖ is far above the threshold has found a
     // genuine nonzero minimum: perturbing it would only find the same minimum again.
@@ -267,6 +452,7 @@ pub(crate) fn solve(
         best_residual: r.norm(),
         gradient: (j.transpose() * &r).norm(),
         local_minimum: stationary,
+        paths,
     })
 }
 
@@ -303,7 +489,7 @@ mod tests {
     fn fallback_reports_the_norm_of_r_not_the_cost() {
         let sys = square_minus_one();
         let start = DVector::from_vec(vec![0.0]);
-        let (a, out) = solve(&sys, &[("zero".into(), start)], 1e-10, 1.0).unwrap();
+        let (a, out) = solve(&sys, &[("zero".into(), start)], None, true, 1e-10, 1.0).unwrap();
         assert!(
             out.method.starts_with("levenberg-marquardt"),
             "{}",
@@ -323,7 +509,7 @@ mod tests {
         sys.c[0] = -1e6;
         sys.s[0] = 2e6;
         let start = DVector::from_vec(vec![0.5]);
-        let (a, out) = solve(&sys, &[("half".into(), start)], 1e-10, 1e6).unwrap();
+        let (a, out) = solve(&sys, &[("half".into(), start)], None, true, 1e-10, 1e6).unwrap();
         approx::assert_relative_eq!(out.threshold, 1e-4);
         assert_eq!(out.method, "newton from half");
         assert!(out.residual <= 1e-4);
@@ -336,8 +522,15 @@ mod tests {
         let mut sys = square_minus_one();
         sys.c[0] = 1.0;
         let start = DVector::from_vec(vec![0.7]);
-        let f = solve(&sys, &[("0.7".into(), start)], 1e-10, 1.0).unwrap_err();
+        let f = solve(&sys, &[("0.7".into(), start)], None, true, 1e-10, 1.0).unwrap_err();
         approx::assert_relative_eq!(f.best_residual, 1.0, max_relative = 1e-6);
         assert!(f.local_minimum);
+        // The Newton homotopy R(a) = (1 − λ)R(0.7) folds where R' = 0 and never reaches λ = 1;
+        // not an operator deformation, so it claims nothing about solutions elsewhere.
+        assert_eq!(f.paths.len(), 1);
+        let text = f.paths[0].describe();
+        assert!(!f.paths[0].folds.is_empty(), "{text}");
+        assert!(text.contains("does not lead to a solution"), "{text}");
+        assert!(!text.contains("Gaussian-exact"), "{text}");
     }
 }
