@@ -10,7 +10,9 @@
 //! density is smooth (see the tests).
 
 use crate::epc::EpcSolution;
-use crate::symbolic::{simplify, Expr, Func, Symbol};
+use rayon::prelude::*;
+
+use crate::symbolic::{simplify, DeltaPolicy, Expr, Func, Symbol};
 
 /// A joint density of the two states that observables can be computed from.
 pub trait JointDensity: Sync {
@@ -154,12 +156,68 @@ impl ObservableMap {
 /// assert!((p[0] - exact).abs() < 1e-10 * exact);
 /// ```
 pub fn observable_pdf(density: &dyn JointDensity, map: &ObservableMap, u: &[f64]) -> Vec<f64> {
-    match map {
-        ObservableMap::SignedState { state, sign } => u
-            .iter()
-            .map(|&u| signed_state_pdf(density, *state, sign, u))
-            .collect(),
-        ObservableMap::General { expr, states } => kernel_pdf(density, expr, states, u),
+    ObservableDensity::new(density, map).pdf(u)
+}
+
+/// The PDF of one observable under one joint density, prepared once for evaluation at many
+/// points: the general method's weighted samples are built here, not per call.
+///
+/// ```
+/// use fpsolve::observe::{JointDensity, ObservableDensity, ObservableMap};
+/// use fpsolve::symbolic::Expr;
+/// struct Normal;
+/// impl JointDensity for Normal {
+///     fn pdf(&self, x: [f64; 2]) -> f64 {
+///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+///     }
+///     fn extent(&self) -> [[f64; 2]; 2] {
+///         [[-9.0, 9.0], [-9.0, 9.0]]
+///     }
+/// }
+/// let states = ["z".into(), "v".into()];
+/// let sum = ObservableMap::classify(&(Expr::sym("z") + Expr::sym("v")), &states);
+/// let p = ObservableDensity::new(&Normal, &sum).pdf(&[0.0, 1.0]);
+/// let exact = |u: f64| (-u * u / 4.0).exp() / (4.0 * std::f64::consts::PI).sqrt();
+/// assert!((p[0] - exact(0.0)).abs() < 2e-4 * exact(0.0));
+/// assert!((p[1] - exact(1.0)).abs() < 2e-4 * exact(1.0));
+/// ```
+pub struct ObservableDensity<'a> {
+    density: &'a dyn JointDensity,
+    method: Method<'a>,
+}
+
+enum Method<'a> {
+    Signed {
+        state: usize,
+        sign: &'a [[f64; 2]; 2],
+    },
+    Kernel(KernelSamples),
+}
+
+impl<'a> ObservableDensity<'a> {
+    /// Prepares the PDF of `map` under `density`.
+    pub fn new(density: &'a dyn JointDensity, map: &'a ObservableMap) -> ObservableDensity<'a> {
+        let method = match map {
+            ObservableMap::SignedState { state, sign } => Method::Signed {
+                state: *state,
+                sign,
+            },
+            ObservableMap::General { expr, states } => {
+                Method::Kernel(KernelSamples::new(density, expr, states))
+            }
+        };
+        ObservableDensity { density, method }
+    }
+
+    /// The PDF at the points `u` (independent points, evaluated in parallel).
+    pub fn pdf(&self, u: &[f64]) -> Vec<f64> {
+        match &self.method {
+            Method::Signed { state, sign } => u
+                .par_iter()
+                .map(|&u| signed_state_pdf(self.density, *state, sign, u))
+                .collect(),
+            Method::Kernel(k) => u.par_iter().map(|&u| k.at(u)).collect(),
+        }
     }
 }
 
@@ -203,21 +261,6 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
         }
     }
     total
-}
-
-/// The value of an expression of the two states at `x`; NaN where it has none (an unbound
-/// symbol or a domain error), which callers leave out.
-pub(crate) fn eval_at(expr: &Expr, states: &[Symbol; 2], x: [f64; 2]) -> f64 {
-    expr.eval(&|s| {
-        if s == &*states[0] {
-            Some(x[0])
-        } else if s == &*states[1] {
-            Some(x[1])
-        } else {
-            None
-        }
-    })
-    .unwrap_or(f64::NAN)
 }
 
 /// Adaptive Gauss–Kronrod (7–15) quadrature of `f` over [a, b] to relative tolerance `rel`
@@ -296,48 +339,58 @@ fn gauss_kronrod(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
     (k * h, ((k - g) * h).abs())
 }
 
-/// The general method: Gaussian-kernel estimates at widths h and h/2 on a tensor grid,
-/// combined by Richardson extrapolation (p_h = p + a·h² + O(h⁴)).
-fn kernel_pdf(
-    density: &dyn JointDensity,
-    expr: &Expr,
-    states: &[Symbol; 2],
-    u: &[f64],
-) -> Vec<f64> {
-    const N: usize = 1000;
-    let ext = density.extent();
-    let axis = |k: usize| -> Vec<f64> {
-        let [lo, hi] = ext[k];
-        (0..=N)
-            .map(|i| lo + (hi - lo) * i as f64 / N as f64)
-            .collect()
-    };
-    let (g1, g2) = (axis(0), axis(1));
-    let cell = (g1[1] - g1[0]) * (g2[1] - g2[0]);
-    // (g(x), p(x)·cell) at every grid point with positive density, sorted by g.
-    let mut samples: Vec<(f64, f64)> = Vec::with_capacity((N + 1) * (N + 1));
-    for &x1 in &g1 {
-        for &x2 in &g2 {
-            let p = density.pdf([x1, x2]);
-            if p <= 0.0 {
-                continue;
-            }
-            let g = eval_at(expr, states, [x1, x2]);
-            if g.is_finite() {
-                samples.push((g, p * cell));
+/// The general method: Gaussian-kernel estimates at widths h and h/2 over weighted samples
+/// of a tensor grid, combined by Richardson extrapolation (p_h = p + a·h² + O(h⁴)).
+struct KernelSamples {
+    /// (g(x), p(x)·cell) at every grid point with positive density, sorted by g.
+    samples: Vec<(f64, f64)>,
+    /// The kernel width h (the finer estimate uses h/2).
+    h: f64,
+}
+
+impl KernelSamples {
+    fn new(density: &dyn JointDensity, expr: &Expr, states: &[Symbol; 2]) -> KernelSamples {
+        const N: usize = 1000;
+        let ext = density.extent();
+        let axis = |k: usize| -> Vec<f64> {
+            let [lo, hi] = ext[k];
+            (0..=N)
+                .map(|i| lo + (hi - lo) * i as f64 / N as f64)
+                .collect()
+        };
+        let (g1, g2) = (axis(0), axis(1));
+        let cell = (g1[1] - g1[0]) * (g2[1] - g2[0]);
+        let mut samples: Vec<(f64, f64)> = Vec::with_capacity((N + 1) * (N + 1));
+        for &x1 in &g1 {
+            for &x2 in &g2 {
+                let p = density.pdf([x1, x2]);
+                if p <= 0.0 {
+                    continue;
+                }
+                // Points where the observable has no finite value are left out.
+                let g = expr
+                    .eval_states(states, [x1, x2], DeltaPolicy::Reject)
+                    .unwrap_or(f64::NAN);
+                if g.is_finite() {
+                    samples.push((g, p * cell));
+                }
             }
         }
+        samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let range = match (samples.first(), samples.last()) {
+            (Some(a), Some(b)) => (b.0 - a.0).max(1e-300),
+            _ => 1.0,
+        };
+        KernelSamples {
+            samples,
+            h: range / 150.0,
+        }
     }
-    if samples.is_empty() {
-        return vec![0.0; u.len()];
-    }
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let range = (samples[samples.len() - 1].0 - samples[0].0).max(1e-300);
-    let h = range / 150.0;
-    let estimate = |h: f64, u: f64| -> f64 {
-        let lo = samples.partition_point(|s| s.0 < u - 8.0 * h);
-        let hi = samples.partition_point(|s| s.0 <= u + 8.0 * h);
-        let sum: f64 = samples[lo..hi]
+
+    fn estimate(&self, h: f64, u: f64) -> f64 {
+        let lo = self.samples.partition_point(|s| s.0 < u - 8.0 * h);
+        let hi = self.samples.partition_point(|s| s.0 <= u + 8.0 * h);
+        let sum: f64 = self.samples[lo..hi]
             .iter()
             .map(|&(g, w)| {
                 let s = (g - u) / h;
@@ -345,14 +398,13 @@ fn kernel_pdf(
             })
             .sum();
         sum / (h * (2.0 * std::f64::consts::PI).sqrt())
-    };
-    u.iter()
-        .map(|&u| {
-            let coarse = estimate(h, u);
-            let fine = estimate(0.5 * h, u);
-            ((4.0 * fine - coarse) / 3.0).max(0.0)
-        })
-        .collect()
+    }
+
+    fn at(&self, u: f64) -> f64 {
+        let coarse = self.estimate(self.h, u);
+        let fine = self.estimate(0.5 * self.h, u);
+        ((4.0 * fine - coarse) / 3.0).max(0.0)
+    }
 }
 
 #[cfg(test)]

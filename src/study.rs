@@ -3,14 +3,13 @@
 
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::epc::{Epc, EpcError, EpcSolution};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::observe::{eval_at, observable_pdf, JointDensity, ObservableMap};
-use crate::symbolic::{Expr, Symbol};
+use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
+use crate::symbolic::{DeltaPolicy, Expr, Symbol};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
 #[derive(Debug, thiserror::Error)]
@@ -172,7 +171,10 @@ impl Study {
         Some(
             self.degrees
                 .iter()
-                .filter_map(|d| d.outcome.as_ref().ok().map(|s| (d.degree, pdf_on(s, q, x))))
+                .filter_map(|d| {
+                    let sol = d.outcome.as_ref().ok()?;
+                    Some((d.degree, ObservableDensity::new(sol, &q.map).pdf(x)))
+                })
                 .collect(),
         )
     }
@@ -219,7 +221,9 @@ fn value_range(sol: &EpcSolution, q: &Quantity) -> [f64; 2] {
                     if sol.pdf(x1, x2) <= 0.0 {
                         continue;
                     }
-                    let g = eval_at(expr, states, [x1, x2]);
+                    let g = expr
+                        .eval_states(states, [x1, x2], DeltaPolicy::Reject)
+                        .unwrap_or(f64::NAN);
                     if g.is_finite() {
                         lo = lo.min(g);
                         hi = hi.max(g);
@@ -228,17 +232,6 @@ fn value_range(sol: &EpcSolution, q: &Quantity) -> [f64; 2] {
             }
             [lo, hi]
         }
-    }
-}
-
-fn pdf_on(sol: &EpcSolution, q: &Quantity, x: &[f64]) -> Vec<f64> {
-    match &q.map {
-        // Points are independent line integrals: spread them over the threads.
-        ObservableMap::SignedState { .. } => x
-            .par_iter()
-            .map(|&u| observable_pdf(sol, &q.map, &[u])[0])
-            .collect(),
-        ObservableMap::General { .. } => observable_pdf(sol, &q.map, x),
     }
 }
 
@@ -263,15 +256,18 @@ fn window(x: &[f64], p: &[f64]) -> Option<[f64; 2]> {
 }
 
 fn curves(q: &Quantity, solutions: &[(usize, &EpcSolution)]) -> PdfCurves {
-    // Scan each degree's density, take the union of the windows, then evaluate every degree
-    // on one common grid.
+    // Each degree's observable density is prepared once, scanned for its window, then
+    // evaluated on the common grid (the union of the windows).
+    let densities: Vec<(usize, &EpcSolution, ObservableDensity)> = solutions
+        .iter()
+        .map(|&(degree, sol)| (degree, sol, ObservableDensity::new(sol, &q.map)))
+        .collect();
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
-    for (_, sol) in solutions {
+    for (_, sol, density) in &densities {
         let [a, b] = value_range(sol, q);
         let scan = linspace(a, b, 241);
-        let p = pdf_on(sol, q, &scan);
-        if let Some([a, b]) = window(&scan, &p) {
+        if let Some([a, b]) = window(&scan, &density.pdf(&scan)) {
             lo = lo.min(a);
             hi = hi.max(b);
         }
@@ -288,9 +284,9 @@ fn curves(q: &Quantity, solutions: &[(usize, &EpcSolution)]) -> PdfCurves {
         };
     }
     let x = linspace(lo, hi, GRID_POINTS);
-    let columns = solutions
+    let columns = densities
         .iter()
-        .map(|(degree, sol)| (*degree, pdf_on(sol, q, &x)))
+        .map(|(degree, _, density)| (*degree, density.pdf(&x)))
         .collect();
     PdfCurves {
         name: q.name.clone(),

@@ -35,17 +35,8 @@ pub(crate) struct Point {
 /// Evaluates a (kink-argument) expression at a point by walking its tree: used only for the
 /// few evaluations of root finding, never for coefficients at quadrature points.
 fn eval_expr(what: &str, e: &Expr, states: &[Symbol; 2], x: [f64; 2]) -> Result<f64, EpcError> {
-    let lookup = |s: &str| {
-        if s == &*states[0] {
-            Some(x[0])
-        } else if s == &*states[1] {
-            Some(x[1])
-        } else {
-            None
-        }
-    };
     let v = e
-        .eval_with(&lookup, DeltaPolicy::Reject)
+        .eval_states(states, x, DeltaPolicy::Reject)
         .map_err(|source| EpcError::Eval {
             what: what.to_string(),
             x1: x[0],

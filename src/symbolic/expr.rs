@@ -459,6 +459,35 @@ impl Expr {
             }
         })
     }
+
+    /// Evaluates an expression of two named variables (the states) at `x`, by walking the
+    /// tree; any other symbol is unbound.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{DeltaPolicy, Expr};
+    /// let e = Expr::sym("z") * Expr::sym("v");
+    /// let v = e.eval_states(&["z".into(), "v".into()], [2.0, 3.0], DeltaPolicy::Reject);
+    /// assert_eq!(v, Ok(6.0));
+    /// ```
+    pub fn eval_states(
+        &self,
+        states: &[Symbol; 2],
+        x: [f64; 2],
+        policy: DeltaPolicy,
+    ) -> Result<f64, EvalError> {
+        self.eval_with(
+            &|s| {
+                if s == &*states[0] {
+                    Some(x[0])
+                } else if s == &*states[1] {
+                    Some(x[1])
+                } else {
+                    None
+                }
+            },
+            policy,
+        )
+    }
 }
 
 /// `base^exponent` with integer exponents done by repeated multiplication, so that a negative
