@@ -74,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (cy, cyd) = (c("y"), c("ydot"));
             writeln!(
                 table,
-                "| {} | {mu} | {eps} | EPC n = {} | {:.4} | {:.4} | {:.3} | {:.4} | {:.3} | {:.4} | {:.4} | {:.3} / {:.3} |",
+                "| {} | {mu} | {eps} | EPC n = {} | {:.4} | {:.4} | {:.3} | {:.4} | {:.3} | {:.4} | {:.4} | {} / {} |",
                 k + 1,
                 d.degree,
                 y.mean,
@@ -84,8 +84,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 yd.kurtosis,
                 cy.map_or(f64::NAN, |c| c.l1),
                 cyd.map_or(f64::NAN, |c| c.l1),
-                cy.map_or(f64::NAN, |c| c.max_log10_ratio_1e3),
-                cy.map_or(f64::NAN, |c| c.max_log10_ratio_1e5),
+                cy.map_or("-".to_string(), |c| c.ratio_1e3.to_string()),
+                cy.map_or("-".to_string(), |c| c.ratio_1e5.to_string()),
             )?;
         }
         if let Some(mc) = &report.mc {

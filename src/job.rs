@@ -9,7 +9,10 @@ use serde::Serialize;
 
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
 use crate::model::{Model, Override};
-use crate::report::{write_json, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
+use crate::report::{
+    write_json, write_json_flagging_undefined, Curve, OutputDir, PdfFigure, PdfTable, Points,
+    ReportError, UndefinedField,
+};
 use crate::study::{Study, StudyError, StudySummary};
 
 /// What a job reports PDFs of.
@@ -65,19 +68,53 @@ pub enum JobError {
     Report(#[from] ReportError),
 }
 
-/// The distance between one EPC degree and Monte Carlo for one quantity.
+/// The distance between one EPC degree and Monte Carlo for one quantity, on the histogram's
+/// bins: the EPC density is averaged over each bin (as the histogram is), never taken at the
+/// bin centre.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Comparison {
     /// The quantity.
     pub quantity: String,
     /// The EPC degree.
     pub degree: usize,
-    /// L1 = ∫|p_EPC − p_MC| over the histogram grid.
+    /// The histogram's range [lo, hi]: the distances say nothing about values outside it.
+    pub range: [f64; 2],
+    /// L1 = Σ_bins |p̄_EPC − p_MC|·width, with p̄_EPC the EPC density's bin average.
     pub l1: f64,
-    /// max |log10(p_EPC/p_MC)| over the bins where p_MC > 1e−3 of its peak.
-    pub max_log10_ratio_1e3: f64,
-    /// The same over the bins where p_MC > 1e−5 of its peak.
-    pub max_log10_ratio_1e5: f64,
+    /// The worst log-ratio where p_MC > 1e−3 of its peak.
+    pub ratio_1e3: LogRatio,
+    /// The worst log-ratio where p_MC > 1e−5 of its peak.
+    pub ratio_1e5: LogRatio,
+}
+
+/// max |log10(p̄_EPC / p_MC)| over the bins where the histogram exceeds a level, and the bins
+/// there where the EPC density is exactly 0 (cut beyond its ridge), where the ratio has no
+/// finite value and is not counted in the maximum.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LogRatio {
+    /// The maximum over the bins where p̄_EPC > 0 (`None` if there is no such bin).
+    pub max_abs_log10: Option<f64>,
+    /// Bins above the level (where the histogram is positive).
+    pub bins: usize,
+    /// Bins above the level where p̄_EPC = 0.
+    pub bins_epc_zero: usize,
+}
+
+impl std::fmt::Display for LogRatio {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.max_abs_log10 {
+            Some(m) => write!(f, "{m:.3}")?,
+            None => f.write_str("undefined")?,
+        }
+        if self.bins_epc_zero > 0 {
+            write!(
+                f,
+                " (EPC is 0 in {} of {} bins: beyond its ridge)",
+                self.bins_epc_zero, self.bins
+            )?;
+        }
+        Ok(())
+    }
 }
 
 /// What `summary.json` holds.
@@ -87,6 +124,8 @@ struct Summary<'a> {
     study: StudySummary<'a>,
     #[serde(skip_serializing_if = "Option::is_none")]
     monte_carlo: Option<&'a McResult>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo_error: Option<&'a str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     monte_carlo_wall_s: Option<f64>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -100,12 +139,17 @@ pub struct JobReport {
     pub study: Study,
     /// The Monte Carlo result, if one was run.
     pub mc: Option<McResult>,
+    /// Why the Monte Carlo run asked for gave no result (the EPC results are still written).
+    pub mc_error: Option<String>,
     /// Its wall time in seconds.
     pub mc_wall_s: f64,
     /// EPC-vs-MC distances (empty without Monte Carlo).
     pub comparisons: Vec<Comparison>,
     /// The files written.
     pub files: Vec<PathBuf>,
+    /// Numbers of `summary.json` that have no finite value (written there as `null` and listed
+    /// under `undefined`).
+    pub undefined: Vec<UndefinedField>,
 }
 
 /// Runs a job and writes its files into `out`.
@@ -131,18 +175,24 @@ pub fn run(
     };
 
     let mut mc = None;
+    let mut mc_error = None;
     let mut mc_wall_s = 0.0;
     if let Some(config) = &spec.mc {
         progress.stage("Monte Carlo");
         let mut config = config.clone();
         for c in &study.curves {
             if c.x.len() >= 2 && !config.grids.iter().any(|(n, _)| n == &c.name) {
-                let grid = Grid::new(c.x[0], c.x[c.x.len() - 1], spec.mc_bins)?;
-                config.grids.push((c.name.clone(), grid));
+                if let Ok(grid) = Grid::new(c.x[0], c.x[c.x.len() - 1], spec.mc_bins) {
+                    config.grids.push((c.name.clone(), grid));
+                }
             }
         }
         let t = Instant::now();
-        mc = Some(simulate(&study, &config, progress)?);
+        // A Monte Carlo failure does not cost the EPC results: it is recorded beside them.
+        match simulate(&study, &config, progress) {
+            Ok(result) => mc = Some(result),
+            Err(e) => mc_error = Some(e.to_string()),
+        }
         mc_wall_s = t.elapsed().as_secs_f64();
     }
 
@@ -156,35 +206,37 @@ pub fn run(
             .find(|c| &c.name == name)
             .expect("a curve per quantity");
         let mc_q = mc.as_ref().and_then(|m| m.quantity(name));
-        // With Monte Carlo the table is on its bin centres; without, on the EPC grid.
-        let (x, columns) = match mc_q {
-            Some(q) => {
-                let x = q.grid.centers();
-                let cols = study.pdf_at(name, &x).unwrap_or_default();
-                (x, cols)
-            }
-            None => (curve.x.clone(), curve.columns.clone()),
-        };
-        if x.is_empty() {
-            continue;
+        // The EPC curves on their own grid, whatever the histogram's range.
+        if !curve.x.is_empty() {
+            let table = PdfTable {
+                variable: name.clone(),
+                x: curve.x.clone(),
+                columns: curve
+                    .columns
+                    .iter()
+                    .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
+                    .collect(),
+            };
+            files.push(table.write_csv(out, &format!("pdf_{name}.csv"))?);
         }
-        let mut table_columns: Vec<(String, Vec<f64>)> = columns
-            .iter()
-            .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
-            .collect();
+        // The histogram beside each degree's bin averages, on the histogram's bins.
         if let Some(q) = mc_q {
-            table_columns.push(("mc".into(), q.density.clone()));
-            table_columns.push(("mc_stderr".into(), q.stderr.clone()));
-            for (d, p) in &columns {
-                comparisons.push(compare(name, *d, p, &q.density, q.grid.width()));
+            let averages = bin_averages(&study, name, &q.grid);
+            let mut columns = vec![
+                ("mc".to_string(), q.density.clone()),
+                ("mc_stderr".to_string(), q.stderr.clone()),
+            ];
+            for (d, p) in &averages {
+                comparisons.push(compare(name, *d, p, q));
+                columns.push((format!("epc_n{d}_bin_mean"), p.clone()));
             }
+            let table = PdfTable {
+                variable: name.clone(),
+                x: q.grid.centers(),
+                columns,
+            };
+            files.push(table.write_csv(out, &format!("mc_{name}.csv"))?);
         }
-        let table = PdfTable {
-            variable: name.clone(),
-            x,
-            columns: table_columns,
-        };
-        files.push(table.write_csv(out, &format!("pdf_{name}.csv"))?);
         if spec.figures && !curve.x.is_empty() {
             let figure = PdfFigure {
                 title: format!("{}: PDF of {name}", study.model.name()),
@@ -213,17 +265,47 @@ pub fn run(
     let summary = Summary {
         study: study.summary(),
         monte_carlo: mc.as_ref(),
+        monte_carlo_error: mc_error.as_deref(),
         monte_carlo_wall_s: mc.as_ref().map(|_| mc_wall_s),
         epc_vs_mc: comparisons.clone(),
     };
-    files.push(write_json(out, "summary.json", &summary)?);
+    let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
+    files.push(path);
     Ok(JobReport {
         study,
         mc,
+        mc_error,
         mc_wall_s,
         comparisons,
         files,
+        undefined,
     })
+}
+
+/// What a finished job flags, one line each: degrees that did not converge and numbers that
+/// have no finite value. Empty when everything asked for was computed and is defined.
+pub fn flags(report: &JobReport) -> Vec<String> {
+    let mut out: Vec<String> = report
+        .study
+        .degrees
+        .iter()
+        .filter_map(|d| {
+            d.outcome
+                .as_ref()
+                .err()
+                .map(|e| format!("degree {}: {e}", d.degree))
+        })
+        .collect();
+    if let Some(e) = &report.mc_error {
+        out.push(format!("Monte Carlo: {e}"));
+    }
+    for u in &report.undefined {
+        out.push(format!(
+            "summary.json: {} is {} (written as null)",
+            u.field, u.value
+        ));
+    }
+    out
 }
 
 /// The legend text of a degree's curve, saying when the density is normalised inside a ridge.
@@ -263,30 +345,82 @@ fn simulate(
     merge_shards(&outputs)
 }
 
-/// L1 distance and the worst log-ratios between an EPC density and a histogram.
-fn compare(name: &str, degree: usize, epc: &[f64], mc: &[f64], width: f64) -> Comparison {
-    let l1 = epc.iter().zip(mc).map(|(a, b)| (a - b).abs()).sum::<f64>() * width;
-    let peak = mc.iter().copied().fold(0.0, f64::max);
+/// L1 distance and the worst log-ratios between EPC bin averages and a histogram.
+fn compare(
+    name: &str,
+    degree: usize,
+    epc_bins: &[f64],
+    mc: &crate::mc::QuantityStats,
+) -> Comparison {
+    let width = mc.grid.width();
+    let l1 = epc_bins
+        .iter()
+        .zip(&mc.density)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f64>()
+        * width;
+    let peak = mc.density.iter().copied().fold(0.0, f64::max);
     let worst = |level: f64| {
-        epc.iter()
-            .zip(mc)
-            .filter(|(_, m)| **m > level * peak)
-            .map(|(e, m)| {
-                if *e > 0.0 {
-                    (e / m).log10().abs()
-                } else {
-                    f64::INFINITY
-                }
-            })
-            .fold(0.0, f64::max)
+        let mut r = LogRatio {
+            max_abs_log10: None,
+            bins: 0,
+            bins_epc_zero: 0,
+        };
+        for (e, m) in epc_bins.iter().zip(&mc.density) {
+            if !(*m > level * peak && *m > 0.0) {
+                continue;
+            }
+            r.bins += 1;
+            if *e > 0.0 {
+                let v = (e / m).log10().abs();
+                r.max_abs_log10 = Some(r.max_abs_log10.map_or(v, |w: f64| w.max(v)));
+            } else {
+                r.bins_epc_zero += 1;
+            }
+        }
+        r
     };
+    let [lo, hi] = [mc.grid.lo, mc.grid.hi];
     Comparison {
         quantity: name.to_string(),
         degree,
+        range: [lo, hi],
         l1,
-        max_log10_ratio_1e3: worst(1e-3),
-        max_log10_ratio_1e5: worst(1e-5),
+        ratio_1e3: worst(1e-3),
+        ratio_1e5: worst(1e-5),
     }
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
+/// average of a density sampled by a histogram of ≥ 50 bins.
+const GL4: [(f64, f64); 4] = [
+    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+];
+
+/// Each converged degree's density of `name` averaged over the bins of `grid`.
+fn bin_averages(study: &Study, name: &str, grid: &Grid) -> Vec<(usize, Vec<f64>)> {
+    let (lo, w) = (grid.lo, grid.width());
+    let nodes: Vec<f64> = (0..grid.bins)
+        .flat_map(|b| {
+            let c = lo + (b as f64 + 0.5) * w;
+            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
+        })
+        .collect();
+    study
+        .pdf_at(name, &nodes)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(d, p)| {
+            let avg = p
+                .chunks(GL4.len())
+                .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
+                .collect();
+            (d, avg)
+        })
+        .collect()
 }
 
 /// The short table the command line prints after a job.
@@ -301,10 +435,12 @@ pub fn table(report: &JobReport) -> String {
         .map(|(n, v)| format!("{n} = {v:.6}"))
         .collect();
     let _ = writeln!(s, "{}: {}", study.model.name(), params.join(", "));
+    // Two quality figures: the Galerkin residual says the projected equations were solved;
+    // the FPK residual ∫|F|·p says how far the density is from solving the FPK equation itself.
     let _ = writeln!(
         s,
-        "{:>6} {:>6} {:>10} {:>10}  normalisation",
-        "degree", "iters", "residual", "solve ms"
+        "{:>6} {:>6} {:>10} {:>10} {:>10}  normalisation",
+        "degree", "iters", "galerkin", "fpk resid", "solve ms"
     );
     for d in &study.degrees {
         match &d.outcome {
@@ -317,8 +453,13 @@ pub fn table(report: &JobReport) -> String {
                 };
                 let _ = writeln!(
                     s,
-                    "{:>6} {:>6} {:>10.2e} {:>10.1}  {}",
-                    d.degree, sol.solve.iterations, sol.solve.residual, d.wall_ms, norm
+                    "{:>6} {:>6} {:>10.2e} {:>10.2e} {:>10.1}  {}",
+                    d.degree,
+                    sol.solve.iterations,
+                    sol.solve.residual,
+                    sol.fpk_residual,
+                    d.wall_ms,
+                    norm
                 );
             }
             Err(e) => {
@@ -380,8 +521,14 @@ pub fn table(report: &JobReport) -> String {
         for c in &report.comparisons {
             let _ = writeln!(
                 s,
-                "EPC n = {} vs MC, {}: L1 = {:.4}, max|log10 ratio| = {:.3} (MC > 1e-3 peak), {:.3} (> 1e-5 peak)",
-                c.degree, c.quantity, c.l1, c.max_log10_ratio_1e3, c.max_log10_ratio_1e5
+                "EPC n = {} vs MC, {} on [{:.4}, {:.4}]: L1 = {:.4}, max|log10 ratio| = {} (MC > 1e-3 peak), {} (> 1e-5 peak)",
+                c.degree,
+                c.quantity,
+                c.range[0],
+                c.range[1],
+                c.l1,
+                c.ratio_1e3,
+                c.ratio_1e5
             );
         }
     }

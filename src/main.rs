@@ -6,11 +6,12 @@ use std::process::ExitCode;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
+use fpsolve::epc::DegreeList;
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
-use fpsolve::report::{write_json, OutputDir};
+use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
@@ -48,20 +49,23 @@ struct RunArgs {
 
 #[derive(Args, Debug)]
 struct SolveArgs {
-    /// EPC degrees, comma-separated, solved in order with continuation.
-    #[arg(
-        long,
-        value_name = "N,N,...",
-        value_delimiter = ',',
-        default_value = "2,4"
-    )]
-    degree: Vec<usize>,
+    /// EPC degrees: even, distinct, 2 to 12, comma-separated. Every even degree up to the
+    /// largest is solved in turn (continuation), so a degree's answer does not depend on the
+    /// others asked.
+    #[arg(long, value_name = "N,N,...", default_value = "2,4")]
+    degree: DegreeList,
     #[command(flatten)]
     set: SetArgs,
     /// Output directory (default: out/<model name>).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// No progress indication on stderr.
+    #[command(flatten)]
+    quiet: QuietArg,
+}
+
+#[derive(Args, Debug)]
+struct QuietArg {
+    /// No progress display on stderr (notes, warnings and errors are still printed).
     #[arg(long)]
     quiet: bool,
 }
@@ -110,6 +114,8 @@ enum Command {
         model: PathBuf,
         #[command(flatten)]
         set: SetArgs,
+        #[command(flatten)]
+        quiet: QuietArg,
     },
     /// Solve by EPC at the given degrees and write the states' marginal PDFs and summary.json.
     Solve {
@@ -132,9 +138,12 @@ enum Command {
         /// Run only part K of N (`--shard 3/10`, K from 1) and write shard_K_of_N.json.
         #[arg(long, value_name = "K/N")]
         shard: Option<String>,
-        /// Output directory (default: out/<model name>).
+        /// Output directory (default: out/<model name>). Replaced as a whole by the run, except
+        /// with `--shard`, where each shard adds its own file.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        quiet: QuietArg,
     },
     /// Solve at every point of a parameter sweep in parallel: `--set eps=-0.3:0.3:13`
     /// (lo:hi:count), `--set mu=0.1,1` (a list), other `--set` fixed. Writes sweep.csv,
@@ -144,15 +153,17 @@ enum Command {
         model: PathBuf,
         #[command(flatten)]
         set: SetArgs,
-        /// The EPC degree solved at each point (continued from degree 2).
-        #[arg(long, default_value_t = 4)]
-        degree: usize,
+        /// The EPC degree solved at each point (continued from degree 2): one even degree.
+        #[arg(long, default_value = "4")]
+        degree: DegreeList,
         /// Output directory (default: out/<model name>_sweep).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        #[command(flatten)]
+        quiet: QuietArg,
     },
     /// Merge the shard files of `simulate --shard` found in the given directories.
     Merge {
@@ -162,18 +173,25 @@ enum Command {
         /// Output directory.
         #[arg(long, value_name = "DIR", default_value = "out/merged")]
         out: PathBuf,
+        #[command(flatten)]
+        quiet: QuietArg,
     },
 }
 
-/// Exit status for a model or flag error (clap uses the same for usage errors).
+/// Exit status for a model or flag error: nothing was computed or written.
 const USAGE_ERROR: u8 = 2;
-/// Exit status when the job ran but some EPC degree did not converge.
-const PARTIAL_FAILURE: u8 = 1;
+/// Exit status when the run finished and wrote its files, but something in them is flagged
+/// (a degree that did not converge, an undefined number, a Monte Carlo verdict).
+const FLAGGED: u8 = 1;
+/// Exit status after SIGINT/SIGTERM (128 + SIGINT): the unfinished output was removed.
+const INTERRUPTED: i32 = 130;
 
-/// Why the command failed, with the exit status it maps to.
+/// Why the command did not succeed, with the exit status it maps to.
 enum Failure {
+    /// Bad input or flags, found before any computation: exit 2.
     Usage(anyhow::Error),
-    Partial(String),
+    /// The run finished and wrote everything; what is flagged: exit 1.
+    Flagged(String),
 }
 
 impl From<anyhow::Error> for Failure {
@@ -183,12 +201,21 @@ impl From<anyhow::Error> for Failure {
 }
 
 fn main() -> ExitCode {
+    // An interrupted run removes its staging directory: the previous results stay as they
+    // were and no partial file is left behind.
+    let _ = ctrlc::set_handler(|| {
+        fpsolve::report::abandon_unfinished();
+        eprintln!(
+            "\ninterrupted: the unfinished output was removed (earlier results are untouched)"
+        );
+        std::process::exit(INTERRUPTED);
+    });
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(Failure::Partial(message)) => {
+        Err(Failure::Flagged(message)) => {
             eprintln!("{message}");
-            ExitCode::from(PARTIAL_FAILURE)
+            ExitCode::from(FLAGGED)
         }
         Err(Failure::Usage(e)) => {
             // A closed stdout (`fpsolve check m.sde | head`) is not an error worth reporting.
@@ -214,7 +241,7 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 
 fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
-        Some(Command::Check { model, set }) => Ok(check(&model, &set.set)?),
+        Some(Command::Check { model, set, .. }) => Ok(check(&model, &set.set)?),
         Some(Command::Solve { model, solve }) => main_job(&model, &solve, None, Target::States),
         Some(Command::Simulate {
             model,
@@ -223,22 +250,25 @@ fn run(cli: Cli) -> Result<(), Failure> {
             mc_args,
             shard,
             out,
-        }) => Ok(simulate(
+            quiet,
+        }) => simulate(
             &model,
             &samples,
             &set.set,
             &mc_args,
             shard.as_deref(),
             out,
-        )?),
-        Some(Command::Merge { dirs, out }) => Ok(merge(&dirs, &out)?),
+            quiet.quiet,
+        ),
+        Some(Command::Merge { dirs, out, .. }) => merge(&dirs, &out),
         Some(Command::Sweep {
             model,
             set,
             degree,
             out,
             threads,
-        }) => sweep(&model, &set.set, degree, out, threads),
+            ..
+        }) => sweep(&model, &set.set, &degree, out, threads),
         None => {
             let Some(model) = cli.run.model else {
                 return Err(anyhow!(
@@ -247,7 +277,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
                 .into());
             };
             let mc = match &cli.run.mc {
-                Some(n) => Some(mc_config(&cli.run.mc_args, n)?),
+                Some(n) => Some(McFlags::parse(&cli.run.mc_args, n)?),
                 None => None,
             };
             main_job(&model, &cli.run.solve, mc, Target::Observables)
@@ -311,53 +341,144 @@ fn parse_count(text: &str, what: &str) -> Result<u64> {
     if !(v.is_finite() && (1.0..=1e15).contains(&v)) {
         bail!("{what} `{text}` must be between 1 and 1e15");
     }
-    Ok(v.round() as u64)
+    if v.fract() != 0.0 {
+        bail!("{what} `{text}` is not a whole number");
+    }
+    Ok(v as u64)
 }
 
-fn mc_config(args: &McArgs, samples: &str) -> Result<McConfig> {
-    let samples = parse_count(samples, "the number of Monte Carlo samples")?;
-    set_threads(args.threads)?;
-    if args.trajectories == 0 {
-        bail!("--trajectories must be at least 1");
-    }
-    let per_trajectory = samples.div_ceil(args.trajectories).max(1);
-    let mut grids = Vec::new();
-    for g in &args.grid {
-        let parsed = g.split_once('=').and_then(|(name, spec)| {
-            let parts: Vec<&str> = spec.split(':').collect();
-            let [lo, hi, bins] = parts.as_slice() else {
-                return None;
-            };
-            Some((
-                name.trim().to_string(),
-                lo.trim().parse::<f64>().ok()?,
-                hi.trim().parse::<f64>().ok()?,
-                bins.trim().parse::<usize>().ok()?,
-            ))
-        });
-        let Some((name, lo, hi, bins)) = parsed else {
-            bail!("--grid `{g}`: expected NAME=LO:HI:BINS");
+/// The Monte Carlo flags read and checked (before any computation), with the notes to print
+/// about values that were rounded.
+struct McFlags {
+    config: McConfig,
+    notes: Vec<String>,
+}
+
+impl McFlags {
+    fn parse(args: &McArgs, samples: &str) -> Result<McFlags> {
+        let requested = parse_count(samples, "the number of Monte Carlo samples")?;
+        let mut notes = Vec::new();
+        if args.trajectories == 0 {
+            bail!("--trajectories must be at least 1");
+        }
+        let lanes = McConfig::default().lanes as u64;
+        let batches = args.trajectories.div_ceil(lanes);
+        let trajectories = batches
+            .checked_mul(lanes)
+            .filter(|t| *t <= 1 << 40)
+            .ok_or_else(|| {
+                anyhow!(
+                    "--trajectories {} is more than fpsolve can run (at most 2^40)",
+                    args.trajectories
+                )
+            })?;
+        if trajectories != args.trajectories {
+            notes.push(format!(
+                "--trajectories {} rounded up to {trajectories} (whole statistics batches of {lanes})",
+                args.trajectories
+            ));
+        }
+        let per_trajectory = requested.div_ceil(trajectories).max(1);
+        let total = per_trajectory.saturating_mul(trajectories);
+        if total != requested {
+            notes.push(format!(
+                "{requested} Monte Carlo samples rounded up to {total} ({per_trajectory} per trajectory × {trajectories} trajectories)"
+            ));
+        }
+        let mut grids: Vec<(String, Grid)> = Vec::new();
+        for g in &args.grid {
+            let (name, grid) = parse_grid(g)?;
+            if grids.iter().any(|(n, _)| n == &name) {
+                bail!("--grid `{g}`: a grid for `{name}` is already given");
+            }
+            grids.push((name, grid));
+        }
+        let config = McConfig {
+            dt: args.dt,
+            spacing: args.spacing,
+            trajectories,
+            samples: per_trajectory,
+            burn_in: match args.burn_in {
+                Some(t) => BurnIn::Time(t),
+                None => McConfig::default().burn_in,
+            },
+            seed: args.seed,
+            grids,
+            ..McConfig::default()
         };
-        let grid = Grid::new(lo, hi, bins).map_err(|e| anyhow!("--grid `{g}`: {e}"))?;
-        grids.push((name, grid));
+        Ok(McFlags { config, notes })
     }
-    Ok(McConfig {
-        dt: args.dt,
-        spacing: args.spacing,
-        trajectories: args.trajectories,
-        samples: per_trajectory,
-        burn_in: match args.burn_in {
-            Some(t) => BurnIn::Time(t),
-            None => McConfig::default().burn_in,
-        },
-        seed: args.seed,
-        grids,
-        ..McConfig::default()
-    })
+
+    fn print_notes(&self) {
+        for n in &self.notes {
+            eprintln!("note: {n}");
+        }
+    }
+}
+
+/// `NAME=LO:HI:BINS`.
+fn parse_grid(g: &str) -> Result<(String, Grid)> {
+    let parsed = g.split_once('=').and_then(|(name, spec)| {
+        let parts: Vec<&str> = spec.split(':').collect();
+        let [lo, hi, bins] = parts.as_slice() else {
+            return None;
+        };
+        Some((
+            name.trim().to_string(),
+            lo.trim().parse::<f64>().ok()?,
+            hi.trim().parse::<f64>().ok()?,
+            bins.trim().parse::<usize>().ok()?,
+        ))
+    });
+    let Some((name, lo, hi, bins)) = parsed else {
+        bail!("--grid `{g}`: expected NAME=LO:HI:BINS (e.g. y=0:8:300)");
+    };
+    if name.is_empty() {
+        bail!("--grid `{g}`: the quantity's name is missing");
+    }
+    let grid = Grid::new(lo, hi, bins).map_err(|e| anyhow!("--grid `{g}`: {e}"))?;
+    Ok((name, grid))
+}
+
+// TEMPORARY until the Monte Carlo branch lands `McConfig::preflight`.
+trait Preflight {
+    fn preflight(&self, model: &fpsolve::model::BoundModel) -> Result<(), fpsolve::mc::McError>;
+}
+impl Preflight for McConfig {
+    fn preflight(&self, _model: &fpsolve::model::BoundModel) -> Result<(), fpsolve::mc::McError> {
+        Ok(())
+    }
+}
+
+/// Checks a Monte Carlo configuration against the model without running anything.
+fn preflight(model: &Model, overrides: &[Override], config: &McConfig) -> Result<()> {
+    let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
+    config
+        .preflight(&bound)
+        .map(|_| ())
+        .map_err(|e| anyhow!("{e}"))
 }
 
 fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
     out.unwrap_or_else(|| Path::new("out").join(model.name()))
+}
+
+/// The command line as run, recorded in the output directory's marker file.
+fn command_line() -> String {
+    std::env::args().collect::<Vec<_>>().join(" ")
+}
+
+/// Locks and stages the output directory: a usage error (before any computation) when it is
+/// taken by another run, holds other files, or cannot be created.
+fn begin_output(dir: &Path) -> Result<RunDir> {
+    RunDir::begin(dir, &command_line()).map_err(|e| anyhow!("--out: {e}"))
+}
+
+/// Puts a finished run's files in place and says where.
+fn commit_output(run: RunDir, files: usize) -> Result<()> {
+    let dest = run.commit().map_err(|e| anyhow!("{e}"))?;
+    println!("wrote {files} files to {}", dest.display());
+    Ok(())
 }
 
 /// Progress on stderr: a spinner per stage and a bar with ETA for Monte Carlo; silent when
@@ -405,53 +526,39 @@ impl Progress for Bar {
 fn main_job(
     path: &Path,
     args: &SolveArgs,
-    mc: Option<McConfig>,
+    mc: Option<McFlags>,
     target: Target,
 ) -> Result<(), Failure> {
+    // Everything is checked before anything is computed.
     let (model, overrides) = load(path, &args.set.set)?;
-    if args.degree.is_empty() {
-        return Err(anyhow!("--degree needs at least one degree").into());
+    if let Some(mc) = &mc {
+        preflight(&model, &overrides, &mc.config)?;
+        mc.print_notes();
     }
-    let dir = default_out(args.out.clone(), &model);
-    let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
+    let run = begin_output(&default_out(args.out.clone(), &model))?;
     let spec = JobSpec {
-        degrees: args.degree.clone(),
+        degrees: args.degree.as_slice().to_vec(),
         overrides,
         target,
-        mc,
+        mc: mc.map(|m| m.config),
         mc_bins: 100,
         figures: target == Target::Observables,
     };
-    let bar = Bar::new(args.quiet);
-    let report = job::run(&model, &spec, &out, &bar);
+    let bar = Bar::new(args.quiet.quiet);
+    let report = job::run(&model, &spec, run.out(), &bar);
     bar.finish();
     let report = report.map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
     let mut stdout = std::io::stdout().lock();
     write!(stdout, "{}", job::table(&report)).context("writing to stdout")?;
-    writeln!(
-        stdout,
-        "wrote {} files to {}",
-        report.files.len(),
-        dir.display()
-    )
-    .context("writing to stdout")?;
-    let failed: Vec<String> = report
-        .study
-        .degrees
-        .iter()
-        .filter_map(|d| {
-            d.outcome
-                .as_ref()
-                .err()
-                .map(|e| format!("degree {}: {e}", d.degree))
-        })
-        .collect();
-    if failed.is_empty() {
+    drop(stdout);
+    commit_output(run, report.files.len())?;
+    let flagged = job::flags(&report);
+    if flagged.is_empty() {
         Ok(())
     } else {
-        Err(Failure::Partial(format!(
-            "error: EPC did not converge at some degrees (the others were written):\n  {}",
-            failed.join("\n  ")
+        Err(Failure::Flagged(format!(
+            "error: the run finished and its files were written, but:\n  {}",
+            flagged.join("\n  ")
         )))
     }
 }
@@ -463,22 +570,33 @@ fn simulate(
     args: &McArgs,
     shard: Option<&str>,
     out: Option<PathBuf>,
-) -> Result<()> {
+    quiet: bool,
+) -> Result<(), Failure> {
+    let _ = quiet;
     let (model, overrides) = load(path, set)?;
     let bound = model.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
-    let config = mc_config(args, samples)?;
-    let sim = Simulation::new(&bound, &config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    let dir = default_out(out, &model);
-    let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
-    match shard {
-        Some(spec) => {
-            let (k, n) = spec
-                .split_once('/')
+    let flags = McFlags::parse(args, samples)?;
+    set_threads(args.threads)?;
+    preflight(&model, &overrides, &flags.config)?;
+    let shard = match shard {
+        Some(spec) => Some(
+            spec.split_once('/')
                 .and_then(|(k, n)| {
                     Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?))
                 })
                 .filter(|(k, n)| *k >= 1 && k <= n)
-                .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))?;
+                .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))?,
+        ),
+        None => None,
+    };
+    flags.print_notes();
+    let dir = default_out(out, &model);
+    match shard {
+        Some((k, n)) => {
+            // Shards of one run share a directory: each adds its own file, atomically.
+            let out = OutputDir::create(&dir).map_err(|e| anyhow!("--out: {e}"))?;
+            let sim = Simulation::new(&bound, &flags.config)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let part = sim
                 .run_shard(Shard::new(k - 1, n).map_err(|e| anyhow!("{e}"))?)
                 .map_err(|e| anyhow!("{e}"))?;
@@ -487,19 +605,31 @@ fn simulate(
             println!("wrote {}", file.display());
         }
         None => {
+            let run = begin_output(&dir)?;
+            let sim = Simulation::new(&bound, &flags.config)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let result = sim.run().map_err(|e| anyhow!("{e}"))?;
-            let files = job::write_mc(&result, &out).map_err(|e| anyhow!("{e}"))?;
-            println!("wrote {} files to {}", files.len(), dir.display());
+            let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
+            commit_output(run, files.len())?;
         }
     }
     Ok(())
 }
 
+/// Sets the worker threads; more than the machine's cores are capped (results do not depend
+/// on the number of threads, only the time does).
 fn set_threads(threads: Option<usize>) -> Result<()> {
     if let Some(n) = threads {
         if n == 0 {
             bail!("--threads must be at least 1");
         }
+        let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+        let n = if n > cores {
+            eprintln!("note: --threads {n} capped at the {cores} cores available");
+            cores
+        } else {
+            n
+        };
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
@@ -511,30 +641,33 @@ fn set_threads(threads: Option<usize>) -> Result<()> {
 fn sweep(
     path: &Path,
     set: &[String],
-    degree: usize,
+    degree: &DegreeList,
     out: Option<PathBuf>,
     threads: Option<usize>,
 ) -> Result<(), Failure> {
-    set_threads(threads)?;
+    let [degree] = degree.as_slice() else {
+        return Err(anyhow!("--degree {degree}: a sweep solves one degree at each point").into());
+    };
+    let degree = *degree;
     let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
     let spec = SweepSpec::parse(set).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     spec.validate(&model)
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    set_threads(threads)?;
     let dir = out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", model.name())));
-    let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
+    let run = begin_output(&dir)?;
     let t = std::time::Instant::now();
     let result = Sweep::run(&model, &spec, degree);
-    let files = result.write(&out).map_err(|e| anyhow!("{e}"))?;
+    let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
     println!(
-        "{} of {} points converged at degree {degree} in {:.1} s; wrote {} files to {}",
+        "{} of {} points converged at degree {degree} in {:.1} s",
         result.converged(),
         spec.len(),
         t.elapsed().as_secs_f64(),
-        files.len(),
-        dir.display()
     );
+    commit_output(run, files.len())?;
     if result.converged() < spec.len() {
-        return Err(Failure::Partial(format!(
+        return Err(Failure::Flagged(format!(
             "error: {} points failed (reported in sweep.csv and sweep.json; the others were kept)",
             spec.len() - result.converged()
         )));
@@ -542,7 +675,7 @@ fn sweep(
     Ok(())
 }
 
-fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
+fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     let mut shards: Vec<ShardOutput> = Vec::new();
     for dir in dirs {
         let entries =
@@ -565,16 +698,12 @@ fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
         }
     }
     if shards.is_empty() {
-        bail!("no shard_*.json files in the given directories");
+        return Err(anyhow!("no shard_*.json files in the given directories").into());
     }
     let result = merge_shards(&shards).map_err(|e| anyhow!("{e}"))?;
-    let out = OutputDir::create(out).map_err(|e| anyhow!("{e}"))?;
-    let files = job::write_mc(&result, &out).map_err(|e| anyhow!("{e}"))?;
-    println!(
-        "merged {} shards into {} files in {}",
-        shards.len(),
-        files.len(),
-        out.path().display()
-    );
+    let run = begin_output(out)?;
+    let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
+    println!("merged {} shards", shards.len());
+    commit_output(run, files.len())?;
     Ok(())
 }

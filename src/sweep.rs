@@ -145,6 +145,16 @@ pub enum SweepError {
         /// The limit, [`MAX_POINTS`].
         max: usize,
     },
+    /// The model cannot be bound at a point of the sweep (a fixed value that names no
+    /// parameter, `--set mu=abc`, or a value that makes a default non-finite): a usage error
+    /// found before any work, not a failed point.
+    #[error("{source} (at the sweep point {point})")]
+    Bind {
+        /// The point, `name = value` for each swept parameter.
+        point: String,
+        /// Why binding failed.
+        source: crate::model::BindError,
+    },
     /// A parameter the model does not declare (from [`SweepSpec::validate`]).
     #[error("unknown parameter `{name}` (the model declares: {known})")]
     UnknownParameter {
@@ -308,8 +318,9 @@ impl SweepSpec {
         out
     }
 
-    /// Checks that every parameter named exists in `model`, so that a typo fails once,
-    /// before any work, rather than at every point.
+    /// Checks that every parameter named exists in `model` and that the model binds at every
+    /// point (binding takes microseconds), so that a typo fails once, before any work, rather
+    /// than at every point.
     ///
     /// ```
     /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
@@ -318,7 +329,8 @@ impl SweepSpec {
     /// ```
     ///
     /// # Errors
-    /// [`SweepError::UnknownParameter`] for the first unknown name.
+    /// [`SweepError::UnknownParameter`] for the first unknown name, [`SweepError::Bind`] for
+    /// the first point where binding fails.
     pub fn validate(&self, model: &Model) -> Result<(), SweepError> {
         let names = self
             .fixed
@@ -336,6 +348,18 @@ impl SweepSpec {
                         .collect::<Vec<_>>()
                         .join(", "),
                 });
+            }
+        }
+        for values in self.points() {
+            if let Err(source) = model.bind(&self.overrides_at(&values)) {
+                let point = self
+                    .swept
+                    .iter()
+                    .zip(&values)
+                    .map(|(p, v)| format!("{} = {v}", p.name))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                return Err(SweepError::Bind { point, source });
             }
         }
         Ok(())

@@ -13,6 +13,18 @@ pub enum EpcError {
         /// The largest supported degree.
         max: usize,
     },
+    /// An odd degree: the highest-degree part of an odd polynomial Q grows without bound in
+    /// some direction, so exp(Q) is never normalisable and degree n would silently be degree
+    /// n − 1.
+    #[error(
+        "EPC degree {degree} is odd: exp(Q) with Q of odd degree is never normalisable (use an even degree, e.g. {} or {})",
+        degree - 1,
+        degree + 1
+    )]
+    OddDegree {
+        /// The degree asked for.
+        degree: usize,
+    },
     /// A weight override (σ) is not a positive finite number.
     #[error("weight σ{index} = {value} must be positive and finite")]
     Weight {

@@ -32,6 +32,7 @@
 mod closure;
 mod coefficients;
 mod continuation;
+mod degrees;
 mod error;
 mod galerkin;
 mod normalise;
@@ -45,6 +46,7 @@ use nalgebra::DVector;
 
 pub use closure::GaussianClosure;
 pub use continuation::{Branch, BranchEnd, BranchPoint};
+pub use degrees::{DegreeList, DegreeListError};
 pub use error::EpcError;
 pub use galerkin::exponents;
 pub use normalise::{NormalisationKind, NormalisationReport};
@@ -146,55 +148,101 @@ impl<'a> Epc<'a> {
         self
     }
 
-    /// Solves at the configured degree, by continuation through the lower degrees of the same
-    /// parity (starting at 2): each lower degree is only solved (not normalised) and its
-    /// solution, padded with zeros, is the first start of the next; the Gaussian closure is
-    /// always tried as well.
+    /// Solves at the configured degree, by continuation through every lower even degree
+    /// (starting at 2): exactly what [`Epc::solve_degrees`] gives for this degree, whatever
+    /// other degrees are asked with it.
     pub fn solve(&self) -> Result<EpcSolution, EpcError> {
-        let n = self.degree;
-        check_degree(n)?;
-        let mut chain: Vec<usize> = (2..n).filter(|d| d % 2 == n % 2 || *d == 2).collect();
-        chain.push(n);
-        let prep = self.prepare()?;
-        let t0 = Instant::now();
-        let moments = self.moments(&prep, n)?;
-        let moments_ms = ms(t0);
-        let mut previous: Option<Start> = None;
-        for &d in &chain[..chain.len() - 1] {
-            if let Ok(c) = self.solve_coefficients(&prep, &moments, d, previous.as_ref(), false) {
-                previous = Some((c.sys.exps.clone(), c.a));
-            }
-        }
-        let c = self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true)?;
-        self.finish(&prep, &moments, moments_ms, c)
+        self.solve_degrees(&[self.degree])
+            .pop()
+            .unwrap_or(Err(EpcError::Degree {
+                degree: self.degree,
+                max: MAX_DEGREE,
+            }))
     }
 
-    /// Solves and normalises at each degree in turn; each solve starts from the last
-    /// successful lower-degree solution (padded with zeros) and from the Gaussian closure.
+    /// Solves and normalises at each degree asked, one result per entry in the order given.
+    ///
+    /// Every even degree from 2 up to the largest one asked is solved in turn, each started
+    /// from the last successful lower-degree solution (padded with zeros) and from the Gaussian
+    /// closure, with the same fallbacks at every degree; only the degrees asked are normalised.
+    /// So a degree's answer does not depend on which other degrees were asked with it
+    /// (`&[6]` gives what `&[4, 6]` gives for 6).
+    ///
+    /// An odd or out-of-range degree gets [`EpcError::Degree`] / [`EpcError::OddDegree`] and
+    /// does not stop the others.
+    ///
+    /// ```
+    /// use fpsolve::epc::{Epc, EpcError};
+    /// use fpsolve::fpk::FpkOperator;
+    /// use fpsolve::model::parse_model;
+    /// let model = parse_model("model lin
+    /// param c = 0.1
+    /// state z, v
+    /// drift z: v
+    /// drift v: -c*v - z
+    /// noise xi: intensity 1
+    /// diffusion v: xi
+    /// ", None).unwrap();
+    /// let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let epc = Epc::new(&fpk, model.delta_treatment());
+    /// let r = epc.solve_degrees(&[4, 3]);
+    /// assert!(r[0].is_ok());
+    /// assert!(matches!(r[1], Err(EpcError::OddDegree { degree: 3 })));
+    /// ```
     pub fn solve_degrees(&self, degrees: &[usize]) -> Vec<Result<EpcSolution, EpcError>> {
+        let checks: Vec<Result<(), EpcError>> = degrees.iter().map(|&n| check_degree(n)).collect();
+        let max_n = degrees
+            .iter()
+            .zip(&checks)
+            .filter(|(_, c)| c.is_ok())
+            .map(|(&n, _)| n)
+            .max();
+        let Some(max_n) = max_n else {
+            return checks
+                .into_iter()
+                .map(|c| Err(c.expect_err("no valid degree")))
+                .collect();
+        };
         let prep = match self.prepare() {
             Ok(p) => p,
             Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
         };
-        let max_n = degrees.iter().copied().max().unwrap_or(2);
         let t0 = Instant::now();
-        let moments = match check_degree(max_n).and_then(|_| self.moments(&prep, max_n)) {
+        let moments = match self.moments(&prep, max_n) {
             Ok(m) => m,
             Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
         };
         let moments_ms = ms(t0);
         let mut previous: Option<Start> = None;
-        let mut out = Vec::with_capacity(degrees.len());
-        for &n in degrees {
-            let r = check_degree(n)
-                .and_then(|_| self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true))
-                .and_then(|c| {
+        let mut by_degree: Vec<(usize, Result<EpcSolution, EpcError>)> = Vec::new();
+        for n in (2..=max_n).step_by(2) {
+            let asked = degrees.contains(&n);
+            match self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true) {
+                Ok(c) => {
                     previous = Some((c.sys.exps.clone(), c.a.clone()));
-                    self.finish(&prep, &moments, moments_ms, c)
-                });
-            out.push(r);
+                    if asked {
+                        by_degree.push((n, self.finish(&prep, &moments, moments_ms, c)));
+                    }
+                }
+                Err(e) => {
+                    if asked {
+                        by_degree.push((n, Err(e)));
+                    }
+                }
+            }
         }
-        out
+        degrees
+            .iter()
+            .zip(checks)
+            .map(|(&n, check)| match check {
+                Err(e) => Err(e),
+                Ok(()) => by_degree
+                    .iter()
+                    .find(|(d, _)| *d == n)
+                    .map(|(_, r)| r.clone())
+                    .expect("every valid degree asked was solved"),
+            })
+            .collect()
     }
 
     /// Follows the degree-n Galerkin solution along a family of operators `family(λ)` from
@@ -628,7 +676,9 @@ impl<'a> Epc<'a> {
 }
 
 fn check_degree(n: usize) -> Result<(), EpcError> {
-    if (2..=MAX_DEGREE).contains(&n) {
+    if n % 2 == 1 && (2..=MAX_DEGREE).contains(&n) {
+        Err(EpcError::OddDegree { degree: n })
+    } else if (2..=MAX_DEGREE).contains(&n) {
         Ok(())
     } else {
         Err(EpcError::Degree {

@@ -610,7 +610,7 @@ fn integrate(
         for j in 0..n2 {
             let idx = i * n2 + j;
             // The points `contains` admits: on the plane all, inside a ridge the component.
-            let inside = grid.mask.as_ref().map_or(true, |m| {
+            let inside = grid.mask.as_ref().is_none_or(|m| {
                 m[idx] && qv[idx] >= floor && qv[idx] <= q_mode + 1e-9 * (1.0 + q_mode.abs())
             });
             if inside {

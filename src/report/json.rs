@@ -61,6 +61,85 @@ pub fn write_json<T: Serialize + ?Sized>(
     dir.write_atomic(name, &bytes)
 }
 
+/// A number in a report that has no finite value (written as `null` by
+/// [`write_json_flagging_undefined`], listed beside the data).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct UndefinedField {
+    /// JSONPath of the field, e.g. `$.epc_vs_mc[1].max_log10_ratio_1e5`.
+    pub field: String,
+    /// What it was: `inf`, `-inf` or `NaN`.
+    pub value: String,
+}
+
+thread_local! {
+    /// While [`write_json_flagging_undefined`] walks a value: where its non-finite floats are.
+    static UNDEFINED: std::cell::RefCell<Option<Vec<UndefinedField>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Writes `value` like [`write_json`], except that a non-finite number does not stop the
+/// write: it becomes `null`, and the value's top-level object gains a member `undefined`
+/// listing every such field with what it was, so the file says which numbers are undefined
+/// instead of losing the run. Returns the path and the list (empty when every number is
+/// finite). For results that must be read back exactly (shard files), use [`write_json`].
+///
+/// ```
+/// use fpsolve::report::{write_json_flagging_undefined, OutputDir};
+///
+/// #[derive(serde::Serialize)]
+/// struct Moments { mean: f64, kurtosis: f64 }
+///
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-json-undef-{}", std::process::id()));
+/// let dir = OutputDir::create(&tmp)?;
+/// let (path, undefined) =
+///     write_json_flagging_undefined(&dir, "m.json", &Moments { mean: 0.4, kurtosis: f64::NAN })?;
+/// assert_eq!(undefined[0].field, "$.kurtosis");
+/// let text = std::fs::read_to_string(path).unwrap();
+/// assert!(text.contains("\"kurtosis\": null") && text.contains("\"undefined\""));
+/// # std::fs::remove_dir_all(&tmp).unwrap();
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+///
+/// # Errors
+/// [`ReportError::Json`] if serde refuses the value, otherwise as [`OutputDir::write_atomic`].
+pub fn write_json_flagging_undefined<T: Serialize + ?Sized>(
+    dir: &OutputDir,
+    name: &str,
+    value: &T,
+) -> Result<(PathBuf, Vec<UndefinedField>), ReportError> {
+    let path = dir.file_path(name)?;
+    UNDEFINED.with(|u| *u.borrow_mut() = Some(Vec::new()));
+    let checked = value.serialize(FiniteCheck {
+        path: "$".to_string(),
+    });
+    let undefined = UNDEFINED
+        .with(|u| u.borrow_mut().take())
+        .unwrap_or_default();
+    if let Err(e) = checked {
+        return Err(ReportError::Json {
+            path,
+            source: <serde_json::Error as ser::Error>::custom(e.to_string()),
+        });
+    }
+    let mut json = serde_json::to_value(value).map_err(|source| ReportError::Json {
+        path: path.clone(),
+        source,
+    })?;
+    if !undefined.is_empty() {
+        if let serde_json::Value::Object(map) = &mut json {
+            let list = serde_json::to_value(&undefined).map_err(|source| ReportError::Json {
+                path: path.clone(),
+                source,
+            })?;
+            map.insert("undefined".to_string(), list);
+        }
+    }
+    let mut bytes =
+        serde_json::to_vec_pretty(&json).map_err(|source| ReportError::Json { path, source })?;
+    bytes.push(b'\n');
+    Ok((dir.write_atomic(name, &bytes)?, undefined))
+}
+
 #[derive(Debug)]
 enum CheckError {
     NonFinite { path: String, value: f64 },
@@ -107,6 +186,21 @@ fn member(path: &str, name: &str) -> String {
 impl FiniteCheck {
     fn float(self, value: f64) -> Result<(), CheckError> {
         if value.is_finite() {
+            Ok(())
+        } else if UNDEFINED.with(|u| u.borrow().is_some()) {
+            let value = if value.is_nan() {
+                "NaN".to_string()
+            } else {
+                value.to_string()
+            };
+            UNDEFINED.with(|u| {
+                if let Some(list) = u.borrow_mut().as_mut() {
+                    list.push(UndefinedField {
+                        field: self.path,
+                        value,
+                    });
+                }
+            });
             Ok(())
         } else {
             Err(CheckError::NonFinite {

@@ -30,13 +30,15 @@ mod figure;
 mod font;
 mod json;
 mod output;
+mod run_dir;
 
 use std::path::PathBuf;
 
 pub use csv::{PdfTable, TableError};
 pub use figure::{Curve, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
-pub use json::write_json;
+pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;
+pub use run_dir::{abandon_unfinished, RunDir, RunDirError, MARKER};
 
 /// Why writing or reading a report file failed. Every variant names the file (or directory)
 /// concerned, so a message is actionable on its own.
@@ -86,6 +88,9 @@ pub enum ReportError {
         /// The serialiser's error.
         source: serde_json::Error,
     },
+    /// An output directory that cannot take a run (locked, foreign files, not a directory).
+    #[error(transparent)]
+    RunDir(#[from] RunDirError),
     /// A figure that cannot be drawn from the data given, or a drawing failure.
     #[error("{}: {source}", path.display())]
     Figure {

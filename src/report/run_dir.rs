@@ -1,0 +1,494 @@
+//! A run's output directory as one unit: staged, locked, and put in place whole.
+//!
+//! A run writes every file into a fresh hidden staging directory beside its destination, holding
+//! an exclusive lock on the destination for the whole run. [`RunDir::commit`] then moves the
+//! staging directory into place in one rename (the previous run's directory is moved aside first
+//! and removed after), so the destination holds exactly one run's files: never the previous
+//! run's CSVs beside the new summary, never a mix of two concurrent runs. A run that is dropped
+//! without committing (an error, a panic) removes its staging directory and leaves the previous
+//! results untouched; [`abandon_unfinished`] does the same from a signal handler.
+//!
+//! An existing destination is only ever replaced when fpsolve wrote it: it is empty, or holds
+//! the marker file [`MARKER`] of an earlier run, or holds nothing but files with the names
+//! fpsolve writes. `--out ~` is refused, not emptied.
+
+use std::fs::{self, File, OpenOptions, TryLockError};
+use std::path::{Component, Path, PathBuf};
+use std::sync::Mutex;
+
+use super::{OutputDir, ReportError};
+
+/// The file that marks a directory as an fpsolve run's output (it holds the command line and
+/// the program version).
+pub const MARKER: &str = ".fpsolve-run";
+
+/// Staging directories of runs in this process that have not been committed yet.
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Why a destination cannot take a run's output. Each variant says what to do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum RunDirError {
+    /// Another process holds the destination's lock.
+    #[error(
+        "{}: another fpsolve run is writing this directory (lock {} is held); wait for it to \
+         finish or choose another --out",
+        path.display(),
+        lock.display()
+    )]
+    Busy {
+        /// The destination.
+        path: PathBuf,
+        /// The lock file.
+        lock: PathBuf,
+    },
+    /// The destination exists and holds files fpsolve did not write.
+    #[error(
+        "{}: the directory exists and holds `{entry}`, which fpsolve did not write; choose \
+         another --out (fpsolve replaces its output directory as a whole and will not delete \
+         other files)",
+        path.display()
+    )]
+    Foreign {
+        /// The destination.
+        path: PathBuf,
+        /// One entry that fpsolve did not write.
+        entry: String,
+    },
+    /// The destination exists and is not a directory.
+    #[error("{}: exists and is not a directory", path.display())]
+    NotADirectory {
+        /// The destination.
+        path: PathBuf,
+    },
+    /// The destination has no name to stage beside (`/`, `..`).
+    #[error("{}: not usable as an output directory (it has no name of its own)", path.display())]
+    NoName {
+        /// The destination.
+        path: PathBuf,
+    },
+}
+
+/// A run's output directory, staged until [`RunDir::commit`].
+///
+/// ```
+/// use fpsolve::report::{write_json, RunDir};
+///
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-rundir-{}", std::process::id()));
+/// let dest = tmp.join("run");
+/// let run = RunDir::begin(&dest, "fpsolve doc")?;
+/// write_json(run.out(), "summary.json", &serde_json::json!({ "ok": true }))?;
+/// assert!(!dest.exists()); // nothing is visible before the commit
+/// run.commit()?;
+/// assert!(dest.join("summary.json").is_file());
+///
+/// // A second run replaces the first one's files as a whole.
+/// let run = RunDir::begin(&dest, "fpsolve doc")?;
+/// write_json(run.out(), "other.json", &serde_json::json!({}))?;
+/// run.commit()?;
+/// assert!(!dest.join("summary.json").exists() && dest.join("other.json").is_file());
+/// # std::fs::remove_dir_all(&tmp).unwrap();
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+#[derive(Debug)]
+pub struct RunDir {
+    dest: PathBuf,
+    staging: OutputDir,
+    /// Held (locked) for the run's lifetime; the lock goes with the handle.
+    _lock: File,
+    committed: bool,
+}
+
+impl RunDir {
+    /// Locks `dest` against other runs, checks that it can be replaced, and creates the staging
+    /// directory beside it (parents of `dest` are created). `command` is recorded in the
+    /// marker file. Takes milliseconds: call it before any computation, so that an unusable
+    /// `--out` is a usage error, not a lost result.
+    ///
+    /// # Errors
+    /// [`ReportError::RunDir`] when the destination is locked by another run, holds foreign
+    /// files or is not a directory; [`ReportError::Io`] when a directory cannot be created
+    /// (e.g. not writable).
+    pub fn begin(dest: impl AsRef<Path>, command: &str) -> Result<RunDir, ReportError> {
+        let dest = absolute(dest.as_ref())?;
+        let (parent, name) = match (dest.parent(), dest.file_name()) {
+            (Some(p), Some(n)) => (p.to_path_buf(), n.to_string_lossy().into_owned()),
+            _ => return Err(RunDirError::NoName { path: dest }.into()),
+        };
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| ReportError::Io { path, source }
+        };
+        // Checked before anything is created, so a refused --out leaves no trace; checked
+        // again under the lock, as another run may have written it in between.
+        check_replaceable(&dest)?;
+        fs::create_dir_all(&parent).map_err(io(&parent))?;
+        let lock_path = parent.join(format!(".{name}.fpsolve-lock"));
+        let lock = OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .map_err(io(&lock_path))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                return Err(RunDirError::Busy {
+                    path: dest,
+                    lock: lock_path,
+                }
+                .into())
+            }
+            Err(TryLockError::Error(source)) => {
+                return Err(ReportError::Io {
+                    path: lock_path,
+                    source,
+                })
+            }
+        }
+        check_replaceable(&dest)?;
+        // Leftovers of runs killed without a chance to clean up (SIGKILL, power loss): the
+        // lock proves no live run owns them.
+        remove_leftovers(&parent, &name);
+        let staging = parent.join(format!(".{name}.fpsolve-partial-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&staging);
+        fs::create_dir(&staging).map_err(io(&staging))?;
+        register(&staging);
+        let staging = OutputDir::create(&staging)?;
+        let marker = format!(
+            "fpsolve {}\ncommand: {command}\n",
+            env!("CARGO_PKG_VERSION")
+        );
+        staging.write_atomic(MARKER, marker.as_bytes())?;
+        Ok(RunDir {
+            dest,
+            staging,
+            _lock: lock,
+            committed: false,
+        })
+    }
+
+    /// The staging directory the run writes into.
+    pub fn out(&self) -> &OutputDir {
+        &self.staging
+    }
+
+    /// The destination the run's files will have after [`RunDir::commit`].
+    pub fn dest(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Where a file written into the staging directory will be after the commit.
+    pub fn final_path(&self, staged: &Path) -> PathBuf {
+        match staged.file_name() {
+            Some(name) => self.dest.join(name),
+            None => self.dest.clone(),
+        }
+    }
+
+    /// Puts the run's files in place as a whole, replacing the previous run's directory, and
+    /// returns the destination.
+    ///
+    /// # Errors
+    /// [`ReportError::Io`] if a rename fails; the previous run's directory is then restored
+    /// when possible, and the staged files are removed.
+    pub fn commit(mut self) -> Result<PathBuf, ReportError> {
+        let parent = self
+            .dest
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let name = self
+            .dest
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let old = parent.join(format!(".{name}.fpsolve-old-{}", std::process::id()));
+        let had_old = self.dest.exists();
+        if had_old {
+            fs::rename(&self.dest, &old).map_err(|source| ReportError::Io {
+                path: self.dest.clone(),
+                source,
+            })?;
+        }
+        if let Err(source) = fs::rename(self.staging.path(), &self.dest) {
+            if had_old {
+                let _ = fs::rename(&old, &self.dest);
+            }
+            return Err(ReportError::Io {
+                path: self.dest.clone(),
+                source,
+            });
+        }
+        unregister(self.staging.path());
+        self.committed = true;
+        if had_old {
+            let _ = fs::remove_dir_all(&old);
+        }
+        if let Ok(d) = File::open(&parent) {
+            let _ = d.sync_all();
+        }
+        Ok(self.dest.clone())
+    }
+}
+
+impl Drop for RunDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = fs::remove_dir_all(self.staging.path());
+            unregister(self.staging.path());
+        }
+    }
+}
+
+/// Removes the staging directories of every run in this process that has not committed: for
+/// a SIGINT/SIGTERM handler, so an interrupted run leaves the previous results as they were
+/// and no partial files behind.
+pub fn abandon_unfinished() {
+    abandon_matching(|_| true);
+}
+
+fn abandon_matching(matches: impl Fn(&Path) -> bool) {
+    let mut guard = match UNFINISHED.lock() {
+        Ok(g) => g,
+        Err(poisoned) => poisoned.into_inner(),
+    };
+    guard.retain(|d| {
+        if matches(d) {
+            let _ = fs::remove_dir_all(d);
+            false
+        } else {
+            true
+        }
+    });
+}
+
+fn register(dir: &Path) {
+    if let Ok(mut g) = UNFINISHED.lock() {
+        g.push(dir.to_path_buf());
+    }
+}
+
+fn unregister(dir: &Path) {
+    if let Ok(mut g) = UNFINISHED.lock() {
+        g.retain(|d| d != dir);
+    }
+}
+
+/// `path` made absolute and free of `.`/`..` components, so that `--out .` or `--out ..`
+/// name the directory they mean (and get refused if it holds foreign files).
+fn absolute(path: &Path) -> Result<PathBuf, ReportError> {
+    let abs = std::path::absolute(path).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut out = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    Ok(out)
+}
+
+/// Whether a file name is one fpsolve writes into an output directory.
+fn written_by_fpsolve(name: &str) -> bool {
+    let ext = |e: &str| name.ends_with(e);
+    name == MARKER
+        || name == "summary.json"
+        || name == "mc_summary.json"
+        || (name.starts_with('.') && name.ends_with(".tmp"))
+        || ((name.starts_with("pdf_")
+            || name.starts_with("mc_")
+            || name.starts_with("shard_")
+            || name.starts_with("sweep"))
+            && (ext(".csv") || ext(".json") || ext(".png") || ext(".svg")))
+}
+
+fn check_replaceable(dest: &Path) -> Result<(), ReportError> {
+    let meta = match fs::symlink_metadata(dest) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(source) => {
+            return Err(ReportError::Io {
+                path: dest.to_path_buf(),
+                source,
+            })
+        }
+    };
+    if !meta.is_dir() {
+        return Err(RunDirError::NotADirectory {
+            path: dest.to_path_buf(),
+        }
+        .into());
+    }
+    let entries = fs::read_dir(dest).map_err(|source| ReportError::Io {
+        path: dest.to_path_buf(),
+        source,
+    })?;
+    let mut names = Vec::new();
+    for e in entries {
+        let e = e.map_err(|source| ReportError::Io {
+            path: dest.to_path_buf(),
+            source,
+        })?;
+        let is_file = e.file_type().map(|t| t.is_file()).unwrap_or(false);
+        names.push((e.file_name().to_string_lossy().into_owned(), is_file));
+    }
+    if names.iter().any(|(n, _)| n == MARKER) {
+        return Ok(());
+    }
+    match names
+        .iter()
+        .find(|(n, is_file)| !(*is_file && written_by_fpsolve(n)))
+    {
+        Some((entry, _)) => Err(RunDirError::Foreign {
+            path: dest.to_path_buf(),
+            entry: entry.clone(),
+        }
+        .into()),
+        None => Ok(()),
+    }
+}
+
+fn remove_leftovers(parent: &Path, name: &str) {
+    let prefixes = [
+        format!(".{name}.fpsolve-partial-"),
+        format!(".{name}.fpsolve-old-"),
+    ];
+    if let Ok(entries) = fs::read_dir(parent) {
+        for e in entries.flatten() {
+            let n = e.file_name().to_string_lossy().into_owned();
+            if prefixes.iter().any(|p| n.starts_with(p.as_str())) {
+                let _ = fs::remove_dir_all(e.path());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("fpsolve-rundir-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&d);
+        d
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_new_run_replaces_every_file_of_the_old_one() {
+        let root = scratch("replace");
+        let dest = root.join("out");
+        let run = RunDir::begin(&dest, "t").unwrap();
+        run.out().write_atomic("pdf_y.csv", b"old").unwrap();
+        run.out().write_atomic("pdf_z.csv", b"old").unwrap();
+        run.commit().unwrap();
+        let run = RunDir::begin(&dest, "t").unwrap();
+        run.out().write_atomic("pdf_y.csv", b"new").unwrap();
+        run.commit().unwrap();
+        assert_eq!(names(&dest), vec![MARKER.to_string(), "pdf_y.csv".into()]);
+        assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"new");
+        // Only the lock file is left beside the destination.
+        assert_eq!(
+            names(&root),
+            vec![".out.fpsolve-lock".to_string(), "out".into()]
+        );
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_dropped_run_leaves_the_old_results_and_no_partial_files() {
+        let root = scratch("drop");
+        let dest = root.join("out");
+        let run = RunDir::begin(&dest, "t").unwrap();
+        run.out().write_atomic("pdf_y.csv", b"old").unwrap();
+        run.commit().unwrap();
+        {
+            let run = RunDir::begin(&dest, "t").unwrap();
+            run.out().write_atomic("pdf_y.csv", b"half").unwrap();
+        }
+        assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"old");
+        assert_eq!(
+            names(&root),
+            vec![".out.fpsolve-lock".to_string(), "out".into()]
+        );
+        // The same after abandon_unfinished (what the signal handler calls; limited here to
+        // this test's directory, as other tests run in parallel in this process).
+        let run = RunDir::begin(&dest, "t").unwrap();
+        run.out().write_atomic("pdf_y.csv", b"half").unwrap();
+        abandon_matching(|d| d.starts_with(&root));
+        assert_eq!(
+            names(&root),
+            vec![".out.fpsolve-lock".to_string(), "out".into()]
+        );
+        drop(run);
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_second_concurrent_run_is_refused() {
+        let root = scratch("busy");
+        let dest = root.join("out");
+        let first = RunDir::begin(&dest, "t").unwrap();
+        match RunDir::begin(&dest, "t") {
+            Err(ReportError::RunDir(RunDirError::Busy { .. })) => {}
+            other => panic!("expected Busy, got {other:?}"),
+        }
+        drop(first);
+        // Released with the handle.
+        RunDir::begin(&dest, "t").unwrap();
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn foreign_directories_are_never_replaced() {
+        let root = scratch("foreign");
+        let dest = root.join("home");
+        fs::create_dir_all(dest.join("projects")).unwrap();
+        fs::write(dest.join("notes.txt"), b"keep").unwrap();
+        match RunDir::begin(&dest, "t") {
+            Err(ReportError::RunDir(RunDirError::Foreign { .. })) => {}
+            other => panic!("expected Foreign, got {other:?}"),
+        }
+        assert_eq!(fs::read(dest.join("notes.txt")).unwrap(), b"keep");
+        // `--out .` inside it resolves to the same directory and is refused too.
+        let dotted = dest.join("projects").join("..");
+        assert!(matches!(
+            RunDir::begin(&dotted, "t"),
+            Err(ReportError::RunDir(RunDirError::Foreign { .. }))
+        ));
+        // An output directory of an older fpsolve (only its file names) is replaceable.
+        let legacy = root.join("legacy");
+        fs::create_dir_all(&legacy).unwrap();
+        fs::write(legacy.join("pdf_y.csv"), b"x").unwrap();
+        fs::write(legacy.join("summary.json"), b"{}").unwrap();
+        RunDir::begin(&legacy, "t").unwrap().commit().unwrap();
+        assert_eq!(names(&legacy), vec![MARKER.to_string()]);
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_file_in_the_way_is_refused() {
+        let root = scratch("file");
+        fs::create_dir_all(&root).unwrap();
+        fs::write(root.join("out"), b"x").unwrap();
+        assert!(matches!(
+            RunDir::begin(root.join("out"), "t"),
+            Err(ReportError::RunDir(RunDirError::NotADirectory { .. }))
+        ));
+        fs::remove_dir_all(&root).unwrap();
+    }
+}
