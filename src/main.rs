@@ -240,9 +240,65 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
+    let plan = plan(cli)?;
+    execute(plan)
+}
+
+/// A command with every input read and checked: what [`execute`] runs. Making a plan reads
+/// the model file and the flags and checks them (milliseconds), computes nothing and writes
+/// nothing.
+enum Plan {
+    Check {
+        path: PathBuf,
+        model: Model,
+        overrides: Vec<Override>,
+    },
+    Job {
+        path: PathBuf,
+        model: Model,
+        spec: JobSpec,
+        out: PathBuf,
+        quiet: bool,
+        notes: Vec<String>,
+        threads: Option<usize>,
+    },
+    Simulate {
+        path: PathBuf,
+        model: Model,
+        overrides: Vec<Override>,
+        config: McConfig,
+        shard: Option<(u64, u64)>,
+        out: PathBuf,
+        quiet: bool,
+        notes: Vec<String>,
+        threads: Option<usize>,
+    },
+    Sweep {
+        model: Model,
+        spec: SweepSpec,
+        degree: usize,
+        out: PathBuf,
+        notes: Vec<String>,
+        threads: Option<usize>,
+    },
+    Merge {
+        shards: Vec<ShardOutput>,
+        out: PathBuf,
+    },
+}
+
+/// Reads and checks everything a command needs, before any computation.
+fn plan(cli: Cli) -> Result<Plan> {
     match cli.command {
-        Some(Command::Check { model, set, .. }) => Ok(check(&model, &set.set)?),
-        Some(Command::Solve { model, solve }) => main_job(&model, &solve, None, Target::States),
+        Some(Command::Check { model, set, .. }) => {
+            let (m, overrides) = load(&model, &set.set)?;
+            Ok(Plan::Check {
+                path: model,
+                model: m,
+                overrides,
+            })
+        }
+        Some(Command::Solve { model, solve }) => plan_job(model, &solve, None, Target::States),
         Some(Command::Simulate {
             model,
             samples,
@@ -251,16 +307,28 @@ fn run(cli: Cli) -> Result<(), Failure> {
             shard,
             out,
             quiet,
-        }) => simulate(
-            &model,
-            &samples,
-            &set.set,
-            &mc_args,
-            shard.as_deref(),
+        }) => {
+            let (m, overrides) = load(&model, &set.set)?;
+            let mut flags = McFlags::parse(&mc_args, &samples, "--samples")?;
+            preflight(&m, &overrides, &flags.config)?;
+            let shard = shard.as_deref().map(parse_shard).transpose()?;
+            let threads = check_threads(mc_args.threads, &mut flags.notes)?;
+            Ok(Plan::Simulate {
+                out: default_out(out, &m),
+                path: model,
+                model: m,
+                overrides,
+                config: flags.config,
+                shard,
+                quiet: quiet.quiet,
+                notes: flags.notes,
+                threads,
+            })
+        }
+        Some(Command::Merge { dirs, out, .. }) => Ok(Plan::Merge {
+            shards: read_shards(&dirs)?,
             out,
-            quiet.quiet,
-        ),
-        Some(Command::Merge { dirs, out, .. }) => merge(&dirs, &out),
+        }),
         Some(Command::Sweep {
             model,
             set,
@@ -268,21 +336,141 @@ fn run(cli: Cli) -> Result<(), Failure> {
             out,
             threads,
             ..
-        }) => sweep(&model, &set.set, &degree, out, threads),
+        }) => {
+            let [d] = degree.as_slice() else {
+                bail!("--degree {degree}: a sweep solves one degree at each point");
+            };
+            let m = load_model(&model).map_err(|e| anyhow!("{e}"))?;
+            let spec =
+                SweepSpec::parse(&set.set).map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            spec.validate(&m)
+                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let mut notes = Vec::new();
+            let threads = check_threads(threads, &mut notes)?;
+            Ok(Plan::Sweep {
+                out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
+                model: m,
+                spec,
+                degree: *d,
+                notes,
+                threads,
+            })
+        }
         None => {
             let Some(model) = cli.run.model else {
-                return Err(anyhow!(
-                    "no model file given (try `fpsolve models/vibro_duffing.sde` or `fpsolve --help`)"
-                )
-                .into());
+                bail!("no model file given (try `fpsolve models/vibro_duffing.sde` or `fpsolve --help`)");
             };
             let mc = match &cli.run.mc {
-                Some(n) => Some(McFlags::parse(&cli.run.mc_args, n)?),
+                Some(n) => Some(McFlags::parse(&cli.run.mc_args, n, "--mc")?),
                 None => None,
             };
-            main_job(&model, &cli.run.solve, mc, Target::Observables)
+            plan_job(
+                model,
+                &cli.run.solve,
+                mc.map(|m| (m, cli.run.mc_args.threads)),
+                Target::Observables,
+            )
         }
     }
+}
+
+fn plan_job(
+    path: PathBuf,
+    args: &SolveArgs,
+    mc: Option<(McFlags, Option<usize>)>,
+    target: Target,
+) -> Result<Plan> {
+    let (model, overrides) = load(&path, &args.set.set)?;
+    let (config, mut notes, threads) = match mc {
+        Some((flags, threads)) => {
+            preflight(&model, &overrides, &flags.config)?;
+            (Some(flags.config), flags.notes, threads)
+        }
+        None => (None, Vec::new(), None),
+    };
+    let threads = check_threads(threads, &mut notes)?;
+    Ok(Plan::Job {
+        out: default_out(args.out.clone(), &model),
+        spec: JobSpec {
+            degrees: args.degree.as_slice().to_vec(),
+            overrides,
+            target,
+            mc: config,
+            mc_bins: 100,
+            figures: target == Target::Observables,
+        },
+        path,
+        model,
+        quiet: args.quiet.quiet,
+        notes,
+        threads,
+    })
+}
+
+/// Runs a checked plan: the output directory is taken (locked, staged) first, then the work.
+fn execute(plan: Plan) -> Result<(), Failure> {
+    match plan {
+        Plan::Check {
+            path,
+            model,
+            overrides,
+        } => Ok(check(&path, &model, &overrides)?),
+        Plan::Job {
+            path,
+            model,
+            spec,
+            out,
+            quiet,
+            notes,
+            threads,
+        } => {
+            print_notes(&notes);
+            set_threads(threads)?;
+            main_job(&path, &model, &spec, &out, quiet)
+        }
+        Plan::Simulate {
+            path,
+            model,
+            overrides,
+            config,
+            shard,
+            out,
+            quiet,
+            notes,
+            threads,
+        } => {
+            print_notes(&notes);
+            set_threads(threads)?;
+            simulate(&path, &model, &overrides, &config, shard, &out, quiet)
+        }
+        Plan::Sweep {
+            model,
+            spec,
+            degree,
+            out,
+            notes,
+            threads,
+        } => {
+            print_notes(&notes);
+            set_threads(threads)?;
+            sweep(&model, &spec, degree, &out)
+        }
+        Plan::Merge { shards, out } => merge(&shards, &out),
+    }
+}
+
+fn print_notes(notes: &[String]) {
+    for n in notes {
+        eprintln!("note: {n}");
+    }
+}
+
+/// `K/N` with 1 ≤ K ≤ N.
+fn parse_shard(spec: &str) -> Result<(u64, u64)> {
+    spec.split_once('/')
+        .and_then(|(k, n)| Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?)))
+        .filter(|(k, n)| *k >= 1 && k <= n)
+        .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))
 }
 
 /// Parses `name=value` into an [`Override`].
@@ -314,9 +502,8 @@ fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>)> {
     Ok((model, overrides))
 }
 
-fn check(path: &Path, set: &[String]) -> Result<()> {
-    let (model, overrides) = load(path, set)?;
-    let bound = model.bind(&overrides).map_err(|e| anyhow!("error: {e}"))?;
+fn check(path: &Path, model: &Model, overrides: &[Override]) -> Result<()> {
+    let bound = model.bind(overrides).map_err(|e| anyhow!("error: {e}"))?;
     let mut out = std::io::stdout().lock();
     write!(out, "{model}").context("writing to stdout")?;
     writeln!(out, "\n# parameter values").context("writing to stdout")?;
@@ -355,8 +542,12 @@ struct McFlags {
 }
 
 impl McFlags {
-    fn parse(args: &McArgs, samples: &str) -> Result<McFlags> {
-        let requested = parse_count(samples, "the number of Monte Carlo samples")?;
+    /// `samples` is the value of `flag` (`--mc` or `--samples`).
+    fn parse(args: &McArgs, samples: &str, flag: &str) -> Result<McFlags> {
+        let requested = parse_count(
+            samples,
+            &format!("{flag}: the number of Monte Carlo samples"),
+        )?;
         let mut notes = Vec::new();
         if args.trajectories == 0 {
             bail!("--trajectories must be at least 1");
@@ -407,12 +598,6 @@ impl McFlags {
             ..McConfig::default()
         };
         Ok(McFlags { config, notes })
-    }
-
-    fn print_notes(&self) {
-        for n in &self.notes {
-            eprintln!("note: {n}");
-        }
     }
 }
 
@@ -525,27 +710,14 @@ impl Progress for Bar {
 
 fn main_job(
     path: &Path,
-    args: &SolveArgs,
-    mc: Option<McFlags>,
-    target: Target,
+    model: &Model,
+    spec: &JobSpec,
+    out: &Path,
+    quiet: bool,
 ) -> Result<(), Failure> {
-    // Everything is checked before anything is computed.
-    let (model, overrides) = load(path, &args.set.set)?;
-    if let Some(mc) = &mc {
-        preflight(&model, &overrides, &mc.config)?;
-        mc.print_notes();
-    }
-    let run = begin_output(&default_out(args.out.clone(), &model))?;
-    let spec = JobSpec {
-        degrees: args.degree.as_slice().to_vec(),
-        overrides,
-        target,
-        mc: mc.map(|m| m.config),
-        mc_bins: 100,
-        figures: target == Target::Observables,
-    };
-    let bar = Bar::new(args.quiet.quiet);
-    let report = job::run(&model, &spec, run.out(), &bar);
+    let run = begin_output(out)?;
+    let bar = Bar::new(quiet);
+    let report = job::run(model, spec, run.out(), &bar);
     bar.finish();
     let report = report.map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
     let mut stdout = std::io::stdout().lock();
@@ -565,38 +737,21 @@ fn main_job(
 
 fn simulate(
     path: &Path,
-    samples: &str,
-    set: &[String],
-    args: &McArgs,
-    shard: Option<&str>,
-    out: Option<PathBuf>,
+    model: &Model,
+    overrides: &[Override],
+    config: &McConfig,
+    shard: Option<(u64, u64)>,
+    dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
     let _ = quiet;
-    let (model, overrides) = load(path, set)?;
-    let bound = model.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
-    let flags = McFlags::parse(args, samples)?;
-    set_threads(args.threads)?;
-    preflight(&model, &overrides, &flags.config)?;
-    let shard = match shard {
-        Some(spec) => Some(
-            spec.split_once('/')
-                .and_then(|(k, n)| {
-                    Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?))
-                })
-                .filter(|(k, n)| *k >= 1 && k <= n)
-                .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))?,
-        ),
-        None => None,
-    };
-    flags.print_notes();
-    let dir = default_out(out, &model);
+    let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
     match shard {
         Some((k, n)) => {
             // Shards of one run share a directory: each adds its own file, atomically.
-            let out = OutputDir::create(&dir).map_err(|e| anyhow!("--out: {e}"))?;
-            let sim = Simulation::new(&bound, &flags.config)
-                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            let out = OutputDir::create(dir).map_err(|e| anyhow!("--out: {e}"))?;
+            let sim =
+                Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let part = sim
                 .run_shard(Shard::new(k - 1, n).map_err(|e| anyhow!("{e}"))?)
                 .map_err(|e| anyhow!("{e}"))?;
@@ -605,9 +760,9 @@ fn simulate(
             println!("wrote {}", file.display());
         }
         None => {
-            let run = begin_output(&dir)?;
-            let sim = Simulation::new(&bound, &flags.config)
-                .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            let run = begin_output(dir)?;
+            let sim =
+                Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let result = sim.run().map_err(|e| anyhow!("{e}"))?;
             let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
             commit_output(run, files.len())?;
@@ -616,20 +771,28 @@ fn simulate(
     Ok(())
 }
 
-/// Sets the worker threads; more than the machine's cores are capped (results do not depend
-/// on the number of threads, only the time does).
+/// Checks `--threads`; more than the machine's cores are capped (results do not depend on
+/// the number of threads, only the time does), with a note.
+fn check_threads(threads: Option<usize>, notes: &mut Vec<String>) -> Result<Option<usize>> {
+    let Some(n) = threads else {
+        return Ok(None);
+    };
+    if n == 0 {
+        bail!("--threads must be at least 1");
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    if n > cores {
+        notes.push(format!(
+            "--threads {n} capped at the {cores} cores available"
+        ));
+        return Ok(Some(cores));
+    }
+    Ok(Some(n))
+}
+
+/// Sets the worker threads (already checked).
 fn set_threads(threads: Option<usize>) -> Result<()> {
     if let Some(n) = threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
-        }
-        let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-        let n = if n > cores {
-            eprintln!("note: --threads {n} capped at the {cores} cores available");
-            cores
-        } else {
-            n
-        };
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build_global()
@@ -638,26 +801,10 @@ fn set_threads(threads: Option<usize>) -> Result<()> {
     Ok(())
 }
 
-fn sweep(
-    path: &Path,
-    set: &[String],
-    degree: &DegreeList,
-    out: Option<PathBuf>,
-    threads: Option<usize>,
-) -> Result<(), Failure> {
-    let [degree] = degree.as_slice() else {
-        return Err(anyhow!("--degree {degree}: a sweep solves one degree at each point").into());
-    };
-    let degree = *degree;
-    let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
-    let spec = SweepSpec::parse(set).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    spec.validate(&model)
-        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    set_threads(threads)?;
-    let dir = out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", model.name())));
-    let run = begin_output(&dir)?;
+fn sweep(model: &Model, spec: &SweepSpec, degree: usize, dir: &Path) -> Result<(), Failure> {
+    let run = begin_output(dir)?;
     let t = std::time::Instant::now();
-    let result = Sweep::run(&model, &spec, degree);
+    let result = Sweep::run(model, spec, degree);
     let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
     println!(
         "{} of {} points converged at degree {degree} in {:.1} s",
@@ -675,7 +822,8 @@ fn sweep(
     Ok(())
 }
 
-fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
+/// Reads every `shard_*.json` in `dirs`.
+fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardOutput>> {
     let mut shards: Vec<ShardOutput> = Vec::new();
     for dir in dirs {
         let entries =
@@ -698,12 +846,169 @@ fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
         }
     }
     if shards.is_empty() {
-        return Err(anyhow!("no shard_*.json files in the given directories").into());
+        bail!("no shard_*.json files in the given directories");
     }
-    let result = merge_shards(&shards).map_err(|e| anyhow!("{e}"))?;
+    Ok(shards)
+}
+
+fn merge(shards: &[ShardOutput], out: &Path) -> Result<(), Failure> {
+    let result = merge_shards(shards).map_err(|e| anyhow!("{e}"))?;
     let run = begin_output(out)?;
     let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
     println!("merged {} shards", shards.len());
     commit_output(run, files.len())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    //! The argument layer under arbitrary input: never a panic, and every refusal names what
+    //! it refuses. Plans read and check everything but compute and write nothing, so they can
+    //! be made by the thousand.
+
+    use super::*;
+    use proptest::prelude::*;
+
+    const TOKENS: &[&str] = &[
+        "models/linear.sde",
+        "models/vibro_duffing.sde",
+        "models/nope.sde",
+        "check",
+        "solve",
+        "simulate",
+        "sweep",
+        "merge",
+        "--degree",
+        "--set",
+        "--mc",
+        "--dt",
+        "--spacing",
+        "--burn-in",
+        "--trajectories",
+        "--grid",
+        "--threads",
+        "--seed",
+        "--shard",
+        "--samples",
+        "--quiet",
+        "--out",
+        "2,4",
+        "3",
+        "4,4",
+        "0",
+        "-1",
+        "1e300",
+        "1e-300",
+        "NaN",
+        "inf",
+        "mu=0.2",
+        "eps=0:0.1:3",
+        "mu=abc",
+        "c=1/0",
+        "y=0:8:10",
+        "y=0:8:4294967297",
+        "z=1:0:5",
+        "3/2",
+        "0/0",
+        "18446744073709551615",
+        "",
+        "=",
+        "/nonexistent/dir",
+    ];
+
+    fn token() -> impl Strategy<Value = String> {
+        prop_oneof![
+            4 => proptest::sample::select(TOKENS).prop_map(String::from),
+            1 => "[ -~]{0,12}",
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+        #[test]
+        fn arbitrary_arguments_never_panic_and_refusals_say_why(
+            args in proptest::collection::vec(token(), 0..8)
+        ) {
+            let argv = std::iter::once("fpsolve".to_string()).chain(args.iter().cloned());
+            match Cli::try_parse_from(argv) {
+                // clap's own refusals name the argument; they exit 2 (or 0 for --help).
+                Err(e) => prop_assert!(!e.to_string().is_empty()),
+                Ok(cli) => {
+                    if let Err(e) = plan(cli) {
+                        let text = format!("{e:#}");
+                        prop_assert!(!text.trim().is_empty());
+                        // It names a flag, or quotes what it refuses.
+                        let quoted = args
+                            .iter()
+                            .any(|a| !a.is_empty() && text.contains(a.as_str()));
+                        prop_assert!(
+                            text.contains("--") || quoted || text.contains("no model file"),
+                            "refusal names neither a flag nor what it refuses: {text}"
+                        );
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn well_formed_commands_with_arbitrary_values_never_panic(
+            command in proptest::sample::select(&["", "solve", "simulate", "sweep", "check"][..]),
+            model in proptest::sample::select(&TOKENS[..3]),
+            pairs in proptest::collection::vec(
+                (proptest::sample::select(&TOKENS[8..21]), token()), 0..5
+            ),
+        ) {
+            let mut argv = vec!["fpsolve".to_string()];
+            if !command.is_empty() {
+                argv.push(command.to_string());
+            }
+            argv.push(model.to_string());
+            for (flag, value) in &pairs {
+                argv.push(format!("{flag}={value}"));
+            }
+            if let Ok(cli) = Cli::try_parse_from(&argv) {
+                if let Err(e) = plan(cli) {
+                    let text = format!("{e:#}");
+                    let quoted = argv[1..].iter().any(|a| text.contains(a.as_str()));
+                    prop_assert!(
+                        text.contains("--") || text.contains(".sde") || quoted,
+                        "refusal names neither a flag nor what it refuses: {text}"
+                    );
+                }
+            }
+        }
+
+        #[test]
+        fn grids_counts_and_shards_parse_or_say_which_flag(text in "[ -~]{0,24}") {
+            if let Err(e) = parse_grid(&text) {
+                prop_assert!(e.to_string().contains("--grid"));
+            }
+            if let Err(e) = parse_shard(&text) {
+                prop_assert!(e.to_string().contains("--shard"));
+            }
+            if let Err(e) = parse_count(&text, "--mc") {
+                prop_assert!(e.to_string().contains("--mc"));
+            }
+            let _ = text.parse::<DegreeList>();
+        }
+    }
+
+    #[test]
+    fn plans_compute_nothing_and_write_nothing() {
+        let root = std::env::temp_dir().join(format!("fpsolve-plan-{}", std::process::id()));
+        let out = root.join("out");
+        let cli = Cli::try_parse_from([
+            "fpsolve",
+            "models/vibro_duffing.sde",
+            "--mc",
+            "1e5",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .unwrap();
+        let plan = plan(cli).unwrap();
+        assert!(matches!(plan, Plan::Job { .. }));
+        assert!(!root.exists());
+    }
 }

@@ -91,7 +91,7 @@ fn degrees() {
         refused(
             &format!("{tag}-solve"),
             &["solve", MODEL, "--degree", d],
-            &["--degree", msg],
+            &[msg],
         );
     }
     refused(
