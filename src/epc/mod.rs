@@ -54,6 +54,7 @@ pub use solver::SolveOutcome;
 
 use crate::fpk::FpkOperator;
 use crate::model::DeltaTreatment;
+use crate::physics::ImpactForm;
 use crate::symbolic::TapeScratch;
 use coefficients::Coefficients;
 use galerkin::{GalerkinSystem, Moments};
@@ -151,6 +152,7 @@ impl<'a> Epc<'a> {
     /// solution, padded with zeros, is the first start of the next; the Gaussian closure is
     /// always tried as well.
     pub fn solve(&self) -> Result<EpcSolution, EpcError> {
+        self.refuse_unsupported_impact()?;
         let n = self.degree;
         check_degree(n)?;
         let mut chain: Vec<usize> = (2..n).filter(|d| d % 2 == n % 2 || *d == 2).collect();
@@ -172,6 +174,9 @@ impl<'a> Epc<'a> {
     /// Solves and normalises at each degree in turn; each solve starts from the last
     /// successful lower-degree solution (padded with zeros) and from the Gaussian closure.
     pub fn solve_degrees(&self, degrees: &[usize]) -> Vec<Result<EpcSolution, EpcError>> {
+        if let Err(e) = self.refuse_unsupported_impact() {
+            return degrees.iter().map(|_| Err(e.clone())).collect();
+        }
         let prep = match self.prepare() {
             Ok(p) => p,
             Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
@@ -254,6 +259,18 @@ impl<'a> Epc<'a> {
             Ok(GalerkinSystem::assemble(&epc.moments(&prep, n)?.0, n))
         };
         continuation::follow(&system, start, n)
+    }
+
+    /// Refuses, before any work, an impact law the operator does not represent (see
+    /// [`crate::physics::impact_form`]).
+    fn refuse_unsupported_impact(&self) -> Result<(), EpcError> {
+        match &self.fpk.impact {
+            Some(ImpactForm::Unsupported { law, reason }) => Err(EpcError::UnsupportedImpact {
+                law: law.clone(),
+                reason: reason.clone(),
+            }),
+            _ => Ok(()),
+        }
     }
 
     fn prepare(&self) -> Result<Prepared, EpcError> {
