@@ -8,6 +8,7 @@
 use std::fmt;
 
 use crate::model::{BoundModel, Interpretation};
+use crate::physics::{self, ImpactForm, Inadmissible};
 use crate::symbolic::{
     diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
 };
@@ -30,6 +31,10 @@ pub struct FpkOperator {
     pub a: [DeltaSplit; 2],
     /// B_ij = ½ b_ij (symmetric).
     pub b: [[DeltaSplit; 2]; 2],
+    /// What EPC makes of the model's impact law (`None` without one): the operator above
+    /// represents an impact only through a Zhuravlev term in the drift, so any other law is
+    /// recorded here for EPC to refuse ([`physics::impact_form`]).
+    pub impact: Option<ImpactForm>,
 }
 
 /// Which derived quantity a failure happened in.
@@ -54,6 +59,10 @@ pub enum FpkError {
         /// The entry.
         expr: String,
     },
+    /// The model has no stationary density (an impact that adds energy, no damping, no
+    /// noise, …): refused before anything is derived, see [`physics::check`].
+    #[error(transparent)]
+    Inadmissible(#[from] Inadmissible),
 }
 
 fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, FpkError> {
@@ -64,12 +73,22 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 }
 
 impl FpkOperator {
-    /// Derives the operator of a bound model.
+    /// Derives the operator of a bound model, after checking that the model can have a
+    /// stationary density at all ([`physics::check`]): an operator exists only for models
+    /// whose stationary FPK equation is worth solving.
+    ///
+    /// ```
+    /// use fpsolve::fpk::{FpkError, FpkOperator};
+    /// use fpsolve::model::{parse_model, Override};
+    /// let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    ///     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// assert!(FpkOperator::derive(&model.bind(&[]).unwrap()).is_ok());
+    /// let undamped = model.bind(&[Override::number("c", 0.0)]).unwrap();
+    /// assert!(matches!(FpkOperator::derive(&undamped), Err(FpkError::Inadmissible(_))));
+    /// ```
     pub fn derive(model: &BoundModel) -> Result<FpkOperator, FpkError> {
-        let states = model.states().clone();
+        let states = model.states();
         let g = model.noise_matrix();
-        let s = model.intensity();
-        let m_src = model.noise_names().len();
         for (i, row) in g.iter().enumerate() {
             for (k, e) in row.iter().enumerate() {
                 if e.contains_delta() {
@@ -81,6 +100,17 @@ impl FpkOperator {
                 }
             }
         }
+        physics::check(model)?;
+        FpkOperator::derive_unchecked(model)
+    }
+
+    /// The derivation itself, without the admissibility check (for tests of the formulas on
+    /// models that have no stationary density).
+    pub(crate) fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+        let states = model.states().clone();
+        let g = model.noise_matrix();
+        let s = model.intensity();
+        let m_src = model.noise_names().len();
         // b = G S Gᵀ
         let mut diffusion: [[Expr; 2]; 2] =
             std::array::from_fn(|_| std::array::from_fn(|_| Expr::num(0.0)));
@@ -98,30 +128,7 @@ impl FpkOperator {
                 diffusion[i][j] = simplify(&expand(&Expr::sum(terms)));
             }
         }
-        // Wong–Zakai: m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik.
-        let mut wong_zakai: [Expr; 2] = [Expr::num(0.0), Expr::num(0.0)];
-        if model.interpretation() == Interpretation::Stratonovich {
-            for i in 0..2 {
-                let mut terms = Vec::new();
-                for (j, xj) in states.iter().enumerate() {
-                    for k in 0..m_src {
-                        let dg = ctx(
-                            format!("d G[{}][{k}] / d{xj}", states[i]),
-                            diff(&g[i][k], xj),
-                        )?;
-                        if dg.as_num() == Some(0.0) {
-                            continue;
-                        }
-                        for l in 0..m_src {
-                            if s[k][l] != 0.0 && g[j][l].as_num() != Some(0.0) {
-                                terms.push(Expr::num(0.5 * s[k][l]) * g[j][l].clone() * dg.clone());
-                            }
-                        }
-                    }
-                }
-                wong_zakai[i] = simplify(&Expr::sum(terms));
-            }
-        }
+        let wong_zakai = wong_zakai(model)?;
         let drift = [
             simplify(&(model.drift()[0].clone() + wong_zakai[0].clone())),
             simplify(&(model.drift()[1].clone() + wong_zakai[1].clone())),
@@ -175,8 +182,43 @@ impl FpkOperator {
             a0,
             a,
             b,
+            impact: physics::impact_form(model),
         })
     }
+}
+
+/// The Wong–Zakai drift correction m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik of a Stratonovich
+/// model (zero for Itô models).
+pub(crate) fn wong_zakai(model: &BoundModel) -> Result<[Expr; 2], FpkError> {
+    let states = model.states();
+    let g = model.noise_matrix();
+    let s = model.intensity();
+    let m_src = model.noise_names().len();
+    // Wong–Zakai: m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik.
+    let mut wong_zakai: [Expr; 2] = [Expr::num(0.0), Expr::num(0.0)];
+    if model.interpretation() == Interpretation::Stratonovich {
+        for i in 0..2 {
+            let mut terms = Vec::new();
+            for (j, xj) in states.iter().enumerate() {
+                for k in 0..m_src {
+                    let dg = ctx(
+                        format!("d G[{}][{k}] / d{xj}", states[i]),
+                        diff(&g[i][k], xj),
+                    )?;
+                    if dg.as_num() == Some(0.0) {
+                        continue;
+                    }
+                    for l in 0..m_src {
+                        if s[k][l] != 0.0 && g[j][l].as_num() != Some(0.0) {
+                            terms.push(Expr::num(0.5 * s[k][l]) * g[j][l].clone() * dg.clone());
+                        }
+                    }
+                }
+            }
+            wong_zakai[i] = simplify(&Expr::sum(terms));
+        }
+    }
+    Ok(wong_zakai)
 }
 
 /// Prints a split coefficient as `regular + weight*delta(x - at) + …`.
@@ -331,11 +373,17 @@ mod tests {
         m.drift[1] = -sym("z") - Expr::num(0.2) * sym("v");
         m.noise_matrix[1] = vec![Expr::num(0.5) * sym("v")];
         m.intensity = vec![vec![2.0]];
-        let strat = FpkOperator::derive(&m).unwrap();
+        // Purely multiplicative noise has no stationary density (the origin absorbs): the
+        // formulas are checked without the admissibility check.
+        assert!(matches!(
+            FpkOperator::derive(&m),
+            Err(FpkError::Inadmissible(_))
+        ));
+        let strat = FpkOperator::derive_unchecked(&m).unwrap();
         assert!((eval(&strat.wong_zakai[1], 0.3, 1.7) - 0.25 * 1.7).abs() < 1e-14);
         assert!((eval(&strat.drift[1], 0.3, 1.7) - (-0.3 - 0.2 * 1.7 + 0.25 * 1.7)).abs() < 1e-14);
         m.interpretation = Interpretation::Ito;
-        let ito = FpkOperator::derive(&m).unwrap();
+        let ito = FpkOperator::derive_unchecked(&m).unwrap();
         assert_eq!(ito.wong_zakai[1], Expr::num(0.0));
         // b_vv = 2·0.25 v² = 0.5 v²: A_v = −m_v + ∂_v b_vv = z + 0.2 v + v, A0 = 0.2 + ½·1.
         assert!((eval(&ito.a[1].regular, 0.3, 1.7) - (0.3 + 1.2 * 1.7)).abs() < 1e-14);

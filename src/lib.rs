@@ -109,6 +109,7 @@ pub mod job;
 pub mod mc;
 pub mod model;
 pub mod observe;
+pub mod physics;
 pub mod report;
 pub mod study;
 pub mod sweep;

@@ -6,11 +6,12 @@ use std::process::ExitCode;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use fpsolve::epc::DegreeList;
+use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
+use fpsolve::physics::{self, ImpactForm};
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
@@ -309,6 +310,8 @@ fn plan(cli: Cli) -> Result<Plan> {
             quiet,
         }) => {
             let (m, overrides) = load(&model, &set.set)?;
+            let bound = m.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
+            physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             let mut flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             preflight(&m, &overrides, &flags.config)?;
             let shard = shard.as_deref().map(parse_shard).transpose()?;
@@ -381,6 +384,17 @@ fn plan_job(
     target: Target,
 ) -> Result<Plan> {
     let (model, overrides) = load(&path, &args.set.set)?;
+    // A model without a stationary density, or with an impact law EPC does not represent, is
+    // refused here, before any work.
+    let bound = model.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
+    let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    if let Some(ImpactForm::Unsupported { law, reason }) = &fpk.impact {
+        let e = EpcError::UnsupportedImpact {
+            law: law.clone(),
+            reason: reason.clone(),
+        };
+        bail!("{}: {e}", path.display());
+    }
     let (config, mut notes, threads) = match mc {
         Some((flags, threads)) => {
             preflight(&model, &overrides, &flags.config)?;

@@ -58,3 +58,118 @@ fn check_prints_eq_13_for_case_4_with_overrides() {
         ],
     );
 }
+
+/// Runs the binary with `args`, returns (status, stdout, stderr).
+fn run(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .output()
+        .expect("run fpsolve");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn scratch(name: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("fpsolve-check-cli-{}-{name}", std::process::id()));
+    dir.to_str().unwrap().to_string()
+}
+
+/// Issue 9, item 13: an impact that adds energy used to give "a solution" (r = 1.001, exit 0
+/// with degree 2) and no damping a numerical failure; both are now refused in plain words,
+/// by `check`, the main job, `solve` and `simulate`, before any work.
+#[test]
+fn invalid_physics_is_refused_with_exit_2_and_plain_words() {
+    let energy = "no stationary density: the impact law `v -> 1.001*v` adds energy at every impact";
+    let out = scratch("r");
+    for args in [
+        vec!["check", "models/vibro_duffing.sde", "--set", "r=1.001"],
+        vec![
+            "models/vibro_duffing.sde",
+            "--set",
+            "r=1.001",
+            "--quiet",
+            "--out",
+            &out,
+        ],
+        vec![
+            "solve",
+            "models/vibro_duffing.sde",
+            "--set",
+            "r=1.001",
+            "--out",
+            &out,
+        ],
+        vec![
+            "simulate",
+            "models/vibro_duffing.sde",
+            "--set",
+            "r=1.001",
+            "--samples",
+            "1000",
+            "--out",
+            &out,
+        ],
+    ] {
+        let (status, _, stderr) = run(&args);
+        assert_eq!(status, Some(2), "{args:?}\n{stderr}");
+        assert!(stderr.contains(energy), "{args:?}\n{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let (status, _, stderr) = run(&[
+        "models/vibro_duffing.sde",
+        "--set",
+        "c=0",
+        "--set",
+        "r=1",
+        "--set",
+        "eps=0",
+        "--quiet",
+        "--out",
+        &out,
+    ]);
+    assert_eq!(status, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("no stationary density: nothing takes energy out of the motion"),
+        "{stderr}"
+    );
+    let (status, _, stderr) = run(&["check", "models/duffing.sde", "--set", "c=-0.1"]);
+    assert_eq!(status, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("no stationary density: the damping of `v` is negative"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Issue 9, item 5: a model in original coordinates (reflecting impact, no delta term) was
+/// solved by EPC as if there were no barrier (E[x] = 0). EPC now refuses it, saying what it
+/// supports; `check` still accepts the model (Monte Carlo can simulate it).
+#[test]
+fn epc_refuses_an_impact_law_in_original_coordinates() {
+    let dir = std::env::temp_dir().join(format!("fpsolve-check-cli-orig-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("orig.sde");
+    std::fs::write(
+        &model,
+        "model orig\nparam c = 0.1, k = 1, mu = 0.1, eps = 0.1, r = 0.95, K = 1/(2*pi)\n\
+         state x, v\ndrift x: v\ndrift v: -c*v - k*x - mu*x^3\nnoise xi: intensity 2*pi*K\n\
+         diffusion v: (1 + eps*x) * xi\nimpact x = 0: v -> -r*v\n",
+    )
+    .unwrap();
+    let path = model.to_str().unwrap();
+    let (status, _, stderr) = run(&["check", path]);
+    assert_eq!(status, Some(0), "{stderr}");
+    let out = dir.join("out");
+    let (status, stdout, stderr) = run(&["solve", path, "--out", out.to_str().unwrap()]);
+    // Every degree is refused: never exit 0, never a number for x.
+    assert_ne!(status, Some(0), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("EPC cannot use the impact law `impact x = 0: v -> -0.95*v`"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("Monte Carlo"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,10 +1,26 @@
 //! The EPC engine's error type.
 
+use crate::physics::UnsupportedImpact;
 use crate::symbolic::{EvalError, SymbolicError};
 
 /// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EpcError {
+    /// The model's impact law is not one EPC's operator represents: a refusal before any work,
+    /// not a numerical failure (Monte Carlo can still simulate the model).
+    #[error(
+        "EPC cannot use the impact law `{law}`: {reason}. EPC represents an impact only in \
+         Zhuravlev coordinates, as a pass-through jump `v -> r*v` (0 < r <= 1) together with \
+         the term `-(1 - r)*v*abs(v)*delta(z)` in the drift of `v` (see \
+         models/vibro_duffing.sde); Monte Carlo (`--mc`, `fpsolve simulate`) handles this law, \
+         and a later version will add an EPC method for it"
+    )]
+    UnsupportedImpact {
+        /// The law, printed (`impact x = 0: v -> -0.95*v`).
+        law: String,
+        /// Why EPC cannot use it.
+        reason: UnsupportedImpact,
+    },
     /// The requested polynomial degree is outside what the engine supports.
     #[error("EPC degree {degree} is not supported (use 2 to {max})")]
     Degree {

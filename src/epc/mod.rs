@@ -56,6 +56,7 @@ pub use solver::SolveOutcome;
 
 use crate::fpk::FpkOperator;
 use crate::model::DeltaTreatment;
+use crate::physics::ImpactForm;
 use crate::symbolic::TapeScratch;
 use coefficients::Coefficients;
 use galerkin::{GalerkinSystem, Moments};
@@ -190,6 +191,9 @@ impl<'a> Epc<'a> {
     /// assert!(matches!(r[1], Err(EpcError::OddDegree { degree: 3 })));
     /// ```
     pub fn solve_degrees(&self, degrees: &[usize]) -> Vec<Result<EpcSolution, EpcError>> {
+        if let Err(e) = self.refuse_unsupported_impact() {
+            return degrees.iter().map(|_| Err(e.clone())).collect();
+        }
         let checks: Vec<Result<(), EpcError>> = degrees.iter().map(|&n| check_degree(n)).collect();
         let max_n = degrees
             .iter()
@@ -302,6 +306,18 @@ impl<'a> Epc<'a> {
             Ok(GalerkinSystem::assemble(&epc.moments(&prep, n)?.0, n))
         };
         continuation::follow(&system, start, n)
+    }
+
+    /// Refuses, before any work, an impact law the operator does not represent (see
+    /// [`crate::physics::impact_form`]).
+    fn refuse_unsupported_impact(&self) -> Result<(), EpcError> {
+        match &self.fpk.impact {
+            Some(ImpactForm::Unsupported { law, reason }) => Err(EpcError::UnsupportedImpact {
+                law: law.clone(),
+                reason: reason.clone(),
+            }),
+            _ => Ok(()),
+        }
     }
 
     fn prepare(&self) -> Result<Prepared, EpcError> {

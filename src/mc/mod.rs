@@ -131,6 +131,8 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
+        // No stationary law to sample: refused before any step (issue 9, item 13).
+        crate::physics::check(model)?;
         let dt = config.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt}")));
@@ -403,11 +405,13 @@ mod tests {
         let od = linear_oscillator(5.0, 4.0, 1.0).bind(&[]).unwrap();
         let sim = Simulation::new(&od, &small(32)).unwrap();
         assert_eq!(sim.settings().burn_in_steps, 1000);
-        // No damping: nothing to estimate from.
+        // No damping: no stationary law at all, refused before the burn-in is estimated.
         let free = linear_oscillator(0.0, 1.0, 1.0).bind(&[]).unwrap();
         assert!(matches!(
             Simulation::new(&free, &small(32)),
-            Err(McError::NoDecay { .. })
+            Err(McError::Inadmissible(
+                crate::physics::Inadmissible::NoDamping { .. }
+            ))
         ));
     }
 

@@ -37,6 +37,7 @@ fn oscillator(name: &str, params: Vec<Parameter>, force: Expr, noise: Expr) -> M
         impact: None,
         observables: vec![],
         delta: DeltaTreatment::Exact,
+        origin: None,
     }
 }
 

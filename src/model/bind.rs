@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use super::{DeltaTreatment, Interpretation, Model, Observable};
+use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable};
 use crate::symbolic::{Expr, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
@@ -63,7 +63,7 @@ pub enum BindError {
         symbol: String,
     },
     /// A parameter evaluated to NaN or ±∞.
-    #[error("parameter `{name}` evaluates to {value}")]
+    #[error("parameter `{name}` evaluates to {}", number(*value))]
     NotFinite {
         /// The parameter.
         name: String,
@@ -71,7 +71,7 @@ pub enum BindError {
         value: f64,
     },
     /// A noise intensity is negative (or not finite).
-    #[error("noise `{noise}` has intensity {value}; an intensity must be ≥ 0")]
+    #[error("noise `{noise}` has intensity {}; an intensity must be ≥ 0", number(*value))]
     NegativeIntensity {
         /// The noise source.
         noise: String,
@@ -79,7 +79,7 @@ pub enum BindError {
         value: f64,
     },
     /// A correlation coefficient outside [−1, 1].
-    #[error("correlation of `{a}` and `{b}` is {value}; it must lie in [-1, 1]")]
+    #[error("correlation of `{a}` and `{b}` is {}; it must lie in [-1, 1]", number(*value))]
     BadCorrelation {
         /// First source.
         a: String,
@@ -89,11 +89,61 @@ pub enum BindError {
         value: f64,
     },
     /// A barrier position that is not a finite number.
-    #[error("the impact barrier evaluates to {value}")]
+    #[error("the impact barrier evaluates to {}", number(*value))]
     BadBarrier {
         /// The value found.
         value: f64,
     },
+    /// One of the errors above, at the place in the model file where the offending value is
+    /// written (`Display`: the message, then file:line:col and the source line with a caret).
+    #[error("{}", located(diagnostic))]
+    Located {
+        /// The error.
+        error: Box<BindError>,
+        /// Where, rendered.
+        diagnostic: Diagnostic,
+    },
+}
+
+/// A diagnostic's rendering without its leading `error: `, so that a caller can prefix it.
+fn located(d: &Diagnostic) -> String {
+    let text = d.to_string();
+    text.strip_prefix("error: ").unwrap_or(&text).to_string()
+}
+
+impl BindError {
+    /// The error itself, whether located or not.
+    ///
+    /// ```
+    /// use fpsolve::model::{parse_model, BindError};
+    /// let m = parse_model("model m\nparam bad = 1/0\nstate z, v\ndrift z: v\ndrift v: -z - v\n\
+    ///     noise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// let err = m.bind(&[]).unwrap_err();
+    /// assert!(matches!(err.cause(), BindError::NotFinite { .. }));
+    /// ```
+    pub fn cause(&self) -> &BindError {
+        match self {
+            BindError::Located { error, .. } => error.cause(),
+            other => other,
+        }
+    }
+
+    /// Where in the model file the offending value is written, when it is in the file (not
+    /// for values given by overrides).
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// let m = parse_model("model m\nparam bad = 1/0\nstate z, v\ndrift z: v\ndrift v: -z - v\n\
+    ///     noise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// let d = m.bind(&[]).unwrap_err().diagnostic().cloned().unwrap();
+    /// assert_eq!((d.line(), d.column()), (2, 13));
+    /// ```
+    pub fn diagnostic(&self) -> Option<&Diagnostic> {
+        match self {
+            BindError::Located { diagnostic, .. } => Some(diagnostic),
+            _ => None,
+        }
+    }
 }
 
 /// An impact law with its barrier at a number.
@@ -184,6 +234,64 @@ impl Model {
     /// Overrides may be expressions of other parameters; cycles, unknown names, non-finite
     /// values, negative intensities and correlations outside [−1, 1] are errors.
     pub fn bind(&self, overrides: &[Override]) -> Result<BoundModel, BindError> {
+        self.bind_values(overrides)
+            .map_err(|e| self.locate(e, overrides))
+    }
+
+    /// Places an error at the expression of the model file that produced the bad value;
+    /// errors about values given by overrides stay unlocated.
+    fn locate(&self, error: BindError, overrides: &[Override]) -> BindError {
+        let Some(origin) = &self.origin else {
+            return error;
+        };
+        let overridden = |name: &str| overrides.iter().any(|o| o.name == name);
+        let (span, help) = match &error {
+            BindError::NotFinite { name, .. } if !overridden(name) => {
+                let Some(i) = self.params.iter().position(|p| &*p.name == name) else {
+                    return error;
+                };
+                let set: Vec<String> = self.params[i]
+                    .default
+                    .symbols()
+                    .iter()
+                    .filter(|s| overridden(s))
+                    .map(|s| format!("`{s}`"))
+                    .collect();
+                let help = (!set.is_empty())
+                    .then(|| format!("`{name}` depends on {}, set by an override", set.join(", ")));
+                (origin.params.get(i).copied(), help)
+            }
+            BindError::NegativeIntensity { noise, .. } => {
+                let i = self.noises.iter().position(|n| &*n.name == noise);
+                (i.and_then(|i| origin.intensities.get(i).copied()), None)
+            }
+            BindError::BadCorrelation { a, b, .. } => {
+                let i = self
+                    .correlations
+                    .iter()
+                    .position(|c| *self.noises[c.a].name == **a && *self.noises[c.b].name == **b);
+                (i.and_then(|i| origin.correlations.get(i).copied()), None)
+            }
+            BindError::BadBarrier { .. } => (origin.barrier, None),
+            _ => (None, None),
+        };
+        let Some(span) = span else {
+            return error;
+        };
+        let diagnostic = Diagnostic::new(
+            &origin.source,
+            origin.path.as_deref(),
+            span,
+            error.to_string(),
+            help,
+        );
+        BindError::Located {
+            error: Box::new(error),
+            diagnostic,
+        }
+    }
+
+    fn bind_values(&self, overrides: &[Override]) -> Result<BoundModel, BindError> {
         let values = self.param_values(overrides)?;
         let table: HashMap<&str, f64> = values.iter().map(|(n, v)| (&**n, *v)).collect();
         let subst = |e: &Expr| e.map_symbols(&|s| table.get(&**s).map(|v| Expr::num(*v)));
@@ -363,6 +471,7 @@ mod tests {
             impact: None,
             observables: vec![],
             delta: DeltaTreatment::Exact,
+            origin: None,
         }
     }
 

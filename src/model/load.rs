@@ -41,7 +41,7 @@ pub fn parse_model(source: &str, path: Option<&Path>) -> Result<Model, ModelErro
         });
     }
     let ast = parse_file(source).map_err(|f| syntax_error(source, shown, f))?;
-    validate(&ast, source).map_err(|l| semantic_error(source, shown, *l))
+    validate(&ast, source, shown).map_err(|l| semantic_error(source, shown, *l))
 }
 
 /// Reads, checks and parses a model file. The bytes are checked for UTF-8 here, so that an

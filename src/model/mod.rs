@@ -16,9 +16,28 @@ pub use bind::{BindError, BoundImpact, BoundModel, Override};
 pub use diagnostic::{Diagnostic, ModelError};
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
-pub use validate::{SemanticError, MAX_PARAMETER_CHAIN};
+pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 
 use crate::symbolic::{Expr, Symbol};
+
+/// A number as messages print it: the shortest text that reads back to the same value, in
+/// exponent form outside 1e-4 ≤ |v| < 1e6, so that 1e300 is never written with 300 digits.
+///
+/// ```
+/// use fpsolve::model::number;
+/// assert_eq!(number(0.95), "0.95");
+/// assert_eq!(number(-1e140), "-1e140");
+/// assert_eq!(number(2.5e-7), "2.5e-7");
+/// assert_eq!(number(f64::INFINITY), "inf");
+/// assert_eq!(number(12.0), "12");
+/// ```
+pub fn number(v: f64) -> String {
+    if !v.is_finite() || v == 0.0 || (1e-4..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
 
 /// How products of state-dependent noise with white noise are read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
@@ -115,6 +134,25 @@ pub struct Model {
     pub(crate) impact: Option<ImpactLaw>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
+    /// Where the model was read from, for locating errors found when it is bound (`None` for
+    /// models built in code).
+    pub(crate) origin: Option<std::sync::Arc<Origin>>,
+}
+
+/// The source text of a parsed model and the spans of the expressions that binding
+/// evaluates, so that a value found wrong then is reported at file:line:col.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Origin {
+    pub(crate) source: String,
+    pub(crate) path: Option<String>,
+    /// The default value of each parameter, in declaration order.
+    pub(crate) params: Vec<ast::Span>,
+    /// The intensity of each noise source.
+    pub(crate) intensities: Vec<ast::Span>,
+    /// The coefficient of each correlation.
+    pub(crate) correlations: Vec<ast::Span>,
+    /// The barrier position.
+    pub(crate) barrier: Option<ast::Span>,
 }
 
 impl Model {

@@ -9,7 +9,7 @@ use super::ast::{
     StatementKind, SumOp,
 };
 use super::{
-    Correlation, DeltaTreatment, ImpactLaw, Interpretation, Model, NoiseSource, Observable,
+    Correlation, DeltaTreatment, ImpactLaw, Interpretation, Model, NoiseSource, Observable, Origin,
     Parameter,
 };
 use crate::symbolic::{Expr, Func, Symbol};
@@ -225,6 +225,130 @@ pub enum SemanticError {
         /// What was wrong, with its leading separator (`, not -1`).
         detail: String,
     },
+    /// A `delta(...)` written where a Dirac delta has no meaning.
+    #[error("{}", misuse.describe(delta))]
+    MisplacedDelta {
+        /// The delta call as written (cut after 40 characters).
+        delta: String,
+        /// What is wrong with it there.
+        misuse: DeltaMisuse,
+    },
+}
+
+/// Where a `delta(...)` was written that has no meaning there. A Dirac delta is a
+/// distribution: in a drift it may only multiply an ordinary function, with an argument
+/// linear in one state (`-(1 - r)*v*abs(v)*delta(z)`); everywhere else it is refused.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DeltaMisuse {
+    /// Inside a function call: `abs(delta(z))`, `exp(delta(z))`.
+    InFunction {
+        /// The function.
+        func: String,
+    },
+    /// Raised to a power: `delta(z)^2`.
+    InPower,
+    /// In an exponent: `2^delta(z)`.
+    InExponent,
+    /// Divided by: `v/delta(z)`.
+    InDenominator,
+    /// Multiplied by another delta: `delta(z)*delta(v)`.
+    TimesDelta,
+    /// In an impact's jump map.
+    InImpactMap,
+    /// In a diffusion line (white noise times a delta).
+    InDiffusion,
+    /// In an expression that must be a number (`a parameter default`, ...).
+    InConstant {
+        /// Which expression.
+        context: &'static str,
+    },
+    /// Its argument depends on no state.
+    NoState,
+    /// Its argument depends on both states.
+    BothStates,
+    /// Its argument is not linear in its state.
+    NonlinearArgument {
+        /// The state.
+        state: String,
+    },
+    /// In the drift of the state its argument depends on (the operator would need δ′).
+    OwnDrift {
+        /// The state.
+        state: String,
+    },
+}
+
+impl DeltaMisuse {
+    /// The message for the delta call `delta` (as written).
+    ///
+    /// ```
+    /// use fpsolve::model::DeltaMisuse;
+    /// let m = DeltaMisuse::InFunction { func: "abs".into() };
+    /// assert!(m.describe("delta(z)").starts_with("delta(z) inside abs(...) has no meaning"));
+    /// ```
+    pub fn describe(&self, delta: &str) -> String {
+        const ONLY: &str =
+            "a Dirac delta may only multiply an ordinary function, as in `-(1 - r)*v*abs(v)*delta(z)`";
+        match self {
+            DeltaMisuse::InFunction { func } => {
+                format!("{delta} inside {func}(...) has no meaning as a distribution; {ONLY}")
+            }
+            DeltaMisuse::InPower => {
+                format!("{delta} raised to a power has no meaning as a distribution; {ONLY}")
+            }
+            DeltaMisuse::InExponent => {
+                format!("{delta} in an exponent has no meaning as a distribution; {ONLY}")
+            }
+            DeltaMisuse::InDenominator => {
+                format!("division by {delta} has no meaning as a distribution; {ONLY}")
+            }
+            DeltaMisuse::TimesDelta => format!(
+                "{delta} multiplies another delta: a product of deltas is not a line term and \
+                 has no meaning here"
+            ),
+            DeltaMisuse::InImpactMap => format!(
+                "{delta} in an impact map: the jump must be an ordinary function of the states \
+                 (the impact term belongs in the drift)"
+            ),
+            DeltaMisuse::InDiffusion => format!(
+                "{delta} in a diffusion line: white noise times a Dirac delta has no meaning"
+            ),
+            DeltaMisuse::InConstant { context } => {
+                format!("{delta} in {context}, which must be a number: a delta has no value")
+            }
+            DeltaMisuse::NoState => format!(
+                "{delta}: its argument depends on no state, so it is not a line in the plane"
+            ),
+            DeltaMisuse::BothStates => format!(
+                "{delta}: its argument depends on both states; only a line delta(x - a) in \
+                 one state is supported"
+            ),
+            DeltaMisuse::NonlinearArgument { state } => {
+                format!("{delta}: its argument must be linear in `{state}` (a*{state} + b)")
+            }
+            DeltaMisuse::OwnDrift { state } => format!(
+                "{delta} in the drift of `{state}` itself: the Fokker-Planck operator would need \
+                 its derivative, which has no meaning here"
+            ),
+        }
+    }
+}
+
+/// The first `delta(...)` call in `node`, if any.
+fn find_delta(node: &ExprNode) -> Option<&ExprNode> {
+    match &node.kind {
+        ExprKind::Call { func, args } => {
+            if func.name == "delta" {
+                return Some(node);
+            }
+            args.iter().find_map(find_delta)
+        }
+        ExprKind::Neg(inner) => find_delta(inner),
+        ExprKind::Sum(terms) => terms.iter().find_map(|(_, t)| find_delta(t)),
+        ExprKind::Product(factors) => factors.iter().find_map(|(_, f)| find_delta(f)),
+        ExprKind::Pow(b, e) => find_delta(b).or_else(|| find_delta(e)),
+        ExprKind::Number(_) | ExprKind::MalformedNumber(_) | ExprKind::Name(_) => None,
+    }
 }
 
 fn duplicate_message(name: &str, kind: &str, previous_kind: &str, line: usize) -> String {
@@ -658,14 +782,18 @@ pub(crate) fn lower_free(node: &ExprNode) -> Result<Expr> {
     Scope::empty().lower(node, Context::Free)
 }
 
-/// Validates a parsed model file and builds the [`Model`].
-pub(crate) fn validate(ast: &ModelAst, source: &str) -> Result<Model> {
-    Validator::new(ast, source).run()
+/// Validates a parsed model file and builds the [`Model`]; `path` is what error messages
+/// about its bound values will show.
+pub(crate) fn validate(ast: &ModelAst, source: &str, path: Option<&str>) -> Result<Model> {
+    let mut v = Validator::new(ast, source);
+    v.path = path;
+    v.run()
 }
 
 struct Validator<'a> {
     ast: &'a ModelAst,
     source: &'a str,
+    path: Option<&'a str>,
     scope: Scope<'a>,
     params: Vec<&'a Binding>,
     states: Vec<&'a Ident>,
@@ -678,6 +806,7 @@ impl<'a> Validator<'a> {
         Validator {
             ast,
             source,
+            path: None,
             scope: Scope::empty(),
             params: Vec::new(),
             states: Vec::new(),
@@ -705,6 +834,9 @@ impl<'a> Validator<'a> {
         let mut impact = None;
         let mut observables = Vec::new();
         let mut delta = DeltaTreatment::default();
+        let mut intensity_spans = Vec::new();
+        let mut correlation_spans = Vec::new();
+        let mut barrier_span = None;
 
         for st in &self.ast.statements {
             match &st.kind {
@@ -716,12 +848,20 @@ impl<'a> Validator<'a> {
                         return self.duplicate(&state.name, "drift", "drift", *first, state.span);
                     }
                     let e = self.scope.lower(expr, Context::StateFunction("a drift"))?;
+                    self.check_drift_deltas(expr, i)?;
                     drift[i] = Some((e, state.span));
                 }
                 StatementKind::Noise { name, intensity } => {
                     let e = self
                         .scope
                         .lower(intensity, Context::Constant("a noise intensity"))?;
+                    self.forbid_delta(
+                        intensity,
+                        DeltaMisuse::InConstant {
+                            context: "a noise intensity",
+                        },
+                    )?;
+                    intensity_spans.push(intensity.span);
                     noises.push(NoiseSource {
                         name: Symbol::from(name.name.as_str()),
                         intensity: e,
@@ -729,6 +869,13 @@ impl<'a> Validator<'a> {
                 }
                 StatementKind::Correlate { a, b, coefficient } => {
                     let c = self.correlation(a, b, coefficient, st.span, &correlations)?;
+                    self.forbid_delta(
+                        coefficient,
+                        DeltaMisuse::InConstant {
+                            context: "a correlation coefficient",
+                        },
+                    )?;
+                    correlation_spans.push(coefficient.span);
                     correlations.push((c, st.span));
                 }
                 StatementKind::Diffusion { state, expr } => {
@@ -751,6 +898,7 @@ impl<'a> Validator<'a> {
                                 }
                                 l
                             })?;
+                    self.forbid_delta(expr, DeltaMisuse::InDiffusion)?;
                     diffusion[i] = Some((map, state.span));
                 }
                 StatementKind::Interpretation(i) => interpretation = *i,
@@ -770,7 +918,7 @@ impl<'a> Validator<'a> {
                             other.span,
                         );
                     }
-                    impact = Some(ImpactLaw {
+                    let law = ImpactLaw {
                         state: s,
                         at: self
                             .scope
@@ -779,7 +927,16 @@ impl<'a> Validator<'a> {
                         map: self
                             .scope
                             .lower(map, Context::StateFunction("an impact map"))?,
-                    });
+                    };
+                    self.forbid_delta(
+                        at,
+                        DeltaMisuse::InConstant {
+                            context: "a barrier position",
+                        },
+                    )?;
+                    self.forbid_delta(map, DeltaMisuse::InImpactMap)?;
+                    barrier_span = Some(at.span);
+                    impact = Some(law);
                 }
                 StatementKind::Observe(bindings) => {
                     for b in bindings {
@@ -828,7 +985,133 @@ impl<'a> Validator<'a> {
             impact,
             observables,
             delta,
+            origin: Some(std::sync::Arc::new(Origin {
+                source: self.source.to_string(),
+                path: self.path.map(str::to_string),
+                params: self.params.iter().map(|b| b.value.span).collect(),
+                intensities: intensity_spans,
+                correlations: correlation_spans,
+                barrier: barrier_span,
+            })),
         })
+    }
+
+    /// The delta call at `node`, as written, cut after 40 characters.
+    fn delta_text(&self, node: &ExprNode) -> String {
+        let text = self
+            .source
+            .get(node.span.start..node.span.end)
+            .unwrap_or("delta(...)");
+        if text.chars().count() > 40 {
+            format!("{}...", text.chars().take(37).collect::<String>())
+        } else {
+            text.to_string()
+        }
+    }
+
+    fn misplaced<T>(&self, node: &ExprNode, misuse: DeltaMisuse) -> Result<T> {
+        fail(
+            SemanticError::MisplacedDelta {
+                delta: self.delta_text(node),
+                misuse,
+            },
+            node.span,
+        )
+    }
+
+    /// Refuses any `delta(...)` in `node`.
+    fn forbid_delta(&self, node: &ExprNode, misuse: DeltaMisuse) -> Result<()> {
+        match find_delta(node) {
+            Some(d) => self.misplaced(d, misuse),
+            None => Ok(()),
+        }
+    }
+
+    /// Checks the deltas of the drift of state `own`: each one a factor of a term (under
+    /// sums, products and unary minus only), alone in its term, with an argument linear in
+    /// one state that is not `own`.
+    fn check_drift_deltas(&self, node: &ExprNode, own: usize) -> Result<()> {
+        match &node.kind {
+            ExprKind::Number(_) | ExprKind::MalformedNumber(_) | ExprKind::Name(_) => Ok(()),
+            ExprKind::Neg(inner) => self.check_drift_deltas(inner, own),
+            ExprKind::Sum(terms) => terms
+                .iter()
+                .try_for_each(|(_, t)| self.check_drift_deltas(t, own)),
+            ExprKind::Product(factors) => {
+                let mut seen = false;
+                for (op, f) in factors {
+                    let Some(d) = find_delta(f) else { continue };
+                    if *op == ProductOp::Divide {
+                        return self.misplaced(d, DeltaMisuse::InDenominator);
+                    }
+                    if seen {
+                        return self.misplaced(d, DeltaMisuse::TimesDelta);
+                    }
+                    seen = true;
+                    self.check_drift_deltas(f, own)?;
+                }
+                Ok(())
+            }
+            ExprKind::Pow(base, exponent) => {
+                if let Some(d) = find_delta(base) {
+                    return self.misplaced(d, DeltaMisuse::InPower);
+                }
+                self.forbid_delta(exponent, DeltaMisuse::InExponent)
+            }
+            ExprKind::Call { func, args } if func.name == "delta" => {
+                let Some(arg) = args.first() else {
+                    return Ok(());
+                };
+                self.forbid_delta(
+                    arg,
+                    DeltaMisuse::InFunction {
+                        func: "delta".into(),
+                    },
+                )?;
+                let e = self
+                    .scope
+                    .lower(arg, Context::StateFunction("a delta argument"))?;
+                let mentioned: Vec<usize> = (0..self.states.len().min(2))
+                    .filter(|i| e.mentions(&self.states[*i].name))
+                    .collect();
+                let state = match mentioned.as_slice() {
+                    [] => return self.misplaced(node, DeltaMisuse::NoState),
+                    [s] => *s,
+                    _ => return self.misplaced(node, DeltaMisuse::BothStates),
+                };
+                let name = &self.states[state].name;
+                let slope = crate::symbolic::diff(&e, name).ok();
+                let linear = slope.is_some_and(|d| {
+                    !self.states.iter().any(|s| d.mentions(&s.name)) && !d.contains_delta()
+                });
+                if !linear {
+                    return self.misplaced(
+                        node,
+                        DeltaMisuse::NonlinearArgument {
+                            state: name.clone(),
+                        },
+                    );
+                }
+                if state == own {
+                    return self.misplaced(
+                        node,
+                        DeltaMisuse::OwnDrift {
+                            state: name.clone(),
+                        },
+                    );
+                }
+                Ok(())
+            }
+            ExprKind::Call { func, args } => match args.iter().find_map(find_delta) {
+                Some(d) => self.misplaced(
+                    d,
+                    DeltaMisuse::InFunction {
+                        func: func.name.clone(),
+                    },
+                ),
+                None => Ok(()),
+            },
+        }
     }
 
     fn duplicate<T>(
@@ -998,11 +1281,18 @@ impl<'a> Validator<'a> {
         self.params
             .iter()
             .map(|b| {
+                let default = self
+                    .scope
+                    .lower(&b.value, Context::Constant("a parameter default"))?;
+                self.forbid_delta(
+                    &b.value,
+                    DeltaMisuse::InConstant {
+                        context: "a parameter default",
+                    },
+                )?;
                 Ok(Parameter {
                     name: Symbol::from(b.name.name.as_str()),
-                    default: self
-                        .scope
-                        .lower(&b.value, Context::Constant("a parameter default"))?,
+                    default,
                 })
             })
             .collect()
@@ -1101,7 +1391,7 @@ impl<'a> Validator<'a> {
         };
         match e.eval(&|_| None) {
             Ok(w) if w.is_finite() && w > 0.0 => Ok(DeltaTreatment::Gaussian { width: w }),
-            Ok(w) => bad(format!(", not {w}")),
+            Ok(w) => bad(format!(", not {}", super::number(w))),
             Err(_) => bad(String::new()),
         }
     }
