@@ -373,7 +373,7 @@ fn impact_terms(
     let mut mine = Vec::new();
     let mut others = false;
     for line in split.lines {
-        if line.axis == position && at_x.map_or(true, |a| line.at == a) {
+        if line.axis == position && at_x.is_none_or(|a| line.at == a) {
             mine.push((line.at, line.weight));
         } else {
             others = true;
