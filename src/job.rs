@@ -355,18 +355,27 @@ pub fn table(report: &JobReport) -> String {
                 impacts.count, impacts.rate.value, impacts.rate.stderr
             );
         }
-        if !mc.blowups.is_empty() {
-            let _ = writeln!(
-                s,
-                "warning: {} trajectories blew up (non-finite state) and were left out; see summary.json",
-                mc.blowups.len()
-            );
+        let _ = writeln!(s, "scheme: {}, dt = {}", mc.settings.scheme, mc.settings.dt);
+        let _ = writeln!(s, "blow-ups: {}", mc.blowup_verdict);
+        let _ = writeln!(s, "stationarity: {}", mc.stationarity);
+        for w in &mc.warnings {
+            let _ = writeln!(s, "warning: {w}");
         }
         for q in &mc.quantities {
             let sd = q.variance.value.sqrt();
+            let bias = |pick: fn(&crate::mc::TimeStepBias) -> crate::mc::Estimate| {
+                q.time_step_bias.as_ref().map_or("n/a".to_string(), |b| {
+                    let e = pick(b);
+                    if e.resolved() {
+                        format!("{:+.1e}", e.value)
+                    } else {
+                        format!("<{:.0e}", e.bound())
+                    }
+                })
+            };
             let _ = writeln!(
                 s,
-                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e})",
+                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e}; time-step bias of mean {}, variance {}, kurtosis {})",
                 q.name,
                 "mc",
                 q.mean.value,
@@ -374,7 +383,10 @@ pub fn table(report: &JobReport) -> String {
                 q.kurtosis.value,
                 q.mean.stderr,
                 q.variance.stderr / (2.0 * sd),
-                q.kurtosis.stderr
+                q.kurtosis.stderr,
+                bias(|b| b.mean),
+                bias(|b| b.variance),
+                bias(|b| b.kurtosis)
             );
         }
         for c in &report.comparisons {
@@ -389,18 +401,25 @@ pub fn table(report: &JobReport) -> String {
 }
 
 /// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
-/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`) per state and observable, and
-/// `mc_summary.json`. A merged set of shards writes exactly what the unsplit run writes.
+/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
+/// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
+/// whole [`McResult`]: verdicts and warnings included). A merged set of shards writes exactly what the unsplit run writes.
 pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, ReportError> {
     let mut files = Vec::new();
     for q in &result.quantities {
+        let mut columns = vec![
+            ("mc".into(), q.density.clone()),
+            ("mc_stderr".into(), q.stderr.clone()),
+        ];
+        // The time-step bias estimate of each bin, beside its statistical error.
+        if let Some(b) = &q.time_step_bias {
+            columns.push(("mc_bias".into(), b.density.clone()));
+            columns.push(("mc_bias_stderr".into(), b.density_stderr.clone()));
+        }
         let table = PdfTable {
             variable: q.name.clone(),
             x: q.grid.centers(),
-            columns: vec![
-                ("mc".into(), q.density.clone()),
-                ("mc_stderr".into(), q.stderr.clone()),
-            ],
+            columns,
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
     }

@@ -8,7 +8,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
-use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
+use fpsolve::mc::{merge_named, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
 use fpsolve::report::{write_json, OutputDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
@@ -463,36 +463,70 @@ fn simulate(
     args: &McArgs,
     shard: Option<&str>,
     out: Option<PathBuf>,
-) -> Result<()> {
+) -> Result<(), Failure> {
     let (model, overrides) = load(path, set)?;
     let bound = model.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
     let config = mc_config(args, samples)?;
+    // Everything is checked, and the cost estimated, before any trajectory runs.
+    let estimate = config
+        .preflight(&bound)
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let shard = match shard {
+        Some(spec) => Some(
+            spec.split_once('/')
+                .and_then(|(k, n)| {
+                    Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?))
+                })
+                .filter(|(k, n)| *k >= 1 && k <= n && *n <= estimate.batches)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "--shard `{spec}`: expected K/N with 1 <= K <= N <= {} (the run's \
+                         statistics batches)",
+                        estimate.batches
+                    )
+                })?,
+        ),
+        None => None,
+    };
     let sim = Simulation::new(&bound, &config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let dir = default_out(out, &model);
     let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
     match shard {
-        Some(spec) => {
-            let (k, n) = spec
-                .split_once('/')
-                .and_then(|(k, n)| {
-                    Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?))
-                })
-                .filter(|(k, n)| *k >= 1 && k <= n)
-                .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))?;
+        Some((k, n)) => {
             let part = sim
                 .run_shard(Shard::new(k - 1, n).map_err(|e| anyhow!("{e}"))?)
                 .map_err(|e| anyhow!("{e}"))?;
             let file = write_json(&out, &format!("shard_{k}_of_{n}.json"), &part)
                 .map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", file.display());
+            Ok(())
         }
         None => {
-            let result = sim.run().map_err(|e| anyhow!("{e}"))?;
+            let show = std::io::stderr().is_terminal() && estimate.seconds > 1.0;
+            let start = std::time::Instant::now();
+            let progress = |done: u64, total: u64| {
+                if show {
+                    let t = start.elapsed().as_secs_f64();
+                    let eta = t / done as f64 * (total - done) as f64;
+                    eprint!("\rMonte Carlo: {done}/{total} batches, {t:.0} s, ETA {eta:.0} s   ");
+                }
+            };
+            let result = sim.run_with_progress(&progress);
+            if show {
+                eprintln!();
+            }
+            let result = result.map_err(|e| Failure::Partial(format!("error: {e}")))?;
             let files = job::write_mc(&result, &out).map_err(|e| anyhow!("{e}"))?;
+            print!("{result}");
             println!("wrote {} files to {}", files.len(), dir.display());
+            result.verdict().map_err(|e| {
+                Failure::Partial(format!(
+                    "error: {e} (the histograms were written to {}, flagged in mc_summary.json)",
+                    dir.display()
+                ))
+            })
         }
     }
-    Ok(())
 }
 
 fn set_threads(threads: Option<usize>) -> Result<()> {
@@ -542,8 +576,8 @@ fn sweep(
     Ok(())
 }
 
-fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
-    let mut shards: Vec<ShardOutput> = Vec::new();
+fn merge(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {
+    let mut shards: Vec<(String, ShardOutput)> = Vec::new();
     for dir in dirs {
         let entries =
             std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
@@ -561,20 +595,26 @@ fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
                 std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
             let shard: ShardOutput = serde_json::from_str(&text)
                 .with_context(|| format!("{} is not a shard file", p.display()))?;
-            shards.push(shard);
+            shards.push((p.display().to_string(), shard));
         }
     }
     if shards.is_empty() {
-        bail!("no shard_*.json files in the given directories");
+        return Err(anyhow!("no shard_*.json files in the given directories").into());
     }
-    let result = merge_shards(&shards).map_err(|e| anyhow!("{e}"))?;
+    let result = merge_named(&shards).map_err(|e| anyhow!("{e}"))?;
     let out = OutputDir::create(out).map_err(|e| anyhow!("{e}"))?;
     let files = job::write_mc(&result, &out).map_err(|e| anyhow!("{e}"))?;
+    print!("{result}");
     println!(
         "merged {} shards into {} files in {}",
         shards.len(),
         files.len(),
         out.path().display()
     );
-    Ok(())
+    result.verdict().map_err(|e| {
+        Failure::Partial(format!(
+            "error: {e} (the merged histograms were written to {}, flagged in mc_summary.json)",
+            out.path().display()
+        ))
+    })
 }
