@@ -77,7 +77,7 @@ pub enum McError {
     },
     /// Too many trajectories blew up for the survivors to represent the stationary law.
     #[error(
-        "{count} of {trajectories} trajectories blew up (non-finite state), more than the          tolerated fraction {tolerance}: the survivors do not represent a stationary law,          which may not exist for these parameters"
+        "{count} of {trajectories} trajectories blew up (non-finite state), more than the tolerated fraction {tolerance}: the survivors do not represent a stationary law, which may not exist for these parameters"
     )]
     TooManyBlowUps {
         /// Trajectories that blew up.
@@ -96,7 +96,7 @@ pub enum McError {
     },
     /// The run would take longer than the limit (estimated before starting).
     #[error(
-        "the run would take about {} ({steps:.2e} trajectory steps at a conservative          {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the          trajectories, samples, burn-in or spacing, or raise dt",
+        "the run would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
         human_seconds(*seconds),
         human_seconds(*limit_seconds)
     )]
@@ -114,7 +114,7 @@ pub enum McError {
     },
     /// The run would need more memory than the limit (estimated before starting).
     #[error(
-        "the run would need about {:.3e} bytes of memory for its histograms ({bins} bins in          all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or          fewer trajectories per run (shards)",
+        "the run would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
         bytes,
         limit_bytes
     )]

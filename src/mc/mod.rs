@@ -93,8 +93,9 @@ pub struct McConfig {
     /// Scheme selection (default automatic).
     pub scheme: SchemeChoice,
     /// Fraction of the statistics batches run a second time at 2·dt for the time-step bias
-    /// estimate (default 0.25, at least two batches; 0 turns the estimate off). At the
-    /// default spacing the coarse run costs half a fine one per batch: 12.5 % extra.
+    /// estimate (default 0.25, at least [`MIN_BIAS_PAIRS`] batches or all when there are
+    /// fewer; 0 turns the estimate off). At the default spacing (an even number of steps)
+    /// a coarse batch costs half a fine one: 12.5 % extra for the default 32 batches.
     pub bias_fraction: f64,
 }
 
@@ -117,6 +118,9 @@ impl Default for McConfig {
     }
 }
 
+/// Fewest statistics batches the time-step bias is estimated from (its standard error
+/// needs a spread).
+pub const MIN_BIAS_PAIRS: u64 = 8;
 /// Largest number of bins of one histogram grid.
 pub const MAX_BINS: usize = 10_000_000;
 /// Largest number of trajectories of one run (the blow-up list and the batch summaries
@@ -282,7 +286,9 @@ impl McConfig {
         };
         let burn_in_steps = (burn_in / dt).ceil();
         let bias_batches = if self.bias_fraction > 0.0 {
-            ((self.bias_fraction * batches as f64).ceil() as u64).clamp(2, batches)
+            ((self.bias_fraction * batches as f64).ceil() as u64)
+                .max(MIN_BIAS_PAIRS)
+                .min(batches)
         } else {
             0
         };

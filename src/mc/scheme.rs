@@ -64,14 +64,15 @@ impl SchemeKind {
 
     /// A conservative (low) throughput of one core, in trajectory steps per second, used by
     /// [`McConfig::preflight`](super::McConfig::preflight) to bound the run time. Measured
-    /// on the bundled models (2024-era x86-64, one core): about 6e7 steps/s for the
-    /// mechanical splitting, 2e7 for Heun/Euler–Maruyama and 8e6 for Platen's scheme with
-    /// two sources; the constants are a factor ~3 below that.
+    /// with `fpsolve simulate` on the shared 2-core development machine (test profile):
+    /// 1.3e8 steps/s per core for the mechanical splitting (`vibro_duffing.sde`), 2.3e7 for
+    /// Platen's scheme with two sources (`cubic_damping_two_noises.sde`); the constants are
+    /// 4–5 times lower, so the estimate errs towards refusing late rather than early.
     pub fn conservative_steps_per_second(self) -> f64 {
         match self {
-            SchemeKind::MechanicalStrang => 2e7,
-            SchemeKind::Heun | SchemeKind::EulerMaruyama => 6e6,
-            SchemeKind::PlatenWeak2 => 2e6,
+            SchemeKind::MechanicalStrang => 3e7,
+            SchemeKind::Heun | SchemeKind::EulerMaruyama => 1e7,
+            SchemeKind::PlatenWeak2 => 5e6,
         }
     }
 }

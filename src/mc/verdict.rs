@@ -335,8 +335,9 @@ pub enum McWarning {
         /// Trajectories run.
         trajectories: u64,
     },
-    /// A statistic's time-step bias, resolved beyond 4 of its own standard errors, exceeds
-    /// its statistical error: the error bar understates the error; reduce dt.
+    /// A statistic's time-step bias, resolved beyond max(4, t/2) of its own standard errors
+    /// (t the p = 1e-6 critical value for the pairs' degrees of freedom), exceeds its
+    /// statistical error: the error bar understates the error; reduce dt.
     BiasExceedsError {
         /// The quantity.
         quantity: String,
@@ -347,8 +348,8 @@ pub enum McWarning {
         /// The statistic's standard error.
         stderr: f64,
     },
-    /// Some histogram bins have a resolved time-step bias (beyond 4 of its own standard
-    /// errors) larger than their statistical error.
+    /// Some histogram bins have a resolved time-step bias (by the same rule as
+    /// [`McWarning::BiasExceedsError`]) larger than their statistical error.
     DensityBiasExceedsError {
         /// The quantity.
         quantity: String,
@@ -478,15 +479,20 @@ pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
     let Some(b) = &q.time_step_bias else {
         return;
     };
+    // A bias counts as resolved beyond `k` of its own standard errors, k from Student's t
+    // with the pairs' degrees of freedom (about p = 1e-4 per statistic or bin, so that the
+    // dozen statistics and hundreds of bins of a healthy run raise no spurious warning).
+    if b.pairs < 3 {
+        return;
+    }
+    let k = (0.5 * t_critical(b.pairs - 1)).max(4.0);
     for (statistic, bias, stat) in [
         (Statistic::Mean, b.mean, q.mean),
         (Statistic::Variance, b.variance, q.variance),
         (Statistic::Kurtosis, b.kurtosis, q.kurtosis),
     ] {
-        // 4 of its own standard errors: with a dozen statistics per run, 2 would raise a
-        // spurious warning in a third of healthy runs.
         if bias.stderr.is_finite()
-            && bias.value.abs() > 4.0 * bias.stderr
+            && bias.value.abs() > k * bias.stderr
             && bias.value.abs() > stat.stderr
         {
             out.push(McWarning::BiasExceedsError {
@@ -500,7 +506,7 @@ pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
     let flagged: Vec<usize> = (0..q.grid.bins)
         .filter(|&j| {
             let (v, se) = (b.density[j], b.density_stderr[j]);
-            se.is_finite() && v.abs() > 4.0 * se && v.abs() > q.stderr[j]
+            se.is_finite() && v.abs() > k * se && v.abs() > q.stderr[j]
         })
         .collect();
     if let Some(&worst) = flagged.iter().max_by(|&&i, &&j| {
