@@ -10,8 +10,8 @@ use serde::Serialize;
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
 use crate::model::{Model, Override};
 use crate::report::{
-    write_json, write_json_flagging_undefined, Curve, OutputDir, PdfFigure, PdfTable, Points,
-    ReportError, UndefinedField,
+    write_json_flagging_undefined, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError,
+    UndefinedField,
 };
 use crate::study::{Study, StudyError, StudySummary};
 
@@ -222,10 +222,7 @@ pub fn run(
         // The histogram beside each degree's bin averages, on the histogram's bins.
         if let Some(q) = mc_q {
             let averages = bin_averages(&study, name, &q.grid);
-            let mut columns = vec![
-                ("mc".to_string(), q.density.clone()),
-                ("mc_stderr".to_string(), q.stderr.clone()),
-            ];
+            let mut columns = mc_columns(q);
             for (d, p) in &averages {
                 comparisons.push(compare(name, *d, p, q));
                 columns.push((format!("epc_n{d}_bin_mean"), p.clone()));
@@ -297,6 +294,9 @@ pub fn flags(report: &JobReport) -> Vec<String> {
         })
         .collect();
     if let Some(e) = &report.mc_error {
+        out.push(format!("Monte Carlo: {e}"));
+    }
+    if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
         out.push(format!("Monte Carlo: {e}"));
     }
     for u in &report.undefined {
@@ -496,18 +496,27 @@ pub fn table(report: &JobReport) -> String {
                 impacts.count, impacts.rate.value, impacts.rate.stderr
             );
         }
-        if !mc.blowups.is_empty() {
-            let _ = writeln!(
-                s,
-                "warning: {} trajectories blew up (non-finite state) and were left out; see summary.json",
-                mc.blowups.len()
-            );
+        let _ = writeln!(s, "scheme: {}, dt = {}", mc.settings.scheme, mc.settings.dt);
+        let _ = writeln!(s, "blow-ups: {}", mc.blowup_verdict);
+        let _ = writeln!(s, "stationarity: {}", mc.stationarity);
+        for w in &mc.warnings {
+            let _ = writeln!(s, "warning: {w}");
         }
         for q in &mc.quantities {
             let sd = q.variance.value.sqrt();
+            let bias = |pick: fn(&crate::mc::TimeStepBias) -> crate::mc::Estimate| {
+                q.time_step_bias.as_ref().map_or("n/a".to_string(), |b| {
+                    let e = pick(b);
+                    if e.resolved() {
+                        format!("{:+.1e}", e.value)
+                    } else {
+                        format!("<{:.0e}", e.bound())
+                    }
+                })
+            };
             let _ = writeln!(
                 s,
-                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e})",
+                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e}; time-step bias of mean {}, variance {}, kurtosis {})",
                 q.name,
                 "mc",
                 q.mean.value,
@@ -515,7 +524,10 @@ pub fn table(report: &JobReport) -> String {
                 q.kurtosis.value,
                 q.mean.stderr,
                 q.variance.stderr / (2.0 * sd),
-                q.kurtosis.stderr
+                q.kurtosis.stderr,
+                bias(|b| b.mean),
+                bias(|b| b.variance),
+                bias(|b| b.kurtosis)
             );
         }
         for c in &report.comparisons {
@@ -536,21 +548,33 @@ pub fn table(report: &JobReport) -> String {
 }
 
 /// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
-/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`) per state and observable, and
-/// `mc_summary.json`. A merged set of shards writes exactly what the unsplit run writes.
+/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
+/// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
+/// whole [`McResult`]: verdicts and warnings included). A merged set of shards writes exactly what the unsplit run writes.
 pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, ReportError> {
     let mut files = Vec::new();
     for q in &result.quantities {
         let table = PdfTable {
             variable: q.name.clone(),
             x: q.grid.centers(),
-            columns: vec![
-                ("mc".into(), q.density.clone()),
-                ("mc_stderr".into(), q.stderr.clone()),
-            ],
+            columns: mc_columns(q),
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
     }
-    files.push(write_json(out, "mc_summary.json", result)?);
+    files.push(write_json_flagging_undefined(out, "mc_summary.json", result)?.0);
     Ok(files)
+}
+
+/// A histogram's columns: `mc`, `mc_stderr`, and the time-step bias estimate of each bin
+/// beside its statistical error (`mc_bias`, `mc_bias_stderr`) when one was made.
+fn mc_columns(q: &crate::mc::QuantityStats) -> Vec<(String, Vec<f64>)> {
+    let mut columns = vec![
+        ("mc".into(), q.density.clone()),
+        ("mc_stderr".into(), q.stderr.clone()),
+    ];
+    if let Some(b) = &q.time_step_bias {
+        columns.push(("mc_bias".into(), b.density.clone()));
+        columns.push(("mc_bias_stderr".into(), b.density_stderr.clone()));
+    }
+    columns
 }

@@ -9,7 +9,9 @@ use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
-use fpsolve::mc::{merge_shards, BurnIn, Grid, McConfig, Shard, ShardOutput, Simulation};
+use fpsolve::mc::{
+    merge_named, BurnIn, Grid, McConfig, McResult, RunEstimate, Shard, ShardOutput, Simulation,
+};
 use fpsolve::model::{load_model, parse_expr, Model, Override};
 use fpsolve::physics::{self, ImpactForm};
 use fpsolve::report::{write_json, OutputDir, RunDir};
@@ -283,7 +285,8 @@ enum Plan {
         threads: Option<usize>,
     },
     Merge {
-        shards: Vec<ShardOutput>,
+        result: Box<McResult>,
+        shards: usize,
         out: PathBuf,
     },
 }
@@ -313,8 +316,16 @@ fn plan(cli: Cli) -> Result<Plan> {
             let bound = m.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
             physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             let mut flags = McFlags::parse(&mc_args, &samples, "--samples")?;
-            preflight(&m, &overrides, &flags.config)?;
+            let estimate = preflight(&m, &overrides, &flags.config)?;
             let shard = shard.as_deref().map(parse_shard).transpose()?;
+            if let Some((_, n)) = shard {
+                if n > estimate.batches {
+                    bail!(
+                        "--shard: {n} shards for a run of {} statistics batches (at most one shard per batch)",
+                        estimate.batches
+                    );
+                }
+            }
             let threads = check_threads(mc_args.threads, &mut flags.notes)?;
             Ok(Plan::Simulate {
                 out: default_out(out, &m),
@@ -328,10 +339,17 @@ fn plan(cli: Cli) -> Result<Plan> {
                 threads,
             })
         }
-        Some(Command::Merge { dirs, out, .. }) => Ok(Plan::Merge {
-            shards: read_shards(&dirs)?,
-            out,
-        }),
+        Some(Command::Merge { dirs, out, .. }) => {
+            let shards = read_shards(&dirs)?;
+            // Every shard is validated (and named when it is not right) before anything is
+            // written.
+            let result = merge_named(&shards).map_err(|e| anyhow!("{e}"))?;
+            Ok(Plan::Merge {
+                result: Box::new(result),
+                shards: shards.len(),
+                out,
+            })
+        }
         Some(Command::Sweep {
             model,
             set,
@@ -469,7 +487,11 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             set_threads(threads)?;
             sweep(&model, &spec, degree, &out)
         }
-        Plan::Merge { shards, out } => merge(&shards, &out),
+        Plan::Merge {
+            result,
+            shards,
+            out,
+        } => merge(&result, shards, &out),
     }
 }
 
@@ -639,23 +661,11 @@ fn parse_grid(g: &str) -> Result<(String, Grid)> {
     Ok((name, grid))
 }
 
-// TEMPORARY until the Monte Carlo branch lands `McConfig::preflight`.
-trait Preflight {
-    fn preflight(&self, model: &fpsolve::model::BoundModel) -> Result<(), fpsolve::mc::McError>;
-}
-impl Preflight for McConfig {
-    fn preflight(&self, _model: &fpsolve::model::BoundModel) -> Result<(), fpsolve::mc::McError> {
-        Ok(())
-    }
-}
-
-/// Checks a Monte Carlo configuration against the model without running anything.
-fn preflight(model: &Model, overrides: &[Override], config: &McConfig) -> Result<()> {
+/// Checks a Monte Carlo configuration against the model without running anything, and
+/// estimates its cost (refusing what cannot finish).
+fn preflight(model: &Model, overrides: &[Override], config: &McConfig) -> Result<RunEstimate> {
     let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
-    config
-        .preflight(&bound)
-        .map(|_| ())
-        .map_err(|e| anyhow!("{e}"))
+    config.preflight(&bound).map_err(|e| anyhow!("{e}"))
 }
 
 fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
@@ -758,7 +768,6 @@ fn simulate(
     dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
-    let _ = quiet;
     let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
     match shard {
         Some((k, n)) => {
@@ -772,17 +781,26 @@ fn simulate(
             let file = write_json(&out, &format!("shard_{k}_of_{n}.json"), &part)
                 .map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", file.display());
+            Ok(())
         }
         None => {
             let run = begin_output(dir)?;
             let sim =
                 Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-            let result = sim.run().map_err(|e| anyhow!("{e}"))?;
+            let bar = Bar::new(quiet);
+            bar.stage("Monte Carlo");
+            let result = sim.run_with_progress(&|done, total| bar.advance(done, total));
+            bar.finish();
+            // The run computed but has no result to write (every trajectory blew up, say).
+            let result = result.map_err(|e| {
+                Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
+            })?;
             let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
+            print!("{result}");
             commit_output(run, files.len())?;
+            verdict(&result)
         }
     }
-    Ok(())
 }
 
 /// Checks `--threads`; more than the machine's cores are capped (results do not depend on
@@ -837,8 +855,8 @@ fn sweep(model: &Model, spec: &SweepSpec, degree: usize, dir: &Path) -> Result<(
 }
 
 /// Reads every `shard_*.json` in `dirs`.
-fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardOutput>> {
-    let mut shards: Vec<ShardOutput> = Vec::new();
+fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
+    let mut shards: Vec<(String, ShardOutput)> = Vec::new();
     for dir in dirs {
         let entries =
             std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
@@ -856,7 +874,7 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardOutput>> {
                 std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
             let shard: ShardOutput = serde_json::from_str(&text)
                 .with_context(|| format!("{} is not a shard file", p.display()))?;
-            shards.push(shard);
+            shards.push((p.display().to_string(), shard));
         }
     }
     if shards.is_empty() {
@@ -865,13 +883,23 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardOutput>> {
     Ok(shards)
 }
 
-fn merge(shards: &[ShardOutput], out: &Path) -> Result<(), Failure> {
-    let result = merge_shards(shards).map_err(|e| anyhow!("{e}"))?;
+fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
-    println!("merged {} shards", shards.len());
+    let files = job::write_mc(result, run.out()).map_err(|e| anyhow!("{e}"))?;
+    print!("{result}");
+    println!("merged {shards} shards");
     commit_output(run, files.len())?;
-    Ok(())
+    verdict(result)
+}
+
+/// A finished Monte Carlo result whose verdict failed (blow-ups, not stationary) was written,
+/// flagged: exit 1 with the reason.
+fn verdict(result: &McResult) -> Result<(), Failure> {
+    result.verdict().map_err(|e| {
+        Failure::Flagged(format!(
+            "error: the Monte Carlo run finished and its files were written, flagged in mc_summary.json, but: {e}"
+        ))
+    })
 }
 
 #[cfg(test)]

@@ -115,11 +115,11 @@ fn monte_carlo_flags() {
     };
     for (tag, extra, msg) in [
         ("dt-zero", vec!["--dt", "0"], "dt"),
-        ("dt-neg", vec!["--dt", "-0.01"], "dt"),
+        ("dt-neg", vec!["--dt=-0.01"], "dt"),
         ("dt-nan", vec!["--dt", "NaN"], "dt"),
         ("spacing-frac", vec!["--spacing", "0.015"], "spacing"),
         ("spacing-zero", vec!["--spacing", "0"], "spacing"),
-        ("burn-neg", vec!["--burn-in", "-1"], "burn"),
+        ("burn-neg", vec!["--burn-in=-1"], "burn"),
         ("burn-inf", vec!["--burn-in", "inf"], "burn"),
         ("traj-zero", vec!["--trajectories", "0"], "--trajectories"),
         (

@@ -201,7 +201,7 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
     assert_eq!(header(&dir.join("pdf_y.csv")), "y,epc_n2,epc_n4");
     assert_eq!(
         header(&dir.join("mc_y.csv")),
-        "y,mc,mc_stderr,epc_n2_bin_mean,epc_n4_bin_mean"
+        "y,mc,mc_stderr,mc_bias,mc_bias_stderr,epc_n2_bin_mean,epc_n4_bin_mean"
     );
     let summary = json(&dir.join("summary.json"));
     let distances = summary["epc_vs_mc"].as_array().unwrap();

@@ -396,7 +396,7 @@ fn general_scheme_with_events_matches_the_splitting() {
         .unwrap()
         .run()
         .unwrap();
-    assert_eq!(b.settings.scheme, fpsolve::mc::SchemeKind::Heun);
+    assert_eq!(b.settings.scheme, fpsolve::mc::SchemeKind::PlatenWeak2);
     let (worst, ra, rb, z) = same_law(&a, &b, &["y", "ydot"]);
     eprintln!(
         "general vs splitting: worst bin {worst:.2} se; impact rates {:.4} vs {:.4} ({z:.1} se)",

@@ -8,6 +8,9 @@ use super::histogram::{finalize, Accumulator, Estimate, Grid, QuantityBatch, Qua
 use super::rng::Increments;
 use super::scheme::{BatchState, Plan, SchemeKind};
 use super::shard::exact;
+use super::verdict::{
+    bias_warnings, stationarity, time_step_bias, BlowUps, McWarning, Stationarity,
+};
 use super::McError;
 
 /// A parameter value, as a run records it.
@@ -61,6 +64,9 @@ pub struct RunSettings {
     pub has_barrier: bool,
     /// The histogrammed quantities: the two states, then the observables.
     pub quantities: Vec<QuantitySpec>,
+    /// Statistics batches `0..bias_batches` are run a second time at 2·dt for the
+    /// time-step bias estimate (0: no estimate).
+    pub bias_batches: u64,
 }
 
 impl RunSettings {
@@ -77,6 +83,24 @@ impl RunSettings {
     /// Burn-in time.
     pub fn burn_in(&self) -> f64 {
         self.burn_in_steps as f64 * self.dt
+    }
+
+    /// The settings of the paired coarse run: step 2·dt, the same burn-in time (rounded up),
+    /// the same spacing when it is an even number of steps (else twice the spacing: the
+    /// stationary statistics do not depend on it), the same samples and random streams.
+    pub fn coarse(&self) -> RunSettings {
+        let steps_per_sample = if self.steps_per_sample.is_multiple_of(2) {
+            self.steps_per_sample / 2
+        } else {
+            self.steps_per_sample
+        };
+        RunSettings {
+            dt: 2.0 * self.dt,
+            steps_per_sample,
+            burn_in_steps: self.burn_in_steps.div_ceil(2),
+            bias_batches: 0,
+            ..self.clone()
+        }
     }
 }
 
@@ -125,11 +149,20 @@ pub struct ImpactStats {
     pub rate: Estimate,
 }
 
-/// The result of a Monte Carlo run.
+/// The result of a Monte Carlo run: the statistics, and whether they can be trusted
+/// ([`McResult::verdict`]). A run whose verdict fails still returns its histograms, so that
+/// the caller can write them, flagged.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct McResult {
-    /// The settings it was run with.
+    /// The settings it was run with (the scheme is `settings.scheme`).
     pub settings: RunSettings,
+    /// The first-vs-last-quarter stationarity test of the recording.
+    pub stationarity: Stationarity,
+    /// Whether the blown-up trajectories leave a usable result.
+    pub blowup_verdict: BlowUps,
+    /// Warnings that do not invalidate the result (time-step bias above the statistical
+    /// error, a few blow-ups).
+    pub warnings: Vec<McWarning>,
     /// Trajectories that contributed (all but the blow-ups).
     pub trajectories: u64,
     /// Histograms and moments, states first, then observables.
@@ -144,6 +177,29 @@ impl McResult {
     /// The statistics of a quantity by name.
     pub fn quantity(&self, name: &str) -> Option<&QuantityStats> {
         self.quantities.iter().find(|q| q.name == name)
+    }
+
+    /// `Ok` when the result represents the stationary law; else the failed verdict as an
+    /// error (too many blow-ups first, then a failed stationarity test). Warnings do not
+    /// fail it.
+    pub fn verdict(&self) -> Result<(), McError> {
+        if let BlowUps::TooMany {
+            count,
+            trajectories,
+        } = self.blowup_verdict
+        {
+            return Err(McError::TooManyBlowUps {
+                count,
+                trajectories,
+                tolerance: super::verdict::BLOWUP_TOLERANCE,
+            });
+        }
+        if let Stationarity::NotStationary { largest } = &self.stationarity {
+            return Err(McError::NotStationary {
+                drift: largest.clone(),
+            });
+        }
+        Ok(())
     }
 }
 
@@ -174,6 +230,10 @@ fn run_batch_once(
     let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
     let mut step = st.burn_in_steps;
     for s in 0..st.samples_per_trajectory {
+        let window = ((s as u128 * 4) / st.samples_per_trajectory as u128) as usize;
+        for a in &mut acc {
+            a.set_window(window);
+        }
         prev_x.copy_from_slice(&b.x);
         prev_v.copy_from_slice(&b.v);
         b.advance(plan, st.steps_per_sample, st.dt);
@@ -240,14 +300,20 @@ pub(crate) fn run_batch(plan: &Plan, st: &RunSettings, index: u64) -> BatchSumma
 }
 
 /// Runs the batches in `range` in parallel; the summaries come back in batch order.
+/// `done` hears about every finished batch.
 pub(crate) fn run_batches(
     plan: &Plan,
     st: &RunSettings,
     range: std::ops::Range<u64>,
+    done: &(dyn Fn() + Sync),
 ) -> Vec<BatchSummary> {
     range
         .into_par_iter()
-        .map(|k| run_batch(plan, st, k))
+        .map(|k| {
+            let b = run_batch(plan, st, k);
+            done();
+            b
+        })
         .collect()
 }
 
@@ -256,22 +322,42 @@ pub(crate) fn run_batches(
 pub(crate) fn finalize_run(
     st: &RunSettings,
     batches: &[&BatchSummary],
+    coarse: &[&BatchSummary],
 ) -> Result<McResult, McError> {
     if batches.iter().all(|b| b.recorded == 0) {
         return Err(McError::AllBlewUp {
             blowups: batches.iter().map(|b| b.blowups.len()).sum(),
         });
     }
-    let quantities = st
+    let coarse_dt = st.coarse().dt;
+    let quantities: Vec<QuantityStats> = st
         .quantities
         .iter()
         .enumerate()
         .map(|(q, spec)| {
             let per: Vec<&QuantityBatch> = batches.iter().map(|b| &b.quantities[q]).collect();
-            finalize(&spec.name, spec.is_state, spec.grid, &per)
+            let mut stats = finalize(&spec.name, spec.is_state, spec.grid, &per);
+            stats.time_step_bias = time_step_bias(st, q, batches, coarse, coarse_dt);
+            stats
         })
         .collect();
     let trajectories: u64 = batches.iter().map(|b| b.recorded).sum();
+    let blown: u64 = batches.iter().map(|b| b.blowups.len() as u64).sum();
+    let blowup_verdict = BlowUps::judge(blown, trajectories + blown);
+    let mut warnings = Vec::new();
+    if let BlowUps::Tolerable {
+        count,
+        trajectories,
+    } = blowup_verdict
+    {
+        warnings.push(McWarning::SomeBlewUp {
+            count,
+            trajectories,
+        });
+    }
+    for q in &quantities {
+        bias_warnings(q, &mut warnings);
+    }
     let impacts = st.has_barrier.then(|| {
         let t = st.samples_per_trajectory as f64 * st.spacing();
         let count: u64 = batches.iter().map(|b| b.impacts).sum();
@@ -291,6 +377,9 @@ pub(crate) fn finalize_run(
     });
     Ok(McResult {
         settings: st.clone(),
+        stationarity: stationarity(st, batches),
+        blowup_verdict,
+        warnings,
         trajectories,
         quantities,
         impacts,

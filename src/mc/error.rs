@@ -70,4 +70,119 @@ pub enum McError {
         /// What is inconsistent.
         reason: String,
     },
+    /// A shard file is internally inconsistent (corrupt or edited).
+    #[error("{shard} is not a valid shard: {defect}")]
+    BadShard {
+        /// The shard, as its file name (or `shard K of N`, counted from 1).
+        shard: String,
+        /// What is wrong with it.
+        defect: ShardDefect,
+    },
+    /// Too many trajectories blew up for the survivors to represent the stationary law.
+    #[error(
+        "{count} of {trajectories} trajectories blew up (non-finite state), more than the tolerated fraction {tolerance}: the survivors do not represent a stationary law, which may not exist for these parameters"
+    )]
+    TooManyBlowUps {
+        /// Trajectories that blew up.
+        count: u64,
+        /// Trajectories run.
+        trajectories: u64,
+        /// The tolerated fraction.
+        tolerance: f64,
+    },
+    /// The recording drifts: its first and last quarters differ beyond their spread, so the
+    /// histograms are not of the stationary law (no damping, a burn-in too short, …).
+    #[error("the run is not stationary: {drift}; the histograms do not show a stationary law")]
+    NotStationary {
+        /// The largest drift found.
+        drift: super::verdict::Drift,
+    },
+    /// The run would take longer than the limit (estimated before starting).
+    #[error(
+        "the run would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
+        human_seconds(*seconds),
+        human_seconds(*limit_seconds)
+    )]
+    TooLong {
+        /// Estimated seconds.
+        seconds: f64,
+        /// The limit.
+        limit_seconds: f64,
+        /// Estimated trajectory steps (pilot and bias runs included).
+        steps: f64,
+        /// Steps per second per thread assumed.
+        rate: f64,
+        /// Threads assumed.
+        threads: usize,
+    },
+    /// The run would need more memory than the limit (estimated before starting).
+    #[error(
+        "the run would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
+        bytes,
+        limit_bytes
+    )]
+    TooMuchMemory {
+        /// Estimated bytes.
+        bytes: f64,
+        /// The limit.
+        limit_bytes: f64,
+        /// Histogram bins over all quantities.
+        bins: f64,
+    },
+}
+
+/// `3.2 h`, `45 s`, `2.1e9 years`: a duration for a message, never a 140-digit number.
+pub(crate) fn human_seconds(s: f64) -> String {
+    if !s.is_finite() {
+        "forever".into()
+    } else if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 7200.0 {
+        format!("{:.0} min", s / 60.0)
+    } else if s < 2.0 * 86400.0 {
+        format!("{:.1} h", s / 3600.0)
+    } else if s < 3.2e9 {
+        format!("{:.3} days", s / 86400.0)
+    } else {
+        format!("{:.1e} years", s / 3.156e7)
+    }
+}
+
+/// What is wrong inside one shard file.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShardDefect {
+    /// A run setting is out of range (dt ≤ 0, no quantities, a bad grid, …).
+    #[error("its setting `{name}` is invalid: {reason}")]
+    Setting {
+        /// The setting.
+        name: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The shard index does not fit the split.
+    #[error("it claims to be shard {index} of {count} (counted from 1)")]
+    Index {
+        /// The claimed index, from 1.
+        index: u64,
+        /// The claimed count.
+        count: u64,
+    },
+    /// It holds other statistics batches than its index says.
+    #[error("it should hold statistics batches {expected:?} but holds {found:?}")]
+    Batches {
+        /// The batch indices it must hold.
+        expected: std::ops::Range<u64>,
+        /// The ones it holds (first few).
+        found: Vec<u64>,
+    },
+    /// A batch's numbers contradict each other or the settings.
+    #[error("statistics batch {batch}{}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
+    Batch {
+        /// The batch index.
+        batch: u64,
+        /// The quantity, if the defect is in one.
+        quantity: Option<String>,
+        /// What is inconsistent.
+        what: String,
+    },
 }

@@ -72,6 +72,14 @@ pub(crate) struct QuantityBatch {
     pub(crate) min: f64,
     #[serde(with = "exact")]
     pub(crate) max: f64,
+    /// Finite values recorded in each quarter of the recording (for the stationarity test).
+    pub(crate) window_counts: [u64; 4],
+    /// Σ (q − shift) per quarter of the recording.
+    #[serde(with = "exact::array4")]
+    pub(crate) window_sums: [f64; 4],
+    /// Σ (q − shift)² per quarter of the recording.
+    #[serde(with = "exact::array4")]
+    pub(crate) window_squares: [f64; 4],
 }
 
 /// Accumulates one quantity of one batch, lane-parallel: power sums and extremes per lane
@@ -88,6 +96,11 @@ pub(crate) struct Accumulator {
     sums: [Vec<f64>; 4],
     min: Vec<f64>,
     max: Vec<f64>,
+    /// The quarter of the recording the next samples fall in.
+    window: usize,
+    window_counts: [u64; 4],
+    window_sums: [f64; 4],
+    window_squares: [f64; 4],
 }
 
 impl Accumulator {
@@ -101,11 +114,35 @@ impl Accumulator {
             sums: std::array::from_fn(|_| vec![0.0; lanes]),
             min: vec![f64::INFINITY; lanes],
             max: vec![f64::NEG_INFINITY; lanes],
+            window: 0,
+            window_counts: [0; 4],
+            window_sums: [0.0; 4],
+            window_squares: [0.0; 4],
+        }
+    }
+
+    /// Sets the quarter of the recording (0..4) the following samples belong to.
+    pub(crate) fn set_window(&mut self, window: usize) {
+        self.window = window.min(3);
+    }
+
+    /// Adds the recorded finite values to the current quarter's sums, lanes in order.
+    fn add_window(&mut self, values: &[f64], record: &[bool]) {
+        let shift = self.shift;
+        let k = self.window;
+        for (&q, &r) in values.iter().zip(record) {
+            if r && q.is_finite() {
+                let d = q - shift;
+                self.window_counts[k] += 1;
+                self.window_sums[k] += d;
+                self.window_squares[k] += d * d;
+            }
         }
     }
 
     /// Adds one sample value per lane, for the lanes with `record[i]`.
     pub(crate) fn add(&mut self, values: &[f64], record: &[bool]) {
+        self.add_window(values, record);
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above. The arithmetic is IEEE-exact
@@ -171,6 +208,9 @@ impl Accumulator {
             sums,
             min: self.min.iter().cloned().fold(f64::INFINITY, f64::min),
             max: self.max.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+            window_counts: self.window_counts,
+            window_sums: self.window_sums,
+            window_squares: self.window_squares,
         }
     }
 }
@@ -207,6 +247,35 @@ pub struct QuantityStats {
     pub min: f64,
     /// Largest finite value seen.
     pub max: f64,
+    /// The time-step bias of the mean, variance, kurtosis and density, estimated by
+    /// Richardson extrapolation from a paired run at 2·dt (`None` when not estimated, as in
+    /// the pilot run or with [`McConfig::bias_fraction`](super::McConfig::bias_fraction) 0).
+    pub time_step_bias: Option<TimeStepBias>,
+}
+
+/// The estimated discretisation bias S_dt − S_exact ≈ (S_2dt − S_dt)/(2ᵖ − 1) of a
+/// quantity's statistics (p the scheme's weak order), from statistics batches run twice,
+/// at dt and at 2·dt with the same random streams; each value's standard error comes from
+/// the spread of the per-batch differences. A bias smaller than about twice its standard
+/// error is not resolved: only `|value| + 2·stderr` bounds it (see [`Estimate::resolved`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeStepBias {
+    /// The weak order p used in the extrapolation.
+    pub order: u32,
+    /// The coarse time step (2·dt).
+    pub coarse_dt: f64,
+    /// The paired statistics batches it was estimated from.
+    pub pairs: u64,
+    /// Bias of the mean.
+    pub mean: Estimate,
+    /// Bias of the variance.
+    pub variance: Estimate,
+    /// Bias of the kurtosis.
+    pub kurtosis: Estimate,
+    /// Bias of each bin's density.
+    pub density: Vec<f64>,
+    /// Standard error of each bin's density bias.
+    pub density_stderr: Vec<f64>,
 }
 
 /// A Monte Carlo estimate with its standard error (infinite when fewer than two statistics
@@ -217,6 +286,29 @@ pub struct Estimate {
     pub value: f64,
     /// Its standard error (from the spread over statistics batches).
     pub stderr: f64,
+}
+
+impl Estimate {
+    /// Whether the value is resolved from zero: |value| > 2·stderr.
+    ///
+    /// ```
+    /// use fpsolve::mc::Estimate;
+    /// assert!(Estimate { value: 0.3, stderr: 0.1 }.resolved());
+    /// assert!(!Estimate { value: 0.1, stderr: 0.1 }.resolved());
+    /// ```
+    pub fn resolved(&self) -> bool {
+        self.stderr.is_finite() && self.value.abs() > 2.0 * self.stderr
+    }
+
+    /// The bound |value| + 2·stderr below which an unresolved value lies.
+    ///
+    /// ```
+    /// use fpsolve::mc::Estimate;
+    /// assert_eq!(Estimate { value: -0.1, stderr: 0.1 }.bound(), 0.30000000000000004);
+    /// ```
+    pub fn bound(&self) -> f64 {
+        self.value.abs() + 2.0 * self.stderr
+    }
 }
 
 /// Central moments (mean, variance, kurtosis) from shifted power sums over `n` samples.
@@ -321,7 +413,22 @@ pub(crate) fn finalize(
         },
         min,
         max,
+        time_step_bias: None,
     }
+}
+
+/// Per-batch (mean, variance, kurtosis) of a quantity about the grid's centre, `None` for a
+/// batch without finite samples.
+pub(crate) fn batch_moments(b: &QuantityBatch) -> Option<(f64, f64, f64)> {
+    let n = (b.counts.iter().sum::<u64>() + b.under + b.over) as f64;
+    (n > 0.0).then(|| central(&b.sums, n))
+}
+
+/// The per-bin densities of one batch.
+pub(crate) fn batch_density(b: &QuantityBatch, grid: Grid) -> Option<Vec<f64>> {
+    let n = (b.counts.iter().sum::<u64>() + b.under + b.over) as f64;
+    let w = grid.width();
+    (n > 0.0).then(|| b.counts.iter().map(|&c| c as f64 / (n * w)).collect())
 }
 
 #[cfg(test)]

@@ -32,15 +32,20 @@ pub mod reference;
 mod rng;
 mod scheme;
 mod shard;
+mod verdict;
 
 pub use ensemble::{
     BlowUp, ImpactStats, LastState, McResult, ParamValue, QuantitySpec, RunSettings,
 };
-pub use error::McError;
-pub use histogram::{Estimate, Grid, QuantityStats};
+pub use error::{McError, ShardDefect};
+pub use histogram::{Estimate, Grid, QuantityStats, TimeStepBias};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};
-pub use shard::{merge_shards, Shard, ShardOutput};
+pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
+pub use verdict::{
+    t_critical, BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
+    BLOWUP_TOLERANCE, MIN_STATIONARITY_BATCHES,
+};
 
 use serde::{Deserialize, Serialize};
 
@@ -87,6 +92,11 @@ pub struct McConfig {
     pub increments: Increments,
     /// Scheme selection (default automatic).
     pub scheme: SchemeChoice,
+    /// Fraction of the statistics batches run a second time at 2·dt for the time-step bias
+    /// estimate (default 0.25, at least [`MIN_BIAS_PAIRS`] batches or all when there are
+    /// fewer; 0 turns the estimate off). At the default spacing (an even number of steps)
+    /// a coarse batch costs half a fine one: 12.5 % extra for the default 32 batches.
+    pub bias_fraction: f64,
 }
 
 impl Default for McConfig {
@@ -103,7 +113,260 @@ impl Default for McConfig {
             grids: Vec::new(),
             increments: Increments::default(),
             scheme: SchemeChoice::default(),
+            bias_fraction: 0.25,
         }
+    }
+}
+
+/// Fewest statistics batches the time-step bias is estimated from (its standard error
+/// needs a spread).
+pub const MIN_BIAS_PAIRS: u64 = 8;
+/// Largest number of bins of one histogram grid.
+pub const MAX_BINS: usize = 10_000_000;
+/// Largest number of trajectories of one run (the blow-up list and the batch summaries
+/// grow with it).
+pub const MAX_TRAJECTORIES: u64 = 1 << 40;
+/// Longest run [`McConfig::preflight`] accepts, in estimated seconds (24 h).
+pub const TIME_LIMIT_SECONDS: f64 = 86_400.0;
+/// Most memory [`McConfig::preflight`] accepts for the histograms, in bytes (4 GiB).
+pub const MEMORY_LIMIT_BYTES: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
+
+/// What a run will cost, estimated before it starts by [`McConfig::preflight`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunEstimate {
+    /// The scheme that will run.
+    pub scheme: SchemeKind,
+    /// Statistics batches (trajectories rounded up to whole batches of `lanes`).
+    pub batches: u64,
+    /// Batches run again at 2·dt for the bias estimate.
+    pub bias_batches: u64,
+    /// Steps of the burn-in.
+    pub burn_in_steps: f64,
+    /// Trajectory steps in all: pilot, main run and the 2·dt run.
+    pub steps: f64,
+    /// Estimated wall time in seconds, from a conservative throughput
+    /// ([`SchemeKind::conservative_steps_per_second`]) on `threads` threads.
+    pub seconds: f64,
+    /// Threads assumed.
+    pub threads: usize,
+    /// Estimated memory of the histograms (kept per statistics batch until the merge), in
+    /// bytes.
+    pub memory_bytes: f64,
+}
+
+/// The checked numbers a run derives from its configuration.
+struct Resolved {
+    plan: Plan,
+    steps_per_sample: u64,
+    burn_in_steps: u64,
+    batches: u64,
+    bias_batches: u64,
+    estimate: RunEstimate,
+}
+
+impl McConfig {
+    /// Checks the configuration against `model` and estimates the run's cost, before any
+    /// simulation (milliseconds: it compiles the model, nothing more). Refuses settings out
+    /// of range (dt, a spacing that is not a whole number of steps, burn-in, trajectories,
+    /// lanes, samples, grids) and runs estimated to take more than [`TIME_LIMIT_SECONDS`]
+    /// or more memory than [`MEMORY_LIMIT_BYTES`], with the estimate in the error.
+    /// [`Simulation::new`] makes the same checks.
+    ///
+    /// ```
+    /// use fpsolve::mc::{reference, McConfig, McError};
+    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// let estimate = McConfig::default().preflight(&model).unwrap();
+    /// assert_eq!(estimate.batches, 32);
+    /// let forever = McConfig { dt: 1e-300, spacing: 1e-299, ..McConfig::default() };
+    /// assert!(matches!(forever.preflight(&model), Err(McError::TooLong { .. })));
+    /// ```
+    pub fn preflight(&self, model: &BoundModel) -> Result<RunEstimate, McError> {
+        Ok(self.resolve(model)?.estimate)
+    }
+
+    fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
+        let dt = self.dt;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(bad("dt", format!("must be a positive number, got {dt}")));
+        }
+        if !(self.spacing.is_finite() && self.spacing > 0.0) {
+            return Err(bad(
+                "spacing",
+                format!("must be a positive number, got {}", self.spacing),
+            ));
+        }
+        let ratio = self.spacing / dt;
+        let steps_per_sample = ratio.round();
+        if !(steps_per_sample >= 1.0 && (ratio - steps_per_sample).abs() <= 1e-6 * ratio) {
+            return Err(bad(
+                "spacing",
+                format!(
+                    "must be a positive whole number of steps dt = {dt}, got {}",
+                    self.spacing
+                ),
+            ));
+        }
+        if self.lanes == 0 || self.lanes > 1 << 16 {
+            return Err(bad(
+                "lanes",
+                format!("must lie in 1..=65536, got {}", self.lanes),
+            ));
+        }
+        if self.trajectories > MAX_TRAJECTORIES {
+            return Err(bad(
+                "trajectories",
+                format!(
+                    "at most {MAX_TRAJECTORIES} in one run (split larger runs into shards), got {}",
+                    self.trajectories
+                ),
+            ));
+        }
+        let batches = self.trajectories.div_ceil(self.lanes as u64);
+        if batches < 2 {
+            return Err(bad(
+                "trajectories",
+                format!(
+                    "need at least two statistics batches of {} for error bars, got {}",
+                    self.lanes, self.trajectories
+                ),
+            ));
+        }
+        if self.samples == 0 {
+            return Err(bad("samples", "must be at least 1".into()));
+        }
+        if self.bins == 0 || self.bins > MAX_BINS {
+            return Err(bad(
+                "bins",
+                format!("must lie in 1..={MAX_BINS}, got {}", self.bins),
+            ));
+        }
+        for (name, g) in &self.grids {
+            if !(g.lo.is_finite() && g.hi.is_finite() && g.lo < g.hi) || g.bins == 0 {
+                return Err(bad(
+                    "grid",
+                    format!("`{name}`: need finite lo < hi and bins ≥ 1"),
+                ));
+            }
+            if g.bins > MAX_BINS {
+                return Err(bad(
+                    "grid",
+                    format!("`{name}`: {} bins, at most {MAX_BINS}", g.bins),
+                ));
+            }
+        }
+        for (g, _) in &self.grids {
+            let known = model.states.iter().any(|s| **s == **g)
+                || model.observables.iter().any(|o| *o.name == **g);
+            if !known {
+                return Err(McError::UnknownQuantity { name: g.clone() });
+            }
+        }
+        if !(self.bias_fraction.is_finite() && (0.0..=1.0).contains(&self.bias_fraction)) {
+            return Err(bad(
+                "bias_fraction",
+                format!("must lie in [0, 1], got {}", self.bias_fraction),
+            ));
+        }
+        let plan = Plan::new(model, self.scheme)?;
+        let burn_in = match self.burn_in {
+            BurnIn::Time(t) if t.is_finite() && t >= 0.0 => t,
+            BurnIn::DecayTimes(k) if k.is_finite() && k >= 0.0 => {
+                let rate = plan.slowest_decay_rate();
+                if !(rate.is_finite() && rate > 0.0) {
+                    return Err(McError::NoDecay { rate });
+                }
+                k / rate
+            }
+            other => {
+                return Err(bad(
+                    "burn_in",
+                    format!("must be finite and ≥ 0, got {other:?}"),
+                ))
+            }
+        };
+        let burn_in_steps = (burn_in / dt).ceil();
+        let bias_batches = if self.bias_fraction > 0.0 {
+            ((self.bias_fraction * batches as f64).ceil() as u64)
+                .max(MIN_BIAS_PAIRS)
+                .min(batches)
+        } else {
+            0
+        };
+        // Cost: trajectory steps of the main run, the coarse run (half the steps when the
+        // spacing is even) and the pilot.
+        let lanes = self.lanes as f64;
+        let per_trajectory = burn_in_steps + self.samples as f64 * steps_per_sample;
+        let coarse_share = if (steps_per_sample as u64).is_multiple_of(2) {
+            0.5
+        } else {
+            1.0
+        };
+        let pilot = if self.grids.len() < 2 + model.observables.len() {
+            PILOT_BATCHES as f64
+                * lanes
+                * (burn_in_steps + self.samples.min(PILOT_SAMPLES) as f64 * steps_per_sample)
+        } else {
+            0.0
+        };
+        let steps =
+            lanes * per_trajectory * (batches as f64 + coarse_share * bias_batches as f64) + pilot;
+        let threads = rayon::current_num_threads().max(1);
+        let rate = plan.kind.conservative_steps_per_second();
+        let seconds = steps / (rate * threads as f64);
+        // Memory: every batch's histograms are kept until the reduction; each thread holds
+        // one batch's accumulators.
+        let quantities = 2 + model.observables.len();
+        let bins: f64 = (0..quantities)
+            .map(|q| {
+                let name = if q < 2 {
+                    model.states[q].to_string()
+                } else {
+                    model.observables[q - 2].name.to_string()
+                };
+                self.grids
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .map_or(self.bins, |(_, g)| g.bins) as f64
+            })
+            .sum();
+        let per_batch = 8.0 * (bins + 24.0 * quantities as f64);
+        let memory_bytes = per_batch * (batches + bias_batches) as f64
+            + threads as f64 * (per_batch + 8.0 * lanes * (20.0 + 6.0 * quantities as f64))
+            + 3.0 * 8.0 * bins;
+        let estimate = RunEstimate {
+            scheme: plan.kind,
+            batches,
+            bias_batches,
+            burn_in_steps,
+            steps,
+            seconds,
+            threads,
+            memory_bytes,
+        };
+        if memory_bytes.is_nan() || memory_bytes > MEMORY_LIMIT_BYTES {
+            return Err(McError::TooMuchMemory {
+                bytes: memory_bytes,
+                limit_bytes: MEMORY_LIMIT_BYTES,
+                bins,
+            });
+        }
+        if seconds.is_nan() || seconds > TIME_LIMIT_SECONDS {
+            return Err(McError::TooLong {
+                seconds,
+                limit_seconds: TIME_LIMIT_SECONDS,
+                steps,
+                rate,
+                threads,
+            });
+        }
+        Ok(Resolved {
+            plan,
+            steps_per_sample: steps_per_sample as u64,
+            burn_in_steps: burn_in_steps as u64,
+            batches,
+            bias_batches,
+            estimate,
+        })
     }
 }
 
@@ -133,60 +396,15 @@ impl Simulation {
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
         // No stationary law to sample: refused before any step (issue 9, item 13).
         crate::physics::check(model)?;
+        let Resolved {
+            plan,
+            steps_per_sample,
+            burn_in_steps,
+            batches,
+            bias_batches,
+            estimate: _,
+        } = config.resolve(model)?;
         let dt = config.dt;
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(bad("dt", format!("must be a positive number, got {dt}")));
-        }
-        let ratio = config.spacing / dt;
-        let steps_per_sample = ratio.round();
-        if !(steps_per_sample >= 1.0 && (ratio - steps_per_sample).abs() <= 1e-6 * ratio) {
-            return Err(bad(
-                "spacing",
-                format!(
-                    "must be a positive whole number of steps dt = {dt}, got {}",
-                    config.spacing
-                ),
-            ));
-        }
-        if config.lanes == 0 || config.lanes > 1 << 16 {
-            return Err(bad(
-                "lanes",
-                format!("must lie in 1..=65536, got {}", config.lanes),
-            ));
-        }
-        let batches = config.trajectories.div_ceil(config.lanes as u64);
-        if batches < 2 {
-            return Err(bad(
-                "trajectories",
-                format!(
-                    "need at least two statistics batches of {} for error bars, got {}",
-                    config.lanes, config.trajectories
-                ),
-            ));
-        }
-        if config.samples == 0 {
-            return Err(bad("samples", "must be at least 1".into()));
-        }
-        if config.bins == 0 {
-            return Err(bad("bins", "must be at least 1".into()));
-        }
-        let plan = Plan::new(model, config.scheme)?;
-        let burn_in = match config.burn_in {
-            BurnIn::Time(t) if t.is_finite() && t >= 0.0 => t,
-            BurnIn::DecayTimes(k) if k.is_finite() && k >= 0.0 => {
-                let rate = plan.slowest_decay_rate();
-                if !(rate.is_finite() && rate > 0.0) {
-                    return Err(McError::NoDecay { rate });
-                }
-                k / rate
-            }
-            other => {
-                return Err(bad(
-                    "burn_in",
-                    format!("must be finite and ≥ 0, got {other:?}"),
-                ))
-            }
-        };
         let mut names: Vec<(String, bool)> =
             model.states.iter().map(|s| (s.to_string(), true)).collect();
         names.extend(
@@ -214,8 +432,8 @@ impl Simulation {
             scheme: plan.kind,
             increments: config.increments,
             dt,
-            steps_per_sample: steps_per_sample as u64,
-            burn_in_steps: (burn_in / dt).ceil() as u64,
+            steps_per_sample,
+            burn_in_steps,
             samples_per_trajectory: config.samples,
             lanes: config.lanes,
             batches,
@@ -233,6 +451,7 @@ impl Simulation {
                         .map_or(placeholder, |(_, g)| *g),
                 })
                 .collect(),
+            bias_batches,
         };
         let given = |n: &str| config.grids.iter().any(|(g, _)| g == n);
         if settings.quantities.iter().any(|q| !given(&q.name)) {
@@ -240,11 +459,12 @@ impl Simulation {
                 seed: config.seed ^ PILOT_SALT,
                 batches: PILOT_BATCHES,
                 samples_per_trajectory: config.samples.min(PILOT_SAMPLES),
+                bias_batches: 0,
                 ..settings.clone()
             };
-            let summaries = run_batches(&plan, &pilot, 0..PILOT_BATCHES);
+            let summaries = run_batches(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
             let refs: Vec<_> = summaries.iter().collect();
-            let res = finalize_run(&pilot, &refs).map_err(|_| McError::NoPilotRange {
+            let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
                 name: settings.quantities[0].name.clone(),
             })?;
             for (spec, stats) in settings.quantities.iter_mut().zip(&res.quantities) {
@@ -261,30 +481,67 @@ impl Simulation {
         &self.settings
     }
 
-    /// Runs the whole simulation. Trajectories that blow up are listed in the result and left
-    /// out; if all do, that is an error.
+    /// Runs the whole simulation: the statistics batches at dt, then the first
+    /// `bias_batches` again at 2·dt for the time-step bias. Trajectories that blow up are
+    /// listed in the result and left out; if all do, that is an error. A finished run is
+    /// returned even when its verdict fails ([`McResult::verdict`]).
     pub fn run(&self) -> Result<McResult, McError> {
-        let summaries = run_batches(&self.plan, &self.settings, 0..self.settings.batches);
-        let refs: Vec<_> = summaries.iter().collect();
-        finalize_run(&self.settings, &refs)
+        self.run_with_progress(&|_, _| {})
     }
 
-    /// Runs one shard of the simulation; see [`merge_shards`].
+    /// [`Simulation::run`], calling `progress(done, total)` (in statistics batches, the
+    /// coarse ones included) from the worker threads as batches finish.
+    ///
+    /// ```
+    /// use std::sync::atomic::{AtomicU64, Ordering};
+    /// use fpsolve::mc::{reference, McConfig, Simulation};
+    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
+    /// let sim = Simulation::new(&model, &config).unwrap();
+    /// let seen = AtomicU64::new(0);
+    /// sim.run_with_progress(&|_, _| { seen.fetch_add(1, Ordering::Relaxed); }).unwrap();
+    /// assert_eq!(seen.into_inner(), 4 + 2);
+    /// ```
+    pub fn run_with_progress(
+        &self,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<McResult, McError> {
+        let st = &self.settings;
+        let total = st.batches + st.bias_batches;
+        let done = std::sync::atomic::AtomicU64::new(0);
+        let tick = || {
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(k, total);
+        };
+        let summaries = run_batches(&self.plan, st, 0..st.batches, &tick);
+        let coarse = run_batches(&self.plan, &st.coarse(), 0..st.bias_batches, &tick);
+        let refs: Vec<_> = summaries.iter().collect();
+        let coarse_refs: Vec<_> = coarse.iter().collect();
+        finalize_run(st, &refs, &coarse_refs)
+    }
+
+    /// Runs one shard of the simulation (its statistics batches, and those of them in the
+    /// bias estimate's range again at 2·dt); see [`merge_shards`].
     pub fn run_shard(&self, shard: Shard) -> Result<ShardOutput, McError> {
-        if shard.count == 0 || shard.index >= shard.count || shard.count > self.settings.batches {
+        let st = &self.settings;
+        if shard.count == 0 || shard.index >= shard.count || shard.count > st.batches {
             return Err(bad(
                 "shard",
                 format!(
                     "shard {} of {} does not fit a run of {} statistics batches",
-                    shard.index, shard.count, self.settings.batches
+                    shard.index.saturating_add(1),
+                    shard.count,
+                    st.batches
                 ),
             ));
         }
-        let range = shard.batch_range(self.settings.batches);
+        let range = shard.batch_range(st.batches);
+        let coarse = range.start.min(st.bias_batches)..range.end.min(st.bias_batches);
         Ok(ShardOutput {
-            settings: self.settings.clone(),
+            settings: st.clone(),
             shard,
-            batches: run_batches(&self.plan, &self.settings, range),
+            batches: run_batches(&self.plan, st, range, &|| {}),
+            coarse: run_batches(&self.plan, &st.coarse(), coarse, &|| {}),
         })
     }
 }
@@ -384,14 +641,20 @@ mod tests {
             ..small(32)
         };
         let sim = Simulation::new(&lin, &general).unwrap();
-        assert_eq!(sim.settings().scheme, SchemeKind::Heun);
+        assert_eq!(sim.settings().scheme, SchemeKind::PlatenWeak2);
         // Noise in the x-equation: not mechanical.
         let mut m = linear_oscillator(0.5, 1.0, 1.0);
         m.noise_matrix[0] = vec![crate::symbolic::Expr::num(0.1)];
         let sim = Simulation::new(&m.bind(&[]).unwrap(), &small(32)).unwrap();
+        assert_eq!(sim.settings().scheme, SchemeKind::PlatenWeak2);
+        let order1 = McConfig {
+            scheme: SchemeChoice::GeneralOrder1,
+            ..small(32)
+        };
+        let sim = Simulation::new(&m.bind(&[]).unwrap(), &order1).unwrap();
         assert_eq!(sim.settings().scheme, SchemeKind::Heun);
         m.interpretation = crate::model::Interpretation::Ito;
-        let sim = Simulation::new(&m.bind(&[]).unwrap(), &small(32)).unwrap();
+        let sim = Simulation::new(&m.bind(&[]).unwrap(), &order1).unwrap();
         assert_eq!(sim.settings().scheme, SchemeKind::EulerMaruyama);
     }
 
@@ -491,7 +754,11 @@ mod tests {
     /// `v' = −c v − k z + ξ₀ + σ v ξ₁` (independent sources of intensities s₀, s₁): the
     /// stationary E[v²] is s₀/(2c − s₁σ²) read as Itô and s₀/(2c − 2s₁σ²) read as
     /// Stratonovich (Wong–Zakai adds ½s₁σ²·v to the drift).
-    fn velocity_noise(interpretation: crate::model::Interpretation, seed: u64) -> McResult {
+    fn velocity_noise(
+        interpretation: crate::model::Interpretation,
+        scheme: SchemeChoice,
+        seed: u64,
+    ) -> McResult {
         use crate::model::NoiseSource;
         use crate::symbolic::Expr;
         let mut m = linear_oscillator(0.5, 1.0, 1.0);
@@ -511,6 +778,7 @@ mod tests {
             lanes: 16,
             samples: 200,
             seed,
+            scheme,
             grids: vec![
                 ("z".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
                 ("v".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
@@ -526,19 +794,33 @@ mod tests {
     #[test]
     fn ito_and_stratonovich_readings_reach_their_own_exact_variances() {
         use crate::model::Interpretation;
-        for (interp, exact, kind) in [
+        for (interp, exact, scheme, kind) in [
             (
                 Interpretation::Ito,
                 1.0 / (1.0 - 0.25),
+                SchemeChoice::GeneralOrder1,
                 SchemeKind::EulerMaruyama,
             ),
             (
                 Interpretation::Stratonovich,
                 1.0 / (1.0 - 0.5),
+                SchemeChoice::GeneralOrder1,
                 SchemeKind::Heun,
             ),
+            (
+                Interpretation::Ito,
+                1.0 / (1.0 - 0.25),
+                SchemeChoice::Auto,
+                SchemeKind::PlatenWeak2,
+            ),
+            (
+                Interpretation::Stratonovich,
+                1.0 / (1.0 - 0.5),
+                SchemeChoice::Auto,
+                SchemeKind::PlatenWeak2,
+            ),
         ] {
-            let res = velocity_noise(interp, 4);
+            let res = velocity_noise(interp, scheme, 4);
             assert_eq!(res.settings.scheme, kind);
             let var = res.quantity("v").unwrap().variance;
             eprintln!("{interp:?}: {} ± {} (exact {exact})", var.value, var.stderr);
@@ -559,5 +841,334 @@ mod tests {
             scheme::psd_sqrt(&[vec![1.0, 2.0], vec![2.0, 1.0]]),
             Err(McError::IntensityNotPsd { .. })
         ));
+    }
+}
+
+#[cfg(test)]
+mod trust_tests {
+    use super::*;
+    use crate::model::load_model;
+
+    fn bundled(name: &str, set: &[(&str, f64)]) -> BoundModel {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(name);
+        let overrides: Vec<crate::model::Override> = set
+            .iter()
+            .map(|(n, v)| crate::model::Override {
+                name: n.to_string(),
+                value: crate::symbolic::Expr::num(*v),
+            })
+            .collect();
+        load_model(&path).unwrap().bind(&overrides).unwrap()
+    }
+
+    fn grids(names: &[&str], half: f64) -> Vec<(String, Grid)> {
+        names
+            .iter()
+            .map(|n| (n.to_string(), Grid::new(-half, half, 20).unwrap()))
+            .collect()
+    }
+
+    /// E[v²] of `cubic_damping_two_noises.sde` (exactly 1: Var v = 1, mean 0).
+    fn cubic_second_moment(
+        choice: SchemeChoice,
+        dt: f64,
+        bias_fraction: f64,
+    ) -> (Estimate, McResult) {
+        let model = bundled("cubic_damping_two_noises.sde", &[]);
+        let config = McConfig {
+            dt,
+            spacing: 1.0,
+            trajectories: 4096,
+            lanes: 64,
+            samples: 200,
+            burn_in: BurnIn::Time(30.0),
+            seed: 3,
+            scheme: choice,
+            grids: grids(&["z", "v", "y", "ydot"], 6.0),
+            bias_fraction,
+            ..McConfig::default()
+        };
+        let r = Simulation::new(&model, &config).unwrap().run().unwrap();
+        let v = r.quantity("v").unwrap();
+        let m2 = Estimate {
+            value: v.variance.value + v.mean.value * v.mean.value,
+            stderr: v.variance.stderr,
+        };
+        (m2, r)
+    }
+
+    /// `v' = −v − z + ξ₀ + ½ v ξ₁` read as Itô: E[v²] = 1/(2 − ¼) exactly.
+    fn multiplicative_ito() -> BoundModel {
+        use crate::model::{Interpretation, NoiseSource};
+        use crate::symbolic::Expr;
+        let mut m = reference::linear_oscillator(1.0, 1.0, 1.0);
+        m.noises.push(NoiseSource {
+            name: "xi1".into(),
+            intensity: Expr::num(1.0),
+        });
+        m.noise_matrix = [
+            vec![Expr::num(0.0), Expr::num(0.0)],
+            vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
+        ];
+        m.interpretation = Interpretation::Ito;
+        m.bind(&[]).unwrap()
+    }
+
+    fn linear_variance(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> McResult {
+        let config = McConfig {
+            dt,
+            spacing: 0.8,
+            trajectories: 4096,
+            lanes: 64,
+            samples: 200,
+            burn_in: BurnIn::Time(20.0),
+            seed: 3,
+            scheme: choice,
+            grids: grids(&["z", "v"], 8.0),
+            bias_fraction,
+            ..McConfig::default()
+        };
+        Simulation::new(&multiplicative_ito(), &config)
+            .unwrap()
+            .run()
+            .unwrap()
+    }
+
+    /// The measured weak order log2(bias(2h)/bias(h)) and its standard error.
+    fn order(coarse: Estimate, fine: Estimate, exact: f64) -> (f64, f64) {
+        let (b2, b1) = (coarse.value - exact, fine.value - exact);
+        let p = (b2 / b1).log2();
+        let se = ((coarse.stderr / b2).powi(2) + (fine.stderr / b1).powi(2)).sqrt()
+            / std::f64::consts::LN_2;
+        (p, se)
+    }
+
+    #[test]
+    fn the_general_path_has_weak_order_two() {
+        // Bundled model with an exact stationary law, two sources, one multiplicative in v,
+        // read as Stratonovich (so the Wong–Zakai drift is exercised): E[v²] = 1.
+        let (coarse, _) = cubic_second_moment(SchemeChoice::General, 0.25, 0.0);
+        let (fine, res) = cubic_second_moment(SchemeChoice::General, 0.125, 0.0);
+        assert_eq!(res.settings.scheme, SchemeKind::PlatenWeak2);
+        let (p, se) = order(coarse, fine, 1.0);
+        eprintln!(
+            "Platen: E v² = {:.5} ± {:.5} (dt 0.25), {:.5} ± {:.5} (dt 0.125): order {p:.2} ± {se:.2}",
+            coarse.value, coarse.stderr, fine.value, fine.stderr
+        );
+        assert!((1.4..2.6).contains(&p), "order {p} ± {se}");
+        // The old scheme (Euler–Maruyama) on an Itô model with multiplicative noise: order 1.
+        let exact = 1.0 / 1.75;
+        let em = |dt| {
+            let r = linear_variance(SchemeChoice::GeneralOrder1, dt, 0.0);
+            assert_eq!(r.settings.scheme, SchemeKind::EulerMaruyama);
+            r.quantity("v").unwrap().variance
+        };
+        let (p1, se1) = order(em(0.1), em(0.05), exact);
+        eprintln!("Euler-Maruyama: order {p1:.2} ± {se1:.2}");
+        assert!((0.8..1.45).contains(&p1), "order {p1} ± {se1}");
+        // Platen's scheme on the same model at dt = 0.1, where Euler–Maruyama is 19 % off:
+        // exact within the error bars.
+        let pl = linear_variance(SchemeChoice::General, 0.1, 0.0);
+        let var = pl.quantity("v").unwrap().variance;
+        eprintln!(
+            "Platen (Itô model) dt 0.1: {} ± {} vs {exact}",
+            var.value, var.stderr
+        );
+        assert!((var.value - exact).abs() < 4.5 * var.stderr);
+    }
+
+    #[test]
+    fn the_bias_estimate_covers_the_true_bias_of_euler_maruyama() {
+        let exact = 1.0 / 1.75;
+        let r = linear_variance(SchemeChoice::GeneralOrder1, 0.05, 0.25);
+        let v = r.quantity("v").unwrap();
+        let b = v.time_step_bias.as_ref().unwrap();
+        let truth = v.variance.value - exact;
+        eprintln!(
+            "EM dt 0.05: Var v = {:.5} ± {:.5}, true bias {truth:.5}, estimate {:.5} ± {:.5} from {} pairs",
+            v.variance.value, v.variance.stderr, b.variance.value, b.variance.stderr, b.pairs
+        );
+        assert_eq!((b.order, b.pairs, b.coarse_dt), (1, 16, 0.1));
+        assert!(b.variance.resolved());
+        // Richardson's own error is O(dt²) here (about a fifth of the bias at dt = 0.05).
+        assert!(
+            (b.variance.value - truth).abs() < 3.0 * b.variance.stderr + 0.3 * truth.abs(),
+            "estimate {} ± {} vs true {truth}",
+            b.variance.value,
+            b.variance.stderr
+        );
+        assert!(r.warnings.iter().any(|w| matches!(
+            w,
+            McWarning::BiasExceedsError { quantity, statistic: Statistic::Variance, .. } if quantity == "v"
+        )));
+        // The weak order-2 scheme at dt = 0.01 on the bundled exact model: no resolved bias
+        // of E[v²], and a bound below 1 %.
+        let (m2, res) = cubic_second_moment(SchemeChoice::Auto, 0.01, 0.25);
+        let b = res.quantity("v").unwrap().time_step_bias.clone().unwrap();
+        eprintln!(
+            "Platen dt 0.01: E v² = {:.5} ± {:.5}; bias of Var v {:.2e} ± {:.1e}; warnings {:?}",
+            m2.value, m2.stderr, b.variance.value, b.variance.stderr, res.warnings
+        );
+        assert!((m2.value - 1.0).abs() < 4.5 * m2.stderr);
+        assert!(b.variance.bound() < 0.01, "{:?}", b.variance);
+        assert!(res.warnings.is_empty(), "{:?}", res.warnings);
+    }
+
+    fn vibro(set: &[(&str, f64)], burn_in: BurnIn, trajectories: u64, samples: u64) -> McResult {
+        let model = bundled("vibro_duffing.sde", set);
+        let config = McConfig {
+            trajectories,
+            lanes: 32,
+            samples,
+            burn_in,
+            seed: 1,
+            ..McConfig::default()
+        };
+        Simulation::new(&model, &config).unwrap().run().unwrap()
+    }
+
+    #[test]
+    fn healthy_bundled_models_pass_the_stationarity_test() {
+        let r = vibro(&[], BurnIn::DecayTimes(10.0), 1024, 400);
+        eprintln!("vibro_duffing: {}", r.stationarity);
+        assert!(matches!(r.stationarity, Stationarity::Stationary { .. }));
+        assert_eq!(r.verdict(), Ok(()));
+        let model = bundled("linear.sde", &[]);
+        let config = McConfig {
+            trajectories: 1024,
+            lanes: 32,
+            samples: 400,
+            ..McConfig::default()
+        };
+        let r = Simulation::new(&model, &config).unwrap().run().unwrap();
+        eprintln!("linear: {}", r.stationarity);
+        assert!(matches!(r.stationarity, Stationarity::Stationary { .. }));
+        assert_eq!(r.verdict(), Ok(()));
+    }
+
+    #[test]
+    fn an_undamped_run_is_not_stationary_and_keeps_its_histograms() {
+        let r = vibro(
+            &[("c", 0.0), ("r", 1.0), ("eps", 0.0)],
+            BurnIn::Time(50.0),
+            1024,
+            400,
+        );
+        eprintln!("undamped: {}", r.stationarity);
+        let Stationarity::NotStationary { largest } = &r.stationarity else {
+            panic!("{}", r.stationarity)
+        };
+        assert!(largest.t.abs() > largest.threshold);
+        assert!(largest.last_quarter > largest.first_quarter);
+        assert!(matches!(r.verdict(), Err(McError::NotStationary { .. })));
+        // The histograms are there to be written, flagged.
+        assert!(r.quantity("v").unwrap().samples > 0);
+    }
+
+    #[test]
+    fn mass_blow_ups_fail_the_verdict() {
+        // r = 1.15: impacts add energy, almost every trajectory escapes.
+        let r = vibro(&[("r", 1.15)], BurnIn::DecayTimes(10.0), 256, 200);
+        eprintln!("r = 1.15: {}", r.blowup_verdict);
+        let BlowUps::TooMany {
+            count,
+            trajectories,
+        } = r.blowup_verdict
+        else {
+            panic!("{}", r.blowup_verdict)
+        };
+        assert_eq!(trajectories, 256);
+        assert!(count > 200, "{count}");
+        assert!(matches!(r.verdict(), Err(McError::TooManyBlowUps { .. })));
+    }
+
+    #[test]
+    fn preflight_refuses_what_cannot_finish() {
+        let model = bundled("vibro_duffing.sde", &[]);
+        let ok = McConfig::default().preflight(&model).unwrap();
+        eprintln!("default: {ok:?}");
+        assert!(ok.seconds < 600.0 && ok.memory_bytes < 1e8);
+        let long = |c: McConfig| match c.preflight(&model) {
+            Err(McError::TooLong { seconds, .. }) => seconds,
+            other => panic!("{other:?}"),
+        };
+        assert!(
+            long(McConfig {
+                dt: 1e-300,
+                ..McConfig::default()
+            }) > 1e290
+        );
+        assert!(
+            long(McConfig {
+                spacing: 1e6,
+                ..McConfig::default()
+            }) > 1e6
+        );
+        assert!(
+            long(McConfig {
+                burn_in: BurnIn::Time(1e300),
+                ..McConfig::default()
+            }) > 1e290
+        );
+        let setting = |c: McConfig| match c.preflight(&model) {
+            Err(McError::BadSetting { name, .. }) => name,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            setting(McConfig {
+                trajectories: u64::MAX,
+                ..McConfig::default()
+            }),
+            "trajectories"
+        );
+        let grid = |bins| McConfig {
+            grids: vec![(
+                "y".into(),
+                Grid {
+                    lo: 0.0,
+                    hi: 8.0,
+                    bins,
+                },
+            )],
+            ..McConfig::default()
+        };
+        assert_eq!(setting(grid(4_294_967_297)), "grid");
+        assert_eq!(setting(grid(100_000_000)), "grid");
+        let big = McConfig {
+            trajectories: 16384,
+            ..grid(5_000_000)
+        };
+        assert!(matches!(
+            big.preflight(&model),
+            Err(McError::TooMuchMemory { .. })
+        ));
+        // Simulation::new makes the same checks before any work.
+        assert!(matches!(
+            Simulation::new(
+                &model,
+                &McConfig {
+                    dt: 1e-300,
+                    ..McConfig::default()
+                }
+            ),
+            Err(McError::TooLong { .. })
+        ));
+        let message = long_message(&model);
+        assert!(
+            message.len() < 400 && message.contains("years"),
+            "{message}"
+        );
+    }
+
+    fn long_message(model: &BoundModel) -> String {
+        McConfig {
+            burn_in: BurnIn::Time(1e300),
+            ..McConfig::default()
+        }
+        .preflight(model)
+        .unwrap_err()
+        .to_string()
     }
 }

@@ -8,10 +8,18 @@
 //!   `v̄ = v + f(v)h + σΔW, v' = v + ½(f(v) + f(v̄))h + σΔW` is of weak order 2
 //!   (Kloeden & Platen, §15.1); `A(h/2) B(h) A(h/2)` keeps order 2, and consecutive half
 //!   flights are merged. Itô and Stratonovich coincide here, because σ does not depend on `v`.
-//! * **General form**: stochastic Heun for Stratonovich models (the Wong–Zakai limit, no
-//!   derivatives needed), Euler–Maruyama for Itô models; both weak order 1. A step that
-//!   meets the barrier is cut at the linearly interpolated crossing, the jump applied, and
-//!   the rest of the step taken with the Brownian-bridge remainder of its increment.
+//! * **General form** (any drift, state-dependent noise in both equations, several correlated
+//!   sources): Platen's explicit weak order-2.0 scheme (Kloeden & Platen, *Numerical
+//!   Solution of SDE*, Eq. 15.1.5) in Itô form. The correlated sources are made independent
+//!   by the square root of the intensity matrix (columns b̃ = G·L, S = L·Lᵀ), and a
+//!   Stratonovich model's drift gets the Wong–Zakai correction ½ Σ_j (b̃_j·∇) b̃_j, the same
+//!   correction the FPK operator adds (`fpk.rs`). The scheme needs no derivatives: the noise
+//!   columns are evaluated at supporting points Y + aΔ ± b̃_j√Δ and Y ± b̃_r√Δ.
+//!   [`SchemeChoice::GeneralOrder1`] keeps the weak order-1 schemes (stochastic Heun for
+//!   Stratonovich models, Euler–Maruyama for Itô models) as a contrast. A step that meets
+//!   the barrier is cut at the linearly interpolated crossing, the jump applied, and the rest
+//!   of the step taken with the Brownian-bridge remainder of its increment (so a step with
+//!   an impact is of weak order 1 on every general scheme).
 
 use super::eval::{compile, BatchKernel, Scratch};
 use super::impact::{free_flight, meets, Barrier};
@@ -34,6 +42,53 @@ pub enum SchemeKind {
     Heun,
     /// Euler–Maruyama (Itô models, weak order 1).
     EulerMaruyama,
+    /// Platen's explicit weak order-2.0 scheme on the Itô form (Wong–Zakai drift for
+    /// Stratonovich models), for any 2-D model with several correlated sources.
+    PlatenWeak2,
+}
+
+impl SchemeKind {
+    /// The scheme's weak order p: the bias of a stationary statistic is O(dtᵖ).
+    ///
+    /// ```
+    /// use fpsolve::mc::SchemeKind;
+    /// assert_eq!(SchemeKind::PlatenWeak2.weak_order(), 2);
+    /// assert_eq!(SchemeKind::Heun.weak_order(), 1);
+    /// ```
+    pub fn weak_order(self) -> u32 {
+        match self {
+            SchemeKind::MechanicalStrang | SchemeKind::PlatenWeak2 => 2,
+            SchemeKind::Heun | SchemeKind::EulerMaruyama => 1,
+        }
+    }
+
+    /// A conservative (low) throughput of one core, in trajectory steps per second, used by
+    /// [`McConfig::preflight`](super::McConfig::preflight) to bound the run time. Measured
+    /// with `fpsolve simulate` on the shared 2-core development machine (test profile):
+    /// 1.3e8 steps/s per core for the mechanical splitting (`vibro_duffing.sde`), 2.3e7 for
+    /// Platen's scheme with two sources (`cubic_damping_two_noises.sde`); the constants are
+    /// 4–5 times lower, so the estimate errs towards refusing late rather than early.
+    pub fn conservative_steps_per_second(self) -> f64 {
+        match self {
+            SchemeKind::MechanicalStrang => 3e7,
+            SchemeKind::Heun | SchemeKind::EulerMaruyama => 1e7,
+            SchemeKind::PlatenWeak2 => 5e6,
+        }
+    }
+}
+
+impl std::fmt::Display for SchemeKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self {
+            SchemeKind::MechanicalStrang => {
+                "Strang splitting (exact flight + Heun velocity update)"
+            }
+            SchemeKind::Heun => "stochastic Heun",
+            SchemeKind::EulerMaruyama => "Euler-Maruyama",
+            SchemeKind::PlatenWeak2 => "Platen explicit weak order-2.0",
+        };
+        write!(f, "{name}, weak order {}", self.weak_order())
+    }
 }
 
 /// How to choose the scheme.
@@ -44,8 +99,12 @@ pub enum SchemeChoice {
     /// scheme matching the interpretation.
     #[default]
     Auto,
-    /// Always the general scheme (Heun or Euler–Maruyama), e.g. to cross-check.
+    /// Always the general weak order-2 scheme ([`SchemeKind::PlatenWeak2`]), e.g. to
+    /// cross-check the splitting.
     General,
+    /// The general weak order-1 scheme matching the interpretation (Heun or
+    /// Euler–Maruyama), for comparison.
+    GeneralOrder1,
 }
 
 pub(crate) enum Dynamics {
@@ -61,11 +120,25 @@ pub(crate) enum Dynamics {
     General {
         /// Outputs: m_0, m_1, G_00..G_0(m−1), G_10..G_1(m−1).
         kernel: Box<dyn BatchKernel>,
-        /// Lower-triangular square root L of S (S = L·Lᵀ), row-major m×m.
+        /// Lower-triangular square root L of S (S = L·Lᵀ), row-major m×m (the identity for
+        /// Platen's scheme, whose columns are already independent).
         sqrt_s: Vec<f64>,
         noises: usize,
         stratonovich: bool,
+        /// Platen's weak order-2 scheme, when chosen (then `kernel` gives the Itô drift and
+        /// the independent columns b̃ = G·L, and `stratonovich` is false).
+        platen: Option<PlatenKernels>,
     },
+}
+
+/// The extra kernels of Platen's scheme.
+pub(crate) struct PlatenKernels {
+    /// The Itô drift alone (2 outputs).
+    drift: Box<dyn BatchKernel>,
+    /// The noise columns alone: b̃_0j (j < m), then b̃_1j.
+    noise: Box<dyn BatchKernel>,
+    /// Whether column j is state-independent (its supporting values then equal b̃_j).
+    constant: Vec<bool>,
 }
 
 /// A bound model compiled for simulation.
@@ -146,6 +219,47 @@ pub(crate) fn psd_sqrt(s: &[Vec<f64>]) -> Result<Vec<f64>, McError> {
     Ok(l)
 }
 
+/// The Itô form of a model with independent unit sources: the drift (Wong–Zakai corrected
+/// for a Stratonovich model, ½ Σ_j Σ_l b̃_lj ∂_l b̃_ij, which equals the FPK operator's
+/// ½ Σ_kl S_kl G_jl ∂_j G_ik because S = L·Lᵀ) and the columns b̃ = G·L, `[row][column]`.
+fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2]), McError> {
+    let m = model.noise_names.len();
+    let g = &model.noise_matrix;
+    let columns: [Vec<Expr>; 2] = std::array::from_fn(|i| {
+        (0..m)
+            .map(|j| {
+                let terms: Vec<Expr> = (j..m)
+                    .filter(|&k| l[k * m + j] != 0.0)
+                    .map(|k| Expr::num(l[k * m + j]) * g[i][k].clone())
+                    .collect();
+                simplify(&Expr::sum(terms))
+            })
+            .collect()
+    });
+    let mut drift = model.drift.clone();
+    if model.interpretation == Interpretation::Stratonovich {
+        let states = [&*model.states[0], &*model.states[1]];
+        for i in 0..2 {
+            let mut terms = Vec::new();
+            for j in 0..m {
+                for (r, s) in states.iter().enumerate() {
+                    if columns[r][j].as_num() == Some(0.0) {
+                        continue;
+                    }
+                    let d = diff(&columns[i][j], s)?;
+                    if d.as_num() != Some(0.0) {
+                        terms.push(Expr::num(0.5) * columns[r][j].clone() * d);
+                    }
+                }
+            }
+            if !terms.is_empty() {
+                drift[i] = simplify(&(drift[i].clone() + Expr::sum(terms)));
+            }
+        }
+    }
+    Ok((drift, columns))
+}
+
 impl Plan {
     pub(crate) fn new(model: &BoundModel, choice: SchemeChoice) -> Result<Plan, McError> {
         let [x, v] = [&*model.states[0], &*model.states[1]];
@@ -200,7 +314,7 @@ impl Plan {
                     affine: slope.is_some(),
                 },
             )
-        } else {
+        } else if choice == SchemeChoice::GeneralOrder1 {
             let mut exprs = vec![model.drift[0].clone(), model.drift[1].clone()];
             exprs.extend(g[0].iter().cloned());
             exprs.extend(g[1].iter().cloned());
@@ -216,6 +330,34 @@ impl Plan {
                     sqrt_s,
                     noises: m,
                     stratonovich,
+                    platen: None,
+                },
+            )
+        } else {
+            let (drift, columns) = ito_form(model, &sqrt_s)?;
+            let mut exprs = drift.to_vec();
+            exprs.extend(columns[0].iter().cloned());
+            exprs.extend(columns[1].iter().cloned());
+            let noise: Vec<Expr> = columns.iter().flatten().cloned().collect();
+            let constant = (0..m)
+                .map(|j| columns.iter().all(|row| row[j].symbols().is_empty()))
+                .collect();
+            let mut identity = vec![0.0; m * m];
+            for j in 0..m {
+                identity[j * m + j] = 1.0;
+            }
+            (
+                SchemeKind::PlatenWeak2,
+                Dynamics::General {
+                    kernel: compile(&exprs, states)?,
+                    sqrt_s: identity,
+                    noises: m,
+                    stratonovich: false,
+                    platen: Some(PlatenKernels {
+                        drift: compile(&drift, states)?,
+                        noise: compile(&noise, states)?,
+                        constant,
+                    }),
                 },
             )
         };
@@ -336,6 +478,9 @@ pub(crate) struct BatchState {
     rng: LaneRng,
     inc: IncrementStream,
     buf: [Vec<f64>; 6],
+    /// Work buffers of Platen's scheme (supporting values, increments, pair signs).
+    extra: [Vec<f64>; 6],
+    bits: Vec<u64>,
     z: Vec<f64>,
     /// One working memory per kernel, so none is resized between calls.
     scratch: [Scratch; 2],
@@ -366,6 +511,16 @@ impl BatchState {
             rng: LaneRng::new(seed, first, lanes),
             inc: IncrementStream::new(increments, lanes),
             buf: std::array::from_fn(|_| vec![0.0; lanes * (2 + 2 * noises)]),
+            extra: match &plan.dynamics {
+                Dynamics::General {
+                    platen: Some(_), ..
+                } => std::array::from_fn(|k| {
+                    let pairs = noises * noises.saturating_sub(1) / 2;
+                    vec![0.0; lanes * if k == 4 { pairs.max(1) } else { 2 + 2 * noises }]
+                }),
+                _ => std::array::from_fn(|_| Vec::new()),
+            },
+            bits: Vec::new(),
             z: vec![0.0; lanes * noises.max(1)],
             scratch: [Scratch::new(), Scratch::new()],
         };
@@ -495,10 +650,15 @@ impl BatchState {
             sqrt_s,
             noises,
             stratonovich,
+            platen,
         } = &plan.dynamics
         else {
             unreachable!("general step on a mechanical plan")
         };
+        if let Some(pk) = platen {
+            self.platen_step(plan, pk, kernel.as_ref(), *noises, h);
+            return;
+        }
         let (n, m) = (self.x.len(), *noises);
         // Correlated increments ΔW = √h · L·z, noise k of lane i at dw[k*n + i].
         // The buffers are moved out so that event handling below may borrow `self`.
@@ -544,6 +704,22 @@ impl BatchState {
                 vp[i] = self.v[i] + dv;
             }
         }
+        self.finish_step(plan, &mut xp[..n], &mut vp[..n], &dw[..m * n], m, h);
+        self.buf = buf;
+    }
+
+    /// Applies the barrier events of a step `(x, v) → (xp, vp)` taken with the increments
+    /// `dw` (source k of lane i at `dw[k*n + i]`), then moves the batch to the new states.
+    fn finish_step(
+        &mut self,
+        plan: &Plan,
+        xp: &mut [f64],
+        vp: &mut [f64],
+        dw: &[f64],
+        m: usize,
+        h: f64,
+    ) {
+        let n = self.x.len();
         if let Some(bar) = &plan.barrier {
             for i in 0..n {
                 let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
@@ -566,7 +742,139 @@ impl BatchState {
         }
         self.x[..n].copy_from_slice(&xp[..n]);
         self.v[..n].copy_from_slice(&vp[..n]);
+    }
+
+    /// One step of Platen's explicit weak order-2.0 scheme (Kloeden & Platen Eq. 15.1.5)
+    /// for the whole batch, on the Itô form with independent columns b̃_j:
+    ///
+    /// ```text
+    /// Y' = Y + ½(a(Ῡ) + a)Δ
+    ///   + ¼ Σ_j [(b̃_j(R⁺_j) + b̃_j(R⁻_j) + 2b̃_j) ΔŴ_j + (b̃_j(R⁺_j) − b̃_j(R⁻_j))(ΔŴ_j² − Δ)/√Δ]
+    ///   + ¼ Σ_j Σ_{r≠j} [(b̃_j(U⁺_r) + b̃_j(U⁻_r) − 2b̃_j) ΔŴ_j
+    ///                     + (b̃_j(U⁺_r) − b̃_j(U⁻_r))(ΔŴ_j ΔŴ_r + V_rj)/√Δ],
+    /// ```
+    ///
+    /// Ῡ = Y + aΔ + Σ_j b̃_j ΔŴ_j, R±_j = Y + aΔ ± b̃_j√Δ, U±_r = Y ± b̃_r√Δ, V_rj = −V_jr
+    /// two-point ±Δ. State-independent columns need no supporting values.
+    fn platen_step(
+        &mut self,
+        plan: &Plan,
+        pk: &PlatenKernels,
+        kernel: &dyn BatchKernel,
+        m: usize,
+        h: f64,
+    ) {
+        let n = self.x.len();
+        let mut buf = std::mem::take(&mut self.buf);
+        let mut ex = std::mem::take(&mut self.extra);
+        {
+            let [e0, e1, dw, px, pv, _] = &mut buf;
+            let [bp, bm, ax, av, vpair, _] = &mut ex;
+            for k in 0..m {
+                self.inc
+                    .next(&mut self.rng, &mut self.z[k * n..(k + 1) * n]);
+            }
+            let sq = h.sqrt();
+            let inv_sq = 1.0 / sq;
+            for k in 0..m * n {
+                dw[k] = sq * self.z[k];
+            }
+            let pairs = m * m.saturating_sub(1) / 2;
+            if pairs > 0 {
+                self.bits.resize(n, 0);
+                for p in 0..pairs {
+                    self.rng.fill(&mut self.bits[..n]);
+                    for i in 0..n {
+                        vpair[p * n + i] = if self.bits[i] >> 63 == 0 { h } else { -h };
+                    }
+                }
+            }
+            kernel.eval_batch(&self.x, &self.v, e0, &mut self.scratch[0]);
+            for i in 0..n {
+                let (mut dx, mut dv) = (e0[i] * h, e0[n + i] * h);
+                for j in 0..m {
+                    dx += e0[(2 + j) * n + i] * dw[j * n + i];
+                    dv += e0[(2 + m + j) * n + i] * dw[j * n + i];
+                }
+                px[i] = self.x[i] + dx;
+                pv[i] = self.v[i] + dv;
+            }
+            pk.drift
+                .eval_batch(&px[..n], &pv[..n], e1, &mut self.scratch[1]);
+            ax.resize(n, 0.0);
+            av.resize(n, 0.0);
+            for i in 0..n {
+                ax[i] = 0.5 * (e0[i] + e1[i]) * h;
+                av[i] = 0.5 * (e0[n + i] + e1[n + i]) * h;
+            }
+            for j in 0..m {
+                let (cx, cv) = ((2 + j) * n, (2 + m + j) * n);
+                if pk.constant[j] {
+                    for i in 0..n {
+                        ax[i] += e0[cx + i] * dw[j * n + i];
+                        av[i] += e0[cv + i] * dw[j * n + i];
+                    }
+                    continue;
+                }
+                for (sign, out) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
+                    for i in 0..n {
+                        px[i] = self.x[i] + e0[i] * h + sign * e0[cx + i] * sq;
+                        pv[i] = self.v[i] + e0[n + i] * h + sign * e0[cv + i] * sq;
+                    }
+                    pk.noise
+                        .eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
+                }
+                let (nx, nv) = (j * n, (m + j) * n);
+                for i in 0..n {
+                    let w = dw[j * n + i];
+                    let q = (w * w - h) * inv_sq;
+                    ax[i] += 0.25
+                        * ((bp[nx + i] + bm[nx + i] + 2.0 * e0[cx + i]) * w
+                            + (bp[nx + i] - bm[nx + i]) * q);
+                    av[i] += 0.25
+                        * ((bp[nv + i] + bm[nv + i] + 2.0 * e0[cv + i]) * w
+                            + (bp[nv + i] - bm[nv + i]) * q);
+                }
+            }
+            for r in 0..m {
+                if (0..m).all(|j| j == r || pk.constant[j]) {
+                    continue;
+                }
+                let (rx, rv) = ((2 + r) * n, (2 + m + r) * n);
+                for (sign, out) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
+                    for i in 0..n {
+                        px[i] = self.x[i] + sign * e0[rx + i] * sq;
+                        pv[i] = self.v[i] + sign * e0[rv + i] * sq;
+                    }
+                    pk.noise
+                        .eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
+                }
+                for j in 0..m {
+                    if j == r || pk.constant[j] {
+                        continue;
+                    }
+                    let (cx, cv, nx, nv) = ((2 + j) * n, (2 + m + j) * n, j * n, (m + j) * n);
+                    let (pair, sign) = pair_slot(r, j, m);
+                    for i in 0..n {
+                        let w = dw[j * n + i];
+                        let q = (w * dw[r * n + i] + sign * vpair[pair * n + i]) * inv_sq;
+                        ax[i] += 0.25
+                            * ((bp[nx + i] + bm[nx + i] - 2.0 * e0[cx + i]) * w
+                                + (bp[nx + i] - bm[nx + i]) * q);
+                        av[i] += 0.25
+                            * ((bp[nv + i] + bm[nv + i] - 2.0 * e0[cv + i]) * w
+                                + (bp[nv + i] - bm[nv + i]) * q);
+                    }
+                }
+            }
+            for i in 0..n {
+                px[i] = self.x[i] + ax[i];
+                pv[i] = self.v[i] + av[i];
+            }
+            self.finish_step(plan, &mut px[..n], &mut pv[..n], &dw[..m * n], m, h);
+        }
         self.buf = buf;
+        self.extra = ex;
     }
 
     /// Cuts lane `i`'s step `p0 → p1` (increment `w` over `h`) at the barrier, applies the
@@ -617,8 +925,18 @@ impl BatchState {
                 }
                 w_rest[k] = (1.0 - theta) * w[k] + spread * acc;
             }
+            let pairs = m * m.saturating_sub(1) / 2;
+            let vpair: Vec<f64> = (0..pairs)
+                .map(|_| {
+                    if self.rng.next_lane(i) >> 63 == 0 {
+                        rest
+                    } else {
+                        -rest
+                    }
+                })
+                .collect();
             p0 = c;
-            p1 = general_point_step(plan, c, rest, &w_rest);
+            p1 = general_point_step(plan, c, rest, &w_rest, &vpair);
             h = rest;
             w = w_rest;
         }
@@ -635,18 +953,103 @@ impl BatchState {
     }
 }
 
+/// The slot of the pair {r, j} (r ≠ j) among the m(m−1)/2 two-point variables, and the sign
+/// making V antisymmetric.
+fn pair_slot(r: usize, j: usize, m: usize) -> (usize, f64) {
+    let (a, b) = if r < j { (r, j) } else { (j, r) };
+    (
+        a * (2 * m - a - 1) / 2 + (b - a - 1),
+        if r < j { 1.0 } else { -1.0 },
+    )
+}
+
+/// One step of Platen's scheme for a single trajectory (the remainder after an event).
+fn platen_point_step(
+    pk: &PlatenKernels,
+    kernel: &dyn BatchKernel,
+    m: usize,
+    p: [f64; 2],
+    h: f64,
+    w: &[f64],
+    vpair: &[f64],
+) -> [f64; 2] {
+    let sq = h.sqrt();
+    let mut e0 = vec![0.0; 2 + 2 * m];
+    kernel.eval_point(p[0], p[1], &mut e0);
+    let col = |e: &[f64], k: usize, j: usize| e[k * m + j];
+    let b0 = |k: usize, j: usize| e0[2 + k * m + j];
+    let mut bar = [p[0] + e0[0] * h, p[1] + e0[1] * h];
+    for j in 0..m {
+        bar[0] += b0(0, j) * w[j];
+        bar[1] += b0(1, j) * w[j];
+    }
+    let mut a1 = [0.0; 2];
+    pk.drift.eval_point(bar[0], bar[1], &mut a1);
+    let mut out = [
+        p[0] + 0.5 * (e0[0] + a1[0]) * h,
+        p[1] + 0.5 * (e0[1] + a1[1]) * h,
+    ];
+    let (mut bp, mut bm) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+    for j in 0..m {
+        if pk.constant[j] {
+            out[0] += b0(0, j) * w[j];
+            out[1] += b0(1, j) * w[j];
+            continue;
+        }
+        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+            pk.noise.eval_point(
+                p[0] + e0[0] * h + sign * b0(0, j) * sq,
+                p[1] + e0[1] * h + sign * b0(1, j) * sq,
+                b,
+            );
+        }
+        let q = (w[j] * w[j] - h) / sq;
+        for k in 0..2 {
+            out[k] += 0.25
+                * ((col(&bp, k, j) + col(&bm, k, j) + 2.0 * b0(k, j)) * w[j]
+                    + (col(&bp, k, j) - col(&bm, k, j)) * q);
+        }
+    }
+    for r in 0..m {
+        if (0..m).all(|j| j == r || pk.constant[j]) {
+            continue;
+        }
+        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+            pk.noise
+                .eval_point(p[0] + sign * b0(0, r) * sq, p[1] + sign * b0(1, r) * sq, b);
+        }
+        for j in 0..m {
+            if j == r || pk.constant[j] {
+                continue;
+            }
+            let (pair, sign) = pair_slot(r, j, m);
+            let q = (w[j] * w[r] + sign * vpair[pair]) / sq;
+            for k in 0..2 {
+                out[k] += 0.25
+                    * ((col(&bp, k, j) + col(&bm, k, j) - 2.0 * b0(k, j)) * w[j]
+                        + (col(&bp, k, j) - col(&bm, k, j)) * q);
+            }
+        }
+    }
+    out
+}
+
 /// One general-scheme step of a single trajectory (used for the remainder after an event).
-fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64]) -> [f64; 2] {
+fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]) -> [f64; 2] {
     let Dynamics::General {
         kernel,
         noises,
         stratonovich,
+        platen,
         ..
     } = &plan.dynamics
     else {
         unreachable!("general step on a mechanical plan")
     };
     let m = *noises;
+    if let Some(pk) = platen {
+        return platen_point_step(pk, kernel.as_ref(), m, p, h, w, vpair);
+    }
     let mut e0 = vec![0.0; 2 + 2 * m];
     kernel.eval_point(p[0], p[1], &mut e0);
     let incr = |e: &[f64], i: usize| -> f64 {

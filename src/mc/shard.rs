@@ -10,6 +10,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::ensemble::{finalize_run, BatchSummary, McResult, RunSettings};
+use super::error::ShardDefect;
+use super::histogram::QuantityBatch;
 use super::McError;
 
 /// Which part of a run to compute: the `index`-th of `count` disjoint shards.
@@ -50,9 +52,10 @@ impl Shard {
     }
 }
 
-/// What one shard computed: the run's settings (to check that shards belong together) and
-/// one summary per statistics batch. Serialise it with serde (JSON) and merge with
-/// [`merge_shards`].
+/// What one shard computed: the run's settings (to check that shards belong together), one
+/// summary per statistics batch, and the coarse (2·dt) summaries of its batches that are in
+/// the bias estimate's range. Serialise it with serde (JSON) and merge with [`merge_shards`]
+/// or [`merge_named`], which check it with [`ShardOutput::validate`] first.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ShardOutput {
     /// The resolved settings of the whole run.
@@ -60,6 +63,235 @@ pub struct ShardOutput {
     /// Which shard this is.
     pub shard: Shard,
     pub(crate) batches: Vec<BatchSummary>,
+    pub(crate) coarse: Vec<BatchSummary>,
+}
+
+/// Largest lanes per batch a run may have (as `McConfig::lanes`).
+const MAX_LANES: usize = 1 << 16;
+
+fn defect_setting(name: &'static str, reason: String) -> ShardDefect {
+    ShardDefect::Setting { name, reason }
+}
+
+impl RunSettings {
+    /// Checks every invariant of resolved settings (they may come from a file).
+    pub(crate) fn check(&self) -> Result<(), ShardDefect> {
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(defect_setting(
+                "dt",
+                format!("{} is not a positive number", self.dt),
+            ));
+        }
+        if self.steps_per_sample == 0 || self.samples_per_trajectory == 0 {
+            return Err(defect_setting(
+                "samples",
+                "steps per sample and samples per trajectory must be at least 1".into(),
+            ));
+        }
+        if self.lanes == 0 || self.lanes > MAX_LANES {
+            return Err(defect_setting(
+                "lanes",
+                format!("{} is not in 1..=65536", self.lanes),
+            ));
+        }
+        if self.batches < 2 || self.batches.checked_mul(self.lanes as u64).is_none() {
+            return Err(defect_setting(
+                "batches",
+                format!("{} batches of {} lanes", self.batches, self.lanes),
+            ));
+        }
+        if self.bias_batches > self.batches {
+            return Err(defect_setting(
+                "bias_batches",
+                format!("{} of {} batches", self.bias_batches, self.batches),
+            ));
+        }
+        let states = self.quantities.iter().take_while(|q| q.is_state).count();
+        if self.quantities.len() < 2 || states != 2 {
+            return Err(defect_setting(
+                "quantities",
+                format!(
+                    "need the two states first, then observables; got {} quantities ({} states)",
+                    self.quantities.len(),
+                    states
+                ),
+            ));
+        }
+        for q in &self.quantities {
+            let g = q.grid;
+            if !(g.lo.is_finite() && g.hi.is_finite() && g.lo < g.hi)
+                || g.bins == 0
+                || g.bins > super::MAX_BINS
+            {
+                return Err(defect_setting(
+                    "grid",
+                    format!("`{}`: [{}, {}) with {} bins", q.name, g.lo, g.hi, g.bins),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks one batch summary against the settings it claims to be run with.
+fn check_batch(st: &RunSettings, b: &BatchSummary) -> Result<(), ShardDefect> {
+    let bad = |quantity: Option<&str>, what: String| ShardDefect::Batch {
+        batch: b.index,
+        quantity: quantity.map(str::to_string),
+        what,
+    };
+    let lanes = st.lanes as u64;
+    if b.quantities.len() != st.quantities.len() {
+        return Err(bad(
+            None,
+            format!(
+                "{} quantities, the settings list {}",
+                b.quantities.len(),
+                st.quantities.len()
+            ),
+        ));
+    }
+    if b.recorded.checked_add(b.blowups.len() as u64) != Some(lanes) {
+        return Err(bad(
+            None,
+            format!(
+                "{} trajectories recorded and {} blown up, but a batch has {lanes}",
+                b.recorded,
+                b.blowups.len()
+            ),
+        ));
+    }
+    let first = b.index as u128 * lanes as u128;
+    let last_step =
+        st.burn_in_steps as u128 + st.samples_per_trajectory as u128 * st.steps_per_sample as u128;
+    let mut seen = std::collections::HashSet::new();
+    for blow in &b.blowups {
+        let t = blow.trajectory as u128;
+        if t < first || t >= first + lanes as u128 || !seen.insert(blow.trajectory) {
+            return Err(bad(
+                None,
+                format!(
+                    "blow-up of trajectory {} does not belong to it",
+                    blow.trajectory
+                ),
+            ));
+        }
+        if blow.step as u128 > last_step || blow.params != st.params {
+            return Err(bad(
+                None,
+                format!("blow-up of trajectory {} is inconsistent", blow.trajectory),
+            ));
+        }
+    }
+    if !st.has_barrier && b.impacts != 0 {
+        return Err(bad(
+            None,
+            format!("{} impacts in a model without a barrier", b.impacts),
+        ));
+    }
+    let expected = b.recorded as u128 * st.samples_per_trajectory as u128;
+    for (spec, q) in st.quantities.iter().zip(&b.quantities) {
+        check_quantity(spec.grid, spec.is_state, q, expected)
+            .map_err(|what| bad(Some(&spec.name), what))?;
+    }
+    Ok(())
+}
+
+/// The invariants of one quantity's batch statistics; `expected` is the number of samples
+/// (finite or not) the batch recorded.
+fn check_quantity(
+    grid: super::Grid,
+    is_state: bool,
+    q: &QuantityBatch,
+    expected: u128,
+) -> Result<(), String> {
+    if q.counts.len() != grid.bins {
+        return Err(format!(
+            "{} bins, the grid has {}",
+            q.counts.len(),
+            grid.bins
+        ));
+    }
+    let finite: u128 =
+        q.counts.iter().map(|&c| c as u128).sum::<u128>() + q.under as u128 + q.over as u128;
+    if finite + q.invalid as u128 != expected {
+        return Err(format!(
+            "{finite} finite and {} invalid samples, but {expected} were recorded",
+            q.invalid
+        ));
+    }
+    if is_state && q.invalid != 0 {
+        return Err(format!(
+            "{} non-finite states counted as samples",
+            q.invalid
+        ));
+    }
+    let windows: u128 = q.window_counts.iter().map(|&c| c as u128).sum();
+    if windows != finite {
+        return Err(format!(
+            "the recording's quarters hold {windows} samples, the histogram {finite}"
+        ));
+    }
+    if finite == 0 {
+        let empty = q.min == f64::INFINITY
+            && q.max == f64::NEG_INFINITY
+            && q.sums
+                .iter()
+                .chain(&q.window_sums)
+                .chain(&q.window_squares)
+                .all(|&s| s == 0.0);
+        return if empty {
+            Ok(())
+        } else {
+            Err("no samples, yet extremes or sums are set".into())
+        };
+    }
+    if !(q.min.is_finite() && q.max.is_finite() && q.min <= q.max) {
+        return Err(format!(
+            "min {} and max {} are not finite with min ≤ max",
+            q.min, q.max
+        ));
+    }
+    let slack = 1e-9 * (grid.hi - grid.lo);
+    if (q.under == 0 && q.min < grid.lo)
+        || (q.under > 0 && q.min >= grid.lo)
+        || (q.over == 0 && q.max > grid.hi + slack)
+        || (q.over > 0 && q.max < grid.hi - slack - grid.width())
+    {
+        return Err(format!(
+            "extremes [{}, {}] contradict {} samples below and {} above the grid [{}, {})",
+            q.min, q.max, q.under, q.over, grid.lo, grid.hi
+        ));
+    }
+    // |Σ (q − c)ᵏ| ≤ n·Mᵏ with M the largest |q − c| the extremes allow.
+    let shift = 0.5 * (grid.lo + grid.hi);
+    let m = (q.min - shift).abs().max((q.max - shift).abs());
+    let tol = 1.0 + 1e-9;
+    let within = |sum: f64, n: f64, k: i32| {
+        let bound = n * m.powi(k) * tol;
+        !bound.is_finite() || sum.abs() <= bound + f64::MIN_POSITIVE
+    };
+    for (k, &sum) in q.sums.iter().enumerate() {
+        if !within(sum, finite as f64, k as i32 + 1) || (k % 2 == 1 && sum < 0.0) {
+            return Err(format!(
+                "power sum {} = {sum} is impossible for its extremes",
+                k + 1
+            ));
+        }
+    }
+    for w in 0..4 {
+        let n = q.window_counts[w] as f64;
+        if !within(q.window_sums[w], n, 1)
+            || !within(q.window_squares[w], n, 2)
+            || q.window_squares[w] < 0.0
+        {
+            return Err(format!(
+                "the sums of quarter {} are impossible for its extremes",
+                w + 1
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl ShardOutput {
@@ -67,52 +299,160 @@ impl ShardOutput {
     pub fn batches(&self) -> usize {
         self.batches.len()
     }
+
+    /// Checks every invariant of the shard on its own: valid settings, an index that fits
+    /// the split, exactly the statistics batches (and coarse batches) its index implies,
+    /// and within each batch counts that add up to the recorded samples, bins matching the
+    /// grid, extremes and power sums consistent with each other. Errors name the shard as
+    /// `shard K of N`, counted from 1 like the file names.
+    ///
+    /// ```
+    /// use fpsolve::mc::{reference, McConfig, Shard, Simulation};
+    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
+    /// let sim = Simulation::new(&model, &config).unwrap();
+    /// let mut part = sim.run_shard(Shard::new(0, 2).unwrap()).unwrap();
+    /// assert!(part.validate().is_ok());
+    /// part.shard.index = 5;
+    /// assert!(part.validate().is_err());
+    /// ```
+    pub fn validate(&self) -> Result<(), McError> {
+        let label = format!("shard {} of {}", self.shard.index + 1, self.shard.count);
+        self.defect().map_err(|defect| McError::BadShard {
+            shard: label,
+            defect,
+        })
+    }
+
+    fn defect(&self) -> Result<(), ShardDefect> {
+        let st = &self.settings;
+        st.check()?;
+        let (index, count) = (self.shard.index, self.shard.count);
+        if count == 0 || index >= count || count > st.batches {
+            return Err(ShardDefect::Index {
+                index: index.saturating_add(1),
+                count,
+            });
+        }
+        let range = self.shard.batch_range(st.batches);
+        let found: Vec<u64> = self.batches.iter().map(|b| b.index).collect();
+        if !found.iter().copied().eq(range.clone()) {
+            return Err(ShardDefect::Batches {
+                expected: range,
+                found: found.into_iter().take(8).collect(),
+            });
+        }
+        let coarse_range = range.start.min(st.bias_batches)..range.end.min(st.bias_batches);
+        let found: Vec<u64> = self.coarse.iter().map(|b| b.index).collect();
+        if !found.iter().copied().eq(coarse_range.clone()) {
+            return Err(ShardDefect::Batches {
+                expected: coarse_range,
+                found: found.into_iter().take(8).collect(),
+            });
+        }
+        for b in &self.batches {
+            check_batch(st, b)?;
+        }
+        let coarse = st.coarse();
+        for b in &self.coarse {
+            check_batch(&coarse, b)?;
+        }
+        Ok(())
+    }
 }
 
 /// Merges the outputs of all shards of one run (in any order) into the run's result, which
-/// is bit for bit the result of running it unsharded.
+/// is bit for bit the result of running it unsharded. Shards are named `shard K of N` in
+/// errors; [`merge_named`] names them by file.
 ///
-/// Shards of different runs, missing or duplicated shards are errors.
+/// Every shard is validated first ([`ShardOutput::validate`]); shards of different runs,
+/// missing or duplicated shards are errors, never a panic.
 pub fn merge_shards(shards: &[ShardOutput]) -> Result<McResult, McError> {
+    let named: Vec<(String, &ShardOutput)> = shards
+        .iter()
+        .map(|s| {
+            (
+                format!(
+                    "shard {} of {}",
+                    s.shard.index.saturating_add(1),
+                    s.shard.count
+                ),
+                s,
+            )
+        })
+        .collect();
+    merge_impl(&named)
+}
+
+/// [`merge_shards`] with a name per shard (its file name), used in every error message.
+///
+/// ```
+/// use fpsolve::mc::{merge_named, reference, McConfig, Shard, Simulation};
+/// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+/// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
+/// let sim = Simulation::new(&model, &config).unwrap();
+/// let a = sim.run_shard(Shard::new(0, 2).unwrap()).unwrap();
+/// let err = merge_named(&[("shard_1_of_2.json", a)]).unwrap_err();
+/// assert!(err.to_string().contains("shard_1_of_2.json is part of a split into 2"));
+/// ```
+pub fn merge_named<S: AsRef<str>>(shards: &[(S, ShardOutput)]) -> Result<McResult, McError> {
+    let named: Vec<(String, &ShardOutput)> = shards
+        .iter()
+        .map(|(n, s)| (n.as_ref().to_string(), s))
+        .collect();
+    merge_impl(&named)
+}
+
+fn merge_impl(shards: &[(String, &ShardOutput)]) -> Result<McResult, McError> {
     let mismatch = |reason: String| McError::ShardMismatch { reason };
-    let first = shards
+    for (name, s) in shards {
+        s.defect().map_err(|defect| McError::BadShard {
+            shard: name.clone(),
+            defect,
+        })?;
+    }
+    let (first_name, first) = shards
         .first()
         .ok_or_else(|| mismatch("no shards given".into()))?;
     let count = first.shard.count;
-    let mut slots: Vec<Option<&ShardOutput>> = vec![None; count as usize];
-    for s in shards {
+    if count > shards.len() as u64 {
+        return Err(mismatch(format!(
+            "{first_name} is part of a split into {count}, but only {} shards are given",
+            shards.len()
+        )));
+    }
+    let mut slots: Vec<Option<(&String, &ShardOutput)>> = vec![None; count as usize];
+    for (name, s) in shards {
         if s.settings != first.settings {
             return Err(mismatch(format!(
-                "shard {} was run with different settings than shard {}",
-                s.shard.index, first.shard.index
+                "{name} was run with different settings (model, parameters, seed, grids, …) \
+                 than {first_name}"
             )));
         }
-        if s.shard.count != count || s.shard.index >= count {
+        if s.shard.count != count {
             return Err(mismatch(format!(
-                "shard {} of {} does not belong to a split into {count}",
-                s.shard.index, s.shard.count
+                "{name} is part of a split into {}, {first_name} of a split into {count}",
+                s.shard.count
             )));
         }
         let slot = &mut slots[s.shard.index as usize];
-        if slot.is_some() {
-            return Err(mismatch(format!("shard {} given twice", s.shard.index)));
-        }
-        *slot = Some(s);
-    }
-    let mut batches = Vec::new();
-    for (k, slot) in slots.iter().enumerate() {
-        let s = slot.ok_or_else(|| mismatch(format!("shard {k} of {count} is missing")))?;
-        let want = s.shard.batch_range(first.settings.batches);
-        let got: Vec<u64> = s.batches.iter().map(|b| b.index).collect();
-        if got != want.clone().collect::<Vec<_>>() {
+        if let Some((other, _)) = slot {
             return Err(mismatch(format!(
-                "shard {k} should hold batches {want:?} but holds {} others",
-                got.len()
+                "{name} and {other} are both shard {} of {count}",
+                s.shard.index + 1
             )));
         }
-        batches.extend(s.batches.iter());
+        *slot = Some((name, s));
     }
-    finalize_run(&first.settings, &batches)
+    let mut batches = Vec::new();
+    let mut coarse = Vec::new();
+    for (k, slot) in slots.iter().enumerate() {
+        let (_, s) =
+            slot.ok_or_else(|| mismatch(format!("shard {} of {count} is missing", k + 1)))?;
+        batches.extend(s.batches.iter());
+        coarse.extend(s.coarse.iter());
+    }
+    finalize_run(&first.settings, &batches, &coarse)
 }
 
 /// Serde helpers writing `f64` as its shortest round-trip decimal string (`"0.1"`, `"inf"`),
@@ -170,6 +510,123 @@ pub(crate) mod exact {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::mc::{reference, McConfig, Simulation};
+    use serde_json::{json, Value};
+
+    /// The two shards of a small real run, as JSON values (as they arrive from files).
+    fn two_shards() -> (McResult, Vec<Value>) {
+        let model = reference::linear_oscillator(0.5, 1.0, 1.0)
+            .bind(&[])
+            .unwrap();
+        let config = McConfig {
+            trajectories: 64,
+            lanes: 16,
+            samples: 20,
+            ..McConfig::default()
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        let parts = (0..2)
+            .map(|k| {
+                serde_json::to_value(sim.run_shard(Shard::new(k, 2).unwrap()).unwrap()).unwrap()
+            })
+            .collect();
+        (sim.run().unwrap(), parts)
+    }
+
+    fn merge_values(parts: &[Value]) -> Result<McResult, McError> {
+        let named: Vec<(String, ShardOutput)> = parts
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                (
+                    format!("dir/shard_{}_of_2.json", k + 1),
+                    serde_json::from_value(v.clone()).unwrap(),
+                )
+            })
+            .collect();
+        merge_named(&named)
+    }
+
+    #[test]
+    fn valid_shards_merge_to_the_whole_run() {
+        let (whole, parts) = two_shards();
+        assert_eq!(merge_values(&parts).unwrap(), whole);
+    }
+
+    #[test]
+    fn corrupt_shards_are_errors_naming_the_file() {
+        let (_, parts) = two_shards();
+        type Edit = fn(&mut Value);
+        let cases: [(&str, Edit); 10] = [
+            ("one bin short", |v| {
+                v["batches"][0]["quantities"][0]["counts"]
+                    .as_array_mut()
+                    .unwrap()
+                    .pop();
+            }),
+            ("an extra bin", |v| {
+                v["batches"][1]["quantities"][1]["counts"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push(json!(0));
+            }),
+            ("an empty quantity list", |v| {
+                v["settings"]["quantities"] = json!([]);
+            }),
+            ("a batch without quantities", |v| {
+                v["batches"][0]["quantities"] = json!([]);
+            }),
+            ("a count of 1e12", |v| {
+                v["batches"][0]["quantities"][0]["counts"][3] = json!(1_000_000_000_000u64);
+            }),
+            ("recorded: 0", |v| {
+                v["batches"][0]["recorded"] = json!(0);
+            }),
+            ("min above max", |v| {
+                let q = &mut v["batches"][0]["quantities"][1];
+                let (lo, hi) = (q["min"].clone(), q["max"].clone());
+                q["min"] = hi;
+                q["max"] = lo;
+            }),
+            ("a non-finite power sum", |v| {
+                v["batches"][1]["quantities"][0]["sums"][1] = json!("NaN");
+            }),
+            ("an impossible power sum", |v| {
+                v["batches"][1]["quantities"][0]["sums"][3] = json!("1e30");
+            }),
+            ("a shard index beyond the split", |v| {
+                v["shard"]["index"] = json!(7);
+            }),
+        ];
+        for (what, edit) in cases {
+            let mut bad = parts.clone();
+            edit(&mut bad[1]);
+            let err = merge_values(&bad).unwrap_err();
+            eprintln!("{what}: {err}");
+            assert!(
+                matches!(&err, McError::BadShard { shard, .. } if shard == "dir/shard_2_of_2.json"),
+                "{what}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn duplicated_missing_and_foreign_shards_are_errors() {
+        let (_, parts) = two_shards();
+        let err = merge_values(&[parts[0].clone(), parts[0].clone()]).unwrap_err();
+        assert!(err.to_string().contains("both shard 1 of 2"), "{err}");
+        let err = merge_values(&parts[..1]).unwrap_err();
+        assert!(err.to_string().contains("split into 2"), "{err}");
+        let mut foreign = parts.clone();
+        foreign[1]["settings"]["seed"] = json!(99);
+        let err = merge_values(&foreign).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("dir/shard_2_of_2.json was run with different settings"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn shard_ranges_partition_the_batches() {

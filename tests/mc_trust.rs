@@ -1,0 +1,174 @@
+//! `fpsolve simulate` and `merge` on runs that cannot be trusted: mass blow-ups and
+//! non-stationary recordings finish, write their files flagged and exit 1; settings that
+//! cannot finish are refused before any work (exit 2, nothing written); corrupt shard files
+//! are refused naming the file, never a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn fpsolve(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .output()
+        .expect("run fpsolve")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fpsolve-mc-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn simulate(extra: &[&str], dir: &Path) -> (Option<i32>, String, String) {
+    let mut args = vec!["simulate", "models/vibro_duffing.sde"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", dir.to_str().unwrap()]);
+    let out = fpsolve(&args);
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
+    let dir = temp_dir("blowups");
+    let (code, stdout, stderr) = simulate(
+        &[
+            "--set",
+            "r=1.15",
+            "--samples",
+            "1e5",
+            "--trajectories",
+            "512",
+        ],
+        &dir,
+    );
+    eprintln!("{stdout}\n{stderr}");
+    assert_eq!(code, Some(1));
+    assert!(stdout.contains("blow-ups:"), "{stdout}");
+    assert!(stderr.contains("of 512 trajectories blew up"), "{stderr}");
+    assert!(!stderr.contains("panicked"));
+    let summary = json(&dir.join("mc_summary.json"));
+    assert_eq!(summary["blowup_verdict"]["verdict"], "too-many");
+    assert!(dir.join("mc_y.csv").exists());
+}
+
+#[test]
+fn an_undamped_run_exits_1_as_not_stationary() {
+    let dir = temp_dir("undamped");
+    let (code, stdout, stderr) = simulate(
+        &[
+            "--set",
+            "c=0",
+            "--set",
+            "r=1",
+            "--set",
+            "eps=0",
+            "--burn-in",
+            "50",
+            "--samples",
+            "4e5",
+            "--trajectories",
+            "4096",
+        ],
+        &dir,
+    );
+    eprintln!("{stdout}\n{stderr}");
+    assert_eq!(code, Some(1));
+    assert!(stderr.contains("not stationary"), "{stderr}");
+    let summary = json(&dir.join("mc_summary.json"));
+    assert_eq!(summary["stationarity"]["verdict"], "not-stationary");
+}
+
+#[test]
+fn a_healthy_run_prints_its_table_and_exits_0() {
+    let dir = temp_dir("healthy");
+    let (code, stdout, stderr) = simulate(
+        &["--samples", "2e5", "--trajectories", "1024", "--dt", "0.02"],
+        &dir,
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    for needed in [
+        "Strang splitting",
+        "time-step bias",
+        "impacts:",
+        "blow-ups: none",
+        "stationarity: stationary",
+    ] {
+        assert!(stdout.contains(needed), "{needed}: {stdout}");
+    }
+    let summary = json(&dir.join("mc_summary.json"));
+    let bias = &summary["quantities"][0]["time_step_bias"];
+    assert_eq!(bias["order"], 2);
+    assert_eq!(bias["pairs"], 8);
+    let header = std::fs::read_to_string(dir.join("mc_z.csv")).unwrap();
+    assert!(header.starts_with("z,mc,mc_stderr,mc_bias,mc_bias_stderr"));
+}
+
+#[test]
+fn runs_that_cannot_finish_are_refused_before_any_work() {
+    for (args, needle) in [
+        (vec!["--dt", "1e-300"], "would take"),
+        (vec!["--spacing", "1e6"], "would take"),
+        (vec!["--burn-in", "1e300"], "would take"),
+        (
+            vec!["--trajectories", "18446744073709551615"],
+            "trajectories",
+        ),
+        (vec!["--grid", "y=0:8:4294967297"], "grid"),
+        (
+            vec!["--grid", "y=0:8:5000000", "--trajectories", "40000"],
+            "memory",
+        ),
+        (vec!["--shard", "5/40"], "--shard"),
+    ] {
+        let dir = temp_dir("refused");
+        let t = std::time::Instant::now();
+        let (code, _, stderr) = simulate(&args, &dir);
+        eprintln!("{args:?}: {:.2} s: {stderr}", t.elapsed().as_secs_f64());
+        assert_eq!(code, Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(stderr.len() < 600, "{args:?}: {stderr}");
+        assert!(!dir.exists(), "{args:?} created {}", dir.display());
+    }
+}
+
+#[test]
+fn merge_refuses_a_corrupt_shard_naming_its_file() {
+    let parts = temp_dir("parts");
+    for k in ["1/2", "2/2"] {
+        let (code, _, stderr) = simulate(
+            &["--samples", "2e4", "--trajectories", "256", "--shard", k],
+            &parts,
+        );
+        assert_eq!(code, Some(0), "{stderr}");
+    }
+    let file = parts.join("shard_2_of_2.json");
+    let good = std::fs::read_to_string(&file).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&good).unwrap();
+    v["batches"][0]["quantities"][0]["counts"]
+        .as_array_mut()
+        .unwrap()
+        .pop();
+    std::fs::write(&file, serde_json::to_string(&v).unwrap()).unwrap();
+    let merged = temp_dir("merged");
+    let out = fpsolve(&[
+        "merge",
+        parts.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("shard_2_of_2.json"), "{stderr}");
+    assert!(stderr.contains("bins"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!merged.exists());
+}
