@@ -177,7 +177,7 @@ impl LevelSet {
         for i in 1..n - 1 {
             for j in 1..n - 1 {
                 let k = i * n + j;
-                if !(p[k] > 1e-300 * pmax) || !grad2[k].is_finite() {
+                if p[k] <= 1e-300 * pmax || p[k].is_nan() || !grad2[k].is_finite() {
                     continue;
                 }
                 let local_min = (i - 1..=i + 1).all(|a| {
@@ -242,18 +242,18 @@ impl LevelSet {
                 continue;
             }
             let grad = out[1].hypot(out[2]);
-            if !(grad <= 1e-9 * gradmax.max(1e-300)) || !out[0].is_finite() {
+            if grad.is_nan() || grad > 1e-9 * gradmax.max(1e-300) || !out[0].is_finite() {
                 continue;
             }
             let px = density.pdf(x);
-            if !(px > 0.0) {
+            if px.is_nan() || px <= 0.0 {
                 continue;
             }
             hess.eval(&x, &mut scratch, &mut hout);
             let [h11, h12, h22] = hout;
             let det = h11 * h22 - h12 * h12;
             let norm2 = h11 * h11 + 2.0 * h12 * h12 + h22 * h22;
-            let kind = if !(det.abs() > 1e-8 * norm2) {
+            let kind = if det.is_nan() || det.abs() <= 1e-8 * norm2 {
                 Kind::Degenerate
             } else if det < 0.0 {
                 Kind::Saddle
@@ -330,11 +330,11 @@ impl LevelSet {
                 }
             }
         }
-        for a in 0..2 {
+        for (a, axis_breaks) in breaks.iter().enumerate() {
             let [lo, hi] = self.ext[a];
             let mut edges: Vec<f64> = (0..=16)
                 .map(|k| lo + (hi - lo) * k as f64 / 16.0)
-                .chain(breaks[a].iter().copied().filter(|&s| s > lo && s < hi))
+                .chain(axis_breaks.iter().copied().filter(|&s| s > lo && s < hi))
                 .collect();
             edges.sort_by(f64::total_cmp);
             edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));

@@ -508,7 +508,7 @@ mod tests {
         let p = observable_pdf(&d, &map, &u);
         for (u, p) in u.iter().zip(&p) {
             let exact = phi(u / s) / s;
-            assert!((p - exact).abs() <= 2e-4 * exact, "z+v={u}: {p} vs {exact}");
+            assert!((p - exact).abs() <= 1e-8 * exact, "z+v={u}: {p} vs {exact}");
         }
     }
 

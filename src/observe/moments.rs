@@ -8,12 +8,12 @@ use crate::symbolic::{DeltaPolicy, Tape};
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
 const GL_X: [f64; 4] = [
     0.183_434_642_495_649_8,
-    0.525_532_409_916_329_0,
+    0.525_532_409_916_329,
     0.796_666_477_413_626_7,
     0.960_289_856_497_536_3,
 ];
 const GL_W: [f64; 4] = [
-    0.362_683_783_378_362_0,
+    0.362_683_783_378_362,
     0.313_706_645_877_887_3,
     0.222_381_034_453_374_5,
     0.101_228_536_290_376_3,
@@ -21,10 +21,13 @@ const GL_W: [f64; 4] = [
 
 /// Panels per axis of the composite Gauss–Legendre rule.
 const PANELS: usize = 64;
+/// Geometric levels (ratio 0.2) of the panels next to 0.
+const GRADED: usize = 20;
 
 /// Moments of one quantity g under a joint density p, by composite 8-point Gauss–Legendre
 /// quadrature of g^k·p over the density's extent (64 panels per axis, with a panel edge on
-/// each axis at 0, where `abs` and `sgn` of a state have their kinks).
+/// each axis at 0, where `abs` and `sgn` of a state have their kinks, and the panels next to 0
+/// graded geometrically down to 1e−14 of their width, for singularities such as log|z|).
 ///
 /// Accuracy: where p and g are smooth the rule is exact to rounding (relative 1e−12 on the
 /// tests' Gaussian and double-well densities); a kink of g away from the axes costs O(h²) with
@@ -55,14 +58,38 @@ fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
         parts = vec![(lo, 0.0), (0.0, hi)];
     }
     let mut out = Vec::new();
+    let mut panel = |a: f64, b: f64| {
+        let (c, w) = (0.5 * (a + b), b - a);
+        for (x, wt) in GL_X.iter().zip(GL_W) {
+            out.push((c - 0.5 * w * x, 0.5 * w * wt));
+            out.push((c + 0.5 * w * x, 0.5 * w * wt));
+        }
+    };
     for (a, b) in parts {
         let n = ((PANELS as f64 * (b - a) / (hi - lo)).ceil() as usize).max(4);
         let w = (b - a) / n as f64;
         for k in 0..n {
-            let c = a + (k as f64 + 0.5) * w;
-            for (x, wt) in GL_X.iter().zip(GL_W) {
-                out.push((c - 0.5 * w * x, 0.5 * w * wt));
-                out.push((c + 0.5 * w * x, 0.5 * w * wt));
+            let (pa, pb) = (a + k as f64 * w, a + (k + 1) as f64 * w);
+            // The panel touching 0 is graded geometrically towards 0, so that a singularity of
+            // g on an axis (log|z|, |z|^−½) is integrated accurately.
+            let touches = if pa == 0.0 {
+                Some((pb, 1.0))
+            } else if pb == 0.0 {
+                Some((pa, -1.0))
+            } else {
+                None
+            };
+            match touches {
+                Some((far, _)) => {
+                    let mut outer = far;
+                    for _ in 0..GRADED {
+                        let inner = 0.2 * outer;
+                        panel(inner.min(outer), inner.max(outer));
+                        outer = inner;
+                    }
+                    panel(outer.min(0.0), outer.max(0.0));
+                }
+                None => panel(pa, pb),
             }
         }
     }
