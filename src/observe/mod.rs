@@ -249,6 +249,29 @@ impl<'a> ObservableDensity<'a> {
     }
 
     /// Why the observable has no density at all (it could not be compiled), if so.
+    ///
+    /// ```
+    /// use fpsolve::observe::{JointDensity, ObservableDensity, ObservableMap};
+    /// use fpsolve::symbolic::{Expr, Func};
+    /// struct Normal;
+    /// impl JointDensity for Normal {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-9.0, 9.0], [-9.0, 9.0]]
+    ///     }
+    /// }
+    /// let states = ["z".into(), "v".into()];
+    /// let fine = ObservableMap::classify(&(Expr::sym("z") * Expr::sym("v")), &states);
+    /// assert!(ObservableDensity::new(&Normal, &fine).error().is_none());
+    /// // A constant subexpression with no value: nothing to compute, NaN everywhere.
+    /// let bad = Expr::sym("z") + Expr::call(Func::Log, Expr::num(-1.0));
+    /// let bad = ObservableMap::classify(&bad, &states);
+    /// let d = ObservableDensity::new(&Normal, &bad);
+    /// assert!(d.error().is_some());
+    /// assert!(d.pdf(&[0.0])[0].is_nan());
+    /// ```
     pub fn error(&self) -> Option<&SymbolicError> {
         match &self.method {
             Method::Undefined(e) => Some(e),

@@ -37,6 +37,24 @@ const GRADED: usize = 20;
 /// probability is [`Moments::undefined_mass`], and the moments are those of g *given* that it
 /// is defined (divided by 1 − undefined_mass): a defective observable is flagged, never
 /// silently renormalised.
+///
+/// ```
+/// use fpsolve::observe::{moments, JointDensity, ObservableMap};
+/// use fpsolve::symbolic::{Expr, Func};
+/// struct Normal;
+/// impl JointDensity for Normal {
+///     fn pdf(&self, x: [f64; 2]) -> f64 {
+///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+///     }
+///     fn extent(&self) -> [[f64; 2]; 2] {
+///         [[-10.0, 10.0], [-10.0, 10.0]]
+///     }
+/// }
+/// let states = ["z".into(), "v".into()];
+/// let log_z = ObservableMap::classify(&Expr::call(Func::Log, Expr::sym("z")), &states);
+/// let m = moments(&Normal, &log_z);
+/// assert!((m.undefined_mass - 0.5).abs() < 1e-12); // log z is undefined for z ≤ 0
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Moments {
     /// E[g], E[g²], E[g³], E[g⁴] (given g defined).
