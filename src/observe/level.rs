@@ -10,7 +10,7 @@
 //! weight vanishes where the line is tangent to the level set, so no 1/√ singularity) and
 //! behaves like (distance)^3.5 where roots appear or disappear, so adaptive Gauss–Kronrod
 //! quadrature over s converges fast. The roots on a line are bracketed with a precomputed grid
-//! of g (cells whose corner range, widened by its own width, holds u), and refined by
+//! of g (cells whose corner range, widened by the local curvature of g, holds u), and refined by
 //! safeguarded Newton with ∂g from the symbolic derivative compiled to a [`Tape`]; a cell whose
 //! ends lie on one side of u but whose slope changes sign is searched for the extremum between
 //! them, so two nearby roots are not lost. A sign change that is a jump of g (sgn) is not a
@@ -61,8 +61,9 @@ pub(crate) struct LevelSet {
     tape: Tape,
     ext: [[f64; 2]; 2],
     h: [f64; 2],
-    /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners (−∞, +∞ when g
-    /// is undefined at some corners but not all; +∞, −∞ when undefined at all).
+    /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners, widened by the
+    /// local curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
+    /// undefined at all).
     cmin: Vec<f64>,
     cmax: Vec<f64>,
     /// Spread of g over the support (max − min), the scale of "g − u is zero".
@@ -119,22 +120,51 @@ impl LevelSet {
             }
         }
         let gscale = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
+        // Curvature at each grid point: |second differences| along both axes and across; g on
+        // a cell strays from its corners' range by at most about a quarter of this (exactly so
+        // for a quadratic), so the cell's range is widened by half of the largest at its
+        // corners. NaN (g undefined nearby) widens it to everything.
+        let at = |i: usize, j: usize| g[i.min(n - 1) * n + j.min(n - 1)];
+        let mut curv = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                let (im, ip) = (i.max(1) - 1, (i + 1).min(n - 1));
+                let (jm, jp) = (j.max(1) - 1, (j + 1).min(n - 1));
+                let c = at(i, j);
+                let d11 = if ip > im + 1 {
+                    at(ip, j) - 2.0 * c + at(im, j)
+                } else {
+                    0.0
+                };
+                let d22 = if jp > jm + 1 {
+                    at(i, jp) - 2.0 * c + at(i, jm)
+                } else {
+                    0.0
+                };
+                let d12 = at(ip, jp) - at(ip, jm) - at(im, jp) + at(im, jm);
+                let v = d11.abs() + d22.abs() + 0.5 * d12.abs();
+                curv[i * n + j] = if v.is_finite() { v } else { f64::INFINITY };
+            }
+        }
         let mut cmin = vec![0.0; (n - 1) * (n - 1)];
         let mut cmax = vec![0.0; (n - 1) * (n - 1)];
         for i in 0..n - 1 {
             for j in 0..n - 1 {
-                let c = [
-                    g[i * n + j],
-                    g[i * n + j + 1],
-                    g[(i + 1) * n + j],
-                    g[(i + 1) * n + j + 1],
+                let corners = [
+                    i * n + j,
+                    i * n + j + 1,
+                    (i + 1) * n + j,
+                    (i + 1) * n + j + 1,
                 ];
+                let c = corners.map(|k| g[k]);
+                let margin =
+                    0.5 * corners.iter().map(|&k| curv[k]).fold(0.0, f64::max) + 1e-12 * gscale;
                 let finite = c.iter().filter(|v| v.is_finite()).count();
                 let (a, b) = match finite {
                     0 => (f64::INFINITY, f64::NEG_INFINITY),
-                    4 => (
-                        c.iter().copied().fold(f64::INFINITY, f64::min),
-                        c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                    4 if margin.is_finite() => (
+                        c.iter().copied().fold(f64::INFINITY, f64::min) - margin,
+                        c.iter().copied().fold(f64::NEG_INFINITY, f64::max) + margin,
                     ),
                     _ => (f64::NEG_INFINITY, f64::INFINITY),
                 };
@@ -338,9 +368,11 @@ impl LevelSet {
                 .collect();
             edges.sort_by(f64::total_cmp);
             edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));
+            // `integrate_edges` takes a `Fn`: the tape's working memory is shared through a
+            // `RefCell`, so that no line allocates.
+            let scratch = std::cell::RefCell::new(Vec::new());
             let f = |s: f64| {
-                // `integrate_edges` takes a `Fn`, the scratch is per line here.
-                let mut scratch = Vec::new();
+                let mut scratch = scratch.borrow_mut();
                 self.line_sum(density, a, s, u, &excluded, &mut scratch)
             };
             total += integrate_edges(&f, &edges, REL_TOL);
@@ -376,7 +408,7 @@ impl LevelSet {
         let n = GRID;
         let ia = (((s - self.ext[a][0]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
         let t_of = |j: usize| self.ext[b][0] + j as f64 * self.h[b];
-        let mut vals: Vec<Option<Val>> = vec![None; n];
+        let mut vals: [Option<Val>; GRID] = [None; GRID];
         let mut total = 0.0;
         for jb in 0..n - 1 {
             let k = if a == 0 {
@@ -384,12 +416,7 @@ impl LevelSet {
             } else {
                 jb * (n - 1) + ia
             };
-            let (lo, hi) = (self.cmin[k], self.cmax[k]);
-            if lo > hi {
-                continue;
-            }
-            let spread = hi - lo;
-            if !(u >= lo - spread && u <= hi + spread) && spread.is_finite() {
+            if !(u >= self.cmin[k] && u <= self.cmax[k]) {
                 continue;
             }
             for j in [jb, jb + 1] {
@@ -477,8 +504,10 @@ impl LevelSet {
             return;
         }
         if fa * fb < 0.0 {
+            // Start from the secant through the cell's ends.
+            let guess = ta + (tb - ta) * fa / (fa - fb);
             roots[0] = self
-                .refine(a, s, u, ta, tb, fa, scratch)
+                .refine(a, s, u, ta, tb, fa, guess, scratch)
                 .unwrap_or(f64::NAN);
             return;
         }
@@ -516,10 +545,10 @@ impl LevelSet {
         let fm = vm.g - u;
         if fm * fa < 0.0 {
             roots[0] = self
-                .refine(a, s, u, ta, tm, fa, scratch)
+                .refine(a, s, u, ta, tm, fa, 0.5 * (ta + tm), scratch)
                 .unwrap_or(f64::NAN);
             roots[1] = self
-                .refine(a, s, u, tm, tb, fm, scratch)
+                .refine(a, s, u, tm, tb, fm, 0.5 * (tm + tb), scratch)
                 .unwrap_or(f64::NAN);
         }
     }
@@ -535,10 +564,15 @@ impl LevelSet {
         lo: f64,
         hi: f64,
         flo: f64,
+        guess: f64,
         scratch: &mut Vec<f64>,
     ) -> Option<f64> {
         let (mut l, mut r) = (lo, hi);
-        let mut t = 0.5 * (l + r);
+        let mut t = if guess > lo && guess < hi {
+            guess
+        } else {
+            0.5 * (l + r)
+        };
         let tol = 1e-15 * (lo.abs() + hi.abs()) + 1e-14 * (hi - lo);
         for _ in 0..200 {
             let v = self.eval(a, s, t, scratch).1;
@@ -555,12 +589,17 @@ impl LevelSet {
                 r = t;
             }
             let newton = t - f / v.along;
+            if newton > l && newton < r && (newton - t).abs() <= tol {
+                // Converged (quadratically): the next step would not move it.
+                return Some(newton);
+            }
             let next = if newton > l && newton < r {
                 newton
             } else {
                 0.5 * (l + r)
             };
-            if (next - t).abs() <= tol || r - l <= tol {
+            if r - l <= tol {
+                // The bracket has collapsed: a root, or a jump of g (then g − u is not small).
                 let v = self.eval(a, s, next, scratch).1;
                 return ((v.g - u).abs() <= 1e-8 * self.gscale).then_some(next);
             }

@@ -536,6 +536,42 @@ mod tests {
     }
 
     #[test]
+    fn co_area_method_near_a_minimum_between_grid_points() {
+        // g = (z² + v²)/2 under a shifted, correlated normal: the minimum of g at the origin
+        // is not a grid point, and the level sets near u = 0 are circles far smaller than a
+        // grid cell. Exact: p_g(u) = ∫_0^{2π} p(r cos θ, r sin θ) dθ with r = √(2u)
+        // (|∇g| = r, ds = r dθ), by the trapezoid rule (spectral for a periodic integrand).
+        let d = Normal {
+            m: [0.37, -0.21],
+            rho: 0.3,
+        };
+        let g =
+            (Expr::sym("z") * Expr::sym("z") + Expr::sym("v") * Expr::sym("v")) / Expr::num(2.0);
+        let map = ObservableMap::classify(&g, &states());
+        let exact = |u: f64| {
+            let r = (2.0 * u).sqrt();
+            let n = 400;
+            (0..n)
+                .map(|k| {
+                    let t = 2.0 * PI * k as f64 / n as f64;
+                    d.pdf([r * t.cos(), r * t.sin()])
+                })
+                .sum::<f64>()
+                * 2.0
+                * PI
+                / n as f64
+        };
+        let u = [0.0, 1e-12, 1e-6, 1e-3, 0.02, 0.3, 2.0, 8.0, 30.0];
+        let p = observable_pdf(&d, &map, &u);
+        for (u, p) in u.iter().zip(&p) {
+            let e = exact(*u);
+            assert!((p - e).abs() <= 1e-7 * e, "g={u}: {p} vs {e}");
+        }
+        // Below the minimum there is no level set.
+        assert_eq!(observable_pdf(&d, &map, &[-0.1])[0], 0.0);
+    }
+
+    #[test]
     fn adaptive_quadrature_reaches_its_tolerance() {
         let f = |x: f64| (-x * x).exp();
         let v = integrate(&f, 0.0, 30.0, 1e-12);
