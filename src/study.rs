@@ -8,7 +8,7 @@ use serde::Serialize;
 use crate::epc::{Epc, EpcError, EpcSolution};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
+use crate::observe::{moments, JointDensity, ObservableDensity, ObservableMap};
 use crate::symbolic::{DeltaPolicy, Expr, Symbol};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
@@ -34,7 +34,9 @@ pub struct Quantity {
     pub map: ObservableMap,
 }
 
-/// Mean, standard deviation and kurtosis of a quantity under one EPC solution.
+/// Mean, standard deviation, kurtosis and raw moments of a quantity under one EPC solution,
+/// taken from the joint density directly (E\[g^k\] = ∬ g^k p, see
+/// [`moments`](crate::observe::moments)), not from its PDF curve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QuantityStats {
     /// The quantity's name.
@@ -45,6 +47,12 @@ pub struct QuantityStats {
     pub std_dev: f64,
     /// E\[(g − mean)⁴\] / Var\[g\]².
     pub kurtosis: f64,
+    /// E\[g\], E\[g²\], E\[g³\], E\[g⁴\].
+    pub raw_moments: [f64; 4],
+    /// P(g has no finite value), e.g. P(z ≤ 0) for `log(z)`: 0 for an observable defined
+    /// everywhere. When it is positive the observable's PDF integrates to 1 − this (it is not
+    /// renormalised) and the moments above are those of g given that it is defined.
+    pub undefined_mass: f64,
 }
 
 /// The outcome at one degree.
@@ -149,10 +157,8 @@ impl Study {
             quantities.iter().map(|q| curves(q, &solutions)).collect()
         };
         for r in &mut results {
-            for c in &curves {
-                if let Some((_, p)) = c.columns.iter().find(|(d, _)| *d == r.degree) {
-                    r.stats.push(stats(&c.name, &c.x, p));
-                }
+            if let Ok(sol) = &r.outcome {
+                r.stats = quantities.iter().map(|q| stats(sol, q)).collect();
             }
         }
         Ok(Study {
@@ -244,7 +250,12 @@ fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 /// The window of a scanned density where it is at least `TAIL` of its peak, widened by one
 /// scan step.
 fn window(x: &[f64], p: &[f64]) -> Option<[f64; 2]> {
-    let peak = p.iter().copied().fold(0.0, f64::max);
+    // An infinite value (a saddle or degenerate critical value of g) is not a peak to scale by.
+    let peak = p
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
     if peak <= 0.0 {
         return None;
     }
@@ -284,9 +295,19 @@ fn curves(q: &Quantity, solutions: &[(usize, &EpcSolution)]) -> PdfCurves {
         };
     }
     let x = linspace(lo, hi, GRID_POINTS);
+    // Where the density of g is infinite (a grid point on a saddle or degenerate critical
+    // value, e.g. v² at 0) there is no number to print: the point is left empty (NaN), which
+    // the CSV writes as an empty field and the figures as a gap.
     let columns = densities
         .iter()
-        .map(|(degree, _, density)| (*degree, density.pdf(&x)))
+        .map(|(degree, _, density)| {
+            let p = density.pdf(&x);
+            let p = p
+                .into_iter()
+                .map(|v| if v.is_infinite() { f64::NAN } else { v })
+                .collect();
+            (*degree, p)
+        })
         .collect();
     PdfCurves {
         name: q.name.clone(),
@@ -310,27 +331,16 @@ fn non_negative(q: &Quantity) -> bool {
     })
 }
 
-/// Moments of a quantity from its PDF on the grid (composite Simpson; the grid has an odd
-/// number of points and reaches 1e−8 of the peak).
-fn stats(name: &str, x: &[f64], p: &[f64]) -> QuantityStats {
-    let h = x[1] - x[0];
-    let simpson = |f: &dyn Fn(f64, f64) -> f64| -> f64 {
-        let n = x.len();
-        let mut s = f(x[0], p[0]) + f(x[n - 1], p[n - 1]);
-        for i in 1..n - 1 {
-            s += f(x[i], p[i]) * if i % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        s * h / 3.0
-    };
-    let mass = simpson(&|_, p| p);
-    let mean = simpson(&|x, p| x * p) / mass;
-    let var = simpson(&|x, p| (x - mean).powi(2) * p) / mass;
-    let m4 = simpson(&|x, p| (x - mean).powi(4) * p) / mass;
+/// Moments of a quantity from the joint density directly.
+fn stats(sol: &EpcSolution, q: &Quantity) -> QuantityStats {
+    let m = moments(sol, &q.map);
     QuantityStats {
-        name: name.to_string(),
-        mean,
-        std_dev: var.sqrt(),
-        kurtosis: m4 / (var * var),
+        name: q.name.clone(),
+        mean: m.mean,
+        std_dev: m.std_dev,
+        kurtosis: m.kurtosis,
+        raw_moments: m.raw,
+        undefined_mass: m.undefined_mass,
     }
 }
 

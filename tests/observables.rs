@@ -96,3 +96,312 @@ fn eqs_25_and_28_agree_with_direct_integration_case_1() {
     // Case 1: degree 4 is normalised inside its ridge; the density is cut there.
     check_case(0.1, 0.1);
 }
+
+// ---------------------------------------------------------------------------------------------
+// General observables through the real pipeline (model text → bind → FPK → EPC → observable),
+// against exact answers. These failed with the Gaussian-kernel method (energy mean 5.40,
+// p(0) = 0.086; E[v²] = 5.94; E[z⁴/4 + v²/2] = 112.6).
+
+use fpsolve::model::parse_model;
+use fpsolve::observe::{moments, ObservableDensity};
+use fpsolve::study::Study;
+use std::f64::consts::PI;
+
+const LINEAR: &str = "model linear
+param c = 0.1, k = 1
+param K = 1/(2*pi)
+state z, v
+drift z: v
+drift v: -c*v - k*z
+noise xi: intensity 2*pi*K
+diffusion v: xi
+observe energy = v^2/2 + k*z^2/2, vsq = v^2, quart = z^4/4 + v^2/2, zv = z*v, para = z^2 - v
+";
+
+const BISTABLE: &str = "model bistable
+param c = 1, alpha = 1, beta = 1
+param K = 1/(4*pi)
+state z, v
+drift z: v
+drift v: -c*v + alpha*z - beta*z^3
+noise xi: intensity 2*pi*K
+diffusion v: xi
+observe energy = v^2/2 - alpha*z^2/2 + beta*z^4/4
+";
+
+/// The EPC solution of degree `n` of a model given as text, and its observables' maps by name.
+fn pipeline(text: &str, n: usize) -> (EpcSolution, Vec<(String, ObservableMap)>) {
+    let model = parse_model(text, None).unwrap();
+    let bound = model.bind(&[]).unwrap();
+    let fpk = FpkOperator::derive(&bound).unwrap();
+    let sol = Epc::new(&fpk, bound.delta_treatment())
+        .degree(n)
+        .solve()
+        .unwrap();
+    let maps = bound
+        .observables()
+        .iter()
+        .map(|o| {
+            (
+                o.name.to_string(),
+                ObservableMap::classify(&o.expr, bound.states()),
+            )
+        })
+        .collect();
+    (sol, maps)
+}
+
+fn map<'a>(maps: &'a [(String, ObservableMap)], name: &str) -> &'a ObservableMap {
+    &maps.iter().find(|(n, _)| n == name).unwrap().1
+}
+
+fn assert_rel(what: &str, got: f64, exact: f64, tol: f64) {
+    assert!(
+        (got - exact).abs() <= tol * exact.abs(),
+        "{what}: {got:e} vs exact {exact:e} (rel {:e})",
+        (got - exact).abs() / exact.abs()
+    );
+}
+
+/// Composite Simpson on [a, b] with n (even) panels.
+fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let h = (b - a) / n as f64;
+    let mut s = f(a) + f(b);
+    for i in 1..n {
+        s += f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    s * h / 3.0
+}
+
+#[test]
+fn linear_oscillator_energy_is_exponential_with_mean_5() {
+    // Var z = Var v = πK/c = 5, independent: energy = v²/2 + z²/2 ~ Exp(mean 5).
+    let (sol, maps) = pipeline(LINEAR, 2);
+    let energy = map(&maps, "energy");
+    assert!(matches!(energy, ObservableMap::General { .. }));
+    let u = [0.0, 1e-9, 0.5, 2.0, 5.0, 10.0, 20.0, 40.0];
+    let start = std::time::Instant::now();
+    let p = ObservableDensity::new(&sol, energy).pdf(&u);
+    eprintln!("energy pdf at {} points: {:?}", u.len(), start.elapsed());
+    for (u, p) in u.iter().zip(&p) {
+        assert_rel(&format!("p_energy({u})"), *p, 0.2 * (-u / 5.0).exp(), 1e-6);
+    }
+    let m = moments(&sol, energy);
+    assert_rel("E[energy]", m.mean, 5.0, 1e-9);
+    assert_rel("std energy", m.std_dev, 5.0, 1e-9);
+    assert_rel("kurtosis energy", m.kurtosis, 9.0, 1e-8);
+    assert_eq!(m.undefined_mass, 0.0);
+}
+
+#[test]
+fn linear_oscillator_velocity_squared_is_a_scaled_chi_square() {
+    // v ~ N(0, 5): p_{v²}(u) = exp(−u/10)/√(2π·5·u), infinite at 0.
+    let (sol, maps) = pipeline(LINEAR, 2);
+    let vsq = map(&maps, "vsq");
+    let u = [0.01, 0.5, 3.0, 10.0, 40.0];
+    let p = ObservableDensity::new(&sol, vsq).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = (-u / 10.0).exp() / (2.0 * PI * 5.0 * u).sqrt();
+        assert_rel(&format!("p_vsq({u})"), *p, exact, 1e-6);
+    }
+    assert_eq!(
+        ObservableDensity::new(&sol, vsq).pdf(&[0.0])[0],
+        f64::INFINITY
+    );
+    let m = moments(&sol, vsq);
+    assert_rel("E[v²]", m.mean, 5.0, 1e-9);
+    assert_rel("E[v⁴]", m.raw[1], 75.0, 1e-9);
+}
+
+#[test]
+fn linear_oscillator_product_z_v_is_a_bessel_k0_density() {
+    // z, v independent N(0, s²), s² = 5: p_{zv}(u) = K0(|u|/s²)/(π s²); two branches.
+    let (sol, maps) = pipeline(LINEAR, 2);
+    let zv = map(&maps, "zv");
+    let k0 = |x: f64| simpson(&|t: f64| (-x * t.cosh()).exp(), 0.0, 12.0, 40000);
+    let u = [-20.0, -3.0, 0.5, 2.0, 10.0];
+    let p = ObservableDensity::new(&sol, zv).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = k0(u.abs() / 5.0) / (PI * 5.0);
+        assert_rel(&format!("p_zv({u})"), *p, exact, 1e-6);
+    }
+    // The saddle of z·v at the origin: the density is infinite at 0.
+    assert_eq!(
+        ObservableDensity::new(&sol, zv).pdf(&[0.0])[0],
+        f64::INFINITY
+    );
+}
+
+#[test]
+fn linear_oscillator_parabola_z2_minus_v_matches_a_one_dimensional_integral() {
+    // p(u) = ∫ p_z(z) p_v(z² − u) dz; the level set v = z² − u has two branches in z.
+    let (sol, maps) = pipeline(LINEAR, 2);
+    let para = map(&maps, "para");
+    let normal = |x: f64| (-x * x / 10.0).exp() / (10.0 * PI).sqrt();
+    let u = [-12.0, -2.0, 0.0, 3.0, 10.0, 25.0];
+    let p = ObservableDensity::new(&sol, para).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = simpson(
+            &|z: f64| normal(z) * normal(z * z - u),
+            -25.0,
+            25.0,
+            200_000,
+        );
+        assert_rel(&format!("p_para({u})"), *p, exact, 1e-6);
+    }
+    let m = moments(&sol, para);
+    assert_rel("E[z² − v]", m.mean, 5.0, 1e-9);
+}
+
+#[test]
+fn linear_oscillator_means_through_the_study() {
+    let model = parse_model(LINEAR, None).unwrap();
+    let study = Study::run(&model, &[], &[2]).unwrap();
+    let stats = &study.degrees[0].stats;
+    let get = |n: &str| stats.iter().find(|s| s.name == n).unwrap();
+    assert_rel("E[energy]", get("energy").mean, 5.0, 1e-9);
+    assert_rel("E[v²]", get("vsq").mean, 5.0, 1e-9);
+    assert_rel("E[z⁴/4 + v²/2]", get("quart").mean, 21.25, 1e-9);
+    assert_rel("E[z²]", get("z").raw_moments[1], 5.0, 1e-9);
+    assert_rel("E[z⁴]", get("z").raw_moments[3], 75.0, 1e-9);
+    // The energy curve starts at 0 with p = 0.2 and integrates to one on its grid.
+    let c = study.curves.iter().find(|c| c.name == "energy").unwrap();
+    let p = &c.columns[0].1;
+    assert!(c.x[0].abs() < 1e-9, "energy grid starts at {}", c.x[0]);
+    assert_rel(
+        "p_energy(0) on the curve",
+        p[0],
+        0.2 * (-c.x[0] / 5.0).exp(),
+        1e-6,
+    );
+}
+
+/// ∫_{U(z) < u} dz / √(u − U(z)) for U = −z²/2 + z⁴/4, by the substitution that removes the
+/// inverse square roots at the turning points (u − U = (z² − r1)(r2 − z²)/4).
+fn period_integral(u: f64) -> f64 {
+    let s = (1.0 + 4.0 * u).sqrt();
+    let (r1, r2) = (1.0 - s, 1.0 + s);
+    let n = 4000;
+    if u > 0.0 {
+        // One interval [−Z, Z]; (Z − z)(Z + z) = Z² sin²θ.
+        let zz = r2.sqrt();
+        simpson(
+            &|t: f64| {
+                let z = -zz * t.cos();
+                2.0 / (z * z - r1).sqrt()
+            },
+            0.0,
+            PI,
+            n,
+        )
+    } else {
+        // Two wells; on [z1, z2]: (z − z1)(z2 − z) = half² sin²θ.
+        let (z1, z2) = (r1.sqrt(), r2.sqrt());
+        let (mid, half) = (0.5 * (z1 + z2), 0.5 * (z2 - z1));
+        2.0 * simpson(
+            &|t: f64| {
+                let z = mid - half * t.cos();
+                2.0 / ((z + z1) * (z + z2)).sqrt()
+            },
+            0.0,
+            PI,
+            n,
+        )
+    }
+}
+
+#[test]
+fn bistable_duffing_energy_matches_the_period_integral() {
+    // p(z, v) = C exp(−4H), H = v²/2 + U(z): p_H(u) = e^{−4u} T(u) / (Z_z σ_v √π), with
+    // σ_v = 1/2, Z_z = ∫ e^{−4U} dz, T the period integral ∮ ds/|∇H| written in z.
+    let (sol, maps) = pipeline(BISTABLE, 4);
+    let energy = map(&maps, "energy");
+    let zz = simpson(
+        &|z: f64| (-4.0 * (-z * z / 2.0 + z.powi(4) / 4.0)).exp(),
+        -5.0,
+        5.0,
+        20000,
+    );
+    let exact = |u: f64| (-4.0 * u).exp() * period_integral(u) / (zz * 0.5 * PI.sqrt());
+    let u = [-0.24, -0.2, -0.1, -0.02, 0.05, 0.3, 1.0, 3.0];
+    let p = ObservableDensity::new(&sol, energy).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        assert_rel(&format!("p_H({u})"), *p, exact(*u), 1e-6);
+    }
+    // At the wells' value −1/4: the one-sided limit, two wells × p(x*)·2π/√det H, det H = 2.
+    let p_star = (1.0f64).exp() / (zz * (PI / 2.0).sqrt());
+    let limit = 2.0 * p_star * 2.0 * PI / 2.0f64.sqrt();
+    let p0 = ObservableDensity::new(&sol, energy).pdf(&[-0.25])[0];
+    assert_rel("p_H(-1/4)", p0, limit, 1e-6);
+    // The barrier (saddle) value 0: the density is infinite there.
+    assert_eq!(
+        ObservableDensity::new(&sol, energy).pdf(&[0.0])[0],
+        f64::INFINITY
+    );
+}
+
+/// The linear model with one extra observable line.
+fn linear_with(observe: &str) -> String {
+    LINEAR.replace(
+        "observe energy = v^2/2 + k*z^2/2, vsq = v^2, quart = z^4/4 + v^2/2, zv = z*v, para = z^2 - v\n",
+        &format!("{observe}\n"),
+    )
+}
+
+#[test]
+fn observables_without_a_density_are_refused_at_load_time() {
+    for (line, what) in [
+        ("observe s = sgn(z)", "takes only discrete values"),
+        (
+            "observe s = sgn(z)*sgn(v) + 2",
+            "takes only discrete values",
+        ),
+        (
+            "observe s = sgn(z) - 3*sgn(v)",
+            "takes only discrete values",
+        ),
+        ("observe q = k*pi", "does not depend on the states"),
+        ("observe q = z - z", "does not depend on the states"),
+        ("observe d = exp(delta(z))", "contains `delta(...)`"),
+    ] {
+        let err = parse_model(&linear_with(line), None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(what), "{line}: {err}");
+    }
+    // Continuous maps with kinks or jumps on a line are fine, and so is log(z) (flagged, below).
+    for line in [
+        "observe s = sgn(z) + 0.01*z",
+        "observe s = abs(z)*sgn(v)",
+        "observe l = log(z)",
+    ] {
+        parse_model(&linear_with(line), None).unwrap_or_else(|e| panic!("{line}: {e}"));
+    }
+}
+
+#[test]
+fn log_of_a_state_reports_its_missing_mass_instead_of_renormalising() {
+    // log(z) is undefined for z ≤ 0, half the mass: the PDF integrates to 1/2 and the
+    // moments say so; E[log z | z > 0] for z ~ N(0, 5) is ln√5 − (γ + ln 2)/2.
+    let (sol, maps) = pipeline(&linear_with("observe l = log(z)"), 2);
+    let l = map(&maps, "l");
+    let m = moments(&sol, l);
+    assert_rel("undefined mass", m.undefined_mass, 0.5, 1e-9);
+    let euler_gamma = 0.577_215_664_901_532_9;
+    let exact_mean = 0.5 * 5.0f64.ln() - 0.5 * (euler_gamma + 2.0f64.ln());
+    assert_rel("E[log z | z > 0]", m.mean, exact_mean, 1e-6);
+    // p_l(u) = e^u p_z(e^u): the defective density, not doubled.
+    let pz = |z: f64| (-z * z / 10.0).exp() / (10.0 * PI).sqrt();
+    let u = [-6.0, -1.0, 0.0, 1.0, 2.0];
+    let p = ObservableDensity::new(&sol, l).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        assert_rel(&format!("p_log({u})"), *p, u.exp() * pz(u.exp()), 1e-6);
+    }
+    let total = integrate(
+        &|u: f64| ObservableDensity::new(&sol, l).pdf(&[u])[0],
+        -30.0,
+        3.5,
+        1e-9,
+    );
+    assert_rel("∫ p_log", total, 0.5, 1e-5);
+}

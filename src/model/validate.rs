@@ -191,6 +191,17 @@ pub enum SemanticError {
         /// Where it was used.
         context: &'static str,
     },
+    /// An observable that has no probability density: a constant, a map taking only discrete
+    /// values (`sgn(z)`), or one containing `delta(...)`.
+    #[error("observable `{name} = {text}` {reason}")]
+    ObservableWithoutDensity {
+        /// The observable.
+        name: String,
+        /// Its definition as written.
+        text: String,
+        /// What is wrong, in words.
+        reason: &'static str,
+    },
     /// Noise entering a `diffusion` line other than linearly.
     #[error("noise must enter linearly: {reason}")]
     NonlinearNoise {
@@ -946,6 +957,7 @@ impl<'a> Validator<'a> {
                                 .scope
                                 .lower(&b.value, Context::StateFunction("an observable"))?,
                         });
+                        self.observable_has_density(b, &observables[observables.len() - 1])?;
                     }
                 }
                 StatementKind::Delta(spec) => delta = self.delta(spec)?,
@@ -1112,6 +1124,87 @@ impl<'a> Validator<'a> {
                 None => Ok(()),
             },
         }
+    }
+
+    /// Refuses an observable whose density does not exist, before any computation: one that
+    /// contains `delta(...)` (a distribution, not a value), one that depends on no state (a
+    /// constant), and one whose gradient is zero wherever it is defined (its derivatives in
+    /// both states vanish once the δ parts, the jumps of `sgn`, are dropped: `sgn(z)`,
+    /// `sgn(z)*sgn(v)`), which takes only discrete values.
+    ///
+    /// An observable undefined on part of the plane (`log(z)`) is not refused: whether it is
+    /// cannot in general be decided from the expression (`log(z^2 + 1)` is defined
+    /// everywhere), so the probability where it is undefined is computed and reported with its
+    /// moments (`undefined_mass`) and its PDF is left defective, never renormalised.
+    fn observable_has_density(&self, b: &Binding, o: &Observable) -> Result<()> {
+        let refuse = |reason: &'static str, span: Span| {
+            let text = self
+                .source
+                .get(b.value.span.start..b.value.span.end)
+                .unwrap_or_default()
+                .to_string();
+            fail(
+                SemanticError::ObservableWithoutDensity {
+                    name: b.name.name.clone(),
+                    text,
+                    reason,
+                },
+                span,
+            )
+        };
+        fn find_delta(node: &ExprNode) -> Option<Span> {
+            match &node.kind {
+                ExprKind::Call { func, args } => {
+                    if func.name == "delta" {
+                        return Some(node.span);
+                    }
+                    args.iter().find_map(find_delta)
+                }
+                ExprKind::Neg(a) => find_delta(a),
+                ExprKind::Sum(t) => t.iter().find_map(|(_, n)| find_delta(n)),
+                ExprKind::Product(f) => f.iter().find_map(|(_, n)| find_delta(n)),
+                ExprKind::Pow(a, e) => find_delta(a).or_else(|| find_delta(e)),
+                _ => None,
+            }
+        }
+        if let Some(span) = find_delta(&b.value) {
+            return refuse(
+                "contains `delta(...)`, a distribution, not a value: an observable must be a \
+                 function of the states",
+                span,
+            );
+        }
+        fn drop_deltas(e: &Expr) -> Expr {
+            match e {
+                Expr::Call(Func::Delta, _) => Expr::num(0.0),
+                Expr::Call(f, a) => Expr::Call(*f, a.iter().map(drop_deltas).collect()),
+                Expr::Add(t) => Expr::sum(t.iter().map(drop_deltas).collect()),
+                Expr::Mul(f) => Expr::product(f.iter().map(drop_deltas).collect()),
+                Expr::Pow(a, x) => Expr::pow(drop_deltas(a), drop_deltas(x)),
+                other => other.clone(),
+            }
+        }
+        let expr = crate::symbolic::simplify(&o.expr);
+        if !self.states.iter().any(|s| expr.mentions(&s.name)) {
+            return refuse(
+                "does not depend on the states: it is a constant and has no density",
+                b.value.span,
+            );
+        }
+        let flat = self.states.iter().all(|s| {
+            crate::symbolic::diff(&expr, &s.name)
+                .map(|d| crate::symbolic::simplify(&drop_deltas(&d)).as_num() == Some(0.0))
+                .unwrap_or(false)
+        });
+        if flat {
+            return refuse(
+                "takes only discrete values: it has no density (its gradient is zero wherever \
+                 it is defined); observe a quantity that varies continuously, e.g. `abs(z)` or \
+                 `v*sgn(z)`",
+                b.value.span,
+            );
+        }
+        Ok(())
     }
 
     fn duplicate<T>(

@@ -1,0 +1,624 @@
+//! The general method: the co-area (level-set) integral p_g(u) = ∮_{g=u} p / |∇g| ds.
+//!
+//! The level set is never traced as a curve. It is cut by the lines x1 = s and x2 = s, and the
+//! co-area integral is split between the two families by the smooth partition of unity
+//! w1 + w2 = 1, w1 = |∂2 g|^m / (|∂1 g|^m + |∂2 g|^m), w2 = 1 − w1 (m = 8):
+//!
+//! p_g(u) = ∫ ds Σ_{g(s, t) = u} p w1 / |∂2 g| + ∫ ds Σ_{g(t, s) = u} p w2 / |∂1 g|,
+//!
+//! the sums running over the roots t of g = u on each line. Each integrand is bounded (the
+//! weight vanishes where the line is tangent to the level set, so no 1/√ singularity) and
+//! behaves like (distance)^3.5 where roots appear or disappear, so adaptive Gauss–Kronrod
+//! quadrature over s converges fast. The roots on a line are bracketed with a precomputed grid
+//! of g (cells whose corner range, widened by the local curvature of g, holds u), and refined by
+//! safeguarded Newton with ∂g from the symbolic derivative compiled to a [`Tape`]; a cell whose
+//! ends lie on one side of u but whose slope changes sign is searched for the extremum between
+//! them, so two nearby roots are not lost. A sign change that is a jump of g (sgn) is not a
+//! root and is dropped.
+//!
+//! Critical points of g (∇g = 0, found by Newton from the grid) are handled explicitly:
+//! - a non-degenerate minimum or maximum x* with value u* bounds a small closed component of
+//!   the level set for u near u*. Its size is known from the Hessian H, and the quadrature
+//!   gets break points there; once it is smaller than 1e−5 of the extent, its exact limit
+//!   p(x*)·2π/√det H is used instead (relative error O(|u − u*|)). At u = u* the value is this
+//!   one-sided limit (so the energy of a linear oscillator has p(0) = 1/mean, not 0);
+//! - at a saddle or a degenerate critical value (a line of minima, as v² has at 0) the density
+//!   of g is infinite, and +∞ is returned there; nearby it has a logarithmic (saddle) or
+//!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
+
+use super::{integrate_edges, JointDensity};
+use crate::symbolic::{diff, DeltaPolicy, Expr, Symbol, SymbolicError, Tape};
+
+/// Exponent of the partition of unity between the two families of lines.
+const M: i32 = 8;
+/// Grid points per axis of the bracketing grid.
+const GRID: usize = 129;
+/// Relative tolerance of the adaptive quadrature over the lines.
+const REL_TOL: f64 = 1e-10;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Min,
+    Max,
+    Saddle,
+    Degenerate,
+}
+
+#[derive(Clone, Debug)]
+struct Critical {
+    x: [f64; 2],
+    value: f64,
+    kind: Kind,
+    /// H⁻¹ for an extremum (of −H for a maximum: positive definite either way).
+    hinv: [[f64; 2]; 2],
+    /// p(x*)·2π/√|det H|: the density of g at the extremum's value (one-sided limit).
+    limit: f64,
+}
+
+/// The co-area method, prepared for one observable under one joint density.
+pub(crate) struct LevelSet {
+    /// Outputs g, ∂1 g, ∂2 g (δ terms of the derivatives dropped).
+    tape: Tape,
+    ext: [[f64; 2]; 2],
+    h: [f64; 2],
+    /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners, widened by the
+    /// local curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
+    /// undefined at all).
+    cmin: Vec<f64>,
+    cmax: Vec<f64>,
+    /// Spread of g over the support (max − min), the scale of "g − u is zero".
+    gscale: f64,
+    critical: Vec<Critical>,
+}
+
+/// One evaluation on a line: g, ∂g across the line, ∂g along it.
+#[derive(Clone, Copy)]
+struct Val {
+    g: f64,
+    across: f64,
+    along: f64,
+}
+
+impl LevelSet {
+    /// Compiles g and its derivatives and prepares the bracketing grid and critical points.
+    pub(crate) fn new(
+        density: &dyn JointDensity,
+        expr: &Expr,
+        states: &[Symbol; 2],
+    ) -> Result<LevelSet, SymbolicError> {
+        let names = [&*states[0], &*states[1]];
+        let d1 = diff(expr, names[0])?;
+        let d2 = diff(expr, names[1])?;
+        let d11 = diff(&d1, names[0])?;
+        let d12 = diff(&d1, names[1])?;
+        let d22 = diff(&d2, names[1])?;
+        let tape = Tape::compile(&[expr.clone(), d1, d2], &names, DeltaPolicy::Zero)?;
+        let hess = Tape::compile(&[d11, d12, d22], &names, DeltaPolicy::Zero)?;
+        let ext = density.extent();
+        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 1) as f64);
+        let n = GRID;
+        let mut g = vec![0.0; n * n];
+        let mut grad2 = vec![0.0; n * n];
+        let mut p = vec![0.0; n * n];
+        let mut scratch = Vec::new();
+        let mut out = [0.0; 3];
+        for i in 0..n {
+            for j in 0..n {
+                let x = [ext[0][0] + i as f64 * h[0], ext[1][0] + j as f64 * h[1]];
+                tape.eval(&x, &mut scratch, &mut out);
+                let k = i * n + j;
+                g[k] = if out[0].is_finite() { out[0] } else { f64::NAN };
+                grad2[k] = out[1] * out[1] + out[2] * out[2];
+                p[k] = density.pdf(x);
+            }
+        }
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..n * n {
+            if p[k] > 0.0 && g[k].is_finite() {
+                lo = lo.min(g[k]);
+                hi = hi.max(g[k]);
+            }
+        }
+        let gscale = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
+        // Curvature at each grid point: |second differences| along both axes and across; g on
+        // a cell strays from its corners' range by at most about a quarter of this (exactly so
+        // for a quadratic), so the cell's range is widened by half of the largest at its
+        // corners. NaN (g undefined nearby) widens it to everything.
+        let at = |i: usize, j: usize| g[i.min(n - 1) * n + j.min(n - 1)];
+        let mut curv = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                let (im, ip) = (i.max(1) - 1, (i + 1).min(n - 1));
+                let (jm, jp) = (j.max(1) - 1, (j + 1).min(n - 1));
+                let c = at(i, j);
+                let d11 = if ip > im + 1 {
+                    at(ip, j) - 2.0 * c + at(im, j)
+                } else {
+                    0.0
+                };
+                let d22 = if jp > jm + 1 {
+                    at(i, jp) - 2.0 * c + at(i, jm)
+                } else {
+                    0.0
+                };
+                let d12 = at(ip, jp) - at(ip, jm) - at(im, jp) + at(im, jm);
+                let v = d11.abs() + d22.abs() + 0.5 * d12.abs();
+                curv[i * n + j] = if v.is_finite() { v } else { f64::INFINITY };
+            }
+        }
+        let mut cmin = vec![0.0; (n - 1) * (n - 1)];
+        let mut cmax = vec![0.0; (n - 1) * (n - 1)];
+        for i in 0..n - 1 {
+            for j in 0..n - 1 {
+                let corners = [
+                    i * n + j,
+                    i * n + j + 1,
+                    (i + 1) * n + j,
+                    (i + 1) * n + j + 1,
+                ];
+                let c = corners.map(|k| g[k]);
+                let margin =
+                    0.5 * corners.iter().map(|&k| curv[k]).fold(0.0, f64::max) + 1e-12 * gscale;
+                let finite = c.iter().filter(|v| v.is_finite()).count();
+                let (a, b) = match finite {
+                    0 => (f64::INFINITY, f64::NEG_INFINITY),
+                    4 if margin.is_finite() => (
+                        c.iter().copied().fold(f64::INFINITY, f64::min) - margin,
+                        c.iter().copied().fold(f64::NEG_INFINITY, f64::max) + margin,
+                    ),
+                    _ => (f64::NEG_INFINITY, f64::INFINITY),
+                };
+                cmin[i * (n - 1) + j] = a;
+                cmax[i * (n - 1) + j] = b;
+            }
+        }
+        let mut set = LevelSet {
+            tape,
+            ext,
+            h,
+            cmin,
+            cmax,
+            gscale,
+            critical: Vec::new(),
+        };
+        set.critical = set.critical_points(density, &hess, &grad2, &p);
+        Ok(set)
+    }
+
+    /// Critical points of g where the density is positive: Newton on ∇g = 0 from the grid
+    /// points where |∇g| is a local minimum.
+    fn critical_points(
+        &self,
+        density: &dyn JointDensity,
+        hess: &Tape,
+        grad2: &[f64],
+        p: &[f64],
+    ) -> Vec<Critical> {
+        let n = GRID;
+        let pmax = p.iter().copied().fold(0.0, f64::max);
+        let gradmax = grad2
+            .iter()
+            .zip(p)
+            .filter(|(g, p)| **p > 0.0 && g.is_finite())
+            .map(|(g, _)| *g)
+            .fold(0.0, f64::max)
+            .sqrt();
+        let mut seeds: Vec<(f64, usize)> = Vec::new();
+        for i in 1..n - 1 {
+            for j in 1..n - 1 {
+                let k = i * n + j;
+                if p[k] <= 1e-300 * pmax || p[k].is_nan() || !grad2[k].is_finite() {
+                    continue;
+                }
+                let local_min = (i - 1..=i + 1).all(|a| {
+                    (j - 1..=j + 1).all(|b| {
+                        let q = grad2[a * n + b];
+                        !q.is_finite() || grad2[k] <= q
+                    })
+                });
+                if local_min {
+                    seeds.push((grad2[k], k));
+                }
+            }
+        }
+        seeds.sort_by(|a, b| a.0.total_cmp(&b.0));
+        seeds.truncate(256);
+        let width = (self.ext[0][1] - self.ext[0][0]).max(self.ext[1][1] - self.ext[1][0]);
+        let mut found: Vec<Critical> = Vec::new();
+        let (mut scratch, mut out, mut hout) = (Vec::new(), [0.0; 3], [0.0; 3]);
+        for &(_, k) in &seeds {
+            let mut x = [
+                self.ext[0][0] + (k / n) as f64 * self.h[0],
+                self.ext[1][0] + (k % n) as f64 * self.h[1],
+            ];
+            let mut converged = false;
+            for _ in 0..60 {
+                self.tape.eval(&x, &mut scratch, &mut out);
+                hess.eval(&x, &mut scratch, &mut hout);
+                let (g1, g2) = (out[1], out[2]);
+                if g1 == 0.0 && g2 == 0.0 {
+                    converged = true;
+                    break;
+                }
+                let [h11, h12, h22] = hout;
+                let det = h11 * h22 - h12 * h12;
+                let norm2 = h11 * h11 + 2.0 * h12 * h12 + h22 * h22;
+                let step = if det.abs() > 1e-10 * norm2 {
+                    [(h22 * g1 - h12 * g2) / det, (-h12 * g1 + h11 * g2) / det]
+                } else {
+                    // Singular Hessian: Newton along the gradient.
+                    let hg = [h11 * g1 + h12 * g2, h12 * g1 + h22 * g2];
+                    let c = g1 * hg[0] + g2 * hg[1];
+                    if c == 0.0 || !c.is_finite() {
+                        break;
+                    }
+                    let t = (g1 * g1 + g2 * g2) / c;
+                    [t * g1, t * g2]
+                };
+                if !(step[0].is_finite() && step[1].is_finite()) {
+                    break;
+                }
+                x = [x[0] - step[0], x[1] - step[1]];
+                if (0..2).any(|a| x[a] < self.ext[a][0] || x[a] > self.ext[a][1]) {
+                    break;
+                }
+                if step[0].abs().max(step[1].abs()) < 1e-14 * width {
+                    self.tape.eval(&x, &mut scratch, &mut out);
+                    converged = true;
+                    break;
+                }
+            }
+            if !converged {
+                continue;
+            }
+            let grad = out[1].hypot(out[2]);
+            if grad.is_nan() || grad > 1e-9 * gradmax.max(1e-300) || !out[0].is_finite() {
+                continue;
+            }
+            let px = density.pdf(x);
+            if px.is_nan() || px <= 0.0 {
+                continue;
+            }
+            hess.eval(&x, &mut scratch, &mut hout);
+            let [h11, h12, h22] = hout;
+            let det = h11 * h22 - h12 * h12;
+            let norm2 = h11 * h11 + 2.0 * h12 * h12 + h22 * h22;
+            let kind = if det.is_nan() || det.abs() <= 1e-8 * norm2 {
+                Kind::Degenerate
+            } else if det < 0.0 {
+                Kind::Saddle
+            } else if h11 + h22 > 0.0 {
+                Kind::Min
+            } else {
+                Kind::Max
+            };
+            let value = out[0];
+            let duplicate = found.iter().any(|c| {
+                let near = (c.x[0] - x[0]).abs().max((c.x[1] - x[1]).abs()) < 1e-6 * width;
+                let same_degenerate = c.kind == Kind::Degenerate
+                    && kind == Kind::Degenerate
+                    && (c.value - value).abs() <= 1e-12 * self.gscale;
+                near || same_degenerate
+            });
+            if duplicate {
+                continue;
+            }
+            let s = if kind == Kind::Max { -1.0 } else { 1.0 };
+            let hinv = [
+                [s * h22 / det, -s * h12 / det],
+                [-s * h12 / det, s * h11 / det],
+            ];
+            let limit = px * 2.0 * std::f64::consts::PI / det.abs().sqrt();
+            found.push(Critical {
+                x,
+                value,
+                kind,
+                hinv,
+                limit,
+            });
+        }
+        found
+    }
+
+    /// p_g(u).
+    pub(crate) fn pdf(&self, density: &dyn JointDensity, u: f64) -> f64 {
+        let width = (self.ext[0][1] - self.ext[0][0]).max(self.ext[1][1] - self.ext[1][0]);
+        let mut total = 0.0;
+        let mut excluded: Vec<&Critical> = Vec::new();
+        let mut breaks: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+        for c in &self.critical {
+            let d = u - c.value;
+            match c.kind {
+                Kind::Saddle | Kind::Degenerate => {
+                    if d.abs() <= 1e-12 * self.gscale {
+                        return f64::INFINITY;
+                    }
+                    if c.kind == Kind::Saddle {
+                        for (a, b) in breaks.iter_mut().enumerate() {
+                            b.push(c.x[a]);
+                        }
+                    }
+                }
+                Kind::Min | Kind::Max => {
+                    let active = if c.kind == Kind::Min {
+                        d >= 0.0
+                    } else {
+                        d <= 0.0
+                    };
+                    if !active {
+                        continue;
+                    }
+                    let r = [0, 1].map(|a| (2.0 * d.abs() * c.hinv[a][a].abs()).sqrt());
+                    if r[0].max(r[1]) < 1e-5 * width {
+                        total += c.limit;
+                        excluded.push(c);
+                    } else {
+                        for (a, b) in breaks.iter_mut().enumerate() {
+                            b.extend([c.x[a] - r[a], c.x[a], c.x[a] + r[a]]);
+                        }
+                    }
+                }
+            }
+        }
+        for (a, axis_breaks) in breaks.iter().enumerate() {
+            let [lo, hi] = self.ext[a];
+            let mut edges: Vec<f64> = (0..=16)
+                .map(|k| lo + (hi - lo) * k as f64 / 16.0)
+                .chain(axis_breaks.iter().copied().filter(|&s| s > lo && s < hi))
+                .collect();
+            edges.sort_by(f64::total_cmp);
+            edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));
+            // `integrate_edges` takes a `Fn`: the tape's working memory is shared through a
+            // `RefCell`, so that no line allocates.
+            let scratch = std::cell::RefCell::new(Vec::new());
+            let f = |s: f64| {
+                let mut scratch = scratch.borrow_mut();
+                self.line_sum(density, a, s, u, &excluded, &mut scratch)
+            };
+            total += integrate_edges(&f, &edges, REL_TOL);
+        }
+        total
+    }
+
+    fn eval(&self, a: usize, s: f64, t: f64, scratch: &mut Vec<f64>) -> ([f64; 2], Val) {
+        let x = if a == 0 { [s, t] } else { [t, s] };
+        let mut out = [0.0; 3];
+        self.tape.eval(&x, scratch, &mut out);
+        (
+            x,
+            Val {
+                g: if out[0].is_finite() { out[0] } else { f64::NAN },
+                across: out[1 + a],
+                along: out[2 - a],
+            },
+        )
+    }
+
+    /// Σ over the roots t of g = u on the line x_a = s of p·w/|∂_along g|.
+    fn line_sum(
+        &self,
+        density: &dyn JointDensity,
+        a: usize,
+        s: f64,
+        u: f64,
+        excluded: &[&Critical],
+        scratch: &mut Vec<f64>,
+    ) -> f64 {
+        let b = 1 - a;
+        let n = GRID;
+        let ia = (((s - self.ext[a][0]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
+        let t_of = |j: usize| self.ext[b][0] + j as f64 * self.h[b];
+        let mut vals: [Option<Val>; GRID] = [None; GRID];
+        let mut total = 0.0;
+        for jb in 0..n - 1 {
+            let k = if a == 0 {
+                ia * (n - 1) + jb
+            } else {
+                jb * (n - 1) + ia
+            };
+            if !(u >= self.cmin[k] && u <= self.cmax[k]) {
+                continue;
+            }
+            for j in [jb, jb + 1] {
+                if vals[j].is_none() {
+                    vals[j] = Some(self.eval(a, s, t_of(j), scratch).1);
+                }
+            }
+            let (va, vb) = (vals[jb].unwrap(), vals[jb + 1].unwrap());
+            let mut roots = [f64::NAN; 2];
+            self.cell_roots(
+                a,
+                s,
+                u,
+                (t_of(jb), va),
+                (t_of(jb + 1), vb),
+                &mut roots,
+                scratch,
+            );
+            for t in roots.into_iter().filter(|t| !t.is_nan()) {
+                let (x, v) = self.eval(a, s, t, scratch);
+                if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
+                    continue;
+                }
+                if excluded.iter().any(|c| in_component(c, x, u)) {
+                    continue;
+                }
+                let r = (v.across / v.along).abs();
+                let w = 1.0 / (1.0 + r.powi(M));
+                total += density.pdf(x) * w / v.along.abs();
+            }
+        }
+        total
+    }
+
+    /// The roots of g = u in the cell [ta, tb] of the line x_a = s (at most two).
+    #[allow(clippy::too_many_arguments)]
+    fn cell_roots(
+        &self,
+        a: usize,
+        s: f64,
+        u: f64,
+        (ta, va): (f64, Val),
+        (tb, vb): (f64, Val),
+        roots: &mut [f64; 2],
+        scratch: &mut Vec<f64>,
+    ) {
+        let (fa, fb) = (va.g - u, vb.g - u);
+        if fa.is_nan() && fb.is_nan() {
+            return;
+        }
+        if fa.is_nan() || fb.is_nan() {
+            // g undefined at one end: move that end to the edge of where g is defined.
+            let (mut good, mut bad) = if fa.is_nan() { (tb, ta) } else { (ta, tb) };
+            let mut vg = if fa.is_nan() { vb } else { va };
+            for _ in 0..64 {
+                let mid = 0.5 * (good + bad);
+                let (_, v) = self.eval(a, s, mid, scratch);
+                if v.g.is_nan() {
+                    bad = mid;
+                } else {
+                    good = mid;
+                    vg = v;
+                }
+                if (good - bad).abs() <= 1e-13 * self.h[1 - a] {
+                    break;
+                }
+            }
+            let other = if fa.is_nan() { (tb, vb) } else { (ta, va) };
+            if (good - other.0).abs() <= 1e-13 * self.h[1 - a] || vg.g.is_nan() {
+                return;
+            }
+            let (l, r) = if good < other.0 {
+                ((good, vg), other)
+            } else {
+                (other, (good, vg))
+            };
+            return self.cell_roots(a, s, u, l, r, roots, scratch);
+        }
+        if fa == 0.0 {
+            roots[0] = ta;
+            return;
+        }
+        if fb == 0.0 {
+            // Counted as the next cell's left end.
+            return;
+        }
+        if fa * fb < 0.0 {
+            // Start from the secant through the cell's ends.
+            let guess = ta + (tb - ta) * fa / (fa - fb);
+            roots[0] = self
+                .refine(a, s, u, ta, tb, fa, guess, scratch)
+                .unwrap_or(f64::NAN);
+            return;
+        }
+        // Same side at both ends: an extremum between them may cross u.
+        let towards = if fa > 0.0 {
+            va.along < 0.0 && vb.along > 0.0
+        } else {
+            va.along > 0.0 && vb.along < 0.0
+        };
+        if !towards {
+            return;
+        }
+        let (mut l, mut r) = (ta, tb);
+        let dl = va.along;
+        let mut tm = 0.5 * (l + r);
+        let mut vm = va;
+        for _ in 0..80 {
+            tm = 0.5 * (l + r);
+            vm = self.eval(a, s, tm, scratch).1;
+            if vm.g.is_nan() {
+                return;
+            }
+            if (vm.g - u) * fa <= 0.0 || vm.along == 0.0 {
+                break;
+            }
+            if vm.along * dl > 0.0 {
+                l = tm;
+            } else {
+                r = tm;
+            }
+            if r - l <= 1e-14 * self.h[1 - a] {
+                break;
+            }
+        }
+        let fm = vm.g - u;
+        if fm * fa < 0.0 {
+            roots[0] = self
+                .refine(a, s, u, ta, tm, fa, 0.5 * (ta + tm), scratch)
+                .unwrap_or(f64::NAN);
+            roots[1] = self
+                .refine(a, s, u, tm, tb, fm, 0.5 * (tm + tb), scratch)
+                .unwrap_or(f64::NAN);
+        }
+    }
+
+    /// The root of g = u in [lo, hi] (g − u has the sign of `flo` at `lo` and the opposite at
+    /// `hi`) by safeguarded Newton; `None` when the sign change is a jump of g, not a root.
+    #[allow(clippy::too_many_arguments)]
+    fn refine(
+        &self,
+        a: usize,
+        s: f64,
+        u: f64,
+        lo: f64,
+        hi: f64,
+        flo: f64,
+        guess: f64,
+        scratch: &mut Vec<f64>,
+    ) -> Option<f64> {
+        let (mut l, mut r) = (lo, hi);
+        let mut t = if guess > lo && guess < hi {
+            guess
+        } else {
+            0.5 * (l + r)
+        };
+        let tol = 1e-15 * (lo.abs() + hi.abs()) + 1e-14 * (hi - lo);
+        for _ in 0..200 {
+            let v = self.eval(a, s, t, scratch).1;
+            let f = v.g - u;
+            if f.is_nan() {
+                return None;
+            }
+            if f == 0.0 {
+                return Some(t);
+            }
+            if f * flo > 0.0 {
+                l = t;
+            } else {
+                r = t;
+            }
+            let newton = t - f / v.along;
+            if newton > l && newton < r && (newton - t).abs() <= tol {
+                // Converged (quadratically): the next step would not move it.
+                return Some(newton);
+            }
+            let next = if newton > l && newton < r {
+                newton
+            } else {
+                0.5 * (l + r)
+            };
+            if r - l <= tol {
+                // The bracket has collapsed: a root, or a jump of g (then g − u is not small).
+                let v = self.eval(a, s, next, scratch).1;
+                return ((v.g - u).abs() <= 1e-8 * self.gscale).then_some(next);
+            }
+            t = next;
+        }
+        let v = self.eval(a, s, t, scratch).1;
+        ((v.g - u).abs() <= 1e-8 * self.gscale).then_some(t)
+    }
+}
+
+/// Whether `x` lies on the small component of {g = u} around extremum `c` (used when that
+/// component is taken from its exact limit instead).
+fn in_component(c: &Critical, x: [f64; 2], u: f64) -> bool {
+    let d = [x[0] - c.x[0], x[1] - c.x[1]];
+    // (x − x*)ᵀ H (x − x*)/2 ≈ |u − u*| on the component; H from H⁻¹.
+    let hi = c.hinv;
+    let det = hi[0][0] * hi[1][1] - hi[0][1] * hi[1][0];
+    let q = (hi[1][1] * d[0] * d[0] - 2.0 * hi[0][1] * d[0] * d[1] + hi[0][0] * d[1] * d[1])
+        / det
+        / 2.0;
+    q <= 4.0 * (u - c.value).abs() + 1e-300
+}

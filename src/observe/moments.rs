@@ -1,0 +1,204 @@
+//! Moments of a quantity taken from the joint density directly: E[g^k] = ∬ g^k p dx.
+
+use serde::Serialize;
+
+use super::{JointDensity, ObservableMap};
+use crate::symbolic::{DeltaPolicy, Tape};
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
+const GL_X: [f64; 4] = [
+    0.183_434_642_495_649_8,
+    0.525_532_409_916_329,
+    0.796_666_477_413_626_7,
+    0.960_289_856_497_536_3,
+];
+const GL_W: [f64; 4] = [
+    0.362_683_783_378_362,
+    0.313_706_645_877_887_3,
+    0.222_381_034_453_374_5,
+    0.101_228_536_290_376_3,
+];
+
+/// Panels per axis of the composite Gauss–Legendre rule.
+const PANELS: usize = 64;
+/// Geometric levels (ratio 0.2) of the panels next to 0.
+const GRADED: usize = 20;
+
+/// Moments of one quantity g under a joint density p, by composite 8-point Gauss–Legendre
+/// quadrature of g^k·p over the density's extent (64 panels per axis, with a panel edge on
+/// each axis at 0, where `abs` and `sgn` of a state have their kinks, and the panels next to 0
+/// graded geometrically down to 1e−14 of their width, for singularities such as log|z|).
+///
+/// Accuracy: where p and g are smooth the rule is exact to rounding (relative 1e−12 on the
+/// tests' Gaussian and double-well densities); a kink of g away from the axes costs O(h²) with
+/// h ≈ 1/30 of the extent.
+///
+/// When g has no finite value on part of the support (`log(z)` for z ≤ 0, `1/z` at 0), that
+/// probability is [`Moments::undefined_mass`], and the moments are those of g *given* that it
+/// is defined (divided by 1 − undefined_mass): a defective observable is flagged, never
+/// silently renormalised.
+///
+/// ```
+/// use fpsolve::observe::{moments, JointDensity, ObservableMap};
+/// use fpsolve::symbolic::{Expr, Func};
+/// struct Normal;
+/// impl JointDensity for Normal {
+///     fn pdf(&self, x: [f64; 2]) -> f64 {
+///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+///     }
+///     fn extent(&self) -> [[f64; 2]; 2] {
+///         [[-10.0, 10.0], [-10.0, 10.0]]
+///     }
+/// }
+/// let states = ["z".into(), "v".into()];
+/// let log_z = ObservableMap::classify(&Expr::call(Func::Log, Expr::sym("z")), &states);
+/// let m = moments(&Normal, &log_z);
+/// assert!((m.undefined_mass - 0.5).abs() < 1e-12); // log z is undefined for z ≤ 0
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Moments {
+    /// E[g], E[g²], E[g³], E[g⁴] (given g defined).
+    pub raw: [f64; 4],
+    /// E[g].
+    pub mean: f64,
+    /// √Var[g].
+    pub std_dev: f64,
+    /// E[(g − mean)⁴] / Var[g]².
+    pub kurtosis: f64,
+    /// P(g has no finite value): 0 for an observable defined everywhere.
+    pub undefined_mass: f64,
+}
+
+/// Nodes and weights of the composite rule on [lo, hi] (split at 0 when 0 is inside).
+fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    let mut parts = vec![(lo, hi)];
+    if lo < 0.0 && hi > 0.0 {
+        parts = vec![(lo, 0.0), (0.0, hi)];
+    }
+    let mut out = Vec::new();
+    let mut panel = |a: f64, b: f64| {
+        let (c, w) = (0.5 * (a + b), b - a);
+        for (x, wt) in GL_X.iter().zip(GL_W) {
+            out.push((c - 0.5 * w * x, 0.5 * w * wt));
+            out.push((c + 0.5 * w * x, 0.5 * w * wt));
+        }
+    };
+    for (a, b) in parts {
+        let n = ((PANELS as f64 * (b - a) / (hi - lo)).ceil() as usize).max(4);
+        let w = (b - a) / n as f64;
+        for k in 0..n {
+            let (pa, pb) = (a + k as f64 * w, a + (k + 1) as f64 * w);
+            // The panel touching 0 is graded geometrically towards 0, so that a singularity of
+            // g on an axis (log|z|, |z|^−½) is integrated accurately.
+            let touches = if pa == 0.0 {
+                Some((pb, 1.0))
+            } else if pb == 0.0 {
+                Some((pa, -1.0))
+            } else {
+                None
+            };
+            match touches {
+                Some((far, _)) => {
+                    let mut outer = far;
+                    for _ in 0..GRADED {
+                        let inner = 0.2 * outer;
+                        panel(inner.min(outer), inner.max(outer));
+                        outer = inner;
+                    }
+                    panel(outer.min(0.0), outer.max(0.0));
+                }
+                None => panel(pa, pb),
+            }
+        }
+    }
+    out
+}
+
+/// The moments of `map` under `density` (see [`Moments`]).
+///
+/// ```
+/// use fpsolve::observe::{moments, JointDensity, ObservableMap};
+/// use fpsolve::symbolic::Expr;
+/// struct Normal;
+/// impl JointDensity for Normal {
+///     fn pdf(&self, x: [f64; 2]) -> f64 {
+///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+///     }
+///     fn extent(&self) -> [[f64; 2]; 2] {
+///         [[-10.0, 10.0], [-10.0, 10.0]]
+///     }
+/// }
+/// let states = ["z".into(), "v".into()];
+/// let vsq = ObservableMap::classify(&(Expr::sym("v") * Expr::sym("v")), &states);
+/// let m = moments(&Normal, &vsq);
+/// assert!((m.mean - 1.0).abs() < 1e-12);
+/// assert!((m.raw[1] - 3.0).abs() < 1e-12); // E[v⁴] = 3
+/// assert_eq!(m.undefined_mass, 0.0);
+/// ```
+pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
+    let ext = density.extent();
+    let r1 = axis_rule(ext[0][0], ext[0][1]);
+    let r2 = axis_rule(ext[1][0], ext[1][1]);
+    let tape = match map {
+        ObservableMap::General { expr, states } => Some(Tape::compile(
+            std::slice::from_ref(expr),
+            &[&*states[0], &*states[1]],
+            DeltaPolicy::Zero,
+        )),
+        ObservableMap::SignedState { .. } => None,
+    };
+    // (g, weight·p) at every node; g NaN where undefined.
+    let mut samples: Vec<(f64, f64)> = Vec::with_capacity(r1.len() * r2.len());
+    let (mut scratch, mut out) = (Vec::new(), [0.0]);
+    for &(x1, w1) in &r1 {
+        for &(x2, w2) in &r2 {
+            let p = density.pdf([x1, x2]);
+            if p == 0.0 {
+                continue;
+            }
+            let g = match (map, &tape) {
+                (ObservableMap::SignedState { state, sign }, _) => {
+                    let x = [x1, x2];
+                    sign[usize::from(x1 >= 0.0)][usize::from(x2 >= 0.0)] * x[*state]
+                }
+                (_, Some(Ok(t))) => {
+                    t.eval(&[x1, x2], &mut scratch, &mut out);
+                    out[0]
+                }
+                _ => f64::NAN,
+            };
+            samples.push((g, w1 * w2 * p));
+        }
+    }
+    let total: f64 = samples.iter().map(|s| s.1).sum();
+    let defined: f64 = samples
+        .iter()
+        .filter(|s| s.0.is_finite())
+        .map(|s| s.1)
+        .sum();
+    let e = |f: &dyn Fn(f64) -> f64| -> f64 {
+        samples
+            .iter()
+            .filter(|s| s.0.is_finite())
+            .map(|&(g, w)| f(g) * w)
+            .sum::<f64>()
+            / defined
+    };
+    let raw = [
+        e(&|g| g),
+        e(&|g| g * g),
+        e(&|g| g.powi(3)),
+        e(&|g| g.powi(4)),
+    ];
+    let mean = raw[0];
+    let var = e(&|g| (g - mean).powi(2));
+    let m4 = e(&|g| (g - mean).powi(4));
+    let undefined_mass = ((total - defined) / total).max(0.0);
+    Moments {
+        raw,
+        mean,
+        std_dev: var.sqrt(),
+        kurtosis: m4 / (var * var),
+        undefined_mass,
+    }
+}
