@@ -281,6 +281,7 @@ enum Plan {
         spec: SweepSpec,
         degree: usize,
         out: PathBuf,
+        quiet: bool,
         notes: Vec<String>,
         threads: Option<usize>,
     },
@@ -356,7 +357,7 @@ fn plan(cli: Cli) -> Result<Plan> {
             degree,
             out,
             threads,
-            ..
+            quiet,
         }) => {
             let [d] = degree.as_slice() else {
                 bail!("--degree {degree}: a sweep solves one degree at each point");
@@ -373,6 +374,7 @@ fn plan(cli: Cli) -> Result<Plan> {
                 model: m,
                 spec,
                 degree: *d,
+                quiet: quiet.quiet,
                 notes,
                 threads,
             })
@@ -480,12 +482,13 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             spec,
             degree,
             out,
+            quiet,
             notes,
             threads,
         } => {
             print_notes(&notes);
             set_threads(threads)?;
-            sweep(&model, &spec, degree, &out)
+            sweep(&model, &spec, degree, &out, quiet)
         }
         Plan::Merge {
             result,
@@ -833,10 +836,21 @@ fn set_threads(threads: Option<usize>) -> Result<()> {
     Ok(())
 }
 
-fn sweep(model: &Model, spec: &SweepSpec, degree: usize, dir: &Path) -> Result<(), Failure> {
+fn sweep(
+    model: &Model,
+    spec: &SweepSpec,
+    degree: usize,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
     let run = begin_output(dir)?;
     let t = std::time::Instant::now();
-    let result = Sweep::run(model, spec, degree);
+    let bar = Bar::new(quiet);
+    bar.stage("sweep");
+    let result = Sweep::run_with_progress(model, spec, degree, &|done, total| {
+        bar.advance(done, total)
+    });
+    bar.finish();
     let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
     println!(
         "{} of {} points converged at degree {degree} in {:.1} s",

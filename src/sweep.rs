@@ -636,7 +636,33 @@ impl Sweep {
     /// Every point's result is the same as a [`Study::run`] at its values, whatever the
     /// number of threads.
     pub fn run(model: &Model, spec: &SweepSpec, degree: usize) -> SweepResult {
+        Sweep::run_with_progress(model, spec, degree, &|_, _| {})
+    }
+
+    /// [`Sweep::run`], calling `progress(done, total)` as each point finishes (from the
+    /// worker threads, in completion order), e.g. for a progress bar.
+    ///
+    /// ```
+    /// use std::sync::atomic::{AtomicU64, Ordering};
+    /// use fpsolve::sweep::{Sweep, SweepSpec};
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// let spec = SweepSpec::parse(&["c=0.5,1".into()]).unwrap();
+    /// let seen = AtomicU64::new(0);
+    /// let result = Sweep::run_with_progress(&model, &spec, 2, &|_, total| {
+    ///     assert_eq!(total, 2);
+    ///     seen.fetch_add(1, Ordering::Relaxed);
+    /// });
+    /// assert_eq!((result.converged(), seen.into_inner()), (2, 2));
+    /// ```
+    pub fn run_with_progress(
+        model: &Model,
+        spec: &SweepSpec,
+        degree: usize,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> SweepResult {
         let start = Instant::now();
+        let total = spec.len() as u64;
+        let done = std::sync::atomic::AtomicU64::new(0);
         let degrees: Vec<usize> = if degree == 2 {
             vec![2]
         } else {
@@ -645,7 +671,12 @@ impl Sweep {
         let raw: Vec<Raw> = spec
             .points()
             .into_par_iter()
-            .map(|values| solve_point(model, spec, values, &degrees))
+            .map(|values| {
+                let point = solve_point(model, spec, values, &degrees);
+                let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(k, total);
+                point
+            })
             .collect();
         let quantities: Vec<String> = model
             .states()
