@@ -243,8 +243,17 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
-    let plan = plan(cli)?;
-    execute(plan)
+    let planned = plan(cli)?;
+    for n in &planned.notes {
+        eprintln!("note: {n}");
+    }
+    if let Some(n) = planned.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("setting up the worker threads")?;
+    }
+    execute(planned.plan)
 }
 
 /// A command with every input read and checked: what [`execute`] runs. Making a plan reads
@@ -262,8 +271,6 @@ enum Plan {
         spec: JobSpec,
         out: PathBuf,
         quiet: bool,
-        notes: Vec<String>,
-        threads: Option<usize>,
     },
     Simulate {
         path: PathBuf,
@@ -273,8 +280,6 @@ enum Plan {
         shard: Option<(u64, u64)>,
         out: PathBuf,
         quiet: bool,
-        notes: Vec<String>,
-        threads: Option<usize>,
     },
     Sweep {
         model: Model,
@@ -282,8 +287,6 @@ enum Plan {
         degree: usize,
         out: PathBuf,
         quiet: bool,
-        notes: Vec<String>,
-        threads: Option<usize>,
     },
     Merge {
         result: Box<McResult>,
@@ -292,18 +295,28 @@ enum Plan {
     },
 }
 
+/// A plan with what every command shares: notes on values that were adjusted (rounded,
+/// capped), and the worker threads.
+struct Planned {
+    plan: Plan,
+    notes: Vec<String>,
+    threads: Option<usize>,
+}
+
 /// Reads and checks everything a command needs, before any computation.
-fn plan(cli: Cli) -> Result<Plan> {
-    match cli.command {
+fn plan(cli: Cli) -> Result<Planned> {
+    let mut notes = Vec::new();
+    let mut threads = None;
+    let plan = match cli.command {
         Some(Command::Check { model, set, .. }) => {
             let (m, overrides) = load(&model, &set.set)?;
-            Ok(Plan::Check {
+            Plan::Check {
                 path: model,
                 model: m,
                 overrides,
-            })
+            }
         }
-        Some(Command::Solve { model, solve }) => plan_job(model, &solve, None, Target::States),
+        Some(Command::Solve { model, solve }) => plan_job(model, &solve, None, Target::States)?,
         Some(Command::Simulate {
             model,
             samples,
@@ -316,7 +329,7 @@ fn plan(cli: Cli) -> Result<Plan> {
             let (m, overrides) = load(&model, &set.set)?;
             let bound = m.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
             physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
-            let mut flags = McFlags::parse(&mc_args, &samples, "--samples")?;
+            let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             let estimate = preflight(&m, &overrides, &flags.config)?;
             let shard = shard.as_deref().map(parse_shard).transpose()?;
             if let Some((_, n)) = shard {
@@ -327,8 +340,9 @@ fn plan(cli: Cli) -> Result<Plan> {
                     );
                 }
             }
-            let threads = check_threads(mc_args.threads, &mut flags.notes)?;
-            Ok(Plan::Simulate {
+            notes = flags.notes;
+            threads = check_threads(mc_args.threads, &mut notes)?;
+            Plan::Simulate {
                 out: default_out(out, &m),
                 path: model,
                 model: m,
@@ -336,27 +350,25 @@ fn plan(cli: Cli) -> Result<Plan> {
                 config: flags.config,
                 shard,
                 quiet: quiet.quiet,
-                notes: flags.notes,
-                threads,
-            })
+            }
         }
         Some(Command::Merge { dirs, out, .. }) => {
             let shards = read_shards(&dirs)?;
             // Every shard is validated (and named when it is not right) before anything is
             // written.
             let result = merge_named(&shards).map_err(|e| anyhow!("{e}"))?;
-            Ok(Plan::Merge {
+            Plan::Merge {
                 result: Box::new(result),
                 shards: shards.len(),
                 out,
-            })
+            }
         }
         Some(Command::Sweep {
             model,
             set,
             degree,
             out,
-            threads,
+            threads: t,
             quiet,
         }) => {
             let [d] = degree.as_slice() else {
@@ -367,42 +379,39 @@ fn plan(cli: Cli) -> Result<Plan> {
                 SweepSpec::parse(&set.set).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             spec.validate(&m)
                 .map_err(|e| anyhow!("{}: {e}", model.display()))?;
-            let mut notes = Vec::new();
-            let threads = check_threads(threads, &mut notes)?;
-            Ok(Plan::Sweep {
+            threads = check_threads(t, &mut notes)?;
+            Plan::Sweep {
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
                 model: m,
                 spec,
                 degree: *d,
                 quiet: quiet.quiet,
-                notes,
-                threads,
-            })
+            }
         }
         None => {
             let Some(model) = cli.run.model else {
                 bail!("no model file given (try `fpsolve models/vibro_duffing.sde` or `fpsolve --help`)");
             };
             let mc = match &cli.run.mc {
-                Some(n) => Some(McFlags::parse(&cli.run.mc_args, n, "--mc")?),
+                Some(n) => {
+                    let flags = McFlags::parse(&cli.run.mc_args, n, "--mc")?;
+                    notes = flags.notes.clone();
+                    threads = check_threads(cli.run.mc_args.threads, &mut notes)?;
+                    Some(flags.config)
+                }
                 None => None,
             };
-            plan_job(
-                model,
-                &cli.run.solve,
-                mc.map(|m| (m, cli.run.mc_args.threads)),
-                Target::Observables,
-            )
+            plan_job(model, &cli.run.solve, mc, Target::Observables)?
         }
-    }
+    };
+    Ok(Planned {
+        plan,
+        notes,
+        threads,
+    })
 }
 
-fn plan_job(
-    path: PathBuf,
-    args: &SolveArgs,
-    mc: Option<(McFlags, Option<usize>)>,
-    target: Target,
-) -> Result<Plan> {
+fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Target) -> Result<Plan> {
     let (model, overrides) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with an impact law EPC does not represent, is
     // refused here, before any work.
@@ -415,29 +424,22 @@ fn plan_job(
         };
         bail!("{}: {e}", path.display());
     }
-    let (config, mut notes, threads) = match mc {
-        Some((flags, threads)) => {
-            preflight(&model, &overrides, &flags.config)?;
-            (Some(flags.config), flags.notes, threads)
-        }
-        None => (None, Vec::new(), None),
-    };
-    let threads = check_threads(threads, &mut notes)?;
+    if let Some(config) = &mc {
+        preflight(&model, &overrides, config)?;
+    }
     Ok(Plan::Job {
         out: default_out(args.out.clone(), &model),
         spec: JobSpec {
             degrees: args.degree.as_slice().to_vec(),
             overrides,
             target,
-            mc: config,
+            mc,
             mc_bins: 100,
             figures: target == Target::Observables,
         },
         path,
         model,
         quiet: args.quiet.quiet,
-        notes,
-        threads,
     })
 }
 
@@ -455,13 +457,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             spec,
             out,
             quiet,
-            notes,
-            threads,
-        } => {
-            print_notes(&notes);
-            set_threads(threads)?;
-            main_job(&path, &model, &spec, &out, quiet)
-        }
+        } => main_job(&path, &model, &spec, &out, quiet),
         Plan::Simulate {
             path,
             model,
@@ -470,37 +466,19 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             shard,
             out,
             quiet,
-            notes,
-            threads,
-        } => {
-            print_notes(&notes);
-            set_threads(threads)?;
-            simulate(&path, &model, &overrides, &config, shard, &out, quiet)
-        }
+        } => simulate(&path, &model, &overrides, &config, shard, &out, quiet),
         Plan::Sweep {
             model,
             spec,
             degree,
             out,
             quiet,
-            notes,
-            threads,
-        } => {
-            print_notes(&notes);
-            set_threads(threads)?;
-            sweep(&model, &spec, degree, &out, quiet)
-        }
+        } => sweep(&model, &spec, degree, &out, quiet),
         Plan::Merge {
             result,
             shards,
             out,
         } => merge(&result, shards, &out),
-    }
-}
-
-fn print_notes(notes: &[String]) {
-    for n in notes {
-        eprintln!("note: {n}");
     }
 }
 
@@ -825,17 +803,6 @@ fn check_threads(threads: Option<usize>, notes: &mut Vec<String>) -> Result<Opti
     Ok(Some(n))
 }
 
-/// Sets the worker threads (already checked).
-fn set_threads(threads: Option<usize>) -> Result<()> {
-    if let Some(n) = threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .context("setting up the worker threads")?;
-    }
-    Ok(())
-}
-
 fn sweep(
     model: &Model,
     spec: &SweepSpec,
@@ -847,9 +814,8 @@ fn sweep(
     let t = std::time::Instant::now();
     let bar = Bar::new(quiet);
     bar.stage("sweep");
-    let result = Sweep::run_with_progress(model, spec, degree, &|done, total| {
-        bar.advance(done, total)
-    });
+    let result =
+        Sweep::run_with_progress(model, spec, degree, &|done, total| bar.advance(done, total));
     bar.finish();
     let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
     println!(
@@ -1064,7 +1030,7 @@ mod tests {
         ])
         .unwrap();
         let plan = plan(cli).unwrap();
-        assert!(matches!(plan, Plan::Job { .. }));
+        assert!(matches!(plan.plan, Plan::Job { .. }));
         assert!(!root.exists());
     }
 }
