@@ -104,9 +104,20 @@ impl FpkOperator {
         FpkOperator::derive_unchecked(model)
     }
 
-    /// The derivation itself, without the admissibility check (for tests of the formulas on
-    /// models that have no stationary density).
-    pub(crate) fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+    /// The derivation without the admissibility check: for the members of a homotopy
+    /// ([`crate::epc::Epc::branch`]), which may step a little outside the physical range
+    /// (r = 1 + 5e-7 when a family starts at r = 1), and for tests of the formulas. Anything
+    /// that solves or reports a density uses [`FpkOperator::derive`].
+    ///
+    /// ```
+    /// use fpsolve::fpk::FpkOperator;
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let b = load_model(&path).unwrap().bind(&[Override::number("r", 1.0000005)]).unwrap();
+    /// assert!(FpkOperator::derive(&b).is_err());
+    /// assert!(FpkOperator::derive_unchecked(&b).is_ok());
+    /// ```
+    pub fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
         let states = model.states().clone();
         let g = model.noise_matrix();
         let s = model.intensity();
