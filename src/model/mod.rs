@@ -153,6 +153,24 @@ pub(crate) struct Origin {
     pub(crate) correlations: Vec<ast::Span>,
     /// The barrier position.
     pub(crate) barrier: Option<ast::Span>,
+    /// The jump map.
+    pub(crate) map: Option<ast::Span>,
+    /// The drift of each state.
+    pub(crate) drifts: [Option<ast::Span>; 2],
+    /// The diffusion line of each state.
+    pub(crate) diffusions: [Option<ast::Span>; 2],
+}
+
+impl Origin {
+    /// `message` rendered at `span`, like every other diagnostic of the file.
+    pub(crate) fn diagnostic(
+        &self,
+        span: ast::Span,
+        message: String,
+        help: Option<String>,
+    ) -> Diagnostic {
+        Diagnostic::new(&self.source, self.path.as_deref(), span, message, help)
+    }
 }
 
 /// Where a model was read from is not part of what it says: a model printed and parsed
