@@ -376,6 +376,17 @@ impl fmt::Display for FpkOperator {
                 }
             }
         }
+        match &self.impact {
+            Some(form @ ImpactForm::Zhuravlev { .. }) => writeln!(
+                f,
+                "Impact law: {form}, represented by the delta term of the drift"
+            )?,
+            Some(form @ ImpactForm::Unsupported { .. }) => writeln!(
+                f,
+                "Impact law {form}; EPC refuses it, Monte Carlo simulates it"
+            )?,
+            None => {}
+        }
         Ok(())
     }
 }
