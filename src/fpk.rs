@@ -146,7 +146,7 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 }
 
 impl FpkOperator {
-    /// Derives the operator of a bound model, after checking that the model can have a
+    /// Derives the operator of a bound model and checks that the model can have a
     /// stationary density at all ([`physics::check`]): an operator exists only for models
     /// whose stationary FPK equation is worth solving.
     ///
@@ -173,8 +173,10 @@ impl FpkOperator {
                 }
             }
         }
+        // The symbolic derivation first: a term with no meaning is the more specific error.
+        let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
         physics::check(model)?;
-        FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))
+        Ok(operator)
     }
 
     /// The derivation without the admissibility check: for the members of a homotopy

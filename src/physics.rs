@@ -628,8 +628,6 @@ fn vanishing_diffusion_at_rest(model: &BoundModel, m: &[Expr; 2]) -> Result<(), 
         + op[0][2] * (op[1][0] * op[2][1] - op[1][1] * op[2][0]);
     let (a2, a1, a0) = (-tr, minors, -det);
     if a2 > 0.0 && a0 > 0.0 && a2 * a1 > a0 {
-        // The slowest rate: bisect for the real root of the cubic closest to zero is more
-        // than a message needs; the rate of the trace per mode is a fair summary.
         let decay_rate = smallest_decay_rate(a2, a1, a0);
         return Err(Inadmissible::VanishingDiffusionAtRest {
             states: [states[0].to_string(), states[1].to_string()],
