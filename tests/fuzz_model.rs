@@ -231,7 +231,7 @@ fn set_value() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(300))]
+    #![proptest_config(ProptestConfig::with_cases(1000))]
 
     #[test]
     fn random_bytes_give_a_model_or_a_located_error(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
