@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     Override::number("eps", eps * l),
                 ])
                 .map_err(|e| e.to_string())?;
-            FpkOperator::derive(&b).map_err(|e| e.to_string())
+            FpkOperator::derive_unchecked(&b).map_err(|e| e.to_string())
         };
         match Epc::new(&fpk, model.delta_treatment()).degree(6).branch(&at) {
             Ok(b) => match b.end {

@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::model::{BoundModel, Interpretation};
+use crate::model::{BoundModel, Diagnostic, Interpretation};
 use crate::physics::{self, ImpactForm, Inadmissible};
 use crate::symbolic::{
     diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
@@ -63,6 +63,79 @@ pub enum FpkError {
     /// noise, …): refused before anything is derived, see [`physics::check`].
     #[error(transparent)]
     Inadmissible(#[from] Inadmissible),
+    /// One of the errors above, at the line of the model file that causes it (`Display`: the
+    /// message, then file:line:col and the source line with a caret).
+    #[error("{}", diagnostic.without_prefix())]
+    Located {
+        /// The error.
+        error: Box<FpkError>,
+        /// Where, rendered.
+        diagnostic: Diagnostic,
+    },
+}
+
+impl FpkError {
+    /// Where in the model file the cause is, when the model was read from a file and the
+    /// failure can be traced to one drift or diffusion line.
+    ///
+    /// ```
+    /// use fpsolve::fpk::FpkOperator;
+    /// let src = "model m\nstate z, v\ndrift z: v\ndrift v: -z - v - v*sgn(z)*delta(z)\n\
+    ///            noise xi: intensity 1\ndiffusion v: xi\n";
+    /// let bound = fpsolve::model::parse_model(src, None).unwrap().bind(&[]).unwrap();
+    /// let err = FpkOperator::derive(&bound).unwrap_err();
+    /// assert_eq!(err.diagnostic().map(|d| (d.line(), d.column())), Some((4, 10)));
+    /// ```
+    pub fn diagnostic(&self) -> Option<&Diagnostic> {
+        match self {
+            FpkError::Located { diagnostic, .. } => Some(diagnostic),
+            _ => None,
+        }
+    }
+}
+
+/// Traces a derivation failure to the one line of the model file that causes it: the
+/// derivation is repeated with only that line kept (the other drift and the other noise rows
+/// set to zero); the first line that fails alone is the cause.
+fn locate(model: &BoundModel, error: FpkError) -> FpkError {
+    let Some(origin) = model.origin.clone() else {
+        return error;
+    };
+    if matches!(error, FpkError::Inadmissible(_) | FpkError::Located { .. }) {
+        return error;
+    }
+    let zero = Expr::num(0.0);
+    let mut candidates = Vec::new();
+    for i in 0..2 {
+        if let Some(span) = origin.drifts[i] {
+            let mut alone = model.clone();
+            alone.drift[1 - i] = zero.clone();
+            for row in alone.noise_matrix.iter_mut() {
+                row.iter_mut().for_each(|g| *g = zero.clone());
+            }
+            candidates.push((span, alone));
+        }
+    }
+    for i in 0..2 {
+        if let Some(span) = origin.diffusions[i] {
+            let mut alone = model.clone();
+            alone.drift = [zero.clone(), zero.clone()];
+            alone.noise_matrix[1 - i]
+                .iter_mut()
+                .for_each(|g| *g = zero.clone());
+            candidates.push((span, alone));
+        }
+    }
+    for (span, alone) in candidates {
+        if FpkOperator::derive_unchecked(&alone).is_err() {
+            let diagnostic = origin.diagnostic(span, error.to_string(), None);
+            return FpkError::Located {
+                error: Box::new(error),
+                diagnostic,
+            };
+        }
+    }
+    error
 }
 
 fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, FpkError> {
@@ -73,7 +146,7 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 }
 
 impl FpkOperator {
-    /// Derives the operator of a bound model, after checking that the model can have a
+    /// Derives the operator of a bound model and checks that the model can have a
     /// stationary density at all ([`physics::check`]): an operator exists only for models
     /// whose stationary FPK equation is worth solving.
     ///
@@ -100,13 +173,26 @@ impl FpkOperator {
                 }
             }
         }
+        // The symbolic derivation first: a term with no meaning is the more specific error.
+        let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
         physics::check(model)?;
-        FpkOperator::derive_unchecked(model)
+        Ok(operator)
     }
 
-    /// The derivation itself, without the admissibility check (for tests of the formulas on
-    /// models that have no stationary density).
-    pub(crate) fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+    /// The derivation without the admissibility check: for the members of a homotopy
+    /// ([`crate::epc::Epc::branch`]), which may step a little outside the physical range
+    /// (r = 1 + 5e-7 when a family starts at r = 1), and for tests of the formulas. Anything
+    /// that solves or reports a density uses [`FpkOperator::derive`].
+    ///
+    /// ```
+    /// use fpsolve::fpk::FpkOperator;
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let b = load_model(&path).unwrap().bind(&[Override::number("r", 1.0000005)]).unwrap();
+    /// assert!(FpkOperator::derive(&b).is_err());
+    /// assert!(FpkOperator::derive_unchecked(&b).is_ok());
+    /// ```
+    pub fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
         let states = model.states().clone();
         let g = model.noise_matrix();
         let s = model.intensity();
@@ -292,6 +378,17 @@ impl fmt::Display for FpkOperator {
                 }
             }
         }
+        match &self.impact {
+            Some(form @ ImpactForm::Zhuravlev { .. }) => writeln!(
+                f,
+                "Impact law: {form}, represented by the delta term of the drift"
+            )?,
+            Some(form @ ImpactForm::Unsupported { .. }) => writeln!(
+                f,
+                "Impact law {form}; EPC refuses it, Monte Carlo simulates it"
+            )?,
+            None => {}
+        }
         Ok(())
     }
 }
@@ -331,6 +428,7 @@ mod tests {
             impact: None,
             observables: vec![],
             delta: DeltaTreatment::Exact,
+            origin: None,
         }
     }
 

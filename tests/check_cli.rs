@@ -42,6 +42,7 @@ fn check_prints_eq_13_for_case_1() {
             "A_v = 0.1*v + z + 0.1*z^3 + 0.05*v*abs(v)*delta(z)",
             "B_vv = 0.005*z^2 + 0.1*abs(z) + 0.5",
             "(no Wong-Zakai correction)",
+            "Impact law: Zhuravlev (r = 0.95), represented by the delta term of the drift",
         ],
     );
 }
@@ -160,8 +161,12 @@ fn epc_refuses_an_impact_law_in_original_coordinates() {
     )
     .unwrap();
     let path = model.to_str().unwrap();
-    let (status, _, stderr) = run(&["check", path]);
+    let (status, stdout, stderr) = run(&["check", path]);
     assert_eq!(status, Some(0), "{stderr}");
+    assert!(
+        stdout.contains("Impact law `impact x = 0: v -> -0.95*v`: it reflects the velocity"),
+        "{stdout}"
+    );
     let out = dir.join("out");
     let (status, stdout, stderr) = run(&["solve", path, "--out", out.to_str().unwrap()]);
     // Every degree is refused: never exit 0, never a number for x.

@@ -254,7 +254,7 @@ fn table1_case1_degree6_branch_from_the_exact_case() {
                 Override::number("eps", 0.1 * l),
             ])
             .map_err(|e| e.to_string())?;
-        FpkOperator::derive(&bound).map_err(|e| e.to_string())
+        FpkOperator::derive_unchecked(&bound).map_err(|e| e.to_string())
     };
     let target = at(1.0).unwrap();
     let epc = Epc::new(&target, model.delta_treatment()).degree(6);

@@ -254,7 +254,9 @@ impl<'a> Epc<'a> {
     /// weights) to λ = 1 (normally this problem's operator) by pseudo-arclength continuation,
     /// with the weights σ of this problem held fixed. The answer says whether the branch
     /// reaches λ = 1 or folds back first, which is evidence about whether the target has a
-    /// real solution connected to the λ = 0 one.
+    /// real solution connected to the λ = 0 one. The continuation may evaluate the family a
+    /// little outside [0, 1], so build its members with [`FpkOperator::derive_unchecked`] when
+    /// the family starts at a physical limit (r = 1, say).
     ///
     /// ```
     /// use fpsolve::epc::{BranchEnd, Epc};

@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable};
+use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable, Origin};
 use crate::symbolic::{Expr, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
@@ -96,19 +96,27 @@ pub enum BindError {
     },
     /// One of the errors above, at the place in the model file where the offending value is
     /// written (`Display`: the message, then file:line:col and the source line with a caret).
-    #[error("{}", located(diagnostic))]
+    /// An expression of the model whose constant part, once the parameters are numbers, is
+    /// not finite (`-c*v/0`, `1e300*1e10*z`).
+    #[error(
+        "{what} contains `{term}`, which evaluates to {} with the parameter values bound",
+        number(*value)
+    )]
+    NotFiniteTerm {
+        /// Which expression (`the drift of `v``).
+        what: String,
+        /// The constant subexpression, printed.
+        term: String,
+        /// Its value.
+        value: f64,
+    },
+    #[error("{}", diagnostic.without_prefix())]
     Located {
         /// The error.
         error: Box<BindError>,
         /// Where, rendered.
         diagnostic: Diagnostic,
     },
-}
-
-/// A diagnostic's rendering without its leading `error: `, so that a caller can prefix it.
-fn located(d: &Diagnostic) -> String {
-    let text = d.to_string();
-    text.strip_prefix("error: ").unwrap_or(&text).to_string()
 }
 
 impl BindError {
@@ -175,9 +183,46 @@ pub struct BoundModel {
     pub(crate) impact: Option<BoundImpact>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
+    /// Where the model was read from (for locating errors of later stages).
+    pub(crate) origin: Option<std::sync::Arc<Origin>>,
+}
+
+/// The first subexpression of `e` made of numbers only whose value is not finite.
+fn non_finite_constant(e: &Expr) -> Option<(String, f64)> {
+    if e.symbols().is_empty() && !e.contains_delta() {
+        return match e.eval(&|_| None) {
+            Ok(v) if !v.is_finite() => Some((format!("{e:#}"), v)),
+            _ => None,
+        };
+    }
+    match e {
+        Expr::Num(_) | Expr::Sym(_) => None,
+        Expr::Add(v) | Expr::Mul(v) | Expr::Call(_, v) => v.iter().find_map(non_finite_constant),
+        Expr::Pow(b, x) => non_finite_constant(b).or_else(|| non_finite_constant(x)),
+    }
 }
 
 impl BoundModel {
+    /// Refuses a drift, diffusion or jump map with a non-finite constant part.
+    fn check_constants(&self) -> Result<(), BindError> {
+        let mut exprs: Vec<(String, &Expr)> = Vec::new();
+        for i in 0..2 {
+            exprs.push((format!("the drift of `{}`", self.states[i]), &self.drift[i]));
+            for g in &self.noise_matrix[i] {
+                exprs.push((format!("the diffusion of `{}`", self.states[i]), g));
+            }
+        }
+        if let Some(law) = &self.impact {
+            exprs.push(("the impact map".to_string(), &law.map));
+        }
+        for (what, e) in exprs {
+            if let Some((term, value)) = non_finite_constant(e) {
+                return Err(BindError::NotFiniteTerm { what, term, value });
+            }
+        }
+        Ok(())
+    }
+
     /// The model's name.
     pub fn name(&self) -> &str {
         &self.name
@@ -273,18 +318,27 @@ impl Model {
                 (i.and_then(|i| origin.correlations.get(i).copied()), None)
             }
             BindError::BadBarrier { .. } => (origin.barrier, None),
+            BindError::NotFiniteTerm { what, .. } => {
+                let state = |i: usize| format!("`{}`", self.states[i]);
+                let span = if what.starts_with("the drift") {
+                    (0..2)
+                        .find(|i| what.ends_with(&state(*i)))
+                        .and_then(|i| origin.drifts[i])
+                } else if what.starts_with("the diffusion") {
+                    (0..2)
+                        .find(|i| what.ends_with(&state(*i)))
+                        .and_then(|i| origin.diffusions[i])
+                } else {
+                    origin.map
+                };
+                (span, None)
+            }
             _ => (None, None),
         };
         let Some(span) = span else {
             return error;
         };
-        let diagnostic = Diagnostic::new(
-            &origin.source,
-            origin.path.as_deref(),
-            span,
-            error.to_string(),
-            help,
-        );
+        let diagnostic = origin.diagnostic(span, error.to_string(), help);
         BindError::Located {
             error: Box::new(error),
             diagnostic,
@@ -337,7 +391,7 @@ impl Model {
                 })
             }
         };
-        Ok(BoundModel {
+        let bound = BoundModel {
             name: self.name.clone(),
             states: self.states.clone(),
             drift: [subst(&self.drift[0]), subst(&self.drift[1])],
@@ -359,7 +413,10 @@ impl Model {
                 .collect(),
             delta: self.delta,
             params: values,
-        })
+            origin: self.origin.clone(),
+        };
+        bound.check_constants()?;
+        Ok(bound)
     }
 
     /// Evaluates every parameter, overrides first, in declaration order.
@@ -473,6 +530,53 @@ mod tests {
             delta: DeltaTreatment::Exact,
             origin: None,
         }
+    }
+
+    #[test]
+    fn a_non_finite_constant_in_an_expression_is_located() {
+        let src = "model m\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v/0 - z\n\
+                   noise xi: intensity 1\ndiffusion v: xi\n";
+        let m = crate::model::parse_model(src, Some(std::path::Path::new("m.sde"))).unwrap();
+        let err = m.bind(&[]).unwrap_err();
+        assert!(
+            matches!(err.cause(), BindError::NotFiniteTerm { what, .. } if what == "the drift of `v`"),
+            "{err:?}"
+        );
+        let d = err.diagnostic().unwrap();
+        assert_eq!((d.line(), d.column()), (5, 10));
+        assert!(err.to_string().contains(" --> m.sde:5:10"), "{err}");
+        // A --set that makes a default non-finite is located at the default, and says so.
+        let src = "model m\nparam c = 0.1, a = 1/c\nstate z, v\ndrift z: v\ndrift v: -a*v - z\n\
+                   noise xi: intensity 1\ndiffusion v: xi\n";
+        let m = crate::model::parse_model(src, None).unwrap();
+        let err = m.bind(&[Override::number("c", 0.0)]).unwrap_err();
+        let d = err.diagnostic().unwrap();
+        assert_eq!((d.line(), d.column()), (2, 20));
+        assert_eq!(d.help(), Some("`a` depends on `c`, set by an override"));
+        assert_eq!(
+            err.to_string().lines().next(),
+            Some("parameter `a` evaluates to inf")
+        );
+        // The override's own value has no place in the file: it names the parameter.
+        let err = m
+            .bind(&[Override {
+                name: "c".into(),
+                value: Expr::num(1e308) * Expr::num(10.0),
+            }])
+            .unwrap_err();
+        assert!(err.diagnostic().is_none());
+        assert_eq!(err.to_string(), "parameter `c` evaluates to inf");
+        // Numbers in messages never run to hundreds of digits (`{}` of -1e140 has 141).
+        let src = "model m\nparam S = 1\nstate z, v\ndrift z: v\ndrift v: -v - z\n\
+                   noise xi: intensity S\ndiffusion v: xi\n";
+        let m = crate::model::parse_model(src, None).unwrap();
+        let err = m.bind(&[Override::number("S", -1e140)]).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.starts_with("noise `xi` has intensity -1e140; "),
+            "{text}"
+        );
+        assert!(text.len() < 400, "{text}");
     }
 
     #[test]

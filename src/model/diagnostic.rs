@@ -94,6 +94,12 @@ impl Diagnostic {
         }
     }
 
+    /// The rendering without its leading `error: `, for a caller that prefixes its own.
+    pub(crate) fn without_prefix(&self) -> String {
+        let text = &self.inner.rendered;
+        text.strip_prefix("error: ").unwrap_or(text).to_string()
+    }
+
     /// The one-line message (`unknown identifier `mux``).
     ///
     /// ```

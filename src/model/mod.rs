@@ -141,7 +141,7 @@ pub struct Model {
 
 /// The source text of a parsed model and the spans of the expressions that binding
 /// evaluates, so that a value found wrong then is reported at file:line:col.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub(crate) struct Origin {
     pub(crate) source: String,
     pub(crate) path: Option<String>,
@@ -153,6 +153,32 @@ pub(crate) struct Origin {
     pub(crate) correlations: Vec<ast::Span>,
     /// The barrier position.
     pub(crate) barrier: Option<ast::Span>,
+    /// The jump map.
+    pub(crate) map: Option<ast::Span>,
+    /// The drift of each state.
+    pub(crate) drifts: [Option<ast::Span>; 2],
+    /// The diffusion line of each state.
+    pub(crate) diffusions: [Option<ast::Span>; 2],
+}
+
+impl Origin {
+    /// `message` rendered at `span`, like every other diagnostic of the file.
+    pub(crate) fn diagnostic(
+        &self,
+        span: ast::Span,
+        message: String,
+        help: Option<String>,
+    ) -> Diagnostic {
+        Diagnostic::new(&self.source, self.path.as_deref(), span, message, help)
+    }
+}
+
+/// Where a model was read from is not part of what it says: a model printed and parsed
+/// again is the same model.
+impl PartialEq for Origin {
+    fn eq(&self, _: &Origin) -> bool {
+        true
+    }
 }
 
 impl Model {

@@ -848,6 +848,9 @@ impl<'a> Validator<'a> {
         let mut intensity_spans = Vec::new();
         let mut correlation_spans = Vec::new();
         let mut barrier_span = None;
+        let mut map_span = None;
+        let mut drift_spans = [None, None];
+        let mut diffusion_spans = [None, None];
 
         for st in &self.ast.statements {
             match &st.kind {
@@ -860,6 +863,7 @@ impl<'a> Validator<'a> {
                     }
                     let e = self.scope.lower(expr, Context::StateFunction("a drift"))?;
                     self.check_drift_deltas(expr, i)?;
+                    drift_spans[i] = Some(expr.span);
                     drift[i] = Some((e, state.span));
                 }
                 StatementKind::Noise { name, intensity } => {
@@ -910,6 +914,7 @@ impl<'a> Validator<'a> {
                                 l
                             })?;
                     self.forbid_delta(expr, DeltaMisuse::InDiffusion)?;
+                    diffusion_spans[i] = Some(expr.span);
                     diffusion[i] = Some((map, state.span));
                 }
                 StatementKind::Interpretation(i) => interpretation = *i,
@@ -947,6 +952,7 @@ impl<'a> Validator<'a> {
                     )?;
                     self.forbid_delta(map, DeltaMisuse::InImpactMap)?;
                     barrier_span = Some(at.span);
+                    map_span = Some(map.span);
                     impact = Some(law);
                 }
                 StatementKind::Observe(bindings) => {
@@ -1004,6 +1010,9 @@ impl<'a> Validator<'a> {
                 intensities: intensity_spans,
                 correlations: correlation_spans,
                 barrier: barrier_span,
+                map: map_span,
+                drifts: drift_spans,
+                diffusions: diffusion_spans,
             })),
         })
     }
@@ -1976,6 +1985,74 @@ diffusion v: xi
             assert!(err.to_string().contains("malformed number"), "{bad}: {err}");
             assert_eq!((err.line(), err.column()), (Some(6), Some(21)), "{bad}");
         }
+    }
+
+    #[test]
+    fn misplaced_deltas_are_named_where_they_are_written() {
+        let misuse = |drift: &str| match error(&replaced("-c*v - k*z", drift)) {
+            (SemanticError::MisplacedDelta { delta, misuse }, l, c) => (delta, misuse, l, c),
+            other => panic!("{drift}: {other:?}"),
+        };
+        let abs = DeltaMisuse::InFunction { func: "abs".into() };
+        assert_eq!(
+            misuse("-c*v - k*z - abs(delta(z))"),
+            ("delta(z)".into(), abs, 5, 27)
+        );
+        assert_eq!(misuse("-c*v - delta(z)^2").1, DeltaMisuse::InPower);
+        assert_eq!(misuse("-c*v - 2^delta(z)").1, DeltaMisuse::InExponent);
+        assert_eq!(misuse("-c*v - v/delta(z)").1, DeltaMisuse::InDenominator);
+        assert_eq!(
+            misuse("-c*v - delta(z)*v*delta(v)").1,
+            DeltaMisuse::TimesDelta
+        );
+        assert_eq!(misuse("-c*v - delta(c)").1, DeltaMisuse::NoState);
+        assert_eq!(misuse("-c*v - delta(z + v)").1, DeltaMisuse::BothStates);
+        assert_eq!(
+            misuse("-c*v - delta(z*z)").1,
+            DeltaMisuse::NonlinearArgument { state: "z".into() }
+        );
+        assert_eq!(
+            misuse("-c*v - delta(v)").1,
+            DeltaMisuse::OwnDrift { state: "v".into() }
+        );
+        // The paper's term and its relatives are fine.
+        for ok in [
+            "-c*v - k*z - (1 - c)*v*abs(v)*delta(z)",
+            "-c*v - (1 + delta(z - 1))*v",
+            "-c*v - v*delta(2*z + c)",
+        ] {
+            assert!(
+                parse_model(&replaced("-c*v - k*z", ok), None).is_ok(),
+                "{ok}"
+            );
+        }
+        let (e, l, c) = error(&with("impact z = 0: v -> delta(z)*v"));
+        assert!(matches!(
+            e,
+            SemanticError::MisplacedDelta {
+                misuse: DeltaMisuse::InImpactMap,
+                ..
+            }
+        ));
+        assert_eq!((l, c), (8, 20));
+        let (e, ..) = error(&replaced("diffusion v: xi", "diffusion v: delta(z)*xi"));
+        assert!(matches!(
+            e,
+            SemanticError::MisplacedDelta {
+                misuse: DeltaMisuse::InDiffusion,
+                ..
+            }
+        ));
+        let (e, ..) = error(&replaced("intensity 1", "intensity delta(1)"));
+        assert!(matches!(
+            e,
+            SemanticError::MisplacedDelta {
+                misuse: DeltaMisuse::InConstant {
+                    context: "a noise intensity"
+                },
+                ..
+            }
+        ));
     }
 
     #[test]
