@@ -525,7 +525,8 @@ fn check(path: &Path, model: &Model, overrides: &[Override]) -> Result<()> {
     write!(out, "{model}").context("writing to stdout")?;
     writeln!(out, "\n# parameter values").context("writing to stdout")?;
     for (name, value) in bound.params() {
-        writeln!(out, "#   {name} = {value}").context("writing to stdout")?;
+        writeln!(out, "#   {name} = {}", fpsolve::model::number(*value))
+            .context("writing to stdout")?;
     }
     let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
     writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;

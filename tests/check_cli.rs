@@ -169,8 +169,9 @@ fn epc_refuses_an_impact_law_in_original_coordinates() {
     );
     let out = dir.join("out");
     let (status, stdout, stderr) = run(&["solve", path, "--out", out.to_str().unwrap()]);
-    // Every degree is refused: never exit 0, never a number for x.
-    assert_ne!(status, Some(0), "{stdout}\n{stderr}");
+    // Refused before any work: exit 2, nothing written, never a number for x.
+    assert_eq!(status, Some(2), "{stdout}\n{stderr}");
+    assert!(!out.exists());
     assert!(
         stderr.contains("EPC cannot use the impact law `impact x = 0: v -> -0.95*v`"),
         "{stderr}"
