@@ -469,7 +469,7 @@ fn simulate(
     let config = mc_config(args, samples)?;
     // Everything is checked, and the cost estimated, before any trajectory runs.
     let estimate = config
-        .preflight(&bound)
+        .estimate(&bound)
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let shard = match shard {
         Some(spec) => Some(
@@ -488,6 +488,9 @@ fn simulate(
         ),
         None => None,
     };
+    estimate
+        .within_limits(shard.map_or(1, |(_, n)| n))
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let sim = Simulation::new(&bound, &config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let dir = default_out(out, &model);
     let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;

@@ -96,7 +96,8 @@ pub enum McError {
     },
     /// The run would take longer than the limit (estimated before starting).
     #[error(
-        "the run would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
+        "the run{} would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
+        one_of(*shards),
         human_seconds(*seconds),
         human_seconds(*limit_seconds)
     )]
@@ -111,10 +112,13 @@ pub enum McError {
         rate: f64,
         /// Threads assumed.
         threads: usize,
+        /// The run is split into this many shards; the estimate is for one.
+        shards: u64,
     },
     /// The run would need more memory than the limit (estimated before starting).
     #[error(
-        "the run would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
+        "the run{} would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
+        one_of(*shards),
         bytes,
         limit_bytes
     )]
@@ -125,7 +129,18 @@ pub enum McError {
         limit_bytes: f64,
         /// Histogram bins over all quantities.
         bins: f64,
+        /// The run is split into this many shards; the estimate is for one.
+        shards: u64,
     },
+}
+
+/// ` (one shard of N)` for a split run, nothing for a whole one.
+fn one_of(shards: u64) -> String {
+    if shards > 1 {
+        format!(" (one shard of {shards})")
+    } else {
+        String::new()
+    }
 }
 
 /// `3.2 h`, `45 s`, `2.1e9 years`: a duration for a message, never a 140-digit number.

@@ -152,6 +152,47 @@ pub struct RunEstimate {
     /// Estimated memory of the histograms (kept per statistics batch until the merge), in
     /// bytes.
     pub memory_bytes: f64,
+    /// Trajectory steps of the pilot run (paid by every shard).
+    pub pilot_steps: f64,
+    /// The throughput assumed, steps per second per thread.
+    pub rate: f64,
+    /// Bytes of one statistics batch's histograms.
+    pub batch_bytes: f64,
+    /// Histogram bins over all quantities.
+    pub bins: f64,
+}
+
+impl RunEstimate {
+    /// Checks that one of `shards` equal shards of the run (1: the whole run) fits
+    /// [`TIME_LIMIT_SECONDS`] and [`MEMORY_LIMIT_BYTES`]; the error carries the estimate.
+    pub fn within_limits(&self, shards: u64) -> Result<(), McError> {
+        let shards = shards.clamp(1, self.batches.max(1));
+        let share = 1.0 / shards as f64;
+        let steps = (self.steps - self.pilot_steps) * share + self.pilot_steps;
+        let seconds = steps / (self.rate * self.threads as f64);
+        let kept = ((self.batches + self.bias_batches) as f64 * share).ceil();
+        let memory = self.memory_bytes
+            - self.batch_bytes * ((self.batches + self.bias_batches) as f64 - kept);
+        if memory.is_nan() || memory > MEMORY_LIMIT_BYTES {
+            return Err(McError::TooMuchMemory {
+                bytes: memory,
+                limit_bytes: MEMORY_LIMIT_BYTES,
+                bins: self.bins,
+                shards,
+            });
+        }
+        if seconds.is_nan() || seconds > TIME_LIMIT_SECONDS {
+            return Err(McError::TooLong {
+                seconds,
+                limit_seconds: TIME_LIMIT_SECONDS,
+                steps,
+                rate: self.rate,
+                threads: self.threads,
+                shards,
+            });
+        }
+        Ok(())
+    }
 }
 
 /// The checked numbers a run derives from its configuration.
@@ -170,7 +211,8 @@ impl McConfig {
     /// of range (dt, a spacing that is not a whole number of steps, burn-in, trajectories,
     /// lanes, samples, grids) and runs estimated to take more than [`TIME_LIMIT_SECONDS`]
     /// or more memory than [`MEMORY_LIMIT_BYTES`], with the estimate in the error.
-    /// [`Simulation::new`] makes the same checks.
+    /// [`Simulation::new`] makes the same checks, with the limits applied to the smallest
+    /// shard (one statistics batch), since it also sets up shards.
     ///
     /// ```
     /// use fpsolve::mc::{reference, McConfig, McError};
@@ -181,6 +223,23 @@ impl McConfig {
     /// assert!(matches!(forever.preflight(&model), Err(McError::TooLong { .. })));
     /// ```
     pub fn preflight(&self, model: &BoundModel) -> Result<RunEstimate, McError> {
+        let estimate = self.estimate(model)?;
+        estimate.within_limits(1)?;
+        Ok(estimate)
+    }
+
+    /// [`McConfig::preflight`] without the time and memory limits: every setting checked,
+    /// the cost estimated, for a caller that splits the run ([`RunEstimate::within_limits`]).
+    ///
+    /// ```
+    /// use fpsolve::mc::{reference, McConfig};
+    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// let big = McConfig { trajectories: 1 << 30, ..McConfig::default() };
+    /// let estimate = big.estimate(&model).unwrap();
+    /// assert!(estimate.within_limits(1).is_err());
+    /// assert!(estimate.within_limits(estimate.batches).is_ok());
+    /// ```
+    pub fn estimate(&self, model: &BoundModel) -> Result<RunEstimate, McError> {
         Ok(self.resolve(model)?.estimate)
     }
 
@@ -339,26 +398,14 @@ impl McConfig {
             bias_batches,
             burn_in_steps,
             steps,
+            pilot_steps: pilot,
+            rate,
             seconds,
             threads,
             memory_bytes,
+            batch_bytes: per_batch,
+            bins,
         };
-        if memory_bytes.is_nan() || memory_bytes > MEMORY_LIMIT_BYTES {
-            return Err(McError::TooMuchMemory {
-                bytes: memory_bytes,
-                limit_bytes: MEMORY_LIMIT_BYTES,
-                bins,
-            });
-        }
-        if seconds.is_nan() || seconds > TIME_LIMIT_SECONDS {
-            return Err(McError::TooLong {
-                seconds,
-                limit_seconds: TIME_LIMIT_SECONDS,
-                steps,
-                rate,
-                threads,
-            });
-        }
         Ok(Resolved {
             plan,
             steps_per_sample: steps_per_sample as u64,
@@ -400,8 +447,10 @@ impl Simulation {
             burn_in_steps,
             batches,
             bias_batches,
-            estimate: _,
+            estimate,
         } = config.resolve(model)?;
+        // The run may be split into as many shards as batches: the smallest shard must fit.
+        estimate.within_limits(batches)?;
         let dt = config.dt;
         let mut names: Vec<(String, bool)> =
             model.states.iter().map(|s| (s.to_string(), true)).collect();
@@ -498,7 +547,8 @@ impl Simulation {
     /// let sim = Simulation::new(&model, &config).unwrap();
     /// let seen = AtomicU64::new(0);
     /// sim.run_with_progress(&|_, _| { seen.fetch_add(1, Ordering::Relaxed); }).unwrap();
-    /// assert_eq!(seen.into_inner(), 4 + 2);
+    /// // 4 batches, run again at 2·dt for the bias estimate (at least 8, here all 4).
+    /// assert_eq!(seen.into_inner(), 4 + 4);
     /// ```
     pub fn run_with_progress(
         &self,
