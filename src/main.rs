@@ -472,35 +472,30 @@ fn simulate(
         .estimate(&bound)
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let shard = match shard {
-        Some(spec) => Some(
-            spec.split_once('/')
-                .and_then(|(k, n)| {
-                    Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?))
-                })
-                .filter(|(k, n)| *k >= 1 && k <= n && *n <= estimate.batches)
-                .ok_or_else(|| {
-                    anyhow!(
-                        "--shard `{spec}`: expected K/N with 1 <= K <= N <= {} (the run's \
-                         statistics batches)",
-                        estimate.batches
-                    )
-                })?,
-        ),
+        Some(spec) => {
+            let part: Shard = spec.parse().map_err(|e| anyhow!("--shard: {e}"))?;
+            if part.count > estimate.batches {
+                return Err(anyhow!(
+                    "--shard `{spec}`: at most {} shards (the run's statistics batches)",
+                    estimate.batches
+                )
+                .into());
+            }
+            Some(part)
+        }
         None => None,
     };
     estimate
-        .within_limits(shard.map_or(1, |(_, n)| n))
+        .within_limits(shard.map_or(1, |s| s.count))
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let sim = Simulation::new(&bound, &config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let dir = default_out(out, &model);
     let out = OutputDir::create(&dir).map_err(|e| anyhow!("{e}"))?;
     match shard {
-        Some((k, n)) => {
-            let part = sim
-                .run_shard(Shard::new(k - 1, n).map_err(|e| anyhow!("{e}"))?)
-                .map_err(|e| anyhow!("{e}"))?;
-            let file = write_json(&out, &format!("shard_{k}_of_{n}.json"), &part)
-                .map_err(|e| anyhow!("{e}"))?;
+        Some(shard) => {
+            let part = sim.run_shard(shard).map_err(|e| anyhow!("{e}"))?;
+            let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
+            let file = write_json(&out, &name, &part).map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", file.display());
             Ok(())
         }

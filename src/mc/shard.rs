@@ -52,6 +52,33 @@ impl Shard {
     }
 }
 
+impl std::str::FromStr for Shard {
+    type Err = McError;
+
+    /// Parses `K/N`, K counted from 1 as in the file names `shard_K_of_N.json`.
+    ///
+    /// ```
+    /// use fpsolve::mc::Shard;
+    /// let s: Shard = "2/3".parse().unwrap();
+    /// assert_eq!((s.index, s.count), (1, 3));
+    /// assert!("0/3".parse::<Shard>().is_err());
+    /// assert!("4/3".parse::<Shard>().is_err());
+    /// ```
+    fn from_str(text: &str) -> Result<Shard, McError> {
+        let bad = || McError::BadSetting {
+            name: "shard",
+            reason: format!("`{text}`: expected K/N with 1 <= K <= N"),
+        };
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let k: u64 = k.trim().parse().map_err(|_| bad())?;
+        let n: u64 = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Shard::new(k - 1, n)
+    }
+}
+
 /// What one shard computed: the run's settings (to check that shards belong together), one
 /// summary per statistics batch, and the coarse (2·dt) summaries of its batches that are in
 /// the bias estimate's range. Serialise it with serde (JSON) and merge with [`merge_shards`]
