@@ -56,7 +56,10 @@ pub enum McError {
         name: String,
     },
     /// Every trajectory of the run blew up: there is nothing to estimate from.
-    #[error("all {blowups} trajectories blew up (non-finite state); see their list for where")]
+    #[error(
+        "all {blowups} trajectories blew up (non-finite state): there is no stationary law to \
+         estimate (it may not exist for these parameters)"
+    )]
     AllBlewUp {
         /// How many trajectories were run.
         blowups: usize,
