@@ -26,7 +26,9 @@ pub enum McError {
         expr: String,
     },
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
-    #[error("the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value})")]
+    #[error(
+        "the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value:.6e})"
+    )]
     IntensityNotPsd {
         /// Index of the failing pivot.
         pivot: usize,
@@ -36,7 +38,7 @@ pub enum McError {
     /// The burn-in could not be estimated because the linearised drift at the origin has no
     /// decaying mode; set it explicitly.
     #[error(
-        "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate} \
+        "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate:?} \
          (not > 0); set the burn-in time explicitly"
     )]
     NoDecay {
@@ -191,7 +193,7 @@ pub enum ShardDefect {
         found: Vec<u64>,
     },
     /// A batch's numbers contradict each other or the settings.
-    #[error("statistics batch {batch}{}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
+    #[error("statistics batch {batch} (counted from 0){}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
     Batch {
         /// The batch index.
         batch: u64,

@@ -246,12 +246,12 @@ impl McConfig {
     fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(bad("dt", format!("must be a positive number, got {dt}")));
+            return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
         }
         if !(self.spacing.is_finite() && self.spacing > 0.0) {
             return Err(bad(
                 "spacing",
-                format!("must be a positive number, got {}", self.spacing),
+                format!("must be a positive number, got {:?}", self.spacing),
             ));
         }
         let ratio = self.spacing / dt;
@@ -260,7 +260,7 @@ impl McConfig {
             return Err(bad(
                 "spacing",
                 format!(
-                    "must be a positive whole number of steps dt = {dt}, got {}",
+                    "must be a positive whole number of steps dt = {dt:?}, got {:?}",
                     self.spacing
                 ),
             ));
@@ -323,7 +323,7 @@ impl McConfig {
         if !(self.bias_fraction.is_finite() && (0.0..=1.0).contains(&self.bias_fraction)) {
             return Err(bad(
                 "bias_fraction",
-                format!("must lie in [0, 1], got {}", self.bias_fraction),
+                format!("must lie in [0, 1], got {:?}", self.bias_fraction),
             ));
         }
         let plan = Plan::new(model, self.scheme)?;

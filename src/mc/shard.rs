@@ -106,7 +106,7 @@ impl RunSettings {
         if !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(defect_setting(
                 "dt",
-                format!("{} is not a positive number", self.dt),
+                format!("{:?} is not a positive number", self.dt),
             ));
         }
         if self.steps_per_sample == 0 || self.samples_per_trajectory == 0 {
@@ -152,7 +152,10 @@ impl RunSettings {
             {
                 return Err(defect_setting(
                     "grid",
-                    format!("`{}`: [{}, {}) with {} bins", q.name, g.lo, g.hi, g.bins),
+                    format!(
+                        "`{}`: [{:?}, {:?}) with {} bins",
+                        q.name, g.lo, g.hi, g.bins
+                    ),
                 ));
             }
         }
@@ -275,7 +278,7 @@ fn check_quantity(
     }
     if !(q.min.is_finite() && q.max.is_finite() && q.min <= q.max) {
         return Err(format!(
-            "min {} and max {} are not finite with min ≤ max",
+            "min {:?} and max {:?} are not finite with min ≤ max",
             q.min, q.max
         ));
     }
@@ -286,7 +289,7 @@ fn check_quantity(
         || (q.over > 0 && q.max < grid.hi - slack - grid.width())
     {
         return Err(format!(
-            "extremes [{}, {}] contradict {} samples below and {} above the grid [{}, {})",
+            "extremes [{:?}, {:?}] contradict {} samples below and {} above the grid [{:?}, {:?})",
             q.min, q.max, q.under, q.over, grid.lo, grid.hi
         ));
     }
@@ -301,7 +304,7 @@ fn check_quantity(
     for (k, &sum) in q.sums.iter().enumerate() {
         if !within(sum, finite as f64, k as i32 + 1) || (k % 2 == 1 && sum < 0.0) {
             return Err(format!(
-                "power sum {} = {sum} is impossible for its extremes",
+                "power sum {} = {sum:.6e} is impossible for its extremes",
                 k + 1
             ));
         }
