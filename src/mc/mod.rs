@@ -9,6 +9,13 @@
 //! a seed gives bit-identical results whatever the number of threads, and a run split into
 //! [`Shard`]s merges ([`merge_shards`]) to exactly the unsplit result.
 //!
+//! Trust is part of the result: [`McConfig::preflight`] checks settings and refuses runs that
+//! cannot finish before any work; every statistic carries its standard error and a
+//! [`TimeStepBias`] (Richardson, from a quarter of the batches run again at 2·dt); a finished
+//! [`McResult`] carries a [`Stationarity`] verdict (first vs last quarter of the recording)
+//! and a [`BlowUps`] verdict, and [`McResult::verdict`] turns a failed one into an error while
+//! the histograms stay available to be written, flagged.
+//!
 //! ```
 //! use fpsolve::mc::{reference, McConfig, Simulation};
 //! // A linear oscillator z'' + c z' + k z = ξ: Var z = S/(2ck).
