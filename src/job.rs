@@ -130,6 +130,37 @@ struct Summary<'a> {
     monte_carlo_wall_s: Option<f64>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     epc_vs_mc: Vec<Comparison>,
+    #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
+    unwritten: &'a [Unwritten],
+}
+
+/// A result file that could not be written, and why (the run's other files are kept).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unwritten {
+    /// The file's name.
+    pub file: String,
+    /// Why it could not be written.
+    pub error: String,
+}
+
+/// Records a written file, or why it could not be written.
+fn keep(
+    written: Result<PathBuf, ReportError>,
+    files: &mut Vec<PathBuf>,
+    unwritten: &mut Vec<Unwritten>,
+) {
+    match written {
+        Ok(p) => files.push(p),
+        Err(e) => unwritten.push(Unwritten {
+            file: match &e {
+                ReportError::Table { path, .. } | ReportError::Io { path, .. } => path
+                    .file_name()
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+                _ => String::new(),
+            },
+            error: e.to_string(),
+        }),
+    }
 }
 
 /// A finished job.
@@ -150,6 +181,8 @@ pub struct JobReport {
     /// Numbers of `summary.json` that have no finite value (written there as `null` and listed
     /// under `undefined`).
     pub undefined: Vec<UndefinedField>,
+    /// Result files that could not be written (listed in `summary.json` under `unwritten`).
+    pub unwritten: Vec<Unwritten>,
 }
 
 /// Runs a job and writes its files into `out`.
@@ -198,6 +231,8 @@ pub fn run(
 
     progress.stage("writing results");
     let mut files = Vec::new();
+    // A file that cannot be written does not cost the others: it is recorded in the summary.
+    let mut unwritten: Vec<Unwritten> = Vec::new();
     let mut comparisons = Vec::new();
     for name in &names {
         let curve = study
@@ -217,7 +252,11 @@ pub fn run(
                     .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
                     .collect(),
             };
-            files.push(table.write_csv(out, &format!("pdf_{name}.csv"))?);
+            keep(
+                table.write_csv(out, &format!("pdf_{name}.csv")),
+                &mut files,
+                &mut unwritten,
+            );
         }
         // The histogram beside each degree's bin averages, on the histogram's bins.
         if let Some(q) = mc_q {
@@ -232,7 +271,11 @@ pub fn run(
                 x: q.grid.centers(),
                 columns,
             };
-            files.push(table.write_csv(out, &format!("mc_{name}.csv"))?);
+            keep(
+                table.write_csv(out, &format!("mc_{name}.csv")),
+                &mut files,
+                &mut unwritten,
+            );
         }
         if spec.figures && !curve.x.is_empty() {
             let figure = PdfFigure {
@@ -254,9 +297,16 @@ pub fn run(
                     stderr: q.stderr.clone(),
                 }),
             };
-            let written = figure.write(out, &format!("pdf_{name}"))?;
-            files.push(written.png);
-            files.push(written.svg);
+            match figure.write(out, &format!("pdf_{name}")) {
+                Ok(written) => {
+                    files.push(written.png);
+                    files.push(written.svg);
+                }
+                Err(e) => unwritten.push(Unwritten {
+                    file: format!("pdf_{name}.png/.svg"),
+                    error: e.to_string(),
+                }),
+            }
         }
     }
     let summary = Summary {
@@ -265,6 +315,7 @@ pub fn run(
         monte_carlo_error: mc_error.as_deref(),
         monte_carlo_wall_s: mc.as_ref().map(|_| mc_wall_s),
         epc_vs_mc: comparisons.clone(),
+        unwritten: &unwritten,
     };
     let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
     files.push(path);
@@ -276,6 +327,7 @@ pub fn run(
         comparisons,
         files,
         undefined,
+        unwritten,
     })
 }
 
@@ -295,6 +347,9 @@ pub fn flags(report: &JobReport) -> Vec<String> {
         .collect();
     if let Some(e) = &report.mc_error {
         out.push(format!("Monte Carlo: {e}"));
+    }
+    for u in &report.unwritten {
+        out.push(format!("{} was not written: {}", u.file, u.error));
     }
     if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
         out.push(format!("Monte Carlo: {e}"));
@@ -573,8 +628,15 @@ fn mc_columns(q: &crate::mc::QuantityStats) -> Vec<(String, Vec<f64>)> {
         ("mc_stderr".into(), q.stderr.clone()),
     ];
     if let Some(b) = &q.time_step_bias {
-        columns.push(("mc_bias".into(), b.density.clone()));
-        columns.push(("mc_bias_stderr".into(), b.density_stderr.clone()));
+        // A bin whose bias has no finite estimate (too few samples in it) is a missing cell,
+        // not a number.
+        let defined = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .map(|x| if x.is_finite() { *x } else { f64::NAN })
+                .collect()
+        };
+        columns.push(("mc_bias".into(), defined(&b.density)));
+        columns.push(("mc_bias_stderr".into(), defined(&b.density_stderr)));
     }
     columns
 }

@@ -277,7 +277,7 @@ enum Plan {
         model: Model,
         overrides: Vec<Override>,
         config: McConfig,
-        shard: Option<(u64, u64)>,
+        shard: Option<Shard>,
         out: PathBuf,
         quiet: bool,
     },
@@ -330,16 +330,28 @@ fn plan(cli: Cli) -> Result<Planned> {
             let bound = m.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
             physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
-            let estimate = preflight(&m, &overrides, &flags.config)?;
-            let shard = shard.as_deref().map(parse_shard).transpose()?;
-            if let Some((_, n)) = shard {
-                if n > estimate.batches {
-                    bail!(
-                        "--shard: {n} shards for a run of {} statistics batches (at most one shard per batch)",
-                        estimate.batches
-                    );
+            // Settings checked and the cost estimated; the limits apply to what this process
+            // runs (one shard of N on a cluster).
+            let estimate = flags
+                .config
+                .estimate(&bound)
+                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let shard: Option<Shard> = match shard.as_deref() {
+                Some(spec) => {
+                    let part: Shard = spec.parse().map_err(|e| anyhow!("--shard `{spec}`: {e}"))?;
+                    if part.count > estimate.batches {
+                        bail!(
+                            "--shard `{spec}`: at most {} shards (the run's statistics batches)",
+                            estimate.batches
+                        );
+                    }
+                    Some(part)
                 }
-            }
+                None => None,
+            };
+            estimate
+                .within_limits(shard.map_or(1, |s| s.count))
+                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
             notes = flags.notes;
             threads = check_threads(mc_args.threads, &mut notes)?;
             Plan::Simulate {
@@ -480,14 +492,6 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             out,
         } => merge(&result, shards, &out),
     }
-}
-
-/// `K/N` with 1 ≤ K ≤ N.
-fn parse_shard(spec: &str) -> Result<(u64, u64)> {
-    spec.split_once('/')
-        .and_then(|(k, n)| Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?)))
-        .filter(|(k, n)| *k >= 1 && k <= n)
-        .ok_or_else(|| anyhow!("--shard `{spec}`: expected K/N with 1 <= K <= N"))
 }
 
 /// Parses `name=value` into an [`Override`].
@@ -746,22 +750,20 @@ fn simulate(
     model: &Model,
     overrides: &[Override],
     config: &McConfig,
-    shard: Option<(u64, u64)>,
+    shard: Option<Shard>,
     dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
     let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
     match shard {
-        Some((k, n)) => {
+        Some(shard) => {
             // Shards of one run share a directory: each adds its own file, atomically.
             let out = OutputDir::create(dir).map_err(|e| anyhow!("--out: {e}"))?;
             let sim =
                 Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-            let part = sim
-                .run_shard(Shard::new(k - 1, n).map_err(|e| anyhow!("{e}"))?)
-                .map_err(|e| anyhow!("{e}"))?;
-            let file = write_json(&out, &format!("shard_{k}_of_{n}.json"), &part)
-                .map_err(|e| anyhow!("{e}"))?;
+            let part = sim.run_shard(shard).map_err(|e| anyhow!("{e}"))?;
+            let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
+            let file = write_json(&out, &name, &part).map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", file.display());
             Ok(())
         }
@@ -1007,9 +1009,7 @@ mod tests {
             if let Err(e) = parse_grid(&text) {
                 prop_assert!(e.to_string().contains("--grid"));
             }
-            if let Err(e) = parse_shard(&text) {
-                prop_assert!(e.to_string().contains("--shard"));
-            }
+            let _ = text.parse::<Shard>();
             if let Err(e) = parse_count(&text, "--mc") {
                 prop_assert!(e.to_string().contains("--mc"));
             }

@@ -24,7 +24,11 @@ fn json(path: &Path) -> serde_json::Value {
 }
 
 fn simulate(extra: &[&str], dir: &Path) -> (Option<i32>, String, String) {
-    let mut args = vec!["simulate", "models/vibro_duffing.sde"];
+    simulate_model("models/vibro_duffing.sde", extra, dir)
+}
+
+fn simulate_model(model: &str, extra: &[&str], dir: &Path) -> (Option<i32>, String, String) {
+    let mut args = vec!["simulate", model];
     args.extend_from_slice(extra);
     args.extend_from_slice(&["--out", dir.to_str().unwrap()]);
     let out = fpsolve(&args);
@@ -37,15 +41,20 @@ fn simulate(extra: &[&str], dir: &Path) -> (Option<i32>, String, String) {
 
 #[test]
 fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
+    // Models the admissibility check refuses (r > 1, no damping) never get this far; this one
+    // passes it (damped, stable at rest) and still escapes over its potential barrier.
     let dir = temp_dir("blowups");
-    let (code, stdout, stderr) = simulate(
+    let (code, stdout, stderr) = simulate_model(
+        "tests/models/softening_duffing.sde",
         &[
-            "--set",
-            "r=1.15",
             "--samples",
             "1e5",
             "--trajectories",
             "512",
+            "--grid",
+            "z=-10:10:50",
+            "--grid",
+            "v=-10:10:50",
         ],
         &dir,
     );
@@ -56,24 +65,19 @@ fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
     assert!(!stderr.contains("panicked"));
     let summary = json(&dir.join("mc_summary.json"));
     assert_eq!(summary["blowup_verdict"]["verdict"], "too-many");
-    assert!(dir.join("mc_y.csv").exists());
+    assert!(dir.join("mc_z.csv").exists());
 }
 
 #[test]
-fn an_undamped_run_exits_1_as_not_stationary() {
-    let dir = temp_dir("undamped");
-    let (code, stdout, stderr) = simulate(
+fn a_run_that_keeps_growing_exits_1_as_not_stationary() {
+    let dir = temp_dir("growing");
+    let (code, stdout, stderr) = simulate_model(
+        "tests/models/fading_damping.sde",
         &[
-            "--set",
-            "c=0",
-            "--set",
-            "r=1",
-            "--set",
-            "eps=0",
             "--burn-in",
             "50",
             "--samples",
-            "4e5",
+            "8e5",
             "--trajectories",
             "4096",
         ],
@@ -84,6 +88,22 @@ fn an_undamped_run_exits_1_as_not_stationary() {
     assert!(stderr.contains("not stationary"), "{stderr}");
     let summary = json(&dir.join("mc_summary.json"));
     assert_eq!(summary["stationarity"]["verdict"], "not-stationary");
+}
+
+#[test]
+fn models_without_a_stationary_law_are_refused_before_simulating() {
+    for set in [
+        &["--set", "r=1.15"][..],
+        &["--set", "c=0", "--set", "r=1", "--set", "eps=0"],
+    ] {
+        let dir = temp_dir("refused");
+        let mut extra = set.to_vec();
+        extra.extend_from_slice(&["--samples", "1e5"]);
+        let (code, _, stderr) = simulate(&extra, &dir);
+        assert_eq!(code, Some(2), "{stderr}");
+        assert!(stderr.contains("no stationary density"), "{stderr}");
+        assert!(!dir.exists());
+    }
 }
 
 #[test]

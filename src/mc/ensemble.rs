@@ -360,7 +360,10 @@ pub(crate) fn finalize_run(
     }
     let impacts = st.has_barrier.then(|| {
         let t = st.samples_per_trajectory as f64 * st.spacing();
-        let count: u64 = batches.iter().map(|b| b.impacts).sum();
+        // Saturating: a merged file may claim absurd counts (validation bounds each batch).
+        let count: u64 = batches
+            .iter()
+            .fold(0u64, |a, b| a.saturating_add(b.impacts));
         let rate = count as f64 / (trajectories as f64 * t);
         let nb = batches.len() as f64;
         let ss: f64 = batches

@@ -29,7 +29,9 @@ pub enum McError {
         expr: String,
     },
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
-    #[error("the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value})")]
+    #[error(
+        "the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value:.6e})"
+    )]
     IntensityNotPsd {
         /// Index of the failing pivot.
         pivot: usize,
@@ -39,7 +41,7 @@ pub enum McError {
     /// The burn-in could not be estimated because the linearised drift at the origin has no
     /// decaying mode; set it explicitly.
     #[error(
-        "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate} \
+        "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate:?} \
          (not > 0); set the burn-in time explicitly"
     )]
     NoDecay {
@@ -59,7 +61,10 @@ pub enum McError {
         name: String,
     },
     /// Every trajectory of the run blew up: there is nothing to estimate from.
-    #[error("all {blowups} trajectories blew up (non-finite state); see their list for where")]
+    #[error(
+        "all {blowups} trajectories blew up (non-finite state): there is no stationary law to \
+         estimate (it may not exist for these parameters)"
+    )]
     AllBlewUp {
         /// How many trajectories were run.
         blowups: usize,
@@ -99,7 +104,8 @@ pub enum McError {
     },
     /// The run would take longer than the limit (estimated before starting).
     #[error(
-        "the run would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
+        "the run{} would take about {} ({steps:.2e} trajectory steps at a conservative {rate:.1e} steps/s on {threads} threads), over the limit of {}; reduce the trajectories, samples, burn-in or spacing, or raise dt",
+        one_of(*shards),
         human_seconds(*seconds),
         human_seconds(*limit_seconds)
     )]
@@ -114,10 +120,13 @@ pub enum McError {
         rate: f64,
         /// Threads assumed.
         threads: usize,
+        /// The run is split into this many shards; the estimate is for one.
+        shards: u64,
     },
     /// The run would need more memory than the limit (estimated before starting).
     #[error(
-        "the run would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
+        "the run{} would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",
+        one_of(*shards),
         bytes,
         limit_bytes
     )]
@@ -128,7 +137,18 @@ pub enum McError {
         limit_bytes: f64,
         /// Histogram bins over all quantities.
         bins: f64,
+        /// The run is split into this many shards; the estimate is for one.
+        shards: u64,
     },
+}
+
+/// ` (one shard of N)` for a split run, nothing for a whole one.
+fn one_of(shards: u64) -> String {
+    if shards > 1 {
+        format!(" (one shard of {shards})")
+    } else {
+        String::new()
+    }
 }
 
 /// `3.2 h`, `45 s`, `2.1e9 years`: a duration for a message, never a 140-digit number.
@@ -176,7 +196,7 @@ pub enum ShardDefect {
         found: Vec<u64>,
     },
     /// A batch's numbers contradict each other or the settings.
-    #[error("statistics batch {batch}{}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
+    #[error("statistics batch {batch} (counted from 0){}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
     Batch {
         /// The batch index.
         batch: u64,

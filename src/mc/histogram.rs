@@ -31,7 +31,9 @@ impl Grid {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) || bins == 0 {
             return Err(McError::BadSetting {
                 name: "grid",
-                reason: format!("need finite lo < hi and bins ≥ 1, got [{lo}, {hi}) with {bins}"),
+                reason: format!(
+                    "need finite lo < hi and bins ≥ 1, got [{lo:?}, {hi:?}) with {bins}"
+                ),
             });
         }
         Ok(Grid { lo, hi, bins })

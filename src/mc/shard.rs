@@ -52,6 +52,33 @@ impl Shard {
     }
 }
 
+impl std::str::FromStr for Shard {
+    type Err = McError;
+
+    /// Parses `K/N`, K counted from 1 as in the file names `shard_K_of_N.json`.
+    ///
+    /// ```
+    /// use fpsolve::mc::Shard;
+    /// let s: Shard = "2/3".parse().unwrap();
+    /// assert_eq!((s.index, s.count), (1, 3));
+    /// assert!("0/3".parse::<Shard>().is_err());
+    /// assert!("4/3".parse::<Shard>().is_err());
+    /// ```
+    fn from_str(text: &str) -> Result<Shard, McError> {
+        let bad = || McError::BadSetting {
+            name: "shard",
+            reason: format!("`{text}`: expected K/N with 1 <= K <= N"),
+        };
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let k: u64 = k.trim().parse().map_err(|_| bad())?;
+        let n: u64 = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Shard::new(k - 1, n)
+    }
+}
+
 /// What one shard computed: the run's settings (to check that shards belong together), one
 /// summary per statistics batch, and the coarse (2·dt) summaries of its batches that are in
 /// the bias estimate's range. Serialise it with serde (JSON) and merge with [`merge_shards`]
@@ -79,7 +106,7 @@ impl RunSettings {
         if !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(defect_setting(
                 "dt",
-                format!("{} is not a positive number", self.dt),
+                format!("{:?} is not a positive number", self.dt),
             ));
         }
         if self.steps_per_sample == 0 || self.samples_per_trajectory == 0 {
@@ -98,6 +125,20 @@ impl RunSettings {
             return Err(defect_setting(
                 "batches",
                 format!("{} batches of {} lanes", self.batches, self.lanes),
+            ));
+        }
+        // Every count of the run (samples, steps) must fit in 64 bits.
+        let samples =
+            (self.lanes as u128) * self.batches as u128 * self.samples_per_trajectory as u128;
+        let steps = self.burn_in_steps as u128
+            + self.samples_per_trajectory as u128 * self.steps_per_sample as u128;
+        if samples > u64::MAX as u128 || steps > u64::MAX as u128 / 4 {
+            return Err(defect_setting(
+                "samples",
+                format!(
+                    "{samples:e} samples in all or {steps:e} steps per trajectory do not fit \
+                     a run"
+                ),
             ));
         }
         if self.bias_batches > self.batches {
@@ -125,7 +166,10 @@ impl RunSettings {
             {
                 return Err(defect_setting(
                     "grid",
-                    format!("`{}`: [{}, {}) with {} bins", q.name, g.lo, g.hi, g.bins),
+                    format!(
+                        "`{}`: [{:?}, {:?}) with {} bins",
+                        q.name, g.lo, g.hi, g.bins
+                    ),
                 ));
             }
         }
@@ -182,6 +226,18 @@ fn check_batch(st: &RunSettings, b: &BatchSummary) -> Result<(), ShardDefect> {
                 format!("blow-up of trajectory {} is inconsistent", blow.trajectory),
             ));
         }
+    }
+    // At most a few events per step (the general scheme resolves up to 8, the splitting
+    // one per flight), counted over the recording.
+    let recording = st.samples_per_trajectory as u128 * st.steps_per_sample as u128;
+    if b.impacts as u128 > b.recorded as u128 * recording * 16 {
+        return Err(bad(
+            None,
+            format!(
+                "{} impacts are more than its trajectories can have",
+                b.impacts
+            ),
+        ));
     }
     if !st.has_barrier && b.impacts != 0 {
         return Err(bad(
@@ -248,7 +304,7 @@ fn check_quantity(
     }
     if !(q.min.is_finite() && q.max.is_finite() && q.min <= q.max) {
         return Err(format!(
-            "min {} and max {} are not finite with min ≤ max",
+            "min {:?} and max {:?} are not finite with min ≤ max",
             q.min, q.max
         ));
     }
@@ -259,7 +315,7 @@ fn check_quantity(
         || (q.over > 0 && q.max < grid.hi - slack - grid.width())
     {
         return Err(format!(
-            "extremes [{}, {}] contradict {} samples below and {} above the grid [{}, {})",
+            "extremes [{:?}, {:?}] contradict {} samples below and {} above the grid [{:?}, {:?})",
             q.min, q.max, q.under, q.over, grid.lo, grid.hi
         ));
     }
@@ -274,7 +330,7 @@ fn check_quantity(
     for (k, &sum) in q.sums.iter().enumerate() {
         if !within(sum, finite as f64, k as i32 + 1) || (k % 2 == 1 && sum < 0.0) {
             return Err(format!(
-                "power sum {} = {sum} is impossible for its extremes",
+                "power sum {} = {sum:.6e} is impossible for its extremes",
                 k + 1
             ));
         }
@@ -289,6 +345,95 @@ fn check_quantity(
                 "the sums of quarter {} are impossible for its extremes",
                 w + 1
             ));
+        }
+    }
+    check_against_bins(grid, q, shift)
+}
+
+/// The range of (q − c)ᵏ for q in [a, b].
+fn power_range(k: i32, a: f64, b: f64, c: f64) -> (f64, f64) {
+    let (x, y) = ((a - c).powi(k), (b - c).powi(k));
+    if k % 2 == 1 {
+        (x, y)
+    } else if a <= c && c <= b {
+        (0.0, x.max(y))
+    } else {
+        (x.min(y), x.max(y))
+    }
+}
+
+/// The power sums, the extremes and the quarters' sums must agree with the bin counts: every
+/// sample lies in its bin (or below / above the grid, between the extremes and the grid).
+fn check_against_bins(grid: super::Grid, q: &QuantityBatch, shift: f64) -> Result<(), String> {
+    let w = grid.width();
+    let edge = |j: usize| grid.lo + j as f64 * w;
+    let slack = 1e-9 * w;
+    let first = q.counts.iter().position(|&c| c > 0);
+    let last = q.counts.iter().rposition(|&c| c > 0);
+    if q.under == 0 {
+        if let Some(j) = first {
+            if q.min > edge(j + 1) + slack {
+                return Err(format!(
+                    "min {:?} lies above bin {j}, the lowest one with samples",
+                    q.min
+                ));
+            }
+        }
+    }
+    if q.over == 0 {
+        if let Some(j) = last {
+            if q.max < edge(j) - slack {
+                return Err(format!(
+                    "max {:?} lies below bin {j}, the highest one with samples",
+                    q.max
+                ));
+            }
+        }
+    }
+    let mut regions: Vec<(f64, f64, f64)> = q
+        .counts
+        .iter()
+        .enumerate()
+        .filter(|(_, &c)| c > 0)
+        .map(|(j, &c)| (c as f64, edge(j) - slack, edge(j + 1) + slack))
+        .collect();
+    if q.under > 0 {
+        regions.push((q.under as f64, q.min, grid.lo));
+    }
+    if q.over > 0 {
+        regions.push((q.over as f64, grid.hi - slack, q.max));
+    }
+    for k in 1..=4 {
+        let (mut lo, mut hi, mut scale) = (0.0, 0.0, 0.0);
+        for &(n, a, b) in &regions {
+            let (l, h) = power_range(k, a, b, shift);
+            lo += n * l;
+            hi += n * h;
+            scale += n * l.abs().max(h.abs());
+        }
+        if !(lo.is_finite() && hi.is_finite() && scale.is_finite()) {
+            continue;
+        }
+        // Summation in a different order rounds differently: a relative 1e-6 of the scale.
+        let tol = 1e-6 * scale + f64::MIN_POSITIVE;
+        let sum = q.sums[k as usize - 1];
+        if !(sum >= lo - tol && sum <= hi + tol) {
+            return Err(format!(
+                "power sum {k} = {sum:.6e} is outside [{lo:.6e}, {hi:.6e}], what its bin \
+                 counts allow"
+            ));
+        }
+        if k <= 2 {
+            let quarters: f64 = if k == 1 {
+                q.window_sums.iter().sum()
+            } else {
+                q.window_squares.iter().sum()
+            };
+            if (quarters - sum).abs() > tol || quarters.is_nan() {
+                return Err(format!(
+                    "the quarters' power sum {k} is {quarters:.6e}, the batch's {sum:.6e}"
+                ));
+            }
         }
     }
     Ok(())
@@ -609,6 +754,108 @@ mod tests {
                 "{what}: {err}"
             );
         }
+    }
+
+    /// Paths to every leaf of a JSON value.
+    fn leaves(v: &Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    path.push(k.clone());
+                    leaves(x, path, out);
+                    path.pop();
+                }
+            }
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    path.push(i.to_string());
+                    leaves(x, path, out);
+                    path.pop();
+                }
+            }
+            _ => out.push(path.clone()),
+        }
+    }
+
+    fn leaf<'a>(v: &'a mut Value, path: &[String]) -> &'a mut Value {
+        path.iter().fold(v, |v, k| match v {
+            Value::Array(a) => &mut a[k.parse::<usize>().unwrap()],
+            other => &mut other[k.as_str()],
+        })
+    }
+
+    /// Every leaf of a real shard file replaced by each of a set of hostile values: the merge
+    /// answers (mostly with an error) and never panics.
+    #[test]
+    fn no_single_field_edit_makes_merge_panic() {
+        let model = reference::linear_oscillator(0.5, 1.0, 1.0)
+            .bind(&[])
+            .unwrap();
+        let grid = crate::mc::Grid::new(-4.0, 4.0, 3).unwrap();
+        let config = McConfig {
+            trajectories: 16,
+            lanes: 4,
+            samples: 8,
+            grids: vec![("z".into(), grid), ("v".into(), grid)],
+            ..McConfig::default()
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        let parts: Vec<Value> = (0..2)
+            .map(|k| {
+                serde_json::to_value(sim.run_shard(Shard::new(k, 2).unwrap()).unwrap()).unwrap()
+            })
+            .collect();
+        let mut paths = Vec::new();
+        leaves(&parts[1], &mut Vec::new(), &mut paths);
+        let hostile = [
+            json!(0),
+            json!(1),
+            json!(3),
+            json!(1_000_000_000_000u64),
+            json!(u64::MAX),
+            json!("NaN"),
+            json!("inf"),
+            json!("-inf"),
+            json!("-1e300"),
+            json!("0.0"),
+            json!(true),
+            json!(false),
+        ];
+        let (mut tried, mut accepted) = (0, 0);
+        for path in &paths {
+            for h in &hostile {
+                let mut bad = parts.clone();
+                let target = leaf(&mut bad[1], path);
+                let same = match (&*target, h) {
+                    (Value::String(a), Value::String(b)) => {
+                        a.parse::<f64>().ok().map(f64::to_bits)
+                            == b.parse::<f64>().ok().map(f64::to_bits)
+                    }
+                    (a, b) => a == b,
+                };
+                if same {
+                    continue;
+                }
+                *target = h.clone();
+                let named: Result<Vec<(String, ShardOutput)>, _> = bad
+                    .iter()
+                    .enumerate()
+                    .map(|(k, v)| serde_json::from_value(v.clone()).map(|s| (format!("f{k}"), s)))
+                    .collect();
+                let Ok(named) = named else { continue };
+                tried += 1;
+                let outcome = std::panic::catch_unwind(|| merge_named(&named));
+                match outcome {
+                    Ok(r) => accepted += r.is_ok() as usize,
+                    Err(_) => panic!("merge panicked with {path:?} = {h}"),
+                }
+            }
+        }
+        eprintln!(
+            "{} leaves, {tried} edited files parsed, {accepted} merged",
+            paths.len()
+        );
+        assert!(tried > 500);
     }
 
     #[test]

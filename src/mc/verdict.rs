@@ -397,7 +397,7 @@ impl fmt::Display for McWarning {
             } => write!(
                 f,
                 "{bins} bins of the density of {quantity} have a time-step bias above their \
-                 statistical error (worst at {at:.4}: density {density:.4e}, bias {:.2e} ± \
+                 statistical error (worst at {at:.4e}: density {density:.4e}, bias {:.2e} ± \
                  {:.1e}, error {stderr:.1e}): reduce dt",
                 bias.value, bias.stderr
             ),
