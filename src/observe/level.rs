@@ -27,7 +27,7 @@
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
 use super::{integrate_edges, JointDensity};
-use crate::symbolic::{diff, DeltaPolicy, Expr, Symbol, SymbolicError, Tape};
+use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
 /// Exponent of the partition of unity between the two families of lines.
 const M: i32 = 8;
@@ -87,8 +87,10 @@ impl LevelSet {
         states: &[Symbol; 2],
     ) -> Result<LevelSet, SymbolicError> {
         let names = [&*states[0], &*states[1]];
-        let d1 = diff(expr, names[0])?;
-        let d2 = diff(expr, names[1])?;
+        // The δ parts of the derivatives (jumps of sgn) are dropped: they live on lines of
+        // measure zero and carry no level set of g.
+        let d1 = simplify(&without_deltas(&diff(expr, names[0])?));
+        let d2 = simplify(&without_deltas(&diff(expr, names[1])?));
         let d11 = diff(&d1, names[0])?;
         let d12 = diff(&d1, names[1])?;
         let d22 = diff(&d2, names[1])?;
@@ -360,6 +362,18 @@ impl LevelSet {
                 }
             }
         }
+        // A kink of g along an axis (abs or sgn of a state) gives the level set corners there,
+        // where the roots on the other family's lines appear or vanish abruptly: the points of
+        // {g = u} on the axis x_b = 0 are break points of the integral over x_a.
+        let mut scratch = Vec::new();
+        for (a, axis_breaks) in breaks.iter_mut().enumerate() {
+            let b = 1 - a;
+            if self.ext[b][0] < 0.0 && self.ext[b][1] > 0.0 {
+                let mut roots = [0.0; 2 * GRID];
+                let count = self.line_roots(b, 0.0, u, &mut roots, &mut scratch);
+                axis_breaks.extend_from_slice(&roots[..count]);
+            }
+        }
         for (a, axis_breaks) in breaks.iter().enumerate() {
             let [lo, hi] = self.ext[a];
             let mut edges: Vec<f64> = (0..=16)
@@ -404,12 +418,39 @@ impl LevelSet {
         excluded: &[&Critical],
         scratch: &mut Vec<f64>,
     ) -> f64 {
+        let mut roots = [0.0; 2 * GRID];
+        let count = self.line_roots(a, s, u, &mut roots, scratch);
+        let mut total = 0.0;
+        for &t in &roots[..count] {
+            let (x, v) = self.eval(a, s, t, scratch);
+            if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
+                continue;
+            }
+            if excluded.iter().any(|c| in_component(c, x, u)) {
+                continue;
+            }
+            let r = (v.across / v.along).abs();
+            let w = 1.0 / (1.0 + r.powi(M));
+            total += density.pdf(x) * w / v.along.abs();
+        }
+        total
+    }
+
+    /// The roots t of g = u on the line x_a = s, into `out`; returns how many.
+    fn line_roots(
+        &self,
+        a: usize,
+        s: f64,
+        u: f64,
+        out: &mut [f64; 2 * GRID],
+        scratch: &mut Vec<f64>,
+    ) -> usize {
         let b = 1 - a;
         let n = GRID;
         let ia = (((s - self.ext[a][0]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
         let t_of = |j: usize| self.ext[b][0] + j as f64 * self.h[b];
         let mut vals: [Option<Val>; GRID] = [None; GRID];
-        let mut total = 0.0;
+        let mut count = 0;
         for jb in 0..n - 1 {
             let k = if a == 0 {
                 ia * (n - 1) + jb
@@ -436,19 +477,11 @@ impl LevelSet {
                 scratch,
             );
             for t in roots.into_iter().filter(|t| !t.is_nan()) {
-                let (x, v) = self.eval(a, s, t, scratch);
-                if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
-                    continue;
-                }
-                if excluded.iter().any(|c| in_component(c, x, u)) {
-                    continue;
-                }
-                let r = (v.across / v.along).abs();
-                let w = 1.0 / (1.0 + r.powi(M));
-                total += density.pdf(x) * w / v.along.abs();
+                out[count] = t;
+                count += 1;
             }
         }
-        total
+        count
     }
 
     /// The roots of g = u in the cell [ta, tb] of the line x_a = s (at most two).
@@ -621,4 +654,16 @@ fn in_component(c: &Critical, x: [f64; 2], u: f64) -> bool {
         / det
         / 2.0;
     q <= 4.0 * (u - c.value).abs() + 1e-300
+}
+
+/// `e` with every `delta(...)` replaced by 0: the regular part of a distributional derivative.
+pub(crate) fn without_deltas(e: &Expr) -> Expr {
+    match e {
+        Expr::Call(Func::Delta, _) => Expr::num(0.0),
+        Expr::Call(f, a) => Expr::Call(*f, a.iter().map(without_deltas).collect()),
+        Expr::Add(t) => Expr::sum(t.iter().map(without_deltas).collect()),
+        Expr::Mul(f) => Expr::product(f.iter().map(without_deltas).collect()),
+        Expr::Pow(a, x) => Expr::pow(without_deltas(a), without_deltas(x)),
+        other => other.clone(),
+    }
 }
