@@ -436,4 +436,19 @@ fn kinked_and_discontinuous_maps_match_one_dimensional_integrals() {
     }
     let m = moments(&sol, kink);
     assert_rel("E[|z| + v]", m.mean, (2.0 * 5.0 / PI).sqrt(), 1e-9);
+    // A kink off the axes, along z = v: |z − v| + v = u has the roots z = u and z = 2v − u
+    // for v < u, so p(u) = ∫_{v<u} φ(v) (φ(u) + φ(2v − u)) dv.
+    let (sol, maps) = pipeline(&linear_with("observe diag = abs(z - v) + v"), 2);
+    let diag = map(&maps, "diag");
+    let u = [-8.0, -2.0, 0.0, 0.7, 3.0, 10.0];
+    let p = ObservableDensity::new(&sol, diag).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = simpson(
+            &|v: f64| normal(v) * (normal(*u) + normal(2.0 * v - u)),
+            -40.0,
+            *u,
+            200_000,
+        );
+        assert_rel(&format!("p_diag({u})"), *p, exact, 1e-6);
+    }
 }

@@ -26,7 +26,7 @@
 //!   of g is infinite, and +∞ is returned there; nearby it has a logarithmic (saddle) or
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
-use super::{integrate_edges, JointDensity};
+use super::{integrate_edges, JointDensity, ObservableMap};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
 /// Exponent of the partition of unity between the two families of lines.
@@ -60,6 +60,8 @@ pub(crate) struct LevelSet {
     /// Outputs g, ∂1 g, ∂2 g (δ terms of the derivatives dropped).
     tape: Tape,
     ext: [[f64; 2]; 2],
+    /// The bracketing grid's first node and spacing per axis.
+    lo: [f64; 2],
     h: [f64; 2],
     /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners, widened by the
     /// local curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
@@ -69,6 +71,9 @@ pub(crate) struct LevelSet {
     /// Spread of g over the support (max − min), the scale of "g − u is zero".
     gscale: f64,
     critical: Vec<Critical>,
+    /// The kink curves {h = 0} of g off the axes: one level set per argument h of an `abs` or
+    /// `sgn` in g that is not ± a state (those are the axes, handled directly).
+    kinks: Vec<LevelSet>,
 }
 
 /// One evaluation on a line: g, ∂g across the line, ∂g along it.
@@ -86,6 +91,33 @@ impl LevelSet {
         expr: &Expr,
         states: &[Symbol; 2],
     ) -> Result<LevelSet, SymbolicError> {
+        let mut set = LevelSet::bare(density, expr, states)?;
+        let mut args: Vec<Expr> = Vec::new();
+        expr.walk(&mut |e| {
+            if let Expr::Call(Func::Abs | Func::Sgn, a) = e {
+                let h = simplify(&a[0]);
+                let on_axis = matches!(
+                    ObservableMap::classify(&h, states),
+                    ObservableMap::SignedState { .. }
+                );
+                let depends = states.iter().any(|s| h.mentions(s));
+                if depends && !on_axis && !args.contains(&h) {
+                    args.push(h);
+                }
+            }
+        });
+        for h in args.iter().take(8) {
+            set.kinks.push(LevelSet::bare(density, h, states)?);
+        }
+        Ok(set)
+    }
+
+    /// The level set without kink curves.
+    fn bare(
+        density: &dyn JointDensity,
+        expr: &Expr,
+        states: &[Symbol; 2],
+    ) -> Result<LevelSet, SymbolicError> {
         let names = [&*states[0], &*states[1]];
         // The δ parts of the derivatives (jumps of sgn) are dropped: they live on lines of
         // measure zero and carry no level set of g.
@@ -97,7 +129,11 @@ impl LevelSet {
         let tape = Tape::compile(&[expr.clone(), d1, d2], &names, DeltaPolicy::Zero)?;
         let hess = Tape::compile(&[d11, d12, d22], &names, DeltaPolicy::Zero)?;
         let ext = density.extent();
-        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 1) as f64);
+        // The bracketing grid covers the extent with one cell to spare, shifted by a golden
+        // fraction of a cell, so that its nodes do not fall on 0 (where common observables
+        // take round values exactly, and a zero at a cell's end would be a degenerate case).
+        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 2) as f64);
+        let grid_lo = [0, 1].map(|a| ext[a][0] - 0.381_966_011_250_105 * h[a]);
         let n = GRID;
         let mut g = vec![0.0; n * n];
         let mut grad2 = vec![0.0; n * n];
@@ -106,7 +142,7 @@ impl LevelSet {
         let mut out = [0.0; 3];
         for i in 0..n {
             for j in 0..n {
-                let x = [ext[0][0] + i as f64 * h[0], ext[1][0] + j as f64 * h[1]];
+                let x = [grid_lo[0] + i as f64 * h[0], grid_lo[1] + j as f64 * h[1]];
                 tape.eval(&x, &mut scratch, &mut out);
                 let k = i * n + j;
                 g[k] = if out[0].is_finite() { out[0] } else { f64::NAN };
@@ -177,11 +213,13 @@ impl LevelSet {
         let mut set = LevelSet {
             tape,
             ext,
+            lo: grid_lo,
             h,
             cmin,
             cmax,
             gscale,
             critical: Vec::new(),
+            kinks: Vec::new(),
         };
         set.critical = set.critical_points(density, &hess, &grad2, &p);
         Ok(set)
@@ -230,8 +268,8 @@ impl LevelSet {
         let (mut scratch, mut out, mut hout) = (Vec::new(), [0.0; 3], [0.0; 3]);
         for &(_, k) in &seeds {
             let mut x = [
-                self.ext[0][0] + (k / n) as f64 * self.h[0],
-                self.ext[1][0] + (k % n) as f64 * self.h[1],
+                self.lo[0] + (k / n) as f64 * self.h[0],
+                self.lo[1] + (k % n) as f64 * self.h[1],
             ];
             let mut converged = false;
             for _ in 0..60 {
@@ -374,6 +412,11 @@ impl LevelSet {
                 axis_breaks.extend_from_slice(&roots[..count]);
             }
         }
+        for k in &self.kinks {
+            for (a, axis_breaks) in breaks.iter_mut().enumerate() {
+                self.kink_corners(k, a, u, axis_breaks, &mut scratch);
+            }
+        }
         for (a, axis_breaks) in breaks.iter().enumerate() {
             let [lo, hi] = self.ext[a];
             let mut edges: Vec<f64> = (0..=16)
@@ -392,6 +435,59 @@ impl LevelSet {
             total += integrate_edges(&f, &edges, REL_TOL);
         }
         total
+    }
+
+    /// The positions s (along x_a) of the points of {g = u} on the kink curve {h = 0} of
+    /// `kink`: where the level set has corners and the line sums jump. Found on the grid's
+    /// lines x_a = s_i (the j-th root of h on neighbouring lines paired when their counts
+    /// agree) and refined by bisection.
+    fn kink_corners(
+        &self,
+        kink: &LevelSet,
+        a: usize,
+        u: f64,
+        out: &mut Vec<f64>,
+        scratch: &mut Vec<f64>,
+    ) {
+        let mut roots = [0.0; 2 * GRID];
+        // G_j(s) = g(s, t_j(s)) − u on the j-th root t_j of h on the line x_a = s.
+        let mut values = |s: f64, scratch: &mut Vec<f64>| -> Vec<f64> {
+            let n = kink.line_roots(a, s, 0.0, &mut roots, scratch);
+            roots[..n]
+                .iter()
+                .map(|&t| self.eval(a, s, t, scratch).1.g - u)
+                .collect()
+        };
+        let s_of = |i: usize| self.lo[a] + i as f64 * self.h[a];
+        let mut prev = values(s_of(0), scratch);
+        for i in 1..GRID {
+            let next = values(s_of(i), scratch);
+            if next.len() == prev.len() {
+                for j in 0..next.len() {
+                    if prev[j] * next[j] >= 0.0 || prev[j].is_nan() || next[j].is_nan() {
+                        continue;
+                    }
+                    let (mut l, mut r, fl) = (s_of(i - 1), s_of(i), prev[j]);
+                    for _ in 0..60 {
+                        let m = 0.5 * (l + r);
+                        let v = values(m, scratch);
+                        if v.len() != next.len() {
+                            break;
+                        }
+                        if v[j] * fl > 0.0 {
+                            l = m;
+                        } else {
+                            r = m;
+                        }
+                        if r - l <= 1e-13 * self.h[a] {
+                            break;
+                        }
+                    }
+                    out.push(0.5 * (l + r));
+                }
+            }
+            prev = next;
+        }
     }
 
     fn eval(&self, a: usize, s: f64, t: f64, scratch: &mut Vec<f64>) -> ([f64; 2], Val) {
@@ -447,8 +543,8 @@ impl LevelSet {
     ) -> usize {
         let b = 1 - a;
         let n = GRID;
-        let ia = (((s - self.ext[a][0]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
-        let t_of = |j: usize| self.ext[b][0] + j as f64 * self.h[b];
+        let ia = (((s - self.lo[a]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
+        let t_of = |j: usize| self.lo[b] + j as f64 * self.h[b];
         let mut vals: [Option<Val>; GRID] = [None; GRID];
         let mut count = 0;
         for jb in 0..n - 1 {
