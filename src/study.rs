@@ -36,7 +36,7 @@ pub struct Quantity {
 
 /// Mean, standard deviation, kurtosis and raw moments of a quantity under one EPC solution,
 /// taken from the joint density directly (E\[g^k\] = ∬ g^k p, see
-/// [`moments`](crate::observe::moments)), not from its PDF curve.
+/// [`crate::observe::moments`]), not from its PDF curve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QuantityStats {
     /// The quantity's name.

@@ -14,7 +14,9 @@
 //! safeguarded Newton with ∂g from the symbolic derivative compiled to a [`Tape`]; a cell whose
 //! ends lie on one side of u but whose slope changes sign is searched for the extremum between
 //! them, so two nearby roots are not lost. A sign change that is a jump of g (sgn) is not a
-//! root and is dropped.
+//! root and is dropped. Where g has a kink (an `abs`/`sgn` argument h is 0) the level set has
+//! corners at which the line sums jump; those corners (on the axes, and on the curves h = 0
+//! found as level sets of h) are break points of the quadrature.
 //!
 //! Critical points of g (∇g = 0, found by Newton from the grid) are handled explicitly:
 //! - a non-degenerate minimum or maximum x* with value u* bounds a small closed component of
