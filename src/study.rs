@@ -36,7 +36,7 @@ pub struct Quantity {
 
 /// Mean, standard deviation, kurtosis and raw moments of a quantity under one EPC solution,
 /// taken from the joint density directly (E\[g^k\] = ∬ g^k p, see
-/// [`moments`](crate::observe::moments)), not from its PDF curve.
+/// [`crate::observe::moments`]), not from its PDF curve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct QuantityStats {
     /// The quantity's name.
@@ -53,6 +53,40 @@ pub struct QuantityStats {
     /// everywhere. When it is positive the observable's PDF integrates to 1 − this (it is not
     /// renormalised) and the moments above are those of g given that it is defined.
     pub undefined_mass: f64,
+}
+
+impl QuantityStats {
+    /// A warning in words when the quantity is undefined on part of the support (its
+    /// `undefined_mass` is positive), for tables and logs; `None` otherwise.
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// use fpsolve::study::Study;
+    /// let text = "model m
+    /// param c = 0.1
+    /// state z, v
+    /// drift z: v
+    /// drift v: -c*v - z
+    /// noise xi: intensity 1
+    /// diffusion v: xi
+    /// observe l = log(z)
+    /// ";
+    /// let study = Study::run(&parse_model(text, None).unwrap(), &[], &[2]).unwrap();
+    /// let l = study.degrees[0].stats.iter().find(|s| s.name == "l").unwrap();
+    /// assert!(l.note().unwrap().contains("no finite value with probability 0.5"));
+    /// assert!(study.degrees[0].stats[0].note().is_none()); // z is defined everywhere
+    /// ```
+    pub fn note(&self) -> Option<String> {
+        (self.undefined_mass > 0.0).then(|| {
+            format!(
+                "`{}` has no finite value with probability {:.3}: its PDF integrates to {:.3} \
+                 (not renormalised) and its moments are conditional on it being defined",
+                self.name,
+                self.undefined_mass,
+                1.0 - self.undefined_mass
+            )
+        })
+    }
 }
 
 /// The outcome at one degree.

@@ -405,3 +405,50 @@ fn log_of_a_state_reports_its_missing_mass_instead_of_renormalising() {
     );
     assert_rel("∫ p_log", total, 0.5, 1e-5);
 }
+
+#[test]
+fn kinked_and_discontinuous_maps_match_one_dimensional_integrals() {
+    // z, v independent N(0, 5). |z| + v: a kink along z = 0, p(u) = ∫_0^∞ 2 φ(y) φ(u − y) dy.
+    // v + sgn(z): a jump across z = 0 that is not a root, p(u) = (φ(u − 1) + φ(u + 1))/2.
+    let (sol, maps) = pipeline(
+        &linear_with("observe kink = abs(z) + v, jump = v + sgn(z)"),
+        2,
+    );
+    let normal = |x: f64| (-x * x / 10.0).exp() / (10.0 * PI).sqrt();
+    let (kink, jump) = (map(&maps, "kink"), map(&maps, "jump"));
+    assert!(matches!(kink, ObservableMap::General { .. }));
+    assert!(matches!(jump, ObservableMap::General { .. }));
+    let u = [-8.0, -1.0, 0.0, 0.7, 3.0, 12.0];
+    let p = ObservableDensity::new(&sol, kink).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = simpson(
+            &|y: f64| 2.0 * normal(y) * normal(u - y),
+            0.0,
+            30.0,
+            100_000,
+        );
+        assert_rel(&format!("p_kink({u})"), *p, exact, 1e-6);
+    }
+    let p = ObservableDensity::new(&sol, jump).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = 0.5 * (normal(u - 1.0) + normal(u + 1.0));
+        assert_rel(&format!("p_jump({u})"), *p, exact, 1e-6);
+    }
+    let m = moments(&sol, kink);
+    assert_rel("E[|z| + v]", m.mean, (2.0 * 5.0 / PI).sqrt(), 1e-9);
+    // A kink off the axes, along z = v: |z − v| + v = u has the roots z = u and z = 2v − u
+    // for v < u, so p(u) = ∫_{v<u} φ(v) (φ(u) + φ(2v − u)) dv.
+    let (sol, maps) = pipeline(&linear_with("observe diag = abs(z - v) + v"), 2);
+    let diag = map(&maps, "diag");
+    let u = [-8.0, -2.0, 0.0, 0.7, 3.0, 10.0];
+    let p = ObservableDensity::new(&sol, diag).pdf(&u);
+    for (u, p) in u.iter().zip(&p) {
+        let exact = simpson(
+            &|v: f64| normal(v) * (normal(*u) + normal(2.0 * v - u)),
+            -40.0,
+            *u,
+            200_000,
+        );
+        assert_rel(&format!("p_diag({u})"), *p, exact, 1e-6);
+    }
+}

@@ -1183,16 +1183,6 @@ impl<'a> Validator<'a> {
                 span,
             );
         }
-        fn drop_deltas(e: &Expr) -> Expr {
-            match e {
-                Expr::Call(Func::Delta, _) => Expr::num(0.0),
-                Expr::Call(f, a) => Expr::Call(*f, a.iter().map(drop_deltas).collect()),
-                Expr::Add(t) => Expr::sum(t.iter().map(drop_deltas).collect()),
-                Expr::Mul(f) => Expr::product(f.iter().map(drop_deltas).collect()),
-                Expr::Pow(a, x) => Expr::pow(drop_deltas(a), drop_deltas(x)),
-                other => other.clone(),
-            }
-        }
         let expr = crate::symbolic::simplify(&o.expr);
         if !self.states.iter().any(|s| expr.mentions(&s.name)) {
             return refuse(
@@ -1202,7 +1192,10 @@ impl<'a> Validator<'a> {
         }
         let flat = self.states.iter().all(|s| {
             crate::symbolic::diff(&expr, &s.name)
-                .map(|d| crate::symbolic::simplify(&drop_deltas(&d)).as_num() == Some(0.0))
+                .map(|d| {
+                    crate::symbolic::simplify(&crate::observe::without_deltas(&d)).as_num()
+                        == Some(0.0)
+                })
                 .unwrap_or(false)
         });
         if flat {

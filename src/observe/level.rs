@@ -14,7 +14,9 @@
 //! safeguarded Newton with ∂g from the symbolic derivative compiled to a [`Tape`]; a cell whose
 //! ends lie on one side of u but whose slope changes sign is searched for the extremum between
 //! them, so two nearby roots are not lost. A sign change that is a jump of g (sgn) is not a
-//! root and is dropped.
+//! root and is dropped. Where g has a kink (an `abs`/`sgn` argument h is 0) the level set has
+//! corners at which the line sums jump; those corners (on the axes, and on the curves h = 0
+//! found as level sets of h) are break points of the quadrature.
 //!
 //! Critical points of g (∇g = 0, found by Newton from the grid) are handled explicitly:
 //! - a non-degenerate minimum or maximum x* with value u* bounds a small closed component of
@@ -26,8 +28,8 @@
 //!   of g is infinite, and +∞ is returned there; nearby it has a logarithmic (saddle) or
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
-use super::{integrate_edges, JointDensity};
-use crate::symbolic::{diff, DeltaPolicy, Expr, Symbol, SymbolicError, Tape};
+use super::{integrate_edges, JointDensity, ObservableMap};
+use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
 /// Exponent of the partition of unity between the two families of lines.
 const M: i32 = 8;
@@ -60,6 +62,8 @@ pub(crate) struct LevelSet {
     /// Outputs g, ∂1 g, ∂2 g (δ terms of the derivatives dropped).
     tape: Tape,
     ext: [[f64; 2]; 2],
+    /// The bracketing grid's first node and spacing per axis.
+    lo: [f64; 2],
     h: [f64; 2],
     /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners, widened by the
     /// local curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
@@ -69,6 +73,9 @@ pub(crate) struct LevelSet {
     /// Spread of g over the support (max − min), the scale of "g − u is zero".
     gscale: f64,
     critical: Vec<Critical>,
+    /// The kink curves {h = 0} of g off the axes: one level set per argument h of an `abs` or
+    /// `sgn` in g that is not ± a state (those are the axes, handled directly).
+    kinks: Vec<LevelSet>,
 }
 
 /// One evaluation on a line: g, ∂g across the line, ∂g along it.
@@ -86,16 +93,49 @@ impl LevelSet {
         expr: &Expr,
         states: &[Symbol; 2],
     ) -> Result<LevelSet, SymbolicError> {
+        let mut set = LevelSet::bare(density, expr, states)?;
+        let mut args: Vec<Expr> = Vec::new();
+        expr.walk(&mut |e| {
+            if let Expr::Call(Func::Abs | Func::Sgn, a) = e {
+                let h = simplify(&a[0]);
+                let on_axis = matches!(
+                    ObservableMap::classify(&h, states),
+                    ObservableMap::SignedState { .. }
+                );
+                let depends = states.iter().any(|s| h.mentions(s));
+                if depends && !on_axis && !args.contains(&h) {
+                    args.push(h);
+                }
+            }
+        });
+        for h in args.iter().take(8) {
+            set.kinks.push(LevelSet::bare(density, h, states)?);
+        }
+        Ok(set)
+    }
+
+    /// The level set without kink curves.
+    fn bare(
+        density: &dyn JointDensity,
+        expr: &Expr,
+        states: &[Symbol; 2],
+    ) -> Result<LevelSet, SymbolicError> {
         let names = [&*states[0], &*states[1]];
-        let d1 = diff(expr, names[0])?;
-        let d2 = diff(expr, names[1])?;
+        // The δ parts of the derivatives (jumps of sgn) are dropped: they live on lines of
+        // measure zero and carry no level set of g.
+        let d1 = simplify(&without_deltas(&diff(expr, names[0])?));
+        let d2 = simplify(&without_deltas(&diff(expr, names[1])?));
         let d11 = diff(&d1, names[0])?;
         let d12 = diff(&d1, names[1])?;
         let d22 = diff(&d2, names[1])?;
         let tape = Tape::compile(&[expr.clone(), d1, d2], &names, DeltaPolicy::Zero)?;
         let hess = Tape::compile(&[d11, d12, d22], &names, DeltaPolicy::Zero)?;
         let ext = density.extent();
-        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 1) as f64);
+        // The bracketing grid covers the extent with one cell to spare, shifted by a golden
+        // fraction of a cell, so that its nodes do not fall on 0 (where common observables
+        // take round values exactly, and a zero at a cell's end would be a degenerate case).
+        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 2) as f64);
+        let grid_lo = [0, 1].map(|a| ext[a][0] - 0.381_966_011_250_105 * h[a]);
         let n = GRID;
         let mut g = vec![0.0; n * n];
         let mut grad2 = vec![0.0; n * n];
@@ -104,7 +144,7 @@ impl LevelSet {
         let mut out = [0.0; 3];
         for i in 0..n {
             for j in 0..n {
-                let x = [ext[0][0] + i as f64 * h[0], ext[1][0] + j as f64 * h[1]];
+                let x = [grid_lo[0] + i as f64 * h[0], grid_lo[1] + j as f64 * h[1]];
                 tape.eval(&x, &mut scratch, &mut out);
                 let k = i * n + j;
                 g[k] = if out[0].is_finite() { out[0] } else { f64::NAN };
@@ -175,11 +215,13 @@ impl LevelSet {
         let mut set = LevelSet {
             tape,
             ext,
+            lo: grid_lo,
             h,
             cmin,
             cmax,
             gscale,
             critical: Vec::new(),
+            kinks: Vec::new(),
         };
         set.critical = set.critical_points(density, &hess, &grad2, &p);
         Ok(set)
@@ -228,8 +270,8 @@ impl LevelSet {
         let (mut scratch, mut out, mut hout) = (Vec::new(), [0.0; 3], [0.0; 3]);
         for &(_, k) in &seeds {
             let mut x = [
-                self.ext[0][0] + (k / n) as f64 * self.h[0],
-                self.ext[1][0] + (k % n) as f64 * self.h[1],
+                self.lo[0] + (k / n) as f64 * self.h[0],
+                self.lo[1] + (k % n) as f64 * self.h[1],
             ];
             let mut converged = false;
             for _ in 0..60 {
@@ -360,6 +402,23 @@ impl LevelSet {
                 }
             }
         }
+        // A kink of g along an axis (abs or sgn of a state) gives the level set corners there,
+        // where the roots on the other family's lines appear or vanish abruptly: the points of
+        // {g = u} on the axis x_b = 0 are break points of the integral over x_a.
+        let mut scratch = Vec::new();
+        for (a, axis_breaks) in breaks.iter_mut().enumerate() {
+            let b = 1 - a;
+            if self.ext[b][0] < 0.0 && self.ext[b][1] > 0.0 {
+                let mut roots = [0.0; 2 * GRID];
+                let count = self.line_roots(b, 0.0, u, &mut roots, &mut scratch);
+                axis_breaks.extend_from_slice(&roots[..count]);
+            }
+        }
+        for k in &self.kinks {
+            for (a, axis_breaks) in breaks.iter_mut().enumerate() {
+                self.kink_corners(k, a, u, axis_breaks, &mut scratch);
+            }
+        }
         for (a, axis_breaks) in breaks.iter().enumerate() {
             let [lo, hi] = self.ext[a];
             let mut edges: Vec<f64> = (0..=16)
@@ -378,6 +437,59 @@ impl LevelSet {
             total += integrate_edges(&f, &edges, REL_TOL);
         }
         total
+    }
+
+    /// The positions s (along x_a) of the points of {g = u} on the kink curve {h = 0} of
+    /// `kink`: where the level set has corners and the line sums jump. Found on the grid's
+    /// lines x_a = s_i (the j-th root of h on neighbouring lines paired when their counts
+    /// agree) and refined by bisection.
+    fn kink_corners(
+        &self,
+        kink: &LevelSet,
+        a: usize,
+        u: f64,
+        out: &mut Vec<f64>,
+        scratch: &mut Vec<f64>,
+    ) {
+        let mut roots = [0.0; 2 * GRID];
+        // G_j(s) = g(s, t_j(s)) − u on the j-th root t_j of h on the line x_a = s.
+        let mut values = |s: f64, scratch: &mut Vec<f64>| -> Vec<f64> {
+            let n = kink.line_roots(a, s, 0.0, &mut roots, scratch);
+            roots[..n]
+                .iter()
+                .map(|&t| self.eval(a, s, t, scratch).1.g - u)
+                .collect()
+        };
+        let s_of = |i: usize| self.lo[a] + i as f64 * self.h[a];
+        let mut prev = values(s_of(0), scratch);
+        for i in 1..GRID {
+            let next = values(s_of(i), scratch);
+            if next.len() == prev.len() {
+                for j in 0..next.len() {
+                    if prev[j] * next[j] >= 0.0 || prev[j].is_nan() || next[j].is_nan() {
+                        continue;
+                    }
+                    let (mut l, mut r, fl) = (s_of(i - 1), s_of(i), prev[j]);
+                    for _ in 0..60 {
+                        let m = 0.5 * (l + r);
+                        let v = values(m, scratch);
+                        if v.len() != next.len() {
+                            break;
+                        }
+                        if v[j] * fl > 0.0 {
+                            l = m;
+                        } else {
+                            r = m;
+                        }
+                        if r - l <= 1e-13 * self.h[a] {
+                            break;
+                        }
+                    }
+                    out.push(0.5 * (l + r));
+                }
+            }
+            prev = next;
+        }
     }
 
     fn eval(&self, a: usize, s: f64, t: f64, scratch: &mut Vec<f64>) -> ([f64; 2], Val) {
@@ -404,12 +516,39 @@ impl LevelSet {
         excluded: &[&Critical],
         scratch: &mut Vec<f64>,
     ) -> f64 {
+        let mut roots = [0.0; 2 * GRID];
+        let count = self.line_roots(a, s, u, &mut roots, scratch);
+        let mut total = 0.0;
+        for &t in &roots[..count] {
+            let (x, v) = self.eval(a, s, t, scratch);
+            if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
+                continue;
+            }
+            if excluded.iter().any(|c| in_component(c, x, u)) {
+                continue;
+            }
+            let r = (v.across / v.along).abs();
+            let w = 1.0 / (1.0 + r.powi(M));
+            total += density.pdf(x) * w / v.along.abs();
+        }
+        total
+    }
+
+    /// The roots t of g = u on the line x_a = s, into `out`; returns how many.
+    fn line_roots(
+        &self,
+        a: usize,
+        s: f64,
+        u: f64,
+        out: &mut [f64; 2 * GRID],
+        scratch: &mut Vec<f64>,
+    ) -> usize {
         let b = 1 - a;
         let n = GRID;
-        let ia = (((s - self.ext[a][0]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
-        let t_of = |j: usize| self.ext[b][0] + j as f64 * self.h[b];
+        let ia = (((s - self.lo[a]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
+        let t_of = |j: usize| self.lo[b] + j as f64 * self.h[b];
         let mut vals: [Option<Val>; GRID] = [None; GRID];
-        let mut total = 0.0;
+        let mut count = 0;
         for jb in 0..n - 1 {
             let k = if a == 0 {
                 ia * (n - 1) + jb
@@ -436,19 +575,11 @@ impl LevelSet {
                 scratch,
             );
             for t in roots.into_iter().filter(|t| !t.is_nan()) {
-                let (x, v) = self.eval(a, s, t, scratch);
-                if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
-                    continue;
-                }
-                if excluded.iter().any(|c| in_component(c, x, u)) {
-                    continue;
-                }
-                let r = (v.across / v.along).abs();
-                let w = 1.0 / (1.0 + r.powi(M));
-                total += density.pdf(x) * w / v.along.abs();
+                out[count] = t;
+                count += 1;
             }
         }
-        total
+        count
     }
 
     /// The roots of g = u in the cell [ta, tb] of the line x_a = s (at most two).
@@ -621,4 +752,16 @@ fn in_component(c: &Critical, x: [f64; 2], u: f64) -> bool {
         / det
         / 2.0;
     q <= 4.0 * (u - c.value).abs() + 1e-300
+}
+
+/// `e` with every `delta(...)` replaced by 0: the regular part of a distributional derivative.
+pub(crate) fn without_deltas(e: &Expr) -> Expr {
+    match e {
+        Expr::Call(Func::Delta, _) => Expr::num(0.0),
+        Expr::Call(f, a) => Expr::Call(*f, a.iter().map(without_deltas).collect()),
+        Expr::Add(t) => Expr::sum(t.iter().map(without_deltas).collect()),
+        Expr::Mul(f) => Expr::product(f.iter().map(without_deltas).collect()),
+        Expr::Pow(a, x) => Expr::pow(without_deltas(a), without_deltas(x)),
+        other => other.clone(),
+    }
 }

@@ -12,12 +12,12 @@
 //! the line sums integrated by adaptive Gauss–Kronrod quadrature to a relative tolerance of
 //! 1e−10. Where p and g are smooth and u is not a critical value of g the result is accurate to
 //! about 1e−8 relative (the tests check 1e−6 against exact answers: the energy of the linear
-//! oscillator and of the double-well Duffing oscillator, v², z·v, z² − v). At the value of a
-//! minimum or maximum of g it is the exact one-sided limit p(x*)·2π/√det H (e.g. p(0) of an
-//! energy); at a saddle value or a degenerate critical value the density is infinite and +∞ is
-//! returned; near a saddle value (logarithmic singularity) or where g has kinks away from the
-//! axes the accuracy is lower. Where g is undefined (`log(z)`, z ≤ 0) there is no density:
-//! p_g integrates to 1 − [`Moments::undefined_mass`], which [`moments`] reports; nothing is
+//! oscillator and of the double-well Duffing oscillator, v², z·v, z² − v, |z| + v, |z − v| + v,
+//! v + sgn(z)). At the value of a minimum or maximum of g it is the exact one-sided limit
+//! p(x*)·2π/√det H (e.g. p(0) of an energy); at a saddle value or a degenerate critical value
+//! the density is infinite and +∞ is returned; near a saddle value (logarithmic singularity)
+//! the accuracy is lower. Where g is undefined (`log(z)`, z ≤ 0) there is no density: p_g
+//! integrates to 1 − [`Moments::undefined_mass`], which [`moments`] reports; nothing is
 //! renormalised.
 //!
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
@@ -32,6 +32,8 @@ use rayon::prelude::*;
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
 pub use moments::{moments, Moments};
+
+pub(crate) use level::without_deltas;
 
 /// A joint density of the two states that observables can be computed from.
 pub trait JointDensity: Sync {

@@ -57,13 +57,13 @@ const GRADED: usize = 20;
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Moments {
-    /// E[g], E[g²], E[g³], E[g⁴] (given g defined).
+    /// E\[g\], E\[g²\], E\[g³\], E\[g⁴\] (given g defined).
     pub raw: [f64; 4],
-    /// E[g].
+    /// E\[g\].
     pub mean: f64,
-    /// √Var[g].
+    /// √Var\[g\].
     pub std_dev: f64,
-    /// E[(g − mean)⁴] / Var[g]².
+    /// E[(g − mean)⁴] / Var\[g\]².
     pub kurtosis: f64,
     /// P(g has no finite value): 0 for an observable defined everywhere.
     pub undefined_mass: f64,
