@@ -348,6 +348,7 @@ pub fn flags(report: &JobReport) -> Vec<String> {
     if let Some(e) = &report.mc_error {
         out.push(format!("Monte Carlo: {e}"));
     }
+    out.extend(defect_notes(&report.study));
     for u in &report.unwritten {
         out.push(format!("{} was not written: {}", u.file, u.error));
     }
@@ -361,6 +362,23 @@ pub fn flags(report: &JobReport) -> Vec<String> {
         ));
     }
     out
+}
+
+/// What is wrong with each defective observable (one with no finite value on part of the
+/// plane), once per observable: its undefined mass is a property of the map, the same at every
+/// degree up to the solution's accuracy.
+fn defect_notes(study: &Study) -> Vec<String> {
+    let mut seen: Vec<&str> = Vec::new();
+    let mut notes = Vec::new();
+    for st in study.degrees.iter().flat_map(|d| &d.stats) {
+        if let Some(note) = st.note() {
+            if !seen.contains(&st.name.as_str()) {
+                seen.push(&st.name);
+                notes.push(note);
+            }
+        }
+    }
+    notes
 }
 
 /// The legend text of a degree's curve, saying when the density is normalised inside a ridge.
@@ -531,10 +549,22 @@ pub fn table(report: &JobReport) -> String {
         for st in &d.stats {
             let _ = writeln!(
                 s,
-                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}",
-                st.name, d.degree, st.mean, st.std_dev, st.kurtosis
+                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}{}",
+                st.name,
+                d.degree,
+                st.mean,
+                st.std_dev,
+                st.kurtosis,
+                if st.note().is_some() {
+                    "   (see warning)"
+                } else {
+                    ""
+                }
             );
         }
+    }
+    for note in defect_notes(study) {
+        let _ = writeln!(s, "warning: {note}");
     }
     if let Some(mc) = &report.mc {
         let _ = writeln!(
