@@ -626,12 +626,25 @@ impl LevelSet {
             };
             return self.cell_roots(a, s, u, l, r, roots, scratch);
         }
-        if fa == 0.0 {
-            roots[0] = ta;
-            return;
-        }
-        if fb == 0.0 {
-            // Counted as the next cell's left end.
+        if fa == 0.0 || fb == 0.0 {
+            // A root on a node: counted here when it is the cell's left end (the right end is
+            // the next cell's left end). Another root strictly inside is bracketed by the sign
+            // of g − u just inside the cell from the zero end, −(or +) the slope there.
+            if fa == 0.0 {
+                roots[0] = ta;
+            }
+            let (inner, other) = if fa == 0.0 {
+                (va.along, fb)
+            } else {
+                (-vb.along, fa)
+            };
+            if inner != 0.0 && other != 0.0 && inner * other < 0.0 {
+                let flo = if fa == 0.0 { inner } else { fa };
+                roots[1] = self
+                    .refine(a, s, u, ta, tb, flo, 0.5 * (ta + tb), scratch)
+                    .filter(|t| *t > ta && *t < tb)
+                    .unwrap_or(f64::NAN);
+            }
             return;
         }
         if fa * fb < 0.0 {
@@ -763,5 +776,50 @@ pub(crate) fn without_deltas(e: &Expr) -> Expr {
         Expr::Mul(f) => Expr::product(f.iter().map(without_deltas).collect()),
         Expr::Pow(a, x) => Expr::pow(without_deltas(a), without_deltas(x)),
         other => other.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// Independent standard normals on [−10, 10]².
+    struct Normal;
+    impl JointDensity for Normal {
+        fn pdf(&self, x: [f64; 2]) -> f64 {
+            (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * PI)
+        }
+        fn extent(&self) -> [[f64; 2]; 2] {
+            [[-10.0, 10.0], [-10.0, 10.0]]
+        }
+    }
+
+    #[test]
+    fn roots_on_grid_nodes_are_counted_once_and_their_neighbours_kept() {
+        // g = |z − v| + v with u chosen so that the level set passes exactly through grid
+        // nodes: u = g at a node. Exact: p(u) = ∫_{v<u} φ(v) (φ(u) + φ(2v − u)) dv.
+        let states: [Symbol; 2] = ["z".into(), "v".into()];
+        let (z, v) = (Expr::sym("z"), Expr::sym("v"));
+        let g = Expr::call(Func::Abs, z - v.clone()) + v;
+        let set = LevelSet::new(&Normal, &g, &states).unwrap();
+        let phi = |x: f64| (-x * x / 2.0).exp() / (2.0 * PI).sqrt();
+        for (i, j) in [(64, 60), (70, 70), (50, 80)] {
+            let (zn, vn) = (
+                set.lo[0] + i as f64 * set.h[0],
+                set.lo[1] + j as f64 * set.h[1],
+            );
+            let u = (zn - vn).abs() + vn;
+            let n = 200_000;
+            let (a, h) = (-12.0, (u + 12.0) / n as f64);
+            let f = |v: f64| phi(v) * (phi(u) + phi(2.0 * v - u));
+            let mut exact = f(a) + f(u);
+            for k in 1..n {
+                exact += f(a + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            exact *= h / 3.0;
+            let p = set.pdf(&Normal, u);
+            assert!((p - exact).abs() <= 1e-7 * exact, "u={u}: {p} vs {exact}");
+        }
     }
 }
