@@ -355,11 +355,19 @@ pub fn flags(report: &JobReport) -> Vec<String> {
     if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
         out.push(format!("Monte Carlo: {e}"));
     }
-    for u in &report.undefined {
-        out.push(format!(
+    match report.undefined.as_slice() {
+        [] => {}
+        [u] => out.push(format!(
             "summary.json: {} is {} (written as null)",
             u.field, u.value
-        ));
+        )),
+        [u, rest @ ..] => out.push(format!(
+            "summary.json: {} is {} and {} more numbers have no finite value (written as null, \
+             listed under `undefined`)",
+            u.field,
+            u.value,
+            rest.len()
+        )),
     }
     out
 }

@@ -53,6 +53,10 @@ pub struct QuantityStats {
     /// everywhere. When it is positive the observable's PDF integrates to 1 − this (it is not
     /// renormalised) and the moments above are those of g given that it is defined.
     pub undefined_mass: f64,
+    /// How many of the raw moments exist (0 to 4); the others, and the statistics built on
+    /// them, are NaN (written as `null` in JSON), never a number the quadrature happened to
+    /// give for a divergent integral.
+    pub existing_moments: usize,
 }
 
 impl QuantityStats {
@@ -77,15 +81,30 @@ impl QuantityStats {
     /// assert!(study.degrees[0].stats[0].note().is_none()); // z is defined everywhere
     /// ```
     pub fn note(&self) -> Option<String> {
-        (self.undefined_mass > 0.0).then(|| {
-            format!(
+        let mut parts = Vec::new();
+        if self.undefined_mass > 0.0 {
+            parts.push(format!(
                 "`{}` has no finite value with probability {:.3}: its PDF integrates to {:.3} \
                  (not renormalised) and its moments are conditional on it being defined",
                 self.name,
                 self.undefined_mass,
                 1.0 - self.undefined_mass
-            )
-        })
+            ));
+        }
+        if self.existing_moments < 4 {
+            let k = self.existing_moments + 1;
+            parts.push(format!(
+                "E[|{}|^{k}] is not established as finite (its integral diverges, or has a \
+                 singularity the quadrature does not resolve): {} undefined",
+                self.name,
+                match k {
+                    1 => "the mean, standard deviation and kurtosis are",
+                    2 => "the standard deviation and kurtosis are",
+                    _ => "the kurtosis is",
+                }
+            ));
+        }
+        (!parts.is_empty()).then(|| parts.join("; "))
     }
 }
 
@@ -375,6 +394,7 @@ fn stats(sol: &EpcSolution, q: &Quantity) -> QuantityStats {
         kurtosis: m.kurtosis,
         raw_moments: m.raw,
         undefined_mass: m.undefined_mass,
+        existing_moments: m.existing,
     }
 }
 

@@ -452,3 +452,55 @@ fn kinked_and_discontinuous_maps_match_one_dimensional_integrals() {
         assert_rel(&format!("p_diag({u})"), *p, exact, 1e-6);
     }
 }
+
+/// Moments that do not exist are NaN and counted, never a finite number the quadrature
+/// happened to give. Before: `1/z` on the linear oscillator printed mean 1e-13 (a cancellation
+/// of a divergent integral), std 8.8e7, kurtosis 6.5e15.
+#[test]
+fn moments_that_diverge_are_undefined_not_numbers() {
+    let text = "model linear
+param c = 0.1, k = 1
+param K = 1/(2*pi)
+state z, v
+drift z: v
+drift v: -c*v - k*z
+noise xi: intensity 2*pi*K
+diffusion v: xi
+observe energy = v^2/2 + k*z^2/2, inv = 1/z, isq = 1/sqrt(abs(z))
+";
+    let (sol, maps) = pipeline(text, 2);
+    // Bounded-tail observables: every moment exists.
+    let energy = moments(&sol, map(&maps, "energy"));
+    assert_eq!(energy.existing, 4);
+    // E|1/z| = ∞ (p(0, v) > 0): nothing exists.
+    let inv = moments(&sol, map(&maps, "inv"));
+    assert_eq!(inv.existing, 0);
+    assert!(inv.mean.is_nan() && inv.std_dev.is_nan() && inv.raw.iter().all(|m| m.is_nan()));
+    // |z|^(-1/2): the mean exists, E|z|^-1 does not. For z ~ N(0, 5):
+    // E|z|^(-1/2) = 5^(-1/4) 2^(-1/4) Γ(1/4)/√π.
+    let isq = moments(&sol, map(&maps, "isq"));
+    assert_eq!(isq.existing, 1);
+    let gamma_quarter = 3.625_609_908_221_908;
+    let exact = 5f64.powf(-0.25) * 2f64.powf(-0.25) * gamma_quarter / PI.sqrt();
+    assert_rel("E|z|^-1/2", isq.mean, exact, 1e-4);
+    assert!(isq.std_dev.is_nan() && isq.kurtosis.is_nan());
+    // The study says so in words.
+    let study = Study::run(&parse_model(text, None).unwrap(), &[], &[2]).unwrap();
+    let stats = &study.degrees[0].stats;
+    let note = stats
+        .iter()
+        .find(|s| s.name == "inv")
+        .unwrap()
+        .note()
+        .unwrap();
+    assert!(
+        note.contains("E[|inv|^1] is not established as finite"),
+        "{note}"
+    );
+    assert!(stats
+        .iter()
+        .find(|s| s.name == "energy")
+        .unwrap()
+        .note()
+        .is_none());
+}

@@ -394,3 +394,45 @@ fn every_subcommand_accepts_quiet() {
     assert!(o.status.success(), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&root);
 }
+
+#[test]
+fn an_undefined_statistic_is_written_as_null_with_the_run_kept() {
+    // Before: the NaN kurtosis of 1/z made the run exit 2 after writing CSVs and figures, with
+    // no summary.json and no table.
+    let root = scratch("nan");
+    let model = root.join("inv.sde");
+    std::fs::write(
+        &model,
+        "model inv\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+         noise xi: intensity 1\ndiffusion v: xi\nobserve w = 1/z, y = abs(z)\n",
+    )
+    .unwrap();
+    let out = root.join("out");
+    let o = fpsolve(&[
+        model.to_str().unwrap(),
+        "--degree",
+        "2",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        table.contains("warning: E[|w|^1] is not established as finite"),
+        "{table}"
+    );
+    let summary = json(&out.join("summary.json"));
+    let stats = summary["degrees"][0]["stats"].as_array().unwrap();
+    let w = stats.iter().find(|s| s["name"] == "w").unwrap();
+    assert!(w["mean"].is_null() && w["kurtosis"].is_null(), "{w}");
+    let undefined = summary["undefined"].as_array().unwrap();
+    assert!(undefined
+        .iter()
+        .any(|u| u["field"].as_str().unwrap().ends_with(".kurtosis")));
+    // Everything else was written.
+    for f in ["pdf_w.csv", "pdf_y.csv", "pdf_y.png"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}

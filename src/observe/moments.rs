@@ -19,10 +19,30 @@ const GL_W: [f64; 4] = [
     0.101_228_536_290_376_3,
 ];
 
-/// Panels per axis of the composite Gauss–Legendre rule.
-const PANELS: usize = 64;
-/// Geometric levels (ratio 0.2) of the panels next to 0.
-const GRADED: usize = 20;
+/// Panels per axis and geometric levels (ratio 0.2) of the panels next to 0, of the rule the
+/// moments are taken with.
+const FINE: Rule = Rule {
+    panels: 64,
+    graded: 20,
+};
+/// A second, different rule: a moment whose two values disagree by more than
+/// [`EXISTENCE_TOLERANCE`] does not exist (its integral diverges: every extra graded level
+/// adds as much as the last, as for E[1/|z|]) or cannot be determined by quadrature.
+const CHECK: Rule = Rule {
+    panels: 48,
+    graded: 14,
+};
+/// Relative disagreement of E[|g|^k] between the two rules above which moment k is declared
+/// not to exist: a convergent integrable singularity on an axis (|z|^−½) costs ~1e−5, a
+/// divergent one O(1).
+const EXISTENCE_TOLERANCE: f64 = 1e-3;
+
+/// A composite Gauss–Legendre rule: panels per axis, and graded levels next to 0.
+#[derive(Clone, Copy)]
+struct Rule {
+    panels: usize,
+    graded: usize,
+}
 
 /// Moments of one quantity g under a joint density p, by composite 8-point Gauss–Legendre
 /// quadrature of g^k·p over the density's extent (64 panels per axis, with a panel edge on
@@ -67,10 +87,16 @@ pub struct Moments {
     pub kurtosis: f64,
     /// P(g has no finite value): 0 for an observable defined everywhere.
     pub undefined_mass: f64,
+    /// How many of E|g|, E|g|², E|g|³, E|g|⁴ are established as finite (two different
+    /// quadrature rules agree on them): 4 for a bounded or light-tailed g. Moments beyond it
+    /// are NaN, never a number the quadrature happened to give (E[1/z²] is infinite when
+    /// p(0, v) > 0). A convergent integral with a singularity off the axes (log|z − 1|) may
+    /// also be left undetermined: flagged, not guessed.
+    pub existing: usize,
 }
 
 /// Nodes and weights of the composite rule on [lo, hi] (split at 0 when 0 is inside).
-fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
+fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
     let mut parts = vec![(lo, hi)];
     if lo < 0.0 && hi > 0.0 {
         parts = vec![(lo, 0.0), (0.0, hi)];
@@ -84,7 +110,7 @@ fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
         }
     };
     for (a, b) in parts {
-        let n = ((PANELS as f64 * (b - a) / (hi - lo)).ceil() as usize).max(4);
+        let n = ((rule.panels as f64 * (b - a) / (hi - lo)).ceil() as usize).max(4);
         let w = (b - a) / n as f64;
         for k in 0..n {
             let (pa, pb) = (a + k as f64 * w, a + (k + 1) as f64 * w);
@@ -100,7 +126,7 @@ fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
             match touches {
                 Some((far, _)) => {
                     let mut outer = far;
-                    for _ in 0..GRADED {
+                    for _ in 0..rule.graded {
                         let inner = 0.2 * outer;
                         panel(inner.min(outer), inner.max(outer));
                         outer = inner;
@@ -136,69 +162,112 @@ fn axis_rule(lo: f64, hi: f64) -> Vec<(f64, f64)> {
 /// assert_eq!(m.undefined_mass, 0.0);
 /// ```
 pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
-    let ext = density.extent();
-    let r1 = axis_rule(ext[0][0], ext[0][1]);
-    let r2 = axis_rule(ext[1][0], ext[1][1]);
-    let tape = match map {
-        ObservableMap::General { expr, states } => Some(Tape::compile(
-            std::slice::from_ref(expr),
-            &[&*states[0], &*states[1]],
-            DeltaPolicy::Zero,
-        )),
-        ObservableMap::SignedState { .. } => None,
-    };
-    // (g, weight·p) at every node; g NaN where undefined.
-    let mut samples: Vec<(f64, f64)> = Vec::with_capacity(r1.len() * r2.len());
-    let (mut scratch, mut out) = (Vec::new(), [0.0]);
-    for &(x1, w1) in &r1 {
-        for &(x2, w2) in &r2 {
-            let p = density.pdf([x1, x2]);
-            if p == 0.0 {
-                continue;
-            }
-            let g = match (map, &tape) {
-                (ObservableMap::SignedState { state, sign }, _) => {
-                    let x = [x1, x2];
-                    sign[usize::from(x1 >= 0.0)][usize::from(x2 >= 0.0)] * x[*state]
-                }
-                (_, Some(Ok(t))) => {
-                    t.eval(&[x1, x2], &mut scratch, &mut out);
-                    out[0]
-                }
-                _ => f64::NAN,
-            };
-            samples.push((g, w1 * w2 * p));
+    let fine = Samples::new(density, map, FINE);
+    let check = Samples::new(density, map, CHECK);
+    // E|g|^k by both rules: where they disagree the integral diverges (or is not resolved).
+    let mut existing = 0;
+    for k in 1..=4 {
+        let (a, b) = (fine.absolute(k), check.absolute(k));
+        let agree = a.is_finite()
+            && b.is_finite()
+            && (a - b).abs() <= EXISTENCE_TOLERANCE * a.abs().max(b.abs()).max(1e-300);
+        if !agree {
+            break;
         }
+        existing = k;
     }
-    let total: f64 = samples.iter().map(|s| s.1).sum();
-    let defined: f64 = samples
-        .iter()
-        .filter(|s| s.0.is_finite())
-        .map(|s| s.1)
-        .sum();
-    let e = |f: &dyn Fn(f64) -> f64| -> f64 {
-        samples
-            .iter()
-            .filter(|s| s.0.is_finite())
-            .map(|&(g, w)| f(g) * w)
-            .sum::<f64>()
-            / defined
-    };
+    let e = |f: &dyn Fn(f64) -> f64| fine.expect(f);
+    let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
     let raw = [
-        e(&|g| g),
-        e(&|g| g * g),
-        e(&|g| g.powi(3)),
-        e(&|g| g.powi(4)),
+        upto(1, e(&|g| g)),
+        upto(2, e(&|g| g * g)),
+        upto(3, e(&|g| g.powi(3))),
+        upto(4, e(&|g| g.powi(4))),
     ];
     let mean = raw[0];
-    let var = e(&|g| (g - mean).powi(2));
-    let m4 = e(&|g| (g - mean).powi(4));
-    let undefined_mass = ((total - defined) / total).max(0.0);
+    let var = upto(2, e(&|g| (g - mean).powi(2)));
+    let m4 = upto(4, e(&|g| (g - mean).powi(4)));
     Moments {
         raw,
         mean,
         std_dev: var.sqrt(),
         kurtosis: m4 / (var * var),
-        undefined_mass,
+        undefined_mass: fine.undefined_mass(),
+        existing,
+    }
+}
+
+/// (g, weight·p) at every node of a rule; g is NaN where it is undefined.
+struct Samples {
+    samples: Vec<(f64, f64)>,
+    total: f64,
+    defined: f64,
+}
+
+impl Samples {
+    fn new(density: &dyn JointDensity, map: &ObservableMap, rule: Rule) -> Samples {
+        let ext = density.extent();
+        let r1 = axis_rule(ext[0][0], ext[0][1], rule);
+        let r2 = axis_rule(ext[1][0], ext[1][1], rule);
+        let tape = match map {
+            ObservableMap::General { expr, states } => Some(Tape::compile(
+                std::slice::from_ref(expr),
+                &[&*states[0], &*states[1]],
+                DeltaPolicy::Zero,
+            )),
+            ObservableMap::SignedState { .. } => None,
+        };
+        let mut samples: Vec<(f64, f64)> = Vec::with_capacity(r1.len() * r2.len());
+        let (mut scratch, mut out) = (Vec::new(), [0.0]);
+        for &(x1, w1) in &r1 {
+            for &(x2, w2) in &r2 {
+                let p = density.pdf([x1, x2]);
+                if p == 0.0 {
+                    continue;
+                }
+                let g = match (map, &tape) {
+                    (ObservableMap::SignedState { state, sign }, _) => {
+                        let x = [x1, x2];
+                        sign[usize::from(x1 >= 0.0)][usize::from(x2 >= 0.0)] * x[*state]
+                    }
+                    (_, Some(Ok(t))) => {
+                        t.eval(&[x1, x2], &mut scratch, &mut out);
+                        out[0]
+                    }
+                    _ => f64::NAN,
+                };
+                samples.push((g, w1 * w2 * p));
+            }
+        }
+        let total: f64 = samples.iter().map(|s| s.1).sum();
+        let defined: f64 = samples
+            .iter()
+            .filter(|s| s.0.is_finite())
+            .map(|s| s.1)
+            .sum();
+        Samples {
+            samples,
+            total,
+            defined,
+        }
+    }
+
+    /// E[f(g)] given g defined.
+    fn expect(&self, f: &dyn Fn(f64) -> f64) -> f64 {
+        self.samples
+            .iter()
+            .filter(|s| s.0.is_finite())
+            .map(|&(g, w)| f(g) * w)
+            .sum::<f64>()
+            / self.defined
+    }
+
+    /// E[|g|^k] given g defined.
+    fn absolute(&self, k: usize) -> f64 {
+        self.expect(&|g| g.abs().powi(k as i32))
+    }
+
+    fn undefined_mass(&self) -> f64 {
+        ((self.total - self.defined) / self.total).max(0.0)
     }
 }
