@@ -8,7 +8,7 @@ use serde::Serialize;
 use crate::epc::{Epc, EpcError, EpcSolution};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::observe::{moments, JointDensity, ObservableDensity, ObservableMap};
+use crate::observe::{moments_of_all, JointDensity, ObservableDensity, ObservableMap};
 use crate::symbolic::{DeltaPolicy, Expr, Symbol};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
@@ -211,7 +211,7 @@ impl Study {
         };
         for r in &mut results {
             if let Ok(sol) = &r.outcome {
-                r.stats = quantities.iter().map(|q| stats(sol, q)).collect();
+                r.stats = stats(sol, &quantities);
             }
         }
         Ok(Study {
@@ -384,18 +384,23 @@ fn non_negative(q: &Quantity) -> bool {
     })
 }
 
-/// Moments of a quantity from the joint density directly.
-fn stats(sol: &EpcSolution, q: &Quantity) -> QuantityStats {
-    let m = moments(sol, &q.map);
-    QuantityStats {
-        name: q.name.clone(),
-        mean: m.mean,
-        std_dev: m.std_dev,
-        kurtosis: m.kurtosis,
-        raw_moments: m.raw,
-        undefined_mass: m.undefined_mass,
-        existing_moments: m.existing,
-    }
+/// Moments of each quantity from the joint density directly (the density evaluated once for
+/// all of them).
+fn stats(sol: &EpcSolution, quantities: &[Quantity]) -> Vec<QuantityStats> {
+    let maps: Vec<&ObservableMap> = quantities.iter().map(|q| &q.map).collect();
+    moments_of_all(sol, &maps)
+        .into_iter()
+        .zip(quantities)
+        .map(|(m, q)| QuantityStats {
+            name: q.name.clone(),
+            mean: m.mean,
+            std_dev: m.std_dev,
+            kurtosis: m.kurtosis,
+            raw_moments: m.raw,
+            undefined_mass: m.undefined_mass,
+            existing_moments: m.existing,
+        })
+        .collect()
 }
 
 /// A parameter and its value, for reports.

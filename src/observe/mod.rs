@@ -31,7 +31,7 @@ use rayon::prelude::*;
 
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
-pub use moments::{moments, Moments};
+pub use moments::{moments, moments_of_all, Moments};
 
 pub(crate) use level::without_deltas;
 

@@ -162,9 +162,57 @@ fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
 /// assert_eq!(m.undefined_mass, 0.0);
 /// ```
 pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
-    let fine = Samples::new(density, map, FINE);
-    let check = Samples::new(density, map, CHECK);
-    // E|g|^k by both rules: where they disagree the integral diverges (or is not resolved).
+    moments_of_all(density, &[map]).remove(0)
+}
+
+/// [`moments`] of several quantities under one density: the density is evaluated once per
+/// quadrature node for all of them (it is the expensive part, an exponential of a
+/// polynomial), each quantity's map at the same nodes.
+///
+/// ```
+/// use fpsolve::observe::{moments, moments_of_all, JointDensity, ObservableMap};
+/// use fpsolve::symbolic::Expr;
+/// struct Normal;
+/// impl JointDensity for Normal {
+///     fn pdf(&self, x: [f64; 2]) -> f64 {
+///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+///     }
+///     fn extent(&self) -> [[f64; 2]; 2] {
+///         [[-10.0, 10.0], [-10.0, 10.0]]
+///     }
+/// }
+/// let states = ["z".into(), "v".into()];
+/// let z = ObservableMap::classify(&Expr::sym("z"), &states);
+/// let vsq = ObservableMap::classify(&(Expr::sym("v") * Expr::sym("v")), &states);
+/// let all = moments_of_all(&Normal, &[&z, &vsq]);
+/// assert_eq!(all[1], moments(&Normal, &vsq));
+/// assert!((all[0].raw[3] - 3.0).abs() < 1e-12); // E[z⁴] = 3
+/// ```
+pub fn moments_of_all(density: &dyn JointDensity, maps: &[&ObservableMap]) -> Vec<Moments> {
+    let fine = Grid::new(density, FINE);
+    // A state's moments exist for any density fpsolve normalises (exp(Q) on the plane, or cut
+    // at a ridge): the second rule is only needed for general maps.
+    let check = maps
+        .iter()
+        .any(|m| matches!(m, ObservableMap::General { .. }))
+        .then(|| Grid::new(density, CHECK));
+    maps.iter()
+        .map(|map| {
+            let f = fine.samples(map);
+            let existing = match (&check, map) {
+                (Some(check), ObservableMap::General { .. }) => {
+                    let c = check.samples(map);
+                    established(&f, &c)
+                }
+                _ => 4,
+            };
+            f.moments(existing)
+        })
+        .collect()
+}
+
+/// How many of E|g|^k, k = 1…4, the two rules agree on.
+fn established(fine: &Samples, check: &Samples) -> usize {
     let mut existing = 0;
     for k in 1..=4 {
         let (a, b) = (fine.absolute(k), check.absolute(k));
@@ -176,24 +224,70 @@ pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
         }
         existing = k;
     }
-    let e = |f: &dyn Fn(f64) -> f64| fine.expect(f);
-    let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
-    let raw = [
-        upto(1, e(&|g| g)),
-        upto(2, e(&|g| g * g)),
-        upto(3, e(&|g| g.powi(3))),
-        upto(4, e(&|g| g.powi(4))),
-    ];
-    let mean = raw[0];
-    let var = upto(2, e(&|g| (g - mean).powi(2)));
-    let m4 = upto(4, e(&|g| (g - mean).powi(4)));
-    Moments {
-        raw,
-        mean,
-        std_dev: var.sqrt(),
-        kurtosis: m4 / (var * var),
-        undefined_mass: fine.undefined_mass(),
-        existing,
+    existing
+}
+
+/// The nodes of a rule with their weights times the density (zero-density nodes left out).
+struct Grid {
+    nodes: Vec<([f64; 2], f64)>,
+}
+
+impl Grid {
+    fn new(density: &dyn JointDensity, rule: Rule) -> Grid {
+        let ext = density.extent();
+        let r1 = axis_rule(ext[0][0], ext[0][1], rule);
+        let r2 = axis_rule(ext[1][0], ext[1][1], rule);
+        let mut nodes = Vec::with_capacity(r1.len() * r2.len());
+        for &(x1, w1) in &r1 {
+            for &(x2, w2) in &r2 {
+                let p = density.pdf([x1, x2]);
+                if p != 0.0 {
+                    nodes.push(([x1, x2], w1 * w2 * p));
+                }
+            }
+        }
+        Grid { nodes }
+    }
+
+    /// (g, weight·p) at every node; g is NaN where it is undefined.
+    fn samples(&self, map: &ObservableMap) -> Samples {
+        let tape = match map {
+            ObservableMap::General { expr, states } => Some(Tape::compile(
+                std::slice::from_ref(expr),
+                &[&*states[0], &*states[1]],
+                DeltaPolicy::Zero,
+            )),
+            ObservableMap::SignedState { .. } => None,
+        };
+        let (mut scratch, mut out) = (Vec::new(), [0.0]);
+        let samples: Vec<(f64, f64)> = self
+            .nodes
+            .iter()
+            .map(|&(x, w)| {
+                let g = match (map, &tape) {
+                    (ObservableMap::SignedState { state, sign }, _) => {
+                        sign[usize::from(x[0] >= 0.0)][usize::from(x[1] >= 0.0)] * x[*state]
+                    }
+                    (_, Some(Ok(t))) => {
+                        t.eval(&x, &mut scratch, &mut out);
+                        out[0]
+                    }
+                    _ => f64::NAN,
+                };
+                (g, w)
+            })
+            .collect();
+        let total: f64 = samples.iter().map(|s| s.1).sum();
+        let defined: f64 = samples
+            .iter()
+            .filter(|s| s.0.is_finite())
+            .map(|s| s.1)
+            .sum();
+        Samples {
+            samples,
+            total,
+            defined,
+        }
     }
 }
 
@@ -205,50 +299,26 @@ struct Samples {
 }
 
 impl Samples {
-    fn new(density: &dyn JointDensity, map: &ObservableMap, rule: Rule) -> Samples {
-        let ext = density.extent();
-        let r1 = axis_rule(ext[0][0], ext[0][1], rule);
-        let r2 = axis_rule(ext[1][0], ext[1][1], rule);
-        let tape = match map {
-            ObservableMap::General { expr, states } => Some(Tape::compile(
-                std::slice::from_ref(expr),
-                &[&*states[0], &*states[1]],
-                DeltaPolicy::Zero,
-            )),
-            ObservableMap::SignedState { .. } => None,
-        };
-        let mut samples: Vec<(f64, f64)> = Vec::with_capacity(r1.len() * r2.len());
-        let (mut scratch, mut out) = (Vec::new(), [0.0]);
-        for &(x1, w1) in &r1 {
-            for &(x2, w2) in &r2 {
-                let p = density.pdf([x1, x2]);
-                if p == 0.0 {
-                    continue;
-                }
-                let g = match (map, &tape) {
-                    (ObservableMap::SignedState { state, sign }, _) => {
-                        let x = [x1, x2];
-                        sign[usize::from(x1 >= 0.0)][usize::from(x2 >= 0.0)] * x[*state]
-                    }
-                    (_, Some(Ok(t))) => {
-                        t.eval(&[x1, x2], &mut scratch, &mut out);
-                        out[0]
-                    }
-                    _ => f64::NAN,
-                };
-                samples.push((g, w1 * w2 * p));
-            }
-        }
-        let total: f64 = samples.iter().map(|s| s.1).sum();
-        let defined: f64 = samples
-            .iter()
-            .filter(|s| s.0.is_finite())
-            .map(|s| s.1)
-            .sum();
-        Samples {
-            samples,
-            total,
-            defined,
+    /// The moments, the first `existing` of them established (the others NaN).
+    fn moments(&self, existing: usize) -> Moments {
+        let e = |f: &dyn Fn(f64) -> f64| self.expect(f);
+        let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
+        let raw = [
+            upto(1, e(&|g| g)),
+            upto(2, e(&|g| g * g)),
+            upto(3, e(&|g| g.powi(3))),
+            upto(4, e(&|g| g.powi(4))),
+        ];
+        let mean = raw[0];
+        let var = upto(2, e(&|g| (g - mean).powi(2)));
+        let m4 = upto(4, e(&|g| (g - mean).powi(4)));
+        Moments {
+            raw,
+            mean,
+            std_dev: var.sqrt(),
+            kurtosis: m4 / (var * var),
+            undefined_mass: ((self.total - self.defined) / self.total).max(0.0),
+            existing,
         }
     }
 
@@ -265,9 +335,5 @@ impl Samples {
     /// E[|g|^k] given g defined.
     fn absolute(&self, k: usize) -> f64 {
         self.expect(&|g| g.abs().powi(k as i32))
-    }
-
-    fn undefined_mass(&self) -> f64 {
-        ((self.total - self.defined) / self.total).max(0.0)
     }
 }
