@@ -10,7 +10,8 @@ use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{
-    merge_named, BurnIn, Grid, McConfig, McResult, RunEstimate, Shard, ShardOutput, Simulation,
+    merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, RunEstimate, Shard, ShardOutput,
+    Simulation,
 };
 use fpsolve::model::{load_model, parse_expr, Model, Override};
 use fpsolve::physics::{self, ImpactForm};
@@ -600,7 +601,7 @@ impl McFlags {
         }
         let mut grids: Vec<(String, Grid)> = Vec::new();
         for g in &args.grid {
-            let (name, grid) = parse_grid(g)?;
+            let NamedGrid { name, grid } = g.parse().map_err(|e| anyhow!("--grid {e}"))?;
             if grids.iter().any(|(n, _)| n == &name) {
                 bail!("--grid `{g}`: a grid for `{name}` is already given");
             }
@@ -621,30 +622,6 @@ impl McFlags {
         };
         Ok(McFlags { config, notes })
     }
-}
-
-/// `NAME=LO:HI:BINS`.
-fn parse_grid(g: &str) -> Result<(String, Grid)> {
-    let parsed = g.split_once('=').and_then(|(name, spec)| {
-        let parts: Vec<&str> = spec.split(':').collect();
-        let [lo, hi, bins] = parts.as_slice() else {
-            return None;
-        };
-        Some((
-            name.trim().to_string(),
-            lo.trim().parse::<f64>().ok()?,
-            hi.trim().parse::<f64>().ok()?,
-            bins.trim().parse::<usize>().ok()?,
-        ))
-    });
-    let Some((name, lo, hi, bins)) = parsed else {
-        bail!("--grid `{g}`: expected NAME=LO:HI:BINS (e.g. y=0:8:300)");
-    };
-    if name.is_empty() {
-        bail!("--grid `{g}`: the quantity's name is missing");
-    }
-    let grid = Grid::new(lo, hi, bins).map_err(|e| anyhow!("--grid `{g}`: {e}"))?;
-    Ok((name, grid))
 }
 
 /// Checks a Monte Carlo configuration against the model without running anything, and
@@ -1006,9 +983,7 @@ mod tests {
 
         #[test]
         fn grids_counts_and_shards_parse_or_say_which_flag(text in "[ -~]{0,24}") {
-            if let Err(e) = parse_grid(&text) {
-                prop_assert!(e.to_string().contains("--grid"));
-            }
+            let _ = text.parse::<NamedGrid>();
             let _ = text.parse::<Shard>();
             if let Err(e) = parse_count(&text, "--mc") {
                 prop_assert!(e.to_string().contains("--mc"));

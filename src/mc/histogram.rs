@@ -58,6 +58,80 @@ impl Grid {
     }
 }
 
+/// A histogram grid for a named quantity, as the command line gives it: `NAME=LO:HI:BINS`.
+///
+/// ```
+/// use fpsolve::mc::NamedGrid;
+/// let g: NamedGrid = "y=0:8:300".parse().unwrap();
+/// assert_eq!((g.name.as_str(), g.grid.bins), ("y", 300));
+/// let err = "y=0:8".parse::<NamedGrid>().unwrap_err();
+/// assert!(err.to_string().contains("expected NAME=LO:HI:BINS"));
+/// assert!("y=8:0:10".parse::<NamedGrid>().is_err());
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedGrid {
+    /// The state's or observable's name.
+    pub name: String,
+    /// The grid.
+    pub grid: Grid,
+}
+
+/// Why a `NAME=LO:HI:BINS` text is not a grid.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NamedGridError {
+    /// Not of the form `NAME=LO:HI:BINS` with numbers and a whole number of bins.
+    #[error("`{text}`: expected NAME=LO:HI:BINS (e.g. y=0:8:300)")]
+    Shape {
+        /// The text given.
+        text: String,
+    },
+    /// Nothing before `=`.
+    #[error("`{text}`: the quantity's name is missing")]
+    NoName {
+        /// The text given.
+        text: String,
+    },
+    /// The numbers do not make a grid (lo ≥ hi, non-finite, no bins).
+    #[error("`{text}`: {reason}")]
+    Grid {
+        /// The text given.
+        text: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl std::str::FromStr for NamedGrid {
+    type Err = NamedGridError;
+
+    fn from_str(text: &str) -> Result<NamedGrid, NamedGridError> {
+        let shown = || text.chars().take(60).collect::<String>();
+        let parsed = text.split_once('=').and_then(|(name, spec)| {
+            let parts: Vec<&str> = spec.split(':').collect();
+            let [lo, hi, bins] = parts.as_slice() else {
+                return None;
+            };
+            Some((
+                name.trim().to_string(),
+                lo.trim().parse::<f64>().ok()?,
+                hi.trim().parse::<f64>().ok()?,
+                bins.trim().parse::<usize>().ok()?,
+            ))
+        });
+        let Some((name, lo, hi, bins)) = parsed else {
+            return Err(NamedGridError::Shape { text: shown() });
+        };
+        if name.is_empty() {
+            return Err(NamedGridError::NoName { text: shown() });
+        }
+        let grid = Grid::new(lo, hi, bins).map_err(|e| NamedGridError::Grid {
+            text: shown(),
+            reason: e.to_string(),
+        })?;
+        Ok(NamedGrid { name, grid })
+    }
+}
+
 /// One quantity's statistics over one batch: bin counts, out-of-range and invalid counts,
 /// power sums of `q − shift` (`shift` is the grid's centre, to keep the sums well
 /// conditioned), and the extremes of the finite values.

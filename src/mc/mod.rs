@@ -45,7 +45,7 @@ pub use ensemble::{
     BlowUp, ImpactStats, LastState, McResult, ParamValue, QuantitySpec, RunSettings,
 };
 pub use error::{McError, ShardDefect};
-pub use histogram::{Estimate, Grid, QuantityStats, TimeStepBias};
+pub use histogram::{Estimate, Grid, NamedGrid, NamedGridError, QuantityStats, TimeStepBias};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
