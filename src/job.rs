@@ -143,21 +143,17 @@ pub struct Unwritten {
     pub error: String,
 }
 
-/// Records a written file, or why it could not be written.
+/// Records a written file, or which file could not be written and why.
 fn keep(
-    written: Result<PathBuf, ReportError>,
+    file: String,
+    written: Result<Vec<PathBuf>, ReportError>,
     files: &mut Vec<PathBuf>,
     unwritten: &mut Vec<Unwritten>,
 ) {
     match written {
-        Ok(p) => files.push(p),
+        Ok(p) => files.extend(p),
         Err(e) => unwritten.push(Unwritten {
-            file: match &e {
-                ReportError::Table { path, .. } | ReportError::Io { path, .. } => path
-                    .file_name()
-                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-                _ => String::new(),
-            },
+            file,
             error: e.to_string(),
         }),
     }
@@ -252,11 +248,9 @@ pub fn run(
                     .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
                     .collect(),
             };
-            keep(
-                table.write_csv(out, &format!("pdf_{name}.csv")),
-                &mut files,
-                &mut unwritten,
-            );
+            let file = format!("pdf_{name}.csv");
+            let written = table.write_csv(out, &file).map(|p| vec![p]);
+            keep(file, written, &mut files, &mut unwritten);
         }
         // The histogram beside each degree's bin averages, on the histogram's bins.
         if let Some(q) = mc_q {
@@ -271,11 +265,9 @@ pub fn run(
                 x: q.grid.centers(),
                 columns,
             };
-            keep(
-                table.write_csv(out, &format!("mc_{name}.csv")),
-                &mut files,
-                &mut unwritten,
-            );
+            let file = format!("mc_{name}.csv");
+            let written = table.write_csv(out, &file).map(|p| vec![p]);
+            keep(file, written, &mut files, &mut unwritten);
         }
         if spec.figures && !curve.x.is_empty() {
             let figure = PdfFigure {
@@ -297,16 +289,15 @@ pub fn run(
                     stderr: q.stderr.clone(),
                 }),
             };
-            match figure.write(out, &format!("pdf_{name}")) {
-                Ok(written) => {
-                    files.push(written.png);
-                    files.push(written.svg);
-                }
-                Err(e) => unwritten.push(Unwritten {
-                    file: format!("pdf_{name}.png/.svg"),
-                    error: e.to_string(),
-                }),
-            }
+            let written = figure
+                .write(out, &format!("pdf_{name}"))
+                .map(|w| vec![w.png, w.svg]);
+            keep(
+                format!("pdf_{name}.png/.svg"),
+                written,
+                &mut files,
+                &mut unwritten,
+            );
         }
     }
     let summary = Summary {
@@ -575,54 +566,9 @@ pub fn table(report: &JobReport) -> String {
         let _ = writeln!(s, "warning: {note}");
     }
     if let Some(mc) = &report.mc {
-        let _ = writeln!(
-            s,
-            "Monte Carlo: {} trajectories, {:.3e} samples, {:.1} s",
-            mc.trajectories,
-            mc.quantities.first().map_or(0, |q| q.samples) as f64,
-            report.mc_wall_s
-        );
-        if let Some(impacts) = &mc.impacts {
-            let _ = writeln!(
-                s,
-                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time",
-                impacts.count, impacts.rate.value, impacts.rate.stderr
-            );
-        }
-        let _ = writeln!(s, "scheme: {}, dt = {}", mc.settings.scheme, mc.settings.dt);
-        let _ = writeln!(s, "blow-ups: {}", mc.blowup_verdict);
-        let _ = writeln!(s, "stationarity: {}", mc.stationarity);
-        for w in &mc.warnings {
-            let _ = writeln!(s, "warning: {w}");
-        }
-        for q in &mc.quantities {
-            let sd = q.variance.value.sqrt();
-            let bias = |pick: fn(&crate::mc::TimeStepBias) -> crate::mc::Estimate| {
-                q.time_step_bias.as_ref().map_or("n/a".to_string(), |b| {
-                    let e = pick(b);
-                    if e.resolved() {
-                        format!("{:+.1e}", e.value)
-                    } else {
-                        format!("<{:.0e}", e.bound())
-                    }
-                })
-            };
-            let _ = writeln!(
-                s,
-                "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}   (± {:.1e}, {:.1e}, {:.1e}; time-step bias of mean {}, variance {}, kurtosis {})",
-                q.name,
-                "mc",
-                q.mean.value,
-                sd,
-                q.kurtosis.value,
-                q.mean.stderr,
-                q.variance.stderr / (2.0 * sd),
-                q.kurtosis.stderr,
-                bias(|b| b.mean),
-                bias(|b| b.variance),
-                bias(|b| b.kurtosis)
-            );
-        }
+        // The same table `fpsolve simulate` prints, then the run's wall time.
+        let _ = write!(s, "{mc}");
+        let _ = writeln!(s, "Monte Carlo wall time: {:.1} s", report.mc_wall_s);
         for c in &report.comparisons {
             let _ = writeln!(
                 s,

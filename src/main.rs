@@ -10,10 +10,9 @@ use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{
-    merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, RunEstimate, Shard, ShardOutput,
-    Simulation,
+    merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, Shard, ShardOutput, Simulation,
 };
-use fpsolve::model::{load_model, parse_expr, Model, Override};
+use fpsolve::model::{load_model, parse_expr, BoundModel, Model, Override};
 use fpsolve::physics::{self, ImpactForm};
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
@@ -264,7 +263,7 @@ enum Plan {
     Check {
         path: PathBuf,
         model: Model,
-        overrides: Vec<Override>,
+        bound: BoundModel,
     },
     Job {
         path: PathBuf,
@@ -275,8 +274,7 @@ enum Plan {
     },
     Simulate {
         path: PathBuf,
-        model: Model,
-        overrides: Vec<Override>,
+        bound: BoundModel,
         config: McConfig,
         shard: Option<Shard>,
         out: PathBuf,
@@ -310,11 +308,11 @@ fn plan(cli: Cli) -> Result<Planned> {
     let mut threads = None;
     let plan = match cli.command {
         Some(Command::Check { model, set, .. }) => {
-            let (m, overrides) = load(&model, &set.set)?;
+            let (m, _, bound) = load(&model, &set.set)?;
             Plan::Check {
                 path: model,
                 model: m,
-                overrides,
+                bound,
             }
         }
         Some(Command::Solve { model, solve }) => plan_job(model, &solve, None, Target::States)?,
@@ -327,8 +325,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             out,
             quiet,
         }) => {
-            let (m, overrides) = load(&model, &set.set)?;
-            let bound = m.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
+            let (m, _, bound) = load(&model, &set.set)?;
             physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             // Settings checked and the cost estimated; the limits apply to what this process
@@ -358,8 +355,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             Plan::Simulate {
                 out: default_out(out, &m),
                 path: model,
-                model: m,
-                overrides,
+                bound,
                 config: flags.config,
                 shard,
                 quiet: quiet.quiet,
@@ -408,7 +404,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             let mc = match &cli.run.mc {
                 Some(n) => {
                     let flags = McFlags::parse(&cli.run.mc_args, n, "--mc")?;
-                    notes = flags.notes.clone();
+                    notes = flags.notes;
                     threads = check_threads(cli.run.mc_args.threads, &mut notes)?;
                     Some(flags.config)
                 }
@@ -425,10 +421,9 @@ fn plan(cli: Cli) -> Result<Planned> {
 }
 
 fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Target) -> Result<Plan> {
-    let (model, overrides) = load(&path, &args.set.set)?;
+    let (model, overrides, bound) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with an impact law EPC does not represent, is
     // refused here, before any work.
-    let bound = model.bind(&overrides).map_err(|e| anyhow!("{e}"))?;
     let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
     if let Some(ImpactForm::Unsupported { law, reason }) = &fpk.impact {
         let e = EpcError::UnsupportedImpact {
@@ -438,7 +433,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
         bail!("{}: {e}", path.display());
     }
     if let Some(config) = &mc {
-        preflight(&model, &overrides, config)?;
+        config.preflight(&bound).map_err(|e| anyhow!("{e}"))?;
     }
     Ok(Plan::Job {
         out: default_out(args.out.clone(), &model),
@@ -459,11 +454,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
 /// Runs a checked plan: the output directory is taken (locked, staged) first, then the work.
 fn execute(plan: Plan) -> Result<(), Failure> {
     match plan {
-        Plan::Check {
-            path,
-            model,
-            overrides,
-        } => Ok(check(&path, &model, &overrides)?),
+        Plan::Check { path, model, bound } => Ok(check(&path, &model, &bound)?),
         Plan::Job {
             path,
             model,
@@ -473,13 +464,12 @@ fn execute(plan: Plan) -> Result<(), Failure> {
         } => main_job(&path, &model, &spec, &out, quiet),
         Plan::Simulate {
             path,
-            model,
-            overrides,
+            bound,
             config,
             shard,
             out,
             quiet,
-        } => simulate(&path, &model, &overrides, &config, shard, &out, quiet),
+        } => simulate(&path, &bound, &config, shard, &out, quiet),
         Plan::Sweep {
             model,
             spec,
@@ -511,21 +501,20 @@ fn parse_override(arg: &str) -> Result<Override> {
     })
 }
 
-/// Loads a model and checks the overrides against it (so a bad `--set` fails before any work).
-fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>)> {
+/// Loads a model and binds it with the overrides (so a bad `--set` fails before any work).
+fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel)> {
     let overrides = set
         .iter()
         .map(|s| parse_override(s))
         .collect::<Result<Vec<_>>>()?;
     let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
-    model
+    let bound = model
         .bind(&overrides)
         .map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
-    Ok((model, overrides))
+    Ok((model, overrides, bound))
 }
 
-fn check(path: &Path, model: &Model, overrides: &[Override]) -> Result<()> {
-    let bound = model.bind(overrides).map_err(|e| anyhow!("error: {e}"))?;
+fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     let mut out = std::io::stdout().lock();
     write!(out, "{model}").context("writing to stdout")?;
     writeln!(out, "\n# parameter values").context("writing to stdout")?;
@@ -533,7 +522,7 @@ fn check(path: &Path, model: &Model, overrides: &[Override]) -> Result<()> {
         writeln!(out, "#   {name} = {}", fpsolve::model::number(*value))
             .context("writing to stdout")?;
     }
-    let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let fpk = FpkOperator::derive(bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
     writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
     for line in fpk.to_string().lines() {
         writeln!(out, "# {line}").context("writing to stdout")?;
@@ -622,13 +611,6 @@ impl McFlags {
         };
         Ok(McFlags { config, notes })
     }
-}
-
-/// Checks a Monte Carlo configuration against the model without running anything, and
-/// estimates its cost (refusing what cannot finish).
-fn preflight(model: &Model, overrides: &[Override], config: &McConfig) -> Result<RunEstimate> {
-    let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
-    config.preflight(&bound).map_err(|e| anyhow!("{e}"))
 }
 
 fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
@@ -724,20 +706,18 @@ fn main_job(
 
 fn simulate(
     path: &Path,
-    model: &Model,
-    overrides: &[Override],
+    bound: &BoundModel,
     config: &McConfig,
     shard: Option<Shard>,
     dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
-    let bound = model.bind(overrides).map_err(|e| anyhow!("{e}"))?;
     match shard {
         Some(shard) => {
             // Shards of one run share a directory: each adds its own file, atomically.
             let out = OutputDir::create(dir).map_err(|e| anyhow!("--out: {e}"))?;
             let sim =
-                Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let part = sim.run_shard(shard).map_err(|e| anyhow!("{e}"))?;
             let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
             let file = write_json(&out, &name, &part).map_err(|e| anyhow!("{e}"))?;
@@ -747,7 +727,7 @@ fn simulate(
         None => {
             let run = begin_output(dir)?;
             let sim =
-                Simulation::new(&bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
             let bar = Bar::new(quiet);
             bar.stage("Monte Carlo");
             let result = sim.run_with_progress(&|done, total| bar.advance(done, total));

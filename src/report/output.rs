@@ -118,7 +118,7 @@ impl OutputDir {
 /// Makes the rename itself durable: the new directory entry is only on disk once the directory
 /// is synced. Windows cannot open directories as files, and NTFS journals renames, so there it
 /// is skipped.
-fn sync_dir(dir: &Path) -> Result<(), ReportError> {
+pub(super) fn sync_dir(dir: &Path) -> Result<(), ReportError> {
     if cfg!(unix) {
         File::open(dir)
             .and_then(|d| d.sync_all())

@@ -16,6 +16,7 @@ use std::fs::{self, File, OpenOptions, TryLockError};
 use std::path::{Component, Path, PathBuf};
 use std::sync::Mutex;
 
+use super::output::sync_dir;
 use super::{OutputDir, ReportError};
 
 /// The file that marks a directory as an fpsolve run's output (it holds the command line and
@@ -110,8 +111,8 @@ impl RunDir {
     /// (e.g. not writable).
     pub fn begin(dest: impl AsRef<Path>, command: &str) -> Result<RunDir, ReportError> {
         let dest = absolute(dest.as_ref())?;
-        let (parent, name) = match (dest.parent(), dest.file_name()) {
-            (Some(p), Some(n)) => (p.to_path_buf(), n.to_string_lossy().into_owned()),
+        let parent = match (dest.parent(), dest.file_name()) {
+            (Some(p), Some(_)) => p.to_path_buf(),
             _ => return Err(RunDirError::NoName { path: dest }.into()),
         };
         let io = |path: &Path| {
@@ -122,7 +123,7 @@ impl RunDir {
         // again under the lock, as another run may have written it in between.
         check_replaceable(&dest)?;
         fs::create_dir_all(&parent).map_err(io(&parent))?;
-        let lock_path = parent.join(format!(".{name}.fpsolve-lock"));
+        let lock_path = sibling(&dest, "lock");
         let lock = OpenOptions::new()
             .create(true)
             .truncate(false)
@@ -148,8 +149,8 @@ impl RunDir {
         check_replaceable(&dest)?;
         // Leftovers of runs killed without a chance to clean up (SIGKILL, power loss): the
         // lock proves no live run owns them.
-        remove_leftovers(&parent, &name);
-        let staging = parent.join(format!(".{name}.fpsolve-partial-{}", std::process::id()));
+        remove_leftovers(&dest);
+        let staging = sibling(&dest, &format!("partial-{}", std::process::id()));
         let _ = fs::remove_dir_all(&staging);
         fs::create_dir(&staging).map_err(io(&staging))?;
         register(&staging);
@@ -172,19 +173,6 @@ impl RunDir {
         &self.staging
     }
 
-    /// The destination the run's files will have after [`RunDir::commit`].
-    pub fn dest(&self) -> &Path {
-        &self.dest
-    }
-
-    /// Where a file written into the staging directory will be after the commit.
-    pub fn final_path(&self, staged: &Path) -> PathBuf {
-        match staged.file_name() {
-            Some(name) => self.dest.join(name),
-            None => self.dest.clone(),
-        }
-    }
-
     /// Puts the run's files in place as a whole, replacing the previous run's directory, and
     /// returns the destination.
     ///
@@ -192,17 +180,7 @@ impl RunDir {
     /// [`ReportError::Io`] if a rename fails; the previous run's directory is then restored
     /// when possible, and the staged files are removed.
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
-        let parent = self
-            .dest
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
-        let name = self
-            .dest
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let old = parent.join(format!(".{name}.fpsolve-old-{}", std::process::id()));
+        let old = sibling(&self.dest, &format!("old-{}", std::process::id()));
         let had_old = self.dest.exists();
         if had_old {
             fs::rename(&self.dest, &old).map_err(|source| ReportError::Io {
@@ -224,8 +202,9 @@ impl RunDir {
         if had_old {
             let _ = fs::remove_dir_all(&old);
         }
-        if let Ok(d) = File::open(&parent) {
-            let _ = d.sync_all();
+        if let Some(parent) = self.dest.parent() {
+            // Best effort: the rename is done; durability of the new entry is all that is left.
+            let _ = sync_dir(parent);
         }
         Ok(self.dest.clone())
     }
@@ -294,6 +273,16 @@ fn absolute(path: &Path) -> Result<PathBuf, ReportError> {
     Ok(out)
 }
 
+/// The hidden entry `.<name>.fpsolve-<kind>` beside `dest` (lock file, staging and old
+/// directories).
+fn sibling(dest: &Path, kind: &str) -> PathBuf {
+    let name = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    dest.with_file_name(format!(".{name}.fpsolve-{kind}"))
+}
+
 /// Whether a file name is one fpsolve writes into an output directory.
 fn written_by_fpsolve(name: &str) -> bool {
     let ext = |e: &str| name.ends_with(e);
@@ -354,16 +343,17 @@ fn check_replaceable(dest: &Path) -> Result<(), ReportError> {
     }
 }
 
-fn remove_leftovers(parent: &Path, name: &str) {
-    let prefixes = [
-        format!(".{name}.fpsolve-partial-"),
-        format!(".{name}.fpsolve-old-"),
-    ];
+fn remove_leftovers(dest: &Path) {
+    let prefixes = [sibling(dest, "partial-"), sibling(dest, "old-")];
+    let Some(parent) = dest.parent() else { return };
     if let Ok(entries) = fs::read_dir(parent) {
         for e in entries.flatten() {
-            let n = e.file_name().to_string_lossy().into_owned();
-            if prefixes.iter().any(|p| n.starts_with(p.as_str())) {
-                let _ = fs::remove_dir_all(e.path());
+            let path = e.path();
+            let leftover = prefixes
+                .iter()
+                .any(|p| path.to_string_lossy().starts_with(&*p.to_string_lossy()));
+            if leftover {
+                let _ = fs::remove_dir_all(path);
             }
         }
     }
