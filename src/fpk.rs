@@ -175,7 +175,8 @@ impl FpkOperator {
         }
         // The symbolic derivation first: a term with no meaning is the more specific error.
         let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
-        physics::check(model)?;
+        // The check reuses the operator's Itô drift instead of deriving it again.
+        physics::check_with_drift(model, Some(&operator.drift))?;
         Ok(operator)
     }
 
@@ -214,11 +215,7 @@ impl FpkOperator {
                 diffusion[i][j] = simplify(&expand(&Expr::sum(terms)));
             }
         }
-        let wong_zakai = wong_zakai(model)?;
-        let drift = [
-            simplify(&(model.drift()[0].clone() + wong_zakai[0].clone())),
-            simplify(&(model.drift()[1].clone() + wong_zakai[1].clone())),
-        ];
+        let (wong_zakai, drift) = ito_drift(model)?;
         let name = |i: usize| states[i].to_string();
         // A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij
         let mut a0_terms = Vec::new();
@@ -275,6 +272,17 @@ impl FpkOperator {
 
 /// The Wong–Zakai drift correction m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik of a Stratonovich
 /// model (zero for Itô models).
+/// The Wong–Zakai correction and the Itô drift m = drift + correction, simplified.
+pub(crate) fn ito_drift(model: &BoundModel) -> Result<([Expr; 2], [Expr; 2]), FpkError> {
+    let wz = wong_zakai(model)?;
+    let d = model.drift();
+    let m = [
+        simplify(&(d[0].clone() + wz[0].clone())),
+        simplify(&(d[1].clone() + wz[1].clone())),
+    ];
+    Ok((wz, m))
+}
+
 pub(crate) fn wong_zakai(model: &BoundModel) -> Result<[Expr; 2], FpkError> {
     let states = model.states();
     let g = model.noise_matrix();

@@ -38,9 +38,8 @@
 
 use std::fmt;
 
-use crate::fpk::wong_zakai;
 use crate::model::{number, BoundImpact, BoundModel};
-use crate::symbolic::{sift, simplify, DeltaPolicy, Expr, Symbol};
+use crate::symbolic::{sift, DeltaPolicy, Expr, Symbol};
 
 /// Why a model has no (non-degenerate) stationary density. `Display` says it in the user's
 /// terms, starting with "no stationary density: ".
@@ -308,16 +307,6 @@ fn max_real_part(j: &[[f64; 2]; 2]) -> f64 {
     }
 }
 
-/// The Itô drift (the model's drift plus the Wong–Zakai correction for Stratonovich noise).
-fn ito_drift(model: &BoundModel) -> Option<[Expr; 2]> {
-    let wz = wong_zakai(model).ok()?;
-    let d = model.drift();
-    Some([
-        simplify(&(d[0].clone() + wz[0].clone())),
-        simplify(&(d[1].clone() + wz[1].clone())),
-    ])
-}
-
 /// (position, velocity) when the model has the mechanical form: the rate of the position is
 /// the velocity and the noise enters only the velocity's equation.
 fn mechanical(model: &BoundModel, m: &[Expr; 2]) -> Option<(usize, usize)> {
@@ -365,25 +354,23 @@ fn jump_text(model: &BoundModel, law: &BoundImpact) -> String {
     format!("{} -> {:#}", model.states()[law.other], law.map)
 }
 
-/// The δ-line weights of the drift of `velocity` on the axis `position` at `at`, as
-/// (weight expression, whether any other line exists). `None` when the drift cannot be split.
+/// The δ-line weights of the drift of `velocity` on the axis `position` (at `at_x`, or at any
+/// position), as (line position, weight expression). `None` when the drift cannot be split.
 fn impact_terms(
     model: &BoundModel,
     position: usize,
     velocity: usize,
     at_x: Option<f64>,
-) -> Option<(Vec<(f64, Expr)>, bool)> {
+) -> Option<Vec<(f64, Expr)>> {
     let split = sift(&model.drift()[velocity], model.states()).ok()?;
-    let mut mine = Vec::new();
-    let mut others = false;
-    for line in split.lines {
-        if line.axis == position && at_x.is_none_or(|a| line.at == a) {
-            mine.push((line.at, line.weight));
-        } else {
-            others = true;
-        }
-    }
-    Some((mine, others))
+    Some(
+        split
+            .lines
+            .into_iter()
+            .filter(|line| line.axis == position && at_x.is_none_or(|a| line.at == a))
+            .map(|line| (line.at, line.weight))
+            .collect(),
+    )
 }
 
 /// The weight of a δ-line at velocity `v` (the weight depends on the velocity only).
@@ -409,6 +396,16 @@ fn weight_at(w: &Expr, model: &BoundModel, position: usize, line_at: f64, v: f64
 /// assert!(err.to_string().contains("`v -> 1.001*v` adds energy at every impact"));
 /// ```
 pub fn check(model: &BoundModel) -> Result<(), Inadmissible> {
+    let m = crate::fpk::ito_drift(model).ok().map(|(_, m)| m);
+    check_with_drift(model, m.as_ref())
+}
+
+/// [`check`] with the model's Itô drift already derived (`None` when it cannot be: the
+/// checks that need it are then skipped, as the derivation's own error will say why).
+pub(crate) fn check_with_drift(
+    model: &BoundModel,
+    ito_drift: Option<&[Expr; 2]>,
+) -> Result<(), Inadmissible> {
     let states = model.states();
     let points = probe_points();
 
@@ -438,14 +435,14 @@ pub fn check(model: &BoundModel) -> Result<(), Inadmissible> {
         };
     }
 
-    let Some(m) = ito_drift(model) else {
+    let Some(m) = ito_drift else {
         return Ok(());
     };
-    let mech = mechanical(model, &m);
+    let mech = mechanical(model, m);
 
     // Impact terms in the drift: energy change w(v)·sgn(v) at each crossing.
     if let Some((p, q)) = mech {
-        if let Some((lines, _)) = impact_terms(model, p, q, None) {
+        if let Some(lines) = impact_terms(model, p, q, None) {
             for (line_at, w) in &lines {
                 let change: Vec<f64> = PROBE_MAGNITUDES[..JUMP_PROBES]
                     .iter()
@@ -503,7 +500,7 @@ pub fn check(model: &BoundModel) -> Result<(), Inadmissible> {
             if !dissipates && 2 * finite > points.len() {
                 let velocity = states[q].to_string();
                 if energises {
-                    let jac = jacobian(&m, states, [0.0, 0.0]);
+                    let jac = jacobian(m, states, [0.0, 0.0]);
                     return Err(Inadmissible::NegativeDamping {
                         velocity,
                         linear_damping: -jac[q][q],
@@ -515,13 +512,13 @@ pub fn check(model: &BoundModel) -> Result<(), Inadmissible> {
     }
 
     // Noise that vanishes at a rest point which is stable in mean square.
-    vanishing_diffusion_at_rest(model, &m)?;
+    vanishing_diffusion_at_rest(model, m)?;
 
     // A linear drift with additive noise and a mode that does not decay.
     if model.impact().is_none() && !model.drift().iter().any(Expr::contains_delta) {
         let origin = [0.0, 0.0];
         let m0 = [at(&m[0], states, origin), at(&m[1], states, origin)];
-        let jac = jacobian(&m, states, origin);
+        let jac = jacobian(m, states, origin);
         let b0 = diffusion(model, origin);
         let linear = points.iter().all(|x| {
             (0..2).all(|i| {
@@ -714,7 +711,7 @@ pub fn impact_form(model: &BoundModel) -> Option<ImpactForm> {
     if !rate_is_velocity {
         return unsupported(UnsupportedImpact::NotMechanical { position, velocity });
     }
-    let Some((lines, _)) = impact_terms(model, p, q, Some(law.at)) else {
+    let Some(lines) = impact_terms(model, p, q, Some(law.at)) else {
         return unsupported(UnsupportedImpact::MismatchedImpactTerm {
             restitution: r,
             position,

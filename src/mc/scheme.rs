@@ -170,21 +170,9 @@ fn is_state(e: &Expr, v: &str) -> bool {
     }
 }
 
-/// `e` with every `delta(·)` replaced by 0: its value away from the barrier.
-fn without_deltas(e: &Expr) -> Expr {
-    match e {
-        Expr::Call(Func::Delta, _) => Expr::num(0.0),
-        Expr::Num(_) | Expr::Sym(_) => e.clone(),
-        Expr::Add(v) => Expr::Add(v.iter().map(without_deltas).collect()),
-        Expr::Mul(v) => Expr::Mul(v.iter().map(without_deltas).collect()),
-        Expr::Pow(b, x) => Expr::pow(without_deltas(b), without_deltas(x)),
-        Expr::Call(f, a) => Expr::Call(*f, a.iter().map(without_deltas).collect()),
-    }
-}
-
 /// ∂f/∂v when the force `f` (deltas dropped) is affine in `v`, decided symbolically.
 fn affine_slope(f: &Expr, v: &str) -> Option<Expr> {
-    let smooth = simplify(&without_deltas(f));
+    let smooth = simplify(&f.without_deltas());
     let slope = diff(&smooth, v).ok()?;
     let curvature = diff(&slope, v).ok()?;
     (curvature.as_num() == Some(0.0)).then_some(slope)

@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable, Origin};
-use crate::symbolic::{Expr, Symbol};
+use crate::symbolic::{Expr, Func, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
 #[derive(Clone, Debug, PartialEq)]
@@ -189,7 +189,14 @@ pub struct BoundModel {
 
 /// The first subexpression of `e` made of numbers only whose value is not finite.
 fn non_finite_constant(e: &Expr) -> Option<(String, f64)> {
-    if e.symbols().is_empty() && !e.contains_delta() {
+    // Numbers only (no symbol, no delta), tested without building a symbol set per node.
+    let mut numbers_only = true;
+    e.walk(&mut |n| {
+        if matches!(n, Expr::Sym(_) | Expr::Call(Func::Delta, _)) {
+            numbers_only = false;
+        }
+    });
+    if numbers_only {
         return match e.eval(&|_| None) {
             Ok(v) if !v.is_finite() => Some((format!("{e:#}"), v)),
             _ => None,

@@ -1161,22 +1161,7 @@ impl<'a> Validator<'a> {
                 span,
             )
         };
-        fn find_delta(node: &ExprNode) -> Option<Span> {
-            match &node.kind {
-                ExprKind::Call { func, args } => {
-                    if func.name == "delta" {
-                        return Some(node.span);
-                    }
-                    args.iter().find_map(find_delta)
-                }
-                ExprKind::Neg(a) => find_delta(a),
-                ExprKind::Sum(t) => t.iter().find_map(|(_, n)| find_delta(n)),
-                ExprKind::Product(f) => f.iter().find_map(|(_, n)| find_delta(n)),
-                ExprKind::Pow(a, e) => find_delta(a).or_else(|| find_delta(e)),
-                _ => None,
-            }
-        }
-        if let Some(span) = find_delta(&b.value) {
+        if let Some(span) = find_delta(&b.value).map(|d| d.span) {
             return refuse(
                 "contains `delta(...)`, a distribution, not a value: an observable must be a \
                  function of the states",
@@ -1192,10 +1177,7 @@ impl<'a> Validator<'a> {
         }
         let flat = self.states.iter().all(|s| {
             crate::symbolic::diff(&expr, &s.name)
-                .map(|d| {
-                    crate::symbolic::simplify(&crate::observe::without_deltas(&d)).as_num()
-                        == Some(0.0)
-                })
+                .map(|d| crate::symbolic::simplify(&d.without_deltas()).as_num() == Some(0.0))
                 .unwrap_or(false)
         });
         if flat {

@@ -123,8 +123,8 @@ impl LevelSet {
         let names = [&*states[0], &*states[1]];
         // The δ parts of the derivatives (jumps of sgn) are dropped: they live on lines of
         // measure zero and carry no level set of g.
-        let d1 = simplify(&without_deltas(&diff(expr, names[0])?));
-        let d2 = simplify(&without_deltas(&diff(expr, names[1])?));
+        let d1 = simplify(&diff(expr, names[0])?.without_deltas());
+        let d2 = simplify(&diff(expr, names[1])?.without_deltas());
         let d11 = diff(&d1, names[0])?;
         let d12 = diff(&d1, names[1])?;
         let d22 = diff(&d2, names[1])?;
@@ -765,18 +765,6 @@ fn in_component(c: &Critical, x: [f64; 2], u: f64) -> bool {
         / det
         / 2.0;
     q <= 4.0 * (u - c.value).abs() + 1e-300
-}
-
-/// `e` with every `delta(...)` replaced by 0: the regular part of a distributional derivative.
-pub(crate) fn without_deltas(e: &Expr) -> Expr {
-    match e {
-        Expr::Call(Func::Delta, _) => Expr::num(0.0),
-        Expr::Call(f, a) => Expr::Call(*f, a.iter().map(without_deltas).collect()),
-        Expr::Add(t) => Expr::sum(t.iter().map(without_deltas).collect()),
-        Expr::Mul(f) => Expr::product(f.iter().map(without_deltas).collect()),
-        Expr::Pow(a, x) => Expr::pow(without_deltas(a), without_deltas(x)),
-        other => other.clone(),
-    }
 }
 
 #[cfg(test)]

@@ -33,8 +33,6 @@ use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
 pub use moments::{moments, moments_of_all, Moments};
 
-pub(crate) use level::without_deltas;
-
 /// A joint density of the two states that observables can be computed from.
 pub trait JointDensity: Sync {
     /// p(x1, x2); zero outside the density's support.

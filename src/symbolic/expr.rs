@@ -378,6 +378,26 @@ impl Expr {
         found
     }
 
+    /// The expression with every `delta(...)` replaced by 0 (no simplification): its regular
+    /// part between impacts, and the classical derivative of `abs`/`sgn` away from their kinks
+    /// once the distributional δ parts are dropped.
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{simplify, Expr, Func};
+    /// let e = Expr::sym("v") + Expr::call(Func::Delta, Expr::sym("z"));
+    /// assert_eq!(simplify(&e.without_deltas()), Expr::sym("v"));
+    /// ```
+    pub fn without_deltas(&self) -> Expr {
+        match self {
+            Expr::Call(Func::Delta, _) => Expr::num(0.0),
+            Expr::Num(_) | Expr::Sym(_) => self.clone(),
+            Expr::Add(v) => Expr::Add(v.iter().map(Expr::without_deltas).collect()),
+            Expr::Mul(v) => Expr::Mul(v.iter().map(Expr::without_deltas).collect()),
+            Expr::Pow(b, x) => Expr::pow(b.without_deltas(), x.without_deltas()),
+            Expr::Call(f, a) => Expr::Call(*f, a.iter().map(Expr::without_deltas).collect()),
+        }
+    }
+
     /// Replaces every occurrence of symbol `name` by `value` (no simplification).
     ///
     /// ```
