@@ -205,6 +205,8 @@ impl RunEstimate {
 /// The checked numbers a run derives from its configuration.
 struct Resolved {
     plan: Plan,
+    /// The histogrammed quantities: the states (`true`), then the observables.
+    names: Vec<(String, bool)>,
     steps_per_sample: u64,
     burn_in_steps: u64,
     batches: u64,
@@ -320,13 +322,23 @@ impl McConfig {
                 ));
             }
         }
+        let names: Vec<(String, bool)> = model
+            .states
+            .iter()
+            .map(|s| (s.to_string(), true))
+            .chain(
+                model
+                    .observables
+                    .iter()
+                    .map(|o| (o.name.to_string(), false)),
+            )
+            .collect();
         for (g, _) in &self.grids {
-            let known = model.states.iter().any(|s| **s == **g)
-                || model.observables.iter().any(|o| *o.name == **g);
-            if !known {
+            if !names.iter().any(|(n, _)| n == g) {
                 return Err(McError::UnknownQuantity { name: g.clone() });
             }
         }
+        let given = |n: &str| self.grids.iter().any(|(g, _)| g == n);
         if !(self.bias_fraction.is_finite() && (0.0..=1.0).contains(&self.bias_fraction)) {
             return Err(bad(
                 "bias_fraction",
@@ -367,7 +379,8 @@ impl McConfig {
         } else {
             1.0
         };
-        let pilot = if self.grids.len() < 2 + model.observables.len() {
+        // The pilot runs when some quantity has no grid given (as `Simulation::new` decides).
+        let pilot = if names.iter().any(|(n, _)| !given(n)) {
             PILOT_BATCHES as f64
                 * lanes
                 * (burn_in_steps + self.samples.min(PILOT_SAMPLES) as f64 * steps_per_sample)
@@ -381,17 +394,13 @@ impl McConfig {
         let seconds = steps / (rate * threads as f64);
         // Memory: every batch's histograms are kept until the reduction; each thread holds
         // one batch's accumulators.
-        let quantities = 2 + model.observables.len();
-        let bins: f64 = (0..quantities)
-            .map(|q| {
-                let name = if q < 2 {
-                    model.states[q].to_string()
-                } else {
-                    model.observables[q - 2].name.to_string()
-                };
+        let quantities = names.len();
+        let bins: f64 = names
+            .iter()
+            .map(|(name, _)| {
                 self.grids
                     .iter()
-                    .find(|(n, _)| *n == name)
+                    .find(|(n, _)| n == name)
                     .map_or(self.bins, |(_, g)| g.bins) as f64
             })
             .sum();
@@ -415,6 +424,7 @@ impl McConfig {
         };
         Ok(Resolved {
             plan,
+            names,
             steps_per_sample: steps_per_sample as u64,
             burn_in_steps: burn_in_steps as u64,
             batches,
@@ -452,6 +462,7 @@ impl Simulation {
         crate::physics::check(model)?;
         let Resolved {
             plan,
+            names,
             steps_per_sample,
             burn_in_steps,
             batches,
@@ -461,19 +472,6 @@ impl Simulation {
         // The run may be split into as many shards as batches: the smallest shard must fit.
         estimate.within_limits(batches)?;
         let dt = config.dt;
-        let mut names: Vec<(String, bool)> =
-            model.states.iter().map(|s| (s.to_string(), true)).collect();
-        names.extend(
-            model
-                .observables
-                .iter()
-                .map(|o| (o.name.to_string(), false)),
-        );
-        for (g, _) in &config.grids {
-            if !names.iter().any(|(n, _)| n == g) {
-                return Err(McError::UnknownQuantity { name: g.clone() });
-            }
-        }
         let placeholder = Grid::new(-1.0, 1.0, 1)?;
         let mut settings = RunSettings {
             model: model.name.clone(),

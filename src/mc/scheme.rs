@@ -466,8 +466,11 @@ pub(crate) struct BatchState {
     rng: LaneRng,
     inc: IncrementStream,
     buf: [Vec<f64>; 6],
-    /// Work buffers of Platen's scheme (supporting values, increments, pair signs).
-    extra: [Vec<f64>; 6],
+    /// Work buffers of Platen's scheme, sized once: the supporting values R±/U± (`bp`, `bm`,
+    /// all noise outputs per lane), the increments (`ax`, `av`), the pair signs (`vpair`) and
+    /// the drift predictor Y + aΔ shared by every column (`yx`, `yv`).
+    extra: [Vec<f64>; 7],
+    /// Random bits of the pair signs (one per lane).
     bits: Vec<u64>,
     z: Vec<f64>,
     /// One working memory per kernel, so none is resized between calls.
@@ -504,11 +507,16 @@ impl BatchState {
                     platen: Some(_), ..
                 } => std::array::from_fn(|k| {
                     let pairs = noises * noises.saturating_sub(1) / 2;
-                    vec![0.0; lanes * if k == 4 { pairs.max(1) } else { 2 + 2 * noises }]
+                    let per_lane = match k {
+                        0 | 1 => 2 + 2 * noises,
+                        4 => pairs.max(1),
+                        _ => 1,
+                    };
+                    vec![0.0; lanes * per_lane]
                 }),
                 _ => std::array::from_fn(|_| Vec::new()),
             },
-            bits: Vec::new(),
+            bits: vec![0; lanes],
             z: vec![0.0; lanes * noises.max(1)],
             scratch: [Scratch::new(), Scratch::new()],
         };
@@ -757,7 +765,7 @@ impl BatchState {
         let mut ex = std::mem::take(&mut self.extra);
         {
             let [e0, e1, dw, px, pv, _] = &mut buf;
-            let [bp, bm, ax, av, vpair, _] = &mut ex;
+            let [bp, bm, ax, av, vpair, yx, yv] = &mut ex;
             for k in 0..m {
                 self.inc
                     .next(&mut self.rng, &mut self.z[k * n..(k + 1) * n]);
@@ -769,7 +777,6 @@ impl BatchState {
             }
             let pairs = m * m.saturating_sub(1) / 2;
             if pairs > 0 {
-                self.bits.resize(n, 0);
                 for p in 0..pairs {
                     self.rng.fill(&mut self.bits[..n]);
                     for i in 0..n {
@@ -789,11 +796,12 @@ impl BatchState {
             }
             pk.drift
                 .eval_batch(&px[..n], &pv[..n], e1, &mut self.scratch[1]);
-            ax.resize(n, 0.0);
-            av.resize(n, 0.0);
             for i in 0..n {
                 ax[i] = 0.5 * (e0[i] + e1[i]) * h;
                 av[i] = 0.5 * (e0[n + i] + e1[n + i]) * h;
+                // Y + aΔ, the same for every column's R± (computed once per step).
+                yx[i] = self.x[i] + e0[i] * h;
+                yv[i] = self.v[i] + e0[n + i] * h;
             }
             for j in 0..m {
                 let (cx, cv) = ((2 + j) * n, (2 + m + j) * n);
@@ -806,8 +814,8 @@ impl BatchState {
                 }
                 for (sign, out) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
                     for i in 0..n {
-                        px[i] = self.x[i] + e0[i] * h + sign * e0[cx + i] * sq;
-                        pv[i] = self.v[i] + e0[n + i] * h + sign * e0[cv + i] * sq;
+                        px[i] = yx[i] + sign * e0[cx + i] * sq;
+                        pv[i] = yv[i] + sign * e0[cv + i] * sq;
                     }
                     pk.noise
                         .eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);

@@ -462,7 +462,11 @@ impl ShardOutput {
     /// assert!(part.validate().is_err());
     /// ```
     pub fn validate(&self) -> Result<(), McError> {
-        let label = format!("shard {} of {}", self.shard.index + 1, self.shard.count);
+        let label = format!(
+            "shard {} of {}",
+            self.shard.index.saturating_add(1),
+            self.shard.count
+        );
         self.defect().map_err(|defect| McError::BadShard {
             shard: label,
             defect,

@@ -441,7 +441,13 @@ pub(crate) fn time_step_bias(
     let (mut dm, mut dv, mut dk) = (Vec::new(), Vec::new(), Vec::new());
     let mut dd: Vec<Vec<f64>> = Vec::new();
     for c in coarse {
-        let Some(f) = fine.iter().find(|f| f.index == c.index) else {
+        // Fine batches are normally in index order from 0 (a run, or shards merged in order):
+        // direct lookup, the search only if that ever does not hold.
+        let Some(f) = fine
+            .get(c.index as usize)
+            .filter(|f| f.index == c.index)
+            .or_else(|| fine.iter().find(|f| f.index == c.index))
+        else {
             continue;
         };
         let (fq, cq) = (&f.quantities[q], &c.quantities[q]);
