@@ -76,6 +76,38 @@ pub(crate) struct LevelSet {
     /// The kink curves {h = 0} of g off the axes: one level set per argument h of an `abs` or
     /// `sgn` in g that is not ± a state (those are the axes, handled directly).
     kinks: Vec<LevelSet>,
+    /// Per kink curve and axis, g at its roots on every grid line ([`LevelSet::kink_lines`]).
+    kink_lines: Vec<[Vec<Vec<f64>>; 2]>,
+}
+
+/// The bracketing grid and the density sampled on it: the same for an observable and its
+/// kink curves, so sampled once.
+struct Sampled {
+    ext: [[f64; 2]; 2],
+    /// The grid's first node and spacing per axis.
+    lo: [f64; 2],
+    h: [f64; 2],
+    /// The density at node (i, j), `i·GRID + j`.
+    p: Vec<f64>,
+}
+
+impl Sampled {
+    fn new(density: &dyn JointDensity) -> Sampled {
+        let ext = density.extent();
+        // The bracketing grid covers the extent with one cell to spare, shifted by a golden
+        // fraction of a cell, so that its nodes do not fall on 0 (where common observables
+        // take round values exactly, and a zero at a cell's end would be a degenerate case).
+        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 2) as f64);
+        let lo = [0, 1].map(|a| ext[a][0] - 0.381_966_011_250_105 * h[a]);
+        let n = GRID;
+        let mut p = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                p[i * n + j] = density.pdf([lo[0] + i as f64 * h[0], lo[1] + j as f64 * h[1]]);
+            }
+        }
+        Sampled { ext, lo, h, p }
+    }
 }
 
 /// One evaluation on a line: g, ∂g across the line, ∂g along it.
@@ -93,7 +125,8 @@ impl LevelSet {
         expr: &Expr,
         states: &[Symbol; 2],
     ) -> Result<LevelSet, SymbolicError> {
-        let mut set = LevelSet::bare(density, expr, states)?;
+        let grid = Sampled::new(density);
+        let mut set = LevelSet::bare(density, expr, states, &grid, true)?;
         let mut args: Vec<Expr> = Vec::new();
         expr.walk(&mut |e| {
             if let Expr::Call(Func::Abs | Func::Sgn, a) = e {
@@ -109,16 +142,26 @@ impl LevelSet {
             }
         });
         for h in args.iter().take(8) {
-            set.kinks.push(LevelSet::bare(density, h, states)?);
+            // A kink curve only brackets roots: the same sampled density, no critical points.
+            set.kinks
+                .push(LevelSet::bare(density, h, states, &grid, false)?);
         }
+        set.kink_lines = set
+            .kinks
+            .iter()
+            .map(|k| [set.kink_lines(k, 0), set.kink_lines(k, 1)])
+            .collect();
         Ok(set)
     }
 
-    /// The level set without kink curves.
+    /// The level set without kink curves, on the sampled bracketing grid; its critical points
+    /// only when `with_critical`.
     fn bare(
         density: &dyn JointDensity,
         expr: &Expr,
         states: &[Symbol; 2],
+        grid: &Sampled,
+        with_critical: bool,
     ) -> Result<LevelSet, SymbolicError> {
         let names = [&*states[0], &*states[1]];
         // The δ parts of the derivatives (jumps of sgn) are dropped: they live on lines of
@@ -130,16 +173,16 @@ impl LevelSet {
         let d22 = diff(&d2, names[1])?;
         let tape = Tape::compile(&[expr.clone(), d1, d2], &names, DeltaPolicy::Zero)?;
         let hess = Tape::compile(&[d11, d12, d22], &names, DeltaPolicy::Zero)?;
-        let ext = density.extent();
-        // The bracketing grid covers the extent with one cell to spare, shifted by a golden
-        // fraction of a cell, so that its nodes do not fall on 0 (where common observables
-        // take round values exactly, and a zero at a cell's end would be a degenerate case).
-        let h = [0, 1].map(|a| (ext[a][1] - ext[a][0]) / (GRID - 2) as f64);
-        let grid_lo = [0, 1].map(|a| ext[a][0] - 0.381_966_011_250_105 * h[a]);
+        let Sampled {
+            ext,
+            lo: grid_lo,
+            h,
+            p,
+        } = grid;
+        let (ext, grid_lo, h) = (*ext, *grid_lo, *h);
         let n = GRID;
         let mut g = vec![0.0; n * n];
         let mut grad2 = vec![0.0; n * n];
-        let mut p = vec![0.0; n * n];
         let mut scratch = Vec::new();
         let mut out = [0.0; 3];
         for i in 0..n {
@@ -149,7 +192,6 @@ impl LevelSet {
                 let k = i * n + j;
                 g[k] = if out[0].is_finite() { out[0] } else { f64::NAN };
                 grad2[k] = out[1] * out[1] + out[2] * out[2];
-                p[k] = density.pdf(x);
             }
         }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -222,8 +264,11 @@ impl LevelSet {
             gscale,
             critical: Vec::new(),
             kinks: Vec::new(),
+            kink_lines: Vec::new(),
         };
-        set.critical = set.critical_points(density, &hess, &grad2, &p);
+        if with_critical {
+            set.critical = set.critical_points(density, &hess, &grad2, p);
+        }
         Ok(set)
     }
 
@@ -414,9 +459,9 @@ impl LevelSet {
                 axis_breaks.extend_from_slice(&roots[..count]);
             }
         }
-        for k in &self.kinks {
+        for (k, lines) in self.kinks.iter().zip(&self.kink_lines) {
             for (a, axis_breaks) in breaks.iter_mut().enumerate() {
-                self.kink_corners(k, a, u, axis_breaks, &mut scratch);
+                self.kink_corners(k, &lines[a], a, u, axis_breaks, &mut scratch);
             }
         }
         for (a, axis_breaks) in breaks.iter().enumerate() {
@@ -439,56 +484,68 @@ impl LevelSet {
         total
     }
 
+    /// g at the roots of the kink curve {h = 0} of `kink` on every grid line x_a = s_i (the
+    /// j-th root t_j of h on the line, in order): independent of u, so computed once.
+    fn kink_lines(&self, kink: &LevelSet, a: usize) -> Vec<Vec<f64>> {
+        let mut roots = [0.0; 2 * GRID];
+        let mut scratch = Vec::new();
+        (0..GRID)
+            .map(|i| {
+                let s = self.lo[a] + i as f64 * self.h[a];
+                let n = kink.line_roots(a, s, 0.0, &mut roots, &mut scratch);
+                roots[..n]
+                    .iter()
+                    .map(|&t| self.eval(a, s, t, &mut scratch).1.g)
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The positions s (along x_a) of the points of {g = u} on the kink curve {h = 0} of
     /// `kink`: where the level set has corners and the line sums jump. Found on the grid's
     /// lines x_a = s_i (the j-th root of h on neighbouring lines paired when their counts
-    /// agree) and refined by bisection.
+    /// agree, `lines` from [`LevelSet::kink_lines`]) and refined by bisection.
     fn kink_corners(
         &self,
         kink: &LevelSet,
+        lines: &[Vec<f64>],
         a: usize,
         u: f64,
         out: &mut Vec<f64>,
         scratch: &mut Vec<f64>,
     ) {
         let mut roots = [0.0; 2 * GRID];
-        // G_j(s) = g(s, t_j(s)) − u on the j-th root t_j of h on the line x_a = s.
-        let mut values = |s: f64, scratch: &mut Vec<f64>| -> Vec<f64> {
-            let n = kink.line_roots(a, s, 0.0, &mut roots, scratch);
-            roots[..n]
-                .iter()
-                .map(|&t| self.eval(a, s, t, scratch).1.g - u)
-                .collect()
-        };
         let s_of = |i: usize| self.lo[a] + i as f64 * self.h[a];
-        let mut prev = values(s_of(0), scratch);
         for i in 1..GRID {
-            let next = values(s_of(i), scratch);
-            if next.len() == prev.len() {
-                for j in 0..next.len() {
-                    if prev[j] * next[j] >= 0.0 || prev[j].is_nan() || next[j].is_nan() {
-                        continue;
-                    }
-                    let (mut l, mut r, fl) = (s_of(i - 1), s_of(i), prev[j]);
-                    for _ in 0..60 {
-                        let m = 0.5 * (l + r);
-                        let v = values(m, scratch);
-                        if v.len() != next.len() {
-                            break;
-                        }
-                        if v[j] * fl > 0.0 {
-                            l = m;
-                        } else {
-                            r = m;
-                        }
-                        if r - l <= 1e-13 * self.h[a] {
-                            break;
-                        }
-                    }
-                    out.push(0.5 * (l + r));
-                }
+            let (prev, next) = (&lines[i - 1], &lines[i]);
+            if next.len() != prev.len() {
+                continue;
             }
-            prev = next;
+            // G_j(s) = g(s, t_j(s)) − u on the j-th root t_j of h on the line x_a = s.
+            for j in 0..next.len() {
+                let (gp, gn) = (prev[j] - u, next[j] - u);
+                if gp * gn >= 0.0 || gp.is_nan() || gn.is_nan() {
+                    continue;
+                }
+                let (mut l, mut r, fl) = (s_of(i - 1), s_of(i), gp);
+                for _ in 0..60 {
+                    let m = 0.5 * (l + r);
+                    let n = kink.line_roots(a, m, 0.0, &mut roots, scratch);
+                    if n != next.len() {
+                        break;
+                    }
+                    let v = self.eval(a, m, roots[j], scratch).1.g - u;
+                    if v * fl > 0.0 {
+                        l = m;
+                    } else {
+                        r = m;
+                    }
+                    if r - l <= 1e-13 * self.h[a] {
+                        break;
+                    }
+                }
+                out.push(0.5 * (l + r));
+            }
         }
     }
 
