@@ -13,7 +13,7 @@ use fpsolve::mc::{
     merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, Shard, ShardOutput, Simulation,
 };
 use fpsolve::model::{load_model, parse_expr, BoundModel, Model, Override};
-use fpsolve::physics::{self, ImpactForm};
+use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
@@ -326,7 +326,6 @@ fn plan(cli: Cli) -> Result<Planned> {
             quiet,
         }) => {
             let (m, _, bound) = load(&model, &set.set)?;
-            physics::check(&bound).map_err(|e| anyhow!("{}: {e}", model.display()))?;
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             // Settings checked and the cost estimated; the limits apply to what this process
             // runs (one shard of N on a cluster).

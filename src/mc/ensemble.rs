@@ -329,7 +329,7 @@ pub(crate) fn finalize_run(
             blowups: batches.iter().map(|b| b.blowups.len()).sum(),
         });
     }
-    let coarse_dt = st.coarse().dt;
+    let coarse_dt = 2.0 * st.dt; // as `RunSettings::coarse` sets it
     let quantities: Vec<QuantityStats> = st
         .quantities
         .iter()

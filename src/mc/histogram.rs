@@ -28,7 +28,7 @@ impl Grid {
     /// assert!(fpsolve::mc::Grid::new(1.0, 1.0, 4).is_err());
     /// ```
     pub fn new(lo: f64, hi: f64, bins: usize) -> Result<Grid, McError> {
-        if !(lo.is_finite() && hi.is_finite() && lo < hi) || bins == 0 {
+        if !(Grid { lo, hi, bins }).well_formed() {
             return Err(McError::BadSetting {
                 name: "grid",
                 reason: format!(
@@ -37,6 +37,12 @@ impl Grid {
             });
         }
         Ok(Grid { lo, hi, bins })
+    }
+
+    /// Finite `lo < hi` and at least one bin: what every grid must be (a `Grid` built field
+    /// by field, or read from a shard file, is checked with this).
+    pub(crate) fn well_formed(&self) -> bool {
+        self.lo.is_finite() && self.hi.is_finite() && self.lo < self.hi && self.bins > 0
     }
 
     /// The width of one bin.

@@ -253,6 +253,9 @@ impl McConfig {
     }
 
     fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
+        // No stationary law to sample: refused before anything else (issue 9, item 13), by
+        // the pre-flight as by `Simulation::new`.
+        crate::physics::check(model)?;
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
@@ -274,10 +277,10 @@ impl McConfig {
                 ),
             ));
         }
-        if self.lanes == 0 || self.lanes > 1 << 16 {
+        if self.lanes == 0 || self.lanes > MAX_LANES {
             return Err(bad(
                 "lanes",
-                format!("must lie in 1..=65536, got {}", self.lanes),
+                format!("must lie in 1..={MAX_LANES}, got {}", self.lanes),
             ));
         }
         if self.trajectories > MAX_TRAJECTORIES {
@@ -309,7 +312,7 @@ impl McConfig {
             ));
         }
         for (name, g) in &self.grids {
-            if !(g.lo.is_finite() && g.hi.is_finite() && g.lo < g.hi) || g.bins == 0 {
+            if !g.well_formed() {
                 return Err(bad(
                     "grid",
                     format!("`{name}`: need finite lo < hi and bins ≥ 1"),
@@ -434,6 +437,9 @@ impl McConfig {
     }
 }
 
+/// Largest number of trajectories per statistics batch ([`McConfig::lanes`]).
+pub(crate) const MAX_LANES: usize = 1 << 16;
+
 /// Samples per trajectory of the pilot run that chooses the automatic grids.
 const PILOT_SAMPLES: u64 = 500;
 /// Statistics batches of the pilot run.
@@ -458,8 +464,6 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        // No stationary law to sample: refused before any step (issue 9, item 13).
-        crate::physics::check(model)?;
         let Resolved {
             plan,
             names,

@@ -93,9 +93,6 @@ pub struct ShardOutput {
     pub(crate) coarse: Vec<BatchSummary>,
 }
 
-/// Largest lanes per batch a run may have (as `McConfig::lanes`).
-const MAX_LANES: usize = 1 << 16;
-
 fn defect_setting(name: &'static str, reason: String) -> ShardDefect {
     ShardDefect::Setting { name, reason }
 }
@@ -115,7 +112,7 @@ impl RunSettings {
                 "steps per sample and samples per trajectory must be at least 1".into(),
             ));
         }
-        if self.lanes == 0 || self.lanes > MAX_LANES {
+        if self.lanes == 0 || self.lanes > super::MAX_LANES {
             return Err(defect_setting(
                 "lanes",
                 format!("{} is not in 1..=65536", self.lanes),
@@ -160,10 +157,7 @@ impl RunSettings {
         }
         for q in &self.quantities {
             let g = q.grid;
-            if !(g.lo.is_finite() && g.hi.is_finite() && g.lo < g.hi)
-                || g.bins == 0
-                || g.bins > super::MAX_BINS
-            {
+            if !g.well_formed() || g.bins > super::MAX_BINS {
                 return Err(defect_setting(
                     "grid",
                     format!(

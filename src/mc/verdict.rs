@@ -522,7 +522,7 @@ pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
         out.push(McWarning::DensityBiasExceedsError {
             quantity: q.name.clone(),
             bins: flagged.len(),
-            at: q.grid.centers()[worst],
+            at: q.grid.lo + (worst as f64 + 0.5) * q.grid.width(),
             density: q.density[worst],
             bias: Estimate {
                 value: b.density[worst],
