@@ -137,6 +137,9 @@ pub(crate) struct PlatenKernels {
     drift: Box<dyn BatchKernel>,
     /// The noise columns alone: b̃_0j (j < m), then b̃_1j.
     noise: Box<dyn BatchKernel>,
+    /// Column j alone, (b̃_0j, b̃_1j): the supporting values R±_j need only their own column,
+    /// so they do not pay for evaluating all m.
+    column: Vec<Box<dyn BatchKernel>>,
     /// Whether column j is state-independent (its supporting values then equal b̃_j).
     constant: Vec<bool>,
 }
@@ -344,6 +347,11 @@ impl Plan {
                     platen: Some(PlatenKernels {
                         drift: compile(&drift, states)?,
                         noise: compile(&noise, states)?,
+                        column: (0..m)
+                            .map(|j| {
+                                compile(&[columns[0][j].clone(), columns[1][j].clone()], states)
+                            })
+                            .collect::<Result<_, _>>()?,
                         constant,
                     }),
                 },
@@ -817,10 +825,10 @@ impl BatchState {
                         px[i] = yx[i] + sign * e0[cx + i] * sq;
                         pv[i] = yv[i] + sign * e0[cv + i] * sq;
                     }
-                    pk.noise
-                        .eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
+                    pk.column[j].eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
                 }
-                let (nx, nv) = (j * n, (m + j) * n);
+                // Column j's kernel writes (b̃_0j, b̃_1j) as its outputs 0 and 1.
+                let (nx, nv) = (0, n);
                 for i in 0..n {
                     let w = dw[j * n + i];
                     let q = (w * w - h) * inv_sq;
