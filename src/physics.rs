@@ -316,11 +316,15 @@ fn mechanical(model: &BoundModel, m: &[Expr; 2]) -> Option<(usize, usize)> {
         let quiet = model.noise_matrix()[p]
             .iter()
             .all(|g| points.iter().all(|x| at(g, states, *x) == 0.0));
-        quiet
-            && points.iter().all(|x| {
-                let r = at(&m[p], states, *x);
-                (r - x[q]).abs() <= 1e-12 * (1.0 + x[q].abs())
-            })
+        quiet && rate_is(&m[p], q, states, &points)
+    })
+}
+
+/// Whether the rate `rate` of a state equals state `q` at every probe point (to rounding).
+fn rate_is(rate: &Expr, q: usize, states: &[Symbol; 2], points: &[[f64; 2]]) -> bool {
+    points.iter().all(|x| {
+        let r = at(rate, states, *x);
+        (r - x[q]).abs() <= 1e-12 * (1.0 + x[q].abs())
     })
 }
 
@@ -704,11 +708,7 @@ pub fn impact_form(model: &BoundModel) -> Option<ImpactForm> {
     if r == 0.0 {
         return unsupported(UnsupportedImpact::Plastic);
     }
-    let rate_is_velocity = probe_points().iter().all(|x| {
-        let rate = at(&model.drift()[p], states, *x);
-        (rate - x[q]).abs() <= 1e-12 * (1.0 + x[q].abs())
-    });
-    if !rate_is_velocity {
+    if !rate_is(&model.drift()[p], q, states, &probe_points()) {
         return unsupported(UnsupportedImpact::NotMechanical { position, velocity });
     }
     let Some(lines) = impact_terms(model, p, q, Some(law.at)) else {

@@ -2,25 +2,11 @@
 //! wrong must be refused before anything is computed or written — exit 2, a message naming the
 //! flag (or file), no panic, and no output directory (nor staging leftovers) created.
 
-use std::path::{Path, PathBuf};
+mod common;
+
 use std::process::Command;
 
-/// A scratch directory unique to this test process and case.
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-badinv-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn entries(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
+use common::{names, scratch};
 
 /// Runs `fpsolve args… --out <scratch>/out` (unless the case sets its own) and checks the
 /// refusal: exit 2, every `expected` fragment in stderr, no panic, nothing written.
@@ -37,7 +23,7 @@ fn refused(tag: &str, args: &[&str], expected: &[&str]) {
         full.push("--out".into());
         full.push(out.to_string_lossy().into_owned());
     }
-    let before = entries(&root);
+    let before = names(&root);
     let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
         .args(&full)
         .output()
@@ -64,7 +50,7 @@ fn refused(tag: &str, args: &[&str], expected: &[&str]) {
         "{full:?}: claims to have written files\n{stdout}"
     );
     assert_eq!(
-        entries(&root),
+        names(&root),
         before,
         "{full:?}: something was written beside the output directory"
     );
@@ -247,7 +233,7 @@ fn output_directories() {
         &["--out", "thesis.tex", "fpsolve did not write"],
     );
     assert_eq!(std::fs::read(foreign.join("thesis.tex")).unwrap(), b"keep");
-    assert_eq!(entries(&root), vec!["home".to_string(), "plain".into()]);
+    assert_eq!(names(&root), vec!["home".to_string(), "plain".into()]);
     refused(
         "out-foreign-sweep",
         &[

@@ -1,34 +1,20 @@
 //! The command line's jobs end to end: the main job, `solve`, `simulate` with shards and
 //! `merge` (bit for bit), and their exit codes.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn fpsolve(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .output()
-        .expect("run fpsolve")
-}
+use std::path::Path;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+use common::{fpsolve, fresh_path, json};
 
 fn header(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap();
     text.lines().next().unwrap().to_string()
 }
 
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
 #[test]
 fn main_job_writes_observable_pdfs_summary_and_figures() {
-    let dir = temp_dir("main");
+    let dir = fresh_path("main");
     let out = fpsolve(&[
         "models/vibro_duffing.sde",
         "--quiet",
@@ -81,7 +67,7 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
 
 #[test]
 fn solve_keeps_the_degrees_that_converge_and_exits_non_zero_for_the_others() {
-    let dir = temp_dir("solve");
+    let dir = fresh_path("solve");
     let out = fpsolve(&[
         "solve",
         "models/vibro_duffing.sde",
@@ -126,9 +112,9 @@ fn bad_flags_exit_2_with_a_message() {
 
 #[test]
 fn shards_merge_to_exactly_the_unsplit_run() {
-    let whole = temp_dir("whole");
-    let parts = temp_dir("parts");
-    let merged = temp_dir("merged");
+    let whole = fresh_path("whole");
+    let parts = fresh_path("parts");
+    let merged = fresh_path("merged");
     let common = [
         "--samples",
         "60000",
@@ -181,7 +167,7 @@ fn shards_merge_to_exactly_the_unsplit_run() {
 
 #[test]
 fn main_job_with_monte_carlo_adds_columns_and_distances() {
-    let dir = temp_dir("mc");
+    let dir = fresh_path("mc");
     let out = fpsolve(&[
         "models/vibro_duffing.sde",
         "--mc",
@@ -220,7 +206,7 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
 
 #[test]
 fn sweep_writes_its_table_and_figures_and_refuses_unknown_parameters() {
-    let dir = temp_dir("sweep");
+    let dir = fresh_path("sweep");
     let out = fpsolve(&[
         "sweep",
         "models/linear.sde",

@@ -3,25 +3,11 @@
 //! cannot finish are refused before any work (exit 2, nothing written); corrupt shard files
 //! are refused naming the file, never a panic.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn fpsolve(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .output()
-        .expect("run fpsolve")
-}
+use std::path::Path;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-mc-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::{fpsolve, fresh_path, json};
 
 fn simulate(extra: &[&str], dir: &Path) -> (Option<i32>, String, String) {
     simulate_model("models/vibro_duffing.sde", extra, dir)
@@ -43,7 +29,7 @@ fn simulate_model(model: &str, extra: &[&str], dir: &Path) -> (Option<i32>, Stri
 fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
     // Models the admissibility check refuses (r > 1, no damping) never get this far; this one
     // passes it (damped, stable at rest) and still escapes over its potential barrier.
-    let dir = temp_dir("blowups");
+    let dir = fresh_path("blowups");
     let (code, stdout, stderr) = simulate_model(
         "tests/models/softening_duffing.sde",
         &[
@@ -70,7 +56,7 @@ fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
 
 #[test]
 fn a_run_that_keeps_growing_exits_1_as_not_stationary() {
-    let dir = temp_dir("growing");
+    let dir = fresh_path("growing");
     let (code, stdout, stderr) = simulate_model(
         "tests/models/fading_damping.sde",
         &[
@@ -96,7 +82,7 @@ fn models_without_a_stationary_law_are_refused_before_simulating() {
         &["--set", "r=1.15"][..],
         &["--set", "c=0", "--set", "r=1", "--set", "eps=0"],
     ] {
-        let dir = temp_dir("refused");
+        let dir = fresh_path("refused");
         let mut extra = set.to_vec();
         extra.extend_from_slice(&["--samples", "1e5"]);
         let (code, _, stderr) = simulate(&extra, &dir);
@@ -108,7 +94,7 @@ fn models_without_a_stationary_law_are_refused_before_simulating() {
 
 #[test]
 fn a_healthy_run_prints_its_table_and_exits_0() {
-    let dir = temp_dir("healthy");
+    let dir = fresh_path("healthy");
     let (code, stdout, stderr) = simulate(
         &["--samples", "2e5", "--trajectories", "1024", "--dt", "0.02"],
         &dir,
@@ -148,7 +134,7 @@ fn runs_that_cannot_finish_are_refused_before_any_work() {
         ),
         (vec!["--shard", "5/40"], "--shard"),
     ] {
-        let dir = temp_dir("refused");
+        let dir = fresh_path("refused");
         let t = std::time::Instant::now();
         let (code, _, stderr) = simulate(&args, &dir);
         eprintln!("{args:?}: {:.2} s: {stderr}", t.elapsed().as_secs_f64());
@@ -162,7 +148,7 @@ fn runs_that_cannot_finish_are_refused_before_any_work() {
 
 #[test]
 fn merge_refuses_a_corrupt_shard_naming_its_file() {
-    let parts = temp_dir("parts");
+    let parts = fresh_path("parts");
     for k in ["1/2", "2/2"] {
         let (code, _, stderr) = simulate(
             &["--samples", "2e4", "--trajectories", "256", "--shard", k],
@@ -178,7 +164,7 @@ fn merge_refuses_a_corrupt_shard_naming_its_file() {
         .unwrap()
         .pop();
     std::fs::write(&file, serde_json::to_string(&v).unwrap()).unwrap();
-    let merged = temp_dir("merged");
+    let merged = fresh_path("merged");
     let out = fpsolve(&[
         "merge",
         parts.to_str().unwrap(),

@@ -2,36 +2,13 @@
 //! is never lost, quality figures compare like with like, and an answer does not depend on how
 //! the question was asked.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn fpsolve(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .output()
-        .expect("run fpsolve")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-trust-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
+use common::{fpsolve, json, names, scratch};
 
 /// Rows of a CSV file as numbers, with its header.
 fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
