@@ -108,6 +108,7 @@ pub mod fpk;
 pub mod job;
 pub mod mc;
 pub mod model;
+pub mod moments;
 pub mod observe;
 pub mod physics;
 pub mod report;
