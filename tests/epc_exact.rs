@@ -2,9 +2,12 @@
 //! through the real pipeline: model file → `Model::bind` (with `--set`-style overrides) →
 //! `FpkOperator::derive` → `Epc`.
 
+mod common;
+
 use std::path::Path;
 
 use approx::assert_relative_eq;
+use common::exact::{self, EpcTolerance, ExactCase};
 use fpsolve::epc::{BranchEnd, Epc, EpcError, EpcSolution, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, DeltaTreatment, Override};
@@ -23,95 +26,17 @@ fn operator(file: &str, set: &[(&str, f64)]) -> (FpkOperator, DeltaTreatment) {
     )
 }
 
-/// A model with a known stationary density p ∝ exp(Σ q_ij z^i v^j) (original variables).
-struct Exact {
-    file: &'static str,
-    set: Vec<(&'static str, f64)>,
-    /// The exact Q's nonzero coefficients.
-    q: Vec<((usize, usize), f64)>,
-    /// Degrees at which EPC must reproduce Q (every degree ≥ deg Q).
-    degrees: Vec<usize>,
-}
-
-/// Energy-type densities exp(−f (v²/2 + k z²/2 + μ z⁴/4)).
-fn energy(f: f64, k: f64, mu: f64) -> Vec<((usize, usize), f64)> {
-    let mut q = vec![((0, 2), -f / 2.0), ((2, 0), -f * k / 2.0)];
-    if mu != 0.0 {
-        q.push(((4, 0), -f * mu / 4.0));
-    }
-    q
-}
-
-fn registry() -> Vec<Exact> {
-    // 2πK = 1 in every file: πK = 1/2.
-    vec![
-        Exact {
-            file: "linear.sde",
-            set: vec![("c", 0.3), ("k", 2.0)],
-            q: energy(0.3 / 0.5, 2.0, 0.0),
-            degrees: vec![2, 4],
-        },
-        Exact {
-            file: "duffing.sde",
-            set: vec![],
-            q: energy(0.1 / 0.5, 1.0, 0.1),
-            degrees: vec![4, 6],
-        },
-        Exact {
-            file: "duffing.sde",
-            set: vec![("mu", 1.0)],
-            q: energy(0.1 / 0.5, 1.0, 1.0),
-            degrees: vec![4],
-        },
-        // (1 + εx)² damping with (1 + εx) noise: β/(πK) = 0.4.
-        Exact {
-            file: "parametric.sde",
-            set: vec![],
-            q: energy(0.2 / 0.5, 1.0, 0.5),
-            degrees: vec![4, 6],
-        },
-        // The vibro-impact model without impacts (r = 1) or parametric noise (ε = 0) is the
-        // Duffing oscillator: the Stratonovich reading and sgn(z)² = 1 must both come out right.
-        Exact {
-            file: "vibro_duffing.sde",
-            set: vec![("r", 1.0), ("eps", 0.0)],
-            q: energy(0.1 / 0.5, 1.0, 0.1),
-            degrees: vec![4, 6],
-        },
-    ]
-}
-
-/// ln ∫∫ exp(Q) dz dv for a Q without z–v cross terms, by trapezoid sums (spectrally accurate
-/// here) over boxes reaching e^-60 of the peak.
-fn log_z_exact(q: &[((usize, usize), f64)]) -> f64 {
-    let part = |axis: usize| {
-        let poly = |t: f64| -> f64 {
-            q.iter()
-                .filter(|((i, j), _)| if axis == 0 { *j == 0 } else { *i == 0 })
-                .map(|((i, j), a)| a * t.powi((i + j) as i32))
-                .sum()
-        };
-        let mut half = 1.0;
-        while poly(half) > -60.0 {
-            half *= 1.5;
-        }
-        let n = 4000;
-        let h = 2.0 * half / n as f64;
-        (0..=n)
-            .map(|i| poly(-half + i as f64 * h).exp())
-            .sum::<f64>()
-            * h
-    };
-    (part(0) * part(1)).ln()
-}
-
-fn check_exact(case: &Exact, sol: &EpcSolution) {
-    let label = format!("{} {:?} degree {}", case.file, case.set, sol.degree);
-    for (e, a) in sol.exponents.iter().zip(&sol.coefficients) {
-        let want = case.q.iter().find(|(f, _)| f == e).map_or(0.0, |(_, v)| *v);
+/// Checks an EPC solution against a case's exact density: every coefficient, ln C, the
+/// density on the case's check points, the variances and the FPK residual, each to the
+/// case's EPC tolerances.
+fn check_exact(case: &ExactCase, tol: &EpcTolerance, sol: &EpcSolution) {
+    let label = format!("{} degree {}", case.name, sol.degree);
+    for (&(i, j), a) in sol.exponents.iter().zip(&sol.coefficients) {
+        let want = case.coefficient(i, j);
         assert!(
-            (a - want).abs() <= 1e-7 * (1.0 + want.abs()),
-            "{label}: coefficient {e:?} = {a}, exact {want}"
+            (a - want).abs() <= tol.coefficient * (1.0 + want.abs()),
+            "{label}: coefficient {:?} = {a}, exact {want}",
+            (i, j)
         );
     }
     assert!(
@@ -124,40 +49,44 @@ fn check_exact(case: &Exact, sol: &EpcSolution) {
         "{label}"
     );
     assert!(
-        sol.fpk_residual < 1e-6,
+        sol.fpk_residual < tol.fpk_residual,
         "{label}: ∫|F|p = {}",
         sol.fpk_residual
     );
-    // Normalisation: ln C against the exact normalising integral, and p at a few points.
-    let log_z = log_z_exact(&case.q);
-    assert_relative_eq!(sol.log_c(), -log_z, epsilon = 1e-6);
-    for (z, v) in [(0.0, 0.0), (1.0, -0.5), (-2.0, 3.0)] {
-        let q: f64 = case
-            .q
-            .iter()
-            .map(|((i, j), a)| a * f64::powi(z, *i as i32) * f64::powi(v, *j as i32))
-            .sum();
-        assert_relative_eq!(sol.pdf(z, v), (q - log_z).exp(), max_relative = 1e-6);
+    let log_z = case.log_normaliser();
+    assert_relative_eq!(sol.log_c(), -log_z, epsilon = tol.log_c);
+    for (z, v) in case.check_points() {
+        let want = (case.log_density(z, v) - log_z).exp();
+        assert_relative_eq!(sol.pdf(z, v), want, max_relative = tol.pdf);
     }
-    // v is Gaussian in every case of the registry: Var v = −1/(2 q_02).
-    let q02 = case.q.iter().find(|(e, _)| *e == (0, 2)).unwrap().1;
-    assert_relative_eq!(sol.moments[1].variance, -0.5 / q02, max_relative = 1e-6);
+    for axis in 0..2 {
+        assert_relative_eq!(
+            sol.moments[axis].variance,
+            case.variance(axis),
+            max_relative = tol.variance
+        );
+    }
 }
 
 #[test]
 fn exact_densities_are_reproduced() {
-    for case in registry() {
-        let (fpk, treatment) = operator(case.file, &case.set);
+    let mut checked = 0;
+    for case in exact::cases() {
+        let Some(tol) = &case.epc else { continue };
+        let bound = case.bind();
+        let fpk = FpkOperator::derive(&bound).unwrap();
         let mut degrees = vec![2];
-        degrees.extend(case.degrees.iter().copied().filter(|d| *d > 2));
-        let res = Epc::new(&fpk, treatment).solve_degrees(&degrees);
+        degrees.extend(tol.degrees.iter().copied().filter(|d| *d > 2));
+        let res = Epc::new(&fpk, bound.delta_treatment()).solve_degrees(&degrees);
         for (d, r) in degrees.iter().zip(res) {
-            let sol = r.unwrap_or_else(|e| panic!("{} degree {d}: {e}", case.file));
-            if case.degrees.contains(d) {
-                check_exact(&case, &sol);
+            let sol = r.unwrap_or_else(|e| panic!("{} degree {d}: {e}", case.name));
+            if tol.degrees.contains(d) {
+                check_exact(&case, tol, &sol);
+                checked += 1;
             }
         }
     }
+    assert!(checked >= 20, "{checked} solutions checked");
 }
 
 #[test]
