@@ -13,13 +13,12 @@ fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
     let model = load_model(&path).unwrap();
     let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
-    let treatment = model.delta_treatment();
     let mut g = c.benchmark_group("epc_vibro_impact_case1");
     g.sample_size(20);
     for n in [4, 6, 8] {
         g.bench_function(format!("degree_{n}"), |b| {
             b.iter(|| {
-                let r = Epc::new(&fpk, treatment).degree(n).solve();
+                let r = Epc::new(&fpk).degree(n).solve();
                 if let Ok(s) = &r {
                     std::hint::black_box(s.marginal(0));
                     std::hint::black_box(s.marginal(1));

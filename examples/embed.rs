@@ -52,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("\nderived operator:\n{fpk}");
 
     // EPC of degree 4, continued from degree 2 (the Gaussian closure starts both).
-    let sol = Epc::new(&fpk, bound.delta_treatment()).degree(4).solve()?;
+    let sol = Epc::new(&fpk).degree(4).solve()?;
     let report = &sol.solve;
     println!(
         "EPC n = {}: {} after {} iterations, ‖R‖ = {:.2e} (needed ≤ {:.1e}), ∫|F|p = {:.3e}",

@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let bound = model.bind(&[Override::number("mu", mu), Override::number("eps", eps)])?;
         let fpk = FpkOperator::derive(&bound)?;
         let t = std::time::Instant::now();
-        let res = Epc::new(&fpk, model.delta_treatment()).solve_degrees(&[2, 4, 6, 8]);
+        let res = Epc::new(&fpk).solve_degrees(&[2, 4, 6, 8]);
         println!(
             "case {} (mu={mu}, eps={eps}) total {:.1} ms",
             case + 1,
@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map_err(|e| e.to_string())?;
             FpkOperator::derive_unchecked(&b).map_err(|e| e.to_string())
         };
-        match Epc::new(&fpk, model.delta_treatment()).degree(6).branch(&at) {
+        match Epc::new(&fpk).degree(6).branch(&at) {
             Ok(b) => match b.end {
                 fpsolve::epc::BranchEnd::Fold { lambda } => println!(
                     "  degree-6 branch from (r=1, eps=0) folds at lambda={lambda:.4} (r={:.4}, eps={:.4}) after {} points",
@@ -74,10 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         for n in [4, 6, 8] {
             let t = std::time::Instant::now();
-            let ok = Epc::new(&fpk, model.delta_treatment())
-                .degree(n)
-                .solve()
-                .is_ok();
+            let ok = Epc::new(&fpk).degree(n).solve().is_ok();
             println!(
                 "  solve() at degree {n}: {} in {:.1} ms",
                 if ok { "solved" } else { "failed" },

@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::model::{BoundModel, Diagnostic, Interpretation};
+use crate::model::{BoundModel, DeltaTreatment, Diagnostic, Interpretation};
 use crate::physics::{self, ImpactForm, Inadmissible};
 use crate::symbolic::{
     diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
@@ -35,6 +35,10 @@ pub struct FpkOperator {
     /// represents an impact only through a Zhuravlev term in the drift, so any other law is
     /// recorded here for EPC to refuse ([`physics::impact_form`]).
     pub impact: Option<ImpactForm>,
+    /// How the Galerkin integrals treat the operator's δ terms: the model's `delta:` line
+    /// (sifting by default), recorded by [`FpkOperator::derive`] so that a solver needs
+    /// nothing but the operator.
+    pub delta_treatment: DeltaTreatment,
 }
 
 /// Which derived quantity a failure happened in.
@@ -266,7 +270,27 @@ impl FpkOperator {
             a,
             b,
             impact: physics::impact_form(model),
+            delta_treatment: model.delta_treatment(),
         })
+    }
+}
+
+impl FpkOperator {
+    /// The same operator with its δ terms treated as `treatment` instead of as the model
+    /// file says (e.g. to study a Gaussian regulariser's convergence to sifting).
+    ///
+    /// ```
+    /// use fpsolve::fpk::FpkOperator;
+    /// use fpsolve::model::{load_model, DeltaTreatment};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+    /// assert_eq!(fpk.delta_treatment, DeltaTreatment::Exact);
+    /// let smooth = fpk.with_delta_treatment(DeltaTreatment::Gaussian { width: 0.1 });
+    /// assert_eq!(smooth.delta_treatment, DeltaTreatment::Gaussian { width: 0.1 });
+    /// ```
+    pub fn with_delta_treatment(mut self, treatment: DeltaTreatment) -> FpkOperator {
+        self.delta_treatment = treatment;
+        self
     }
 }
 

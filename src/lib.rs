@@ -62,7 +62,7 @@
 //! assert_eq!(fpk.b[1][1].regular.to_string(), "0.5"); // B_vv = ½·2πK
 //!
 //! // 4. Solve by EPC at degree 4 (continued from degree 2, started by a Gaussian closure).
-//! let sol = Epc::new(&fpk, bound.delta_treatment()).degree(4).solve()?;
+//! let sol = Epc::new(&fpk).degree(4).solve()?;
 //! assert!(sol.solve.residual <= sol.solve.residual_threshold);
 //! // This model's exact density is exp(-(c/πK)(v²/2 + k z²/2 + mu z⁴/4)), a degree-4
 //! // exponential polynomial, so EPC reproduces it: Var v = πK/c = 1.

@@ -985,9 +985,7 @@ impact x = 0: v -> -r*v
             })
         );
         // An invalid weight would fail in the first step of the work: the refusal comes first.
-        let epc = Epc::new(&fpk, orig.delta_treatment())
-            .degree(2)
-            .weights([Some(-1.0), None]);
+        let epc = Epc::new(&fpk).degree(2).weights([Some(-1.0), None]);
         let err = epc.solve().unwrap_err();
         assert!(matches!(err, EpcError::UnsupportedImpact { .. }), "{err}");
         let text = err.to_string();
@@ -999,7 +997,7 @@ impact x = 0: v -> -r*v
         ] {
             assert!(text.contains(part), "`{part}` not in {text}");
         }
-        let all = Epc::new(&fpk, orig.delta_treatment()).solve_degrees(&[2, 4]);
+        let all = Epc::new(&fpk).solve_degrees(&[2, 4]);
         assert!(all
             .iter()
             .all(|r| matches!(r, Err(EpcError::UnsupportedImpact { .. }))));

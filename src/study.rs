@@ -187,7 +187,7 @@ impl Study {
         let bound = model.bind(overrides)?;
         let fpk = FpkOperator::derive(&bound)?;
         let quantities = quantities(&bound);
-        let epc = Epc::new(&fpk, bound.delta_treatment());
+        let epc = Epc::new(&fpk);
         let mut results: Vec<DegreeResult> = epc
             .solve_degrees(degrees)
             .into_iter()

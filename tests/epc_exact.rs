@@ -8,22 +8,22 @@ use std::path::Path;
 
 use approx::assert_relative_eq;
 use common::exact::{self, EpcTolerance, ExactCase};
-use fpsolve::epc::{BranchEnd, Epc, EpcError, EpcSolution, NormalisationKind};
+use fpsolve::epc::{
+    AttemptEnd, BestPointKind, BranchEnd, Epc, EpcError, EpcSolution, HomotopyEnd, Method,
+    NormalisationKind,
+};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, DeltaTreatment, Override};
 
-/// The operator and delta treatment of `models/<file>` with parameters overridden.
-fn operator(file: &str, set: &[(&str, f64)]) -> (FpkOperator, DeltaTreatment) {
+/// The operator of `models/<file>` with parameters overridden.
+fn operator(file: &str, set: &[(&str, f64)]) -> FpkOperator {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("models")
         .join(file);
     let model = load_model(&path).unwrap_or_else(|e| panic!("{file}: {e}"));
     let overrides: Vec<Override> = set.iter().map(|(n, v)| Override::number(n, *v)).collect();
     let bound = model.bind(&overrides).unwrap();
-    (
-        FpkOperator::derive(&bound).unwrap(),
-        model.delta_treatment(),
-    )
+    FpkOperator::derive(&bound).unwrap()
 }
 
 /// Checks an EPC solution against a case's exact density: every coefficient, ln C, the
@@ -77,7 +77,7 @@ fn exact_densities_are_reproduced() {
         let fpk = FpkOperator::derive(&bound).unwrap();
         let mut degrees = vec![2];
         degrees.extend(tol.degrees.iter().copied().filter(|d| *d > 2));
-        let res = Epc::new(&fpk, bound.delta_treatment()).solve_degrees(&degrees);
+        let res = Epc::new(&fpk).solve_degrees(&degrees);
         for (d, r) in degrees.iter().zip(res) {
             let sol = r.unwrap_or_else(|e| panic!("{} degree {d}: {e}", case.name));
             if tol.degrees.contains(d) {
@@ -92,8 +92,8 @@ fn exact_densities_are_reproduced() {
 #[test]
 fn linear_oscillator_closure_is_exact() {
     let (c, k) = (0.3, 2.0);
-    let (fpk, treatment) = operator("linear.sde", &[("c", c), ("k", k)]);
-    let sol = Epc::new(&fpk, treatment).degree(2).solve().unwrap();
+    let fpk = operator("linear.sde", &[("c", c), ("k", k)]);
+    let sol = Epc::new(&fpk).degree(2).solve().unwrap();
     let cl = sol.closure.as_ref().unwrap();
     assert_relative_eq!(cl.covariance[0][0], 0.5 / (c * k), max_relative = 1e-10);
     assert_relative_eq!(cl.covariance[1][1], 0.5 / c, max_relative = 1e-10);
@@ -103,8 +103,8 @@ fn linear_oscillator_closure_is_exact() {
 
 #[test]
 fn vibro_impact_degree_2_is_the_closure_and_degree_4_improves() {
-    let (fpk, treatment) = operator("vibro_duffing.sde", &[]);
-    let res = Epc::new(&fpk, treatment).solve_degrees(&[2, 4]);
+    let fpk = operator("vibro_duffing.sde", &[]);
+    let res = Epc::new(&fpk).solve_degrees(&[2, 4]);
     let s2 = res[0].as_ref().unwrap();
     let cl = s2.closure.as_ref().unwrap();
     // Zero mean, uncorrelated closure; EPC-2 with its weights is the closure Gaussian.
@@ -132,17 +132,20 @@ fn vibro_impact_degree_2_is_the_closure_and_degree_4_improves() {
 
 #[test]
 fn regulariser_converges_to_the_exact_treatment() {
-    let (fpk, _) = operator("vibro_duffing.sde", &[]);
-    let exact = Epc::new(&fpk, DeltaTreatment::Exact)
+    let fpk = operator("vibro_duffing.sde", &[]);
+    let exact = Epc::new(&fpk.clone().with_delta_treatment(DeltaTreatment::Exact))
         .degree(2)
         .solve()
         .unwrap();
     let mut last = f64::INFINITY;
     for w in [0.3, 0.1, 0.03, 0.01] {
-        let s = Epc::new(&fpk, DeltaTreatment::Gaussian { width: w })
-            .degree(2)
-            .solve()
-            .unwrap();
+        let s = Epc::new(
+            &fpk.clone()
+                .with_delta_treatment(DeltaTreatment::Gaussian { width: w }),
+        )
+        .degree(2)
+        .solve()
+        .unwrap();
         let err = exact
             .coefficients
             .iter()
@@ -156,15 +159,13 @@ fn regulariser_converges_to_the_exact_treatment() {
 
 #[test]
 fn bad_inputs_are_typed_errors() {
-    let (fpk, treatment) = operator("vibro_duffing.sde", &[]);
+    let fpk = operator("vibro_duffing.sde", &[]);
     assert!(matches!(
-        Epc::new(&fpk, treatment).degree(1).solve(),
+        Epc::new(&fpk).degree(1).solve(),
         Err(EpcError::Degree { .. })
     ));
     assert!(matches!(
-        Epc::new(&fpk, treatment)
-            .weights([Some(-1.0), None])
-            .solve(),
+        Epc::new(&fpk).weights([Some(-1.0), None]).solve(),
         Err(EpcError::Weight { .. })
     ));
 }
@@ -186,17 +187,28 @@ fn table1_case1_degree6_branch_from_the_exact_case() {
         FpkOperator::derive_unchecked(&bound).map_err(|e| e.to_string())
     };
     let target = at(1.0).unwrap();
-    let epc = Epc::new(&target, model.delta_treatment()).degree(6);
+    let epc = Epc::new(&target).degree(6);
     let err = epc.solve().unwrap_err();
-    assert!(matches!(err, EpcError::NoConvergence { .. }), "{err}");
-    // The message claims only what was shown: the operator homotopy from the Gaussian-exact
+    let EpcError::NoConvergence { attempts, best, .. } = &err else {
+        panic!("expected no convergence: {err}")
+    };
+    // The error claims only what was shown: the operator homotopy from the Gaussian-exact
     // operator folds before the model, the best point is a local minimum (no more).
-    let text = err.to_string();
+    let operator_path = attempts
+        .iter()
+        .find_map(|a| match &a.end {
+            AttemptEnd::Homotopy(p) if p.method == Method::OperatorHomotopy => Some(p),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no operator homotopy in {attempts:?}"));
+    assert_ne!(operator_path.end, HomotopyEnd::Reached, "{operator_path:?}");
+    let first_fold = operator_path.folds.first().copied();
     assert!(
-        text.contains("the operator homotopy from the Gaussian-exact operator folded at λ = 0.4"),
-        "{text}"
+        first_fold.is_some_and(|l| (0.4..0.5).contains(&l)),
+        "folds at {:?}",
+        operator_path.folds
     );
-    assert!(!text.contains("lies nearby"), "{text}");
+    assert_eq!(best.kind, BestPointKind::LocalMinimum);
     let branch = epc.branch(&at).unwrap();
     // Every point is a genuine solution of its system.
     assert!(

@@ -17,10 +17,7 @@ fn solve(mu: f64, eps: f64) -> (EpcSolution, Vec<ObservableMap>) {
         .bind(&[Override::number("mu", mu), Override::number("eps", eps)])
         .unwrap();
     let fpk = FpkOperator::derive(&bound).unwrap();
-    let sol = Epc::new(&fpk, bound.delta_treatment())
-        .degree(4)
-        .solve()
-        .unwrap();
+    let sol = Epc::new(&fpk).degree(4).solve().unwrap();
     let maps = bound
         .observables()
         .iter()
@@ -134,10 +131,7 @@ fn pipeline(text: &str, n: usize) -> (EpcSolution, Vec<(String, ObservableMap)>)
     let model = parse_model(text, None).unwrap();
     let bound = model.bind(&[]).unwrap();
     let fpk = FpkOperator::derive(&bound).unwrap();
-    let sol = Epc::new(&fpk, bound.delta_treatment())
-        .degree(n)
-        .solve()
-        .unwrap();
+    let sol = Epc::new(&fpk).degree(n).solve().unwrap();
     let maps = bound
         .observables()
         .iter()

@@ -9,7 +9,7 @@
 //! the frame is moved to the current estimate until it coincides with the solution, where (for
 //! an uncorrelated solution) the integrands are piecewise polynomials integrated exactly.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix2};
 use serde::Serialize;
 
 use super::coefficients::{Coefficients, Point};
@@ -36,6 +36,19 @@ impl GaussianClosure {
     }
 }
 
+/// A symmetric 2×2 matrix given as rows.
+pub(crate) fn matrix(p: [[f64; 2]; 2]) -> Matrix2<f64> {
+    Matrix2::new(p[0][0], p[0][1], p[1][0], p[1][1])
+}
+
+/// The precision matrix P⁻¹ of a covariance P; NaN throughout for a singular P (which the
+/// closure's |ρ| < 1 and the weights' σ > 0 exclude), so that nothing downstream converges.
+pub(crate) fn precision(p: [[f64; 2]; 2]) -> Matrix2<f64> {
+    matrix(p)
+        .try_inverse()
+        .unwrap_or_else(|| Matrix2::from_element(f64::NAN))
+}
+
 /// Unknowns relative to the frame: μ_i = c_i + s_i u_i, √P_ii = s_i e^{u_{2+i}}, ρ = tanh u_4.
 fn decode(u: &[f64; 5], c: [f64; 2], s: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
     let mean = [c[0] + s[0] * u[0], c[1] + s[1] * u[1]];
@@ -53,11 +66,9 @@ fn equations(
     mean: [f64; 2],
     p: [[f64; 2]; 2],
 ) -> (DVector<f64>, f64) {
-    let det = p[0][0] * p[1][1] - p[0][1] * p[0][1];
-    let lam = [
-        [p[1][1] / det, -p[0][1] / det],
-        [-p[0][1] / det, p[0][0] / det],
-    ];
+    let cov = matrix(p);
+    let det = cov.determinant();
+    let lam = precision(p);
     let sd = [p[0][0].sqrt(), p[1][1].sqrt()];
     let log_norm = -0.5 * det.ln() + (s[0] * s[1]).ln();
     let mut g = DVector::zeros(5);
@@ -65,20 +76,20 @@ fn equations(
     for pt in pts {
         let y = [pt.x[0] - mean[0], pt.x[1] - mean[1]];
         let xi = [(pt.x[0] - c[0]) / s[0], (pt.x[1] - c[1]) / s[1]];
-        let quad = y[0] * (lam[0][0] * y[0] + lam[0][1] * y[1])
-            + y[1] * (lam[1][0] * y[0] + lam[1][1] * y[1]);
+        let quad = y[0] * (lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1])
+            + y[1] * (lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]);
         let r = (-0.5 * quad + 0.5 * (xi[0] * xi[0] + xi[1] * xi[1]) + log_norm).exp();
         let dq = [
-            -(lam[0][0] * y[0] + lam[0][1] * y[1]),
-            -(lam[1][0] * y[0] + lam[1][1] * y[1]),
+            -(lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1]),
+            -(lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]),
         ];
         let terms = [
             pt.g[0],
             pt.g[1] * dq[0],
             pt.g[2] * dq[1],
-            pt.g[3] * (dq[0] * dq[0] - lam[0][0]),
-            2.0 * pt.g[4] * (dq[0] * dq[1] - lam[0][1]),
-            pt.g[5] * (dq[1] * dq[1] - lam[1][1]),
+            pt.g[3] * (dq[0] * dq[0] - lam[(0, 0)]),
+            2.0 * pt.g[4] * (dq[0] * dq[1] - lam[(0, 1)]),
+            pt.g[5] * (dq[1] * dq[1] - lam[(1, 1)]),
         ];
         let f: f64 = terms.iter().sum();
         let wr = pt.w * r;

@@ -1,5 +1,7 @@
 //! The EPC engine's error type.
 
+use super::outcome::{self, Attempt, BestPoint};
+use super::NotNormalisable;
 use crate::physics::UnsupportedImpact;
 use crate::symbolic::{EvalError, SymbolicError};
 
@@ -107,24 +109,24 @@ pub enum EpcError {
     },
     /// No Galerkin solution was found at this degree.
     #[error(
-        "EPC degree {degree}: no solution found from these starts ({tried}); the best point has ‖R‖ = {best_residual:.3e} (needed ≤ {threshold:.1e}) and ‖JᵀR‖ = {gradient:.3e}: {verdict}{continuation}"
+        "EPC degree {degree}: no solution found from these starts ({}); the best point has ‖R‖ = {:.3e} (needed ≤ {threshold:.1e}) and ‖JᵀR‖ = {:.3e}: {}{}",
+        outcome::tried(attempts),
+        best.residual,
+        best.gradient,
+        best.kind,
+        outcome::continuation(attempts)
     )]
     NoConvergence {
         /// The degree.
         degree: usize,
-        /// The methods and starts tried, comma-separated.
-        tried: String,
-        /// The smallest residual norm ‖R‖ reached.
-        best_residual: f64,
+        /// Every method and start tried, in order, with how it ended; the homotopy paths
+        /// ([`AttemptEnd::Homotopy`](super::AttemptEnd::Homotopy)) are the only evidence the
+        /// error gives about whether a real solution exists.
+        attempts: Vec<Attempt>,
+        /// The point of least ‖R‖ reached.
+        best: BestPoint,
         /// The ‖R‖ a converged solve must reach.
         threshold: f64,
-        /// The gradient norm of ½‖R‖² there.
-        gradient: f64,
-        /// What the best point is (a local minimum of ‖R‖ or a stalled iterate).
-        verdict: String,
-        /// What each homotopy path showed ("; "-separated, each starting with "; "), the
-        /// only evidence the error gives about whether a real solution exists.
-        continuation: String,
     },
     /// The solved exp(Q) cannot be normalised honestly.
     #[error("EPC degree {degree}: density not normalisable: {reason}")]
@@ -132,6 +134,6 @@ pub enum EpcError {
         /// The degree.
         degree: usize,
         /// Why.
-        reason: String,
+        reason: NotNormalisable,
     },
 }

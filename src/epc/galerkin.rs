@@ -29,15 +29,15 @@ pub fn exponents(degree: usize) -> Vec<(usize, usize)> {
 }
 
 /// Moment tables of the six channels, up to total degree `max`.
-pub(crate) struct Moments {
+pub(crate) struct MomentTables {
     max: usize,
     table: Vec<[f64; CHANNELS]>,
 }
 
-impl Moments {
+impl MomentTables {
     /// Accumulates the moments from quadrature points; `scale` is σ and `channel_scale` the
     /// factor that makes each channel dimensionless in ξ.
-    pub(crate) fn new(points: &[Point], sigma: [f64; 2], max: usize) -> Moments {
+    pub(crate) fn new(points: &[Point], sigma: [f64; 2], max: usize) -> MomentTables {
         let chan = [
             1.0,
             1.0 / sigma[0],
@@ -76,12 +76,12 @@ impl Moments {
                 }
             }
         }
-        Moments { max, table }
+        MomentTables { max, table }
     }
 
     /// The moment tables of channels that are affine in ξ, ĝ_c(ξ) = k_c[0] + k_c[1] ξ1 +
     /// k_c[2] ξ2, computed exactly from the standard normal moments.
-    pub(crate) fn affine(k: &[[f64; 3]; CHANNELS], max: usize) -> Moments {
+    pub(crate) fn affine(k: &[[f64; 3]; CHANNELS], max: usize) -> MomentTables {
         // E[t^m] for t ~ N(0, 1): (m − 1)!! for even m, 0 for odd m.
         let mut nm = vec![0.0; max + 2];
         nm[0] = 1.0;
@@ -99,7 +99,7 @@ impl Moments {
                 }
             }
         }
-        Moments { max, table }
+        MomentTables { max, table }
     }
 
     /// The highest total degree tabulated.
@@ -125,7 +125,7 @@ pub(crate) struct GalerkinSystem {
 
 impl GalerkinSystem {
     /// Assembles the system of degree `degree` from the moment tables (needs `max ≥ 3n − 2`).
-    pub(crate) fn assemble(mom: &Moments, degree: usize) -> GalerkinSystem {
+    pub(crate) fn assemble(mom: &MomentTables, degree: usize) -> GalerkinSystem {
         let exps = exponents(degree);
         let np = exps.len();
         let (a0, a1, a2, b11, b12, b22) = (0, 1, 2, 3, 4, 5);
@@ -262,7 +262,7 @@ mod tests {
                 });
             }
         }
-        let mom = Moments::new(&pts, [1.3, 0.7], 3 * 3 - 2);
+        let mom = MomentTables::new(&pts, [1.3, 0.7], 3 * 3 - 2);
         let sys = GalerkinSystem::assemble(&mom, 3);
         let n = sys.len();
         let a = DVector::from_iterator(n, (0..n).map(|k| 0.1 * (k as f64 + 1.0).sin()));

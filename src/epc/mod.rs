@@ -24,7 +24,7 @@
 //! ";
 //! let model = parse_model(text, None).unwrap();
 //! let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
-//! let sol = Epc::new(&fpk, model.delta_treatment()).degree(2).solve().unwrap();
+//! let sol = Epc::new(&fpk).degree(2).solve().unwrap();
 //! // Exact: variances πK/(ck) = 5 for z and πK/c = 5 for v.
 //! assert!((sol.moments[0].variance - 5.0).abs() < 1e-6);
 //! ```
@@ -36,31 +36,35 @@ mod degrees;
 mod error;
 mod galerkin;
 mod normalise;
+mod outcome;
 mod quadrature;
 mod solution;
 mod solver;
 
 use std::time::Instant;
 
-use nalgebra::DVector;
+use nalgebra::{DVector, Matrix2};
 
 pub use closure::GaussianClosure;
 pub use continuation::{Branch, BranchEnd, BranchPoint};
 pub use degrees::{DegreeList, DegreeListError};
 pub use error::EpcError;
 pub use galerkin::exponents;
-pub use normalise::{NormalisationKind, NormalisationReport};
+pub use normalise::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
+pub use outcome::{
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, Method,
+    NewtonStop, StartPoint,
+};
 pub use quadrature::{normal_rule, split_normal_rule, QuadratureRule};
-pub use solution::{EpcSolution, SolveReport, StateMoments};
-pub use solver::SolveOutcome;
+pub use solution::{EpcSolution, SolveReport};
 
 use crate::fpk::FpkOperator;
-use crate::model::DeltaTreatment;
 use crate::physics::ImpactForm;
 use crate::symbolic::TapeScratch;
 use coefficients::Coefficients;
-use galerkin::{GalerkinSystem, Moments};
+use galerkin::{GalerkinSystem, MomentTables};
 use normalise::Poly;
+use solver::SolveOutcome;
 
 /// The largest degree the engine accepts.
 pub const MAX_DEGREE: usize = 12;
@@ -69,11 +73,10 @@ pub const MAX_DEGREE: usize = 12;
 /// this deep is below e^-12 ≈ 6e-6 of the peak's neighbourhood.
 pub const DEFAULT_RIDGE_THRESHOLD: f64 = 12.0;
 
-/// An EPC problem: operator, delta treatment and options; [`Epc::solve`] runs it.
+/// An EPC problem: the operator (with its delta treatment) and options; [`Epc::solve`] runs it.
 #[derive(Clone, Debug)]
 pub struct Epc<'a> {
     fpk: &'a FpkOperator,
-    treatment: DeltaTreatment,
     degree: usize,
     tolerance: f64,
     sigma: [Option<f64>; 2],
@@ -84,8 +87,17 @@ pub struct Epc<'a> {
 /// A lower-degree solution (exponents, scaled coefficients) that starts the next degree.
 type Start = (Vec<(usize, usize)>, DVector<f64>);
 
+/// The moment tables of one problem and how their quadrature order was chosen.
+struct Quadrature {
+    tables: MomentTables,
+    /// Gauss nodes per piece of each axis.
+    order: usize,
+    /// Whether the order came from a convergence check (non-polynomial coefficients).
+    checked: bool,
+}
+
 /// A solved degree before normalisation.
-struct Solved {
+struct SolvedDegree {
     sys: GalerkinSystem,
     a: DVector<f64>,
     outcome: SolveOutcome,
@@ -102,12 +114,11 @@ struct Prepared {
 }
 
 impl<'a> Epc<'a> {
-    /// A problem for `fpk` with δ terms treated as `treatment`; degree 4 and tolerance 1e−10
-    /// (see [`Epc::tolerance`]) by default.
-    pub fn new(fpk: &'a FpkOperator, treatment: DeltaTreatment) -> Epc<'a> {
+    /// A problem for `fpk` (δ terms treated as [`FpkOperator::delta_treatment`] says); degree
+    /// 4 and tolerance 1e−10 (see [`Epc::tolerance`]) by default.
+    pub fn new(fpk: &'a FpkOperator) -> Epc<'a> {
         Epc {
             fpk,
-            treatment,
             degree: 4,
             tolerance: 1e-10,
             sigma: [None, None],
@@ -185,7 +196,7 @@ impl<'a> Epc<'a> {
     /// diffusion v: xi
     /// ", None).unwrap();
     /// let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
-    /// let epc = Epc::new(&fpk, model.delta_treatment());
+    /// let epc = Epc::new(&fpk);
     /// let r = epc.solve_degrees(&[4, 3]);
     /// assert!(r[0].is_ok());
     /// assert!(matches!(r[1], Err(EpcError::OddDegree { degree: 3 })));
@@ -275,7 +286,7 @@ impl<'a> Epc<'a> {
     ///     .map_err(|e| e.to_string());
     /// let target = at(0.2).unwrap();
     /// let family = |l: f64| at(0.1 + 0.1 * l);
-    /// let branch = Epc::new(&target, model.delta_treatment()).degree(2).branch(&family).unwrap();
+    /// let branch = Epc::new(&target).degree(2).branch(&family).unwrap();
     /// assert_eq!(branch.end, BranchEnd::Reached);
     /// ```
     pub fn branch(
@@ -305,7 +316,7 @@ impl<'a> Epc<'a> {
             }
             .weights(fixed);
             let prep = epc.prepare()?;
-            Ok(GalerkinSystem::assemble(&epc.moments(&prep, n)?.0, n))
+            Ok(GalerkinSystem::assemble(&epc.moments(&prep, n)?.tables, n))
         };
         continuation::follow(&system, start, n)
     }
@@ -343,7 +354,7 @@ impl<'a> Epc<'a> {
                     .polynomial_degree()
                     .map_or(16, |d| (d as usize + 6).div_ceil(2) + 2)
                     .max(8);
-                let c = closure::gaussian_closure(&coefs, &kinks, self.treatment, order)?;
+                let c = closure::gaussian_closure(&coefs, &kinks, self.fpk.delta_treatment, order)?;
                 let sd = c.std_devs();
                 (
                     [
@@ -363,20 +374,24 @@ impl<'a> Epc<'a> {
     }
 
     /// Moment tables good for degree `n`, with the quadrature order used.
-    fn moments(&self, prep: &Prepared, n: usize) -> Result<(Moments, usize, bool), EpcError> {
+    fn moments(&self, prep: &Prepared, n: usize) -> Result<Quadrature, EpcError> {
         let s = prep.sigma;
         let (kinks, mixed) = prep.coefs.kinks([16.0 * s[0], 16.0 * s[1]])?;
         let dmax = 3 * n - 2;
-        let build = |order: usize| -> Result<Moments, EpcError> {
+        let build = |order: usize| -> Result<MomentTables, EpcError> {
             let pts = prep
                 .coefs
-                .points([0.0, 0.0], s, &kinks, order, self.treatment)?;
-            Ok(Moments::new(&pts, s, dmax))
+                .points([0.0, 0.0], s, &kinks, order, self.fpk.delta_treatment)?;
+            Ok(MomentTables::new(&pts, s, dmax))
         };
         match prep.coefs.polynomial_degree() {
             Some(d) if !mixed => {
                 let order = (dmax + d as usize + 1).div_ceil(2) + 1;
-                Ok((build(order)?, order, false))
+                Ok(Quadrature {
+                    tables: build(order)?,
+                    order,
+                    checked: false,
+                })
             }
             _ => {
                 // Not piecewise polynomial along the axes: raise the order until the assembled
@@ -391,7 +406,11 @@ impl<'a> Epc<'a> {
                     change = sys.max_difference(&prev) / sys.scale().max(f64::MIN_POSITIVE);
                     order = next_order;
                     if change < self.quadrature_tolerance {
-                        return Ok((mom, order, true));
+                        return Ok(Quadrature {
+                            tables: mom,
+                            order,
+                            checked: true,
+                        });
                     }
                     prev = sys;
                 }
@@ -407,30 +426,30 @@ impl<'a> Epc<'a> {
     fn solve_coefficients(
         &self,
         prep: &Prepared,
-        moments: &(Moments, usize, bool),
+        moments: &Quadrature,
         n: usize,
         previous: Option<&Start>,
         full: bool,
-    ) -> Result<Solved, EpcError> {
+    ) -> Result<SolvedDegree, EpcError> {
         let t0 = Instant::now();
-        let sys = GalerkinSystem::assemble(&moments.0, n);
+        let sys = GalerkinSystem::assemble(&moments.tables, n);
         let assembly_ms = ms(t0);
         let mut starts = Vec::new();
         if let Some((e, a)) = previous {
             starts.push((
-                format!(
-                    "the degree-{} solution",
-                    e.iter().map(|x| x.0 + x.1).max().unwrap_or(0)
-                ),
+                StartPoint::LowerDegree {
+                    degree: e.iter().map(|x| x.0 + x.1).max().unwrap_or(0),
+                },
                 solver::pad(a, e, &sys.exps),
             ));
         }
         let closure_start = self.closure_start(prep, &sys.exps);
         let reference = sys.residual_and_jacobian(&closure_start).0.norm();
-        starts.push(("the Gaussian closure".to_string(), closure_start.clone()));
+        starts.push((StartPoint::GaussianClosure, closure_start.clone()));
         let t1 = Instant::now();
         let family = || {
-            let gauss = GalerkinSystem::assemble(&self.gaussian_exact_moments(prep, &moments.0), n);
+            let gauss =
+                GalerkinSystem::assemble(&self.gaussian_exact_moments(prep, &moments.tables), n);
             (gauss, closure_start.clone())
         };
         let (a, outcome) = solver::solve(
@@ -441,24 +460,13 @@ impl<'a> Epc<'a> {
             self.tolerance,
             reference,
         )
-        .map_err(|f| {
-            let verdict = if f.local_minimum {
-                "it is a local minimum of ‖R‖ (Levenberg–Marquardt finds no descent), which by itself does not exclude real solutions elsewhere".to_string()
-            } else {
-                "the iterations stalled away from a stationary point; a solution nearby is not excluded".to_string()
-            };
-            let continuation: String = f.paths.iter().map(|p| format!("; {}", p.describe())).collect();
-            EpcError::NoConvergence {
-                degree: n,
-                tried: f.tried.join(", "),
-                best_residual: f.best_residual,
-                threshold: f.threshold,
-                gradient: f.gradient,
-                continuation,
-                verdict,
-            }
+        .map_err(|f| EpcError::NoConvergence {
+            degree: n,
+            attempts: f.attempts,
+            best: f.best,
+            threshold: f.threshold,
         })?;
-        Ok(Solved {
+        Ok(SolvedDegree {
             sys,
             a,
             outcome,
@@ -471,9 +479,9 @@ impl<'a> Epc<'a> {
     fn finish(
         &self,
         prep: &Prepared,
-        moments: &(Moments, usize, bool),
+        moments: &Quadrature,
         moments_ms: f64,
-        solved: Solved,
+        solved: SolvedDegree,
     ) -> Result<EpcSolution, EpcError> {
         let n = solved.sys.exps.iter().map(|e| e.0 + e.1).max().unwrap_or(0);
         let sigma = prep.sigma;
@@ -483,12 +491,8 @@ impl<'a> Epc<'a> {
             a: solved.a.iter().copied().collect(),
             degree: n,
         };
-        let (grid, norm) = normalise::normalise(&q, sigma, self.ridge_threshold).map_err(|e| {
-            EpcError::NotNormalisable {
-                degree: n,
-                reason: e.0,
-            }
-        })?;
+        let (grid, norm) = normalise::normalise(&q, sigma, self.ridge_threshold)
+            .map_err(|reason| EpcError::NotNormalisable { degree: n, reason })?;
         let normalise_ms = ms(t2);
         let t3 = Instant::now();
         let fpk_residual = self.fpk_residual(prep, &q, &grid)?;
@@ -498,8 +502,8 @@ impl<'a> Epc<'a> {
             iterations: solved.outcome.iterations,
             residual: solved.outcome.residual,
             residual_threshold: solved.outcome.threshold,
-            quadrature_order: moments.1,
-            order_checked: moments.2,
+            quadrature_order: moments.order,
+            order_checked: moments.checked,
             closure_ms: prep.closure_ms,
             assembly_ms: moments_ms + solved.assembly_ms,
             solve_ms: solved.solve_ms,
@@ -522,43 +526,44 @@ impl<'a> Epc<'a> {
     /// B̄ = the weighted mean of the real B, drift A(ξ) = (B̄ + W)Λ(ξ − μ) with W the
     /// antisymmetric part of the weighted mean of A(ξ)ξᵀ (the circulation an oscillator's
     /// drift carries), and A0 = B̄:Λ, so that F of Eq. 18 vanishes identically for Q = −½(ξ−μ)ᵀΛ(ξ−μ).
-    fn gaussian_exact_moments(&self, prep: &Prepared, real: &Moments) -> Moments {
+    fn gaussian_exact_moments(&self, prep: &Prepared, real: &MomentTables) -> MomentTables {
         let (mu, lam) = self.closure_scaled(prep);
-        let b = [
-            [real.get(3, 0, 0), real.get(4, 0, 0)],
-            [real.get(4, 0, 0), real.get(5, 0, 0)],
-        ];
-        let x = [
-            [real.get(1, 1, 0), real.get(1, 0, 1)],
-            [real.get(2, 1, 0), real.get(2, 0, 1)],
-        ];
-        let w = 0.5 * (x[0][1] - x[1][0]);
-        let bw = [[b[0][0], b[0][1] + w], [b[1][0] - w, b[1][1]]];
-        let beta: [[f64; 2]; 2] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| bw[i][0] * lam[0][j] + bw[i][1] * lam[1][j])
-        });
+        let b = Matrix2::new(
+            real.get(3, 0, 0),
+            real.get(4, 0, 0),
+            real.get(4, 0, 0),
+            real.get(5, 0, 0),
+        );
+        let x = Matrix2::new(
+            real.get(1, 1, 0),
+            real.get(1, 0, 1),
+            real.get(2, 1, 0),
+            real.get(2, 0, 1),
+        );
+        let w = 0.5 * (x[(0, 1)] - x[(1, 0)]);
+        let beta = (b + Matrix2::new(0.0, w, -w, 0.0)) * lam;
         let affine = |i: usize| {
             [
-                -(beta[i][0] * mu[0] + beta[i][1] * mu[1]),
-                beta[i][0],
-                beta[i][1],
+                -(beta[(i, 0)] * mu[0] + beta[(i, 1)] * mu[1]),
+                beta[(i, 0)],
+                beta[(i, 1)],
             ]
         };
-        let a0 = b[0][0] * lam[0][0] + 2.0 * b[0][1] * lam[0][1] + b[1][1] * lam[1][1];
+        let a0 = b[(0, 0)] * lam[(0, 0)] + 2.0 * b[(0, 1)] * lam[(0, 1)] + b[(1, 1)] * lam[(1, 1)];
         let k = [
             [a0, 0.0, 0.0],
             affine(0),
             affine(1),
-            [b[0][0], 0.0, 0.0],
-            [b[0][1], 0.0, 0.0],
-            [b[1][1], 0.0, 0.0],
+            [b[(0, 0)], 0.0, 0.0],
+            [b[(0, 1)], 0.0, 0.0],
+            [b[(1, 1)], 0.0, 0.0],
         ];
-        Moments::affine(&k, real.max_degree())
+        MomentTables::affine(&k, real.max_degree())
     }
 
     /// The closure Gaussian (or the weights' Gaussian when σ were overridden) in scaled
-    /// variables: mean and precision matrix.
-    fn closure_scaled(&self, prep: &Prepared) -> ([f64; 2], [[f64; 2]; 2]) {
+    /// variables ξ = x/σ: mean μ/σ and precision matrix (covariance/(σσ))⁻¹.
+    fn closure_scaled(&self, prep: &Prepared) -> ([f64; 2], Matrix2<f64>) {
         let s = prep.sigma;
         let (mean, p) = match &prep.closure {
             Some(c) => (c.mean, c.covariance),
@@ -569,43 +574,21 @@ impl<'a> Epc<'a> {
             [p[0][0] / (s[0] * s[0]), p[0][1] / (s[0] * s[1])],
             [p[0][1] / (s[0] * s[1]), p[1][1] / (s[1] * s[1])],
         ];
-        let det = p[0][0] * p[1][1] - p[0][1] * p[0][1];
-        (
-            m,
-            [
-                [p[1][1] / det, -p[0][1] / det],
-                [-p[0][1] / det, p[0][0] / det],
-            ],
-        )
+        (m, closure::precision(p))
     }
 
     /// The closure Gaussian (or the weights' Gaussian when σ were overridden) as a start.
     fn closure_start(&self, prep: &Prepared, exps: &[(usize, usize)]) -> DVector<f64> {
-        let s = prep.sigma;
-        let (mean, p) = match &prep.closure {
-            Some(c) => (c.mean, c.covariance),
-            None => ([0.0; 2], [[s[0] * s[0], 0.0], [0.0, s[1] * s[1]]]),
-        };
-        // In scaled variables: mean/σ, covariance/(σσ).
-        let m = [mean[0] / s[0], mean[1] / s[1]];
-        let p = [
-            [p[0][0] / (s[0] * s[0]), p[0][1] / (s[0] * s[1])],
-            [p[0][1] / (s[0] * s[1]), p[1][1] / (s[1] * s[1])],
-        ];
-        let det = p[0][0] * p[1][1] - p[0][1] * p[0][1];
-        let l = [
-            [p[1][1] / det, -p[0][1] / det],
-            [-p[0][1] / det, p[0][0] / det],
-        ];
+        let (m, l) = self.closure_scaled(prep);
         // −½(ξ−m)ᵀΛ(ξ−m) without its constant.
         DVector::from_iterator(
             exps.len(),
             exps.iter().map(|&e| match e {
-                (1, 0) => l[0][0] * m[0] + l[0][1] * m[1],
-                (0, 1) => l[1][0] * m[0] + l[1][1] * m[1],
-                (2, 0) => -0.5 * l[0][0],
-                (1, 1) => -l[0][1],
-                (0, 2) => -0.5 * l[1][1],
+                (1, 0) => l[(0, 0)] * m[0] + l[(0, 1)] * m[1],
+                (0, 1) => l[(1, 0)] * m[0] + l[(1, 1)] * m[1],
+                (2, 0) => -0.5 * l[(0, 0)],
+                (1, 1) => -l[(0, 1)],
+                (0, 2) => -0.5 * l[(1, 1)],
                 _ => 0.0,
             }),
         )
@@ -716,7 +699,7 @@ mod tests {
     use crate::model::{load_model, Override};
 
     /// The paper's vibro-impact model (Eq. 10) with μ, ε, r set, through the real pipeline.
-    fn vibro(mu: f64, eps: f64, r: f64) -> (FpkOperator, DeltaTreatment) {
+    fn vibro(mu: f64, eps: f64, r: f64) -> FpkOperator {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
         let model = load_model(&path).unwrap();
@@ -727,22 +710,19 @@ mod tests {
                 Override::number("r", r),
             ])
             .unwrap();
-        (
-            FpkOperator::derive(&bound).unwrap(),
-            model.delta_treatment(),
-        )
+        FpkOperator::derive(&bound).unwrap()
     }
 
     #[test]
     fn reported_residual_is_the_norm_of_r_at_the_returned_coefficients() {
-        let (fpk, treatment) = vibro(0.1, 0.1, 0.95);
+        let fpk = vibro(0.1, 0.1, 0.95);
         for n in [2, 4, 8] {
-            let epc = Epc::new(&fpk, treatment).degree(n);
+            let epc = Epc::new(&fpk).degree(n);
             let sol = epc.solve().unwrap();
             // Rebuild the degree-n system independently of the solve and evaluate R there.
             let prep = epc.prepare().unwrap();
             let moments = epc.moments(&prep, n).unwrap();
-            let sys = GalerkinSystem::assemble(&moments.0, n);
+            let sys = GalerkinSystem::assemble(&moments.tables, n);
             let a = DVector::from_vec(sol.scaled_coefficients.clone());
             let r = sys.residual_and_jacobian(&a).0.norm();
             approx::assert_relative_eq!(sol.solve.residual, r, max_relative = 1e-6);
@@ -758,14 +738,16 @@ mod tests {
     fn closure_gaussian_is_an_exact_root_of_the_gaussian_exact_operator() {
         // Correlated noise and a parametric term: the closure has a nonzero covariance entry.
         for (mu, eps) in [(0.1, 0.1), (1.0, -0.1)] {
-            let (fpk, treatment) = vibro(mu, eps, 0.95);
-            let epc = Epc::new(&fpk, treatment);
+            let fpk = vibro(mu, eps, 0.95);
+            let epc = Epc::new(&fpk);
             let prep = epc.prepare().unwrap();
             for n in [2, 4, 6] {
                 let moments = epc.moments(&prep, n).unwrap();
-                let real = GalerkinSystem::assemble(&moments.0, n);
-                let gauss =
-                    GalerkinSystem::assemble(&epc.gaussian_exact_moments(&prep, &moments.0), n);
+                let real = GalerkinSystem::assemble(&moments.tables, n);
+                let gauss = GalerkinSystem::assemble(
+                    &epc.gaussian_exact_moments(&prep, &moments.tables),
+                    n,
+                );
                 let a_g = epc.closure_start(&prep, &gauss.exps);
                 let r = gauss.residual_and_jacobian(&a_g).0.norm();
                 assert!(r < 1e-12 * gauss.scale(), "n = {n}: ‖R_G(a_G)‖ = {r:e}");

@@ -4,14 +4,17 @@ use serde::Serialize;
 
 use super::closure::GaussianClosure;
 use super::normalise::{DensityGrid, NormalisationReport, Poly};
+use super::outcome::Method;
+use crate::moments::Moments;
 
 /// Timings and convergence of one solve.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SolveReport {
     /// The degree n.
     pub degree: usize,
-    /// The method that converged and its start.
-    pub method: String,
+    /// The method that converged and its start (`summary.json` and the CLI print its
+    /// `Display`).
+    pub method: Method,
     /// Its iterations.
     pub iterations: usize,
     /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)), recomputed from the
@@ -35,17 +38,6 @@ pub struct SolveReport {
     pub fpk_residual_ms: f64,
 }
 
-/// Moments and tails of one state.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct StateMoments {
-    /// E\[x\].
-    pub mean: f64,
-    /// Var\[x\].
-    pub variance: f64,
-    /// E[(x−m)⁴]/Var².
-    pub kurtosis: f64,
-}
-
 /// An EPC solution.
 #[derive(Clone, Debug, Serialize)]
 pub struct EpcSolution {
@@ -65,8 +57,9 @@ pub struct EpcSolution {
     pub normalisation: NormalisationReport,
     /// How it was solved.
     pub solve: SolveReport,
-    /// Moments of each state.
-    pub moments: [StateMoments; 2],
+    /// Moments of each state, from its marginal on the normalisation grid (raw moments
+    /// E\[x^k\], k ≤ 4; mean, variance and kurtosis computed as central moments on the grid).
+    pub moments: [Moments; 2],
     /// FPK residual indicator ∫|F|·p dx, with F of Eq. 18 as a measure (regular part on the
     /// normalisation grid plus the δ lines' line integrals): 0 for an exact solution.
     pub fpk_residual: f64,
@@ -101,11 +94,7 @@ impl EpcSolution {
             closure,
             normalisation,
             solve,
-            moments: [0, 1].map(|_| StateMoments {
-                mean: 0.0,
-                variance: 0.0,
-                kurtosis: 0.0,
-            }),
+            moments: [Moments::from_raw([0.0; 4]); 2],
             fpk_residual,
             q,
             grid,
@@ -114,14 +103,18 @@ impl EpcSolution {
         s
     }
 
-    fn state_moments(&self, axis: usize) -> StateMoments {
+    /// The moments of state `axis` by the trapezoid rule on the normalisation grid (the
+    /// marginal vanishes at the grid's ends). Mean, variance and kurtosis are the grid's
+    /// central moments, not recombined from the raw ones (which would cancel digits).
+    fn state_moments(&self, axis: usize) -> Moments {
         let (x, p) = self.marginal_grid(axis);
         let h = x[1] - x[0];
         let m = |f: &dyn Fn(f64) -> f64| x.iter().zip(&p).map(|(x, p)| f(*x) * p).sum::<f64>() * h;
         let mean = m(&|x| x);
         let var = m(&|x| (x - mean).powi(2));
         let m4 = m(&|x| (x - mean).powi(4));
-        StateMoments {
+        Moments {
+            raw: [1, 2, 3, 4].map(|k| m(&|x| x.powi(k))),
             mean,
             variance: var,
             kurtosis: m4 / (var * var),

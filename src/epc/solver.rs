@@ -19,13 +19,17 @@ use serde::Serialize;
 
 use super::continuation::{self, PathEnd, TraceOptions};
 use super::galerkin::GalerkinSystem;
+use super::outcome::{
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, Method,
+    NewtonStop, StartPoint, HOMOTOPY_NORM_FACTOR, HOMOTOPY_STEPS,
+};
 use super::EpcError;
 
 /// How a solve ended.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SolveOutcome {
-    /// `"newton"` or `"levenberg-marquardt"`, with the start used.
-    pub method: String,
+pub(crate) struct SolveOutcome {
+    /// The method that converged, with its start.
+    pub method: Method,
     /// Iterations of the successful method.
     pub iterations: usize,
     /// Final ‖R‖ (scaled variables, weights φ(ξ1)φ(ξ2)), recomputed at the returned point.
@@ -34,16 +38,15 @@ pub struct SolveOutcome {
     pub threshold: f64,
 }
 
-/// The best point found when nothing converged.
+/// Every attempt and the best point found when nothing converged.
 #[derive(Clone, Debug)]
 pub(crate) struct SolveFailure {
-    pub tried: Vec<String>,
+    /// Every method tried, in order, with how it ended.
+    pub attempts: Vec<Attempt>,
+    /// The ‖R‖ a converged solve must reach.
     pub threshold: f64,
-    pub best_residual: f64,
-    pub gradient: f64,
-    pub local_minimum: bool,
-    /// The homotopy paths followed, in order.
-    pub paths: Vec<HomotopyPath>,
+    /// The point of least ‖R‖.
+    pub best: BestPoint,
 }
 
 fn newton(
@@ -51,7 +54,7 @@ fn newton(
     a0: &DVector<f64>,
     tol: f64,
     max_iter: usize,
-) -> (DVector<f64>, f64, usize, bool) {
+) -> (DVector<f64>, f64, usize, NewtonStop) {
     let mut a = a0.clone();
     let (mut r, mut j) = sys.residual_and_jacobian(&a);
     let mut norm = r.norm();
@@ -61,20 +64,20 @@ fn newton(
     let mut history = std::collections::VecDeque::with_capacity(9);
     for it in 0..max_iter {
         if norm <= tol {
-            return (a, norm, it, true);
+            return (a, norm, it, NewtonStop::Converged);
         }
         history.push_back(norm);
         if history.len() > 8 {
             let old = history.pop_front().expect("non-empty");
             if norm > 0.9 * old {
-                return (a, norm, it, false);
+                return (a, norm, it, NewtonStop::Crawling);
             }
         }
         let Some(step) = j.clone().lu().solve(&(-&r)) else {
-            return (a, norm, it, false);
+            return (a, norm, it, NewtonStop::Singular);
         };
         if !step.iter().all(|v| v.is_finite()) {
-            return (a, norm, it, false);
+            return (a, norm, it, NewtonStop::Singular);
         }
         let mut t = 1.0;
         let mut accepted = false;
@@ -95,77 +98,23 @@ fn newton(
             t *= 0.5;
         }
         if !accepted {
-            return (a, norm, it, false);
+            return (a, norm, it, NewtonStop::NoDescent);
         }
     }
-    (a.clone(), norm, max_iter, norm <= tol)
-}
-
-/// How one homotopy path ended.
-#[derive(Clone, Debug)]
-pub(crate) struct HomotopyPath {
-    /// What was followed from where, e.g. "Newton homotopy from the Gaussian closure".
-    pub name: String,
-    /// Whether λ is a deformation of the operator (a fold then shows that the solution branch
-    /// connected to the start does not reach the model) rather than of the residual.
-    pub operator: bool,
-    /// How the path ended.
-    pub end: PathEnd,
-    /// The largest λ reached.
-    pub lambda_max: f64,
-    /// λ at each fold (where the path turned back to decreasing λ).
-    pub folds: Vec<f64>,
-    /// Accepted continuation steps.
-    pub steps: usize,
-}
-
-impl HomotopyPath {
-    /// What the path showed, in words, claiming only what the continuation established.
-    pub(crate) fn describe(&self) -> String {
-        let end = match &self.end {
-            PathEnd::Reached(_) => {
-                "reached λ = 1, where Newton did not converge to the threshold".to_string()
-            }
-            PathEnd::Fold { lambda } => format!("turned back at λ = {lambda:.4}"),
-            PathEnd::Stalled { lambda } => format!("stalled at λ = {lambda:.4}"),
-            PathEnd::Escaped { lambda } if *lambda < 0.0 => "came back below λ = 0".to_string(),
-            PathEnd::Escaped { lambda } => format!(
-                "diverged (‖a‖ beyond {HOMOTOPY_NORM_FACTOR} times its start's) at λ = {lambda:.4}"
-            ),
-            PathEnd::Budget { lambda } => {
-                format!("was still going at λ = {lambda:.4} after {HOMOTOPY_STEPS} steps")
-            }
-        };
-        let folds = match self.folds.as_slice() {
-            [] => String::new(),
-            [l] => format!("folded at λ = {l:.4}, then "),
-            f => format!("folded {} times (first at λ = {:.4}), then ", f.len(), f[0]),
-        };
-        let meaning = if matches!(self.end, PathEnd::Reached(_)) {
-            ""
-        } else if self.operator && !self.folds.is_empty() {
-            // A fold in a deformation of the operator is where the real solution connected to
-            // the start meets another and both turn complex.
-            ": the solution branch connected to the Gaussian-exact one does not reach the model along this path (real solutions off this path are not excluded)"
-        } else {
-            ": this path does not lead to a solution"
-        };
-        let reach = if self.folds.is_empty() {
-            format!(" (largest λ reached {:.4})", self.lambda_max)
-        } else {
-            String::new()
-        };
-        format!("the {}{reach} {folds}{end}{meaning}", self.name)
-    }
+    let stop = if norm <= tol {
+        NewtonStop::Converged
+    } else {
+        NewtonStop::IterationLimit
+    };
+    (a, norm, max_iter, stop)
 }
 
 /// Follows a homotopy through folds in λ from (a0, 0) towards λ = 1.
 fn homotopy(
     eval: &continuation::Homotopy,
     a0: &DVector<f64>,
-    name: String,
-    operator: bool,
-) -> HomotopyPath {
+    method: Method,
+) -> (HomotopyPath, Option<DVector<f64>>) {
     let scale = 1.0 + a0.norm();
     let opts = TraceOptions {
         stop_at_fold: false,
@@ -176,36 +125,51 @@ fn homotopy(
         min_lambda: 0.0,
     };
     match continuation::trace(eval, a0.clone(), opts) {
-        Ok(path) => HomotopyPath {
-            name,
-            operator,
-            steps: path.points.len() - 1,
-            end: path.end,
-            lambda_max: path.lambda_max,
-            folds: path.folds,
-        },
+        Ok(path) => {
+            let (end, root) = match path.end {
+                PathEnd::Reached(a) => (HomotopyEnd::Reached, Some(a)),
+                PathEnd::Fold { lambda } => (HomotopyEnd::TurnedBack { lambda }, None),
+                PathEnd::Stalled { lambda } => (HomotopyEnd::Stalled { lambda }, None),
+                PathEnd::Escaped { lambda } => (HomotopyEnd::Escaped { lambda }, None),
+                PathEnd::Budget { lambda } => (HomotopyEnd::Budget { lambda }, None),
+            };
+            let followed = HomotopyPath {
+                method,
+                steps: path.points.len() - 1,
+                end,
+                lambda_max: path.lambda_max,
+                folds: path.folds,
+            };
+            (followed, root)
+        }
         // The evaluations of this module cannot fail; an error would end the path at its start.
-        Err(_) => HomotopyPath {
-            name,
-            operator,
-            end: PathEnd::Stalled { lambda: 0.0 },
-            lambda_max: 0.0,
-            folds: Vec::new(),
-            steps: 0,
-        },
+        Err(_) => (
+            HomotopyPath {
+                method,
+                end: HomotopyEnd::Stalled { lambda: 0.0 },
+                lambda_max: 0.0,
+                folds: Vec::new(),
+                steps: 0,
+            },
+            None,
+        ),
     }
 }
 
 /// Follows the Newton homotopy H(a, λ) = R(a) − (1 − λ) R(a0) from (a0, 0), through folds in
 /// λ, towards λ = 1 where H = R. Unlike damped Newton, the path does not stop where ‖R‖ has a
 /// nonzero local minimum: it turns back in λ there and goes on.
-fn newton_homotopy(sys: &GalerkinSystem, a0: &DVector<f64>, start: &str) -> HomotopyPath {
+fn newton_homotopy(
+    sys: &GalerkinSystem,
+    a0: &DVector<f64>,
+    from: StartPoint,
+) -> (HomotopyPath, Option<DVector<f64>>) {
     let r0 = sys.residual_and_jacobian(a0).0;
     let eval = |a: &DVector<f64>, l: f64| -> Result<continuation::Linearised, EpcError> {
         let (r, j) = sys.residual_and_jacobian(a);
         Ok((r - (1.0 - l) * &r0, j, r0.clone()))
     };
-    homotopy(&eval, a0, format!("Newton homotopy from {start}"), false)
+    homotopy(&eval, a0, Method::NewtonHomotopy { from })
 }
 
 /// Follows the family R_λ = (1 − λ) R_G + λ R from its exact root `a_g` of R_G at λ = 0 (the
@@ -215,38 +179,14 @@ fn operator_homotopy(
     sys: &GalerkinSystem,
     gauss: &GalerkinSystem,
     a_g: &DVector<f64>,
-) -> HomotopyPath {
+) -> (HomotopyPath, Option<DVector<f64>>) {
     let eval = |a: &DVector<f64>, l: f64| -> Result<continuation::Linearised, EpcError> {
         let (r, j) = sys.residual_and_jacobian(a);
         let (rg, jg) = gauss.residual_and_jacobian(a);
         let dl = &r - &rg;
         Ok((rg + l * &dl, &jg + l * (j - &jg), dl))
     };
-    homotopy(
-        &eval,
-        a_g,
-        "operator homotopy from the Gaussian-exact operator".to_string(),
-        true,
-    )
-}
-
-/// A homotopy path whose ‖a‖ exceeds this many times 1 + ‖a0‖ counts as diverged.
-const HOMOTOPY_NORM_FACTOR: f64 = 100.0;
-
-/// Most continuation steps of one homotopy path.
-const HOMOTOPY_STEPS: usize = 200;
-
-/// Why a Levenberg–Marquardt run stopped.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum LmStop {
-    Converged,
-    /// No descent is possible any more (no damping gave a decrease, or ‖R‖ stopped
-    /// decreasing): a numerical local minimum of ‖R‖.
-    Stationary,
-    /// The gradient JᵀR vanished: a critical point of ½‖R‖², possibly a saddle or maximum.
-    Critical,
-    /// The iteration limit came first.
-    IterationLimit,
+    homotopy(&eval, a_g, Method::OperatorHomotopy)
 }
 
 fn levenberg_marquardt(
@@ -327,14 +267,14 @@ pub(crate) type GaussianFamily<'a> = dyn Fn() -> (GalerkinSystem, DVector<f64>) 
 /// Gaussian-closure start (see the module docs).
 pub(crate) fn solve(
     sys: &GalerkinSystem,
-    starts: &[(String, DVector<f64>)],
+    starts: &[(StartPoint, DVector<f64>)],
     family: Option<&GaussianFamily>,
     newton_homotopy_too: bool,
     tol: f64,
     reference_residual: f64,
 ) -> Result<(DVector<f64>, SolveOutcome), SolveFailure> {
     let threshold = tol * reference_residual.max(1.0);
-    let mut tried = Vec::new();
+    let mut attempts = Vec::new();
     // The best point so far, its ‖R‖ and whether LM stopped there for want of descent.
     type Best = Option<(DVector<f64>, f64, bool)>;
     let mut best: Best = None;
@@ -344,7 +284,7 @@ pub(crate) fn solve(
         }
     };
     // The reported residual is recomputed at the returned point, whatever the method tracked.
-    let done = |a: DVector<f64>, method: String, iterations: usize| {
+    let done = |a: DVector<f64>, method: Method, iterations: usize| {
         let residual = sys.residual_and_jacobian(&a).0.norm();
         (
             a,
@@ -356,19 +296,22 @@ pub(crate) fn solve(
             },
         )
     };
-    for (name, a0) in starts {
-        let (a, n, it, ok) = newton(sys, a0, threshold, 60);
-        tried.push(format!("Newton from {name}"));
-        if ok {
-            return Ok(done(a, format!("newton from {name}"), it));
+    for &(from, ref a0) in starts {
+        let method = Method::Newton { from };
+        let (a, n, it, stop) = newton(sys, a0, threshold, 60);
+        if stop == NewtonStop::Converged {
+            return Ok(done(a, method, it));
         }
+        attempts.push(Attempt {
+            method,
+            end: AttemptEnd::Newton { stop, residual: n },
+        });
         keep(&a, n, false, &mut best);
     }
     // Globally convergent fallbacks (the paper's recommendation for poor starts): homotopy
     // paths followed by pseudo-arclength continuation through folds in λ. The operator
     // homotopy comes first: it starts at an exact solution and deforms the operator, so the
     // root it reaches is the one connected to the Gaussian closure.
-    let mut paths: Vec<HomotopyPath> = Vec::new();
     let first_newton = usize::from(family.is_some());
     // One Newton homotopy, from the first start (the lower-degree solution when there is
     // one): further ones rarely reach a root the others miss and each costs as much as a
@@ -379,35 +322,41 @@ pub(crate) fn solve(
         0
     };
     for k in 0..first_newton + newton_paths {
-        let path = match family {
+        let (path, root) = match family {
             Some(build) if k == 0 => {
                 let (gauss, a_g) = build();
                 operator_homotopy(sys, &gauss, &a_g)
             }
             _ => {
-                let (name, a0) = &starts[k - first_newton];
-                newton_homotopy(sys, a0, name)
+                let (from, a0) = &starts[k - first_newton];
+                newton_homotopy(sys, a0, *from)
             }
         };
-        tried.push(path.name.clone());
-        if let PathEnd::Reached(a) = &path.end {
+        if let Some(a) = &root {
             let n = sys.residual_and_jacobian(a).0.norm();
             if n <= threshold {
-                return Ok(done(a.clone(), path.name.to_lowercase(), path.steps));
+                return Ok(done(a.clone(), path.method, path.steps));
             }
             keep(a, n, false, &mut best);
         }
-        paths.push(path);
+        attempts.push(Attempt {
+            method: path.method,
+            end: AttemptEnd::Homotopy(path),
+        });
     }
     // A run that ends at a stationary point whose ‖R‖ is far above the threshold has found a
     // genuine nonzero minimum: perturbing it would only find the same minimum again.
     let mut clearly_nonzero = false;
-    for (name, a0) in starts {
+    for &(from, ref a0) in starts {
+        let method = Method::LevenbergMarquardt { from };
         let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold, 400);
-        tried.push(format!("Levenberg-Marquardt from {name}"));
         if stop == LmStop::Converged {
-            return Ok(done(a, format!("levenberg-marquardt from {name}"), it));
+            return Ok(done(a, method, it));
         }
+        attempts.push(Attempt {
+            method,
+            end: AttemptEnd::LevenbergMarquardt { stop, residual: n },
+        });
         clearly_nonzero |= stop == LmStop::Stationary && n > 1e3 * threshold;
         keep(&a, n, stop != LmStop::IterationLimit, &mut best);
     }
@@ -423,36 +372,33 @@ pub(crate) fn solve(
     };
     let perturbed = if clearly_nonzero { 0 } else { PERTURBED_STARTS };
     for trial in 0..perturbed {
+        let method = Method::PerturbedLevenbergMarquardt { start: trial + 1 };
         let amp = 0.05 * scale * (1 + trial % 4) as f64;
         let a0 = DVector::from_iterator(centre.len(), centre.iter().map(|v| v + amp * next()));
         let (a, n, it, stop) = levenberg_marquardt(sys, &a0, threshold, 400);
         if stop == LmStop::Converged {
-            tried.push(format!(
-                "Levenberg-Marquardt from {} perturbed starts",
-                trial + 1
-            ));
-            return Ok(done(
-                a,
-                format!("levenberg-marquardt from perturbed start {}", trial + 1),
-                it,
-            ));
+            return Ok(done(a, method, it));
         }
+        attempts.push(Attempt {
+            method,
+            end: AttemptEnd::LevenbergMarquardt { stop, residual: n },
+        });
         keep(&a, n, stop != LmStop::IterationLimit, &mut best);
-    }
-    if perturbed > 0 {
-        tried.push(format!(
-            "Levenberg-Marquardt from {perturbed} perturbed starts"
-        ));
     }
     let (a, _, stationary) = best.expect("at least one start");
     let (r, j) = sys.residual_and_jacobian(&a);
     Err(SolveFailure {
-        tried,
+        attempts,
         threshold,
-        best_residual: r.norm(),
-        gradient: (j.transpose() * &r).norm(),
-        local_minimum: stationary,
-        paths,
+        best: BestPoint {
+            residual: r.norm(),
+            gradient: (j.transpose() * &r).norm(),
+            kind: if stationary {
+                BestPointKind::LocalMinimum
+            } else {
+                BestPointKind::Stalled
+            },
+        },
     })
 }
 
@@ -489,10 +435,14 @@ mod tests {
     fn fallback_reports_the_norm_of_r_not_the_cost() {
         let sys = square_minus_one();
         let start = DVector::from_vec(vec![0.0]);
-        let (a, out) = solve(&sys, &[("zero".into(), start)], None, true, 1e-10, 1.0).unwrap();
+        let gauss = StartPoint::GaussianClosure;
+        let (a, out) = solve(&sys, &[(gauss, start)], None, true, 1e-10, 1.0).unwrap();
         assert!(
-            out.method.starts_with("levenberg-marquardt"),
-            "{}",
+            matches!(
+                out.method,
+                Method::PerturbedLevenbergMarquardt { .. } | Method::LevenbergMarquardt { .. }
+            ),
+            "{:?}",
             out.method
         );
         let r = (a[0] * a[0] - 1.0).abs();
@@ -509,9 +459,10 @@ mod tests {
         sys.c[0] = -1e6;
         sys.s[0] = 2e6;
         let start = DVector::from_vec(vec![0.5]);
-        let (a, out) = solve(&sys, &[("half".into(), start)], None, true, 1e-10, 1e6).unwrap();
+        let from = StartPoint::LowerDegree { degree: 2 };
+        let (a, out) = solve(&sys, &[(from, start)], None, true, 1e-10, 1e6).unwrap();
         approx::assert_relative_eq!(out.threshold, 1e-4);
-        assert_eq!(out.method, "newton from half");
+        assert_eq!(out.method, Method::Newton { from });
         assert!(out.residual <= 1e-4);
         approx::assert_relative_eq!(a[0], 1.0, max_relative = 1e-9);
     }
@@ -522,15 +473,29 @@ mod tests {
         let mut sys = square_minus_one();
         sys.c[0] = 1.0;
         let start = DVector::from_vec(vec![0.7]);
-        let f = solve(&sys, &[("0.7".into(), start)], None, true, 1e-10, 1.0).unwrap_err();
-        approx::assert_relative_eq!(f.best_residual, 1.0, max_relative = 1e-6);
-        assert!(f.local_minimum);
+        let from = StartPoint::GaussianClosure;
+        let f = solve(&sys, &[(from, start)], None, true, 1e-10, 1.0).unwrap_err();
+        approx::assert_relative_eq!(f.best.residual, 1.0, max_relative = 1e-6);
+        assert_eq!(f.best.kind, BestPointKind::LocalMinimum);
         // The Newton homotopy R(a) = (1 − λ)R(0.7) folds where R' = 0 and never reaches λ = 1;
         // not an operator deformation, so it claims nothing about solutions elsewhere.
-        assert_eq!(f.paths.len(), 1);
-        let text = f.paths[0].describe();
-        assert!(!f.paths[0].folds.is_empty(), "{text}");
-        assert!(text.contains("does not lead to a solution"), "{text}");
-        assert!(!text.contains("Gaussian-exact"), "{text}");
+        let paths: Vec<&HomotopyPath> = f
+            .attempts
+            .iter()
+            .filter_map(|a| match &a.end {
+                AttemptEnd::Homotopy(p) => Some(p),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(paths.len(), 1);
+        assert_eq!(paths[0].method, Method::NewtonHomotopy { from });
+        assert!(!paths[0].folds.is_empty(), "{:?}", paths[0]);
+        assert_ne!(paths[0].end, HomotopyEnd::Reached);
+        // Newton from 0.7 and, last, LM from 0.7 stopped (no perturbed starts at a clear minimum).
+        assert!(matches!(f.attempts[0].end, AttemptEnd::Newton { .. }));
+        assert!(matches!(
+            f.attempts.last().map(|a| &a.end),
+            Some(AttemptEnd::LevenbergMarquardt { .. })
+        ));
     }
 }

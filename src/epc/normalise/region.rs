@@ -1,0 +1,172 @@
+//! Exploring Q around its mode: the mode itself, each ray's fate (decays for good, or rises
+//! again beyond a pass) and the saddle that is the exact pass.
+
+use nalgebra::{Matrix2, Vector2};
+
+use super::poly::horner;
+use super::report::NotNormalisable;
+use super::{Poly, TAIL_E_FOLDS};
+
+/// Finds a local maximum of Q by Newton ascent from the best point of a coarse grid.
+pub(super) fn find_mode(q: &Poly) -> Result<[f64; 2], NotNormalisable> {
+    let mut best = ([0.0, 0.0], q.eval([0.0, 0.0]));
+    for i in -16..=16 {
+        for j in -16..=16 {
+            let x = [i as f64 * 0.25, j as f64 * 0.25];
+            let v = q.eval(x);
+            if v > best.1 {
+                best = (x, v);
+            }
+        }
+    }
+    let mut x = best.0;
+    for _ in 0..100 {
+        let (g, h) = gradient_and_hessian(q, x);
+        // Newton where the Hessian is negative definite, gradient ascent elsewhere.
+        let step = match h.try_inverse() {
+            Some(inv) if h[(0, 0)] < 0.0 && h.determinant() > 0.0 => -(inv * g),
+            _ => 0.05 * g,
+        };
+        let mut t = 1.0;
+        let q0 = q.eval(x);
+        while t > 1e-12 {
+            let xn = [x[0] + t * step[0], x[1] + t * step[1]];
+            if q.eval(xn) >= q0 {
+                x = xn;
+                break;
+            }
+            t *= 0.5;
+        }
+        if g[0].hypot(g[1]) < 1e-12 {
+            break;
+        }
+    }
+    let (g, h) = gradient_and_hessian(q, x);
+    let strict = h[(0, 0)] < 0.0
+        && h.determinant() > 0.0
+        && g[0].hypot(g[1]) < 1e-8 * (1.0 + h[(0, 0)].abs());
+    // A degenerate maximum (e.g. Q = −c(ξ1² + ξ2²)², whose Hessian vanishes at the mode):
+    // a stationary point above every point of small circles around it.
+    let degenerate = || {
+        let q0 = q.eval(x);
+        g[0].hypot(g[1]) < 1e-9
+            && [1e-3, 1e-2, 1e-1].iter().all(|&rho| {
+                (0..64).all(|k| {
+                    let th = k as f64 / 64.0 * std::f64::consts::TAU;
+                    q.eval([x[0] + rho * th.cos(), x[1] + rho * th.sin()]) < q0
+                })
+            })
+    };
+    if !(strict || degenerate()) {
+        return Err(NotNormalisable::NoMode { at: x });
+    }
+    Ok(x)
+}
+
+/// The cut radius along a ray: either where Q falls TAIL_E_FOLDS below `q_max` for good, or
+/// (if Q rises above `q_max` again) the lowest point before that rise.
+pub(super) enum RayEnd {
+    /// Q stays below the mode's value and falls TAIL_E_FOLDS below it for good beyond r.
+    Decays(f64),
+    /// Q rises above the mode's value again; its lowest point before that is at r.
+    Pass {
+        /// The lowest point's radius.
+        r: f64,
+        /// Q there.
+        value: f64,
+    },
+}
+
+/// Where the ray from `mode` at angle `th` stops mattering (see [`RayEnd`]).
+pub(super) fn explore_ray(
+    q: &Poly,
+    mode: [f64; 2],
+    th: f64,
+    q_max: f64,
+) -> Result<RayEnd, NotNormalisable> {
+    let u = [th.cos(), th.sin()];
+    let mut c = q.along_ray(mode, u);
+    // Leading coefficients that vanish to rounding (e.g. along a direction the top-degree
+    // part does not involve) are dropped, so that the next term decides.
+    let big = c.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    while c.len() > 2 && c[c.len() - 1].abs() <= 1e-12 * big {
+        c.pop();
+    }
+    let n = c.len() - 1;
+    let lead = c[n];
+    // Beyond r_dom (Fujiwara's bound on the roots of dQ/dr) dQ/dr has the leading sign.
+    let b: Vec<f64> = (1..=n).map(|d| d as f64 * c[d]).collect();
+    let m = b.len() - 1;
+    let r_dom = if m == 0 {
+        1.0
+    } else {
+        (1..=m)
+            .map(|k| {
+                let ratio = (b[m - k] / b[m]).abs() / if k == m { 2.0 } else { 1.0 };
+                2.0 * ratio.powf(1.0 / k as f64)
+            })
+            .fold(1.0, f64::max)
+    };
+    let r_stop = r_dom.min(1e6) * 1.05 + 1.0;
+    let (mut r, mut last_above) = (0.0_f64, 0.0);
+    let (mut min_r, mut min_v) = (0.0, q_max);
+    loop {
+        r += 0.01 * (1.0 + r);
+        let v = horner(&c, r);
+        // Past r_dom Q is monotone along the ray: stop once it has also fallen below the tail.
+        if r > 1e6 || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
+            break;
+        }
+        if v > q_max + 1e-9 * (1.0 + q_max.abs()) {
+            return Ok(RayEnd::Pass {
+                r: min_r,
+                value: min_v,
+            });
+        }
+        if v < min_v {
+            min_v = v;
+            min_r = r;
+        }
+        if v >= q_max - TAIL_E_FOLDS {
+            last_above = r;
+        }
+    }
+    if lead < 0.0 {
+        Ok(RayEnd::Decays(last_above))
+    } else if lead > 0.0 {
+        // Rises eventually (beyond the scan only if it is enormously far): the lowest point
+        // seen bounds the pass along this ray.
+        Ok(RayEnd::Pass {
+            r: min_r,
+            value: min_v,
+        })
+    } else {
+        Err(NotNormalisable::FlatDirection { theta: th })
+    }
+}
+
+/// Newton on ∇Q = 0 from `x`; returns a saddle (indefinite Hessian) if it converges to one.
+pub(super) fn saddle_near(q: &Poly, mut x: [f64; 2]) -> Option<([f64; 2], f64)> {
+    for _ in 0..60 {
+        let (g, h) = gradient_and_hessian(q, x);
+        if h.determinant().abs() < 1e-300 {
+            return None;
+        }
+        let step = -(h.try_inverse()? * g);
+        x = [x[0] + step[0], x[1] + step[1]];
+        if step[0].hypot(step[1]) < 1e-12 * (1.0 + x[0].hypot(x[1])) {
+            let (_, h) = gradient_and_hessian(q, x);
+            return (h.determinant() < 0.0).then(|| (x, q.eval(x)));
+        }
+    }
+    None
+}
+
+/// ∇Q and the Hessian of Q at x.
+fn gradient_and_hessian(q: &Poly, x: [f64; 2]) -> (Vector2<f64>, Matrix2<f64>) {
+    let (g, h) = q.derivs(x);
+    (
+        Vector2::from(g),
+        Matrix2::new(h[0][0], h[0][1], h[1][0], h[1][1]),
+    )
+}

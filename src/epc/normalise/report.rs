@@ -1,0 +1,131 @@
+//! What a normalisation reports, and why one failed, as data.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+/// How the density was normalised.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NormalisationKind {
+    /// exp(Q) is integrable on the whole plane: the top-degree part of Q is negative definite
+    /// (`top_degree_max` < 0), or it is only semidefinite and along every one of 720 rays from
+    /// the mode the highest non-vanishing power of Q(mode + r·u) has a negative coefficient.
+    Plane {
+        /// max over the unit circle of the degree-n part.
+        top_degree_max: f64,
+    },
+    /// exp(Q) is not integrable on the plane; it was normalised inside the ridge around the
+    /// mode: over the connected component of {Q > pass value + 1} that holds the mode, with a
+    /// smooth cutoff across the last e-fold above that level (the pass
+    /// is the highest saddle on the way from the mode to where Q rises above Q(mode)).
+    InsideRidge {
+        /// Q(mode) − (highest pass value), in e-folds.
+        depth: f64,
+        /// The threshold the depth had to reach.
+        threshold: f64,
+        /// Where the highest pass is (original units).
+        pass_at: [f64; 2],
+        /// How the region is bounded.
+        region: RidgeRegion,
+    },
+}
+
+/// The normalisation's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NormalisationReport {
+    /// Plane or inside a ridge.
+    pub kind: NormalisationKind,
+    /// The mode (original units).
+    pub mode: [f64; 2],
+    /// ln C, with p(x) = C·exp(Q(x)) in original units.
+    pub log_c: f64,
+    /// Grid points per axis and the spacing (scaled units).
+    pub grid: [usize; 2],
+    /// Trapezoid spacing in scaled units.
+    pub spacing: [f64; 2],
+    /// |Z_h − Z_2h| / Z_h: the estimated relative error of the normalising integral.
+    pub error_estimate: f64,
+}
+
+/// How the region inside a ridge is bounded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RidgeRegion {
+    /// The connected component of {Q > pass value + 1} that holds the mode, exp(Q) cut off
+    /// smoothly (C^∞) across the last e-fold above that level.
+    ModeComponent,
+}
+
+impl fmt::Display for RidgeRegion {
+    /// ```
+    /// use fpsolve::epc::RidgeRegion;
+    /// assert!(RidgeRegion::ModeComponent.to_string().starts_with("the connected component"));
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RidgeRegion::ModeComponent => f.write_str(
+                "the connected component of {Q > pass value + 1} that holds the mode, exp(Q) cut off smoothly across the last e-fold above that level",
+            ),
+        }
+    }
+}
+
+/// Serialised as its `Display` string (the `region` field of `summary.json`).
+impl Serialize for RidgeRegion {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// Why a solved exp(Q) could not be normalised honestly (scaled variables ξ).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NotNormalisable {
+    /// Newton ascent found no local maximum of Q.
+    #[error("Q has no local maximum near the origin (stopped at ξ = ({:.3}, {:.3}))", at[0], at[1])]
+    NoMode {
+        /// Where the ascent stopped (scaled units).
+        at: [f64; 2],
+    },
+    /// Q neither rises nor falls to leading order along a direction from the mode.
+    #[error("Q is flat to leading order along the direction θ = {theta:.3} rad")]
+    FlatDirection {
+        /// The direction (radians).
+        theta: f64,
+    },
+    /// exp(Q) grows without bound and the ridge around the mode is shallower than the
+    /// threshold.
+    #[error(
+        "exp(Q) grows without bound (degree-{degree} part max {top_degree_max:.3e} on the unit circle) and the ridge around the mode is only {depth:.2} e-folds deep (threshold {threshold})"
+    )]
+    ShallowRidge {
+        /// The degree n of Q.
+        degree: usize,
+        /// max over the unit circle of the degree-n part of Q.
+        top_degree_max: f64,
+        /// Q(mode) − (highest pass value), in e-folds.
+        depth: f64,
+        /// The least depth accepted.
+        threshold: f64,
+    },
+    /// The density spreads over a box too wide for the normalisation grid.
+    #[error(
+        "the density spreads over [{:.3e}, {:.3e}] x [{:.3e}, {:.3e}] (scaled units): normalising it would take a grid of {points:.2e} points (limit {limit:.0e})",
+        lo[0], hi[0], lo[1], hi[1]
+    )]
+    TooWide {
+        /// The box's lower corner (scaled units).
+        lo: [f64; 2],
+        /// Its upper corner.
+        hi: [f64; 2],
+        /// Grid points it would take.
+        points: f64,
+        /// The most grid points allowed.
+        limit: f64,
+    },
+    /// The trapezoid sum of exp(Q) over the region is zero, infinite or NaN.
+    #[error("the normalising integral is not finite ({value:e}) on the region")]
+    IntegralNotFinite {
+        /// The sum.
+        value: f64,
+    },
+}

@@ -1,0 +1,346 @@
+//! What a solve of the Galerkin system did, as data: the method that produced the solution
+//! and where it started ([`Method`], [`StartPoint`]), and when nothing converged, every
+//! attempt with how it ended ([`Attempt`], [`AttemptEnd`], [`HomotopyPath`]) and the best
+//! point reached ([`BestPoint`]). `Display` turns each into the sentence the CLI prints; tests
+//! and callers branch on the fields.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+/// Where an iteration started.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartPoint {
+    /// The solution at a lower degree, padded with zeros (continuation in degree).
+    LowerDegree {
+        /// That degree.
+        degree: usize,
+    },
+    /// The Gaussian closure (or the weights' Gaussian when σ were given).
+    GaussianClosure,
+}
+
+impl fmt::Display for StartPoint {
+    /// ```
+    /// use fpsolve::epc::StartPoint;
+    /// assert_eq!(StartPoint::LowerDegree { degree: 4 }.to_string(), "the degree-4 solution");
+    /// assert_eq!(StartPoint::GaussianClosure.to_string(), "the Gaussian closure");
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StartPoint::LowerDegree { degree } => write!(f, "the degree-{degree} solution"),
+            StartPoint::GaussianClosure => f.write_str("the Gaussian closure"),
+        }
+    }
+}
+
+/// A method of solving R(a) = 0, with its start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Damped Newton (backtracking line search on ½‖R‖²).
+    Newton {
+        /// Its start.
+        from: StartPoint,
+    },
+    /// Pseudo-arclength continuation of (1 − λ)R_G + λR from the exact root of the Galerkin
+    /// system R_G of the Gaussian-exact operator (the Gaussian-closure density).
+    OperatorHomotopy,
+    /// Pseudo-arclength continuation of the Newton homotopy R(a) − (1 − λ)R(a0).
+    NewtonHomotopy {
+        /// a0.
+        from: StartPoint,
+    },
+    /// Levenberg–Marquardt.
+    LevenbergMarquardt {
+        /// Its start.
+        from: StartPoint,
+    },
+    /// Levenberg–Marquardt from a deterministic perturbation of the best point so far.
+    PerturbedLevenbergMarquardt {
+        /// Which perturbation (1, 2, …).
+        start: usize,
+    },
+}
+
+impl Method {
+    /// The method as the list of attempts of a failure names it (`Newton from …`).
+    fn attempt_name(&self) -> String {
+        match self {
+            Method::Newton { from } => format!("Newton from {from}"),
+            Method::OperatorHomotopy => {
+                "operator homotopy from the Gaussian-exact operator".to_string()
+            }
+            Method::NewtonHomotopy { from } => format!("Newton homotopy from {from}"),
+            Method::LevenbergMarquardt { from } => format!("Levenberg-Marquardt from {from}"),
+            Method::PerturbedLevenbergMarquardt { start } => {
+                format!("Levenberg-Marquardt from {start} perturbed starts")
+            }
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    /// The method in lower case, as the CLI table and `summary.json` report it.
+    ///
+    /// ```
+    /// use fpsolve::epc::{Method, StartPoint};
+    /// let m = Method::Newton { from: StartPoint::GaussianClosure };
+    /// assert_eq!(m.to_string(), "newton from the Gaussian closure");
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Method::Newton { from } => write!(f, "newton from {from}"),
+            Method::LevenbergMarquardt { from } => write!(f, "levenberg-marquardt from {from}"),
+            Method::PerturbedLevenbergMarquardt { start } => {
+                write!(f, "levenberg-marquardt from perturbed start {start}")
+            }
+            // A homotopy is reported by its whole name in lower case.
+            Method::OperatorHomotopy | Method::NewtonHomotopy { .. } => {
+                f.write_str(&self.attempt_name().to_lowercase())
+            }
+        }
+    }
+}
+
+/// Serialised as its `Display` string (the `method` field of `summary.json`).
+impl Serialize for Method {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// Why a damped Newton run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NewtonStop {
+    /// ‖R‖ reached the threshold.
+    Converged,
+    /// The Jacobian was singular or the step not finite.
+    Singular,
+    /// No step length down to 2^−20 decreased ½‖R‖² enough.
+    NoDescent,
+    /// Less than 10% gained over eight iterations: crawling towards a nonzero minimum.
+    Crawling,
+    /// The iteration limit came first.
+    IterationLimit,
+}
+
+/// Why a Levenberg–Marquardt run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LmStop {
+    /// ‖R‖ reached the threshold.
+    Converged,
+    /// No descent is possible any more (no damping gave a decrease, or ‖R‖ stopped
+    /// decreasing): a numerical local minimum of ‖R‖.
+    Stationary,
+    /// The gradient JᵀR vanished: a critical point of ½‖R‖², possibly a saddle or maximum.
+    Critical,
+    /// The iteration limit came first.
+    IterationLimit,
+}
+
+/// A homotopy path whose ‖a‖ exceeds this many times 1 + ‖a0‖ counts as diverged.
+pub(crate) const HOMOTOPY_NORM_FACTOR: f64 = 100.0;
+
+/// Most continuation steps of one homotopy path.
+pub(crate) const HOMOTOPY_STEPS: usize = 200;
+
+/// How a homotopy path ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HomotopyEnd {
+    /// λ reached 1 (the root there did not meet the threshold, or the path is the solution).
+    Reached,
+    /// λ turned back at this λ and the path stopped there.
+    TurnedBack {
+        /// λ at the turn.
+        lambda: f64,
+    },
+    /// The step size underflowed or the augmented system became singular at this λ.
+    Stalled {
+        /// The last λ reached.
+        lambda: f64,
+    },
+    /// The path came back below λ = 0 (`lambda` < 0) or ‖a‖ grew beyond
+    /// 100·(1 + ‖a0‖) at this λ.
+    Escaped {
+        /// λ where it escaped.
+        lambda: f64,
+    },
+    /// The step budget (200 steps) ran out at this λ.
+    Budget {
+        /// λ when it ran out.
+        lambda: f64,
+    },
+}
+
+/// One homotopy path followed by pseudo-arclength continuation through folds in λ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HomotopyPath {
+    /// [`Method::OperatorHomotopy`] or [`Method::NewtonHomotopy`]: λ deforms the operator
+    /// (a fold then shows that the solution branch connected to the start does not reach the
+    /// model) or the residual.
+    pub method: Method,
+    /// How it ended.
+    pub end: HomotopyEnd,
+    /// The largest λ reached.
+    pub lambda_max: f64,
+    /// λ at each fold (where the path turned back to decreasing λ).
+    pub folds: Vec<f64>,
+    /// Accepted continuation steps.
+    pub steps: usize,
+}
+
+impl fmt::Display for HomotopyPath {
+    /// What the path showed, claiming only what the continuation established.
+    ///
+    /// ```
+    /// use fpsolve::epc::{HomotopyEnd, HomotopyPath, Method};
+    /// let p = HomotopyPath {
+    ///     method: Method::OperatorHomotopy,
+    ///     end: HomotopyEnd::Escaped { lambda: -0.01 },
+    ///     lambda_max: 0.5,
+    ///     folds: vec![0.4967],
+    ///     steps: 40,
+    /// };
+    /// assert!(p.to_string().starts_with(
+    ///     "the operator homotopy from the Gaussian-exact operator folded at λ = 0.4967, then \
+    ///      came back below λ = 0: the solution branch connected"));
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let end = match self.end {
+            HomotopyEnd::Reached => {
+                "reached λ = 1, where Newton did not converge to the threshold".to_string()
+            }
+            HomotopyEnd::TurnedBack { lambda } => format!("turned back at λ = {lambda:.4}"),
+            HomotopyEnd::Stalled { lambda } => format!("stalled at λ = {lambda:.4}"),
+            HomotopyEnd::Escaped { lambda } if lambda < 0.0 => "came back below λ = 0".to_string(),
+            HomotopyEnd::Escaped { lambda } => format!(
+                "diverged (‖a‖ beyond {HOMOTOPY_NORM_FACTOR} times its start's) at λ = {lambda:.4}"
+            ),
+            HomotopyEnd::Budget { lambda } => {
+                format!("was still going at λ = {lambda:.4} after {HOMOTOPY_STEPS} steps")
+            }
+        };
+        let folds = match self.folds.as_slice() {
+            [] => String::new(),
+            [l] => format!("folded at λ = {l:.4}, then "),
+            f => format!("folded {} times (first at λ = {:.4}), then ", f.len(), f[0]),
+        };
+        let meaning = if self.end == HomotopyEnd::Reached {
+            ""
+        } else if self.method == Method::OperatorHomotopy && !self.folds.is_empty() {
+            // A fold in a deformation of the operator is where the real solution connected to
+            // the start meets another and both turn complex.
+            ": the solution branch connected to the Gaussian-exact one does not reach the model along this path (real solutions off this path are not excluded)"
+        } else {
+            ": this path does not lead to a solution"
+        };
+        let reach = if self.folds.is_empty() {
+            format!(" (largest λ reached {:.4})", self.lambda_max)
+        } else {
+            String::new()
+        };
+        write!(
+            f,
+            "the {}{reach} {folds}{end}{meaning}",
+            self.method.attempt_name()
+        )
+    }
+}
+
+/// How one attempt that did not produce the solution ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AttemptEnd {
+    /// A Newton run stopped short of the threshold.
+    Newton {
+        /// Why.
+        stop: NewtonStop,
+        /// ‖R‖ where it stopped.
+        residual: f64,
+    },
+    /// A homotopy path.
+    Homotopy(HomotopyPath),
+    /// A Levenberg–Marquardt run stopped short of the threshold.
+    LevenbergMarquardt {
+        /// Why.
+        stop: LmStop,
+        /// ‖R‖ where it stopped.
+        residual: f64,
+    },
+}
+
+/// One attempt at solving R(a) = 0 and how it ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Attempt {
+    /// The method and its start.
+    pub method: Method,
+    /// How it ended.
+    pub end: AttemptEnd,
+}
+
+/// What the best point of a failed solve is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BestPointKind {
+    /// Levenberg–Marquardt finds no descent there: a local minimum of ‖R‖.
+    LocalMinimum,
+    /// The iterations stalled away from a stationary point.
+    Stalled,
+}
+
+/// The point of least ‖R‖ a failed solve reached.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BestPoint {
+    /// ‖R‖ there.
+    pub residual: f64,
+    /// ‖JᵀR‖ there (the gradient of ½‖R‖²).
+    pub gradient: f64,
+    /// What it is.
+    pub kind: BestPointKind,
+}
+
+impl fmt::Display for BestPointKind {
+    /// What the best point shows, in words.
+    ///
+    /// ```
+    /// use fpsolve::epc::BestPointKind;
+    /// assert!(BestPointKind::LocalMinimum.to_string().starts_with("it is a local minimum"));
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            BestPointKind::LocalMinimum => "it is a local minimum of ‖R‖ (Levenberg–Marquardt finds no descent), which by itself does not exclude real solutions elsewhere",
+            BestPointKind::Stalled => "the iterations stalled away from a stationary point; a solution nearby is not excluded",
+        })
+    }
+}
+
+/// The attempts as a failure lists them: comma-separated, the perturbed Levenberg–Marquardt
+/// runs counted in one entry.
+pub(crate) fn tried(attempts: &[Attempt]) -> String {
+    let perturbed = attempts
+        .iter()
+        .filter(|a| matches!(a.method, Method::PerturbedLevenbergMarquardt { .. }))
+        .count();
+    let mut names: Vec<String> = attempts
+        .iter()
+        .filter(|a| !matches!(a.method, Method::PerturbedLevenbergMarquardt { .. }))
+        .map(|a| a.method.attempt_name())
+        .collect();
+    if perturbed > 0 {
+        names.push(
+            Method::PerturbedLevenbergMarquardt { start: perturbed }
+                .attempt_name()
+                .to_string(),
+        );
+    }
+    names.join(", ")
+}
+
+/// What each homotopy path showed, each entry starting with "; ".
+pub(crate) fn continuation(attempts: &[Attempt]) -> String {
+    attempts
+        .iter()
+        .filter_map(|a| match &a.end {
+            AttemptEnd::Homotopy(p) => Some(format!("; {p}")),
+            _ => None,
+        })
+        .collect()
+}
