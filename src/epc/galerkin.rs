@@ -12,13 +12,9 @@ use nalgebra::{DMatrix, DVector};
 use super::coefficients::{Point, CHANNELS};
 
 /// The exponents (i, j) of the monomials x1^i x2^j with 1 ≤ i + j ≤ n, by total degree and then
-/// by the power of x2 (the order of Eq. 16).
-///
-/// ```
-/// let e = fpsolve::epc::exponents(2);
-/// assert_eq!(e, vec![(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]);
-/// ```
-pub fn exponents(degree: usize) -> Vec<(usize, usize)> {
+/// by the power of x2 (the order of Eq. 16): for degree 2, (1, 0), (0, 1), (2, 0), (1, 1),
+/// (0, 2).
+pub(crate) fn exponents(degree: usize) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     for d in 1..=degree {
         for j in 0..=d {
@@ -223,6 +219,47 @@ impl GalerkinSystem {
             .fold(0.0_f64, |a, v| a.max(v.abs()))
     }
 
+    /// The system as text for a snapshot: every entry of c and M and the nonzero entries of S
+    /// (s ≤ t), in a fixed format with 10 significant digits; entries below 1e−12 of the
+    /// largest are printed as 0 (rounding noise of odd moments that vanish).
+    #[cfg(test)]
+    pub(crate) fn snapshot(&self) -> String {
+        use std::fmt::Write;
+        let floor = 1e-12 * self.scale();
+        let f = |v: f64| {
+            if v.abs() < floor {
+                "0".to_string()
+            } else {
+                format!("{v:.9e}")
+            }
+        };
+        let n = self.len();
+        let mut out = String::new();
+        let _ = writeln!(out, "unknowns {n}: exponents {:?}", self.exps);
+        let _ = writeln!(out, "c:");
+        for k in 0..n {
+            let _ = writeln!(out, "  {:?} {}", self.exps[k], f(self.c[k]));
+        }
+        let _ = writeln!(out, "M (rows k, columns s):");
+        for k in 0..n {
+            let row: Vec<String> = (0..n).map(|s| f(self.m[(k, s)])).collect();
+            let _ = writeln!(out, "  {:?} {}", self.exps[k], row.join(" "));
+        }
+        let _ = writeln!(out, "S (k; s <= t), nonzero entries:");
+        for k in 0..n {
+            for s in 0..n {
+                for t in s..n {
+                    let v = self.s[(k * n + s) * n + t];
+                    if v.abs() >= floor {
+                        let e = &self.exps;
+                        let _ = writeln!(out, "  {:?}; {:?} {:?} {}", e[k], e[s], e[t], f(v));
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// The largest absolute difference to another assembly of the same degree.
     pub(crate) fn max_difference(&self, other: &GalerkinSystem) -> f64 {
         let d = |x: &[f64], y: &[f64]| {
@@ -239,6 +276,38 @@ impl GalerkinSystem {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::epc::Epc;
+    use crate::fpk::FpkOperator;
+    use crate::model::load_model;
+
+    #[test]
+    fn exponents_are_ordered_by_degree_then_power_of_x2() {
+        assert_eq!(exponents(2), vec![(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]);
+        assert_eq!(exponents(4).len(), 14);
+    }
+
+    /// The assembled systems of `models/linear.sde` (c = 0.1, k = 1, 2πK = 1) at degrees 2
+    /// and 4, pinned by snapshots under `src/epc/snapshots/`.
+    #[test]
+    fn linear_oscillator_galerkin_systems_are_pinned() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+        let bound = load_model(&path).unwrap().bind(&[]).unwrap();
+        let fpk = FpkOperator::derive(&bound).unwrap();
+        let epc = Epc::new(&fpk);
+        let prep = epc.prepare().unwrap();
+        for n in [2, 4] {
+            let quadrature = epc.moments(&prep, n).unwrap();
+            let sys = GalerkinSystem::assemble(&quadrature.tables, n);
+            let text = format!(
+                "sigma {:.9e} {:.9e}, quadrature order {}\n{}",
+                prep.sigma[0],
+                prep.sigma[1],
+                quadrature.order,
+                sys.snapshot()
+            );
+            insta::assert_snapshot!(format!("linear_degree_{n}"), text);
+        }
+    }
 
     #[test]
     fn jacobian_matches_finite_differences() {

@@ -35,32 +35,31 @@ mod continuation;
 mod degrees;
 mod error;
 mod galerkin;
+mod gaussian;
 mod normalise;
 mod outcome;
 mod quadrature;
+mod residual;
 mod solution;
 mod solver;
 
 use std::time::Instant;
 
-use nalgebra::{DVector, Matrix2};
+use nalgebra::DVector;
 
 pub use closure::GaussianClosure;
 pub use continuation::{Branch, BranchEnd, BranchPoint};
 pub use degrees::{DegreeList, DegreeListError};
 pub use error::EpcError;
-pub use galerkin::exponents;
 pub use normalise::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 pub use outcome::{
     Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, Method,
     NewtonStop, StartPoint,
 };
-pub use quadrature::{normal_rule, split_normal_rule, QuadratureRule};
 pub use solution::{EpcSolution, SolveReport};
 
 use crate::fpk::FpkOperator;
 use crate::physics::ImpactForm;
-use crate::symbolic::TapeScratch;
 use coefficients::Coefficients;
 use galerkin::{GalerkinSystem, MomentTables};
 use normalise::Poly;
@@ -443,13 +442,12 @@ impl<'a> Epc<'a> {
                 solver::pad(a, e, &sys.exps),
             ));
         }
-        let closure_start = self.closure_start(prep, &sys.exps);
+        let closure_start = prep.closure_start(&sys.exps);
         let reference = sys.residual_and_jacobian(&closure_start).0.norm();
         starts.push((StartPoint::GaussianClosure, closure_start.clone()));
         let t1 = Instant::now();
         let family = || {
-            let gauss =
-                GalerkinSystem::assemble(&self.gaussian_exact_moments(prep, &moments.tables), n);
+            let gauss = GalerkinSystem::assemble(&prep.gaussian_exact_moments(&moments.tables), n);
             (gauss, closure_start.clone())
         };
         let (a, outcome) = solver::solve(
@@ -495,7 +493,7 @@ impl<'a> Epc<'a> {
             .map_err(|reason| EpcError::NotNormalisable { degree: n, reason })?;
         let normalise_ms = ms(t2);
         let t3 = Instant::now();
-        let fpk_residual = self.fpk_residual(prep, &q, &grid)?;
+        let fpk_residual = prep.fpk_residual(&q, &grid)?;
         let report = SolveReport {
             degree: n,
             method: solved.outcome.method,
@@ -519,160 +517,6 @@ impl<'a> Epc<'a> {
             report,
             fpk_residual,
         ))
-    }
-
-    /// The moment tables of an affine-drift, constant-diffusion operator (in scaled
-    /// variables) whose exact stationary density is the closure Gaussian N(μ, Λ⁻¹): diffusion
-    /// B̄ = the weighted mean of the real B, drift A(ξ) = (B̄ + W)Λ(ξ − μ) with W the
-    /// antisymmetric part of the weighted mean of A(ξ)ξᵀ (the circulation an oscillator's
-    /// drift carries), and A0 = B̄:Λ, so that F of Eq. 18 vanishes identically for Q = −½(ξ−μ)ᵀΛ(ξ−μ).
-    fn gaussian_exact_moments(&self, prep: &Prepared, real: &MomentTables) -> MomentTables {
-        let (mu, lam) = self.closure_scaled(prep);
-        let b = Matrix2::new(
-            real.get(3, 0, 0),
-            real.get(4, 0, 0),
-            real.get(4, 0, 0),
-            real.get(5, 0, 0),
-        );
-        let x = Matrix2::new(
-            real.get(1, 1, 0),
-            real.get(1, 0, 1),
-            real.get(2, 1, 0),
-            real.get(2, 0, 1),
-        );
-        let w = 0.5 * (x[(0, 1)] - x[(1, 0)]);
-        let beta = (b + Matrix2::new(0.0, w, -w, 0.0)) * lam;
-        let affine = |i: usize| {
-            [
-                -(beta[(i, 0)] * mu[0] + beta[(i, 1)] * mu[1]),
-                beta[(i, 0)],
-                beta[(i, 1)],
-            ]
-        };
-        let a0 = b[(0, 0)] * lam[(0, 0)] + 2.0 * b[(0, 1)] * lam[(0, 1)] + b[(1, 1)] * lam[(1, 1)];
-        let k = [
-            [a0, 0.0, 0.0],
-            affine(0),
-            affine(1),
-            [b[(0, 0)], 0.0, 0.0],
-            [b[(0, 1)], 0.0, 0.0],
-            [b[(1, 1)], 0.0, 0.0],
-        ];
-        MomentTables::affine(&k, real.max_degree())
-    }
-
-    /// The closure Gaussian (or the weights' Gaussian when σ were overridden) in scaled
-    /// variables ξ = x/σ: mean μ/σ and precision matrix (covariance/(σσ))⁻¹.
-    fn closure_scaled(&self, prep: &Prepared) -> ([f64; 2], Matrix2<f64>) {
-        let s = prep.sigma;
-        let (mean, p) = match &prep.closure {
-            Some(c) => (c.mean, c.covariance),
-            None => ([0.0; 2], [[s[0] * s[0], 0.0], [0.0, s[1] * s[1]]]),
-        };
-        let m = [mean[0] / s[0], mean[1] / s[1]];
-        let p = [
-            [p[0][0] / (s[0] * s[0]), p[0][1] / (s[0] * s[1])],
-            [p[0][1] / (s[0] * s[1]), p[1][1] / (s[1] * s[1])],
-        ];
-        (m, closure::precision(p))
-    }
-
-    /// The closure Gaussian (or the weights' Gaussian when σ were overridden) as a start.
-    fn closure_start(&self, prep: &Prepared, exps: &[(usize, usize)]) -> DVector<f64> {
-        let (m, l) = self.closure_scaled(prep);
-        // −½(ξ−m)ᵀΛ(ξ−m) without its constant.
-        DVector::from_iterator(
-            exps.len(),
-            exps.iter().map(|&e| match e {
-                (1, 0) => l[(0, 0)] * m[0] + l[(0, 1)] * m[1],
-                (0, 1) => l[(1, 0)] * m[0] + l[(1, 1)] * m[1],
-                (2, 0) => -0.5 * l[(0, 0)],
-                (1, 1) => -l[(0, 1)],
-                (0, 2) => -0.5 * l[(1, 1)],
-                _ => 0.0,
-            }),
-        )
-    }
-
-    /// ∫|F|·p dx with F of Eq. 18 as a measure: the regular part on (a sub-grid of) the
-    /// normalisation grid, the δ lines as line integrals.
-    fn fpk_residual(
-        &self,
-        prep: &Prepared,
-        q: &Poly,
-        grid: &normalise::DensityGrid,
-    ) -> Result<f64, EpcError> {
-        let s = prep.sigma;
-        let chan = [
-            1.0,
-            1.0 / s[0],
-            1.0 / s[1],
-            1.0 / (s[0] * s[0]),
-            1.0 / (s[0] * s[1]),
-            1.0 / (s[1] * s[1]),
-        ];
-        let f_of = |g: [f64; 6], xi: [f64; 2]| {
-            let (d, h) = q.derivs(xi);
-            chan[0] * g[0]
-                + chan[1] * g[1] * d[0]
-                + chan[2] * g[2] * d[1]
-                + chan[3] * g[3] * (h[0][0] + d[0] * d[0])
-                + 2.0 * chan[4] * g[4] * (h[0][1] + d[0] * d[1])
-                + chan[5] * g[5] * (h[1][1] + d[1] * d[1])
-        };
-        let n2 = grid.g2.len();
-        let stride = [grid.g1.len().div_ceil(80), n2.div_ceil(80)];
-        let p_floor = 1e-14 * grid.p.iter().copied().fold(0.0, f64::max);
-        // The sub-grid points that carry mass, evaluated in one batch.
-        let (mut xi1, mut xi2, mut x1, mut x2, mut pw) = (vec![], vec![], vec![], vec![], vec![]);
-        for i in (0..grid.g1.len()).step_by(stride[0]) {
-            for j in (0..n2).step_by(stride[1]) {
-                let p = grid.p[i * n2 + j];
-                if p >= p_floor {
-                    xi1.push(grid.g1[i]);
-                    xi2.push(grid.g2[j]);
-                    x1.push(grid.g1[i] * s[0]);
-                    x2.push(grid.g2[j] * s[1]);
-                    pw.push(p);
-                }
-            }
-        }
-        let mut scratch = TapeScratch::new();
-        let g = prep.coefs.regular_batch(&x1, &x2, &mut scratch)?;
-        let mut total = 0.0;
-        for k in 0..pw.len() {
-            let gk = std::array::from_fn(|c| g[c][k]);
-            total += f_of(gk, [xi1[k], xi2[k]]).abs() * pw[k];
-        }
-        total *= grid.h[0] * stride[0] as f64 * grid.h[1] * stride[1] as f64;
-        for (c, k, line) in prep.coefs.lines() {
-            let a = line.axis;
-            let o = 1 - a;
-            let (other, ho) = if o == 0 {
-                (&grid.g1, grid.h[0])
-            } else {
-                (&grid.g2, grid.h[1])
-            };
-            let xi_at = line.at / s[a];
-            let along: Vec<f64> = other.iter().map(|t| t * s[o]).collect();
-            let w = prep.coefs.line_weights(c, k, &along, &mut scratch)?;
-            for (&t, wt) in other.iter().zip(&w) {
-                let mut xi = [0.0; 2];
-                xi[a] = xi_at;
-                xi[o] = t;
-                let qx = q.eval(xi);
-                let wq = grid.weight(xi, qx);
-                if wq == 0.0 {
-                    continue;
-                }
-                let p = (qx - grid.log_z).exp() * wq;
-                let mut g = [0.0; 6];
-                g[c] = *wt;
-                // δ(x_a − at) = δ(ξ_a − ξ_at)/σ_a.
-                total += f_of(g, xi).abs() * p * ho / s[a];
-            }
-        }
-        Ok(total)
     }
 }
 
@@ -744,11 +588,9 @@ mod tests {
             for n in [2, 4, 6] {
                 let moments = epc.moments(&prep, n).unwrap();
                 let real = GalerkinSystem::assemble(&moments.tables, n);
-                let gauss = GalerkinSystem::assemble(
-                    &epc.gaussian_exact_moments(&prep, &moments.tables),
-                    n,
-                );
-                let a_g = epc.closure_start(&prep, &gauss.exps);
+                let gauss =
+                    GalerkinSystem::assemble(&prep.gaussian_exact_moments(&moments.tables), n);
+                let a_g = prep.closure_start(&gauss.exps);
                 let r = gauss.residual_and_jacobian(&a_g).0.norm();
                 assert!(r < 1e-12 * gauss.scale(), "n = {n}: ‖R_G(a_G)‖ = {r:e}");
                 // It is a different operator: the real system is not solved there for n > 2.

@@ -22,7 +22,7 @@ const CLIP: f64 = 16.0;
 
 /// A Gauss rule: `∫ g(t) φ(t) dt ≈ Σ weights[i]·g(nodes[i])` over the rule's interval.
 #[derive(Clone, Debug, PartialEq)]
-pub struct QuadratureRule {
+pub(crate) struct QuadratureRule {
     /// The nodes, increasing.
     pub nodes: Vec<f64>,
     /// The weights (positive; they sum to the normal mass of the interval).
@@ -156,15 +156,7 @@ thread_local! {
 
 /// The `n`-point Gauss rule for the standard normal weight on [a, b]; `a` may be −∞ and `b`
 /// may be +∞. Exact for polynomials of degree ≤ 2n − 1 (to rounding).
-///
-/// ```
-/// use fpsolve::epc::normal_rule;
-/// let r = normal_rule(0.0, f64::INFINITY, 6);
-/// // ∫_0^∞ t² φ(t) dt = 1/2
-/// let m2: f64 = r.nodes.iter().zip(&r.weights).map(|(t, w)| w * t * t).sum();
-/// assert!((m2 - 0.5).abs() < 1e-13);
-/// ```
-pub fn normal_rule(a: f64, b: f64, n: usize) -> Arc<QuadratureRule> {
+pub(crate) fn normal_rule(a: f64, b: f64, n: usize) -> Arc<QuadratureRule> {
     let key = (a.to_bits(), b.to_bits(), n);
     CACHE.with(|c| {
         if let Some(r) = c.borrow().get(&key) {
@@ -179,15 +171,7 @@ pub fn normal_rule(a: f64, b: f64, n: usize) -> Arc<QuadratureRule> {
 /// A rule for φ on the whole line, split at the given points (each piece with `n` nodes), so
 /// that an integrand with kinks only at those points is integrated exactly when it is a
 /// polynomial of degree ≤ 2n − 1 on every piece.
-///
-/// ```
-/// use fpsolve::epc::split_normal_rule;
-/// let r = split_normal_rule(&[0.0], 4);
-/// // E|t| = √(2/π)
-/// let e: f64 = r.nodes.iter().zip(&r.weights).map(|(t, w)| w * t.abs()).sum();
-/// assert!((e - (2.0 / std::f64::consts::PI).sqrt()).abs() < 1e-14);
-/// ```
-pub fn split_normal_rule(splits: &[f64], n: usize) -> QuadratureRule {
+pub(crate) fn split_normal_rule(splits: &[f64], n: usize) -> QuadratureRule {
     let mut cuts: Vec<f64> = splits.iter().copied().filter(|s| s.is_finite()).collect();
     cuts.sort_by(f64::total_cmp);
     cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-14);
@@ -227,6 +211,27 @@ pub(crate) fn regularised_rule(m: f64, s: f64, n: usize) -> QuadratureRule {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn half_line_rule_gives_the_half_normal_second_moment() {
+        let r = normal_rule(0.0, f64::INFINITY, 6);
+        // ∫_0^∞ t² φ(t) dt = 1/2
+        let m2: f64 = r.nodes.iter().zip(&r.weights).map(|(t, w)| w * t * t).sum();
+        assert!((m2 - 0.5).abs() < 1e-13);
+    }
+
+    #[test]
+    fn split_rule_integrates_a_kink_exactly() {
+        let r = split_normal_rule(&[0.0], 4);
+        // E|t| = √(2/π)
+        let e: f64 = r
+            .nodes
+            .iter()
+            .zip(&r.weights)
+            .map(|(t, w)| w * t.abs())
+            .sum();
+        assert!((e - (2.0 / std::f64::consts::PI).sqrt()).abs() < 1e-14);
+    }
     use approx::assert_relative_eq;
 
     /// ∫_a^∞ t^k φ(t) dt by the recurrence I_k = a^{k−1}φ(a) + (k−1) I_{k−2}.

@@ -268,7 +268,7 @@ mod tests {
             a: vec![1.0, -1.0, -1.0, -1.0],
             degree: 4,
         };
-        let mode = find_mode(&q).ok().expect("a mode");
+        let mode = find_mode(&q).expect("a mode");
         assert_relative_eq!(mode[0].abs(), 0.5_f64.sqrt(), epsilon = 1e-8);
     }
 
