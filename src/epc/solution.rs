@@ -210,23 +210,115 @@ impl EpcSolution {
         sum * h / self.sigma[axis]
     }
 
-    /// P(|x_axis| > a), from the marginal on the grid.
+    /// The box `[[lo1, hi1], [lo2, hi2]]` (original units) of the normalisation grid: on the
+    /// plane it reaches e^−40 of the peak, inside a ridge the region's edge, so the density is
+    /// negligible (below about 1e−17 of its peak) or zero outside it.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::Epc, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// let [[lo, hi], _] = sol.extent();
+    /// // Var z = 5: e^−40 of the peak lies at |z| = √(80·5) = 20.
+    /// assert!(lo < -20.0 && hi > 20.0);
+    /// ```
+    pub fn extent(&self) -> [[f64; 2]; 2] {
+        let g = &self.grid;
+        let ends = |v: &[f64], s: f64| [v[0] * s, v[v.len() - 1] * s];
+        [ends(&g.g1, self.sigma[0]), ends(&g.g2, self.sigma[1])]
+    }
+
+    /// P(|x_axis| > a): the one tail routine for an EPC density.
+    ///
+    /// The marginal of state `axis` ([`EpcSolution::marginal_at`], the trapezoid rule over
+    /// the other state, spectrally accurate like the normalisation) is integrated over
+    /// [a, ∞) and (−∞, −a] by 4-point Gauss–Legendre on each cell of the normalisation grid,
+    /// the cell that holds ±a cut there; beyond the grid the density is taken as 0 (below
+    /// e^−40 of the peak on the plane, outside the region inside a ridge). Measured on the
+    /// linear oscillator (z ~ N(0, 5), exact erfc): relative error below 1e−12 up to a = 3σ
+    /// and 1.4e−10 at a = 5σ (absolute below 1e−13 throughout). `a` ≤ 0 gives the total
+    /// mass, 1 to the normalisation's accuracy.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::Epc, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// // z ~ N(0, 5): P(|z| > 0) = 1, P(|z| > 2σ) = erfc(√2) = 0.0455002638.
+    /// assert!((sol.tail_probability(0, 0.0) - 1.0).abs() < 1e-9);
+    /// let two_sigma = 2.0 * 5.0_f64.sqrt();
+    /// assert!((sol.tail_probability(0, two_sigma) / 0.045500263896 - 1.0).abs() < 1e-8);
+    /// ```
     pub fn tail_probability(&self, axis: usize, a: f64) -> f64 {
-        let (x, p) = self.marginal_grid(axis);
-        let h = x[1] - x[0];
-        let mut s = 0.0;
-        for w in 0..x.len() - 1 {
-            // Trapezoid cell [x_w, x_w+1], clipped to |x| > a by linear interpolation.
-            let (x0, x1, p0, p1) = (x[w], x[w + 1], p[w], p[w + 1]);
-            for (lo, hi) in [(f64::NEG_INFINITY, -a), (a, f64::INFINITY)] {
-                let l = x0.max(lo);
-                let u = x1.min(hi);
-                if u > l {
-                    let f = |t: f64| p0 + (p1 - p0) * (t - x0) / h;
-                    s += 0.5 * (f(l) + f(u)) * (u - l);
+        // 4-point Gauss–Legendre on [−1, 1].
+        const T: [f64; 2] = [0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
+        const W: [f64; 2] = [0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+        let nodes: Vec<f64> = if axis == 0 {
+            &self.grid.g1
+        } else {
+            &self.grid.g2
+        }
+        .iter()
+        .map(|t| t * self.sigma[axis])
+        .collect();
+        let a = a.max(0.0);
+        let piece = |u: f64, w: f64| {
+            let (c, r) = (0.5 * (u + w), 0.5 * (w - u));
+            let f = |x: f64| self.marginal_at(axis, x);
+            r * (W[0] * (f(c - r * T[0]) + f(c + r * T[0]))
+                + W[1] * (f(c - r * T[1]) + f(c + r * T[1])))
+        };
+        let mut total = 0.0;
+        for cell in nodes.windows(2) {
+            let (x0, x1) = (cell[0], cell[1]);
+            // The right tail [a, ∞) and the left tail (−∞, −a] within this cell.
+            for (lo, hi) in [(x0.max(a), x1), (x0, x1.min(-a))] {
+                if hi > lo {
+                    total += piece(lo, hi);
                 }
             }
         }
-        s
+        total
+    }
+}
+#[cfg(test)]
+mod tests {
+    use crate::{epc::Epc, fpk::FpkOperator, model::parse_model};
+
+    /// erfc(x) = (2/√π)∫_x^∞ e^{−t²} dt by Simpson's rule (h = 2e−4, error ~1e−15).
+    fn erfc(x: f64) -> f64 {
+        let (n, b) = (200_000, x + 40.0);
+        let h = (b - x) / n as f64;
+        let f = |t: f64| (-t * t).exp();
+        let inner: f64 = (1..n)
+            .map(|i| if i % 2 == 1 { 4.0 } else { 2.0 } * f(x + i as f64 * h))
+            .sum();
+        (f(x) + f(b) + inner) * h / 3.0 * 2.0 / std::f64::consts::PI.sqrt()
+    }
+
+    #[test]
+    fn tail_probability_of_a_gaussian_marginal_is_erfc() {
+        let model = parse_model(
+            "model m\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+             noise xi: intensity 1\ndiffusion v: xi\n",
+            None,
+        )
+        .unwrap();
+        let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+        let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+        // z ~ N(0, 5): P(|z| > kσ) = erfc(k/√2).
+        let sd = 5.0_f64.sqrt();
+        for k in [0.0, 0.3, 1.0, 1.7, 2.0, 3.0, 4.0, 5.0] {
+            let exact = erfc(k / 2.0_f64.sqrt());
+            let got = sol.tail_probability(0, k * sd);
+            assert!(
+                ((got - exact) / exact).abs() < 1e-9,
+                "k = {k}: {got:e} vs {exact:e}"
+            );
+        }
+        assert_eq!(sol.tail_probability(0, 1e3), 0.0);
     }
 }

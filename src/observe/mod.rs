@@ -49,9 +49,7 @@ impl JointDensity for EpcSolution {
 
     /// The normalisation grid, which reaches e^−40 of the peak (or the ridge region).
     fn extent(&self) -> [[f64; 2]; 2] {
-        let g = &self.grid;
-        let ends = |v: &[f64], s: f64| [v[0] * s, v[v.len() - 1] * s];
-        [ends(&g.g1, self.sigma[0]), ends(&g.g2, self.sigma[1])]
+        EpcSolution::extent(self)
     }
 }
 
