@@ -14,6 +14,19 @@ use crate::symbolic::{
 };
 
 /// The derived stationary FPK operator of a bound model, ready for the EPC engine.
+///
+/// ```
+/// use fpsolve::fpk::FpkOperator;
+/// use fpsolve::model::{parse_model, DeltaTreatment};
+/// let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+///     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// // Additive noise: no Wong–Zakai correction, b_vv = 1, no impact, δ terms sifted.
+/// assert_eq!(fpk.wong_zakai[1].to_string(), "0");
+/// assert_eq!(fpk.diffusion[1][1].to_string(), "1");
+/// assert!(fpk.impact.is_none());
+/// assert_eq!(fpk.delta_treatment, DeltaTreatment::Exact);
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct FpkOperator {
     /// The two states' names (x1, x2).
@@ -42,6 +55,15 @@ pub struct FpkOperator {
 }
 
 /// Which derived quantity a failure happened in.
+///
+/// ```
+/// use fpsolve::fpk::{FpkError, FpkOperator};
+/// use fpsolve::model::{parse_model, Override};
+/// let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+///     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// let undamped = model.bind(&[Override::number("c", 0.0)]).unwrap();
+/// assert!(matches!(FpkOperator::derive(&undamped), Err(FpkError::Inadmissible(_))));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FpkError {
     /// The symbolic layer refused an operation (a derivative of delta, a product with no

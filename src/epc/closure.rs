@@ -17,6 +17,17 @@ use super::EpcError;
 use crate::model::DeltaTreatment;
 
 /// The Gaussian closure: a Gaussian whose first two moments satisfy the moment equations.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+/// let cl = sol.closure.unwrap();
+/// // The linear oscillator's closure is its exact Gaussian: Var z = πK/(ck) = 5.
+/// assert!((cl.covariance[0][0] - 5.0).abs() < 1e-8 && cl.covariance[0][1].abs() < 1e-10);
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GaussianClosure {
     /// The mean μ.
@@ -31,6 +42,15 @@ pub struct GaussianClosure {
 
 impl GaussianClosure {
     /// The standard deviations √P_ii.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let cl = Epc::new(&fpk).degree(2).solve().unwrap().closure.unwrap();
+    /// assert!((cl.std_devs()[1] - 5.0_f64.sqrt()).abs() < 1e-8);
+    /// ```
     pub fn std_devs(&self) -> [f64; 2] {
         [self.covariance[0][0].sqrt(), self.covariance[1][1].sqrt()]
     }

@@ -10,6 +10,20 @@ use super::galerkin::GalerkinSystem;
 use super::EpcError;
 
 /// One point of a followed branch.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let family = |l: f64| {
+///     FpkOperator::derive(&model.bind(&[fpsolve::model::Override::number("c", 0.1 + 0.1 * l)])
+///         .unwrap()).map_err(|e| e.to_string())
+/// };
+/// let branch = Epc::new(&fpk).degree(2).branch(&family).unwrap();
+/// // Every point of the branch solves its system.
+/// assert!(branch.points.iter().all(|p: &BranchPoint| p.residual < 1e-9));
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BranchPoint {
     /// The family parameter.
@@ -19,6 +33,12 @@ pub struct BranchPoint {
 }
 
 /// How a followed branch ended.
+///
+/// ```
+/// use fpsolve::epc::BranchEnd;
+/// let end = BranchEnd::Fold { lambda: 0.257 };
+/// assert!(matches!(end, BranchEnd::Fold { lambda } if lambda < 1.0));
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum BranchEnd {
@@ -38,6 +58,20 @@ pub enum BranchEnd {
 }
 
 /// The followed branch.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let family = |l: f64| {
+///     FpkOperator::derive(&model.bind(&[fpsolve::model::Override::number("c", 0.1 + 0.1 * l)])
+///         .unwrap()).map_err(|e| e.to_string())
+/// };
+/// let branch: Branch = Epc::new(&fpk).degree(2).branch(&family).unwrap();
+/// assert_eq!((branch.degree, branch.end), (2, BranchEnd::Reached));
+/// assert_eq!(branch.target.map(|a| a.len()), Some(5));
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Branch {
     /// The degree n.

@@ -19,6 +19,11 @@ use super::MAX_DEGREE;
 pub struct DegreeList(Vec<usize>);
 
 /// Why a degree list was refused.
+///
+/// ```
+/// use fpsolve::epc::{DegreeList, DegreeListError};
+/// assert_eq!(DegreeList::new(&[2, 3]), Err(DegreeListError::Odd { degree: 3 }));
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum DegreeListError {
     /// No degree at all.
@@ -61,6 +66,12 @@ impl DegreeList {
     ///
     /// # Errors
     /// As [`DegreeListError`].
+    ///
+    /// ```
+    /// use fpsolve::epc::DegreeList;
+    /// assert_eq!(DegreeList::new(&[6, 2]).unwrap().as_slice(), &[2, 6]);
+    /// assert!(DegreeList::new(&[]).is_err());
+    /// ```
     pub fn new(degrees: &[usize]) -> Result<DegreeList, DegreeListError> {
         if degrees.is_empty() {
             return Err(DegreeListError::Empty);
@@ -86,11 +97,21 @@ impl DegreeList {
     }
 
     /// The degrees, ascending.
+    ///
+    /// ```
+    /// let d = fpsolve::epc::DegreeList::new(&[4, 2]).unwrap();
+    /// assert_eq!(d.as_slice(), &[2, 4]);
+    /// ```
     pub fn as_slice(&self) -> &[usize] {
         &self.0
     }
 
     /// The largest degree.
+    ///
+    /// ```
+    /// let d = fpsolve::epc::DegreeList::new(&[4, 8, 2]).unwrap();
+    /// assert_eq!(d.max(), 8);
+    /// ```
     pub fn max(&self) -> usize {
         *self.0.last().expect("a degree list is not empty")
     }

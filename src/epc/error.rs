@@ -6,6 +6,17 @@ use crate::physics::UnsupportedImpact;
 use crate::symbolic::{EvalError, SymbolicError};
 
 /// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// assert_eq!(
+///     Epc::new(&fpk).degree(14).solve().unwrap_err(),
+///     EpcError::Degree { degree: 14, max: MAX_DEGREE }
+/// );
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EpcError {
     /// The model's impact law is not one EPC's operator represents: a refusal before any work,

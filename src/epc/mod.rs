@@ -66,13 +66,40 @@ use normalise::Poly;
 use solver::SolveOutcome;
 
 /// The largest degree the engine accepts.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// assert!(Epc::new(&fpk).degree(MAX_DEGREE).solve().is_ok());
+/// assert!(Epc::new(&fpk).degree(MAX_DEGREE + 2).solve().is_err());
+/// ```
 pub const MAX_DEGREE: usize = 12;
 
 /// Default least ridge depth (e-folds) for normalising inside a ridge: the mass beyond a ridge
 /// this deep is below e^-12 ≈ 6e-6 of the peak's neighbourhood.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol = Epc::new(&fpk).ridge_threshold(DEFAULT_RIDGE_THRESHOLD).solve().unwrap();
+/// assert!(matches!(sol.normalisation.kind, NormalisationKind::Plane { .. }));
+/// ```
 pub const DEFAULT_RIDGE_THRESHOLD: f64 = 12.0;
 
 /// An EPC problem: the operator (with its delta treatment) and options; [`Epc::solve`] runs it.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol = Epc::new(&fpk).degree(4).tolerance(1e-12).solve().unwrap();
+/// assert!(sol.solve.residual <= sol.solve.residual_threshold);
+/// ```
 #[derive(Clone, Debug)]
 pub struct Epc<'a> {
     fpk: &'a FpkOperator,
@@ -115,6 +142,15 @@ struct Prepared {
 impl<'a> Epc<'a> {
     /// A problem for `fpk` (δ terms treated as [`FpkOperator::delta_treatment`] says); degree
     /// 4 and tolerance 1e−10 (see [`Epc::tolerance`]) by default.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let epc = Epc::new(&fpk);
+    /// assert_eq!(epc.solve().unwrap().degree, 4);
+    /// ```
     pub fn new(fpk: &'a FpkOperator) -> Epc<'a> {
         Epc {
             fpk,
@@ -127,6 +163,14 @@ impl<'a> Epc<'a> {
     }
 
     /// The degree n of Q (2 ≤ n ≤ [`MAX_DEGREE`]).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// assert_eq!(Epc::new(&fpk).degree(6).solve().unwrap().exponents.len(), 27);
+    /// ```
     pub fn degree(mut self, n: usize) -> Self {
         self.degree = n;
         self
@@ -135,18 +179,47 @@ impl<'a> Epc<'a> {
     /// Convergence tolerance: a solve has converged when ‖R‖ ≤ tol·max(1, ‖R(a_ref)‖), with R
     /// the Galerkin residual of Eq. 19 in scaled variables ξ_i = x_i/σ_i and a_ref the
     /// Gaussian-closure start (default 1e−10).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).tolerance(1e-8).solve().unwrap();
+    /// // tol·max(1, ‖R‖ at the closure start): never below tol itself.
+    /// assert!(sol.solve.residual_threshold >= 1e-8 && sol.solve.residual <= sol.solve.residual_threshold);
+    /// ```
     pub fn tolerance(mut self, tol: f64) -> Self {
         self.tolerance = tol;
         self
     }
 
     /// Overrides the weights' σ_1, σ_2 (Eqs. 21–22); `None` keeps the Gaussian closure's.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).weights([Some(2.0), Some(2.0)]).solve().unwrap();
+    /// assert_eq!(sol.sigma, [2.0, 2.0]);
+    /// assert!(sol.closure.is_none());
+    /// ```
     pub fn weights(mut self, sigma: [Option<f64>; 2]) -> Self {
         self.sigma = sigma;
         self
     }
 
     /// The least ridge depth (e-folds) accepted for normalising inside a ridge.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// // A Gaussian is normalisable on the plane whatever the threshold.
+    /// assert!(Epc::new(&fpk).degree(2).ridge_threshold(30.0).solve().is_ok());
+    /// ```
     pub fn ridge_threshold(mut self, e_folds: f64) -> Self {
         self.ridge_threshold = e_folds;
         self
@@ -154,6 +227,16 @@ impl<'a> Epc<'a> {
 
     /// Relative change of the assembled system below which a raised quadrature order is
     /// accepted (only used for coefficients that are not piecewise polynomial).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// // Polynomial coefficients: the order is exact and no check is run.
+    /// let sol = Epc::new(&fpk).quadrature_tolerance(1e-12).solve().unwrap();
+    /// assert!(!sol.solve.order_checked);
+    /// ```
     pub fn quadrature_tolerance(mut self, tol: f64) -> Self {
         self.quadrature_tolerance = tol;
         self
@@ -162,6 +245,16 @@ impl<'a> Epc<'a> {
     /// Solves at the configured degree, by continuation through every lower even degree
     /// (starting at 2): exactly what [`Epc::solve_degrees`] gives for this degree, whatever
     /// other degrees are asked with it.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(4).solve().unwrap();
+    /// // The exact density is Gaussian: the quartic coefficients vanish.
+    /// assert!(sol.coefficient(4, 0).abs() < 1e-9);
+    /// ```
     pub fn solve(&self) -> Result<EpcSolution, EpcError> {
         self.solve_degrees(&[self.degree])
             .pop()

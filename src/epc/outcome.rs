@@ -9,6 +9,15 @@ use std::fmt;
 use serde::{Serialize, Serializer};
 
 /// Where an iteration started.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+/// assert_eq!(sol.solve.method, Method::Newton { from: StartPoint::GaussianClosure });
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StartPoint {
     /// The solution at a lower degree, padded with zeros (continuation in degree).
@@ -35,6 +44,17 @@ impl fmt::Display for StartPoint {
 }
 
 /// A method of solving R(a) = 0, with its start.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let res = Epc::new(&fpk).solve_degrees(&[2, 4]);
+/// // Degree 4 starts from the degree-2 solution (continuation in degree).
+/// let from = StartPoint::LowerDegree { degree: 2 };
+/// assert_eq!(res[1].as_ref().unwrap().solve.method, Method::Newton { from });
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     /// Damped Newton (backtracking line search on ½‖R‖²).
@@ -110,6 +130,17 @@ impl Serialize for Method {
 }
 
 /// Why a damped Newton run stopped.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// assert!(matches!(attempts[0].end, AttemptEnd::Newton { stop: NewtonStop::Crawling | NewtonStop::NoDescent | NewtonStop::Singular | NewtonStop::IterationLimit, .. }));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NewtonStop {
     /// ‖R‖ reached the threshold.
@@ -125,6 +156,21 @@ pub enum NewtonStop {
 }
 
 /// Why a Levenberg–Marquardt run stopped.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// let lm = attempts.iter().find_map(|a| match a.end {
+///     AttemptEnd::LevenbergMarquardt { stop, .. } => Some(stop),
+///     _ => None,
+/// });
+/// assert!(lm.is_some_and(|s| s != LmStop::Converged));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LmStop {
     /// ‖R‖ reached the threshold.
@@ -145,6 +191,21 @@ pub(crate) const HOMOTOPY_NORM_FACTOR: f64 = 100.0;
 pub(crate) const HOMOTOPY_STEPS: usize = 200;
 
 /// How a homotopy path ended.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// let ends: Vec<HomotopyEnd> = attempts.iter().filter_map(|a| match &a.end {
+///     AttemptEnd::Homotopy(p) => Some(p.end),
+///     _ => None,
+/// }).collect();
+/// assert!(!ends.is_empty() && !ends.contains(&HomotopyEnd::Reached));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum HomotopyEnd {
     /// λ reached 1 (the root there did not meet the threshold, or the path is the solution).
@@ -173,6 +234,22 @@ pub enum HomotopyEnd {
 }
 
 /// One homotopy path followed by pseudo-arclength continuation through folds in λ.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// let operator = attempts.iter().find_map(|a| match &a.end {
+///     AttemptEnd::Homotopy(p) if p.method == Method::OperatorHomotopy => Some(p),
+///     _ => None,
+/// }).unwrap();
+/// // The branch from the Gaussian-exact operator folds at λ ≈ 0.497, before the model.
+/// assert!((0.4..0.5).contains(&operator.folds[0]));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct HomotopyPath {
     /// [`Method::OperatorHomotopy`] or [`Method::NewtonHomotopy`]: λ deforms the operator
@@ -248,6 +325,17 @@ impl fmt::Display for HomotopyPath {
 }
 
 /// How one attempt that did not produce the solution ended.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// assert!(attempts.iter().any(|a| matches!(a.end, AttemptEnd::Homotopy(_))));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub enum AttemptEnd {
     /// A Newton run stopped short of the threshold.
@@ -269,6 +357,17 @@ pub enum AttemptEnd {
 }
 
 /// One attempt at solving R(a) = 0 and how it ended.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// assert_eq!(attempts[0].method, Method::Newton { from: StartPoint::LowerDegree { degree: 4 } });
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Attempt {
     /// The method and its start.
@@ -278,6 +377,17 @@ pub struct Attempt {
 }
 
 /// What the best point of a failed solve is.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// assert_eq!(best.kind, BestPointKind::LocalMinimum);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BestPointKind {
     /// Levenberg–Marquardt finds no descent there: a local minimum of ‖R‖.
@@ -287,6 +397,18 @@ pub enum BestPointKind {
 }
 
 /// The point of least ‖R‖ a failed solve reached.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
+/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
+/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
+///     panic!("degree 6 of case 1 does not converge")
+/// };
+/// // ‖R‖ stays far above the threshold at a stationary point of ½‖R‖².
+/// assert!(best.residual > 1e-4 && best.gradient < 1e-3 * best.residual);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BestPoint {
     /// ‖R‖ there.

@@ -8,6 +8,16 @@ use super::outcome::Method;
 use crate::moments::Moments;
 
 /// Timings and convergence of one solve.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let r = Epc::new(&fpk).degree(2).solve().unwrap().solve;
+/// assert_eq!(r.method.to_string(), "newton from the Gaussian closure");
+/// assert!(r.residual <= r.residual_threshold);
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SolveReport {
     /// The degree n.
@@ -39,6 +49,17 @@ pub struct SolveReport {
 }
 
 /// An EPC solution.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol: EpcSolution = Epc::new(&fpk).degree(4).solve().unwrap();
+/// assert!((sol.moments[0].variance - 5.0).abs() < 1e-6);
+/// assert!((sol.moments[0].raw[3] - 75.0).abs() < 1e-4); // E z⁴ = 3·5²
+/// assert!(sol.fpk_residual < 1e-6);
+/// ```
 #[derive(Clone, Debug, Serialize)]
 pub struct EpcSolution {
     /// The degree n of Q.
@@ -122,6 +143,16 @@ impl EpcSolution {
     }
 
     /// The coefficient of x1^i x2^j in Q (original variables), 0 if not in the basis.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// assert!((sol.coefficient(2, 0) + 0.1).abs() < 1e-9); // −z²/(2·5)
+    /// assert_eq!(sol.coefficient(7, 0), 0.0);
+    /// ```
     pub fn coefficient(&self, i: usize, j: usize) -> f64 {
         self.exponents
             .iter()
@@ -130,6 +161,15 @@ impl EpcSolution {
     }
 
     /// ln C, with p(x) = C·exp(Q(x)).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// assert!((sol.log_c() + (10.0 * std::f64::consts::PI).ln()).abs() < 1e-8); // C = 1/(2π·5)
+    /// ```
     pub fn log_c(&self) -> f64 {
         self.normalisation.log_c
     }
@@ -138,6 +178,16 @@ impl EpcSolution {
     /// ([`NormalisationKind::InsideRidge`](super::NormalisationKind::InsideRidge)) 0 outside
     /// the region and cut off smoothly to 0 across the last e-fold above its edge, the same
     /// density the normalising integral integrates.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// let exact = (-0.1_f64 * (1.0 + 4.0)).exp() / (10.0 * std::f64::consts::PI);
+    /// assert!((sol.pdf(1.0, 2.0) / exact - 1.0).abs() < 1e-8);
+    /// ```
     pub fn pdf(&self, x1: f64, x2: f64) -> f64 {
         let xi = [x1 / self.sigma[0], x2 / self.sigma[1]];
         let q = self.q.eval(xi);
@@ -150,6 +200,17 @@ impl EpcSolution {
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original
     /// units), trimmed to where it is at least 1e−8 of its peak (plus one point).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// let (x, p) = sol.marginal(1);
+    /// let mass: f64 = p.iter().sum::<f64>() * (x[1] - x[0]);
+    /// assert!((mass - 1.0).abs() < 1e-6);
+    /// ```
     pub fn marginal(&self, axis: usize) -> (Vec<f64>, Vec<f64>) {
         let (x, p) = self.marginal_grid(axis);
         let peak = p.iter().copied().fold(0.0, f64::max);
@@ -190,6 +251,16 @@ impl EpcSolution {
 
     /// The marginal density of state `axis` at `x` (original units), by the trapezoid rule
     /// over the other state on the normalisation grid.
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+    /// let peak = 1.0 / (10.0 * std::f64::consts::PI).sqrt(); // N(0, 5) at 0
+    /// assert!((sol.marginal_at(0, 0.0) / peak - 1.0).abs() < 1e-8);
+    /// ```
     pub fn marginal_at(&self, axis: usize, x: f64) -> f64 {
         let g = &self.grid;
         let t = x / self.sigma[axis];

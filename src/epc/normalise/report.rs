@@ -5,6 +5,17 @@ use std::fmt;
 use serde::{Serialize, Serializer};
 
 /// How the density was normalised.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
+/// let NormalisationKind::Plane { top_degree_max } = sol.normalisation.kind else { panic!() };
+/// // −ξ²/2 on the unit circle in the weights' scaled variables.
+/// assert!((top_degree_max + 0.5).abs() < 1e-9);
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum NormalisationKind {
@@ -32,6 +43,16 @@ pub enum NormalisationKind {
 }
 
 /// The normalisation's report.
+///
+/// ```
+/// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+/// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+/// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+/// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+/// let n = Epc::new(&fpk).degree(2).solve().unwrap().normalisation;
+/// assert!(n.error_estimate < 1e-9 && n.mode[0].abs() < 1e-9);
+/// assert!((n.log_c + (10.0 * std::f64::consts::PI).ln()).abs() < 1e-8);
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct NormalisationReport {
     /// Plane or inside a ridge.
@@ -49,6 +70,11 @@ pub struct NormalisationReport {
 }
 
 /// How the region inside a ridge is bounded.
+///
+/// ```
+/// use fpsolve::epc::RidgeRegion;
+/// assert!(RidgeRegion::ModeComponent.to_string().contains("pass value + 1"));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RidgeRegion {
     /// The connected component of {Q > pass value + 1} that holds the mode, exp(Q) cut off
@@ -78,6 +104,12 @@ impl Serialize for RidgeRegion {
 }
 
 /// Why a solved exp(Q) could not be normalised honestly (scaled variables ξ).
+///
+/// ```
+/// use fpsolve::epc::NotNormalisable;
+/// let e = NotNormalisable::ShallowRidge { degree: 6, top_degree_max: 0.1, depth: 3.0, threshold: 12.0 };
+/// assert!(e.to_string().contains("only 3.00 e-folds deep (threshold 12)"));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum NotNormalisable {
     /// Newton ascent found no local maximum of Q.
