@@ -38,6 +38,7 @@ mod galerkin;
 mod gaussian;
 mod normalise;
 mod outcome;
+mod prepare;
 mod quadrature;
 mod residual;
 mod solution;
@@ -60,9 +61,9 @@ pub use solution::{EpcSolution, SolveReport};
 
 use crate::fpk::FpkOperator;
 use crate::physics::ImpactForm;
-use coefficients::Coefficients;
-use galerkin::{GalerkinSystem, MomentTables};
+use galerkin::GalerkinSystem;
 use normalise::Poly;
+use prepare::{Prepared, Quadrature};
 use solver::SolveOutcome;
 
 /// The largest degree the engine accepts.
@@ -113,15 +114,6 @@ pub struct Epc<'a> {
 /// A lower-degree solution (exponents, scaled coefficients) that starts the next degree.
 type Start = (Vec<(usize, usize)>, DVector<f64>);
 
-/// The moment tables of one problem and how their quadrature order was chosen.
-struct Quadrature {
-    tables: MomentTables,
-    /// Gauss nodes per piece of each axis.
-    order: usize,
-    /// Whether the order came from a convergence check (non-polynomial coefficients).
-    checked: bool,
-}
-
 /// A solved degree before normalisation.
 struct SolvedDegree {
     sys: GalerkinSystem,
@@ -129,14 +121,6 @@ struct SolvedDegree {
     outcome: SolveOutcome,
     assembly_ms: f64,
     solve_ms: f64,
-}
-
-/// What every degree's solve shares: coefficients, weights and the closure.
-struct Prepared {
-    coefs: Coefficients,
-    sigma: [f64; 2],
-    closure: Option<GaussianClosure>,
-    closure_ms: f64,
 }
 
 impl<'a> Epc<'a> {
@@ -425,92 +409,6 @@ impl<'a> Epc<'a> {
         }
     }
 
-    fn prepare(&self) -> Result<Prepared, EpcError> {
-        for (i, s) in self.sigma.iter().enumerate() {
-            if let Some(v) = s {
-                if !(v.is_finite() && *v > 0.0) {
-                    return Err(EpcError::Weight {
-                        index: i + 1,
-                        value: *v,
-                    });
-                }
-            }
-        }
-        let coefs = Coefficients::new(self.fpk)?;
-        let t0 = Instant::now();
-        let (sigma, closure) = match self.sigma {
-            [Some(a), Some(b)] => ([a, b], None),
-            _ => {
-                let (kinks, _) = coefs.kinks([50.0, 50.0])?;
-                let order = coefs
-                    .polynomial_degree()
-                    .map_or(16, |d| (d as usize + 6).div_ceil(2) + 2)
-                    .max(8);
-                let c = closure::gaussian_closure(&coefs, &kinks, self.fpk.delta_treatment, order)?;
-                let sd = c.std_devs();
-                (
-                    [
-                        self.sigma[0].unwrap_or(sd[0]),
-                        self.sigma[1].unwrap_or(sd[1]),
-                    ],
-                    Some(c),
-                )
-            }
-        };
-        Ok(Prepared {
-            coefs,
-            sigma,
-            closure,
-            closure_ms: ms(t0),
-        })
-    }
-
-    /// Moment tables good for degree `n`, with the quadrature order used.
-    fn moments(&self, prep: &Prepared, n: usize) -> Result<Quadrature, EpcError> {
-        let s = prep.sigma;
-        let (kinks, mixed) = prep.coefs.kinks([16.0 * s[0], 16.0 * s[1]])?;
-        let dmax = 3 * n - 2;
-        let build = |order: usize| -> Result<MomentTables, EpcError> {
-            let pts = prep
-                .coefs
-                .points([0.0, 0.0], s, &kinks, order, self.fpk.delta_treatment)?;
-            Ok(MomentTables::new(&pts, s, dmax))
-        };
-        match prep.coefs.polynomial_degree() {
-            Some(d) if !mixed => {
-                let order = (dmax + d as usize + 1).div_ceil(2) + 1;
-                Ok(Quadrature {
-                    tables: build(order)?,
-                    order,
-                    checked: false,
-                })
-            }
-            _ => {
-                // Not piecewise polynomial along the axes: raise the order until the assembled
-                // system settles.
-                let mut order = (dmax + 5).div_ceil(2) + 1;
-                let mut prev = GalerkinSystem::assemble(&build(order)?, n);
-                let mut change = f64::INFINITY;
-                while order < 120 {
-                    let next_order = order + 8;
-                    let mom = build(next_order)?;
-                    let sys = GalerkinSystem::assemble(&mom, n);
-                    change = sys.max_difference(&prev) / sys.scale().max(f64::MIN_POSITIVE);
-                    order = next_order;
-                    if change < self.quadrature_tolerance {
-                        return Ok(Quadrature {
-                            tables: mom,
-                            order,
-                            checked: true,
-                        });
-                    }
-                    prev = sys;
-                }
-                Err(EpcError::Quadrature { order, change })
-            }
-        }
-    }
-
     /// Assembles the degree-`n` system and solves it for Q's scaled coefficients. `full`
     /// adds the homotopy fallbacks (left out for the intermediate degrees of a continuation in
     /// degree, which only supply starts: they would slow down solves whose target degree
@@ -631,65 +529,4 @@ fn ms(t: Instant) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::model::{load_model, Override};
-
-    /// The paper's vibro-impact model (Eq. 10) with μ, ε, r set, through the real pipeline.
-    fn vibro(mu: f64, eps: f64, r: f64) -> FpkOperator {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
-        let model = load_model(&path).unwrap();
-        let bound = model
-            .bind(&[
-                Override::number("mu", mu),
-                Override::number("eps", eps),
-                Override::number("r", r),
-            ])
-            .unwrap();
-        FpkOperator::derive(&bound).unwrap()
-    }
-
-    #[test]
-    fn reported_residual_is_the_norm_of_r_at_the_returned_coefficients() {
-        let fpk = vibro(0.1, 0.1, 0.95);
-        for n in [2, 4, 8] {
-            let epc = Epc::new(&fpk).degree(n);
-            let sol = epc.solve().unwrap();
-            // Rebuild the degree-n system independently of the solve and evaluate R there.
-            let prep = epc.prepare().unwrap();
-            let moments = epc.moments(&prep, n).unwrap();
-            let sys = GalerkinSystem::assemble(&moments.tables, n);
-            let a = DVector::from_vec(sol.scaled_coefficients.clone());
-            let r = sys.residual_and_jacobian(&a).0.norm();
-            approx::assert_relative_eq!(sol.solve.residual, r, max_relative = 1e-6);
-            assert!(
-                sol.solve.residual <= sol.solve.residual_threshold,
-                "degree {n}"
-            );
-            assert!(sol.solve.residual_threshold >= 1e-10, "degree {n}");
-        }
-    }
-
-    #[test]
-    fn closure_gaussian_is_an_exact_root_of_the_gaussian_exact_operator() {
-        // Correlated noise and a parametric term: the closure has a nonzero covariance entry.
-        for (mu, eps) in [(0.1, 0.1), (1.0, -0.1)] {
-            let fpk = vibro(mu, eps, 0.95);
-            let epc = Epc::new(&fpk);
-            let prep = epc.prepare().unwrap();
-            for n in [2, 4, 6] {
-                let moments = epc.moments(&prep, n).unwrap();
-                let real = GalerkinSystem::assemble(&moments.tables, n);
-                let gauss =
-                    GalerkinSystem::assemble(&prep.gaussian_exact_moments(&moments.tables), n);
-                let a_g = prep.closure_start(&gauss.exps);
-                let r = gauss.residual_and_jacobian(&a_g).0.norm();
-                assert!(r < 1e-12 * gauss.scale(), "n = {n}: ‖R_G(a_G)‖ = {r:e}");
-                // It is a different operator: the real system is not solved there for n > 2.
-                let r_real = real.residual_and_jacobian(&a_g).0.norm();
-                assert!(n == 2 || r_real > 1e-6, "n = {n}: {r_real:e}");
-            }
-        }
-    }
-}
+mod tests;
