@@ -93,7 +93,7 @@ impl Method {
             Method::NewtonHomotopy { from } => format!("Newton homotopy from {from}"),
             Method::LevenbergMarquardt { from } => format!("Levenberg-Marquardt from {from}"),
             Method::PerturbedLevenbergMarquardt { start } => {
-                format!("Levenberg-Marquardt from {start} perturbed starts")
+                format!("Levenberg-Marquardt from perturbed start {start}")
             }
         }
     }
@@ -447,11 +447,9 @@ pub(crate) fn tried(attempts: &[Attempt]) -> String {
         .map(|a| a.method.attempt_name())
         .collect();
     if perturbed > 0 {
-        names.push(
-            Method::PerturbedLevenbergMarquardt { start: perturbed }
-                .attempt_name()
-                .to_string(),
-        );
+        names.push(format!(
+            "Levenberg-Marquardt from {perturbed} perturbed starts"
+        ));
     }
     names.join(", ")
 }
@@ -465,4 +463,53 @@ pub(crate) fn continuation(attempts: &[Attempt]) -> String {
             _ => None,
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perturbed_starts_are_listed_as_one_counted_entry() {
+        let lm = |method| Attempt {
+            method,
+            end: AttemptEnd::LevenbergMarquardt {
+                stop: LmStop::IterationLimit,
+                residual: 1.0,
+            },
+        };
+        let attempts = vec![
+            Attempt {
+                method: Method::Newton {
+                    from: StartPoint::GaussianClosure,
+                },
+                end: AttemptEnd::Newton {
+                    stop: NewtonStop::NoDescent,
+                    residual: 1.0,
+                },
+            },
+            lm(Method::LevenbergMarquardt {
+                from: StartPoint::GaussianClosure,
+            }),
+            lm(Method::PerturbedLevenbergMarquardt { start: 1 }),
+            lm(Method::PerturbedLevenbergMarquardt { start: 2 }),
+        ];
+        assert_eq!(
+            tried(&attempts),
+            "Newton from the Gaussian closure, Levenberg-Marquardt from the Gaussian closure, \
+             Levenberg-Marquardt from 2 perturbed starts"
+        );
+        assert_eq!(continuation(&attempts), "");
+        assert_eq!(
+            Method::PerturbedLevenbergMarquardt { start: 3 }.to_string(),
+            "levenberg-marquardt from perturbed start 3"
+        );
+        assert_eq!(
+            Method::NewtonHomotopy {
+                from: StartPoint::GaussianClosure
+            }
+            .to_string(),
+            "newton homotopy from the gaussian closure"
+        );
+    }
 }
