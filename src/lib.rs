@@ -22,6 +22,22 @@
 //! | simulate | [`mc`] | [`model::BoundModel`] → [`mc::McResult`] (histograms with error bars) |
 //! | report | [`report`] | tables, JSON, figures into an [`report::OutputDir`] |
 //!
+//! The front door is [`solve()`]: a bound model and a [`Method`] give a [`Solution`] that
+//! answers `pdf`, `marginal` and `moments` for any state or observable by name:
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = fpsolve::model::load_model("models/vibro_duffing.sde")?;
+//! let bound = model.bind(&["mu=0.5".parse()?])?;
+//! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
+//! let p_y = solution.pdf("y", &[0.5, 1.0])?;
+//! let (x, p) = solution.marginal("y")?;
+//! let m = solution.moments("y")?;
+//! # assert!(p_y[0] > 0.0 && x.len() == p.len() && m.moments.mean > 0.0);
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! [`study::Study`] runs bind → derive → EPC at several degrees → PDFs of every state and
 //! observable on common grids in one call; [`symbolic`] is the expression layer underneath
 //! (simplification, distributional derivatives of `abs`, `sgn`, `delta`, sifting, tapes).
@@ -112,8 +128,10 @@ pub mod moments;
 pub mod observe;
 pub mod physics;
 pub mod report;
+pub mod solve;
 pub mod study;
 pub mod sweep;
 pub mod symbolic;
 
 pub use error::Error;
+pub use solve::{solve, Method, Solution};
