@@ -12,7 +12,7 @@ use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{
     merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, Shard, ShardOutput, Simulation,
 };
-use fpsolve::model::{load_model, parse_expr, BoundModel, Model, Override};
+use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
@@ -225,7 +225,7 @@ fn main() -> ExitCode {
             if is_broken_pipe(&e) {
                 return ExitCode::SUCCESS;
             }
-            let text = format!("{e:#}");
+            let text = render(&e);
             let mut stderr = std::io::stderr().lock();
             let _ = if text.starts_with("error") {
                 writeln!(stderr, "{text}")
@@ -235,6 +235,45 @@ fn main() -> ExitCode {
             ExitCode::from(USAGE_ERROR)
         }
     }
+}
+
+/// A library error as it flows out of a command, its source chain kept.
+fn lib<E: Into<fpsolve::Error>>(e: E) -> anyhow::Error {
+    anyhow::Error::new(e.into())
+}
+
+/// A library error about `path` (the model file): `path: error`.
+fn at<E: Into<fpsolve::Error>>(path: &Path) -> impl FnOnce(E) -> anyhow::Error + '_ {
+    move |e| lib(e).context(path.display().to_string())
+}
+
+/// A library error about `path` whose message is a diagnostic of its own: `error: path: error`.
+fn at_error<E: Into<fpsolve::Error>>(path: &Path) -> impl FnOnce(E) -> anyhow::Error + '_ {
+    move |e| lib(e).context(format!("error: {}", path.display()))
+}
+
+/// An error about a flag: `--flag: error`.
+fn flag<E: std::error::Error + Send + Sync + 'static>(
+    name: &'static str,
+) -> impl FnOnce(E) -> anyhow::Error {
+    move |e| anyhow::Error::new(e).context(name)
+}
+
+/// The message of an error and its causes, each cause added only when the message does not
+/// already say it (the library's messages quote their cause where a reader needs it).
+fn render(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if text.contains(&s) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&s);
+    }
+    text
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -329,13 +368,12 @@ fn plan(cli: Cli) -> Result<Planned> {
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             // Settings checked and the cost estimated; the limits apply to what this process
             // runs (one shard of N on a cluster).
-            let estimate = flags
-                .config
-                .estimate(&bound)
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let estimate = flags.config.estimate(&bound).map_err(at(&model))?;
             let shard: Option<Shard> = match shard.as_deref() {
                 Some(spec) => {
-                    let part: Shard = spec.parse().map_err(|e| anyhow!("--shard `{spec}`: {e}"))?;
+                    let part: Shard = spec
+                        .parse()
+                        .map_err(|e| anyhow::Error::new(e).context(format!("--shard `{spec}`")))?;
                     if part.count > estimate.batches {
                         bail!(
                             "--shard `{spec}`: at most {} shards (the run's statistics batches)",
@@ -348,7 +386,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             };
             estimate
                 .within_limits(shard.map_or(1, |s| s.count))
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+                .map_err(at(&model))?;
             notes = flags.notes;
             threads = check_threads(mc_args.threads, &mut notes)?;
             Plan::Simulate {
@@ -364,7 +402,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             let shards = read_shards(&dirs)?;
             // Every shard is validated (and named when it is not right) before anything is
             // written.
-            let result = merge_named(&shards).map_err(|e| anyhow!("{e}"))?;
+            let result = merge_named(&shards).map_err(lib)?;
             Plan::Merge {
                 result: Box::new(result),
                 shards: shards.len(),
@@ -382,11 +420,9 @@ fn plan(cli: Cli) -> Result<Planned> {
             let [d] = degree.as_slice() else {
                 bail!("--degree {degree}: a sweep solves one degree at each point");
             };
-            let m = load_model(&model).map_err(|e| anyhow!("{e}"))?;
-            let spec =
-                SweepSpec::parse(&set.set).map_err(|e| anyhow!("{}: {e}", model.display()))?;
-            spec.validate(&m)
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let m = load_model(&model).map_err(lib)?;
+            let spec = SweepSpec::parse(&set.set).map_err(at(&model))?;
+            spec.validate(&m).map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
             Plan::Sweep {
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
@@ -423,7 +459,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
     let (model, overrides, bound) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with an impact law EPC does not represent, is
     // refused here, before any work.
-    let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let fpk = FpkOperator::derive(&bound).map_err(at_error(&path))?;
     if let Some(ImpactForm::Unsupported { law, reason }) = &fpk.impact {
         let e = EpcError::UnsupportedImpact {
             law: law.clone(),
@@ -432,7 +468,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
         bail!("{}: {e}", path.display());
     }
     if let Some(config) = &mc {
-        config.preflight(&bound).map_err(|e| anyhow!("{e}"))?;
+        config.preflight(&bound).map_err(lib)?;
     }
     Ok(Plan::Job {
         out: default_out(args.out.clone(), &model),
@@ -484,32 +520,14 @@ fn execute(plan: Plan) -> Result<(), Failure> {
     }
 }
 
-/// Parses `name=value` into an [`Override`].
-fn parse_override(arg: &str) -> Result<Override> {
-    let Some((name, value)) = arg.split_once('=') else {
-        bail!("`--set {arg}`: expected NAME=VALUE");
-    };
-    let name = name.trim();
-    if name.is_empty() {
-        bail!("`--set {arg}`: the parameter name is missing");
-    }
-    let value = parse_expr(value).map_err(|e| anyhow!("error: in `--set {arg}`\n{e}"))?;
-    Ok(Override {
-        name: name.to_string(),
-        value,
-    })
-}
-
 /// Loads a model and binds it with the overrides (so a bad `--set` fails before any work).
 fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel)> {
     let overrides = set
         .iter()
-        .map(|s| parse_override(s))
+        .map(|s| s.parse::<Override>().map_err(lib))
         .collect::<Result<Vec<_>>>()?;
-    let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
-    let bound = model
-        .bind(&overrides)
-        .map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let model = load_model(path).map_err(lib)?;
+    let bound = model.bind(&overrides).map_err(at_error(path))?;
     Ok((model, overrides, bound))
 }
 
@@ -521,7 +539,7 @@ fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
         writeln!(out, "#   {name} = {}", fpsolve::model::number(*value))
             .context("writing to stdout")?;
     }
-    let fpk = FpkOperator::derive(bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let fpk = FpkOperator::derive(bound).map_err(at_error(path))?;
     writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
     for line in fpk.to_string().lines() {
         writeln!(out, "# {line}").context("writing to stdout")?;
@@ -589,7 +607,7 @@ impl McFlags {
         }
         let mut grids: Vec<(String, Grid)> = Vec::new();
         for g in &args.grid {
-            let NamedGrid { name, grid } = g.parse().map_err(|e| anyhow!("--grid {e}"))?;
+            let NamedGrid { name, grid } = g.parse().map_err(|e| anyhow!("--grid {e}"))?; // the grid error names the argument
             if grids.iter().any(|(n, _)| n == &name) {
                 bail!("--grid `{g}`: a grid for `{name}` is already given");
             }
@@ -624,12 +642,12 @@ fn command_line() -> String {
 /// Locks and stages the output directory: a usage error (before any computation) when it is
 /// taken by another run, holds other files, or cannot be created.
 fn begin_output(dir: &Path) -> Result<RunDir> {
-    RunDir::begin(dir, &command_line()).map_err(|e| anyhow!("--out: {e}"))
+    RunDir::begin(dir, &command_line()).map_err(flag("--out"))
 }
 
 /// Puts a finished run's files in place and says where.
 fn commit_output(run: RunDir, files: usize) -> Result<()> {
-    let dest = run.commit().map_err(|e| anyhow!("{e}"))?;
+    let dest = run.commit().map_err(lib)?;
     println!("wrote {files} files to {}", dest.display());
     Ok(())
 }
@@ -687,9 +705,9 @@ fn main_job(
     let bar = Bar::new(quiet);
     let report = job::run(model, spec, run.out(), &bar);
     bar.finish();
-    let report = report.map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let report = report.map_err(at_error(path))?;
     let mut stdout = std::io::stdout().lock();
-    write!(stdout, "{}", job::table(&report)).context("writing to stdout")?;
+    write!(stdout, "{}", report).context("writing to stdout")?;
     drop(stdout);
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);
@@ -714,19 +732,17 @@ fn simulate(
     match shard {
         Some(shard) => {
             // Shards of one run share a directory: each adds its own file, atomically.
-            let out = OutputDir::create(dir).map_err(|e| anyhow!("--out: {e}"))?;
-            let sim =
-                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-            let part = sim.run_shard(shard).map_err(|e| anyhow!("{e}"))?;
+            let out = OutputDir::create(dir).map_err(flag("--out"))?;
+            let sim = Simulation::new(bound, config).map_err(at(path))?;
+            let part = sim.run_shard(shard).map_err(lib)?;
             let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
-            let file = write_json(&out, &name, &part).map_err(|e| anyhow!("{e}"))?;
+            let file = write_json(&out, &name, &part).map_err(lib)?;
             println!("wrote {}", file.display());
             Ok(())
         }
         None => {
             let run = begin_output(dir)?;
-            let sim =
-                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            let sim = Simulation::new(bound, config).map_err(at(path))?;
             let bar = Bar::new(quiet);
             bar.stage("Monte Carlo");
             let result = sim.run_with_progress(&|done, total| bar.advance(done, total));
@@ -735,7 +751,7 @@ fn simulate(
             let result = result.map_err(|e| {
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
-            let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
+            let files = job::write_mc(&result, run.out()).map_err(lib)?;
             print!("{result}");
             commit_output(run, files.len())?;
             verdict(&result)
@@ -773,10 +789,12 @@ fn sweep(
     let t = std::time::Instant::now();
     let bar = Bar::new(quiet);
     bar.stage("sweep");
-    let result =
-        Sweep::run_with_progress(model, spec, degree, &|done, total| bar.advance(done, total));
+    let result = Sweep::new(model, spec)
+        .degree(degree)
+        .progress(&|done, total| bar.advance(done, total))
+        .run();
     bar.finish();
-    let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
+    let files = result.write(run.out()).map_err(lib)?;
     println!(
         "{} of {} points converged at degree {degree} in {:.1} s",
         result.converged(),
@@ -824,7 +842,7 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
 
 fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let files = job::write_mc(result, run.out()).map_err(|e| anyhow!("{e}"))?;
+    let files = job::write_mc(result, run.out()).map_err(lib)?;
     print!("{result}");
     println!("merged {shards} shards");
     commit_output(run, files.len())?;

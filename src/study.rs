@@ -11,7 +11,9 @@ use crate::epc::{EpcError, EpcSolution};
 use crate::mc::ParamValue;
 use crate::model::{BindError, BoundModel, Model, Override};
 use crate::observe::{JointDensity, ObservableDensity};
-use crate::solve::{common_grid, printable, Problem, Quantity, QuantityMoments, Solution, SolveError};
+use crate::solve::{
+    common_grid, printable, Problem, Quantity, QuantityMoments, Solution, SolveError,
+};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
 #[derive(Debug, thiserror::Error)]
@@ -154,11 +156,17 @@ impl<'a> StudyRunner<'a> {
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {
-                let wall_ms = outcome.as_ref().ok().and_then(Solution::epc).map_or(0.0, |s| {
-                    let r = &s.solve;
-                    r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
-                });
-                let stats = outcome.as_ref().map_or_else(|_| Vec::new(), Solution::all_moments);
+                let wall_ms = outcome
+                    .as_ref()
+                    .ok()
+                    .and_then(Solution::epc)
+                    .map_or(0.0, |s| {
+                        let r = &s.solve;
+                        r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+                    });
+                let stats = outcome
+                    .as_ref()
+                    .map_or_else(|_| Vec::new(), Solution::all_moments);
                 DegreeResult {
                     degree,
                     outcome,
@@ -242,7 +250,13 @@ fn curves(q: &Quantity, solved: &[(usize, &Solution)]) -> PdfCurves {
     // evaluated on the common grid (the union of the windows).
     let densities: Vec<(usize, &dyn JointDensity, ObservableDensity)> = solved
         .iter()
-        .map(|&(degree, sol)| (degree, sol.joint(), ObservableDensity::new(sol.joint(), &q.map)))
+        .map(|&(degree, sol)| {
+            (
+                degree,
+                sol.joint(),
+                ObservableDensity::new(sol.joint(), &q.map),
+            )
+        })
         .collect();
     let windows: Vec<(&dyn JointDensity, &ObservableDensity)> =
         densities.iter().map(|(_, j, d)| (*j, d)).collect();

@@ -13,7 +13,10 @@ const TAIL: f64 = 1e-8;
 /// The common grid of a quantity under several densities: the union of the windows where
 /// each density is at least [`TAIL`] of its peak, [`GRID_POINTS`] points (empty when no
 /// density has such a window).
-pub(crate) fn common_grid(q: &Quantity, densities: &[(&dyn JointDensity, &ObservableDensity)]) -> Vec<f64> {
+pub(crate) fn common_grid(
+    q: &Quantity,
+    densities: &[(&dyn JointDensity, &ObservableDensity)],
+) -> Vec<f64> {
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     for (joint, density) in densities {

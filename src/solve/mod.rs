@@ -33,9 +33,9 @@ use crate::model::BoundModel;
 
 pub(crate) use grid::{common_grid, printable};
 pub(crate) use quantity::reported;
-pub(crate) use tail::tail_probability;
 pub use quantity::{quantities, Quantity};
 pub use solution::{Density, QuantityMoments, Solution};
+pub(crate) use tail::tail_probability;
 
 /// How to solve for the stationary density. More methods are to come, so a `match` on it
 /// needs a wildcard arm.

@@ -117,5 +117,4 @@ mod tests {
             max_relative = 2e-3
         );
     }
-
 }

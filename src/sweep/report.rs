@@ -267,4 +267,3 @@ fn short(v: f64) -> String {
     let rounded: f64 = format!("{v:.3e}").parse().unwrap_or(v);
     format!("{rounded}")
 }
-

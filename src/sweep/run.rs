@@ -308,8 +308,7 @@ impl<'a> Sweep<'a> {
                         curves,
                     }) => {
                         for (stats, curve) in solution.stats.iter_mut().zip(&curves) {
-                            if let Some(t) = tail_thresholds.iter().find(|t| t.name == stats.name)
-                            {
+                            if let Some(t) = tail_thresholds.iter().find(|t| t.name == stats.name) {
                                 stats.tail = t
                                     .thresholds
                                     .iter()
@@ -404,7 +403,10 @@ fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
             error: error.clone(),
         });
     }
-    let last = study.degrees.last().expect("a study has at least one degree");
+    let last = study
+        .degrees
+        .last()
+        .expect("a study has at least one degree");
     let sol = last.epc().expect("an EPC study solves by EPC");
     let mut stats = Vec::with_capacity(study.quantities.len());
     let mut curves = Vec::with_capacity(study.quantities.len());
@@ -418,7 +420,10 @@ fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
             });
         };
         let m = &st.moments;
-        if [m.mean, st.std_dev(), m.kurtosis].iter().any(|v| !v.is_finite()) {
+        if [m.mean, st.std_dev(), m.kurtosis]
+            .iter()
+            .any(|v| !v.is_finite())
+        {
             return Err(PointFailure::NotFinite {
                 quantity: q.name.clone(),
                 mean: m.mean,

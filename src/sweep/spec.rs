@@ -493,4 +493,3 @@ mod tests {
         assert_eq!(v[12], 0.3);
     }
 }
-
