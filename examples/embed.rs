@@ -11,7 +11,7 @@ use fpsolve::{Method, Solution};
 
 /// The lines an embedding user writes: load → bind → solve → ask by name.
 fn pdf_of_y() -> Result<Solution, Box<dyn std::error::Error>> {
-    let model = fpsolve::model::load_model("models/vibro_duffing.sde")?;
+    let model = fpsolve::model::load_model("models/vibro_duffing.sde".as_ref())?;
     let bound = model.bind(&["mu=0.5".parse()?])?;
     let solution = fpsolve::solve(&bound, Method::Epc { degree: 4 })?;
     let p_y = solution.pdf("y", &[0.5, 1.0])?;

@@ -27,7 +27,7 @@
 //!
 //! ```
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let model = fpsolve::model::load_model("models/vibro_duffing.sde")?;
+//! let model = fpsolve::model::load_model("models/vibro_duffing.sde".as_ref())?;
 //! let bound = model.bind(&["mu=0.5".parse()?])?;
 //! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
 //! let p_y = solution.pdf("y", &[0.5, 1.0])?;
