@@ -32,8 +32,8 @@ use crate::fpk::{FpkError, FpkOperator};
 use crate::model::BoundModel;
 
 pub(crate) use grid::{common_grid, printable};
-pub(crate) use quantity::reported;
 pub use quantity::{quantities, Quantity};
+pub(crate) use quantity::{quantities_of, reported};
 pub use solution::{Density, QuantityMoments, Solution};
 pub(crate) use tail::tail_probability;
 

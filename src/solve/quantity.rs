@@ -1,8 +1,8 @@
 //! The quantities a solution knows by name: the states, then the observables.
 
-use crate::model::BoundModel;
+use crate::model::{BoundModel, Model, Observable};
 use crate::observe::ObservableMap;
-use crate::symbolic::Expr;
+use crate::symbolic::{Expr, Symbol};
 
 /// A quantity whose PDF and moments a solution reports: a state or an observable.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,7 +27,16 @@ pub struct Quantity {
 /// # Ok::<(), fpsolve::Error>(())
 /// ```
 pub fn quantities(model: &BoundModel) -> Vec<Quantity> {
-    let states = model.states();
+    listed(model.states(), model.observables())
+}
+
+/// [`quantities`] of a model whose parameters are not bound yet (the maps do not depend on
+/// them: observables are expressions of the states alone).
+pub(crate) fn quantities_of(model: &Model) -> Vec<Quantity> {
+    listed(model.states(), model.observables())
+}
+
+fn listed(states: &[Symbol; 2], observables: &[Observable]) -> Vec<Quantity> {
     let mut out: Vec<Quantity> = states
         .iter()
         .map(|s| Quantity {
@@ -36,7 +45,7 @@ pub fn quantities(model: &BoundModel) -> Vec<Quantity> {
             is_state: true,
         })
         .collect();
-    out.extend(model.observables().iter().map(|o| Quantity {
+    out.extend(observables.iter().map(|o| Quantity {
         name: o.name.to_string(),
         map: ObservableMap::classify(&o.expr, states),
         is_state: false,

@@ -8,7 +8,7 @@ use serde::Serialize;
 use crate::epc::{EpcError, NormalisationKind};
 use crate::model::Model;
 use crate::moments::Moments;
-use crate::solve::{tail_probability, SolveError};
+use crate::solve::{quantities_of, reported, tail_probability, SolveError};
 use crate::study::{Study, StudyError, StudyRunner};
 
 use super::{SweepSpec, TAIL_MULTIPLES};
@@ -271,17 +271,12 @@ impl<'a> Sweep<'a> {
                 point
             })
             .collect();
-        let quantities: Vec<String> = model
-            .states()
-            .iter()
-            .map(|s| s.to_string())
-            .chain(model.observables().iter().map(|o| o.name.to_string()))
+        let listed = quantities_of(model);
+        let quantities: Vec<String> = listed.iter().map(|q| q.name.clone()).collect();
+        let figure_quantities = reported(&listed)
+            .into_iter()
+            .map(|q| q.name.clone())
             .collect();
-        let figure_quantities = if model.observables().is_empty() {
-            quantities.clone()
-        } else {
-            quantities[2..].to_vec()
-        };
         let threshold_point = raw.iter().position(|r| r.rms2.is_some());
         let tail_thresholds: Vec<TailThresholds> = threshold_point
             .and_then(|i| raw[i].rms2.as_ref())
