@@ -166,3 +166,68 @@ impl<'a> Problem<'a> {
 pub fn solve(model: &BoundModel, method: Method) -> Result<Solution, SolveError> {
     Problem::new(model)?.solve(method)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::load_model;
+    use crate::study::StudyRunner;
+
+    fn vibro() -> BoundModel {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+        load_model(&path).unwrap().bind(&[]).unwrap()
+    }
+
+    #[test]
+    fn the_solution_is_what_the_study_reports() {
+        let bound = vibro();
+        let solution = solve(&bound, Method::Epc { degree: 4 }).unwrap();
+        let study = StudyRunner::new(&bound).degrees(&[4]).run().unwrap();
+        // One degree: the study's common grid is this solution's own report grid.
+        for q in solution.quantities() {
+            let (x, p) = solution.marginal(&q.name).unwrap();
+            let curve = study.curves.iter().find(|c| c.name == q.name).unwrap();
+            assert_eq!(x, curve.x, "{}", q.name);
+            let same = p
+                .iter()
+                .zip(&curve.columns[0].pdf)
+                .all(|(a, b)| a == b || (a.is_nan() && b.is_nan()));
+            assert!(same, "{}", q.name);
+            assert_eq!(
+                solution.moments(&q.name).unwrap(),
+                *study.degrees[0]
+                    .stats
+                    .iter()
+                    .find(|s| s.name == q.name)
+                    .unwrap()
+            );
+        }
+        assert_eq!(solution.all_moments(), study.degrees[0].stats);
+    }
+
+    #[test]
+    fn unknown_names_are_typed_errors() {
+        let solution = solve(&vibro(), Method::Epc { degree: 2 }).unwrap();
+        let err = solution.marginal("w").unwrap_err();
+        let SolveError::UnknownQuantity { name, known } = err else {
+            panic!("expected UnknownQuantity, got {err:?}");
+        };
+        assert_eq!(name, "w");
+        assert_eq!(known, ["z", "v", "y", "ydot"]);
+    }
+
+    #[test]
+    fn a_failed_degree_is_a_result_the_caller_sees() {
+        let bound = vibro();
+        let study = StudyRunner::new(&bound).degrees(&[2, 5]).run().unwrap();
+        let at = study.pdf_at("y", &[0.5]).unwrap();
+        assert_eq!(at.len(), 2);
+        assert!(at[0].pdf.is_ok());
+        assert!(matches!(at[1].pdf, Err(EpcError::OddDegree { degree: 5 })));
+        assert!(matches!(
+            solve(&bound, Method::Epc { degree: 5 }),
+            Err(SolveError::Epc(EpcError::OddDegree { degree: 5 }))
+        ));
+    }
+}
