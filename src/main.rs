@@ -4,18 +4,22 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
-use fpsolve::mc::{
-    merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, Shard, ShardOutput, Simulation,
-};
+use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
+
+#[path = "cli/mc_flags.rs"]
+mod mc_flags;
+#[cfg(test)]
+use mc_flags::parse_count;
+use mc_flags::McFlags;
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
 ///
@@ -548,88 +552,6 @@ fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     Ok(())
 }
 
-/// A count given as `200000000`, `2e8` or `2.5e6`.
-fn parse_count(text: &str, what: &str) -> Result<u64> {
-    let v: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("{what} `{text}` is not a number"))?;
-    if !(v.is_finite() && (1.0..=1e15).contains(&v)) {
-        bail!("{what} `{text}` must be between 1 and 1e15");
-    }
-    if v.fract() != 0.0 {
-        bail!("{what} `{text}` is not a whole number");
-    }
-    Ok(v as u64)
-}
-
-/// The Monte Carlo flags read and checked (before any computation), with the notes to print
-/// about values that were rounded.
-struct McFlags {
-    config: McConfig,
-    notes: Vec<String>,
-}
-
-impl McFlags {
-    /// `samples` is the value of `flag` (`--mc` or `--samples`).
-    fn parse(args: &McArgs, samples: &str, flag: &str) -> Result<McFlags> {
-        let requested = parse_count(
-            samples,
-            &format!("{flag}: the number of Monte Carlo samples"),
-        )?;
-        let mut notes = Vec::new();
-        if args.trajectories == 0 {
-            bail!("--trajectories must be at least 1");
-        }
-        let lanes = McConfig::default().lanes as u64;
-        let batches = args.trajectories.div_ceil(lanes);
-        let trajectories = batches
-            .checked_mul(lanes)
-            .filter(|t| *t <= 1 << 40)
-            .ok_or_else(|| {
-                anyhow!(
-                    "--trajectories {} is more than fpsolve can run (at most 2^40)",
-                    args.trajectories
-                )
-            })?;
-        if trajectories != args.trajectories {
-            notes.push(format!(
-                "--trajectories {} rounded up to {trajectories} (whole statistics batches of {lanes})",
-                args.trajectories
-            ));
-        }
-        let per_trajectory = requested.div_ceil(trajectories).max(1);
-        let total = per_trajectory.saturating_mul(trajectories);
-        if total != requested {
-            notes.push(format!(
-                "{requested} Monte Carlo samples rounded up to {total} ({per_trajectory} per trajectory × {trajectories} trajectories)"
-            ));
-        }
-        let mut grids: Vec<(String, Grid)> = Vec::new();
-        for g in &args.grid {
-            let NamedGrid { name, grid } = g.parse().map_err(|e| anyhow!("--grid {e}"))?; // the grid error names the argument
-            if grids.iter().any(|(n, _)| n == &name) {
-                bail!("--grid `{g}`: a grid for `{name}` is already given");
-            }
-            grids.push((name, grid));
-        }
-        let config = McConfig {
-            dt: args.dt,
-            spacing: args.spacing,
-            trajectories,
-            samples: per_trajectory,
-            burn_in: match args.burn_in {
-                Some(t) => BurnIn::Time(t),
-                None => McConfig::default().burn_in,
-            },
-            seed: args.seed,
-            grids,
-            ..McConfig::default()
-        };
-        Ok(McFlags { config, notes })
-    }
-}
-
 fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
     out.unwrap_or_else(|| Path::new("out").join(model.name()))
 }
@@ -860,150 +782,5 @@ fn verdict(result: &McResult) -> Result<(), Failure> {
 }
 
 #[cfg(test)]
-mod tests {
-    //! The argument layer under arbitrary input: never a panic, and every refusal names what
-    //! it refuses. Plans read and check everything but compute and write nothing, so they can
-    //! be made by the thousand.
-
-    use super::*;
-    use proptest::prelude::*;
-
-    const TOKENS: &[&str] = &[
-        "models/linear.sde",
-        "models/vibro_duffing.sde",
-        "models/nope.sde",
-        "check",
-        "solve",
-        "simulate",
-        "sweep",
-        "merge",
-        "--degree",
-        "--set",
-        "--mc",
-        "--dt",
-        "--spacing",
-        "--burn-in",
-        "--trajectories",
-        "--grid",
-        "--threads",
-        "--seed",
-        "--shard",
-        "--samples",
-        "--quiet",
-        "--out",
-        "2,4",
-        "3",
-        "4,4",
-        "0",
-        "-1",
-        "1e300",
-        "1e-300",
-        "NaN",
-        "inf",
-        "mu=0.2",
-        "eps=0:0.1:3",
-        "mu=abc",
-        "c=1/0",
-        "y=0:8:10",
-        "y=0:8:4294967297",
-        "z=1:0:5",
-        "3/2",
-        "0/0",
-        "18446744073709551615",
-        "",
-        "=",
-        "/nonexistent/dir",
-    ];
-
-    fn token() -> impl Strategy<Value = String> {
-        prop_oneof![
-            4 => proptest::sample::select(TOKENS).prop_map(String::from),
-            1 => "[ -~]{0,12}",
-        ]
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
-
-        #[test]
-        fn arbitrary_arguments_never_panic_and_refusals_say_why(
-            args in proptest::collection::vec(token(), 0..8)
-        ) {
-            let argv = std::iter::once("fpsolve".to_string()).chain(args.iter().cloned());
-            match Cli::try_parse_from(argv) {
-                // clap's own refusals name the argument; they exit 2 (or 0 for --help).
-                Err(e) => prop_assert!(!e.to_string().is_empty()),
-                Ok(cli) => {
-                    if let Err(e) = plan(cli) {
-                        let text = format!("{e:#}");
-                        prop_assert!(!text.trim().is_empty());
-                        // It names a flag, or quotes what it refuses.
-                        let quoted = args
-                            .iter()
-                            .any(|a| !a.is_empty() && text.contains(a.as_str()));
-                        prop_assert!(
-                            text.contains("--") || quoted || text.contains("no model file"),
-                            "refusal names neither a flag nor what it refuses: {text}"
-                        );
-                    }
-                }
-            }
-        }
-
-        #[test]
-        fn well_formed_commands_with_arbitrary_values_never_panic(
-            command in proptest::sample::select(&["", "solve", "simulate", "sweep", "check"][..]),
-            model in proptest::sample::select(&TOKENS[..3]),
-            pairs in proptest::collection::vec(
-                (proptest::sample::select(&TOKENS[8..21]), token()), 0..5
-            ),
-        ) {
-            let mut argv = vec!["fpsolve".to_string()];
-            if !command.is_empty() {
-                argv.push(command.to_string());
-            }
-            argv.push(model.to_string());
-            for (flag, value) in &pairs {
-                argv.push(format!("{flag}={value}"));
-            }
-            if let Ok(cli) = Cli::try_parse_from(&argv) {
-                if let Err(e) = plan(cli) {
-                    let text = format!("{e:#}");
-                    let quoted = argv[1..].iter().any(|a| text.contains(a.as_str()));
-                    prop_assert!(
-                        text.contains("--") || text.contains(".sde") || quoted,
-                        "refusal names neither a flag nor what it refuses: {text}"
-                    );
-                }
-            }
-        }
-
-        #[test]
-        fn grids_counts_and_shards_parse_or_say_which_flag(text in "[ -~]{0,24}") {
-            let _ = text.parse::<NamedGrid>();
-            let _ = text.parse::<Shard>();
-            if let Err(e) = parse_count(&text, "--mc") {
-                prop_assert!(e.to_string().contains("--mc"));
-            }
-            let _ = text.parse::<DegreeList>();
-        }
-    }
-
-    #[test]
-    fn plans_compute_nothing_and_write_nothing() {
-        let root = std::env::temp_dir().join(format!("fpsolve-plan-{}", std::process::id()));
-        let out = root.join("out");
-        let cli = Cli::try_parse_from([
-            "fpsolve",
-            "models/vibro_duffing.sde",
-            "--mc",
-            "1e5",
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .unwrap();
-        let plan = plan(cli).unwrap();
-        assert!(matches!(plan.plan, Plan::Job { .. }));
-        assert!(!root.exists());
-    }
-}
+#[path = "cli/tests.rs"]
+mod tests;
