@@ -13,7 +13,7 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use fpsolve::job::{self, JobSpec, Quiet, Target};
+use fpsolve::job::{Job, JobSpec, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::model::{load_model, Override};
 use fpsolve::report::OutputDir;
@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             figures: true,
         };
         let out = OutputDir::create(format!("out/paper_cases/case{}", k + 1))?;
-        let report = job::run(&model, &spec, &out, &Quiet)?;
+        let report = Job::new(&model, &spec).run(&out)?;
         println!("case {} (mu = {mu}, eps = {eps})", k + 1);
         print!("{report}");
         for d in &report.study.degrees {

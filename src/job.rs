@@ -183,8 +183,61 @@ pub struct JobReport {
     pub unwritten: Vec<Unwritten>,
 }
 
-/// Runs a job and writes its files into `out`.
-pub fn run(
+/// A job to run: a model and a [`JobSpec`] (the builder; [`Job::run`] writes the files and
+/// gives the [`JobReport`]), the shape of every runner of the crate.
+///
+/// ```
+/// use fpsolve::job::{Job, JobSpec, Target};
+/// use fpsolve::report::OutputDir;
+/// let model = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\nobserve y = abs(z)\n", None)?;
+/// let spec = JobSpec {
+///     degrees: vec![2],
+///     overrides: vec![],
+///     target: Target::Observables,
+///     mc: None,
+///     mc_bins: 100,
+///     figures: false,
+/// };
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-job-{}", std::process::id()));
+/// let report = Job::new(&model, &spec).run(&OutputDir::create(&tmp)?)?;
+/// assert!(report.study.all_converged() && tmp.join("pdf_y.csv").is_file());
+/// assert!(report.to_string().contains("degree")); // the table the command line prints
+/// # std::fs::remove_dir_all(&tmp)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Job<'a> {
+    model: &'a Model,
+    spec: &'a JobSpec,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Job<'a> {
+    /// A job of `model` as `spec` says, reporting progress nowhere.
+    pub fn new(model: &'a Model, spec: &'a JobSpec) -> Job<'a> {
+        Job {
+            model,
+            spec,
+            progress: &Quiet,
+        }
+    }
+
+    /// Where progress goes (a progress bar in the command line).
+    pub fn progress(mut self, progress: &'a dyn Progress) -> Self {
+        self.progress = progress;
+        self
+    }
+
+    /// Runs the job and writes its files into `out`.
+    ///
+    /// # Errors
+    /// A [`JobError`] when the study cannot run or `summary.json` cannot be written; a
+    /// degree, a Monte Carlo run or another file that fails is recorded in the report.
+    pub fn run(&self, out: &OutputDir) -> Result<JobReport, JobError> {
+        run(self.model, self.spec, out, self.progress)
+    }
+}
+
+fn run(
     model: &Model,
     spec: &JobSpec,
     out: &OutputDir,

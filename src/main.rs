@@ -625,7 +625,7 @@ fn main_job(
 ) -> Result<(), Failure> {
     let run = begin_output(out)?;
     let bar = Bar::new(quiet);
-    let report = job::run(model, spec, run.out(), &bar);
+    let report = job::Job::new(model, spec).progress(&bar).run(run.out());
     bar.finish();
     let report = report.map_err(at_error(path))?;
     let mut stdout = std::io::stdout().lock();
