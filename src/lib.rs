@@ -49,7 +49,6 @@
 //! use fpsolve::fpk::FpkOperator;
 //! use fpsolve::mc::{McConfig, Simulation};
 //! use fpsolve::model::{parse_expr, parse_model, Override};
-//! use fpsolve::observe::{observable_pdf, ObservableMap};
 //! use fpsolve::report::{OutputDir, PdfTable};
 //!
 //! // 1. Read: a Duffing oscillator z'' + c z' + k z + mu z^3 = xi(t). A model file would be
@@ -89,9 +88,9 @@
 //! assert!(p00 > 0.0 && pz0 > p00);
 //!
 //! // 5. Observe: the PDF of y = |z| (Eq. 25, exact line integrals of the joint density).
-//! let y = &bound.observables()[0];
-//! let map = ObservableMap::classify(&y.expr, bound.states());
-//! let py = observable_pdf(&sol, &map, &[0.0, 0.5, 1.0]);
+//! //    The front door knows every state and observable by name.
+//! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
+//! let py = solution.pdf("y", &[0.0, 0.5, 1.0])?;
 //! assert!((py[0] - 2.0 * pz0).abs() < 1e-6 * py[0]); // p_Y(0) = 2 p_Z(0)
 //!
 //! // 6. Simulate: a (small) Monte Carlo reference with standard errors over batches.
