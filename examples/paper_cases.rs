@@ -13,7 +13,7 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use fpsolve::job::{self, JobSpec, Quiet, Target};
+use fpsolve::job::{Job, JobSpec, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::model::{load_model, Override};
 use fpsolve::report::OutputDir;
@@ -51,9 +51,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             figures: true,
         };
         let out = OutputDir::create(format!("out/paper_cases/case{}", k + 1))?;
-        let report = job::run(&model, &spec, &out, &Quiet)?;
+        let report = Job::new(&model, &spec).run(&out)?;
         println!("case {} (mu = {mu}, eps = {eps})", k + 1);
-        print!("{}", job::table(&report));
+        print!("{report}");
         for d in &report.study.degrees {
             let stat = |name: &str| d.stats.iter().find(|s| s.name == name);
             let (Some(y), Some(yd)) = (stat("y"), stat("ydot")) else {
@@ -77,11 +77,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "| {} | {mu} | {eps} | EPC n = {} | {:.4} | {:.4} | {:.3} | {:.4} | {:.3} | {:.4} | {:.4} | {} / {} |",
                 k + 1,
                 d.degree,
-                y.mean,
-                y.std_dev,
-                y.kurtosis,
-                yd.std_dev,
-                yd.kurtosis,
+                y.moments.mean,
+                y.std_dev(),
+                y.moments.kurtosis,
+                yd.std_dev(),
+                yd.moments.kurtosis,
                 cy.map_or(f64::NAN, |c| c.l1),
                 cyd.map_or(f64::NAN, |c| c.l1),
                 cy.map_or("-".to_string(), |c| c.ratio_1e3.to_string()),

@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // A misspelt name fails here, once, instead of at all 26 points.
     spec.validate(&model)?;
 
-    let result = Sweep::run(&model, &spec, DEGREE);
+    let result = Sweep::new(&model, &spec).degree(DEGREE).run();
 
     println!(
         "{} points, {} converged, {:.2} s wall time (EPC n = {DEGREE}, {} threads)",
@@ -69,16 +69,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "converged",
                     sol.iterations,
                     sol.normalisation,
-                    y.mean,
-                    y.std_dev,
-                    y.kurtosis,
+                    y.moments.mean,
+                    y.moments.std_dev(),
+                    y.moments.kurtosis,
                     y.tail.get(1).copied().flatten().unwrap_or(f64::NAN),
-                    ydot.std_dev,
-                    ydot.kurtosis,
+                    ydot.moments.std_dev(),
+                    ydot.moments.kurtosis,
                 );
             }
-            PointOutcome::Failed { stage, message } => {
-                println!("{eps:>6.2} {mu:>5} {:>10} ({stage}) {message}", "failed");
+            PointOutcome::Failed(failure) => {
+                let stage = failure.stage();
+                println!("{eps:>6.2} {mu:>5} {:>10} ({stage}) {failure}", "failed");
             }
         }
     }

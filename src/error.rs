@@ -15,6 +15,9 @@ pub enum Error {
     /// Reading, parsing or validating a model file.
     #[error(transparent)]
     Model(#[from] crate::model::ModelError),
+    /// A `name=value` override that does not parse.
+    #[error(transparent)]
+    Set(#[from] crate::model::SetError),
     /// Binding parameters to values.
     #[error(transparent)]
     Bind(#[from] crate::model::BindError),
@@ -30,6 +33,12 @@ pub enum Error {
     /// The Monte Carlo simulator.
     #[error(transparent)]
     Mc(#[from] crate::mc::McError),
+    /// The front door: no solution, or a name that is no quantity.
+    #[error(transparent)]
+    Solve(#[from] crate::solve::SolveError),
+    /// A sweep's description or its binding.
+    #[error(transparent)]
+    Sweep(#[from] crate::sweep::SweepError),
     /// A study.
     #[error(transparent)]
     Study(#[from] crate::study::StudyError),

@@ -1,6 +1,7 @@
 //! The jobs the command line runs, as library functions: a study (EPC at several degrees,
 //! PDFs of states or observables), optionally a Monte Carlo reference on the same grids, the
-//! EPC-vs-MC distances, and the files: `pdf_<name>.csv`, `summary.json`, figures.
+//! EPC-vs-MC distances, and the files: `pdf_<name>.csv`, `summary.json`, figures. A
+//! finished job's [`JobReport`] prints as the table the command line shows.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -13,6 +14,7 @@ use crate::report::{
     write_json_flagging_undefined, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError,
     UndefinedField,
 };
+use crate::solve::reported;
 use crate::study::{Study, StudyError, StudySummary};
 
 /// What a job reports PDFs of.
@@ -181,8 +183,61 @@ pub struct JobReport {
     pub unwritten: Vec<Unwritten>,
 }
 
-/// Runs a job and writes its files into `out`.
-pub fn run(
+/// A job to run: a model and a [`JobSpec`] (the builder; [`Job::run`] writes the files and
+/// gives the [`JobReport`]), the shape of every runner of the crate.
+///
+/// ```
+/// use fpsolve::job::{Job, JobSpec, Target};
+/// use fpsolve::report::OutputDir;
+/// let model = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\nobserve y = abs(z)\n", None)?;
+/// let spec = JobSpec {
+///     degrees: vec![2],
+///     overrides: vec![],
+///     target: Target::Observables,
+///     mc: None,
+///     mc_bins: 100,
+///     figures: false,
+/// };
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-job-{}", std::process::id()));
+/// let report = Job::new(&model, &spec).run(&OutputDir::create(&tmp)?)?;
+/// assert!(report.study.all_converged() && tmp.join("pdf_y.csv").is_file());
+/// assert!(report.to_string().contains("degree")); // the table the command line prints
+/// # std::fs::remove_dir_all(&tmp)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Job<'a> {
+    model: &'a Model,
+    spec: &'a JobSpec,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Job<'a> {
+    /// A job of `model` as `spec` says, reporting progress nowhere.
+    pub fn new(model: &'a Model, spec: &'a JobSpec) -> Job<'a> {
+        Job {
+            model,
+            spec,
+            progress: &Quiet,
+        }
+    }
+
+    /// Where progress goes (a progress bar in the command line).
+    pub fn progress(mut self, progress: &'a dyn Progress) -> Self {
+        self.progress = progress;
+        self
+    }
+
+    /// Runs the job and writes its files into `out`.
+    ///
+    /// # Errors
+    /// A [`JobError`] when the study cannot run or `summary.json` cannot be written; a
+    /// degree, a Monte Carlo run or another file that fails is recorded in the report.
+    pub fn run(&self, out: &OutputDir) -> Result<JobReport, JobError> {
+        run(self.model, self.spec, out, self.progress)
+    }
+}
+
+fn run(
     model: &Model,
     spec: &JobSpec,
     out: &OutputDir,
@@ -190,17 +245,17 @@ pub fn run(
 ) -> Result<JobReport, JobError> {
     progress.stage("solving EPC");
     let study = Study::run(model, &spec.overrides, &spec.degrees)?;
-    let n_states = 2;
     let names: Vec<String> = match spec.target {
-        Target::States => study.quantities[..n_states]
+        Target::States => study
+            .quantities
             .iter()
+            .filter(|q| q.is_state)
             .map(|q| q.name.clone())
             .collect(),
-        Target::Observables if study.quantities.len() > n_states => study.quantities[n_states..]
-            .iter()
+        Target::Observables => reported(&study.quantities)
+            .into_iter()
             .map(|q| q.name.clone())
             .collect(),
-        Target::Observables => study.quantities.iter().map(|q| q.name.clone()).collect(),
     };
 
     let mut mc = None;
@@ -245,7 +300,7 @@ pub fn run(
                 columns: curve
                     .columns
                     .iter()
-                    .map(|(d, p)| (format!("epc_n{d}"), p.clone()))
+                    .map(|c| (format!("epc_n{}", c.degree), c.pdf.clone()))
                     .collect(),
             };
             let file = format!("pdf_{name}.csv");
@@ -276,10 +331,10 @@ pub fn run(
                 curves: curve
                     .columns
                     .iter()
-                    .map(|(d, p)| Curve {
-                        label: epc_label(&study, *d),
+                    .map(|c| Curve {
+                        label: epc_label(&study, c.degree),
                         x: curve.x.clone(),
-                        y: p.clone(),
+                        y: c.pdf.clone(),
                     })
                     .collect(),
                 points: mc_q.map(|q| Points {
@@ -386,7 +441,7 @@ fn epc_label(study: &Study, degree: usize) -> String {
         .degrees
         .iter()
         .find(|d| d.degree == degree)
-        .and_then(|d| d.outcome.as_ref().ok())
+        .and_then(|d| d.epc())
         .and_then(|s| match &s.normalisation.kind {
             crate::epc::NormalisationKind::InsideRidge { depth, .. } => Some(*depth),
             crate::epc::NormalisationKind::Plane { .. } => None,
@@ -481,22 +536,30 @@ fn bin_averages(study: &Study, name: &str, grid: &Grid) -> Vec<(usize, Vec<f64>)
             GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
         })
         .collect();
+    // A failed degree has no column here; it is flagged with the study's other failures.
     study
         .pdf_at(name, &nodes)
         .unwrap_or_default()
         .into_iter()
-        .map(|(d, p)| {
+        .filter_map(|d| {
+            let p = d.pdf.ok()?;
             let avg = p
                 .chunks(GL4.len())
                 .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
                 .collect();
-            (d, avg)
+            Some((d.degree, avg))
         })
         .collect()
 }
 
 /// The short table the command line prints after a job.
-pub fn table(report: &JobReport) -> String {
+impl std::fmt::Display for JobReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&table(self))
+    }
+}
+
+fn table(report: &JobReport) -> String {
     use std::fmt::Write;
     let study = &report.study;
     let mut s = String::new();
@@ -515,8 +578,8 @@ pub fn table(report: &JobReport) -> String {
         "degree", "iters", "galerkin", "fpk resid", "solve ms"
     );
     for d in &study.degrees {
-        match &d.outcome {
-            Ok(sol) => {
+        match d.outcome.as_ref().map(|s| s.epc()) {
+            Ok(Some(sol)) => {
                 let norm = match &sol.normalisation.kind {
                     crate::epc::NormalisationKind::Plane { .. } => "plane".to_string(),
                     crate::epc::NormalisationKind::InsideRidge { depth, .. } => {
@@ -533,6 +596,9 @@ pub fn table(report: &JobReport) -> String {
                     d.wall_ms,
                     norm
                 );
+            }
+            Ok(None) => {
+                let _ = writeln!(s, "{:>6}  not an EPC solution", d.degree);
             }
             Err(e) => {
                 let _ = writeln!(s, "{:>6}  failed: {e}", d.degree);
@@ -551,9 +617,9 @@ pub fn table(report: &JobReport) -> String {
                 "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}{}",
                 st.name,
                 d.degree,
-                st.mean,
-                st.std_dev,
-                st.kurtosis,
+                st.moments.mean,
+                st.std_dev(),
+                st.moments.kurtosis,
                 if st.note().is_some() {
                     "   (see warning)"
                 } else {

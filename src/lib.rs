@@ -22,6 +22,22 @@
 //! | simulate | [`mc`] | [`model::BoundModel`] → [`mc::McResult`] (histograms with error bars) |
 //! | report | [`report`] | tables, JSON, figures into an [`report::OutputDir`] |
 //!
+//! The front door is [`solve()`]: a bound model and a [`Method`] give a [`Solution`] that
+//! answers `pdf`, `marginal` and `moments` for any state or observable by name:
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = fpsolve::model::load_model("models/vibro_duffing.sde".as_ref())?;
+//! let bound = model.bind(&["mu=0.5".parse()?])?;
+//! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
+//! let p_y = solution.pdf("y", &[0.5, 1.0])?;
+//! let (x, p) = solution.marginal("y")?;
+//! let m = solution.moments("y")?;
+//! # assert!(p_y[0] > 0.0 && x.len() == p.len() && m.moments.mean > 0.0);
+//! # Ok(())
+//! # }
+//! ```
+//!
 //! [`study::Study`] runs bind → derive → EPC at several degrees → PDFs of every state and
 //! observable on common grids in one call; [`symbolic`] is the expression layer underneath
 //! (simplification, distributional derivatives of `abs`, `sgn`, `delta`, sifting, tapes).
@@ -33,7 +49,6 @@
 //! use fpsolve::fpk::FpkOperator;
 //! use fpsolve::mc::{McConfig, Simulation};
 //! use fpsolve::model::{parse_expr, parse_model, Override};
-//! use fpsolve::observe::{observable_pdf, ObservableMap};
 //! use fpsolve::report::{OutputDir, PdfTable};
 //!
 //! // 1. Read: a Duffing oscillator z'' + c z' + k z + mu z^3 = xi(t). A model file would be
@@ -73,9 +88,9 @@
 //! assert!(p00 > 0.0 && pz0 > p00);
 //!
 //! // 5. Observe: the PDF of y = |z| (Eq. 25, exact line integrals of the joint density).
-//! let y = &bound.observables()[0];
-//! let map = ObservableMap::classify(&y.expr, bound.states());
-//! let py = observable_pdf(&sol, &map, &[0.0, 0.5, 1.0]);
+//! //    The front door knows every state and observable by name.
+//! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
+//! let py = solution.pdf("y", &[0.0, 0.5, 1.0])?;
 //! assert!((py[0] - 2.0 * pz0).abs() < 1e-6 * py[0]); // p_Y(0) = 2 p_Z(0)
 //!
 //! // 6. Simulate: a (small) Monte Carlo reference with standard errors over batches.
@@ -112,8 +127,10 @@ pub mod moments;
 pub mod observe;
 pub mod physics;
 pub mod report;
+pub mod solve;
 pub mod study;
 pub mod sweep;
 pub mod symbolic;
 
 pub use error::Error;
+pub use solve::{solve, Method, Solution};

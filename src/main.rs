@@ -4,18 +4,22 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::{DegreeList, EpcError};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::job::{self, JobSpec, Progress, Target};
-use fpsolve::mc::{
-    merge_named, BurnIn, Grid, McConfig, McResult, NamedGrid, Shard, ShardOutput, Simulation,
-};
-use fpsolve::model::{load_model, parse_expr, BoundModel, Model, Override};
+use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
+use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::sweep::{Sweep, SweepSpec};
+
+#[path = "cli/mc_flags.rs"]
+mod mc_flags;
+#[cfg(test)]
+use mc_flags::parse_count;
+use mc_flags::McFlags;
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
 ///
@@ -225,7 +229,7 @@ fn main() -> ExitCode {
             if is_broken_pipe(&e) {
                 return ExitCode::SUCCESS;
             }
-            let text = format!("{e:#}");
+            let text = render(&e);
             let mut stderr = std::io::stderr().lock();
             let _ = if text.starts_with("error") {
                 writeln!(stderr, "{text}")
@@ -235,6 +239,45 @@ fn main() -> ExitCode {
             ExitCode::from(USAGE_ERROR)
         }
     }
+}
+
+/// A library error as it flows out of a command, its source chain kept.
+fn lib<E: Into<fpsolve::Error>>(e: E) -> anyhow::Error {
+    anyhow::Error::new(e.into())
+}
+
+/// A library error about `path` (the model file): `path: error`.
+fn at<E: Into<fpsolve::Error>>(path: &Path) -> impl FnOnce(E) -> anyhow::Error + '_ {
+    move |e| lib(e).context(path.display().to_string())
+}
+
+/// A library error about `path` whose message is a diagnostic of its own: `error: path: error`.
+fn at_error<E: Into<fpsolve::Error>>(path: &Path) -> impl FnOnce(E) -> anyhow::Error + '_ {
+    move |e| lib(e).context(format!("error: {}", path.display()))
+}
+
+/// An error about a flag: `--flag: error`.
+fn flag<E: std::error::Error + Send + Sync + 'static>(
+    name: &'static str,
+) -> impl FnOnce(E) -> anyhow::Error {
+    move |e| anyhow::Error::new(e).context(name)
+}
+
+/// The message of an error and its causes, each cause added only when the message does not
+/// already say it (the library's messages quote their cause where a reader needs it).
+fn render(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if text.contains(&s) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&s);
+    }
+    text
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -329,13 +372,12 @@ fn plan(cli: Cli) -> Result<Planned> {
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             // Settings checked and the cost estimated; the limits apply to what this process
             // runs (one shard of N on a cluster).
-            let estimate = flags
-                .config
-                .estimate(&bound)
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let estimate = flags.config.estimate(&bound).map_err(at(&model))?;
             let shard: Option<Shard> = match shard.as_deref() {
                 Some(spec) => {
-                    let part: Shard = spec.parse().map_err(|e| anyhow!("--shard `{spec}`: {e}"))?;
+                    let part: Shard = spec
+                        .parse()
+                        .map_err(|e| anyhow::Error::new(e).context(format!("--shard `{spec}`")))?;
                     if part.count > estimate.batches {
                         bail!(
                             "--shard `{spec}`: at most {} shards (the run's statistics batches)",
@@ -348,7 +390,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             };
             estimate
                 .within_limits(shard.map_or(1, |s| s.count))
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+                .map_err(at(&model))?;
             notes = flags.notes;
             threads = check_threads(mc_args.threads, &mut notes)?;
             Plan::Simulate {
@@ -364,7 +406,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             let shards = read_shards(&dirs)?;
             // Every shard is validated (and named when it is not right) before anything is
             // written.
-            let result = merge_named(&shards).map_err(|e| anyhow!("{e}"))?;
+            let result = merge_named(&shards).map_err(lib)?;
             Plan::Merge {
                 result: Box::new(result),
                 shards: shards.len(),
@@ -382,11 +424,9 @@ fn plan(cli: Cli) -> Result<Planned> {
             let [d] = degree.as_slice() else {
                 bail!("--degree {degree}: a sweep solves one degree at each point");
             };
-            let m = load_model(&model).map_err(|e| anyhow!("{e}"))?;
-            let spec =
-                SweepSpec::parse(&set.set).map_err(|e| anyhow!("{}: {e}", model.display()))?;
-            spec.validate(&m)
-                .map_err(|e| anyhow!("{}: {e}", model.display()))?;
+            let m = load_model(&model).map_err(lib)?;
+            let spec = SweepSpec::parse(&set.set).map_err(at(&model))?;
+            spec.validate(&m).map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
             Plan::Sweep {
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
@@ -423,7 +463,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
     let (model, overrides, bound) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with an impact law EPC does not represent, is
     // refused here, before any work.
-    let fpk = FpkOperator::derive(&bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let fpk = FpkOperator::derive(&bound).map_err(at_error(&path))?;
     if let Some(ImpactForm::Unsupported { law, reason }) = &fpk.impact {
         let e = EpcError::UnsupportedImpact {
             law: law.clone(),
@@ -432,7 +472,7 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
         bail!("{}: {e}", path.display());
     }
     if let Some(config) = &mc {
-        config.preflight(&bound).map_err(|e| anyhow!("{e}"))?;
+        config.preflight(&bound).map_err(lib)?;
     }
     Ok(Plan::Job {
         out: default_out(args.out.clone(), &model),
@@ -484,32 +524,14 @@ fn execute(plan: Plan) -> Result<(), Failure> {
     }
 }
 
-/// Parses `name=value` into an [`Override`].
-fn parse_override(arg: &str) -> Result<Override> {
-    let Some((name, value)) = arg.split_once('=') else {
-        bail!("`--set {arg}`: expected NAME=VALUE");
-    };
-    let name = name.trim();
-    if name.is_empty() {
-        bail!("`--set {arg}`: the parameter name is missing");
-    }
-    let value = parse_expr(value).map_err(|e| anyhow!("error: in `--set {arg}`\n{e}"))?;
-    Ok(Override {
-        name: name.to_string(),
-        value,
-    })
-}
-
 /// Loads a model and binds it with the overrides (so a bad `--set` fails before any work).
 fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel)> {
     let overrides = set
         .iter()
-        .map(|s| parse_override(s))
+        .map(|s| s.parse::<Override>().map_err(lib))
         .collect::<Result<Vec<_>>>()?;
-    let model = load_model(path).map_err(|e| anyhow!("{e}"))?;
-    let bound = model
-        .bind(&overrides)
-        .map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let model = load_model(path).map_err(lib)?;
+    let bound = model.bind(&overrides).map_err(at_error(path))?;
     Ok((model, overrides, bound))
 }
 
@@ -521,95 +543,13 @@ fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
         writeln!(out, "#   {name} = {}", fpsolve::model::number(*value))
             .context("writing to stdout")?;
     }
-    let fpk = FpkOperator::derive(bound).map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let fpk = FpkOperator::derive(bound).map_err(at_error(path))?;
     writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
     for line in fpk.to_string().lines() {
         writeln!(out, "# {line}").context("writing to stdout")?;
     }
     out.flush().context("writing to stdout")?;
     Ok(())
-}
-
-/// A count given as `200000000`, `2e8` or `2.5e6`.
-fn parse_count(text: &str, what: &str) -> Result<u64> {
-    let v: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("{what} `{text}` is not a number"))?;
-    if !(v.is_finite() && (1.0..=1e15).contains(&v)) {
-        bail!("{what} `{text}` must be between 1 and 1e15");
-    }
-    if v.fract() != 0.0 {
-        bail!("{what} `{text}` is not a whole number");
-    }
-    Ok(v as u64)
-}
-
-/// The Monte Carlo flags read and checked (before any computation), with the notes to print
-/// about values that were rounded.
-struct McFlags {
-    config: McConfig,
-    notes: Vec<String>,
-}
-
-impl McFlags {
-    /// `samples` is the value of `flag` (`--mc` or `--samples`).
-    fn parse(args: &McArgs, samples: &str, flag: &str) -> Result<McFlags> {
-        let requested = parse_count(
-            samples,
-            &format!("{flag}: the number of Monte Carlo samples"),
-        )?;
-        let mut notes = Vec::new();
-        if args.trajectories == 0 {
-            bail!("--trajectories must be at least 1");
-        }
-        let lanes = McConfig::default().lanes as u64;
-        let batches = args.trajectories.div_ceil(lanes);
-        let trajectories = batches
-            .checked_mul(lanes)
-            .filter(|t| *t <= 1 << 40)
-            .ok_or_else(|| {
-                anyhow!(
-                    "--trajectories {} is more than fpsolve can run (at most 2^40)",
-                    args.trajectories
-                )
-            })?;
-        if trajectories != args.trajectories {
-            notes.push(format!(
-                "--trajectories {} rounded up to {trajectories} (whole statistics batches of {lanes})",
-                args.trajectories
-            ));
-        }
-        let per_trajectory = requested.div_ceil(trajectories).max(1);
-        let total = per_trajectory.saturating_mul(trajectories);
-        if total != requested {
-            notes.push(format!(
-                "{requested} Monte Carlo samples rounded up to {total} ({per_trajectory} per trajectory × {trajectories} trajectories)"
-            ));
-        }
-        let mut grids: Vec<(String, Grid)> = Vec::new();
-        for g in &args.grid {
-            let NamedGrid { name, grid } = g.parse().map_err(|e| anyhow!("--grid {e}"))?;
-            if grids.iter().any(|(n, _)| n == &name) {
-                bail!("--grid `{g}`: a grid for `{name}` is already given");
-            }
-            grids.push((name, grid));
-        }
-        let config = McConfig {
-            dt: args.dt,
-            spacing: args.spacing,
-            trajectories,
-            samples: per_trajectory,
-            burn_in: match args.burn_in {
-                Some(t) => BurnIn::Time(t),
-                None => McConfig::default().burn_in,
-            },
-            seed: args.seed,
-            grids,
-            ..McConfig::default()
-        };
-        Ok(McFlags { config, notes })
-    }
 }
 
 fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
@@ -624,12 +564,12 @@ fn command_line() -> String {
 /// Locks and stages the output directory: a usage error (before any computation) when it is
 /// taken by another run, holds other files, or cannot be created.
 fn begin_output(dir: &Path) -> Result<RunDir> {
-    RunDir::begin(dir, &command_line()).map_err(|e| anyhow!("--out: {e}"))
+    RunDir::begin(dir, &command_line()).map_err(flag("--out"))
 }
 
 /// Puts a finished run's files in place and says where.
 fn commit_output(run: RunDir, files: usize) -> Result<()> {
-    let dest = run.commit().map_err(|e| anyhow!("{e}"))?;
+    let dest = run.commit().map_err(lib)?;
     println!("wrote {files} files to {}", dest.display());
     Ok(())
 }
@@ -685,11 +625,11 @@ fn main_job(
 ) -> Result<(), Failure> {
     let run = begin_output(out)?;
     let bar = Bar::new(quiet);
-    let report = job::run(model, spec, run.out(), &bar);
+    let report = job::Job::new(model, spec).progress(&bar).run(run.out());
     bar.finish();
-    let report = report.map_err(|e| anyhow!("error: {}: {e}", path.display()))?;
+    let report = report.map_err(at_error(path))?;
     let mut stdout = std::io::stdout().lock();
-    write!(stdout, "{}", job::table(&report)).context("writing to stdout")?;
+    write!(stdout, "{}", report).context("writing to stdout")?;
     drop(stdout);
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);
@@ -714,19 +654,17 @@ fn simulate(
     match shard {
         Some(shard) => {
             // Shards of one run share a directory: each adds its own file, atomically.
-            let out = OutputDir::create(dir).map_err(|e| anyhow!("--out: {e}"))?;
-            let sim =
-                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-            let part = sim.run_shard(shard).map_err(|e| anyhow!("{e}"))?;
+            let out = OutputDir::create(dir).map_err(flag("--out"))?;
+            let sim = Simulation::new(bound, config).map_err(at(path))?;
+            let part = sim.run_shard(shard).map_err(lib)?;
             let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
-            let file = write_json(&out, &name, &part).map_err(|e| anyhow!("{e}"))?;
+            let file = write_json(&out, &name, &part).map_err(lib)?;
             println!("wrote {}", file.display());
             Ok(())
         }
         None => {
             let run = begin_output(dir)?;
-            let sim =
-                Simulation::new(bound, config).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            let sim = Simulation::new(bound, config).map_err(at(path))?;
             let bar = Bar::new(quiet);
             bar.stage("Monte Carlo");
             let result = sim.run_with_progress(&|done, total| bar.advance(done, total));
@@ -735,7 +673,7 @@ fn simulate(
             let result = result.map_err(|e| {
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
-            let files = job::write_mc(&result, run.out()).map_err(|e| anyhow!("{e}"))?;
+            let files = job::write_mc(&result, run.out()).map_err(lib)?;
             print!("{result}");
             commit_output(run, files.len())?;
             verdict(&result)
@@ -773,10 +711,12 @@ fn sweep(
     let t = std::time::Instant::now();
     let bar = Bar::new(quiet);
     bar.stage("sweep");
-    let result =
-        Sweep::run_with_progress(model, spec, degree, &|done, total| bar.advance(done, total));
+    let result = Sweep::new(model, spec)
+        .degree(degree)
+        .progress(&|done, total| bar.advance(done, total))
+        .run();
     bar.finish();
-    let files = result.write(run.out()).map_err(|e| anyhow!("{e}"))?;
+    let files = result.write(run.out()).map_err(lib)?;
     println!(
         "{} of {} points converged at degree {degree} in {:.1} s",
         result.converged(),
@@ -824,7 +764,7 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
 
 fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let files = job::write_mc(result, run.out()).map_err(|e| anyhow!("{e}"))?;
+    let files = job::write_mc(result, run.out()).map_err(lib)?;
     print!("{result}");
     println!("merged {shards} shards");
     commit_output(run, files.len())?;
@@ -842,150 +782,5 @@ fn verdict(result: &McResult) -> Result<(), Failure> {
 }
 
 #[cfg(test)]
-mod tests {
-    //! The argument layer under arbitrary input: never a panic, and every refusal names what
-    //! it refuses. Plans read and check everything but compute and write nothing, so they can
-    //! be made by the thousand.
-
-    use super::*;
-    use proptest::prelude::*;
-
-    const TOKENS: &[&str] = &[
-        "models/linear.sde",
-        "models/vibro_duffing.sde",
-        "models/nope.sde",
-        "check",
-        "solve",
-        "simulate",
-        "sweep",
-        "merge",
-        "--degree",
-        "--set",
-        "--mc",
-        "--dt",
-        "--spacing",
-        "--burn-in",
-        "--trajectories",
-        "--grid",
-        "--threads",
-        "--seed",
-        "--shard",
-        "--samples",
-        "--quiet",
-        "--out",
-        "2,4",
-        "3",
-        "4,4",
-        "0",
-        "-1",
-        "1e300",
-        "1e-300",
-        "NaN",
-        "inf",
-        "mu=0.2",
-        "eps=0:0.1:3",
-        "mu=abc",
-        "c=1/0",
-        "y=0:8:10",
-        "y=0:8:4294967297",
-        "z=1:0:5",
-        "3/2",
-        "0/0",
-        "18446744073709551615",
-        "",
-        "=",
-        "/nonexistent/dir",
-    ];
-
-    fn token() -> impl Strategy<Value = String> {
-        prop_oneof![
-            4 => proptest::sample::select(TOKENS).prop_map(String::from),
-            1 => "[ -~]{0,12}",
-        ]
-    }
-
-    proptest! {
-        #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
-
-        #[test]
-        fn arbitrary_arguments_never_panic_and_refusals_say_why(
-            args in proptest::collection::vec(token(), 0..8)
-        ) {
-            let argv = std::iter::once("fpsolve".to_string()).chain(args.iter().cloned());
-            match Cli::try_parse_from(argv) {
-                // clap's own refusals name the argument; they exit 2 (or 0 for --help).
-                Err(e) => prop_assert!(!e.to_string().is_empty()),
-                Ok(cli) => {
-                    if let Err(e) = plan(cli) {
-                        let text = format!("{e:#}");
-                        prop_assert!(!text.trim().is_empty());
-                        // It names a flag, or quotes what it refuses.
-                        let quoted = args
-                            .iter()
-                            .any(|a| !a.is_empty() && text.contains(a.as_str()));
-                        prop_assert!(
-                            text.contains("--") || quoted || text.contains("no model file"),
-                            "refusal names neither a flag nor what it refuses: {text}"
-                        );
-                    }
-                }
-            }
-        }
-
-        #[test]
-        fn well_formed_commands_with_arbitrary_values_never_panic(
-            command in proptest::sample::select(&["", "solve", "simulate", "sweep", "check"][..]),
-            model in proptest::sample::select(&TOKENS[..3]),
-            pairs in proptest::collection::vec(
-                (proptest::sample::select(&TOKENS[8..21]), token()), 0..5
-            ),
-        ) {
-            let mut argv = vec!["fpsolve".to_string()];
-            if !command.is_empty() {
-                argv.push(command.to_string());
-            }
-            argv.push(model.to_string());
-            for (flag, value) in &pairs {
-                argv.push(format!("{flag}={value}"));
-            }
-            if let Ok(cli) = Cli::try_parse_from(&argv) {
-                if let Err(e) = plan(cli) {
-                    let text = format!("{e:#}");
-                    let quoted = argv[1..].iter().any(|a| text.contains(a.as_str()));
-                    prop_assert!(
-                        text.contains("--") || text.contains(".sde") || quoted,
-                        "refusal names neither a flag nor what it refuses: {text}"
-                    );
-                }
-            }
-        }
-
-        #[test]
-        fn grids_counts_and_shards_parse_or_say_which_flag(text in "[ -~]{0,24}") {
-            let _ = text.parse::<NamedGrid>();
-            let _ = text.parse::<Shard>();
-            if let Err(e) = parse_count(&text, "--mc") {
-                prop_assert!(e.to_string().contains("--mc"));
-            }
-            let _ = text.parse::<DegreeList>();
-        }
-    }
-
-    #[test]
-    fn plans_compute_nothing_and_write_nothing() {
-        let root = std::env::temp_dir().join(format!("fpsolve-plan-{}", std::process::id()));
-        let out = root.join("out");
-        let cli = Cli::try_parse_from([
-            "fpsolve",
-            "models/vibro_duffing.sde",
-            "--mc",
-            "1e5",
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .unwrap();
-        let plan = plan(cli).unwrap();
-        assert!(matches!(plan.plan, Plan::Job { .. }));
-        assert!(!root.exists());
-    }
-}
+#[path = "cli/tests.rs"]
+mod tests;

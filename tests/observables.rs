@@ -253,14 +253,14 @@ fn linear_oscillator_means_through_the_study() {
     let study = Study::run(&model, &[], &[2]).unwrap();
     let stats = &study.degrees[0].stats;
     let get = |n: &str| stats.iter().find(|s| s.name == n).unwrap();
-    assert_rel("E[energy]", get("energy").mean, 5.0, 1e-9);
-    assert_rel("E[v²]", get("vsq").mean, 5.0, 1e-9);
-    assert_rel("E[z⁴/4 + v²/2]", get("quart").mean, 21.25, 1e-9);
-    assert_rel("E[z²]", get("z").raw_moments[1], 5.0, 1e-9);
-    assert_rel("E[z⁴]", get("z").raw_moments[3], 75.0, 1e-9);
+    assert_rel("E[energy]", get("energy").moments.mean, 5.0, 1e-9);
+    assert_rel("E[v²]", get("vsq").moments.mean, 5.0, 1e-9);
+    assert_rel("E[z⁴/4 + v²/2]", get("quart").moments.mean, 21.25, 1e-9);
+    assert_rel("E[z²]", get("z").moments.raw[1], 5.0, 1e-9);
+    assert_rel("E[z⁴]", get("z").moments.raw[3], 75.0, 1e-9);
     // The energy curve starts at 0 with p = 0.2 and integrates to one on its grid.
     let c = study.curves.iter().find(|c| c.name == "energy").unwrap();
-    let p = &c.columns[0].1;
+    let p = &c.columns[0].pdf;
     assert!(c.x[0].abs() < 1e-9, "energy grid starts at {}", c.x[0]);
     assert_rel(
         "p_energy(0) on the curve",

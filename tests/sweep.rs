@@ -7,7 +7,7 @@ use std::path::Path;
 use approx::assert_relative_eq;
 use fpsolve::model::{load_model, Model};
 use fpsolve::report::OutputDir;
-use fpsolve::sweep::{PointOutcome, PointSolution, Sweep, SweepError, SweepSpec};
+use fpsolve::sweep::{PointFailure, PointOutcome, PointSolution, Sweep, SweepError, SweepSpec};
 
 fn args(list: &[&str]) -> Vec<String> {
     list.iter().map(|s| s.to_string()).collect()
@@ -20,7 +20,7 @@ fn linear() -> Model {
 fn solution(outcome: &PointOutcome) -> &PointSolution {
     match outcome {
         PointOutcome::Converged(s) => s,
-        PointOutcome::Failed { stage, message } => panic!("point failed ({stage}): {message}"),
+        PointOutcome::Failed(f) => panic!("point failed ({}): {f}", f.stage()),
     }
 }
 
@@ -96,7 +96,7 @@ fn normal_tail(a: f64, sigma: f64) -> f64 {
 fn linear_oscillator_matches_exact_variances_and_tails() {
     let model = linear();
     let spec = SweepSpec::parse(&args(&["c=0.05,0.2", "k=1,3", "K=0.2"])).unwrap();
-    let result = Sweep::run(&model, &spec, 4);
+    let result = Sweep::new(&model, &spec).degree(4).run();
     assert_eq!(result.parameters, vec!["c", "k"]);
     assert_eq!(result.points.len(), 4);
     assert_eq!(result.converged(), 4);
@@ -112,9 +112,13 @@ fn linear_oscillator_matches_exact_variances_and_tails() {
         let sol = solution(&point.outcome);
         let exact = [pi_k / (c * k), pi_k / c]; // Var z, Var v
         for (stats, var) in sol.stats.iter().zip(exact) {
-            assert_relative_eq!(stats.std_dev.powi(2), var, max_relative = 1e-4);
-            assert!(stats.mean.abs() < 1e-6 * var.sqrt(), "{}", stats.mean);
-            assert_relative_eq!(stats.kurtosis, 3.0, max_relative = 1e-3);
+            assert_relative_eq!(stats.moments.variance, var, max_relative = 1e-4);
+            assert!(
+                stats.moments.mean.abs() < 1e-6 * var.sqrt(),
+                "{}",
+                stats.moments.mean
+            );
+            assert_relative_eq!(stats.moments.kurtosis, 3.0, max_relative = 1e-3);
         }
         // Tails of z at the fixed thresholds, against the Gaussian of this point.
         let z = &sol.stats[0];
@@ -132,7 +136,11 @@ fn linear_oscillator_matches_exact_variances_and_tails() {
             }
         }
         // The observable y = z has the statistics of z.
-        assert_relative_eq!(sol.stats[2].std_dev, z.std_dev, max_relative = 1e-6);
+        assert_relative_eq!(
+            sol.stats[2].moments.variance,
+            z.moments.variance,
+            max_relative = 1e-6
+        );
     }
 }
 
@@ -141,12 +149,12 @@ fn a_failing_point_is_reported_and_the_others_kept() {
     let model = linear();
     // K < 0 makes the intensity 2πK negative: that point cannot be bound.
     let spec = SweepSpec::parse(&args(&["K=-0.1,0.1,0.2"])).unwrap();
-    let result = Sweep::run(&model, &spec, 2);
+    let result = Sweep::new(&model, &spec).degree(2).run();
     assert_eq!(result.converged(), 2);
     match &result.points[0].outcome {
-        PointOutcome::Failed { stage, message } => {
-            assert_eq!(stage, "bind");
-            assert!(message.contains("intensity"), "{message}");
+        PointOutcome::Failed(f) => {
+            assert!(matches!(f, PointFailure::Bind(_)), "{f}");
+            assert_eq!(f.stage(), "bind");
         }
         other => panic!("expected a failure, got {other:?}"),
     }
@@ -155,7 +163,7 @@ fn a_failing_point_is_reported_and_the_others_kept() {
     for point in &result.points[1..] {
         let var = std::f64::consts::PI * point.values[0] / 0.1;
         let z = &solution(&point.outcome).stats[0];
-        assert_relative_eq!(z.std_dev.powi(2), var, max_relative = 1e-4);
+        assert_relative_eq!(z.moments.variance, var, max_relative = 1e-4);
     }
 
     let csv = result.to_csv();
@@ -197,13 +205,22 @@ fn a_failing_degree_is_reported_per_point() {
     let model = linear();
     let spec = SweepSpec::parse(&args(&["c=0.1,0.2"])).unwrap();
     // A degree beyond what EPC supports: every point fails at the EPC stage, none panics.
-    let result = Sweep::run(&model, &spec, 99);
+    let result = Sweep::new(&model, &spec).degree(99).run();
     assert_eq!(result.converged(), 0);
     for point in &result.points {
         match &point.outcome {
-            PointOutcome::Failed { stage, message } => {
-                assert_eq!(stage, "epc");
-                assert!(message.contains("not supported"), "{message}");
+            PointOutcome::Failed(f) => {
+                assert!(
+                    matches!(
+                        f,
+                        PointFailure::Solve {
+                            error: fpsolve::epc::EpcError::Degree { .. },
+                            ..
+                        }
+                    ),
+                    "{f}"
+                );
+                assert_eq!(f.stage(), "epc");
             }
             other => panic!("expected a failure, got {other:?}"),
         }
@@ -218,12 +235,16 @@ fn a_failing_degree_is_reported_per_point() {
 fn same_result_twice() {
     let model = linear();
     let spec = SweepSpec::parse(&args(&["c=0.05:0.2:3"])).unwrap();
-    let a = Sweep::run(&model, &spec, 4);
-    let b = Sweep::run(&model, &spec, 4);
+    let a = Sweep::new(&model, &spec).degree(4).run();
+    let b = Sweep::new(&model, &spec).degree(4).run();
     assert_eq!(a.points.len(), 3);
     for (p, q) in a.points.iter().zip(&b.points) {
         assert_eq!(p.values, q.values);
-        assert_eq!(p.outcome, q.outcome);
+        // Outcomes as data: the same solution, or the same failure at the same stage.
+        assert_eq!(
+            serde_json::to_value(&p.outcome).unwrap(),
+            serde_json::to_value(&q.outcome).unwrap()
+        );
     }
     assert_eq!(a.tail_thresholds, b.tail_thresholds);
     assert_eq!(a.to_csv(), b.to_csv());

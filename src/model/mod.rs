@@ -10,12 +10,14 @@ mod diagnostic;
 mod load;
 mod parse;
 mod print;
+pub(crate) mod set;
 mod validate;
 
 pub use bind::{BindError, BoundImpact, BoundModel, Override};
 pub use diagnostic::{Diagnostic, ModelError};
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
+pub use set::SetError;
 pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 
 use crate::symbolic::{Expr, Symbol};

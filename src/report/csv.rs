@@ -247,6 +247,74 @@ impl PdfTable {
     }
 }
 
+/// A cell of a [`TextTable`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cell {
+    /// A number, in the shortest text that parses back to it (NaN is an empty field).
+    Number(f64),
+    /// Text, in double quotes on one line (whitespace runs become one space).
+    Text(String),
+    /// A bare word (a status, a stage name): written as is.
+    Word(String),
+    /// Nothing.
+    Empty,
+}
+
+/// A table of mixed cells under a header, as CSV: what a sweep writes (numbers beside status
+/// words and messages). Numbers are written as [`PdfTable`] writes them.
+///
+/// ```
+/// use fpsolve::report::{Cell, TextTable};
+/// let table = TextTable {
+///     header: vec!["eps".into(), "status".into(), "message".into()],
+///     rows: vec![vec![Cell::Number(-0.25), Cell::Word("failed".into()), Cell::Text("a \"b\"\n c".into())]],
+/// };
+/// assert_eq!(table.to_csv(), "eps,status,message\n-0.25,failed,\"a \"\"b\"\" c\"\n");
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextTable {
+    /// Column names.
+    pub header: Vec<String>,
+    /// Rows; a row shorter than the header is padded with empty fields.
+    pub rows: Vec<Vec<Cell>>,
+}
+
+impl TextTable {
+    /// The table as CSV text with `\n` line ends.
+    pub fn to_csv(&self) -> String {
+        let mut out = self.header.join(",");
+        out.push('\n');
+        for row in &self.rows {
+            for k in 0..self.header.len().max(row.len()) {
+                if k > 0 {
+                    out.push(',');
+                }
+                match row.get(k).unwrap_or(&Cell::Empty) {
+                    Cell::Number(v) if !v.is_nan() => push_number(&mut out, *v),
+                    Cell::Number(_) | Cell::Empty => {}
+                    Cell::Word(w) => out.push_str(w),
+                    Cell::Text(t) => {
+                        let one_line = t.split_whitespace().collect::<Vec<_>>().join(" ");
+                        out.push('"');
+                        out.push_str(&one_line.replace('"', "\"\""));
+                        out.push('"');
+                    }
+                }
+            }
+            out.push('\n');
+        }
+        out
+    }
+
+    /// Writes the table atomically as `name` in `dir`; returns the file's path.
+    ///
+    /// # Errors
+    /// As [`OutputDir::write_atomic`].
+    pub fn write_csv(&self, dir: &OutputDir, name: &str) -> Result<PathBuf, ReportError> {
+        dir.write_atomic(name, self.to_csv().as_bytes())
+    }
+}
+
 /// Shortest text that parses back to the same `f64`: plain decimals where they are short to
 /// read, scientific notation for very small or large magnitudes (PDF tails reach 1e-12).
 fn push_number(out: &mut String, v: f64) {

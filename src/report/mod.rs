@@ -34,7 +34,7 @@ mod run_dir;
 
 use std::path::PathBuf;
 
-pub use csv::{PdfTable, TableError};
+pub use csv::{Cell, PdfTable, TableError, TextTable};
 pub use figure::{Curve, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
 pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;

@@ -1,0 +1,233 @@
+//! The front door: a bound model and a method in, a solution that knows every state and
+//! observable by name out.
+//!
+//! ```
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = fpsolve::model::load_model("models/vibro_duffing.sde".as_ref())?;
+//! let bound = model.bind(&["mu=0.5".parse()?])?;
+//! let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 4 })?;
+//! let p_y = solution.pdf("y", &[0.5, 1.0])?; // any state or observable, by name
+//! let (x, p) = solution.marginal("y")?; // on the grid the reports use
+//! let m = solution.moments("y")?; // mean, variance, kurtosis, E[y^k] up to k = 4
+//! # assert!(p_y.iter().all(|p| *p > 0.0) && x.len() == p.len() && m.moments.variance > 0.0);
+//! # assert!(matches!(solution.pdf("w", &[0.0]), Err(fpsolve::solve::SolveError::UnknownQuantity { .. })));
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! The same words fit every runner of the crate: a problem, a builder for its settings,
+//! `run()` (or `solve()`), a report. [`Problem`] here; [`crate::epc::Epc`] for EPC alone,
+//! [`crate::mc::Simulation`] for Monte Carlo, [`crate::study::StudyRunner`] for several EPC
+//! degrees with their PDF curves, [`crate::sweep::Sweep`] for a parameter sweep.
+
+mod grid;
+mod quantity;
+mod solution;
+mod tail;
+
+use std::sync::Arc;
+
+use crate::epc::{Epc, EpcError};
+use crate::fpk::{FpkError, FpkOperator};
+use crate::model::BoundModel;
+
+pub(crate) use grid::{common_grid, printable};
+pub use quantity::{quantities, Quantity};
+pub(crate) use quantity::{quantities_of, reported};
+pub use solution::{Density, QuantityMoments, Solution};
+pub(crate) use tail::tail_probability;
+
+/// How to solve for the stationary density. More methods are to come, so a `match` on it
+/// needs a wildcard arm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Method {
+    /// Exponential-polynomial closure at this (even) degree, continued from degree 2.
+    Epc {
+        /// The degree n of the polynomial Q in p = C·exp(Q).
+        degree: usize,
+    },
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Method::Epc { degree } => write!(f, "EPC n = {degree}"),
+        }
+    }
+}
+
+/// Why there is no solution, or no answer to a question asked of one.
+#[derive(Debug, thiserror::Error)]
+pub enum SolveError {
+    /// The FPK operator could not be derived.
+    #[error(transparent)]
+    Fpk(#[from] FpkError),
+    /// EPC did not give a density.
+    #[error(transparent)]
+    Epc(#[from] EpcError),
+    /// A name that is neither a state nor an observable of the model.
+    #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
+    UnknownQuantity {
+        /// The name asked for.
+        name: String,
+        /// The states, then the observables.
+        known: Vec<String>,
+    },
+}
+
+/// A bound model with its FPK operator and its quantities, ready to be solved by any method.
+///
+/// ```
+/// use fpsolve::model::parse_model;
+/// use fpsolve::solve::{Method, Problem};
+/// let model = parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+/// let bound = model.bind(&[])?;
+/// let problem = Problem::new(&bound)?;
+/// let solution = problem.solve(Method::Epc { degree: 2 })?;
+/// assert!((solution.moments("v")?.moments.variance - 1.0).abs() < 1e-9);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Problem<'a> {
+    model: &'a BoundModel,
+    fpk: FpkOperator,
+    quantities: Arc<[Quantity]>,
+}
+
+impl<'a> Problem<'a> {
+    /// Derives the FPK operator of `model` and lists its quantities.
+    ///
+    /// # Errors
+    /// [`SolveError::Fpk`] when the operator cannot be derived.
+    pub fn new(model: &'a BoundModel) -> Result<Problem<'a>, SolveError> {
+        Ok(Problem {
+            model,
+            fpk: FpkOperator::derive(model)?,
+            quantities: quantities(model).into(),
+        })
+    }
+
+    /// The bound model.
+    pub fn model(&self) -> &BoundModel {
+        self.model
+    }
+
+    /// The derived FPK operator.
+    pub fn fpk(&self) -> &FpkOperator {
+        &self.fpk
+    }
+
+    /// The states, then the observables.
+    pub fn quantities(&self) -> &[Quantity] {
+        &self.quantities
+    }
+
+    /// Solves by `method`.
+    ///
+    /// # Errors
+    /// [`SolveError::Epc`] when EPC does not converge or cannot normalise.
+    pub fn solve(&self, method: Method) -> Result<Solution, SolveError> {
+        match method {
+            Method::Epc { degree } => Ok(self.solution(self.epc().degree(degree).solve()?)),
+        }
+    }
+
+    /// Solves by EPC at each degree asked, continuing through every lower even degree, one
+    /// result per degree in the order given (see [`Epc::solve_degrees`]).
+    pub fn solve_epc_degrees(&self, degrees: &[usize]) -> Vec<Result<Solution, EpcError>> {
+        self.epc()
+            .solve_degrees(degrees)
+            .into_iter()
+            .map(|r| r.map(|s| self.solution(s)))
+            .collect()
+    }
+
+    fn epc(&self) -> Epc<'_> {
+        Epc::new(&self.fpk)
+    }
+
+    fn solution(&self, sol: crate::epc::EpcSolution) -> Solution {
+        Solution::new(Density::Epc(sol), self.quantities.clone())
+    }
+}
+
+/// Solves `model` by `method`: [`Problem::new`] then [`Problem::solve`].
+///
+/// # Errors
+/// As [`Problem::new`] and [`Problem::solve`].
+///
+/// ```
+/// use fpsolve::model::parse_model;
+/// let model = parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+/// let solution = fpsolve::solve(&model.bind(&[])?, fpsolve::Method::Epc { degree: 2 })?;
+/// assert_eq!(solution.method(), fpsolve::Method::Epc { degree: 2 });
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn solve(model: &BoundModel, method: Method) -> Result<Solution, SolveError> {
+    Problem::new(model)?.solve(method)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::load_model;
+    use crate::study::StudyRunner;
+
+    fn vibro() -> BoundModel {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+        load_model(&path).unwrap().bind(&[]).unwrap()
+    }
+
+    #[test]
+    fn the_solution_is_what_the_study_reports() {
+        let bound = vibro();
+        let solution = solve(&bound, Method::Epc { degree: 4 }).unwrap();
+        let study = StudyRunner::new(&bound).degrees(&[4]).run().unwrap();
+        // One degree: the study's common grid is this solution's own report grid.
+        for q in solution.quantities() {
+            let (x, p) = solution.marginal(&q.name).unwrap();
+            let curve = study.curves.iter().find(|c| c.name == q.name).unwrap();
+            assert_eq!(x, curve.x, "{}", q.name);
+            let same = p
+                .iter()
+                .zip(&curve.columns[0].pdf)
+                .all(|(a, b)| a == b || (a.is_nan() && b.is_nan()));
+            assert!(same, "{}", q.name);
+            assert_eq!(
+                solution.moments(&q.name).unwrap(),
+                *study.degrees[0]
+                    .stats
+                    .iter()
+                    .find(|s| s.name == q.name)
+                    .unwrap()
+            );
+        }
+        assert_eq!(solution.all_moments(), study.degrees[0].stats);
+    }
+
+    #[test]
+    fn unknown_names_are_typed_errors() {
+        let solution = solve(&vibro(), Method::Epc { degree: 2 }).unwrap();
+        let err = solution.marginal("w").unwrap_err();
+        let SolveError::UnknownQuantity { name, known } = err else {
+            panic!("expected UnknownQuantity, got {err:?}");
+        };
+        assert_eq!(name, "w");
+        assert_eq!(known, ["z", "v", "y", "ydot"]);
+    }
+
+    #[test]
+    fn a_failed_degree_is_a_result_the_caller_sees() {
+        let bound = vibro();
+        let study = StudyRunner::new(&bound).degrees(&[2, 5]).run().unwrap();
+        let at = study.pdf_at("y", &[0.5]).unwrap();
+        assert_eq!(at.len(), 2);
+        assert!(at[0].pdf.is_ok());
+        assert!(matches!(at[1].pdf, Err(EpcError::OddDegree { degree: 5 })));
+        assert!(matches!(
+            solve(&bound, Method::Epc { degree: 5 }),
+            Err(SolveError::Epc(EpcError::OddDegree { degree: 5 }))
+        ));
+    }
+}

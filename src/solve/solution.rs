@@ -1,0 +1,242 @@
+//! A solution: a joint density, the method's typed report, and the quantities it knows.
+
+use std::sync::Arc;
+
+use serde::Serialize;
+
+use crate::epc::EpcSolution;
+use crate::moments::Moments;
+use crate::observe::{moments_of_all, JointDensity, ObservableDensity};
+
+use super::{common_grid, printable, Method, Quantity, SolveError};
+
+/// The joint density a method produced, with that method's own report (iterations,
+/// residuals, normalisation, …). More methods are to come.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub enum Density {
+    /// An EPC solution (its density and its [`crate::epc::SolveReport`]).
+    Epc(EpcSolution),
+}
+
+/// A solved stationary density and every state and observable of the model, by name.
+///
+/// Built by [`crate::solve()`] or [`super::Problem`]; see the module documentation for the
+/// five lines that get a PDF.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    density: Density,
+    quantities: Arc<[Quantity]>,
+}
+
+/// The moments of one state or observable under a solution, from the joint density directly
+/// (E\[g^k\] = ∬ g^k p, see [`crate::observe::moments`]), not from its PDF curve.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct QuantityMoments {
+    /// The quantity's name.
+    pub name: String,
+    /// Mean, variance, kurtosis and E\[g\] … E\[g⁴\] (given g defined); a moment that does
+    /// not exist, and every statistic built on it, is NaN (`null` in JSON).
+    #[serde(flatten)]
+    pub moments: Moments,
+    /// P(g has no finite value), e.g. P(z ≤ 0) for `log(z)`: 0 for an observable defined
+    /// everywhere. When it is positive the observable's PDF integrates to 1 − this (it is not
+    /// renormalised) and the moments are those of g given that it is defined.
+    pub undefined_mass: f64,
+    /// How many of the raw moments exist (0 to 4), never a number the quadrature happened to
+    /// give for a divergent integral.
+    pub existing_moments: usize,
+}
+
+impl QuantityMoments {
+    /// √Var\[g\].
+    pub fn std_dev(&self) -> f64 {
+        self.moments.std_dev()
+    }
+
+    /// A warning in words when the quantity is undefined on part of the support (its
+    /// `undefined_mass` is positive) or has fewer than four moments, for tables and logs;
+    /// `None` otherwise.
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// let text = "model m
+    /// param c = 0.1
+    /// state z, v
+    /// drift z: v
+    /// drift v: -c*v - z
+    /// noise xi: intensity 1
+    /// diffusion v: xi
+    /// observe l = log(z)
+    /// ";
+    /// let bound = parse_model(text, None)?.bind(&[])?;
+    /// let solution = fpsolve::solve(&bound, fpsolve::Method::Epc { degree: 2 })?;
+    /// let l = solution.moments("l")?;
+    /// assert!((l.undefined_mass - 0.5).abs() < 1e-9);
+    /// assert!(l.note().unwrap().contains("no finite value with probability 0.5"));
+    /// assert!(solution.moments("z")?.note().is_none()); // z is defined everywhere
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn note(&self) -> Option<String> {
+        let mut parts = Vec::new();
+        if self.undefined_mass > 0.0 {
+            parts.push(format!(
+                "`{}` has no finite value with probability {:.3}: its PDF integrates to {:.3} \
+                 (not renormalised) and its moments are conditional on it being defined",
+                self.name,
+                self.undefined_mass,
+                1.0 - self.undefined_mass
+            ));
+        }
+        if self.existing_moments < 4 {
+            let k = self.existing_moments + 1;
+            parts.push(format!(
+                "E[|{}|^{k}] is not established as finite (its integral diverges, or has a \
+                 singularity the quadrature does not resolve): {} undefined",
+                self.name,
+                match k {
+                    1 => "the mean, standard deviation and kurtosis are",
+                    2 => "the standard deviation and kurtosis are",
+                    _ => "the kurtosis is",
+                }
+            ));
+        }
+        (!parts.is_empty()).then(|| parts.join("; "))
+    }
+}
+
+impl Solution {
+    pub(crate) fn new(density: Density, quantities: Arc<[Quantity]>) -> Solution {
+        Solution {
+            density,
+            quantities,
+        }
+    }
+
+    /// The method that produced the density.
+    pub fn method(&self) -> Method {
+        match &self.density {
+            Density::Epc(s) => Method::Epc { degree: s.degree },
+        }
+    }
+
+    /// The density with its method's report.
+    pub fn density(&self) -> &Density {
+        &self.density
+    }
+
+    /// The EPC solution, when EPC produced the density.
+    pub fn epc(&self) -> Option<&EpcSolution> {
+        match &self.density {
+            Density::Epc(s) => Some(s),
+        }
+    }
+
+    /// The joint density p(x1, x2) of the states.
+    pub fn joint(&self) -> &dyn JointDensity {
+        match &self.density {
+            Density::Epc(s) => s,
+        }
+    }
+
+    /// The states, then the observables.
+    pub fn quantities(&self) -> &[Quantity] {
+        &self.quantities
+    }
+
+    /// The state or observable called `name`.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`] naming the quantities there are.
+    pub fn quantity(&self, name: &str) -> Result<&Quantity, SolveError> {
+        self.quantities
+            .iter()
+            .find(|q| q.name == name)
+            .ok_or_else(|| SolveError::UnknownQuantity {
+                name: name.to_string(),
+                known: self.quantities.iter().map(|q| q.name.clone()).collect(),
+            })
+    }
+
+    /// The PDF of `name` at the points `x` (Eqs. 23–28 for observables): +∞ at a saddle or
+    /// degenerate critical value of an observable, NaN everywhere when it cannot be computed.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`].
+    pub fn pdf(&self, name: &str, x: &[f64]) -> Result<Vec<f64>, SolveError> {
+        let q = self.quantity(name)?;
+        Ok(ObservableDensity::new(self.joint(), &q.map).pdf(x))
+    }
+
+    /// The PDF of `name` on the grid the reports use (401 points reaching 1e−8 of its peak,
+    /// starting at 0 for a quantity like |z|), NaN where the density is infinite; empty when
+    /// the density has no such window.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`].
+    pub fn marginal(&self, name: &str) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+        let q = self.quantity(name)?;
+        let density = ObservableDensity::new(self.joint(), &q.map);
+        let x = common_grid(q, &[(self.joint(), &density)]);
+        let p = printable(density.pdf(&x));
+        Ok((x, p))
+    }
+
+    /// P(|g| > a) for the quantity `name`, from its PDF on the [`marginal`](Self::marginal)
+    /// grid (log-linear between grid points, the exponential decay of the last cell continued
+    /// beyond the grid, normalised by the curve's own mass); `None` when `a` lies beyond the
+    /// grid on both sides, where the curve does not resolve the tail.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`].
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// let model = parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+    /// let solution = fpsolve::solve(&model.bind(&[])?, fpsolve::Method::Epc { degree: 2 })?;
+    /// // z is standard normal: P(|z| > 2) = 0.0455.
+    /// let p = solution.tail_probability("z", 2.0)?.unwrap();
+    /// assert!((p - 0.0455).abs() < 1e-3);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tail_probability(&self, name: &str, a: f64) -> Result<Option<f64>, SolveError> {
+        let (x, p) = self.marginal(name)?;
+        Ok(super::tail_probability(&x, &p, a))
+    }
+
+    /// The moments of `name`, from the joint density directly.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`].
+    pub fn moments(&self, name: &str) -> Result<QuantityMoments, SolveError> {
+        let q = self.quantity(name)?;
+        Ok(self.moments_of(&[q]).remove(0))
+    }
+
+    /// The moments of every state, then every observable (the density evaluated once for all).
+    pub fn all_moments(&self) -> Vec<QuantityMoments> {
+        let all: Vec<&Quantity> = self.quantities.iter().collect();
+        self.moments_of(&all)
+    }
+
+    fn moments_of(&self, quantities: &[&Quantity]) -> Vec<QuantityMoments> {
+        let maps: Vec<_> = quantities.iter().map(|q| &q.map).collect();
+        moments_of_all(self.joint(), &maps)
+            .into_iter()
+            .zip(quantities)
+            .map(|(m, q)| QuantityMoments {
+                name: q.name.clone(),
+                // observe reports √Var; √(s·s) = s exactly, so the standard deviation
+                // read back is the one observe computed.
+                moments: Moments {
+                    raw: m.raw,
+                    mean: m.mean,
+                    variance: m.std_dev * m.std_dev,
+                    kurtosis: m.kurtosis,
+                },
+                undefined_mass: m.undefined_mass,
+                existing_moments: m.existing,
+            })
+            .collect()
+    }
+}
