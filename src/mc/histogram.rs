@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::shard::exact;
+use super::exact;
 use super::McError;
 
 /// A fixed histogram grid: `bins` equal bins covering `[lo, hi)`.

@@ -6,8 +6,9 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::ensemble::{BatchSummary, RunSettings};
+use super::batch::BatchSummary;
 use super::histogram::{batch_density, batch_moments, Estimate, QuantityStats, TimeStepBias};
+use super::settings::RunSettings;
 
 /// Statistics batches needed for the stationarity test (its t statistic then has at least
 /// 7 degrees of freedom).
@@ -540,87 +541,6 @@ pub(crate) fn render_bias(b: Option<Estimate>) -> String {
         Some(e) if !e.value.is_finite() || !e.stderr.is_finite() => "unknown".into(),
         Some(e) if e.resolved() => format!("{:+.1e} ± {:.0e}", e.value, e.stderr),
         Some(e) => format!("< {:.1e} (unresolved)", e.bound()),
-    }
-}
-
-impl fmt::Display for super::McResult {
-    /// The summary table of a run: scheme, sizes, moments with standard errors and
-    /// time-step biases, impacts, blow-ups, the stationarity verdict and the warnings.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let st = &self.settings;
-        writeln!(
-            f,
-            "Monte Carlo of {}: {}, dt = {}, {} trajectories recorded of {}, {} samples each \
-             every {} after a burn-in of {}",
-            st.model,
-            st.scheme,
-            st.dt,
-            self.trajectories,
-            st.trajectories(),
-            st.samples_per_trajectory,
-            st.spacing(),
-            st.burn_in()
-        )?;
-        writeln!(
-            f,
-            "{:>8} {:>9} {:>13} {:>8} {:>24} {:>13} {:>8} {:>24} {:>10} {:>8} {:>24}",
-            "quantity",
-            "statistic",
-            "mean",
-            "± se",
-            "time-step bias",
-            "variance",
-            "± se",
-            "time-step bias",
-            "kurtosis",
-            "± se",
-            "time-step bias"
-        )?;
-        for q in &self.quantities {
-            let b = q.time_step_bias.as_ref();
-            writeln!(
-                f,
-                "{:>8} {:>9} {:>13.6} {:>8.1e} {:>24} {:>13.6} {:>8.1e} {:>24} {:>10.4} {:>8.1e} {:>24}",
-                q.name,
-                "mc",
-                q.mean.value,
-                q.mean.stderr,
-                render_bias(b.map(|b| b.mean)),
-                q.variance.value,
-                q.variance.stderr,
-                render_bias(b.map(|b| b.variance)),
-                q.kurtosis.value,
-                q.kurtosis.stderr,
-                render_bias(b.map(|b| b.kurtosis))
-            )?;
-        }
-        if let Some(b) = self
-            .quantities
-            .first()
-            .and_then(|q| q.time_step_bias.as_ref())
-        {
-            writeln!(
-                f,
-                "time-step bias: Richardson estimate S_dt - S from {} statistics batches paired \
-                 with a run at dt = {} (weak order {})",
-                b.pairs, b.coarse_dt, b.order
-            )?;
-        } else {
-            writeln!(f, "time-step bias: not estimated")?;
-        }
-        if let Some(impacts) = &self.impacts {
-            writeln!(
-                f,
-                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time",
-                impacts.count, impacts.rate.value, impacts.rate.stderr
-            )?;
-        }
-        writeln!(f, "blow-ups: {}", self.blowup_verdict)?;
-        writeln!(f, "stationarity: {}", self.stationarity)?;
-        for w in &self.warnings {
-            writeln!(f, "warning: {w}")?;
-        }
-        Ok(())
     }
 }
 
