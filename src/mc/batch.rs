@@ -7,8 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use super::exact;
 use super::histogram::{Accumulator, QuantityBatch};
-use super::scheme::{BatchState, Plan};
+use super::scheme::Plan;
 use super::settings::{ParamValue, RunSettings};
+use super::step::BatchState;
 
 /// A trajectory whose state stopped being finite: it is left out of every statistic.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -43,7 +43,9 @@ mod rng;
 mod scheme;
 mod settings;
 mod shard;
+mod shard_check;
 mod simulation;
+mod step;
 mod verdict;
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 //! verdicts and the pre-flight.
 
 use super::*;
-use crate::model::BoundModel;
 use crate::model::load_model;
+use crate::model::BoundModel;
 
 fn bundled(name: &str, set: &[(&str, f64)]) -> BoundModel {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
