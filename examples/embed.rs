@@ -10,7 +10,7 @@
 use fpsolve::epc::{Epc, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{parse_expr, parse_model, Override};
-use fpsolve::observe::{integrate, observable_pdf, ObservableMap};
+use fpsolve::observe::{observable_pdf, ObservableMap};
 
 const MODEL: &str = r#"
 model vibro_duffing "Vibro-impact Duffing oscillator, Zhuravlev-transformed (Eq. 10)"
@@ -130,7 +130,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             } else {
                 (-8.0, 8.0)
             };
-            let mass = integrate(&|t| observable_pdf(&sol, &map, &[t])[0], lo, hi, 1e-8);
+            let h = (hi - lo) / 4000.0; // midpoint rule
+            let mids: Vec<f64> = (0..4000).map(|k| lo + (k as f64 + 0.5) * h).collect();
+            let mass = h * observable_pdf(&sol, &map, &mids).iter().sum::<f64>();
             println!("  ∫ p_{} = {mass:.8}", obs.name);
         }
     }

@@ -37,6 +37,8 @@ mod eval;
 mod exact;
 mod histogram;
 mod impact;
+#[cfg(any(test, feature = "test-support"))]
+#[doc(hidden)]
 pub mod reference;
 mod result;
 mod rng;
@@ -68,6 +70,6 @@ pub use settings::{ParamValue, QuantitySpec, RunSettings};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
 pub use simulation::Simulation;
 pub use verdict::{
-    t_critical, BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
-    BLOWUP_TOLERANCE, MIN_STATIONARITY_BATCHES,
+    BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
+    MIN_STATIONARITY_BATCHES,
 };

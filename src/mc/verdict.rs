@@ -21,7 +21,7 @@ pub const BLOWUP_TOLERANCE: f64 = 1e-3;
 /// The two-sided critical value of Student's t with `df` degrees of freedom at p = 1e-6:
 /// a table for 7–14 degrees of freedom (numerical integration of the t density), the
 /// Cornish–Fisher expansion (five terms, accurate to 0.1 % from 15 on) beyond.
-pub fn t_critical(df: u64) -> f64 {
+pub(crate) fn t_critical(df: u64) -> f64 {
     const TABLE: [f64; 8] = [15.77, 13.26, 11.64, 10.52, 9.70, 9.08, 8.60, 8.22];
     if (7..15).contains(&df) {
         return TABLE[(df - 7) as usize];
@@ -70,7 +70,7 @@ pub struct Drift {
     pub last_quarter: f64,
     /// t = mean change / its standard error over batches.
     pub t: f64,
-    /// The critical |t| (two-sided p = 1e-6, see [`t_critical`]).
+    /// The critical |t| (two-sided p = 1e-6 for Student's t with `batches − 1` degrees of freedom).
     pub threshold: f64,
     /// Statistics batches compared.
     pub batches: u64,

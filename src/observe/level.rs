@@ -28,7 +28,8 @@
 //!   of g is infinite, and +∞ is returned there; nearby it has a logarithmic (saddle) or
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
-use super::{integrate_edges, JointDensity, ObservableMap};
+use super::quadrature::integrate_panels;
+use super::{JointDensity, ObservableMap};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
 /// Exponent of the partition of unity between the two families of lines.
@@ -472,14 +473,14 @@ impl LevelSet {
                 .collect();
             edges.sort_by(f64::total_cmp);
             edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));
-            // `integrate_edges` takes a `Fn`: the tape's working memory is shared through a
+            // `integrate_panels` takes a `Fn`: the tape's working memory is shared through a
             // `RefCell`, so that no line allocates.
             let scratch = std::cell::RefCell::new(Vec::new());
             let f = |s: f64| {
                 let mut scratch = scratch.borrow_mut();
                 self.line_sum(density, a, s, u, &excluded, &mut scratch)
             };
-            total += integrate_edges(&f, &edges, REL_TOL);
+            total += integrate_panels(&f, &edges, REL_TOL);
         }
         total
     }
