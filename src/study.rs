@@ -393,10 +393,10 @@ fn stats(sol: &EpcSolution, quantities: &[Quantity]) -> Vec<QuantityStats> {
         .zip(quantities)
         .map(|(m, q)| QuantityStats {
             name: q.name.clone(),
-            mean: m.mean,
-            std_dev: m.std_dev,
-            kurtosis: m.kurtosis,
-            raw_moments: m.raw,
+            mean: m.moments.mean,
+            std_dev: m.moments.std_dev(),
+            kurtosis: m.moments.kurtosis,
+            raw_moments: m.moments.raw,
             undefined_mass: m.undefined_mass,
             existing_moments: m.existing,
         })

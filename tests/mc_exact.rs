@@ -5,7 +5,7 @@ use fpsolve::mc::reference::{
     linear_oscillator, reflecting_vibro_impact, vibro_impact, VibroImpact,
 };
 use fpsolve::mc::{
-    merge_shards, Grid, McConfig, McResult, QuantityStats, SchemeChoice, Shard, ShardOutput,
+    merge_shards, Grid, McConfig, McResult, QuantityHistogram, SchemeChoice, Shard, ShardOutput,
     Simulation,
 };
 use fpsolve::model::BoundModel;
@@ -23,7 +23,7 @@ fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
 /// Checks a histogram against the exact density's bin averages on every bin whose exact
 /// value is above 1e-3 of the peak: |mc − exact| < 4.5 standard errors. Returns the largest
 /// deviation in standard errors.
-fn check_density(q: &QuantityStats, exact: &dyn Fn(f64) -> f64) -> f64 {
+fn check_density(q: &QuantityHistogram, exact: &dyn Fn(f64) -> f64) -> f64 {
     let g = q.grid;
     let w = g.width();
     let exact_bins: Vec<f64> = (0..g.bins)
@@ -132,7 +132,7 @@ fn linear_oscillator_displacement_variance_within_error_bars() {
     let exact = 1.0 / (2.0 * 0.5 * 2.0);
     for scheme in [SchemeChoice::Auto, SchemeChoice::General] {
         let res = linear_variance(scheme, 0.01);
-        let var = res.quantity("z").unwrap().variance;
+        let var = res.quantity("z").unwrap().moments.variance;
         eprintln!("{scheme:?}: {} ± {}", var.value, var.stderr);
         assert!(
             (var.value - exact).abs() < 4.5 * var.stderr,
@@ -145,7 +145,7 @@ fn linear_oscillator_displacement_variance_within_error_bars() {
             "error bar too wide: {}",
             var.stderr
         );
-        let mean = res.quantity("z").unwrap().mean;
+        let mean = res.quantity("z").unwrap().moments.mean;
         assert!(mean.value.abs() < 4.5 * mean.stderr);
     }
 }
@@ -168,7 +168,7 @@ fn weak_error_shrinks_at_second_order_when_dt_halves() {
             ..McConfig::default()
         };
         let v = Simulation::new(&model, &config).unwrap().run().unwrap();
-        v.quantity("v").unwrap().variance
+        v.quantity("v").unwrap().moments.variance
     };
     let (coarse, fine) = (run(0.5), run(0.25));
     let (e1, e2) = (coarse.value - exact, fine.value - exact);
@@ -277,7 +277,10 @@ fn a_different_seed_gives_different_numbers() {
         big_k: 0.05,
     }));
     let b = Simulation::new(&model, &config).unwrap().run().unwrap();
-    assert_ne!(a.quantities[0].mean.value, b.quantities[0].mean.value);
+    assert_ne!(
+        a.quantities[0].moments.mean.value,
+        b.quantities[0].moments.mean.value
+    );
 }
 
 /// Checks that two runs estimate the same law: every histogram bin of `names` above 1% of

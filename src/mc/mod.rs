@@ -22,7 +22,7 @@
 //! let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
 //! let config = McConfig { trajectories: 256, samples: 200, seed: 1, ..McConfig::default() };
 //! let result = Simulation::new(&model, &config).unwrap().run().unwrap();
-//! let var = result.quantity("z").unwrap().variance;
+//! let var = result.quantity("z").unwrap().moments.variance;
 //! assert!((var.value - 1.0).abs() < 5.0 * var.stderr + 0.02);
 //! ```
 
@@ -62,7 +62,7 @@ pub use config::{
     TIME_LIMIT_SECONDS,
 };
 pub use error::{McError, ShardDefect};
-pub use histogram::{Estimate, Grid, NamedGrid, NamedGridError, QuantityStats, TimeStepBias};
+pub use histogram::{Estimate, Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::batch::{BatchSummary, BlowUp};
 use super::error::McError;
-use super::histogram::{finalize, Estimate, QuantityBatch, QuantityStats};
+use super::histogram::{finalize, Estimate, QuantityBatch, QuantityHistogram};
 use super::settings::RunSettings;
 use super::verdict::{
     bias_warnings, render_bias, stationarity, time_step_bias, BlowUps, McWarning, Stationarity,
@@ -39,7 +39,7 @@ pub struct McResult {
     /// Trajectories that contributed (all but the blow-ups).
     pub trajectories: u64,
     /// Histograms and moments, states first, then observables.
-    pub quantities: Vec<QuantityStats>,
+    pub quantities: Vec<QuantityHistogram>,
     /// Impact statistics, for models with a barrier.
     pub impacts: Option<ImpactStats>,
     /// Trajectories left out because their state stopped being finite.
@@ -48,7 +48,7 @@ pub struct McResult {
 
 impl McResult {
     /// The statistics of a quantity by name.
-    pub fn quantity(&self, name: &str) -> Option<&QuantityStats> {
+    pub fn quantity(&self, name: &str) -> Option<&QuantityHistogram> {
         self.quantities.iter().find(|q| q.name == name)
     }
 
@@ -89,7 +89,7 @@ pub(crate) fn finalize_run(
         });
     }
     let coarse_dt = 2.0 * st.dt; // as `RunSettings::coarse` sets it
-    let quantities: Vec<QuantityStats> = st
+    let quantities: Vec<QuantityHistogram> = st
         .quantities
         .iter()
         .enumerate()
@@ -192,15 +192,15 @@ impl fmt::Display for McResult {
                 "{:>8} {:>9} {:>13.6} {:>8.1e} {:>24} {:>13.6} {:>8.1e} {:>24} {:>10.4} {:>8.1e} {:>24}",
                 q.name,
                 "mc",
-                q.mean.value,
-                q.mean.stderr,
-                render_bias(b.map(|b| b.mean)),
-                q.variance.value,
-                q.variance.stderr,
-                render_bias(b.map(|b| b.variance)),
-                q.kurtosis.value,
-                q.kurtosis.stderr,
-                render_bias(b.map(|b| b.kurtosis))
+                q.moments.mean.value,
+                q.moments.mean.stderr,
+                render_bias(b.map(|b| b.moments.mean)),
+                q.moments.variance.value,
+                q.moments.variance.stderr,
+                render_bias(b.map(|b| b.moments.variance)),
+                q.moments.kurtosis.value,
+                q.moments.kurtosis.stderr,
+                render_bias(b.map(|b| b.moments.kurtosis))
             )?;
         }
         if let Some(b) = self

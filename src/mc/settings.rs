@@ -8,7 +8,17 @@ use super::histogram::Grid;
 use super::rng::Increments;
 use super::scheme::SchemeKind;
 
-/// A parameter value, as a run records it.
+/// A parameter and the value a model was bound with, as runs and reports record it (in
+/// `mc_summary.json`, shard files and blow-up reports). The value is written as its shortest
+/// round-trip decimal string, so a file read back gives the same bits.
+///
+/// ```
+/// use fpsolve::mc::ParamValue;
+/// let p = ParamValue { name: "mu".into(), value: 0.1 };
+/// let json = serde_json::to_string(&p).unwrap();
+/// assert_eq!(json, r#"{"name":"mu","value":"0.1"}"#);
+/// assert_eq!(serde_json::from_str::<ParamValue>(&json).unwrap(), p);
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamValue {
     /// The parameter's name.

@@ -4,7 +4,7 @@
 use super::batch::run_batches;
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
-use super::histogram::{Grid, QuantityStats};
+use super::histogram::{Grid, QuantityHistogram};
 use super::result::{finalize_run, McResult};
 use super::scheme::Plan;
 use super::settings::{ParamValue, QuantitySpec, RunSettings};
@@ -168,8 +168,8 @@ impl Simulation {
 
 /// A grid covering mean ± 6 sd of the pilot samples, one-sided where the pilot saw only
 /// values of one sign (|z|, energies).
-fn auto_grid(stats: &QuantityStats, bins: usize) -> Result<Grid, McError> {
-    let (m, var) = (stats.mean.value, stats.variance.value);
+fn auto_grid(stats: &QuantityHistogram, bins: usize) -> Result<Grid, McError> {
+    let (m, var) = (stats.moments.mean.value, stats.moments.variance.value);
     if stats.samples == 0 || !m.is_finite() || !var.is_finite() {
         return Err(McError::NoPilotRange {
             name: stats.name.clone(),

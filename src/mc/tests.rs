@@ -38,7 +38,7 @@ fn blown_up_trajectories_are_reported_and_left_out() {
         }
     }
     let z = res.quantity("z").unwrap();
-    assert!(z.mean.value.is_finite() && z.variance.value.is_finite());
+    assert!(z.moments.mean.value.is_finite() && z.moments.variance.value.is_finite());
     assert_eq!(z.samples, res.trajectories * 100);
     assert_eq!(z.invalid, 0);
 }
@@ -249,7 +249,7 @@ fn ito_and_stratonovich_readings_reach_their_own_exact_variances() {
     ] {
         let res = velocity_noise(interp, scheme, 4);
         assert_eq!(res.settings.scheme, kind);
-        let var = res.quantity("v").unwrap().variance;
+        let var = res.quantity("v").unwrap().moments.variance;
         eprintln!("{interp:?}: {} ± {} (exact {exact})", var.value, var.stderr);
         assert!(
             (var.value - exact).abs() < 4.5 * var.stderr,

@@ -45,8 +45,8 @@ fn cubic_second_moment(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> (Es
     let r = Simulation::new(&model, &config).unwrap().run().unwrap();
     let v = r.quantity("v").unwrap();
     let m2 = Estimate {
-        value: v.variance.value + v.mean.value * v.mean.value,
-        stderr: v.variance.stderr,
+        value: v.moments.variance.value + v.moments.mean.value * v.moments.mean.value,
+        stderr: v.moments.variance.stderr,
     };
     (m2, r)
 }
@@ -115,7 +115,7 @@ fn the_general_path_has_weak_order_two() {
     let em = |dt| {
         let r = linear_variance(SchemeChoice::GeneralOrder1, dt, 0.0);
         assert_eq!(r.settings.scheme, SchemeKind::EulerMaruyama);
-        r.quantity("v").unwrap().variance
+        r.quantity("v").unwrap().moments.variance
     };
     let (p1, se1) = order(em(0.1), em(0.05), exact);
     eprintln!("Euler-Maruyama: order {p1:.2} ± {se1:.2}");
@@ -123,7 +123,7 @@ fn the_general_path_has_weak_order_two() {
     // Platen's scheme on the same model at dt = 0.1, where Euler–Maruyama is 19 % off:
     // exact within the error bars.
     let pl = linear_variance(SchemeChoice::General, 0.1, 0.0);
-    let var = pl.quantity("v").unwrap().variance;
+    let var = pl.quantity("v").unwrap().moments.variance;
     eprintln!(
         "Platen (Itô model) dt 0.1: {} ± {} vs {exact}",
         var.value, var.stderr
@@ -137,19 +137,20 @@ fn the_bias_estimate_covers_the_true_bias_of_euler_maruyama() {
     let r = linear_variance(SchemeChoice::GeneralOrder1, 0.05, 0.25);
     let v = r.quantity("v").unwrap();
     let b = v.time_step_bias.as_ref().unwrap();
-    let truth = v.variance.value - exact;
+    let truth = v.moments.variance.value - exact;
     eprintln!(
         "EM dt 0.05: Var v = {:.5} ± {:.5}, true bias {truth:.5}, estimate {:.5} ± {:.5} from {} pairs",
-        v.variance.value, v.variance.stderr, b.variance.value, b.variance.stderr, b.pairs
+        v.moments.variance.value, v.moments.variance.stderr, b.moments.variance.value, b.moments.variance.stderr, b.pairs
     );
     assert_eq!((b.order, b.pairs, b.coarse_dt), (1, 16, 0.1));
-    assert!(b.variance.resolved());
+    assert!(b.moments.variance.resolved());
     // Richardson's own error is O(dt²) here (about a fifth of the bias at dt = 0.05).
     assert!(
-        (b.variance.value - truth).abs() < 3.0 * b.variance.stderr + 0.3 * truth.abs(),
+        (b.moments.variance.value - truth).abs()
+            < 3.0 * b.moments.variance.stderr + 0.3 * truth.abs(),
         "estimate {} ± {} vs true {truth}",
-        b.variance.value,
-        b.variance.stderr
+        b.moments.variance.value,
+        b.moments.variance.stderr
     );
     assert!(r.warnings.iter().any(|w| matches!(
         w,
@@ -161,10 +162,14 @@ fn the_bias_estimate_covers_the_true_bias_of_euler_maruyama() {
     let b = res.quantity("v").unwrap().time_step_bias.clone().unwrap();
     eprintln!(
         "Platen dt 0.01: E v² = {:.5} ± {:.5}; bias of Var v {:.2e} ± {:.1e}; warnings {:?}",
-        m2.value, m2.stderr, b.variance.value, b.variance.stderr, res.warnings
+        m2.value, m2.stderr, b.moments.variance.value, b.moments.variance.stderr, res.warnings
     );
     assert!((m2.value - 1.0).abs() < 4.5 * m2.stderr);
-    assert!(b.variance.bound() < 0.01, "{:?}", b.variance);
+    assert!(
+        b.moments.variance.bound() < 0.01,
+        "{:?}",
+        b.moments.variance
+    );
     assert!(res.warnings.is_empty(), "{:?}", res.warnings);
 }
 

@@ -7,8 +7,9 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::batch::BatchSummary;
-use super::histogram::{batch_density, batch_moments, Estimate, QuantityStats, TimeStepBias};
+use super::histogram::{batch_density, batch_moments, Estimate, QuantityHistogram, TimeStepBias};
 use super::settings::RunSettings;
+use crate::moments::Moments;
 
 /// Statistics batches needed for the stationarity test (its t statistic then has at least
 /// 7 degrees of freedom).
@@ -440,6 +441,7 @@ pub(crate) fn time_step_bias(
     let factor = 1.0 / (2f64.powi(order as i32) - 1.0);
     let grid = st.quantities[q].grid;
     let (mut dm, mut dv, mut dk) = (Vec::new(), Vec::new(), Vec::new());
+    let mut draw: [Vec<f64>; 4] = Default::default();
     let mut dd: Vec<Vec<f64>> = Vec::new();
     for c in coarse {
         // Fine batches are normally in index order from 0 (a run, or shards merged in order):
@@ -453,17 +455,20 @@ pub(crate) fn time_step_bias(
         };
         let (fq, cq) = (&f.quantities[q], &c.quantities[q]);
         let (Some(fm), Some(cm), Some(fd), Some(cd)) = (
-            batch_moments(fq),
-            batch_moments(cq),
+            batch_moments(fq, grid),
+            batch_moments(cq, grid),
             batch_density(fq, grid),
             batch_density(cq, grid),
         ) else {
             continue;
         };
         // bias(dt) = S_dt − S ≈ (S_2dt − S_dt)/(2ᵖ − 1).
-        dm.push((cm.0 - fm.0) * factor);
-        dv.push((cm.1 - fm.1) * factor);
-        dk.push((cm.2 - fm.2) * factor);
+        dm.push((cm.shifted_mean - fm.shifted_mean) * factor);
+        dv.push((cm.variance - fm.variance) * factor);
+        dk.push((cm.kurtosis - fm.kurtosis) * factor);
+        for (d, (c, f)) in draw.iter_mut().zip(cm.raw.iter().zip(&fm.raw)) {
+            d.push((c - f) * factor);
+        }
         dd.push(cd.iter().zip(&fd).map(|(c, f)| (c - f) * factor).collect());
     }
     let per_bin: Vec<Estimate> = (0..grid.bins)
@@ -473,16 +478,19 @@ pub(crate) fn time_step_bias(
         order,
         coarse_dt,
         pairs: dm.len() as u64,
-        mean: mean_se(&dm),
-        variance: mean_se(&dv),
-        kurtosis: mean_se(&dk),
+        moments: Moments {
+            raw: std::array::from_fn(|k| mean_se(&draw[k])),
+            mean: mean_se(&dm),
+            variance: mean_se(&dv),
+            kurtosis: mean_se(&dk),
+        },
         density: per_bin.iter().map(|e| e.value).collect(),
         density_stderr: per_bin.iter().map(|e| e.stderr).collect(),
     })
 }
 
 /// The warnings a quantity's bias estimate raises.
-pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
+pub(crate) fn bias_warnings(q: &QuantityHistogram, out: &mut Vec<McWarning>) {
     let Some(b) = &q.time_step_bias else {
         return;
     };
@@ -494,9 +502,9 @@ pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
     }
     let k = (0.5 * t_critical(b.pairs - 1)).max(4.0);
     for (statistic, bias, stat) in [
-        (Statistic::Mean, b.mean, q.mean),
-        (Statistic::Variance, b.variance, q.variance),
-        (Statistic::Kurtosis, b.kurtosis, q.kurtosis),
+        (Statistic::Mean, b.moments.mean, q.moments.mean),
+        (Statistic::Variance, b.moments.variance, q.moments.variance),
+        (Statistic::Kurtosis, b.moments.kurtosis, q.moments.kurtosis),
     ] {
         if bias.stderr.is_finite()
             && bias.value.abs() > k * bias.stderr

@@ -17,7 +17,7 @@
 //! p(x*)·2π/√det H (e.g. p(0) of an energy); at a saddle value or a degenerate critical value
 //! the density is infinite and +∞ is returned; near a saddle value (logarithmic singularity)
 //! the accuracy is lower. Where g is undefined (`log(z)`, z ≤ 0) there is no density: p_g
-//! integrates to 1 − [`Moments::undefined_mass`], which [`moments`] reports; nothing is
+//! integrates to 1 − [`QuantityMoments::undefined_mass`], which [`moments`] reports; nothing is
 //! renormalised.
 //!
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
-pub use moments::{moments, moments_of_all, Moments};
+pub use moments::{moments, moments_of_all, QuantityMoments};
 /// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
 #[cfg(feature = "test-support")]
 #[doc(hidden)]
