@@ -23,6 +23,7 @@
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
 //! from a 1-D curve on a truncated grid.
 
+mod critical;
 mod level;
 mod moments;
 mod quadrature;
