@@ -168,7 +168,7 @@ impl McConfig {
     /// of range (dt, a spacing that is not a whole number of steps, burn-in, trajectories,
     /// lanes, samples, grids) and runs estimated to take more than [`TIME_LIMIT_SECONDS`]
     /// or more memory than [`MEMORY_LIMIT_BYTES`], with the estimate in the error.
-    /// [`Simulation::new`] makes the same checks, with the limits applied to the smallest
+    /// [`Simulation::new`](super::Simulation::new) makes the same checks, with the limits applied to the smallest
     /// shard (one statistics batch), since it also sets up shards.
     ///
     /// ```

@@ -141,7 +141,7 @@ impl Simulation {
     }
 
     /// Runs one shard of the simulation (its statistics batches, and those of them in the
-    /// bias estimate's range again at 2·dt); see [`merge_shards`].
+    /// bias estimate's range again at 2·dt); see [`merge_shards`](super::merge_shards).
     pub fn run_shard(&self, shard: Shard) -> Result<ShardOutput, McError> {
         let st = &self.settings;
         if shard.count == 0 || shard.index >= shard.count || shard.count > st.batches {
