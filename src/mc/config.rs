@@ -172,8 +172,11 @@ impl McConfig {
     /// shard (one statistics batch), since it also sets up shards.
     ///
     /// ```
-    /// use fpsolve::mc::{reference, McConfig, McError};
-    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// use fpsolve::mc::{McConfig, McError};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let file = load_model(path.as_ref()).unwrap();
+    /// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
     /// let estimate = McConfig::default().preflight(&model).unwrap();
     /// assert_eq!(estimate.batches, 32);
     /// let forever = McConfig { dt: 1e-300, spacing: 1e-299, ..McConfig::default() };
@@ -189,8 +192,11 @@ impl McConfig {
     /// the cost estimated, for a caller that splits the run ([`RunEstimate::within_limits`]).
     ///
     /// ```
-    /// use fpsolve::mc::{reference, McConfig};
-    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// use fpsolve::mc::{McConfig};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let file = load_model(path.as_ref()).unwrap();
+    /// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
     /// let big = McConfig { trajectories: 1 << 30, ..McConfig::default() };
     /// let estimate = big.estimate(&model).unwrap();
     /// assert!(estimate.within_limits(1).is_err());

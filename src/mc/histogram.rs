@@ -302,8 +302,11 @@ impl Accumulator {
 /// state or an observable.
 ///
 /// ```
-/// # use fpsolve::mc::{reference, McConfig, Simulation};
-/// # let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+/// # use fpsolve::mc::{McConfig, Simulation};
+/// # use fpsolve::model::{load_model, Override};
+/// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+/// # let file = load_model(path.as_ref()).unwrap();
+/// # let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
 /// # let config = McConfig { trajectories: 256, lanes: 32, samples: 100, ..McConfig::default() };
 /// let result = Simulation::new(&model, &config)?.run()?;
 /// let z = result.quantity("z").unwrap();

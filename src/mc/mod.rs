@@ -17,9 +17,12 @@
 //! the histograms stay available to be written, flagged.
 //!
 //! ```
-//! use fpsolve::mc::{reference, McConfig, Simulation};
-//! // A linear oscillator z'' + c z' + k z = ξ: Var z = S/(2ck).
-//! let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+//! use fpsolve::mc::{McConfig, Simulation};
+//! use fpsolve::model::{load_model, Override};
+//! // The bundled linear oscillator z'' + c z' + k z = ξ with c = 0.5: Var z = πK/(ck) = 1.
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+//! let file = load_model(path.as_ref()).unwrap();
+//! let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
 //! let config = McConfig { trajectories: 256, samples: 200, seed: 1, ..McConfig::default() };
 //! let result = Simulation::new(&model, &config).unwrap().run().unwrap();
 //! let var = result.quantity("z").unwrap().moments.variance;

@@ -108,8 +108,11 @@ impl ShardOutput {
     /// `shard K of N`, counted from 1 like the file names.
     ///
     /// ```
-    /// use fpsolve::mc::{reference, McConfig, Shard, Simulation};
-    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// use fpsolve::mc::{McConfig, Shard, Simulation};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let file = load_model(path.as_ref()).unwrap();
+    /// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
     /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
     /// let sim = Simulation::new(&model, &config).unwrap();
     /// let mut part = sim.run_shard(Shard::new(0, 2).unwrap()).unwrap();
@@ -192,8 +195,11 @@ pub fn merge_shards(shards: &[ShardOutput]) -> Result<McResult, McError> {
 /// [`merge_shards`] with a name per shard (its file name), used in every error message.
 ///
 /// ```
-/// use fpsolve::mc::{merge_named, reference, McConfig, Shard, Simulation};
-/// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+/// use fpsolve::mc::{merge_named, McConfig, Shard, Simulation};
+/// use fpsolve::model::{load_model, Override};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+/// let file = load_model(path.as_ref()).unwrap();
+/// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
 /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
 /// let sim = Simulation::new(&model, &config).unwrap();
 /// let a = sim.run_shard(Shard::new(0, 2).unwrap()).unwrap();

@@ -113,8 +113,11 @@ impl Simulation {
     ///
     /// ```
     /// use std::sync::atomic::{AtomicU64, Ordering};
-    /// use fpsolve::mc::{reference, McConfig, Simulation};
-    /// let model = reference::linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    /// use fpsolve::mc::{McConfig, Simulation};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let file = load_model(path.as_ref()).unwrap();
+    /// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
     /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
     /// let sim = Simulation::new(&model, &config).unwrap();
     /// let seen = AtomicU64::new(0);
