@@ -36,10 +36,12 @@
 mod batch;
 mod config;
 mod error;
+mod estimate;
 mod eval;
 mod exact;
 mod histogram;
 mod impact;
+mod judge;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;
@@ -65,7 +67,8 @@ pub use config::{
     TIME_LIMIT_SECONDS,
 };
 pub use error::{McError, ShardDefect};
-pub use histogram::{Estimate, Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
+pub use estimate::Estimate;
+pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};

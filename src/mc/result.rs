@@ -7,11 +7,11 @@ use serde::{Deserialize, Serialize};
 
 use super::batch::{BatchSummary, BlowUp};
 use super::error::McError;
-use super::histogram::{finalize, Estimate, QuantityBatch, QuantityHistogram};
+use super::estimate::Estimate;
+use super::histogram::{finalize, QuantityBatch, QuantityHistogram};
+use super::judge::{bias_warnings, render_bias, stationarity, time_step_bias};
 use super::settings::RunSettings;
-use super::verdict::{
-    bias_warnings, render_bias, stationarity, time_step_bias, BlowUps, McWarning, Stationarity,
-};
+use super::verdict::{BlowUps, McWarning, Stationarity};
 
 /// Impact statistics of a run with a barrier.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

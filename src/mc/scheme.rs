@@ -21,9 +21,9 @@
 //!   of the step taken with the Brownian-bridge remainder of its increment (so a step with
 //!   an impact is of weak order 1 on every general scheme).
 
+use super::error::McError;
 use super::eval::{compile, BatchKernel};
 use super::impact::Barrier;
-use super::McError;
 use crate::model::{BoundModel, Interpretation};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
 use nalgebra::{Matrix2, Matrix3, Vector3};

@@ -10,11 +10,11 @@
 use serde::{Deserialize, Serialize};
 
 use super::batch::BatchSummary;
+use super::error::McError;
 use super::error::ShardDefect;
 use super::result::{finalize_run, McResult};
 use super::settings::RunSettings;
 use super::shard_check::check_batch;
-use super::McError;
 
 /// Which part of a run to compute: the `index`-th of `count` disjoint shards.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
