@@ -95,14 +95,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 table,
                 "| {} | {mu} | {eps} | Monte Carlo | {:.4} ± {:.1e} | {:.4} | {:.3} ± {:.1e} | {:.4} | {:.3} ± {:.1e} | | | |",
                 k + 1,
-                y.mean.value,
-                y.mean.stderr,
-                y.variance.value.sqrt(),
-                y.kurtosis.value,
-                y.kurtosis.stderr,
-                yd.variance.value.sqrt(),
-                yd.kurtosis.value,
-                yd.kurtosis.stderr,
+                y.moments.mean.value,
+                y.moments.mean.stderr,
+                y.moments.variance.value.sqrt(),
+                y.moments.kurtosis.value,
+                y.moments.kurtosis.stderr,
+                yd.moments.variance.value.sqrt(),
+                yd.moments.kurtosis.value,
+                yd.moments.kurtosis.stderr,
             )?;
         }
     }

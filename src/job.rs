@@ -477,7 +477,7 @@ fn compare(
     name: &str,
     degree: usize,
     epc_bins: &[f64],
-    mc: &crate::mc::QuantityStats,
+    mc: &crate::mc::QuantityHistogram,
 ) -> Comparison {
     let width = mc.grid.width();
     let l1 = epc_bins
@@ -672,7 +672,7 @@ pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, Repo
 
 /// A histogram's columns: `mc`, `mc_stderr`, and the time-step bias estimate of each bin
 /// beside its statistical error (`mc_bias`, `mc_bias_stderr`) when one was made.
-fn mc_columns(q: &crate::mc::QuantityStats) -> Vec<(String, Vec<f64>)> {
+fn mc_columns(q: &crate::mc::QuantityHistogram) -> Vec<(String, Vec<f64>)> {
     let mut columns = vec![
         ("mc".into(), q.density.clone()),
         ("mc_stderr".into(), q.stderr.clone()),

@@ -96,7 +96,7 @@
 //! // 6. Simulate: a (small) Monte Carlo reference with standard errors over batches.
 //! let config = McConfig { trajectories: 256, lanes: 32, samples: 200, seed: 7, ..McConfig::default() };
 //! let mc = Simulation::new(&bound, &config)?.run()?;
-//! let var_v = mc.quantity("v").unwrap().variance;
+//! let var_v = mc.quantity("v").unwrap().moments.variance;
 //! assert!((var_v.value - 1.0).abs() < 5.0 * var_v.stderr + 0.05);
 //!
 //! // 7. Report: a CSV table of the EPC density of y (JSON and figures work alike).

@@ -1064,6 +1064,6 @@ impact x = 0: v -> -r*v
         let result = Simulation::new(&orig, &config).unwrap().run().unwrap();
         let x = result.quantity("x").unwrap();
         assert_eq!(x.underflow, 0);
-        assert!(x.mean.value > 0.8, "E[x] = {:?}", x.mean);
+        assert!(x.moments.mean.value > 0.8, "E[x] = {:?}", x.moments.mean);
     }
 }

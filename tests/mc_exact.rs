@@ -5,10 +5,13 @@ use fpsolve::mc::reference::{
     linear_oscillator, reflecting_vibro_impact, vibro_impact, VibroImpact,
 };
 use fpsolve::mc::{
-    merge_shards, Grid, McConfig, McResult, QuantityStats, SchemeChoice, Shard, ShardOutput,
+    merge_shards, Grid, McConfig, McResult, QuantityHistogram, SchemeChoice, Shard, ShardOutput,
     Simulation,
 };
 use fpsolve::model::BoundModel;
+
+mod common;
+use common::exact::{cases, ExactCase, McTolerance};
 
 /// Simpson's rule with `n` (even) panels.
 fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
@@ -21,9 +24,9 @@ fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
 }
 
 /// Checks a histogram against the exact density's bin averages on every bin whose exact
-/// value is above 1e-3 of the peak: |mc − exact| < 4.5 standard errors. Returns the largest
+/// value is above 1e-3 of the peak: |mc − exact| < `tol` standard errors. Returns the largest
 /// deviation in standard errors.
-fn check_density(q: &QuantityStats, exact: &dyn Fn(f64) -> f64) -> f64 {
+fn check_density(q: &QuantityHistogram, exact: &dyn Fn(f64) -> f64, tol: &McTolerance) -> f64 {
     let g = q.grid;
     let w = g.width();
     let exact_bins: Vec<f64> = (0..g.bins)
@@ -43,7 +46,7 @@ fn check_density(q: &QuantityStats, exact: &dyn Fn(f64) -> f64) -> f64 {
         assert!(q.stderr[j] > 0.0, "{} bin {j} has no spread", q.name);
         let z = (q.density[j] - exact_j) / q.stderr[j];
         assert!(
-            z.abs() < 4.5,
+            z.abs() < tol.standard_errors,
             "{} bin {j} at {:.3}: mc {:.5} ± {:.5}, exact {:.5} ({z:.1} se)",
             q.name,
             g.lo + (j as f64 + 0.5) * w,
@@ -57,29 +60,96 @@ fn check_density(q: &QuantityStats, exact: &dyn Fn(f64) -> f64) -> f64 {
     worst
 }
 
-/// Normalised exp(−u(x)) on a symmetric range wide enough to hold the mass.
-fn normalised(u: impl Fn(f64) -> f64 + Copy + 'static, half_range: f64) -> impl Fn(f64) -> f64 {
-    let z = simpson(&move |x| (-u(x)).exp(), -half_range, half_range, 4000);
-    move |x| (-u(x)).exp() / z
-}
-
 fn bind(m: fpsolve::model::Model) -> BoundModel {
     m.bind(&[]).unwrap()
 }
 
-#[test]
-fn vibro_impact_with_elastic_impacts_folds_the_duffing_density() {
-    // r = 1, ε = 0: z is a Duffing oscillator, p_Z ∝ exp(−(c/πK)(k z²/2 + μ z⁴/4)), and
-    // y = |z| has p_Y(y) = 2 p_Z(y); ydot = v·sgn(z) is N(0, πK/c).
-    let p = VibroImpact {
-        c: 0.5,
-        k: 1.0,
-        mu: 1.0,
-        eps: 0.0,
-        r: 1.0,
-        big_k: 0.1,
+/// The registry's cases that carry a Monte Carlo tolerance.
+fn mc_cases() -> Vec<(ExactCase, McTolerance)> {
+    let all: Vec<_> = cases()
+        .into_iter()
+        .filter_map(|c| c.mc.clone().map(|t| (c, t)))
+        .collect();
+    assert!(
+        all.len() >= 4,
+        "the registry checks Monte Carlo on {} cases",
+        all.len()
+    );
+    all
+}
+
+/// A run of `case` whose states' grids cover ±5 exact standard deviations.
+fn run_case(case: &ExactCase, scheme: SchemeChoice, seed: u64) -> (BoundModel, McResult) {
+    let model = case.bind();
+    let grids = (0..2)
+        .map(|axis| {
+            let half = 5.0 * case.variance(axis).sqrt();
+            let name = model.states()[axis].to_string();
+            (name, Grid::new(-half, half, 40).unwrap())
+        })
+        .collect();
+    let config = McConfig {
+        trajectories: 1024,
+        lanes: 32,
+        samples: 400,
+        spacing: 0.5,
+        seed,
+        scheme,
+        grids,
+        ..McConfig::default()
     };
-    let model = bind(vibro_impact(p));
+    let res = Simulation::new(&model, &config).unwrap().run().unwrap();
+    (model, res)
+}
+
+/// Every exact case with a Monte Carlo tolerance, by the automatic scheme and by the general
+/// one (Platen): each state's histogram against the exact marginal's bin averages, its
+/// variance and mean (0: every case is symmetric) within the tolerance in standard errors.
+#[test]
+fn monte_carlo_reproduces_the_exact_cases() {
+    for (case, tol) in mc_cases() {
+        for scheme in [SchemeChoice::Auto, SchemeChoice::General] {
+            let (model, res) = run_case(&case, scheme, 5);
+            assert!(res.blowups.is_empty(), "{}", case.name);
+            for axis in 0..2 {
+                let name = model.states()[axis].to_string();
+                let q = res.quantity(&name).unwrap();
+                let worst = check_density(q, &|x| case.marginal(axis, x), &tol);
+                let (var, mean) = (q.moments.variance, q.moments.mean);
+                let exact = case.variance(axis);
+                eprintln!(
+                    "{} ({:?}, {name}): worst bin {worst:.2} se, Var {:.5} ± {:.5} vs {exact:.5}",
+                    case.name, res.settings.scheme, var.value, var.stderr
+                );
+                assert!(
+                    (var.value - exact).abs() < tol.standard_errors * var.stderr,
+                    "{} {name}: Var {} ± {} vs {exact}",
+                    case.name,
+                    var.value,
+                    var.stderr
+                );
+                assert!(
+                    var.stderr < 0.03 * exact,
+                    "error bar too wide: {}",
+                    var.stderr
+                );
+                assert!(mean.value.abs() < tol.standard_errors * mean.stderr);
+            }
+        }
+    }
+}
+
+/// The vibro-impact case with elastic impacts (r = 1) and no parametric noise: y = |z| has
+/// p_Y(y) = 2 p_Z(y), and ydot = v·sgn(z) has v's law (z and v are independent).
+#[test]
+fn elastic_impacts_fold_the_displacement_density() {
+    let (case, tol) = mc_cases()
+        .into_iter()
+        .find(|(c, _)| c.name == "vibro-impact r = 1, eps = 0")
+        .expect("the registry's elastic vibro-impact case");
+    let model = case.bind();
+    let half = 5.0 * case.variance(0).sqrt();
+    let vhalf = 5.0 * case.variance(1).sqrt();
     let config = McConfig {
         trajectories: 2048,
         lanes: 64,
@@ -87,67 +157,26 @@ fn vibro_impact_with_elastic_impacts_folds_the_duffing_density() {
         spacing: 0.5,
         seed: 11,
         grids: vec![
-            ("y".into(), Grid::new(0.0, 1.6, 40).unwrap()),
-            ("ydot".into(), Grid::new(-2.0, 2.0, 40).unwrap()),
+            ("y".into(), Grid::new(0.0, half, 40).unwrap()),
+            ("ydot".into(), Grid::new(-vhalf, vhalf, 40).unwrap()),
         ],
         ..McConfig::default()
     };
     let res = Simulation::new(&model, &config).unwrap().run().unwrap();
     assert!(res.blowups.is_empty());
-    let beta = p.c / (std::f64::consts::PI * p.big_k);
-    let pz = normalised(
-        move |z| beta * (p.k * z * z / 2.0 + p.mu * z.powi(4) / 4.0),
-        6.0,
+    let worst_y = check_density(
+        res.quantity("y").unwrap(),
+        &|y| 2.0 * case.marginal(0, y),
+        &tol,
     );
-    let py = move |y: f64| 2.0 * pz(y);
-    let worst_y = check_density(res.quantity("y").unwrap(), &py);
-    let sv = (std::f64::consts::PI * p.big_k / p.c).sqrt();
-    let pv =
-        move |v: f64| (-(v / sv).powi(2) / 2.0).exp() / (sv * (2.0 * std::f64::consts::PI).sqrt());
-    let worst_v = check_density(res.quantity("ydot").unwrap(), &pv);
+    let worst_v = check_density(
+        res.quantity("ydot").unwrap(),
+        &|v| case.marginal(1, v),
+        &tol,
+    );
     eprintln!("worst deviations: y {worst_y:.2} se, ydot {worst_v:.2} se");
     // r = 1 maps v to itself, yet every crossing is an event.
     assert!(res.impacts.as_ref().unwrap().rate.value > 0.0);
-}
-
-/// Var z = S/(2ck) for the linear oscillator.
-fn linear_variance(scheme: SchemeChoice, dt: f64) -> McResult {
-    let (c, k, s) = (0.5, 2.0, 1.0);
-    let model = bind(linear_oscillator(c, k, s));
-    let config = McConfig {
-        dt,
-        spacing: 0.5,
-        trajectories: 1024,
-        lanes: 32,
-        samples: 400,
-        seed: 5,
-        scheme,
-        ..McConfig::default()
-    };
-    Simulation::new(&model, &config).unwrap().run().unwrap()
-}
-
-#[test]
-fn linear_oscillator_displacement_variance_within_error_bars() {
-    let exact = 1.0 / (2.0 * 0.5 * 2.0);
-    for scheme in [SchemeChoice::Auto, SchemeChoice::General] {
-        let res = linear_variance(scheme, 0.01);
-        let var = res.quantity("z").unwrap().variance;
-        eprintln!("{scheme:?}: {} ± {}", var.value, var.stderr);
-        assert!(
-            (var.value - exact).abs() < 4.5 * var.stderr,
-            "{scheme:?}: {} ± {} vs {exact}",
-            var.value,
-            var.stderr
-        );
-        assert!(
-            var.stderr < 0.02 * exact,
-            "error bar too wide: {}",
-            var.stderr
-        );
-        let mean = res.quantity("z").unwrap().mean;
-        assert!(mean.value.abs() < 4.5 * mean.stderr);
-    }
 }
 
 /// The stationary E[v²] of the linear oscillator is S/(2c); the splitting's weak error in
@@ -168,7 +197,7 @@ fn weak_error_shrinks_at_second_order_when_dt_halves() {
             ..McConfig::default()
         };
         let v = Simulation::new(&model, &config).unwrap().run().unwrap();
-        v.quantity("v").unwrap().variance
+        v.quantity("v").unwrap().moments.variance
     };
     let (coarse, fine) = (run(0.5), run(0.25));
     let (e1, e2) = (coarse.value - exact, fine.value - exact);
@@ -277,7 +306,10 @@ fn a_different_seed_gives_different_numbers() {
         big_k: 0.05,
     }));
     let b = Simulation::new(&model, &config).unwrap().run().unwrap();
-    assert_ne!(a.quantities[0].mean.value, b.quantities[0].mean.value);
+    assert_ne!(
+        a.quantities[0].moments.mean.value,
+        b.quantities[0].moments.mean.value
+    );
 }
 
 /// Checks that two runs estimate the same law: every histogram bin of `names` above 1% of

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use approx::assert_relative_eq;
 use fpsolve::epc::{Epc, EpcError, EpcSolution, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
-use fpsolve::mc::{BurnIn, Grid, McConfig, McResult, QuantityStats, Simulation};
+use fpsolve::mc::{BurnIn, Grid, McConfig, McResult, QuantityHistogram, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
 use fpsolve::observe::{observable_pdf, ObservableMap};
 
@@ -337,7 +337,7 @@ fn bin_averages(grid: &Grid, pdf: &dyn Fn(&[f64]) -> Vec<f64>) -> Vec<f64> {
 /// Compares an EPC density with a Monte Carlo histogram on every bin where the EPC density is
 /// at least 1e−2 of its peak: |p_EPC − p_MC| ≤ 5·stderr + allowance·peak. Returns the worst
 /// |p_EPC − p_MC|/peak, or the first violation as an error.
-fn compare(q: &QuantityStats, epc: &[f64], allowance: f64) -> Result<f64, String> {
+fn compare(q: &QuantityHistogram, epc: &[f64], allowance: f64) -> Result<f64, String> {
     let peak = epc.iter().copied().fold(0.0, f64::max);
     let mut worst: f64 = 0.0;
     let mut checked = 0;
@@ -403,8 +403,8 @@ fn van_der_pol_matches_monte_carlo_and_the_gaussian_closure_does_not() {
         let q = mc.quantity(name).unwrap();
         eprintln!(
             "van der Pol {name}: Var MC {:.4} ± {:.4}, EPC-{} {:.4}, closure {:.4}; closure check: {:?}",
-            q.variance.value,
-            q.variance.stderr,
+            q.moments.variance.value,
+            q.moments.variance.stderr,
             best.degree,
             best.moments[axis].variance,
             s2.moments[axis].variance,

@@ -4,7 +4,7 @@
 //! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`], which
 //! uses the crate's compiled [`Tape`]; another evaluator needs only a new `compile`.
 
-use super::McError;
+use super::error::McError;
 use crate::symbolic::{DeltaPolicy, Expr, Tape, TapeScratch};
 
 /// Working memory of a kernel's batch evaluation.

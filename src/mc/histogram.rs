@@ -3,8 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::shard::exact;
-use super::McError;
+use super::error::McError;
+use super::estimate::Estimate;
+use super::exact;
+use crate::moments::Moments;
 
 /// A fixed histogram grid: `bins` equal bins covering `[lo, hi)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -297,9 +299,26 @@ impl Accumulator {
     }
 }
 
-/// The summary statistics of one quantity over a run.
+/// One quantity's histogram over a run, with its moments: what Monte Carlo knows about a
+/// state or an observable.
+///
+/// ```
+/// # use fpsolve::mc::{McConfig, Simulation};
+/// # use fpsolve::model::{load_model, Override};
+/// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+/// # let file = load_model(path.as_ref()).unwrap();
+/// # let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
+/// # let config = McConfig { trajectories: 256, lanes: 32, samples: 100, ..McConfig::default() };
+/// let result = Simulation::new(&model, &config)?.run()?;
+/// let z = result.quantity("z").unwrap();
+/// // Raw moments and the statistics built on them, each with its standard error.
+/// let [m1, m2, _, m4] = z.moments.raw;
+/// assert!((m1.value - z.moments.mean.value).abs() < 1e-12);
+/// assert!(m2.value > 0.0 && m4.value > 0.0 && m4.stderr.is_finite());
+/// # Ok::<(), fpsolve::mc::McError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct QuantityStats {
+pub struct QuantityHistogram {
     /// The state's or observable's name.
     pub name: String,
     /// Whether it is a state (`true`) or an observable.
@@ -319,17 +338,14 @@ pub struct QuantityStats {
     pub overflow: u64,
     /// Non-finite values of the quantity at a finite state (excluded from all statistics).
     pub invalid: u64,
-    /// Sample mean and its standard error.
-    pub mean: Estimate,
-    /// Sample variance and its standard error.
-    pub variance: Estimate,
-    /// Kurtosis m₄/m₂² (3 for a Gaussian) and its standard error.
-    pub kurtosis: Estimate,
+    /// Sample raw moments E\[q\], …, E\[q⁴\], mean, variance and kurtosis m₄/m₂² (3 for a
+    /// Gaussian), each with its standard error from the spread over statistics batches.
+    pub moments: Moments<Estimate>,
     /// Smallest finite value seen.
     pub min: f64,
     /// Largest finite value seen.
     pub max: f64,
-    /// The time-step bias of the mean, variance, kurtosis and density, estimated by
+    /// The time-step bias of the moments and the density, estimated by
     /// Richardson extrapolation from a paired run at 2·dt (`None` when not estimated, as in
     /// the pilot run or with [`McConfig::bias_fraction`](super::McConfig::bias_fraction) 0).
     pub time_step_bias: Option<TimeStepBias>,
@@ -348,63 +364,52 @@ pub struct TimeStepBias {
     pub coarse_dt: f64,
     /// The paired statistics batches it was estimated from.
     pub pairs: u64,
-    /// Bias of the mean.
-    pub mean: Estimate,
-    /// Bias of the variance.
-    pub variance: Estimate,
-    /// Bias of the kurtosis.
-    pub kurtosis: Estimate,
+    /// Bias of each moment (raw moments, mean, variance, kurtosis).
+    pub moments: Moments<Estimate>,
     /// Bias of each bin's density.
     pub density: Vec<f64>,
     /// Standard error of each bin's density bias.
     pub density_stderr: Vec<f64>,
 }
 
-/// A Monte Carlo estimate with its standard error (infinite when fewer than two statistics
-/// batches have samples).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Estimate {
-    /// The estimate.
-    pub value: f64,
-    /// Its standard error (from the spread over statistics batches).
-    pub stderr: f64,
+/// Moments of one batch (or of the whole run) from the power sums of q − `shift` over `n`
+/// samples: the mean about `shift` (kept apart, so that standard errors and bias pairs are
+/// computed exactly as from the shifted sums), variance, kurtosis, and the raw moments about
+/// zero.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BatchMoments {
+    /// E\[q\] − shift.
+    pub(crate) shifted_mean: f64,
+    pub(crate) variance: f64,
+    pub(crate) kurtosis: f64,
+    /// E\[q\], …, E\[q⁴\].
+    pub(crate) raw: [f64; 4],
 }
 
-impl Estimate {
-    /// Whether the value is resolved from zero: |value| > 2·stderr.
-    ///
-    /// ```
-    /// use fpsolve::mc::Estimate;
-    /// assert!(Estimate { value: 0.3, stderr: 0.1 }.resolved());
-    /// assert!(!Estimate { value: 0.1, stderr: 0.1 }.resolved());
-    /// ```
-    pub fn resolved(&self) -> bool {
-        self.stderr.is_finite() && self.value.abs() > 2.0 * self.stderr
-    }
-
-    /// The bound |value| + 2·stderr below which an unresolved value lies.
-    ///
-    /// ```
-    /// use fpsolve::mc::Estimate;
-    /// assert_eq!(Estimate { value: -0.1, stderr: 0.1 }.bound(), 0.30000000000000004);
-    /// ```
-    pub fn bound(&self) -> f64 {
-        self.value.abs() + 2.0 * self.stderr
-    }
-}
-
-/// Central moments (mean, variance, kurtosis) from shifted power sums over `n` samples.
-fn central(sums: &[f64; 4], n: f64) -> (f64, f64, f64) {
+fn central(sums: &[f64; 4], n: f64, shift: f64) -> BatchMoments {
     let m1 = sums[0] / n;
     let r2 = sums[1] / n;
     let r3 = sums[2] / n;
     let r4 = sums[3] / n;
     let var = r2 - m1 * m1;
     let c4 = r4 - 4.0 * m1 * r3 + 6.0 * m1 * m1 * r2 - 3.0 * m1.powi(4);
-    (m1, var, c4 / (var * var))
+    // E[q^k] = Σ_j C(k, j) shift^(k−j) E[(q − shift)^j].
+    let c = shift;
+    let raw = [
+        c + m1,
+        c * c + 2.0 * c * m1 + r2,
+        c.powi(3) + 3.0 * c * c * m1 + 3.0 * c * r2 + r3,
+        c.powi(4) + 4.0 * c.powi(3) * m1 + 6.0 * c * c * r2 + 4.0 * c * r3 + r4,
+    ];
+    BatchMoments {
+        shifted_mean: m1,
+        variance: var,
+        kurtosis: c4 / (var * var),
+        raw,
+    }
 }
 
-/// Combines one quantity's batch statistics, in batch order, into [`QuantityStats`].
+/// Combines one quantity's batch statistics, in batch order, into a [`QuantityHistogram`].
 ///
 /// Standard errors treat the batches as independent replicas; the density's uses the ratio
 /// estimator Var(p̂_j) ≈ B/(B−1) Σ_b (c_bj − p̂_j n_b)² / (N w)², which allows batches of
@@ -414,7 +419,7 @@ pub(crate) fn finalize(
     is_state: bool,
     grid: Grid,
     batches: &[&QuantityBatch],
-) -> QuantityStats {
+) -> QuantityHistogram {
     let nb = batches.len() as f64;
     let w = grid.width();
     let shift = 0.5 * (grid.lo + grid.hi);
@@ -453,16 +458,16 @@ pub(crate) fn finalize(
             (nb / (nb - 1.0) * ss).sqrt() / (n * w)
         })
         .collect();
-    let (m1, var, kurt) = central(&sums, n);
+    let all = central(&sums, n, shift);
     // Per-batch values for the moments' standard errors.
     // Batches that lost every trajectory to blow-ups carry no moments.
-    let per_batch: Vec<(f64, f64, f64)> = batches
+    let per_batch: Vec<BatchMoments> = batches
         .iter()
         .zip(&n_b)
         .filter(|(_, &k)| k > 0.0)
-        .map(|(b, &k)| central(&b.sums, k))
+        .map(|(b, &k)| central(&b.sums, k, shift))
         .collect();
-    let spread = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| -> f64 {
+    let spread = |pick: &dyn Fn(&BatchMoments) -> f64| -> f64 {
         let m = per_batch.len() as f64;
         if m < 2.0 {
             return f64::INFINITY;
@@ -471,7 +476,11 @@ pub(crate) fn finalize(
         let ss: f64 = per_batch.iter().map(|t| (pick(t) - mean).powi(2)).sum();
         (ss / (m - 1.0) / m).sqrt()
     };
-    QuantityStats {
+    let raw = std::array::from_fn(|k| Estimate {
+        value: all.raw[k],
+        stderr: spread(&|t| t.raw[k]),
+    });
+    QuantityHistogram {
         name: name.to_string(),
         is_state,
         grid,
@@ -481,17 +490,20 @@ pub(crate) fn finalize(
         underflow: under,
         overflow: over,
         invalid,
-        mean: Estimate {
-            value: shift + m1,
-            stderr: spread(&|t| t.0),
-        },
-        variance: Estimate {
-            value: var,
-            stderr: spread(&|t| t.1),
-        },
-        kurtosis: Estimate {
-            value: kurt,
-            stderr: spread(&|t| t.2),
+        moments: Moments {
+            raw,
+            mean: Estimate {
+                value: shift + all.shifted_mean,
+                stderr: spread(&|t| t.shifted_mean),
+            },
+            variance: Estimate {
+                value: all.variance,
+                stderr: spread(&|t| t.variance),
+            },
+            kurtosis: Estimate {
+                value: all.kurtosis,
+                stderr: spread(&|t| t.kurtosis),
+            },
         },
         min,
         max,
@@ -499,11 +511,11 @@ pub(crate) fn finalize(
     }
 }
 
-/// Per-batch (mean, variance, kurtosis) of a quantity about the grid's centre, `None` for a
-/// batch without finite samples.
-pub(crate) fn batch_moments(b: &QuantityBatch) -> Option<(f64, f64, f64)> {
+/// Per-batch moments of a quantity on `grid` (its mean about the grid's centre), `None` for
+/// a batch without finite samples.
+pub(crate) fn batch_moments(b: &QuantityBatch, grid: Grid) -> Option<BatchMoments> {
     let n = (b.counts.iter().sum::<u64>() + b.under + b.over) as f64;
-    (n > 0.0).then(|| central(&b.sums, n))
+    (n > 0.0).then(|| central(&b.sums, n, 0.5 * (grid.lo + grid.hi)))
 }
 
 /// The per-bin densities of one batch.
@@ -555,12 +567,19 @@ mod tests {
         b.add(&[3.0, 4.0], &[true; 2]);
         let s = finalize("q", true, g, &[&a.finish(), &b.finish()]);
         assert_eq!(s.samples, 8);
-        approx::assert_relative_eq!(s.mean.value, 2.0, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.moments.mean.value, 2.0, epsilon = 1e-14);
         // Batch means 1.5 and 2.5: standard error 0.5.
-        approx::assert_relative_eq!(s.mean.stderr, 0.5, epsilon = 1e-14);
-        approx::assert_relative_eq!(s.variance.value, 1.5, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.moments.mean.stderr, 0.5, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.moments.variance.value, 1.5, epsilon = 1e-14);
         // Values 0,1,1,2,2,3,3,4 about 2: m4 = (16+1+1+0+0+1+1+16)/8 = 4.5, m2 = 1.5.
-        approx::assert_relative_eq!(s.kurtosis.value, 2.0, epsilon = 1e-14);
+        approx::assert_relative_eq!(s.moments.kurtosis.value, 2.0, epsilon = 1e-14);
+        // Raw moments about zero: E x² = 44/8, E x³ = 136/8, E x⁴ = 452/8; the batches'
+        // E x⁴ are 98/4 and 354/4, so its standard error is half their difference, 32.
+        let raw: Vec<f64> = s.moments.raw.iter().map(|e| e.value).collect();
+        for (r, e) in raw.iter().zip([2.0, 5.5, 17.0, 56.5]) {
+            approx::assert_relative_eq!(*r, e, epsilon = 1e-12);
+        }
+        approx::assert_relative_eq!(s.moments.raw[3].stderr, 32.0, epsilon = 1e-12);
         assert_eq!(s.density, vec![1.0 / 8.0, 0.25, 0.25, 0.25, 1.0 / 8.0]);
         // Bin 0: counts 1 and 0 against 0.5 expected each: B/(B−1)·(0.25+0.25) = 1 → 1/8.
         approx::assert_relative_eq!(s.stderr[0], 1.0 / 8.0, epsilon = 1e-14);

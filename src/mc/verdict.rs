@@ -1,13 +1,11 @@
-//! Whether a finished run can be trusted: the stationarity test on the recording, the
-//! blow-up verdict, the time-step bias estimate and the warnings they raise. Outcomes are
-//! data; `Display` renders them as sentences.
+//! Whether a finished run can be trusted, as data: the stationarity verdict, the blow-up
+//! verdict and the warnings; `Display` renders them as sentences. `judge.rs` computes them.
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::ensemble::{BatchSummary, RunSettings};
-use super::histogram::{batch_density, batch_moments, Estimate, QuantityStats, TimeStepBias};
+use super::estimate::Estimate;
 
 /// Statistics batches needed for the stationarity test (its t statistic then has at least
 /// 7 degrees of freedom).
@@ -20,7 +18,7 @@ pub const BLOWUP_TOLERANCE: f64 = 1e-3;
 /// The two-sided critical value of Student's t with `df` degrees of freedom at p = 1e-6:
 /// a table for 7–14 degrees of freedom (numerical integration of the t density), the
 /// Cornish–Fisher expansion (five terms, accurate to 0.1 % from 15 on) beyond.
-pub fn t_critical(df: u64) -> f64 {
+pub(crate) fn t_critical(df: u64) -> f64 {
     const TABLE: [f64; 8] = [15.77, 13.26, 11.64, 10.52, 9.70, 9.08, 8.60, 8.22];
     if (7..15).contains(&df) {
         return TABLE[(df - 7) as usize];
@@ -69,7 +67,7 @@ pub struct Drift {
     pub last_quarter: f64,
     /// t = mean change / its standard error over batches.
     pub t: f64,
-    /// The critical |t| (two-sided p = 1e-6, see [`t_critical`]).
+    /// The critical |t| (two-sided p = 1e-6 for Student's t with `batches − 1` degrees of freedom).
     pub threshold: f64,
     /// Statistics batches compared.
     pub batches: u64,
@@ -154,85 +152,6 @@ impl fmt::Display for Stationarity {
                 "not tested ({samples} samples per trajectory, the test needs 4)"
             ),
         }
-    }
-}
-
-/// Compares the first and last quarter of the recording of each state.
-pub(crate) fn stationarity(st: &RunSettings, batches: &[&BatchSummary]) -> Stationarity {
-    if st.samples_per_trajectory < 4 {
-        return Stationarity::Undetermined {
-            why: Undetermined::TooFewSamples {
-                samples: st.samples_per_trajectory,
-            },
-        };
-    }
-    let mut largest: Option<(f64, Drift)> = None;
-    let mut compared = 0;
-    for (q, spec) in st.quantities.iter().enumerate() {
-        if !spec.is_state {
-            continue;
-        }
-        let shift = 0.5 * (spec.grid.lo + spec.grid.hi);
-        let quarter = |b: &BatchSummary, k: usize| -> Option<(f64, f64)> {
-            let qb = &b.quantities[q];
-            let n = qb.window_counts[k] as f64;
-            let m = qb.window_sums[k] / n;
-            let var = qb.window_squares[k] / n - m * m;
-            (n > 0.0 && m.is_finite() && var.is_finite()).then_some((m, var))
-        };
-        for moment in [Moment::Mean, Moment::Variance] {
-            let pick = |t: (f64, f64)| match moment {
-                Moment::Mean => t.0,
-                Moment::Variance => t.1,
-            };
-            let pairs: Vec<(f64, f64)> = batches
-                .iter()
-                .filter_map(|b| Some((pick(quarter(b, 0)?), pick(quarter(b, 3)?))))
-                .collect();
-            let k = pairs.len() as u64;
-            compared = compared.max(k);
-            if k < MIN_STATIONARITY_BATCHES {
-                continue;
-            }
-            let kf = k as f64;
-            let first = pairs.iter().map(|p| p.0).sum::<f64>() / kf;
-            let last = pairs.iter().map(|p| p.1).sum::<f64>() / kf;
-            let d_mean = last - first;
-            let ss: f64 = pairs.iter().map(|p| (p.1 - p.0 - d_mean).powi(2)).sum();
-            let se = (ss / (kf - 1.0) / kf).sqrt();
-            let t = if se > 0.0 {
-                d_mean / se
-            } else if d_mean == 0.0 {
-                0.0
-            } else {
-                f64::MAX.copysign(d_mean)
-            };
-            let threshold = t_critical(k - 1);
-            let offset = if moment == Moment::Mean { shift } else { 0.0 };
-            let drift = Drift {
-                quantity: spec.name.clone(),
-                moment,
-                first_quarter: first + offset,
-                last_quarter: last + offset,
-                t,
-                threshold,
-                batches: k,
-            };
-            let score = t.abs() / threshold;
-            if largest.as_ref().is_none_or(|(s, _)| score > *s) {
-                largest = Some((score, drift));
-            }
-        }
-    }
-    match largest {
-        None => Stationarity::Undetermined {
-            why: Undetermined::TooFewBatches {
-                batches: compared,
-                needed: MIN_STATIONARITY_BATCHES,
-            },
-        },
-        Some((score, largest)) if score > 1.0 => Stationarity::NotStationary { largest },
-        Some((_, largest)) => Stationarity::Stationary { largest },
     }
 }
 
@@ -402,225 +321,6 @@ impl fmt::Display for McWarning {
                 bias.value, bias.stderr
             ),
         }
-    }
-}
-
-/// The mean and standard error of per-pair values.
-fn mean_se(values: &[f64]) -> Estimate {
-    let k = values.len() as f64;
-    if values.is_empty() {
-        return Estimate {
-            value: f64::NAN,
-            stderr: f64::INFINITY,
-        };
-    }
-    let m = values.iter().sum::<f64>() / k;
-    let stderr = if k < 2.0 {
-        f64::INFINITY
-    } else {
-        (values.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt()
-    };
-    Estimate { value: m, stderr }
-}
-
-/// The Richardson estimate of a quantity's time-step bias from fine batches (dt) and the
-/// coarse batches (2·dt) with the same indices.
-pub(crate) fn time_step_bias(
-    st: &RunSettings,
-    q: usize,
-    fine: &[&BatchSummary],
-    coarse: &[&BatchSummary],
-    coarse_dt: f64,
-) -> Option<TimeStepBias> {
-    if coarse.is_empty() {
-        return None;
-    }
-    let order = st.scheme.weak_order();
-    let factor = 1.0 / (2f64.powi(order as i32) - 1.0);
-    let grid = st.quantities[q].grid;
-    let (mut dm, mut dv, mut dk) = (Vec::new(), Vec::new(), Vec::new());
-    let mut dd: Vec<Vec<f64>> = Vec::new();
-    for c in coarse {
-        // Fine batches are normally in index order from 0 (a run, or shards merged in order):
-        // direct lookup, the search only if that ever does not hold.
-        let Some(f) = fine
-            .get(c.index as usize)
-            .filter(|f| f.index == c.index)
-            .or_else(|| fine.iter().find(|f| f.index == c.index))
-        else {
-            continue;
-        };
-        let (fq, cq) = (&f.quantities[q], &c.quantities[q]);
-        let (Some(fm), Some(cm), Some(fd), Some(cd)) = (
-            batch_moments(fq),
-            batch_moments(cq),
-            batch_density(fq, grid),
-            batch_density(cq, grid),
-        ) else {
-            continue;
-        };
-        // bias(dt) = S_dt − S ≈ (S_2dt − S_dt)/(2ᵖ − 1).
-        dm.push((cm.0 - fm.0) * factor);
-        dv.push((cm.1 - fm.1) * factor);
-        dk.push((cm.2 - fm.2) * factor);
-        dd.push(cd.iter().zip(&fd).map(|(c, f)| (c - f) * factor).collect());
-    }
-    let per_bin: Vec<Estimate> = (0..grid.bins)
-        .map(|j| mean_se(&dd.iter().map(|d| d[j]).collect::<Vec<_>>()))
-        .collect();
-    Some(TimeStepBias {
-        order,
-        coarse_dt,
-        pairs: dm.len() as u64,
-        mean: mean_se(&dm),
-        variance: mean_se(&dv),
-        kurtosis: mean_se(&dk),
-        density: per_bin.iter().map(|e| e.value).collect(),
-        density_stderr: per_bin.iter().map(|e| e.stderr).collect(),
-    })
-}
-
-/// The warnings a quantity's bias estimate raises.
-pub(crate) fn bias_warnings(q: &QuantityStats, out: &mut Vec<McWarning>) {
-    let Some(b) = &q.time_step_bias else {
-        return;
-    };
-    // A bias counts as resolved beyond `k` of its own standard errors, k from Student's t
-    // with the pairs' degrees of freedom (about p = 1e-4 per statistic or bin, so that the
-    // dozen statistics and hundreds of bins of a healthy run raise no spurious warning).
-    if b.pairs < 3 {
-        return;
-    }
-    let k = (0.5 * t_critical(b.pairs - 1)).max(4.0);
-    for (statistic, bias, stat) in [
-        (Statistic::Mean, b.mean, q.mean),
-        (Statistic::Variance, b.variance, q.variance),
-        (Statistic::Kurtosis, b.kurtosis, q.kurtosis),
-    ] {
-        if bias.stderr.is_finite()
-            && bias.value.abs() > k * bias.stderr
-            && bias.value.abs() > stat.stderr
-        {
-            out.push(McWarning::BiasExceedsError {
-                quantity: q.name.clone(),
-                statistic,
-                bias,
-                stderr: stat.stderr,
-            });
-        }
-    }
-    let flagged: Vec<usize> = (0..q.grid.bins)
-        .filter(|&j| {
-            let (v, se) = (b.density[j], b.density_stderr[j]);
-            se.is_finite() && v.abs() > k * se && v.abs() > q.stderr[j]
-        })
-        .collect();
-    if let Some(&worst) = flagged.iter().max_by(|&&i, &&j| {
-        let r = |k: usize| b.density[k].abs() / q.stderr[k].max(f64::MIN_POSITIVE);
-        r(i).total_cmp(&r(j))
-    }) {
-        out.push(McWarning::DensityBiasExceedsError {
-            quantity: q.name.clone(),
-            bins: flagged.len(),
-            at: q.grid.lo + (worst as f64 + 0.5) * q.grid.width(),
-            density: q.density[worst],
-            bias: Estimate {
-                value: b.density[worst],
-                stderr: b.density_stderr[worst],
-            },
-            stderr: q.stderr[worst],
-        });
-    }
-}
-
-/// `bias ± se` when resolved, `< bound (unresolved)` when not, `n/a` without an estimate.
-pub(crate) fn render_bias(b: Option<Estimate>) -> String {
-    match b {
-        None => "n/a".into(),
-        Some(e) if !e.value.is_finite() || !e.stderr.is_finite() => "unknown".into(),
-        Some(e) if e.resolved() => format!("{:+.1e} ± {:.0e}", e.value, e.stderr),
-        Some(e) => format!("< {:.1e} (unresolved)", e.bound()),
-    }
-}
-
-impl fmt::Display for super::McResult {
-    /// The summary table of a run: scheme, sizes, moments with standard errors and
-    /// time-step biases, impacts, blow-ups, the stationarity verdict and the warnings.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let st = &self.settings;
-        writeln!(
-            f,
-            "Monte Carlo of {}: {}, dt = {}, {} trajectories recorded of {}, {} samples each \
-             every {} after a burn-in of {}",
-            st.model,
-            st.scheme,
-            st.dt,
-            self.trajectories,
-            st.trajectories(),
-            st.samples_per_trajectory,
-            st.spacing(),
-            st.burn_in()
-        )?;
-        writeln!(
-            f,
-            "{:>8} {:>9} {:>13} {:>8} {:>24} {:>13} {:>8} {:>24} {:>10} {:>8} {:>24}",
-            "quantity",
-            "statistic",
-            "mean",
-            "± se",
-            "time-step bias",
-            "variance",
-            "± se",
-            "time-step bias",
-            "kurtosis",
-            "± se",
-            "time-step bias"
-        )?;
-        for q in &self.quantities {
-            let b = q.time_step_bias.as_ref();
-            writeln!(
-                f,
-                "{:>8} {:>9} {:>13.6} {:>8.1e} {:>24} {:>13.6} {:>8.1e} {:>24} {:>10.4} {:>8.1e} {:>24}",
-                q.name,
-                "mc",
-                q.mean.value,
-                q.mean.stderr,
-                render_bias(b.map(|b| b.mean)),
-                q.variance.value,
-                q.variance.stderr,
-                render_bias(b.map(|b| b.variance)),
-                q.kurtosis.value,
-                q.kurtosis.stderr,
-                render_bias(b.map(|b| b.kurtosis))
-            )?;
-        }
-        if let Some(b) = self
-            .quantities
-            .first()
-            .and_then(|q| q.time_step_bias.as_ref())
-        {
-            writeln!(
-                f,
-                "time-step bias: Richardson estimate S_dt - S from {} statistics batches paired \
-                 with a run at dt = {} (weak order {})",
-                b.pairs, b.coarse_dt, b.order
-            )?;
-        } else {
-            writeln!(f, "time-step bias: not estimated")?;
-        }
-        if let Some(impacts) = &self.impacts {
-            writeln!(
-                f,
-                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time",
-                impacts.count, impacts.rate.value, impacts.rate.stderr
-            )?;
-        }
-        writeln!(f, "blow-ups: {}", self.blowup_verdict)?;
-        writeln!(f, "stationarity: {}", self.stationarity)?;
-        for w in &self.warnings {
-            writeln!(f, "warning: {w}")?;
-        }
-        Ok(())
     }
 }
 

@@ -28,7 +28,9 @@
 //!   of g is infinite, and +∞ is returned there; nearby it has a logarithmic (saddle) or
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
-use super::{integrate_edges, JointDensity, ObservableMap};
+use super::critical::{in_component, Critical, CriticalSearch, Kind};
+use super::quadrature::integrate_panels;
+use super::{JointDensity, ObservableMap};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
 /// Exponent of the partition of unity between the two families of lines.
@@ -37,25 +39,6 @@ const M: i32 = 8;
 const GRID: usize = 129;
 /// Relative tolerance of the adaptive quadrature over the lines.
 const REL_TOL: f64 = 1e-10;
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Kind {
-    Min,
-    Max,
-    Saddle,
-    Degenerate,
-}
-
-#[derive(Clone, Debug)]
-struct Critical {
-    x: [f64; 2],
-    value: f64,
-    kind: Kind,
-    /// H⁻¹ for an extremum (of −H for a maximum: positive definite either way).
-    hinv: [[f64; 2]; 2],
-    /// p(x*)·2π/√|det H|: the density of g at the extremum's value (one-sided limit).
-    limit: f64,
-}
 
 /// The co-area method, prepared for one observable under one joint density.
 pub(crate) struct LevelSet {
@@ -267,144 +250,18 @@ impl LevelSet {
             kink_lines: Vec::new(),
         };
         if with_critical {
-            set.critical = set.critical_points(density, &hess, &grad2, p);
+            let search = CriticalSearch {
+                tape: &set.tape,
+                hess: &hess,
+                ext: set.ext,
+                lo: set.lo,
+                h: set.h,
+                gscale: set.gscale,
+                nodes: GRID,
+            };
+            set.critical = search.find(density, &grad2, p);
         }
         Ok(set)
-    }
-
-    /// Critical points of g where the density is positive: Newton on ∇g = 0 from the grid
-    /// points where |∇g| is a local minimum.
-    fn critical_points(
-        &self,
-        density: &dyn JointDensity,
-        hess: &Tape,
-        grad2: &[f64],
-        p: &[f64],
-    ) -> Vec<Critical> {
-        let n = GRID;
-        let pmax = p.iter().copied().fold(0.0, f64::max);
-        let gradmax = grad2
-            .iter()
-            .zip(p)
-            .filter(|(g, p)| **p > 0.0 && g.is_finite())
-            .map(|(g, _)| *g)
-            .fold(0.0, f64::max)
-            .sqrt();
-        let mut seeds: Vec<(f64, usize)> = Vec::new();
-        for i in 1..n - 1 {
-            for j in 1..n - 1 {
-                let k = i * n + j;
-                if p[k] <= 1e-300 * pmax || p[k].is_nan() || !grad2[k].is_finite() {
-                    continue;
-                }
-                let local_min = (i - 1..=i + 1).all(|a| {
-                    (j - 1..=j + 1).all(|b| {
-                        let q = grad2[a * n + b];
-                        !q.is_finite() || grad2[k] <= q
-                    })
-                });
-                if local_min {
-                    seeds.push((grad2[k], k));
-                }
-            }
-        }
-        seeds.sort_by(|a, b| a.0.total_cmp(&b.0));
-        seeds.truncate(256);
-        let width = (self.ext[0][1] - self.ext[0][0]).max(self.ext[1][1] - self.ext[1][0]);
-        let mut found: Vec<Critical> = Vec::new();
-        let (mut scratch, mut out, mut hout) = (Vec::new(), [0.0; 3], [0.0; 3]);
-        for &(_, k) in &seeds {
-            let mut x = [
-                self.lo[0] + (k / n) as f64 * self.h[0],
-                self.lo[1] + (k % n) as f64 * self.h[1],
-            ];
-            let mut converged = false;
-            for _ in 0..60 {
-                self.tape.eval(&x, &mut scratch, &mut out);
-                hess.eval(&x, &mut scratch, &mut hout);
-                let (g1, g2) = (out[1], out[2]);
-                if g1 == 0.0 && g2 == 0.0 {
-                    converged = true;
-                    break;
-                }
-                let [h11, h12, h22] = hout;
-                let det = h11 * h22 - h12 * h12;
-                let norm2 = h11 * h11 + 2.0 * h12 * h12 + h22 * h22;
-                let step = if det.abs() > 1e-10 * norm2 {
-                    [(h22 * g1 - h12 * g2) / det, (-h12 * g1 + h11 * g2) / det]
-                } else {
-                    // Singular Hessian: Newton along the gradient.
-                    let hg = [h11 * g1 + h12 * g2, h12 * g1 + h22 * g2];
-                    let c = g1 * hg[0] + g2 * hg[1];
-                    if c == 0.0 || !c.is_finite() {
-                        break;
-                    }
-                    let t = (g1 * g1 + g2 * g2) / c;
-                    [t * g1, t * g2]
-                };
-                if !(step[0].is_finite() && step[1].is_finite()) {
-                    break;
-                }
-                x = [x[0] - step[0], x[1] - step[1]];
-                if (0..2).any(|a| x[a] < self.ext[a][0] || x[a] > self.ext[a][1]) {
-                    break;
-                }
-                if step[0].abs().max(step[1].abs()) < 1e-14 * width {
-                    self.tape.eval(&x, &mut scratch, &mut out);
-                    converged = true;
-                    break;
-                }
-            }
-            if !converged {
-                continue;
-            }
-            let grad = out[1].hypot(out[2]);
-            if grad.is_nan() || grad > 1e-9 * gradmax.max(1e-300) || !out[0].is_finite() {
-                continue;
-            }
-            let px = density.pdf(x);
-            if px.is_nan() || px <= 0.0 {
-                continue;
-            }
-            hess.eval(&x, &mut scratch, &mut hout);
-            let [h11, h12, h22] = hout;
-            let det = h11 * h22 - h12 * h12;
-            let norm2 = h11 * h11 + 2.0 * h12 * h12 + h22 * h22;
-            let kind = if det.is_nan() || det.abs() <= 1e-8 * norm2 {
-                Kind::Degenerate
-            } else if det < 0.0 {
-                Kind::Saddle
-            } else if h11 + h22 > 0.0 {
-                Kind::Min
-            } else {
-                Kind::Max
-            };
-            let value = out[0];
-            let duplicate = found.iter().any(|c| {
-                let near = (c.x[0] - x[0]).abs().max((c.x[1] - x[1]).abs()) < 1e-6 * width;
-                let same_degenerate = c.kind == Kind::Degenerate
-                    && kind == Kind::Degenerate
-                    && (c.value - value).abs() <= 1e-12 * self.gscale;
-                near || same_degenerate
-            });
-            if duplicate {
-                continue;
-            }
-            let s = if kind == Kind::Max { -1.0 } else { 1.0 };
-            let hinv = [
-                [s * h22 / det, -s * h12 / det],
-                [-s * h12 / det, s * h11 / det],
-            ];
-            let limit = px * 2.0 * std::f64::consts::PI / det.abs().sqrt();
-            found.push(Critical {
-                x,
-                value,
-                kind,
-                hinv,
-                limit,
-            });
-        }
-        found
     }
 
     /// p_g(u).
@@ -435,7 +292,7 @@ impl LevelSet {
                     if !active {
                         continue;
                     }
-                    let r = [0, 1].map(|a| (2.0 * d.abs() * c.hinv[a][a].abs()).sqrt());
+                    let r = [0, 1].map(|a| (2.0 * d.abs() * c.hinv[(a, a)].abs()).sqrt());
                     if r[0].max(r[1]) < 1e-5 * width {
                         total += c.limit;
                         excluded.push(c);
@@ -472,14 +329,14 @@ impl LevelSet {
                 .collect();
             edges.sort_by(f64::total_cmp);
             edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));
-            // `integrate_edges` takes a `Fn`: the tape's working memory is shared through a
+            // `integrate_panels` takes a `Fn`: the tape's working memory is shared through a
             // `RefCell`, so that no line allocates.
             let scratch = std::cell::RefCell::new(Vec::new());
             let f = |s: f64| {
                 let mut scratch = scratch.borrow_mut();
                 self.line_sum(density, a, s, u, &excluded, &mut scratch)
             };
-            total += integrate_edges(&f, &edges, REL_TOL);
+            total += integrate_panels(&f, &edges, REL_TOL);
         }
         total
     }
@@ -809,19 +666,6 @@ impl LevelSet {
         let v = self.eval(a, s, t, scratch).1;
         ((v.g - u).abs() <= 1e-8 * self.gscale).then_some(t)
     }
-}
-
-/// Whether `x` lies on the small component of {g = u} around extremum `c` (used when that
-/// component is taken from its exact limit instead).
-fn in_component(c: &Critical, x: [f64; 2], u: f64) -> bool {
-    let d = [x[0] - c.x[0], x[1] - c.x[1]];
-    // (x − x*)ᵀ H (x − x*)/2 ≈ |u − u*| on the component; H from H⁻¹.
-    let hi = c.hinv;
-    let det = hi[0][0] * hi[1][1] - hi[0][1] * hi[1][0];
-    let q = (hi[1][1] * d[0] * d[0] - 2.0 * hi[0][1] * d[0] * d[1] + hi[0][0] * d[1] * d[1])
-        / det
-        / 2.0;
-    q <= 4.0 * (u - c.value).abs() + 1e-300
 }
 
 #[cfg(test)]

@@ -17,21 +17,27 @@
 //! p(x*)·2π/√det H (e.g. p(0) of an energy); at a saddle value or a degenerate critical value
 //! the density is infinite and +∞ is returned; near a saddle value (logarithmic singularity)
 //! the accuracy is lower. Where g is undefined (`log(z)`, z ≤ 0) there is no density: p_g
-//! integrates to 1 − [`Moments::undefined_mass`], which [`moments`] reports; nothing is
+//! integrates to 1 − [`ObservableMoments::undefined_mass`], which [`moments`] reports; nothing is
 //! renormalised.
 //!
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
 //! from a 1-D curve on a truncated grid.
 
+mod critical;
 mod level;
 mod moments;
+mod quadrature;
 
 use crate::epc::EpcSolution;
 use rayon::prelude::*;
 
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
-pub use moments::{moments, moments_of_all, Moments};
+pub use moments::{moments, moments_of_all, ObservableMoments};
+/// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
+#[cfg(feature = "test-support")]
+#[doc(hidden)]
+pub use quadrature::integrate_adaptive;
 
 /// A joint density of the two states that observables can be computed from.
 pub trait JointDensity: Sync {
@@ -314,94 +320,10 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
                 x[other] = t;
                 density.pdf(x)
             };
-            total += integrate(&f, lo, hi, 1e-10);
+            total += quadrature::integrate_adaptive(&f, lo, hi, 1e-10);
         }
     }
     total
-}
-
-/// Adaptive Gauss–Kronrod (7–15) quadrature of `f` over [a, b] to relative tolerance `rel`
-/// (with a floor of 1e−300 absolute, so an integrand that is zero gives zero).
-pub fn integrate(f: &dyn Fn(f64) -> f64, a: f64, b: f64, rel: f64) -> f64 {
-    // Start from 16 panels so that a narrow peak is never missed between Kronrod nodes.
-    let n0 = 16;
-    let edges: Vec<f64> = (0..=n0)
-        .map(|k| a + (b - a) * k as f64 / n0 as f64)
-        .collect();
-    integrate_edges(f, &edges, rel)
-}
-
-/// Adaptive Gauss–Kronrod quadrature of `f` from `edges[0]` to its last element, starting from
-/// the panels between consecutive `edges` (sorted), to relative tolerance `rel`.
-pub(crate) fn integrate_edges(f: &dyn Fn(f64) -> f64, edges: &[f64], rel: f64) -> f64 {
-    let mut stack: Vec<(f64, f64, f64, f64, u32)> = Vec::with_capacity(64);
-    let mut total = 0.0;
-    for w in edges.windows(2) {
-        let (lo, hi) = (w[0], w[1]);
-        let (v, e) = gauss_kronrod(f, lo, hi);
-        stack.push((lo, hi, v, e, 0));
-        total += v;
-    }
-    let mut done = 0.0;
-    while let Some((lo, hi, v, e, depth)) = stack.pop() {
-        let tol = (rel * total.abs()).max(1e-300);
-        // Refine a panel while its error is a noticeable share of the tolerance; the depth
-        // cap only bites on a discontinuity, where halving no longer helps.
-        if e <= tol / 64.0 || depth >= 40 {
-            done += v;
-            continue;
-        }
-        let mid = 0.5 * (lo + hi);
-        let (v1, e1) = gauss_kronrod(f, lo, mid);
-        let (v2, e2) = gauss_kronrod(f, mid, hi);
-        total += v1 + v2 - v;
-        stack.push((lo, mid, v1, e1, depth + 1));
-        stack.push((mid, hi, v2, e2, depth + 1));
-    }
-    done
-}
-
-/// One Gauss–Kronrod 7–15 panel: the Kronrod value and |Kronrod − Gauss| as error estimate.
-fn gauss_kronrod(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
-    const XK: [f64; 8] = [
-        0.991_455_371_120_812_6,
-        0.949_107_912_342_758_5,
-        0.864_864_423_359_769_1,
-        0.741_531_185_599_394_4,
-        0.586_087_235_467_691_1,
-        0.405_845_151_377_397_2,
-        0.207_784_955_007_898_5,
-        0.0,
-    ];
-    const WK: [f64; 8] = [
-        0.022_935_322_010_529_22,
-        0.063_092_092_629_978_55,
-        0.104_790_010_322_250_2,
-        0.140_653_259_715_525_9,
-        0.169_004_726_639_267_9,
-        0.190_350_578_064_785_4,
-        0.204_432_940_075_298_9,
-        0.209_482_141_084_727_8,
-    ];
-    const WG: [f64; 4] = [
-        0.129_484_966_168_869_7,
-        0.279_705_391_489_276_7,
-        0.381_830_050_505_118_9,
-        0.417_959_183_673_469_4,
-    ];
-    let c = 0.5 * (a + b);
-    let h = 0.5 * (b - a);
-    let fc = f(c);
-    let mut k = WK[7] * fc;
-    let mut g = WG[3] * fc;
-    for i in 0..7 {
-        let (f1, f2) = (f(c - h * XK[i]), f(c + h * XK[i]));
-        k += WK[i] * (f1 + f2);
-        if i % 2 == 1 {
-            g += WG[i / 2] * (f1 + f2);
-        }
-    }
-    (k * h, ((k - g) * h).abs())
 }
 
 #[cfg(test)]
@@ -567,16 +489,5 @@ mod tests {
         }
         // Below the minimum there is no level set.
         assert_eq!(observable_pdf(&d, &map, &[-0.1])[0], 0.0);
-    }
-
-    #[test]
-    fn adaptive_quadrature_reaches_its_tolerance() {
-        let f = |x: f64| (-x * x).exp();
-        let v = integrate(&f, 0.0, 30.0, 1e-12);
-        assert!((v - PI.sqrt() / 2.0).abs() < 1e-13);
-        // A narrow peak far from the panel midpoints is still found.
-        let g = |x: f64| (-((x - 7.3) / 1e-3).powi(2)).exp();
-        let v = integrate(&g, 0.0, 10.0, 1e-10);
-        assert!((v - 1e-3 * PI.sqrt()).abs() < 1e-12, "{v}");
     }
 }

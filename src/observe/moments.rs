@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use super::{JointDensity, ObservableMap};
+use crate::moments::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
@@ -54,7 +55,7 @@ struct Rule {
 /// h ≈ 1/30 of the extent.
 ///
 /// When g has no finite value on part of the support (`log(z)` for z ≤ 0, `1/z` at 0), that
-/// probability is [`Moments::undefined_mass`], and the moments are those of g *given* that it
+/// probability is [`ObservableMoments::undefined_mass`], and the moments are those of g *given* that it
 /// is defined (divided by 1 − undefined_mass): a defective observable is flagged, never
 /// silently renormalised.
 ///
@@ -76,15 +77,10 @@ struct Rule {
 /// assert!((m.undefined_mass - 0.5).abs() < 1e-12); // log z is undefined for z ≤ 0
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Moments {
-    /// E\[g\], E\[g²\], E\[g³\], E\[g⁴\] (given g defined).
-    pub raw: [f64; 4],
-    /// E\[g\].
-    pub mean: f64,
-    /// √Var\[g\].
-    pub std_dev: f64,
-    /// E[(g − mean)⁴] / Var\[g\]².
-    pub kurtosis: f64,
+pub struct ObservableMoments {
+    /// E\[g\], …, E\[g⁴\] (given g defined), mean, variance (a second pass about the mean)
+    /// and kurtosis; a moment beyond [`ObservableMoments::existing`] is NaN.
+    pub moments: Moments,
     /// P(g has no finite value): 0 for an observable defined everywhere.
     pub undefined_mass: f64,
     /// How many of E|g|, E|g|², E|g|³, E|g|⁴ are established as finite (two different
@@ -157,11 +153,11 @@ fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
 /// let states = ["z".into(), "v".into()];
 /// let vsq = ObservableMap::classify(&(Expr::sym("v") * Expr::sym("v")), &states);
 /// let m = moments(&Normal, &vsq);
-/// assert!((m.mean - 1.0).abs() < 1e-12);
-/// assert!((m.raw[1] - 3.0).abs() < 1e-12); // E[v⁴] = 3
+/// assert!((m.moments.mean - 1.0).abs() < 1e-12);
+/// assert!((m.moments.raw[1] - 3.0).abs() < 1e-12); // E[v⁴] = 3
 /// assert_eq!(m.undefined_mass, 0.0);
 /// ```
-pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
+pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> ObservableMoments {
     moments_of_all(density, &[map]).remove(0)
 }
 
@@ -186,9 +182,9 @@ pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> Moments {
 /// let vsq = ObservableMap::classify(&(Expr::sym("v") * Expr::sym("v")), &states);
 /// let all = moments_of_all(&Normal, &[&z, &vsq]);
 /// assert_eq!(all[1], moments(&Normal, &vsq));
-/// assert!((all[0].raw[3] - 3.0).abs() < 1e-12); // E[z⁴] = 3
+/// assert!((all[0].moments.raw[3] - 3.0).abs() < 1e-12); // E[z⁴] = 3
 /// ```
-pub fn moments_of_all(density: &dyn JointDensity, maps: &[&ObservableMap]) -> Vec<Moments> {
+pub fn moments_of_all(density: &dyn JointDensity, maps: &[&ObservableMap]) -> Vec<ObservableMoments> {
     let fine = Grid::new(density, FINE);
     // A state's moments exist for any density fpsolve normalises (exp(Q) on the plane, or cut
     // at a ridge): the second rule is only needed for general maps.
@@ -300,7 +296,7 @@ struct Samples {
 
 impl Samples {
     /// The moments, the first `existing` of them established (the others NaN).
-    fn moments(&self, existing: usize) -> Moments {
+    fn moments(&self, existing: usize) -> ObservableMoments {
         let e = |f: &dyn Fn(f64) -> f64| self.expect(f);
         let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
         let raw = [
@@ -312,11 +308,13 @@ impl Samples {
         let mean = raw[0];
         let var = upto(2, e(&|g| (g - mean).powi(2)));
         let m4 = upto(4, e(&|g| (g - mean).powi(4)));
-        Moments {
-            raw,
-            mean,
-            std_dev: var.sqrt(),
-            kurtosis: m4 / (var * var),
+        ObservableMoments {
+            moments: Moments {
+                raw,
+                mean,
+                variance: var,
+                kurtosis: m4 / (var * var),
+            },
             undefined_mass: ((self.total - self.defined) / self.total).max(0.0),
             existing,
         }

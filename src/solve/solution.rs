@@ -226,14 +226,7 @@ impl Solution {
             .zip(quantities)
             .map(|(m, q)| QuantityMoments {
                 name: q.name.clone(),
-                // observe reports √Var; √(s·s) = s exactly, so the standard deviation
-                // read back is the one observe computed.
-                moments: Moments {
-                    raw: m.raw,
-                    mean: m.mean,
-                    variance: m.std_dev * m.std_dev,
-                    kurtosis: m.kurtosis,
-                },
+                moments: m.moments,
                 undefined_mass: m.undefined_mass,
                 existing_moments: m.existing,
             })

@@ -1,0 +1,162 @@
+//! Statistics batches: the trajectories of one batch run together (structure-of-arrays),
+//! streaming their samples into histograms and power sums; batches run in parallel and come
+//! back in batch order.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::exact;
+use super::histogram::{Accumulator, QuantityBatch};
+use super::scheme::Plan;
+use super::settings::{ParamValue, RunSettings};
+use super::step::BatchState;
+
+/// A trajectory whose state stopped being finite: it is left out of every statistic.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlowUp {
+    /// The trajectory's index in the run (its random stream is `(seed, trajectory)`).
+    pub trajectory: u64,
+    /// The step count at which the non-finite state was found (a sample point).
+    pub step: u64,
+    /// The last finite state recorded, and the step it was recorded at (`None` if the
+    /// trajectory never reached a sample point finite).
+    pub last_finite: Option<LastState>,
+    /// The model's parameter values, so the report is self-contained.
+    pub params: Vec<ParamValue>,
+}
+
+/// A recorded state of a trajectory.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LastState {
+    /// The step it was recorded at.
+    pub step: u64,
+    /// The two states.
+    #[serde(with = "exact::array2")]
+    pub state: [f64; 2],
+}
+
+/// One statistics batch's contribution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(crate) struct BatchSummary {
+    pub(crate) index: u64,
+    /// Trajectories recorded (lanes minus blow-ups).
+    pub(crate) recorded: u64,
+    /// Impacts of the recorded trajectories after the burn-in.
+    pub(crate) impacts: u64,
+    pub(crate) quantities: Vec<QuantityBatch>,
+    pub(crate) blowups: Vec<BlowUp>,
+}
+
+/// Runs statistics batch `index` (all its trajectories from their start), leaving out the
+/// lanes in `excluded`; returns its summary and the lanes that blew up.
+fn run_batch_once(
+    plan: &Plan,
+    st: &RunSettings,
+    index: u64,
+    excluded: &[bool],
+) -> (BatchSummary, Vec<usize>) {
+    let lanes = st.lanes;
+    let first = index * lanes as u64;
+    let spread = plan.initial_spread();
+    let mut b = BatchState::new(plan, &spread, st.seed, first, lanes, st.increments);
+    b.advance(plan, st.burn_in_steps, st.dt);
+    b.impacts.fill(0);
+    let mut record: Vec<bool> = excluded.iter().map(|e| !e).collect();
+    let mut acc: Vec<Accumulator> = st
+        .quantities
+        .iter()
+        .map(|q| Accumulator::new(q.grid, lanes))
+        .collect();
+    let n_obs = st.quantities.len() - 2;
+    let mut obs = vec![0.0; n_obs * lanes];
+    let mut scratch = super::eval::Scratch::new();
+    let mut blown: Vec<(usize, u64, Option<LastState>)> = Vec::new();
+    let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
+    let mut step = st.burn_in_steps;
+    for s in 0..st.samples_per_trajectory {
+        let window = ((s as u128 * 4) / st.samples_per_trajectory as u128) as usize;
+        for a in &mut acc {
+            a.set_window(window);
+        }
+        prev_x.copy_from_slice(&b.x);
+        prev_v.copy_from_slice(&b.v);
+        b.advance(plan, st.steps_per_sample, st.dt);
+        let prev_step = step;
+        step += st.steps_per_sample;
+        for i in 0..lanes {
+            if record[i] && !(b.x[i].is_finite() && b.v[i].is_finite()) {
+                record[i] = false;
+                let last = (s > 0).then(|| LastState {
+                    step: prev_step,
+                    state: [prev_x[i], prev_v[i]],
+                });
+                blown.push((i, step, last));
+            }
+        }
+        plan.observables
+            .eval_batch(&b.x, &b.v, &mut obs, &mut scratch);
+        acc[0].add(&b.x, &record);
+        acc[1].add(&b.v, &record);
+        for j in 0..n_obs {
+            acc[2 + j].add(&obs[j * lanes..(j + 1) * lanes], &record);
+        }
+    }
+    let impacts = (0..lanes)
+        .filter(|&i| record[i])
+        .map(|i| b.impacts[i])
+        .sum();
+    let recorded = record.iter().filter(|&&r| r).count() as u64;
+    let blowups = blown
+        .iter()
+        .map(|(i, step, last)| BlowUp {
+            trajectory: first + *i as u64,
+            step: *step,
+            last_finite: last.clone(),
+            params: st.params.clone(),
+        })
+        .collect();
+    let blown = blown.into_iter().map(|b| b.0).collect();
+    let summary = BatchSummary {
+        index,
+        recorded,
+        impacts,
+        quantities: acc.into_iter().map(Accumulator::finish).collect(),
+        blowups,
+    };
+    (summary, blown)
+}
+
+/// Runs statistics batch `index`; if trajectories blow up, runs it again without them (their
+/// streams are their own, so the others repeat exactly) so that none of their samples count.
+pub(crate) fn run_batch(plan: &Plan, st: &RunSettings, index: u64) -> BatchSummary {
+    let mut excluded = vec![false; st.lanes];
+    let (summary, blown) = run_batch_once(plan, st, index, &excluded);
+    if blown.is_empty() {
+        return summary;
+    }
+    let blowups = summary.blowups;
+    for &i in &blown {
+        excluded[i] = true;
+    }
+    let (mut again, _) = run_batch_once(plan, st, index, &excluded);
+    again.blowups = blowups;
+    again
+}
+
+/// Runs the batches in `range` in parallel; the summaries come back in batch order.
+/// `done` hears about every finished batch.
+pub(crate) fn run_batches(
+    plan: &Plan,
+    st: &RunSettings,
+    range: std::ops::Range<u64>,
+    done: &(dyn Fn() + Sync),
+) -> Vec<BatchSummary> {
+    range
+        .into_par_iter()
+        .map(|k| {
+            let b = run_batch(plan, st, k);
+            done();
+            b
+        })
+        .collect()
+}

@@ -1,0 +1,67 @@
+//! Serde helpers writing `f64` as its shortest round-trip decimal string (`"0.1"`, `"inf"`),
+//! which Rust parses back to the same bits: shard files and summaries carry every number
+//! exactly, so a merge reproduces an unsplit run bit for bit.
+
+use serde::{Deserialize, Deserializer, Serializer};
+
+pub(crate) fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&format!("{v:?}"))
+}
+
+pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let text = String::deserialize(d)?;
+    text.parse().map_err(serde::de::Error::custom)
+}
+
+/// The same for `[f64; 4]`.
+pub(crate) mod array4 {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(crate) fn serialize<S: Serializer>(v: &[f64; 4], s: S) -> Result<S::Ok, S::Error> {
+        let t: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+        serde::Serialize::serialize(&t, s)
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 4], D::Error> {
+        let t = <[String; 4]>::deserialize(d)?;
+        let mut out = [0.0; 4];
+        for (o, x) in out.iter_mut().zip(&t) {
+            *o = x.parse().map_err(serde::de::Error::custom)?;
+        }
+        Ok(out)
+    }
+}
+
+/// The same for `[f64; 2]`.
+pub(crate) mod array2 {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(crate) fn serialize<S: Serializer>(v: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
+        let t: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+        serde::Serialize::serialize(&t, s)
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+        let t = <[String; 2]>::deserialize(d)?;
+        Ok([
+            t[0].parse().map_err(serde::de::Error::custom)?,
+            t[1].parse().map_err(serde::de::Error::custom)?,
+        ])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde::{Deserialize, Serialize};
+
+    #[test]
+    fn exact_floats_round_trip_through_json() {
+        #[derive(Serialize, Deserialize)]
+        struct W(#[serde(with = "super")] f64);
+        for v in [0.1, 1.0 / 3.0, 1e-300, f64::INFINITY, -0.0, 5e-324] {
+            let j = serde_json::to_string(&W(v)).unwrap();
+            let back: W = serde_json::from_str(&j).unwrap();
+            assert_eq!(back.0.to_bits(), v.to_bits(), "{j}");
+        }
+    }
+}

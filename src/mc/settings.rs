@@ -1,0 +1,110 @@
+//! The fully resolved settings of a run: everything its numbers depend on, as shard files
+//! and `mc_summary.json` record them.
+
+use serde::{Deserialize, Serialize};
+
+use super::exact;
+use super::histogram::Grid;
+use super::rng::Increments;
+use super::scheme::SchemeKind;
+
+/// A parameter and the value a model was bound with, as runs and reports record it (in
+/// `mc_summary.json`, shard files and blow-up reports). The value is written as its shortest
+/// round-trip decimal string, so a file read back gives the same bits.
+///
+/// ```
+/// use fpsolve::mc::ParamValue;
+/// let p = ParamValue { name: "mu".into(), value: 0.1 };
+/// let json = serde_json::to_string(&p).unwrap();
+/// assert_eq!(json, r#"{"name":"mu","value":"0.1"}"#);
+/// assert_eq!(serde_json::from_str::<ParamValue>(&json).unwrap(), p);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamValue {
+    /// The parameter's name.
+    pub name: String,
+    /// Its value.
+    #[serde(with = "exact")]
+    pub value: f64,
+}
+
+/// A quantity a run histograms: a state or an observable, with its grid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct QuantitySpec {
+    /// Its name.
+    pub name: String,
+    /// Whether it is a state (else an observable).
+    pub is_state: bool,
+    /// Its histogram grid.
+    pub grid: Grid,
+}
+
+/// The fully resolved settings of a run: everything its numbers depend on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunSettings {
+    /// The model's name.
+    pub model: String,
+    /// The parameter values the model was bound with.
+    pub params: Vec<ParamValue>,
+    /// The time-stepping scheme.
+    pub scheme: SchemeKind,
+    /// The noise increments' distribution.
+    pub increments: Increments,
+    /// Time step.
+    #[serde(with = "exact")]
+    pub dt: f64,
+    /// Steps between recorded samples.
+    pub steps_per_sample: u64,
+    /// Steps before the first sample.
+    pub burn_in_steps: u64,
+    /// Samples recorded per trajectory.
+    pub samples_per_trajectory: u64,
+    /// Trajectories per statistics batch.
+    pub lanes: usize,
+    /// Number of statistics batches (trajectories = lanes · batches).
+    pub batches: u64,
+    /// The seed.
+    pub seed: u64,
+    /// Whether the model has an impact law (so impacts are counted).
+    pub has_barrier: bool,
+    /// The histogrammed quantities: the two states, then the observables.
+    pub quantities: Vec<QuantitySpec>,
+    /// Statistics batches `0..bias_batches` are run a second time at 2·dt for the
+    /// time-step bias estimate (0: no estimate).
+    pub bias_batches: u64,
+}
+
+impl RunSettings {
+    /// Total trajectories of the run.
+    pub fn trajectories(&self) -> u64 {
+        self.lanes as u64 * self.batches
+    }
+
+    /// Time between samples.
+    pub fn spacing(&self) -> f64 {
+        self.steps_per_sample as f64 * self.dt
+    }
+
+    /// Burn-in time.
+    pub fn burn_in(&self) -> f64 {
+        self.burn_in_steps as f64 * self.dt
+    }
+
+    /// The settings of the paired coarse run: step 2·dt, the same burn-in time (rounded up),
+    /// the same spacing when it is an even number of steps (else twice the spacing: the
+    /// stationary statistics do not depend on it), the same samples and random streams.
+    pub fn coarse(&self) -> RunSettings {
+        let steps_per_sample = if self.steps_per_sample.is_multiple_of(2) {
+            self.steps_per_sample / 2
+        } else {
+            self.steps_per_sample
+        };
+        RunSettings {
+            dt: 2.0 * self.dt,
+            steps_per_sample,
+            burn_in_steps: self.burn_in_steps.div_ceil(2),
+            bias_batches: 0,
+            ..self.clone()
+        }
+    }
+}

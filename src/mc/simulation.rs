@@ -1,0 +1,195 @@
+//! The simulation driver: a model compiled with its settings resolved (the pilot run fixes
+//! the grids not given), run whole or in shards.
+
+use super::batch::run_batches;
+use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
+use super::error::McError;
+use super::histogram::{Grid, QuantityHistogram};
+use super::result::{finalize_run, McResult};
+use super::scheme::Plan;
+use super::settings::{ParamValue, QuantitySpec, RunSettings};
+use super::shard::{Shard, ShardOutput};
+use crate::model::BoundModel;
+
+/// Half-width of an automatic grid, in pilot standard deviations.
+const GRID_HALF_WIDTH_SDS: f64 = 6.0;
+
+/// A model compiled for simulation with its run settings resolved: ready to run whole or
+/// in shards.
+pub struct Simulation {
+    plan: Plan,
+    settings: RunSettings,
+}
+
+impl Simulation {
+    /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
+    /// the pilot if some grid is not given).
+    pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
+        let Resolved {
+            plan,
+            names,
+            steps_per_sample,
+            burn_in_steps,
+            batches,
+            bias_batches,
+            estimate,
+        } = config.resolve(model)?;
+        // The run may be split into as many shards as batches: the smallest shard must fit.
+        estimate.within_limits(batches)?;
+        let dt = config.dt;
+        let placeholder = Grid::new(-1.0, 1.0, 1)?;
+        let mut settings = RunSettings {
+            model: model.name.clone(),
+            params: model
+                .params
+                .iter()
+                .map(|(n, v)| ParamValue {
+                    name: n.to_string(),
+                    value: *v,
+                })
+                .collect(),
+            scheme: plan.kind,
+            increments: config.increments,
+            dt,
+            steps_per_sample,
+            burn_in_steps,
+            samples_per_trajectory: config.samples,
+            lanes: config.lanes,
+            batches,
+            seed: config.seed,
+            has_barrier: model.impact.is_some(),
+            quantities: names
+                .iter()
+                .map(|(n, s)| QuantitySpec {
+                    name: n.clone(),
+                    is_state: *s,
+                    grid: config
+                        .grids
+                        .iter()
+                        .find(|(g, _)| g == n)
+                        .map_or(placeholder, |(_, g)| *g),
+                })
+                .collect(),
+            bias_batches,
+        };
+        let given = |n: &str| config.grids.iter().any(|(g, _)| g == n);
+        if settings.quantities.iter().any(|q| !given(&q.name)) {
+            let pilot = RunSettings {
+                seed: config.seed ^ PILOT_SALT,
+                batches: PILOT_BATCHES,
+                samples_per_trajectory: config.samples.min(PILOT_SAMPLES),
+                bias_batches: 0,
+                ..settings.clone()
+            };
+            let summaries = run_batches(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
+            let refs: Vec<_> = summaries.iter().collect();
+            let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
+                name: settings.quantities[0].name.clone(),
+            })?;
+            for (spec, stats) in settings.quantities.iter_mut().zip(&res.quantities) {
+                if !given(&spec.name) {
+                    spec.grid = auto_grid(stats, config.bins)?;
+                }
+            }
+        }
+        Ok(Simulation { plan, settings })
+    }
+
+    /// The resolved settings (scheme, burn-in, grids, …).
+    pub fn settings(&self) -> &RunSettings {
+        &self.settings
+    }
+
+    /// Runs the whole simulation: the statistics batches at dt, then the first
+    /// `bias_batches` again at 2·dt for the time-step bias. Trajectories that blow up are
+    /// listed in the result and left out; if all do, that is an error. A finished run is
+    /// returned even when its verdict fails ([`McResult::verdict`]).
+    pub fn run(&self) -> Result<McResult, McError> {
+        self.run_with_progress(&|_, _| {})
+    }
+
+    /// [`Simulation::run`], calling `progress(done, total)` (in statistics batches, the
+    /// coarse ones included) from the worker threads as batches finish.
+    ///
+    /// ```
+    /// use std::sync::atomic::{AtomicU64, Ordering};
+    /// use fpsolve::mc::{McConfig, Simulation};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let file = load_model(path.as_ref()).unwrap();
+    /// let model = file.bind(&[Override::number("c", 0.5)]).unwrap();
+    /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
+    /// let sim = Simulation::new(&model, &config).unwrap();
+    /// let seen = AtomicU64::new(0);
+    /// sim.run_with_progress(&|_, _| { seen.fetch_add(1, Ordering::Relaxed); }).unwrap();
+    /// // 4 batches, run again at 2·dt for the bias estimate (at least 8, here all 4).
+    /// assert_eq!(seen.into_inner(), 4 + 4);
+    /// ```
+    pub fn run_with_progress(
+        &self,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<McResult, McError> {
+        let st = &self.settings;
+        let total = st.batches + st.bias_batches;
+        let done = std::sync::atomic::AtomicU64::new(0);
+        let tick = || {
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(k, total);
+        };
+        let summaries = run_batches(&self.plan, st, 0..st.batches, &tick);
+        let coarse = run_batches(&self.plan, &st.coarse(), 0..st.bias_batches, &tick);
+        let refs: Vec<_> = summaries.iter().collect();
+        let coarse_refs: Vec<_> = coarse.iter().collect();
+        finalize_run(st, &refs, &coarse_refs)
+    }
+
+    /// Runs one shard of the simulation (its statistics batches, and those of them in the
+    /// bias estimate's range again at 2·dt); see [`merge_shards`](super::merge_shards).
+    pub fn run_shard(&self, shard: Shard) -> Result<ShardOutput, McError> {
+        let st = &self.settings;
+        if shard.count == 0 || shard.index >= shard.count || shard.count > st.batches {
+            return Err(bad(
+                "shard",
+                format!(
+                    "shard {} of {} does not fit a run of {} statistics batches",
+                    shard.index.saturating_add(1),
+                    shard.count,
+                    st.batches
+                ),
+            ));
+        }
+        let range = shard.batch_range(st.batches);
+        let coarse = range.start.min(st.bias_batches)..range.end.min(st.bias_batches);
+        Ok(ShardOutput {
+            settings: st.clone(),
+            shard,
+            batches: run_batches(&self.plan, st, range, &|| {}),
+            coarse: run_batches(&self.plan, &st.coarse(), coarse, &|| {}),
+        })
+    }
+}
+
+/// A grid covering mean ± 6 sd of the pilot samples, one-sided where the pilot saw only
+/// values of one sign (|z|, energies).
+fn auto_grid(stats: &QuantityHistogram, bins: usize) -> Result<Grid, McError> {
+    let (m, var) = (stats.moments.mean.value, stats.moments.variance.value);
+    if stats.samples == 0 || !m.is_finite() || !var.is_finite() {
+        return Err(McError::NoPilotRange {
+            name: stats.name.clone(),
+        });
+    }
+    let sd = var.max(0.0).sqrt();
+    let half = if sd > 0.0 {
+        GRID_HALF_WIDTH_SDS * sd
+    } else {
+        0.5 * m.abs().max(1.0)
+    };
+    let (mut lo, mut hi) = (m - half, m + half);
+    if stats.min >= 0.0 && lo < 0.0 && hi > 0.0 {
+        lo = 0.0;
+    }
+    if stats.max <= 0.0 && hi > 0.0 && lo < 0.0 {
+        hi = 0.0;
+    }
+    Grid::new(lo, hi, bins)
+}

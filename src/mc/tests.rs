@@ -1,0 +1,271 @@
+//! Unit tests of the simulation driver: blow-ups, scheme selection, determinism, shards.
+
+use super::*;
+use crate::mc::reference::{duffing, linear_oscillator, vibro_impact, VibroImpact};
+
+fn small(trajectories: u64) -> McConfig {
+    McConfig {
+        trajectories,
+        lanes: 16,
+        samples: 100,
+        ..McConfig::default()
+    }
+}
+
+#[test]
+fn blown_up_trajectories_are_reported_and_left_out() {
+    // A softening spring, k z − z³: trajectories that cross |z| = 1 run off to infinity.
+    let model = duffing(0.5, 1.0, -1.0, 0.12).bind(&[]).unwrap();
+    let config = McConfig {
+        grids: vec![
+            ("z".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+            ("v".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+        ],
+        ..small(64)
+    };
+    let sim = Simulation::new(&model, &config).unwrap();
+    let res = sim.run().unwrap();
+    let total = sim.settings().trajectories();
+    let lost = res.blowups.len() as u64;
+    assert!(lost > 0 && lost < total, "{lost} of {total} blew up");
+    assert_eq!(res.trajectories, total - lost);
+    let mut seen = std::collections::HashSet::new();
+    for b in &res.blowups {
+        assert!(b.trajectory < total && seen.insert(b.trajectory));
+        assert_eq!(b.params.len(), 4);
+        if let Some(last) = &b.last_finite {
+            assert!(last.step < b.step && last.state.iter().all(|s| s.is_finite()));
+        }
+    }
+    let z = res.quantity("z").unwrap();
+    assert!(z.moments.mean.value.is_finite() && z.moments.variance.value.is_finite());
+    assert_eq!(z.samples, res.trajectories * 100);
+    assert_eq!(z.invalid, 0);
+}
+
+#[test]
+fn a_run_where_every_trajectory_blows_up_is_an_error() {
+    // Strong noise over a low barrier: every trajectory escapes to infinity.
+    let model = duffing(0.5, 1.0, -1.0, 5.0).bind(&[]).unwrap();
+    let config = McConfig {
+        grids: vec![
+            ("z".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+            ("v".into(), Grid::new(-1.5, 1.5, 30).unwrap()),
+        ],
+        ..small(32)
+    };
+    let sim = Simulation::new(&model, &config).unwrap();
+    assert_eq!(sim.run(), Err(McError::AllBlewUp { blowups: 32 }));
+}
+
+#[test]
+fn schemes_are_chosen_from_the_model_form() {
+    let lin = linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    let sim = Simulation::new(&lin, &small(32)).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::MechanicalStrang);
+    let general = McConfig {
+        scheme: SchemeChoice::General,
+        ..small(32)
+    };
+    let sim = Simulation::new(&lin, &general).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::PlatenWeak2);
+    // Noise in the x-equation: not mechanical.
+    let mut m = linear_oscillator(0.5, 1.0, 1.0);
+    m.noise_matrix[0] = vec![crate::symbolic::Expr::num(0.1)];
+    let sim = Simulation::new(&m.bind(&[]).unwrap(), &small(32)).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::PlatenWeak2);
+    let order1 = McConfig {
+        scheme: SchemeChoice::GeneralOrder1,
+        ..small(32)
+    };
+    let sim = Simulation::new(&m.bind(&[]).unwrap(), &order1).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::Heun);
+    m.interpretation = crate::model::Interpretation::Ito;
+    let sim = Simulation::new(&m.bind(&[]).unwrap(), &order1).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::EulerMaruyama);
+}
+
+#[test]
+fn burn_in_is_ten_decay_times_of_the_linearisation() {
+    // z'' + 0.4 z' + z: eigenvalues −0.2 ± i·0.98, decay time 5.
+    let lin = linear_oscillator(0.4, 1.0, 1.0).bind(&[]).unwrap();
+    let sim = Simulation::new(&lin, &small(32)).unwrap();
+    assert_eq!(sim.settings().burn_in_steps, 5000);
+    // Overdamped z'' + 5 z' + 4 z: eigenvalues −1 and −4, the slow one decides.
+    let od = linear_oscillator(5.0, 4.0, 1.0).bind(&[]).unwrap();
+    let sim = Simulation::new(&od, &small(32)).unwrap();
+    assert_eq!(sim.settings().burn_in_steps, 1000);
+    // No damping: no stationary law at all, refused before the burn-in is estimated.
+    let free = linear_oscillator(0.0, 1.0, 1.0).bind(&[]).unwrap();
+    assert!(matches!(
+        Simulation::new(&free, &small(32)),
+        Err(McError::Inadmissible(
+            crate::physics::Inadmissible::NoDamping { .. }
+        ))
+    ));
+}
+
+#[test]
+fn automatic_grids_cover_the_pilot_and_fold_at_zero() {
+    let p = VibroImpact {
+        c: 0.5,
+        k: 1.0,
+        mu: 1.0,
+        eps: 0.0,
+        r: 0.9,
+        big_k: 0.1,
+    };
+    let m = vibro_impact(p).bind(&[]).unwrap();
+    let sim = Simulation::new(&m, &small(32)).unwrap();
+    let q = &sim.settings().quantities;
+    let names: Vec<&str> = q.iter().map(|q| q.name.as_str()).collect();
+    assert_eq!(names, ["z", "v", "y", "ydot"]);
+    assert_eq!(q[2].grid.lo, 0.0, "y = |z| is never negative");
+    assert!(q[0].grid.lo < -0.5 && q[0].grid.hi > 0.5);
+    assert_eq!(q[0].grid.bins, 100);
+}
+
+#[test]
+fn bad_settings_are_errors() {
+    let lin = linear_oscillator(0.5, 1.0, 1.0).bind(&[]).unwrap();
+    let bad = |c: McConfig| Simulation::new(&lin, &c).err().unwrap();
+    assert!(matches!(
+        bad(McConfig {
+            dt: 0.0,
+            ..small(32)
+        }),
+        McError::BadSetting { name: "dt", .. }
+    ));
+    assert!(matches!(
+        bad(McConfig {
+            spacing: 0.015,
+            ..small(32)
+        }),
+        McError::BadSetting {
+            name: "spacing",
+            ..
+        }
+    ));
+    assert!(matches!(
+        bad(small(16)),
+        McError::BadSetting {
+            name: "trajectories",
+            ..
+        }
+    ));
+    let unknown = McConfig {
+        grids: vec![("w".into(), Grid::new(0.0, 1.0, 2).unwrap())],
+        ..small(32)
+    };
+    assert!(matches!(bad(unknown), McError::UnknownQuantity { .. }));
+}
+
+#[test]
+fn a_delta_term_without_an_impact_law_is_an_error() {
+    let p = VibroImpact {
+        c: 0.5,
+        k: 1.0,
+        mu: 1.0,
+        eps: 0.0,
+        r: 0.9,
+        big_k: 0.1,
+    };
+    let mut m = vibro_impact(p);
+    m.impact = None;
+    assert!(matches!(
+        Simulation::new(&m.bind(&[]).unwrap(), &small(32)),
+        Err(McError::DeltaWithoutImpact { .. })
+    ));
+}
+
+/// `v' = −c v − k z + ξ₀ + σ v ξ₁` (independent sources of intensities s₀, s₁): the
+/// stationary E[v²] is s₀/(2c − s₁σ²) read as Itô and s₀/(2c − 2s₁σ²) read as
+/// Stratonovich (Wong–Zakai adds ½s₁σ²·v to the drift).
+fn velocity_noise(
+    interpretation: crate::model::Interpretation,
+    scheme: SchemeChoice,
+    seed: u64,
+) -> McResult {
+    use crate::model::NoiseSource;
+    use crate::symbolic::Expr;
+    let mut m = linear_oscillator(0.5, 1.0, 1.0);
+    m.noises.push(NoiseSource {
+        name: "xi1".into(),
+        intensity: Expr::num(1.0),
+    });
+    m.noise_matrix = [
+        vec![Expr::num(0.0), Expr::num(0.0)],
+        vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
+    ];
+    m.interpretation = interpretation;
+    let config = McConfig {
+        dt: 0.005,
+        spacing: 0.5,
+        trajectories: 512,
+        lanes: 16,
+        samples: 200,
+        seed,
+        scheme,
+        grids: vec![
+            ("z".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
+            ("v".into(), Grid::new(-6.0, 6.0, 10).unwrap()),
+        ],
+        ..McConfig::default()
+    };
+    Simulation::new(&m.bind(&[]).unwrap(), &config)
+        .unwrap()
+        .run()
+        .unwrap()
+}
+
+#[test]
+fn ito_and_stratonovich_readings_reach_their_own_exact_variances() {
+    use crate::model::Interpretation;
+    for (interp, exact, scheme, kind) in [
+        (
+            Interpretation::Ito,
+            1.0 / (1.0 - 0.25),
+            SchemeChoice::GeneralOrder1,
+            SchemeKind::EulerMaruyama,
+        ),
+        (
+            Interpretation::Stratonovich,
+            1.0 / (1.0 - 0.5),
+            SchemeChoice::GeneralOrder1,
+            SchemeKind::Heun,
+        ),
+        (
+            Interpretation::Ito,
+            1.0 / (1.0 - 0.25),
+            SchemeChoice::Auto,
+            SchemeKind::PlatenWeak2,
+        ),
+        (
+            Interpretation::Stratonovich,
+            1.0 / (1.0 - 0.5),
+            SchemeChoice::Auto,
+            SchemeKind::PlatenWeak2,
+        ),
+    ] {
+        let res = velocity_noise(interp, scheme, 4);
+        assert_eq!(res.settings.scheme, kind);
+        let var = res.quantity("v").unwrap().moments.variance;
+        eprintln!("{interp:?}: {} ± {} (exact {exact})", var.value, var.stderr);
+        assert!(
+            (var.value - exact).abs() < 4.5 * var.stderr,
+            "{interp:?}: {} ± {} vs {exact}",
+            var.value,
+            var.stderr
+        );
+    }
+}
+
+#[test]
+fn fully_correlated_sources_have_a_singular_square_root() {
+    let l = scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
+    assert_eq!(l, vec![2.0, 0.0, 1.0, 0.0]);
+    assert!(matches!(
+        scheme::psd_sqrt(&[vec![1.0, 2.0], vec![2.0, 1.0]]),
+        Err(McError::IntensityNotPsd { .. })
+    ));
+}

@@ -1,0 +1,416 @@
+//! Unit tests of the trust layer: weak order, the bias estimate, stationarity, blow-up
+//! verdicts and the pre-flight.
+
+use super::*;
+use crate::model::load_model;
+use crate::model::BoundModel;
+
+fn bundled(name: &str, set: &[(&str, f64)]) -> BoundModel {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models")
+        .join(name);
+    let overrides: Vec<crate::model::Override> = set
+        .iter()
+        .map(|(n, v)| crate::model::Override {
+            name: n.to_string(),
+            value: crate::symbolic::Expr::num(*v),
+        })
+        .collect();
+    load_model(&path).unwrap().bind(&overrides).unwrap()
+}
+
+fn grids(names: &[&str], half: f64) -> Vec<(String, Grid)> {
+    names
+        .iter()
+        .map(|n| (n.to_string(), Grid::new(-half, half, 20).unwrap()))
+        .collect()
+}
+
+/// E[v²] of `cubic_damping_two_noises.sde` (exactly 1: Var v = 1, mean 0).
+fn cubic_second_moment(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> (Estimate, McResult) {
+    let model = bundled("cubic_damping_two_noises.sde", &[]);
+    let config = McConfig {
+        dt,
+        spacing: 1.0,
+        trajectories: 4096,
+        lanes: 64,
+        samples: 200,
+        burn_in: BurnIn::Time(30.0),
+        seed: 3,
+        scheme: choice,
+        grids: grids(&["z", "v", "y", "ydot"], 6.0),
+        bias_fraction,
+        ..McConfig::default()
+    };
+    let r = Simulation::new(&model, &config).unwrap().run().unwrap();
+    let v = r.quantity("v").unwrap();
+    let m2 = Estimate {
+        value: v.moments.variance.value + v.moments.mean.value * v.moments.mean.value,
+        stderr: v.moments.variance.stderr,
+    };
+    (m2, r)
+}
+
+/// `v' = −v − z + ξ₀ + ½ v ξ₁` read as Itô: E[v²] = 1/(2 − ¼) exactly.
+fn multiplicative_ito() -> BoundModel {
+    use crate::model::{Interpretation, NoiseSource};
+    use crate::symbolic::Expr;
+    let mut m = reference::linear_oscillator(1.0, 1.0, 1.0);
+    m.noises.push(NoiseSource {
+        name: "xi1".into(),
+        intensity: Expr::num(1.0),
+    });
+    m.noise_matrix = [
+        vec![Expr::num(0.0), Expr::num(0.0)],
+        vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
+    ];
+    m.interpretation = Interpretation::Ito;
+    m.bind(&[]).unwrap()
+}
+
+fn linear_variance(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> McResult {
+    let config = McConfig {
+        dt,
+        spacing: 0.8,
+        trajectories: 4096,
+        lanes: 64,
+        samples: 200,
+        burn_in: BurnIn::Time(20.0),
+        seed: 3,
+        scheme: choice,
+        grids: grids(&["z", "v"], 8.0),
+        bias_fraction,
+        ..McConfig::default()
+    };
+    Simulation::new(&multiplicative_ito(), &config)
+        .unwrap()
+        .run()
+        .unwrap()
+}
+
+/// The measured weak order log2(bias(2h)/bias(h)) and its standard error.
+fn order(coarse: Estimate, fine: Estimate, exact: f64) -> (f64, f64) {
+    let (b2, b1) = (coarse.value - exact, fine.value - exact);
+    let p = (b2 / b1).log2();
+    let se =
+        ((coarse.stderr / b2).powi(2) + (fine.stderr / b1).powi(2)).sqrt() / std::f64::consts::LN_2;
+    (p, se)
+}
+
+#[test]
+fn the_general_path_has_weak_order_two() {
+    // Bundled model with an exact stationary law, two sources, one multiplicative in v,
+    // read as Stratonovich (so the Wong–Zakai drift is exercised): E[v²] = 1.
+    let (coarse, _) = cubic_second_moment(SchemeChoice::General, 0.25, 0.0);
+    let (fine, res) = cubic_second_moment(SchemeChoice::General, 0.125, 0.0);
+    assert_eq!(res.settings.scheme, SchemeKind::PlatenWeak2);
+    let (p, se) = order(coarse, fine, 1.0);
+    eprintln!(
+        "Platen: E v² = {:.5} ± {:.5} (dt 0.25), {:.5} ± {:.5} (dt 0.125): order {p:.2} ± {se:.2}",
+        coarse.value, coarse.stderr, fine.value, fine.stderr
+    );
+    assert!((1.4..2.6).contains(&p), "order {p} ± {se}");
+    // The old scheme (Euler–Maruyama) on an Itô model with multiplicative noise: order 1.
+    let exact = 1.0 / 1.75;
+    let em = |dt| {
+        let r = linear_variance(SchemeChoice::GeneralOrder1, dt, 0.0);
+        assert_eq!(r.settings.scheme, SchemeKind::EulerMaruyama);
+        r.quantity("v").unwrap().moments.variance
+    };
+    let (p1, se1) = order(em(0.1), em(0.05), exact);
+    eprintln!("Euler-Maruyama: order {p1:.2} ± {se1:.2}");
+    assert!((0.8..1.45).contains(&p1), "order {p1} ± {se1}");
+    // Platen's scheme on the same model at dt = 0.1, where Euler–Maruyama is 19 % off:
+    // exact within the error bars.
+    let pl = linear_variance(SchemeChoice::General, 0.1, 0.0);
+    let var = pl.quantity("v").unwrap().moments.variance;
+    eprintln!(
+        "Platen (Itô model) dt 0.1: {} ± {} vs {exact}",
+        var.value, var.stderr
+    );
+    assert!((var.value - exact).abs() < 4.5 * var.stderr);
+}
+
+#[test]
+fn the_bias_estimate_covers_the_true_bias_of_euler_maruyama() {
+    let exact = 1.0 / 1.75;
+    let r = linear_variance(SchemeChoice::GeneralOrder1, 0.05, 0.25);
+    let v = r.quantity("v").unwrap();
+    let b = v.time_step_bias.as_ref().unwrap();
+    let truth = v.moments.variance.value - exact;
+    eprintln!(
+        "EM dt 0.05: Var v = {:.5} ± {:.5}, true bias {truth:.5}, estimate {:.5} ± {:.5} from {} pairs",
+        v.moments.variance.value, v.moments.variance.stderr, b.moments.variance.value, b.moments.variance.stderr, b.pairs
+    );
+    assert_eq!((b.order, b.pairs, b.coarse_dt), (1, 16, 0.1));
+    assert!(b.moments.variance.resolved());
+    // Richardson's own error is O(dt²) here (about a fifth of the bias at dt = 0.05).
+    assert!(
+        (b.moments.variance.value - truth).abs()
+            < 3.0 * b.moments.variance.stderr + 0.3 * truth.abs(),
+        "estimate {} ± {} vs true {truth}",
+        b.moments.variance.value,
+        b.moments.variance.stderr
+    );
+    assert!(r.warnings.iter().any(|w| matches!(
+        w,
+        McWarning::BiasExceedsError { quantity, statistic: Statistic::Variance, .. } if quantity == "v"
+    )));
+    // The weak order-2 scheme at dt = 0.01 on the bundled exact model: no resolved bias
+    // of E[v²], and a bound below 1 %.
+    let (m2, res) = cubic_second_moment(SchemeChoice::Auto, 0.01, 0.25);
+    let b = res.quantity("v").unwrap().time_step_bias.clone().unwrap();
+    eprintln!(
+        "Platen dt 0.01: E v² = {:.5} ± {:.5}; bias of Var v {:.2e} ± {:.1e}; warnings {:?}",
+        m2.value, m2.stderr, b.moments.variance.value, b.moments.variance.stderr, res.warnings
+    );
+    assert!((m2.value - 1.0).abs() < 4.5 * m2.stderr);
+    assert!(
+        b.moments.variance.bound() < 0.01,
+        "{:?}",
+        b.moments.variance
+    );
+    assert!(res.warnings.is_empty(), "{:?}", res.warnings);
+}
+
+fn vibro(set: &[(&str, f64)], burn_in: BurnIn, trajectories: u64, samples: u64) -> McResult {
+    let model = bundled("vibro_duffing.sde", set);
+    let config = McConfig {
+        trajectories,
+        lanes: 32,
+        samples,
+        burn_in,
+        seed: 1,
+        ..McConfig::default()
+    };
+    Simulation::new(&model, &config).unwrap().run().unwrap()
+}
+
+#[test]
+fn platen_runs_are_bit_identical_across_threads_and_shards() {
+    // Two correlated sources, both multiplicative, and an impact law: every branch of
+    // the general path (pair signs, supporting values, events) in one run.
+    use crate::symbolic::Expr;
+    let mut m = reference::vibro_impact(reference::VibroImpact {
+        c: 0.3,
+        k: 1.0,
+        mu: 0.5,
+        eps: 0.4,
+        r: 0.7,
+        big_k: 0.08,
+    });
+    m.noises.push(crate::model::NoiseSource {
+        name: "eta".into(),
+        intensity: Expr::num(0.05),
+    });
+    m.correlations.push(crate::model::Correlation {
+        a: 0,
+        b: 1,
+        coefficient: Expr::num(0.4),
+    });
+    m.noise_matrix[0].push(Expr::num(0.0));
+    m.noise_matrix[1].push(Expr::sym("v"));
+    let model = m.bind(&[]).unwrap();
+    let config = McConfig {
+        trajectories: 8 * 16,
+        lanes: 16,
+        samples: 50,
+        seed: 9,
+        ..McConfig::default()
+    };
+    let sim = Simulation::new(&model, &config).unwrap();
+    assert_eq!(sim.settings().scheme, SchemeKind::PlatenWeak2);
+    let run_with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| sim.run().unwrap())
+    };
+    let one = run_with(1);
+    assert_eq!(one, run_with(2));
+    assert!(one.impacts.as_ref().unwrap().count > 0);
+    let shards: Vec<ShardOutput> = (0..3)
+        .map(|k| {
+            let out = sim.run_shard(Shard::new(k, 3).unwrap()).unwrap();
+            serde_json::from_str(&serde_json::to_string(&out).unwrap()).unwrap()
+        })
+        .collect();
+    let merged = merge_shards(&shards).unwrap();
+    assert_eq!(
+        serde_json::to_string(&merged).unwrap(),
+        serde_json::to_string(&one).unwrap()
+    );
+}
+
+#[test]
+fn healthy_bundled_models_pass_the_stationarity_test() {
+    let r = vibro(&[], BurnIn::DecayTimes(10.0), 1024, 400);
+    eprintln!("vibro_duffing: {}", r.stationarity);
+    assert!(matches!(r.stationarity, Stationarity::Stationary { .. }));
+    assert_eq!(r.verdict(), Ok(()));
+    let model = bundled("linear.sde", &[]);
+    let config = McConfig {
+        trajectories: 1024,
+        lanes: 32,
+        samples: 400,
+        ..McConfig::default()
+    };
+    let r = Simulation::new(&model, &config).unwrap().run().unwrap();
+    eprintln!("linear: {}", r.stationarity);
+    assert!(matches!(r.stationarity, Stationarity::Stationary { .. }));
+    assert_eq!(r.verdict(), Ok(()));
+}
+
+/// A test fixture from `tests/models/` (models the admissibility check accepts but whose
+/// Monte Carlo verdict must fail).
+fn fixture(name: &str, trajectories: u64, samples: u64, config: McConfig) -> McResult {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/models")
+        .join(name);
+    let model = load_model(&path).unwrap().bind(&[]).unwrap();
+    let config = McConfig {
+        trajectories,
+        lanes: 32,
+        samples,
+        seed: 1,
+        ..config
+    };
+    Simulation::new(&model, &config).unwrap().run().unwrap()
+}
+
+#[test]
+fn a_run_that_keeps_growing_is_not_stationary_and_keeps_its_histograms() {
+    let r = fixture(
+        "fading_damping.sde",
+        1024,
+        400,
+        McConfig {
+            burn_in: BurnIn::Time(50.0),
+            ..McConfig::default()
+        },
+    );
+    eprintln!("fading damping: {}", r.stationarity);
+    let Stationarity::NotStationary { largest } = &r.stationarity else {
+        panic!("{}", r.stationarity)
+    };
+    assert!(largest.t.abs() > largest.threshold);
+    assert!(largest.last_quarter > largest.first_quarter);
+    assert!(matches!(r.verdict(), Err(McError::NotStationary { .. })));
+    // The histograms are there to be written, flagged.
+    assert!(r.quantity("v").unwrap().samples > 0);
+}
+
+#[test]
+fn mass_blow_ups_fail_the_verdict() {
+    // Escapes over the softening potential's barrier.
+    let grid = Grid::new(-10.0, 10.0, 50).unwrap();
+    let r = fixture(
+        "softening_duffing.sde",
+        256,
+        200,
+        McConfig {
+            grids: vec![("z".into(), grid), ("v".into(), grid)],
+            ..McConfig::default()
+        },
+    );
+    eprintln!("softening Duffing: {}", r.blowup_verdict);
+    let BlowUps::TooMany {
+        count,
+        trajectories,
+    } = r.blowup_verdict
+    else {
+        panic!("{}", r.blowup_verdict)
+    };
+    assert_eq!(trajectories, 256);
+    assert!(count > 100, "{count}");
+    assert!(matches!(r.verdict(), Err(McError::TooManyBlowUps { .. })));
+}
+
+#[test]
+fn preflight_refuses_what_cannot_finish() {
+    let model = bundled("vibro_duffing.sde", &[]);
+    let ok = McConfig::default().preflight(&model).unwrap();
+    eprintln!("default: {ok:?}");
+    assert!(ok.seconds < 600.0 && ok.memory_bytes < 1e8);
+    let long = |c: McConfig| match c.preflight(&model) {
+        Err(McError::TooLong { seconds, .. }) => seconds,
+        other => panic!("{other:?}"),
+    };
+    assert!(
+        long(McConfig {
+            dt: 1e-300,
+            ..McConfig::default()
+        }) > 1e290
+    );
+    assert!(
+        long(McConfig {
+            spacing: 1e6,
+            ..McConfig::default()
+        }) > 1e6
+    );
+    assert!(
+        long(McConfig {
+            burn_in: BurnIn::Time(1e300),
+            ..McConfig::default()
+        }) > 1e290
+    );
+    let setting = |c: McConfig| match c.preflight(&model) {
+        Err(McError::BadSetting { name, .. }) => name,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(
+        setting(McConfig {
+            trajectories: u64::MAX,
+            ..McConfig::default()
+        }),
+        "trajectories"
+    );
+    let grid = |bins| McConfig {
+        grids: vec![(
+            "y".into(),
+            Grid {
+                lo: 0.0,
+                hi: 8.0,
+                bins,
+            },
+        )],
+        ..McConfig::default()
+    };
+    assert_eq!(setting(grid(4_294_967_297)), "grid");
+    assert_eq!(setting(grid(100_000_000)), "grid");
+    let big = McConfig {
+        trajectories: 16384,
+        ..grid(5_000_000)
+    };
+    assert!(matches!(
+        big.preflight(&model),
+        Err(McError::TooMuchMemory { .. })
+    ));
+    // Simulation::new makes the same checks before any work.
+    assert!(matches!(
+        Simulation::new(
+            &model,
+            &McConfig {
+                dt: 1e-300,
+                ..McConfig::default()
+            }
+        ),
+        Err(McError::TooLong { .. })
+    ));
+    let message = long_message(&model);
+    assert!(
+        message.len() < 400 && message.contains("years"),
+        "{message}"
+    );
+}
+
+fn long_message(model: &BoundModel) -> String {
+    McConfig {
+        burn_in: BurnIn::Time(1e300),
+        ..McConfig::default()
+    }
+    .preflight(model)
+    .unwrap_err()
+    .to_string()
+}
