@@ -290,13 +290,16 @@ fn run(cli: Cli) -> Result<(), Failure> {
     for n in &planned.notes {
         eprintln!("note: {n}");
     }
-    if let Some(n) = planned.threads {
-        rayon::ThreadPoolBuilder::new()
+    match planned.threads {
+        // A pool of our own, not the global one: checking the plan may already have used
+        // rayon (which starts the global pool), and `build_global` then fails.
+        Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
-            .build_global()
-            .context("setting up the worker threads")?;
+            .build()
+            .context("setting up the worker threads")?
+            .install(|| execute(planned.plan)),
+        None => execute(planned.plan),
     }
-    execute(planned.plan)
 }
 
 /// A command with every input read and checked: what [`execute`] runs. Making a plan reads

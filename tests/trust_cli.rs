@@ -324,6 +324,36 @@ fn rounded_values_and_capped_threads_are_announced() {
         "{e}"
     );
     assert!(e.contains("--threads 4096 capped"), "{e}");
+    assert!(o.status.success(), "{e}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// `--threads N` runs (it once failed whenever checking the plan had started rayon's global
+/// pool) and changes nothing but the speed: the histograms are bit-identical.
+#[test]
+fn a_thread_count_changes_no_number() {
+    let root = scratch("threads");
+    let run = |threads: &str| {
+        let out = root.join(format!("t{threads}"));
+        let o = fpsolve(&[
+            "simulate",
+            "models/linear.sde",
+            "--samples",
+            "2e4",
+            "--trajectories",
+            "256",
+            "--seed",
+            "5",
+            "--threads",
+            threads,
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "--threads {threads}: {}", stderr(&o));
+        std::fs::read_to_string(out.join("mc_v.csv")).unwrap()
+    };
+    assert_eq!(run("1"), run("2"));
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -184,7 +184,10 @@ pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> ObservableMom
 /// assert_eq!(all[1], moments(&Normal, &vsq));
 /// assert!((all[0].moments.raw[3] - 3.0).abs() < 1e-12); // E[z⁴] = 3
 /// ```
-pub fn moments_of_all(density: &dyn JointDensity, maps: &[&ObservableMap]) -> Vec<ObservableMoments> {
+pub fn moments_of_all(
+    density: &dyn JointDensity,
+    maps: &[&ObservableMap],
+) -> Vec<ObservableMoments> {
     let fine = Grid::new(density, FINE);
     // A state's moments exist for any density fpsolve normalises (exp(Q) on the plane, or cut
     // at a ridge): the second rule is only needed for general maps.
