@@ -19,8 +19,10 @@ use super::problem::Mechanical;
 pub(crate) struct Operator {
     /// Advection in x and v, diffusion in v.
     pub(crate) transport: Vec<Triplet<usize, usize, f64>>,
-    /// Outflow through the barrier (negative entries) and its re-injection (positive).
-    pub(crate) impacts: Vec<Triplet<usize, usize, f64>>,
+    /// Outflow through the barrier, from the exit cells' rows.
+    pub(crate) outflow: Vec<Triplet<usize, usize, f64>>,
+    /// Its re-injection into the cells at the mapped velocity.
+    pub(crate) reinjection: Vec<Triplet<usize, usize, f64>>,
 }
 
 fn push(out: &mut Vec<Triplet<usize, usize, f64>>, row: usize, col: usize, val: f64) {
@@ -75,7 +77,7 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
             push(&mut t, hi, lo, d);
         }
     }
-    let mut impacts = Vec::new();
+    let (mut outflow, mut reinjection) = (Vec::new(), Vec::new());
     if let Some(barrier) = &problem.barrier {
         for exit in &mesh.exits {
             for j in (0..nv).filter(|&j| mesh.vc(j) * exit.direction > 0.0) {
@@ -83,13 +85,17 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                 // the outgoing side (the other side may have a jump).
                 let rate = mesh.vc(j).abs() / mesh.hx;
                 let (from, inner) = (mesh.index(exit.from, j), mesh.index(exit.inner, j));
-                let (e0, e1) = (mesh.v0 + j as f64 * mesh.hv, mesh.v0 + (j + 1) as f64 * mesh.hv);
+                let (e0, e1) = (
+                    mesh.v0 + j as f64 * mesh.hv,
+                    mesh.v0 + (j + 1) as f64 * mesh.hv,
+                );
                 let (m0, m1) = (barrier.map(e0), barrier.map(e1));
                 let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
                 for (col, w) in [(from, 1.5), (inner, -0.5)] {
-                    push(&mut impacts, from, col, -rate * w);
+                    push(&mut outflow, from, col, -rate * w);
                     for &(jd, share) in &targets {
-                        push(&mut impacts, mesh.index(exit.into, jd), col, rate * w * share);
+                        let into = mesh.index(exit.into, jd);
+                        push(&mut reinjection, into, col, rate * w * share);
                     }
                 }
             }
@@ -97,7 +103,8 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
     }
     Ok(Operator {
         transport: t,
-        impacts,
+        outflow,
+        reinjection,
     })
 }
 
@@ -108,7 +115,8 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
     let mut entries: Vec<Triplet<usize, usize, f64>> = op
         .transport
         .iter()
-        .chain(&op.impacts)
+        .chain(&op.outflow)
+        .chain(&op.reinjection)
         .filter(|e| e.row != pin)
         .copied()
         .collect();
@@ -138,4 +146,62 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
     }
     p.iter_mut().for_each(|v| *v /= mass);
     Ok(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::mesh::Domain;
+
+    fn operator(file: &str, r: f64) -> (Mesh, Operator) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+        let set = [crate::model::Override::number("r", r)];
+        let b = crate::model::load_model(&path).unwrap().bind(&set).unwrap();
+        let problem = Mechanical::new(&b, None).unwrap();
+        let d = Domain {
+            x: [-6.0, 6.0],
+            v: [-9.0, 9.0],
+        };
+        let mesh = Mesh::new(d, 24, 36, problem.barrier.as_ref(), 4);
+        let op = assemble(&mesh, &problem).unwrap();
+        (mesh, op)
+    }
+
+    /// Every column of the operator sums to zero (mass is conserved), and the barrier puts
+    /// back exactly what leaves through it, for r < 1 in both coordinate systems.
+    #[test]
+    fn reinjection_conserves_mass() {
+        for file in [
+            "models/vibro_duffing.sde",
+            "tests/models/grid_impact_duffing.sde",
+        ] {
+            for r in [0.8, 0.95] {
+                let (mesh, op) = operator(file, r);
+                let n = mesh.cells();
+                let (mut total, mut out, mut back) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                let all = op
+                    .transport
+                    .iter()
+                    .chain(&op.outflow)
+                    .chain(&op.reinjection);
+                all.for_each(|t| total[t.col] += t.val);
+                op.outflow.iter().for_each(|t| out[t.col] += t.val);
+                op.reinjection.iter().for_each(|t| back[t.col] += t.val);
+                let scale = op.transport.iter().fold(0.0f64, |a, t| a.max(t.val.abs()));
+                let worst = total.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                assert!(worst <= 1e-13 * scale, "{file} r={r}: column sum {worst:e}");
+                let unbalanced = out
+                    .iter()
+                    .zip(&back)
+                    .fold(0.0f64, |a, (o, b)| a.max((o + b).abs()));
+                assert!(unbalanced <= 1e-14 * scale, "{file} r={r}: {unbalanced:e}");
+                // The flux of a positive density leaves through the barrier.
+                let p = vec![1.0; n];
+                let leaving: f64 = op.outflow.iter().map(|t| t.val * p[t.col]).sum();
+                let returning: f64 = op.reinjection.iter().map(|t| t.val * p[t.col]).sum();
+                assert!(leaving < 0.0);
+                assert!((leaving + returning).abs() <= 1e-13 * leaving.abs());
+            }
+        }
+    }
 }

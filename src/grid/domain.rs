@@ -30,9 +30,8 @@ pub(crate) fn solve_pinned(
     let t = std::time::Instant::now();
     let op = assemble(mesh, problem)?;
     let assemble_ms = t.elapsed().as_secs_f64() * 1e3;
-    let cell = |u: f64, lo: f64, h: f64, n: usize| {
-        ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1)
-    };
+    let cell =
+        |u: f64, lo: f64, h: f64, n: usize| ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1);
     let pin = mesh.index(
         cell(guess[0], mesh.x0, mesh.hx, mesh.nx),
         cell(guess[1], mesh.v0, mesh.hv, mesh.nv),
@@ -48,7 +47,13 @@ pub(crate) fn solve_pinned(
 fn argmax(p: &[f64]) -> (usize, f64) {
     p.iter()
         .enumerate()
-        .fold((0, f64::NEG_INFINITY), |acc, (k, &v)| if v.abs() > acc.1 { (k, v.abs()) } else { acc })
+        .fold((0, f64::NEG_INFINITY), |acc, (k, &v)| {
+            if v.abs() > acc.1 {
+                (k, v.abs())
+            } else {
+                acc
+            }
+        })
 }
 
 /// The peak of the density, as (x, v), for pinning a solve on another mesh.
@@ -138,7 +143,11 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
         edge[1] = edge[1].max(p[mesh.index(nx - 1, j)].abs());
     }
     for i in 0..nx {
-        edge[2] = edge[2].max(p[mesh.index(i, 0)].abs().max(p[mesh.index(i, nv - 1)].abs()));
+        edge[2] = edge[2].max(
+            p[mesh.index(i, 0)]
+                .abs()
+                .max(p[mesh.index(i, nv - 1)].abs()),
+        );
     }
     let fixed = match problem.barrier.as_ref().map(|b| b.kind) {
         Some(BarrierKind::Reflecting(BarrierSide::Above)) => [true, false],
@@ -232,14 +241,27 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
         let mesh_x = |i: usize| mesh.x0 + i as f64 * mesh.hx;
         let first = px.iter().position(|&a| a >= CUT * top).unwrap_or(0);
         let last = px.iter().rposition(|&a| a >= CUT * top).unwrap_or(nx - 1);
-        let lo = if fixed[0] { mesh.x0 } else { mesh_x(first.saturating_sub(1)) };
-        let hi = if fixed[1] { mesh_x(nx) } else { mesh_x((last + 2).min(nx)) };
+        let lo = if fixed[0] {
+            mesh.x0
+        } else {
+            mesh_x(first.saturating_sub(1))
+        };
+        let hi = if fixed[1] {
+            mesh_x(nx)
+        } else {
+            mesh_x((last + 2).min(nx))
+        };
         let keep = (0..nv).filter(|&j| pv[j] >= CUT * top);
-        let vcut = keep.map(|j| mesh.vc(j).abs() + 1.5 * mesh.hv).fold(0.0f64, f64::max);
+        let vcut = keep
+            .map(|j| mesh.vc(j).abs() + 1.5 * mesh.hv)
+            .fold(0.0f64, f64::max);
         let mut xr = [lo, hi];
         if let Some(b) = barrier.filter(|b| b.kind == BarrierKind::PassThrough) {
             // A pass-through barrier stays inside, a few cells from either end.
-            xr = [xr[0].min(b.at - 4.0 * mesh.hx), xr[1].max(b.at + 4.0 * mesh.hx)];
+            xr = [
+                xr[0].min(b.at - 4.0 * mesh.hx),
+                xr[1].max(b.at + 4.0 * mesh.hx),
+            ];
         }
         return Ok((
             Domain {

@@ -19,7 +19,9 @@ pub enum Unsupported {
         rate: String,
     },
     /// Noise enters the equation of the position (b_xx or b_xv would not be zero).
-    #[error("noise `{noise}` enters the equation of `{position}`; only the velocity may be excited")]
+    #[error(
+        "noise `{noise}` enters the equation of `{position}`; only the velocity may be excited"
+    )]
     NoiseInPosition {
         /// The first state.
         position: String,
@@ -102,7 +104,9 @@ pub enum GridError {
         v: f64,
     },
     /// The sparse LU factorisation found the discrete operator singular.
-    #[error("the discrete FPK operator on {nx}x{nv} cells is singular (sparse LU failed: {detail})")]
+    #[error(
+        "the discrete FPK operator on {nx}x{nv} cells is singular (sparse LU failed: {detail})"
+    )]
     Singular {
         /// Cells along the position.
         nx: usize,

@@ -190,7 +190,11 @@ pub(crate) fn overlaps(mesh: &Mesh, a: f64, b: f64) -> Vec<(usize, f64)> {
     let (ja, jb) = (cell(a), cell(b));
     let mut out = Vec::with_capacity(jb - ja + 1);
     for j in ja..=jb {
-        let lo = if j == 0 { f64::NEG_INFINITY } else { mesh.v0 + j as f64 * mesh.hv };
+        let lo = if j == 0 {
+            f64::NEG_INFINITY
+        } else {
+            mesh.v0 + j as f64 * mesh.hv
+        };
         let hi = if j == mesh.nv - 1 {
             f64::INFINITY
         } else {

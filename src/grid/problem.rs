@@ -111,15 +111,11 @@ impl Mechanical {
                         velocity: v,
                     }));
                 }
-                let map = Tape::compile(
-                    std::slice::from_ref(&law.map),
-                    &vars,
-                    DeltaPolicy::Reject,
-                )
-                .map_err(|source| GridError::Symbolic {
-                    what: "the jump map".into(),
-                    source,
-                })?;
+                let map = Tape::compile(std::slice::from_ref(&law.map), &vars, DeltaPolicy::Reject)
+                    .map_err(|source| GridError::Symbolic {
+                        what: "the jump map".into(),
+                        source,
+                    })?;
                 let mut barrier = Barrier {
                     at: law.at,
                     kind: BarrierKind::PassThrough,

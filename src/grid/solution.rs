@@ -179,7 +179,9 @@ impl GridSolution {
         if !(d.x[0] <= x && x <= d.x[1] && d.v[0] <= v && v <= d.v[1]) {
             return 0.0;
         }
-        let cell_of = |u: f64, lo: f64, h: f64, n: usize| ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1);
+        let cell_of = |u: f64, lo: f64, h: f64, n: usize| {
+            ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1)
+        };
         let seg = m.segment_of(cell_of(x, m.x0, m.hx, m.nx));
         let (i0, i1, tx) = bracket(x, m.x0, m.hx, seg);
         let (j0, j1, tv) = bracket(v, m.v0, m.hv, [0, m.nv]);
