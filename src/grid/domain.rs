@@ -65,45 +65,79 @@ pub(crate) fn peak(mesh: &Mesh, p: &[f64]) -> [f64; 2] {
 /// ln(1/CUT): the energy-type density exp(−f E) falls to CUT of its peak at f E = LOG_CUT.
 const LOG_CUT: f64 = 20.723_265_836_946_41;
 
-/// The box of an energy-type density exp(−f U(x) − f v²/2), with f = 2c/b from the
-/// linearisation at the origin (c the damping, b the diffusion) and U the potential of the
-/// restoring force m(x, 0), b taken where it is (parametric noise widens the tails): the
-/// positions where f U reaches ln(1/CUT) on either side, and the velocity of that energy.
+/// The box of an energy-type density p ~ exp(−Φ(E)), E = v²/2 + U(x), U the potential of
+/// the restoring force m(x, 0): the energy E* where Φ reaches ln(1/CUT), the positions of
+/// that energy and the velocity √(2E*). Φ′(E) = 2c/b_eff(E) (stochastic averaging of a
+/// lightly damped oscillator), c the damping at the origin and b_eff the diffusion averaged
+/// over the orbit of energy E with weight |v| dx (v² per unit time), so that parametric noise
+/// widens the tails by what the orbit sees, not by its value at the turning points.
 /// `None` when the origin is not damped or the potential does not confine.
 pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
     let [sx, sv] = problem.linear_scale(0.0)?;
-    // f = 1/σv² = 2c/b at the origin; b(x, 0)/b(0, 0) scales it along x.
     let b0 = problem.eval(&[0.0], &[0.0]).ok()?.b[0];
-    let step = sx / 50.0;
-    let mut reach = [0.0f64; 2];
-    let mut energy = 0.0f64;
+    // 2c = b0/σv²: f(E) = 2c/b_eff(E).
+    let two_c = b0 / (sv * sv);
+    let (lo_wall, hi_wall) = match problem.barrier.as_ref().map(|b| (b.at, b.kind)) {
+        Some((at, BarrierKind::Reflecting(BarrierSide::Above))) => (at.min(0.0), f64::INFINITY),
+        Some((at, BarrierKind::Reflecting(BarrierSide::Below))) => (f64::NEG_INFINITY, at.max(0.0)),
+        _ => (f64::NEG_INFINITY, f64::INFINITY),
+    };
+    // U and b on both sides, out to where U is far beyond any energy the cut can need.
+    let step = sx / 40.0;
+    let mut sides: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
     for (side, dir) in [-1.0, 1.0].into_iter().enumerate() {
-        let (mut x, mut u, mut phi) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut x, mut u) = (0.0f64, 0.0f64);
         let mut last = problem.eval(&[0.0], &[0.0]).ok()?;
-        for _ in 0..50_000 {
+        sides[side].push((0.0, 0.0, last.b[0]));
+        for _ in 0..40_000 {
             let next = x + dir * step;
+            if next < lo_wall || next > hi_wall {
+                break;
+            }
             let c = problem.eval(&[next], &[0.0]).ok()?;
-            // dU = −m dx, dΦ = f(x) dU with f(x) = 1/(σv² b(x,0)/b0).
-            let du = -0.5 * (c.m[0] + last.m[0]) * (next - x);
-            let b = 0.5 * (c.b[0] + last.b[0]).max(1e-300);
-            u += du;
-            phi += du * b0 / (sv * sv * b);
+            u += -0.5 * (c.m[0] + last.m[0]) * (next - x);
             x = next;
             last = c;
-            if phi >= LOG_CUT {
+            sides[side].push((x, u, last.b[0].max(0.0)));
+            if u * two_c / b0 > 40.0 * LOG_CUT {
                 break;
             }
         }
-        if phi < LOG_CUT {
+    }
+    // Φ(E) by the midpoint rule on energy steps of σv²/20.
+    let de = sv * sv / 20.0;
+    let (mut e, mut phi) = (0.0f64, 0.0f64);
+    while phi < LOG_CUT {
+        let mid = e + 0.5 * de;
+        let (mut num, mut den) = (0.0, 0.0);
+        for side in &sides {
+            for &(_, u, b) in side.iter().skip(1) {
+                if u < mid {
+                    let w = (2.0 * (mid - u)).sqrt();
+                    num += w * b;
+                    den += w;
+                }
+            }
+        }
+        let b_eff = if den > 0.0 { num / den } else { b0 };
+        if !(b_eff > 0.0) || e > 1e12 * sv * sv {
             return None;
         }
-        reach[side] = x;
-        energy = energy.max(u);
+        phi += two_c / b_eff * de;
+        e += de;
     }
-    // The energy at the x cut, as kinetic energy, with f taken at the widest b.
-    let v = (2.0 * energy).sqrt();
+    // The positions where U reaches E* (or the wall, or the end of the table).
+    let reach =
+        |side: &[(f64, f64, f64)]| side.iter().find(|p| p.1 >= e).or(side.last()).map(|p| p.0);
+    let (lo, hi) = (reach(&sides[0])?, reach(&sides[1])?);
+    if sides[0].last()?.1 < e && lo_wall.is_infinite()
+        || sides[1].last()?.1 < e && hi_wall.is_infinite()
+    {
+        return None;
+    }
+    let v = (2.0 * e).sqrt();
     Some(Domain {
-        x: [reach[0] * MARGIN, reach[1] * MARGIN],
+        x: [lo * MARGIN, hi * MARGIN],
         v: [-v * MARGIN, v * MARGIN],
     })
 }
