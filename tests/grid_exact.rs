@@ -224,7 +224,13 @@ fn elastic_wall_restricts_the_free_density() {
         let sol = solve(&b, 160);
         assert_eq!(sol.domain().x[0], exact.floor);
         let l1 = exact.l1(&sol);
-        println!("{}: L1 {:.2e} {:.2e}; {}", b.name(), l1[0], l1[1], sol.report);
+        println!(
+            "{}: L1 {:.2e} {:.2e}; {}",
+            b.name(),
+            l1[0],
+            l1[1],
+            sol.report
+        );
         assert!(l1[0] < 1e-4 && l1[1] < 1e-4, "{}: {l1:?}", b.name());
     }
 }
@@ -247,7 +253,13 @@ fn convergence_order_is_at_least_two() {
         .collect();
     let orders: Vec<f64> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
     let order = (errors[0] / errors[2]).log2() / 2.0;
-    println!("L1 {:?}, orders {orders:.2?}, overall {order:.2}", errors.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>());
+    println!(
+        "L1 {:?}, orders {orders:.2?}, overall {order:.2}",
+        errors
+            .iter()
+            .map(|e| format!("{e:.2e}"))
+            .collect::<Vec<_>>()
+    );
     assert!(order >= 2.0, "order {order}: {errors:?}");
 }
 
@@ -311,7 +323,10 @@ fn unsupported_models_are_refused() {
 #[test]
 #[ignore = "measurement: a 400x800 reference solve"]
 fn case1_default_cells() {
-    for file in ["models/vibro_duffing.sde", "tests/models/grid_impact_duffing.sde"] {
+    for file in [
+        "models/vibro_duffing.sde",
+        "tests/models/grid_impact_duffing.sde",
+    ] {
         let b = bound(file, &[]);
         let reference = solve(&b, 400);
         let zhuravlev = file.contains("vibro");
@@ -329,7 +344,87 @@ fn case1_default_cells() {
             let (y, py, v, pv) = marg(&s);
             let dy = l1_between(&y, &py, y[1] - y[0], &ry, &rpy);
             let dv = l1_between(&v, &pv, v[1] - v[0], &rv, &rpv);
-            println!("{file} {n}: L1(p_y) {dy:.2e} L1(p_ydot) {dv:.2e}; {} {:?}", s.report, s.report.timings);
+            println!(
+                "{file} {n}: L1(p_y) {dy:.2e} L1(p_ydot) {dv:.2e}; {} {:?}",
+                s.report, s.report.timings
+            );
         }
+    }
+}
+
+/// A cell-average density (cells of `width` centred at `centres`) averaged over [a, b).
+fn bin_average(centres: &[f64], density: &[f64], width: f64, a: f64, b: f64) -> f64 {
+    centres
+        .iter()
+        .zip(density)
+        .map(|(&c, &p)| {
+            let overlap = (b.min(c + width / 2.0) - a.max(c - width / 2.0)).max(0.0);
+            p * overlap
+        })
+        .sum::<f64>()
+        / (b - a)
+}
+
+/// The paper's case 1 (r = 0.95, eps = 0.1): p_y and p_ẏ of the grid, in Zhuravlev form and
+/// in original coordinates, against a Monte Carlo of the original system (impacts located
+/// exactly) with a fixed seed: per-bin differences within the Monte Carlo's standard error
+/// (4σ) plus the grid's own discretisation estimate.
+#[test]
+fn case1_agrees_with_monte_carlo() {
+    use fpsolve::mc::{Grid, McConfig, Simulation};
+    let original = bound("tests/models/grid_impact_duffing.sde", &[]);
+    let config = McConfig {
+        trajectories: 10_240,
+        samples: 1000,
+        seed: 11,
+        grids: vec![
+            ("y".into(), Grid::new(0.0, 8.0, 32).unwrap()),
+            ("v".into(), Grid::new(-12.0, 12.0, 48).unwrap()),
+        ],
+        bias_fraction: 0.0,
+        ..McConfig::default()
+    };
+    let t = std::time::Instant::now();
+    let mc = Simulation::new(&original, &config).unwrap().run().unwrap();
+    println!(
+        "Monte Carlo: {} samples in {:.1} s",
+        mc.quantity("y").unwrap().samples,
+        t.elapsed().as_secs_f64()
+    );
+    let ys = GridSolver::new(&original).solve().unwrap();
+    let zs = GridSolver::new(&bound("models/vibro_duffing.sde", &[]))
+        .solve()
+        .unwrap();
+    let (zy, zpy, zv, zpv) = folded(&zs);
+    let (my, mv) = (ys.marginal(0), ys.marginal(1));
+    let zw = [zy[1] - zy[0], zv[1] - zv[0]];
+    let densities = [
+        ("y", "original", my.centres, my.density, my.width),
+        ("v", "original", mv.centres, mv.density, mv.width),
+        ("y", "Zhuravlev", zy, zpy, zw[0]),
+        ("v", "Zhuravlev", zv, zpv, zw[1]),
+    ];
+    for (name, form, centres, density, width) in densities {
+        let q = mc.quantity(name).unwrap();
+        let w = q.grid.width();
+        let (mut l1, mut noise, mut worst) = (0.0, 0.0, 0.0f64);
+        let peak = q.density.iter().fold(0.0f64, |a, &b| a.max(b));
+        for (k, c) in q.grid.centers().iter().enumerate() {
+            let g = bin_average(&centres, &density, width, c - w / 2.0, c + w / 2.0);
+            let d = (g - q.density[k]).abs();
+            l1 += d * w;
+            noise += q.stderr[k] * w;
+            // The grid's own error: about 1e-3 of the peak (its L1 against the converged answer).
+            worst = worst.max(d / (q.stderr[k] + 1e-3 * peak));
+        }
+        println!("p_{name} ({form}): L1 vs MC {l1:.2e}, MC noise (sum of stderr) {noise:.2e}, worst bin {worst:.1} sigma");
+        assert!(
+            l1 < 2.0 * noise + 2e-3,
+            "p_{name} ({form}): {l1:e} vs noise {noise:e}"
+        );
+        assert!(
+            worst < 5.0,
+            "p_{name} ({form}): a bin {worst} standard errors off"
+        );
     }
 }
