@@ -120,7 +120,7 @@ pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
             }
         }
         let b_eff = if den > 0.0 { num / den } else { b0 };
-        if !(b_eff > 0.0) || e > 1e12 * sv * sv {
+        if b_eff.is_nan() || b_eff <= 0.0 || e > 1e12 * sv * sv {
             return None;
         }
         phi += two_c / b_eff * de;
