@@ -22,9 +22,10 @@
 //! * negative cell values (the scheme is not a Markov chain) clipped, their mass reported;
 //!   a discretisation-error estimate from a second solve on half the cells per axis.
 //!
-//! A reflecting barrier (`impact y = 0: v -> -r*v`) bounds the domain from below by default
-//! (the state lives where it exceeds the barrier); [`GridSolver::barrier_side`] says
-//! otherwise until the model language can.
+//! A reflecting barrier (`impact y = 0: v -> -r*v`) keeps the state on the side that holds
+//! the origin, as Monte Carlo starts its trajectories there: above a barrier at or below 0
+//! (the paper's y > 0), below one above 0. [`GridSolver::barrier_side`] says otherwise until
+//! the model language can.
 //!
 //! ```
 //! use fpsolve::grid::GridSolver;
@@ -71,10 +72,13 @@ const MAX_GROWTH: usize = 3;
 const ASSUMED_ORDER: f64 = 2.0;
 
 /// Which side of a reflecting barrier the state lives on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+///
+/// ```
+/// assert_ne!(fpsolve::grid::BarrierSide::Above, fpsolve::grid::BarrierSide::Below);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum BarrierSide {
     /// The state exceeds the barrier (a lower bound, the paper's y > 0).
-    #[default]
     Above,
     /// The state stays below the barrier (an upper bound).
     Below,
@@ -150,17 +154,19 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// The side of a reflecting barrier the state lives on (default [`BarrierSide::Above`]);
-    /// ignored for a pass-through barrier.
+    /// The side of a reflecting barrier the state lives on (default: the side holding the
+    /// origin, above a barrier at 0); ignored for a pass-through barrier.
     ///
     /// ```
     /// # let bound = fpsolve::model::parse_model("model m\nstate y, v\ndrift y: v\n\
     /// #   drift v: -0.2*v - y\nnoise xi: intensity 1\ndiffusion v: xi\n\
     /// #   impact y = 0.5: v -> -v\n", None).unwrap().bind(&[]).unwrap();
     /// use fpsolve::grid::{BarrierSide, GridSolver};
-    /// let sol = GridSolver::new(&bound).cells(32, 32).barrier_side(BarrierSide::Below)
+    /// let below = GridSolver::new(&bound).cells(32, 32).estimate(false).solve().unwrap();
+    /// assert_eq!(below.domain().x[1], 0.5); // the side of the origin
+    /// let above = GridSolver::new(&bound).cells(32, 32).barrier_side(BarrierSide::Above)
     ///     .estimate(false).solve().unwrap();
-    /// assert_eq!(sol.domain().x[1], 0.5);
+    /// assert_eq!(above.domain().x[0], 0.5);
     /// ```
     pub fn barrier_side(mut self, side: BarrierSide) -> Self {
         self.side = Some(side);

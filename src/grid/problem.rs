@@ -127,8 +127,13 @@ impl Mechanical {
                     })
                 })?;
                 barrier.kind = match kind {
+                    // The side holding the origin, as Monte Carlo starts its trajectories.
                     BarrierKind::Reflecting(_) => {
-                        BarrierKind::Reflecting(side.unwrap_or(BarrierSide::Above))
+                        BarrierKind::Reflecting(side.unwrap_or(if law.at <= 0.0 {
+                            BarrierSide::Above
+                        } else {
+                            BarrierSide::Below
+                        }))
                     }
                     pass => pass,
                 };
