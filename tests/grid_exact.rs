@@ -449,3 +449,31 @@ fn observables_of_the_grid_density() {
         assert!((p - want).abs() < 5e-4, "p_y({y}) = {p}, exact {want}");
     }
 }
+
+/// Every bundled model either solves (unit mass, finite, no large clipped mass) or is
+/// refused with a typed reason; none returns a wrong number silently.
+#[test]
+fn bundled_models_solve_or_are_refused() {
+    use fpsolve::grid::GridError;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    for path in files {
+        let b = load_model(&path).unwrap().bind(&[]).unwrap();
+        match GridSolver::new(&b).cells(60, 120).solve() {
+            Ok(sol) => {
+                let px = sol.marginal(0);
+                let mass: f64 = px.density.iter().sum::<f64>() * px.width;
+                println!("{}: {}", b.name(), sol.report);
+                assert!((mass - 1.0).abs() < 1e-12 && px.density.iter().all(|p| p.is_finite()));
+            }
+            Err(e @ (GridError::Unsupported { .. } | GridError::DomainNotFound { .. })) => {
+                println!("{}: refused: {e}", b.name());
+            }
+            Err(e) => panic!("{}: {e:?}", b.name()),
+        }
+    }
+}
