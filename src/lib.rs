@@ -120,6 +120,7 @@
 pub mod epc;
 mod error;
 pub mod fpk;
+pub mod grid;
 pub mod job;
 pub mod mc;
 pub mod model;

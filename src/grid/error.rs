@@ -1,0 +1,140 @@
+//! Why a grid solve was refused or failed.
+
+use crate::fpk::FpkError;
+use crate::physics::Inadmissible;
+use crate::symbolic::SymbolicError;
+
+/// What the grid solver does not handle: a refusal before any work, never a wrong number.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Unsupported {
+    /// The rate of the first state is not the second state (`drift x: v`): the solver needs
+    /// the mechanical form x' = v.
+    #[error("the drift of `{position}` is `{rate}`, not `{velocity}` (mechanical form x' = v)")]
+    NotMechanical {
+        /// The first state.
+        position: String,
+        /// The second state.
+        velocity: String,
+        /// The drift of the first state, printed.
+        rate: String,
+    },
+    /// Noise enters the equation of the position (b_xx or b_xv would not be zero).
+    #[error(
+        "noise `{noise}` enters the equation of `{position}`; only the velocity may be excited"
+    )]
+    NoiseInPosition {
+        /// The first state.
+        position: String,
+        /// The noise source.
+        noise: String,
+    },
+    /// The impact law's barrier is on the velocity, or it changes the position.
+    #[error("the impact law must put the barrier on `{position}` and change `{velocity}`")]
+    ImpactNotOnPosition {
+        /// The first state.
+        position: String,
+        /// The second state.
+        velocity: String,
+    },
+    /// The jump map neither keeps nor reverses the sign of every velocity, or is not finite.
+    #[error(
+        "the jump `{map}` must map every velocity to one of the same sign (pass-through) or of \
+         the opposite sign (reflection), monotonically, with |map(v)| <= |v|"
+    )]
+    ImpactMap {
+        /// The map, printed.
+        map: String,
+    },
+    /// A domain given explicitly does not contain the barrier (or, for a reflecting barrier,
+    /// does not start at it on the domain's side).
+    #[error("the domain {lo}..{hi} of the position does not fit the barrier at {at}")]
+    BarrierOutsideDomain {
+        /// The barrier position.
+        at: f64,
+        /// The domain's lower end.
+        lo: f64,
+        /// The domain's upper end.
+        hi: f64,
+    },
+}
+
+/// Why a grid solve failed. Numeric failures carry what was tried.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GridError {
+    /// The model is outside what the method handles ([`Unsupported`]).
+    #[error("the grid solver cannot solve model `{model}`: {reason}")]
+    Unsupported {
+        /// The model's name.
+        model: String,
+        /// Why.
+        reason: Unsupported,
+    },
+    /// The model has no stationary density at all.
+    #[error(transparent)]
+    Inadmissible(#[from] Inadmissible),
+    /// The Itô drift could not be derived.
+    #[error(transparent)]
+    Derivation(#[from] FpkError),
+    /// A coefficient could not be differentiated or compiled.
+    #[error("while preparing {what}: {source}")]
+    Symbolic {
+        /// The coefficient (`b_vv`, `d b_vv / dv`, the jump map).
+        what: String,
+        /// The underlying failure.
+        source: SymbolicError,
+    },
+    /// A builder setting is out of range.
+    #[error("grid setting `{setting}` = {value} is invalid: {expected}")]
+    Setting {
+        /// The setting (`cells`, `domain`).
+        setting: &'static str,
+        /// The value given, printed.
+        value: String,
+        /// What is accepted.
+        expected: &'static str,
+    },
+    /// A coefficient is NaN or infinite at a point the grid needs.
+    #[error("{what} is not finite at ({x}, {v})")]
+    NotFinite {
+        /// The coefficient.
+        what: &'static str,
+        /// The position.
+        x: f64,
+        /// The velocity.
+        v: f64,
+    },
+    /// The sparse LU factorisation found the discrete operator singular.
+    #[error(
+        "the discrete FPK operator on {nx}x{nv} cells is singular (sparse LU failed: {detail})"
+    )]
+    Singular {
+        /// Cells along the position.
+        nx: usize,
+        /// Cells along the velocity.
+        nv: usize,
+        /// faer's message.
+        detail: String,
+    },
+    /// The solution has no positive mass or is not finite.
+    #[error("the discrete solution on {nx}x{nv} cells has no finite positive mass")]
+    Degenerate {
+        /// Cells along the position.
+        nx: usize,
+        /// Cells along the velocity.
+        nv: usize,
+    },
+    /// The automatic domain kept growing: the density does not decay within `width` of the
+    /// origin (no stationary density, or one too wide for the grid).
+    #[error(
+        "no domain found: after {tries} enlargements the density still has {edge:.1e} of its \
+         peak at the edge of a {width:.3e} wide box"
+    )]
+    DomainNotFound {
+        /// Enlargements tried.
+        tries: usize,
+        /// Largest edge density relative to the peak.
+        edge: f64,
+        /// The widest side of the last box.
+        width: f64,
+    },
+}

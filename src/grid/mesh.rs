@@ -1,0 +1,214 @@
+//! The rectangle of cells, its walls and the face reconstruction.
+
+use serde::Serialize;
+
+use super::problem::{Barrier, BarrierKind};
+use super::BarrierSide;
+
+/// The rectangle [x_lo, x_hi] × [v_lo, v_hi] the density is computed on.
+///
+/// ```
+/// let d = fpsolve::grid::Domain { x: [-1.0, 1.0], v: [-2.0, 2.0] };
+/// assert_eq!(d.width(), [2.0, 4.0]);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Domain {
+    /// The position's range.
+    pub x: [f64; 2],
+    /// The velocity's range.
+    pub v: [f64; 2],
+}
+
+impl Domain {
+    /// The side lengths (x, v).
+    ///
+    /// ```
+    /// let d = fpsolve::grid::Domain { x: [0.0, 3.0], v: [-1.0, 1.0] };
+    /// assert_eq!(d.width()[0], 3.0);
+    /// ```
+    pub fn width(&self) -> [f64; 2] {
+        [self.x[1] - self.x[0], self.v[1] - self.v[0]]
+    }
+}
+
+/// A place where flux leaves the domain through the barrier and comes back: cells in column
+/// `from` whose velocity points along `direction` (±1) exit; what leaves re-enters column
+/// `into` at the mapped velocity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Exit {
+    pub(crate) from: usize,
+    /// The next cell inward from `from` (for the one-sided face value).
+    pub(crate) inner: usize,
+    pub(crate) direction: f64,
+    pub(crate) into: usize,
+}
+
+/// Uniform cells; the velocity axis has a face at v = 0 (nv even, symmetric range) so that
+/// every cell's velocity has one sign, and the barrier is a face.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Mesh {
+    pub(crate) nx: usize,
+    pub(crate) nv: usize,
+    pub(crate) x0: f64,
+    pub(crate) hx: f64,
+    pub(crate) v0: f64,
+    pub(crate) hv: f64,
+    /// Runs of x-cells [start, end) between walls; reconstruction never crosses a wall.
+    pub(crate) segments: Vec<[usize; 2]>,
+    pub(crate) exits: Vec<Exit>,
+}
+
+impl Mesh {
+    /// Cells on `domain`, moved (by less than `align` cells) so that a pass-through barrier
+    /// falls on a face with a multiple of `align` cells below it (with `align` = 4 the
+    /// half-resolution mesh of the error estimate has the same face, on an even cell), and
+    /// clipped to a reflecting barrier's side.
+    pub(crate) fn new(
+        domain: Domain,
+        nx: usize,
+        nv: usize,
+        barrier: Option<&Barrier>,
+        align: usize,
+    ) -> Mesh {
+        let vmax = domain.v[0].abs().max(domain.v[1].abs());
+        let hv = 2.0 * vmax / nv as f64;
+        let mut x = domain.x;
+        let mut segments = vec![[0, nx]];
+        let mut exits = Vec::new();
+        match barrier.map(|b| (b.at, b.kind)) {
+            Some((at, BarrierKind::Reflecting(BarrierSide::Above))) => {
+                x[0] = at;
+                exits.push(Exit {
+                    from: 0,
+                    inner: 1,
+                    direction: -1.0,
+                    into: 0,
+                });
+            }
+            Some((at, BarrierKind::Reflecting(BarrierSide::Below))) => {
+                x[1] = at;
+                exits.push(Exit {
+                    from: nx - 1,
+                    inner: nx - 2,
+                    direction: 1.0,
+                    into: nx - 1,
+                });
+            }
+            Some((at, BarrierKind::PassThrough)) => {
+                let h = (x[1] - x[0]) / nx as f64;
+                let a = align as f64;
+                let k = (((at - x[0]) / h / a).round().max(0.0) as usize * align)
+                    .clamp(align, nx - align);
+                x[0] = at - k as f64 * h;
+                x[1] = x[0] + nx as f64 * h;
+                segments = vec![[0, k], [k, nx]];
+                exits.push(Exit {
+                    from: k - 1,
+                    inner: k - 2,
+                    direction: 1.0,
+                    into: k,
+                });
+                exits.push(Exit {
+                    from: k,
+                    inner: k + 1,
+                    direction: -1.0,
+                    into: k - 1,
+                });
+            }
+            None => {}
+        }
+        Mesh {
+            nx,
+            nv,
+            x0: x[0],
+            hx: (x[1] - x[0]) / nx as f64,
+            v0: -vmax,
+            hv,
+            segments,
+            exits,
+        }
+    }
+
+    pub(crate) fn domain(&self) -> Domain {
+        Domain {
+            x: [self.x0, self.x0 + self.nx as f64 * self.hx],
+            v: [self.v0, self.v0 + self.nv as f64 * self.hv],
+        }
+    }
+
+    pub(crate) fn cells(&self) -> usize {
+        self.nx * self.nv
+    }
+
+    /// Unknown index of cell (i, j): velocity fastest.
+    pub(crate) fn index(&self, i: usize, j: usize) -> usize {
+        i * self.nv + j
+    }
+
+    pub(crate) fn xc(&self, i: usize) -> f64 {
+        self.x0 + (i as f64 + 0.5) * self.hx
+    }
+
+    pub(crate) fn vc(&self, j: usize) -> f64 {
+        self.v0 + (j as f64 + 0.5) * self.hv
+    }
+
+    /// The segment holding x-cell `i`.
+    pub(crate) fn segment_of(&self, i: usize) -> [usize; 2] {
+        *self
+            .segments
+            .iter()
+            .find(|s| (s[0]..s[1]).contains(&i))
+            .unwrap_or(&[0, self.nx])
+    }
+}
+
+/// Weights of the κ = 1/3 upwind-biased face value between cells `i` and `i + 1` of the run
+/// [start, end), for flow in the direction of `sign`: −1/6, 5/6, 1/3 on the upwind-upwind,
+/// upwind and downwind cells (third order). Where the far upwind cell is missing (next to a
+/// wall) the face value is the mean of the two cells (a linear ghost), still second order.
+pub(crate) fn face_weights(i: usize, [start, end]: [usize; 2], sign: f64) -> [(usize, f64); 3] {
+    const K: [f64; 3] = [-1.0 / 6.0, 5.0 / 6.0, 1.0 / 3.0];
+    if sign >= 0.0 {
+        if i > start {
+            [(i - 1, K[0]), (i, K[1]), (i + 1, K[2])]
+        } else {
+            [(i, 0.5), (i + 1, 0.5), (i, 0.0)]
+        }
+    } else if i + 2 < end {
+        [(i + 2, K[0]), (i + 1, K[1]), (i, K[2])]
+    } else {
+        [(i + 1, 0.5), (i, 0.5), (i, 0.0)]
+    }
+}
+
+/// Fraction of the interval [a, b] (a < b) that falls in each velocity cell, as (cell,
+/// fraction); the parts outside the mesh go to the end cells, so the fractions sum to one.
+pub(crate) fn overlaps(mesh: &Mesh, a: f64, b: f64) -> Vec<(usize, f64)> {
+    let len = b - a;
+    let cell = |v: f64| (((v - mesh.v0) / mesh.hv).floor().max(0.0) as usize).min(mesh.nv - 1);
+    let (ja, jb) = (cell(a), cell(b));
+    let mut out = Vec::with_capacity(jb - ja + 1);
+    for j in ja..=jb {
+        let lo = if j == 0 {
+            f64::NEG_INFINITY
+        } else {
+            mesh.v0 + j as f64 * mesh.hv
+        };
+        let hi = if j == mesh.nv - 1 {
+            f64::INFINITY
+        } else {
+            mesh.v0 + (j + 1) as f64 * mesh.hv
+        };
+        let part = (b.min(hi) - a.max(lo)).max(0.0) / len;
+        if part > 0.0 {
+            out.push((j, part));
+        }
+    }
+    // The fractions sum to one up to rounding; the last takes the remainder exactly.
+    let rest: f64 = out[..out.len().saturating_sub(1)].iter().map(|p| p.1).sum();
+    if let Some(last) = out.last_mut() {
+        last.1 = 1.0 - rest;
+    }
+    out
+}
