@@ -5,6 +5,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use crate::epc::EpcSolution;
+use crate::grid::GridSolution;
 use crate::moments::Moments;
 use crate::observe::{moments_of_all, JointDensity, ObservableDensity};
 
@@ -17,6 +18,8 @@ use super::{common_grid, printable, Method, Quantity, SolveError};
 pub enum Density {
     /// An EPC solution (its density and its [`crate::epc::SolveReport`]).
     Epc(EpcSolution),
+    /// A grid solution (cell densities and its [`crate::grid::GridReport`]).
+    Grid(GridSolution),
 }
 
 /// A solved stationary density and every state and observable of the model, by name.
@@ -117,6 +120,9 @@ impl Solution {
     pub fn method(&self) -> Method {
         match &self.density {
             Density::Epc(s) => Method::Epc { degree: s.degree },
+            Density::Grid(g) => Method::Grid {
+                cells: g.report.cells,
+            },
         }
     }
 
@@ -129,6 +135,7 @@ impl Solution {
     pub fn epc(&self) -> Option<&EpcSolution> {
         match &self.density {
             Density::Epc(s) => Some(s),
+            Density::Grid(_) => None,
         }
     }
 
@@ -136,6 +143,7 @@ impl Solution {
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {
             Density::Epc(s) => s,
+            Density::Grid(g) => g,
         }
     }
 
