@@ -167,7 +167,7 @@ impl<'a> Problem<'a> {
     }
 
     fn solution(&self, sol: crate::epc::EpcSolution) -> Solution {
-        Solution::new(Density::Epc(sol), self.quantities.clone())
+        Solution::new(Density::Epc(Box::new(sol)), self.quantities.clone())
     }
 }
 

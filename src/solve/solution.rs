@@ -17,7 +17,7 @@ use super::{common_grid, printable, Method, Quantity, SolveError};
 #[non_exhaustive]
 pub enum Density {
     /// An EPC solution (its density and its [`crate::epc::SolveReport`]).
-    Epc(EpcSolution),
+    Epc(Box<EpcSolution>),
     /// A grid solution (cell densities and its [`crate::grid::GridReport`]).
     Grid(GridSolution),
 }
@@ -142,7 +142,7 @@ impl Solution {
     /// The joint density p(x1, x2) of the states.
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {
-            Density::Epc(s) => s,
+            Density::Epc(s) => s.as_ref(),
             Density::Grid(g) => g,
         }
     }
