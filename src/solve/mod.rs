@@ -147,7 +147,10 @@ impl<'a> Problem<'a> {
                 let grid = GridSolver::new(self.model)
                     .cells(cells[0], cells[1])
                     .solve()?;
-                Ok(Solution::new(Density::Grid(grid), self.quantities.clone()))
+                Ok(Solution::new(
+                    Density::Grid(Box::new(grid)),
+                    self.quantities.clone(),
+                ))
             }
         }
     }

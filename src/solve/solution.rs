@@ -19,7 +19,7 @@ pub enum Density {
     /// An EPC solution (its density and its [`crate::epc::SolveReport`]).
     Epc(Box<EpcSolution>),
     /// A grid solution (cell densities and its [`crate::grid::GridReport`]).
-    Grid(GridSolution),
+    Grid(Box<GridSolution>),
 }
 
 /// A solved stationary density and every state and observable of the model, by name.
@@ -143,7 +143,7 @@ impl Solution {
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {
             Density::Epc(s) => s.as_ref(),
-            Density::Grid(g) => g,
+            Density::Grid(g) => g.as_ref(),
         }
     }
 
