@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 
+use super::dependency::{walk, WalkError};
 use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable, Origin};
 use crate::symbolic::{Expr, Func, Symbol};
 
@@ -450,59 +451,65 @@ impl Model {
             }
             defs.insert(o.name.as_str(), &o.value);
         }
-        let mut memo: HashMap<String, f64> = HashMap::new();
-        let mut out = Vec::with_capacity(self.params.len());
-        for p in &self.params {
-            let mut stack = Vec::new();
-            let v = eval_param(&p.name, &defs, &mut memo, &mut stack)?;
-            out.push((p.name.clone(), v));
+        // Every parameter after those its definition mentions, without recursion; the order
+        // of visits (and so which of several problems is reported) is that of evaluating
+        // each parameter's symbols in turn, depth first.
+        let index: HashMap<&str, usize> = self
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (&*p.name, i))
+            .collect();
+        let definition = |i: usize| defs[&*self.params[i].name];
+        let edges = |i: usize| -> Vec<Result<usize, BindError>> {
+            definition(i)
+                .symbols()
+                .iter()
+                .map(|s| {
+                    index
+                        .get(&**s)
+                        .copied()
+                        .ok_or_else(|| BindError::NotAParameter {
+                            name: self.params[i].name.to_string(),
+                            symbol: s.to_string(),
+                        })
+                })
+                .collect()
+        };
+        let mut values: Vec<f64> = vec![f64::NAN; self.params.len()];
+        let finish = |i: usize| -> Result<(), BindError> {
+            let v = definition(i)
+                .eval(&|s| index.get(s).map(|j| values[*j]))
+                .unwrap_or(f64::NAN);
+            if !v.is_finite() {
+                return Err(BindError::NotFinite {
+                    name: self.params[i].name.to_string(),
+                    value: v,
+                });
+            }
+            values[i] = v;
+            Ok(())
+        };
+        match walk(self.params.len(), edges, None, finish) {
+            Ok(()) => {}
+            Err(WalkError::Stopped(e)) => return Err(e),
+            Err(WalkError::Cycle { chain }) => {
+                let repeated = *chain.last().expect("a cycle has nodes");
+                let names: Vec<&str> = chain.iter().map(|i| &*self.params[*i].name).collect();
+                return Err(BindError::Cycle {
+                    name: self.params[repeated].name.to_string(),
+                    chain: names.join(" -> "),
+                });
+            }
+            Err(WalkError::TooLong { .. }) => unreachable!("the walk was given no limit"),
         }
-        Ok(out)
+        Ok(self
+            .params
+            .iter()
+            .zip(values)
+            .map(|(p, v)| (p.name.clone(), v))
+            .collect())
     }
-}
-
-/// Depth-first evaluation of one parameter; `stack` holds the chain being evaluated, so a
-/// name met again on it is a cycle.
-fn eval_param(
-    name: &str,
-    defs: &HashMap<&str, &Expr>,
-    memo: &mut HashMap<String, f64>,
-    stack: &mut Vec<String>,
-) -> Result<f64, BindError> {
-    if let Some(v) = memo.get(name) {
-        return Ok(*v);
-    }
-    if let Some(pos) = stack.iter().position(|s| s == name) {
-        let mut chain: Vec<&str> = stack[pos..].iter().map(String::as_str).collect();
-        chain.push(name);
-        return Err(BindError::Cycle {
-            name: name.to_string(),
-            chain: chain.join(" -> "),
-        });
-    }
-    let def = defs[name];
-    stack.push(name.to_string());
-    let mut deps = HashMap::new();
-    for s in def.symbols() {
-        if !defs.contains_key(&*s) {
-            return Err(BindError::NotAParameter {
-                name: name.to_string(),
-                symbol: s.to_string(),
-            });
-        }
-        let v = eval_param(&s, defs, memo, stack)?;
-        deps.insert(s.to_string(), v);
-    }
-    stack.pop();
-    let v = def.eval(&|s| deps.get(s).copied()).unwrap_or(f64::NAN);
-    if !v.is_finite() {
-        return Err(BindError::NotFinite {
-            name: name.to_string(),
-            value: v,
-        });
-    }
-    memo.insert(name.to_string(), v);
-    Ok(v)
 }
 
 #[cfg(test)]

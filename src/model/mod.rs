@@ -4,16 +4,20 @@
 //! it to new values cheaply; [`Model::bind`] evaluates the parameters and substitutes them,
 //! giving the [`BoundModel`] that the Fokker–Planck, EPC and Monte Carlo stages consume.
 
-pub mod ast;
+pub(crate) mod ast;
 mod bind;
+mod dependency;
 mod diagnostic;
+mod error;
 mod load;
 mod parse;
 mod print;
+mod syntax;
 mod validate;
 
 pub use bind::{BindError, BoundImpact, BoundModel, Override};
-pub use diagnostic::{Diagnostic, ModelError};
+pub use diagnostic::Diagnostic;
+pub use error::ModelError;
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
 pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};

@@ -13,13 +13,8 @@ use super::ast::{
     Binding, DeltaSpec, ExprKind, ExprNode, Ident, ModelAst, ProductOp, Span, Statement,
     StatementKind, SumOp,
 };
-use super::diagnostic::SyntaxFailure;
+use super::syntax::{Rule, SdeParser, SyntaxFailure};
 use super::Interpretation;
-
-/// The pest parser generated from `grammar/sde.pest`.
-#[derive(pest_derive::Parser)]
-#[grammar = "grammar/sde.pest"]
-pub(crate) struct SdeParser;
 
 /// Deepest nesting of parentheses, `^` and unary minus accepted in one line.
 pub const MAX_NESTING: usize = 200;
