@@ -111,6 +111,7 @@ pub enum BindError {
         /// Its value.
         value: f64,
     },
+    /// An error placed at the expression of the model file that produced the bad value.
     #[error("{}", diagnostic.without_prefix())]
     Located {
         /// The error.
@@ -232,50 +233,134 @@ impl BoundModel {
     }
 
     /// The model's name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.name(), "vibro_duffing");
+    /// ```
     pub fn name(&self) -> &str {
         &self.name
     }
     /// Parameter values, in declaration order.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.params()[4].1, 0.95);
+    /// ```
     pub fn params(&self) -> &[(Symbol, f64)] {
         &self.params
     }
     /// The value of one parameter.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.param("r"), Some(0.95));
+    /// ```
     pub fn param(&self, name: &str) -> Option<f64> {
         self.params.iter().find(|(n, _)| &**n == name).map(|p| p.1)
     }
     /// The two state variables' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.states().map(|s| s.to_string()), ["z", "v"]);
+    /// ```
     pub fn states(&self) -> &[Symbol; 2] {
         &self.states
     }
     /// The drift of each state, as written (before any Wong–Zakai correction).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.drift()[0].to_string(), "v");
+    /// ```
     pub fn drift(&self) -> &[Expr; 2] {
         &self.drift
     }
     /// The noise sources' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.noise_names()[0].as_ref(), "xi");
+    /// ```
     pub fn noise_names(&self) -> &[Symbol] {
         &self.noise_names
     }
     /// The intensity matrix S, E[ξ_k(t) ξ_l(t+τ)] = S_kl δ(τ).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert!((bound.intensity()[0][0] - 1.0).abs() < 1e-15);
+    /// ```
     pub fn intensity(&self) -> &[Vec<f64>] {
         &self.intensity
     }
     /// G_ik: how source k enters the equation of state i.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.noise_matrix()[1].len(), 1);
+    /// ```
     pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
         &self.noise_matrix
     }
     /// Itô or Stratonovich.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.interpretation(), fpsolve::model::Interpretation::Stratonovich);
+    /// ```
     pub fn interpretation(&self) -> Interpretation {
         self.interpretation
     }
     /// The impact law, if any.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.impact().map(|law| law.at), Some(0.0));
+    /// ```
     pub fn impact(&self) -> Option<&BoundImpact> {
         self.impact.as_ref()
     }
     /// The observables, parameters substituted.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.observables()[0].name.as_ref(), "y");
+    /// ```
     pub fn observables(&self) -> &[Observable] {
         &self.observables
     }
     /// How `delta(·)` is treated in integrals.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.delta_treatment(), fpsolve::model::DeltaTreatment::Exact);
+    /// ```
     pub fn delta_treatment(&self) -> DeltaTreatment {
         self.delta
     }

@@ -187,66 +187,144 @@ impl PartialEq for Origin {
 
 impl Model {
     /// The model's name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.name(), "vibro_duffing");
+    /// ```
     pub fn name(&self) -> &str {
         &self.name
     }
 
     /// The one-line description.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.description().starts_with("Vibro-impact Duffing"));
+    /// ```
     pub fn description(&self) -> &str {
         &self.description
     }
 
     /// The parameters in the order they were declared.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.params()[0].name.as_ref(), "c");
+    /// ```
     pub fn params(&self) -> &[Parameter] {
         &self.params
     }
 
     /// The two state variables' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.states().map(|s| s.to_string()), ["z", "v"]);
+    /// ```
     pub fn states(&self) -> &[Symbol; 2] {
         &self.states
     }
 
     /// The drift of each state.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.drift()[0].to_string(), "v");
+    /// ```
     pub fn drift(&self) -> &[Expr; 2] {
         &self.drift
     }
 
     /// The noise sources.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.noises()[0].name.as_ref(), "xi");
+    /// ```
     pub fn noises(&self) -> &[NoiseSource] {
         &self.noises
     }
 
     /// The correlations declared between noise sources (absent pairs are independent).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.correlations().is_empty());
+    /// ```
     pub fn correlations(&self) -> &[Correlation] {
         &self.correlations
     }
 
     /// G_ik: how source k enters the equation of state i.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.noise_matrix()[0][0], fpsolve::symbolic::Expr::num(0.0));
+    /// ```
     pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
         &self.noise_matrix
     }
 
     /// Itô or Stratonovich.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.interpretation(), fpsolve::model::Interpretation::Stratonovich);
+    /// ```
     pub fn interpretation(&self) -> Interpretation {
         self.interpretation
     }
 
     /// The impact law, if the model has a barrier.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.impact().map(|law| (law.state, law.other)), Some((0, 1)));
+    /// ```
     pub fn impact(&self) -> Option<&ImpactLaw> {
         self.impact.as_ref()
     }
 
     /// The observables, in the order declared.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.observables()[1].name.as_ref(), "ydot");
+    /// ```
     pub fn observables(&self) -> &[Observable] {
         &self.observables
     }
 
     /// How `delta(·)` is treated in integrals.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.delta_treatment(), fpsolve::model::DeltaTreatment::Exact);
+    /// ```
     pub fn delta_treatment(&self) -> DeltaTreatment {
         self.delta
     }
 
     /// Index of a state by name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.state_index("v"), Some(1));
+    /// ```
     pub fn state_index(&self, name: &str) -> Option<usize> {
         self.states.iter().position(|s| &**s == name)
     }
