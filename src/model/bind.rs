@@ -7,6 +7,12 @@ use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observabl
 use crate::symbolic::{Expr, Func, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
+///
+/// ```
+/// use fpsolve::model::Override;
+/// let o = Override::number("c", 0.5);
+/// assert_eq!(o.name, "c");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Override {
     /// The parameter to set.
@@ -31,6 +37,14 @@ impl Override {
 }
 
 /// Why a model could not be bound to parameter values.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// let err = model.bind(&[fpsolve::model::Override::number("nope", 1.0)]).unwrap_err();
+/// assert!(matches!(err, fpsolve::model::BindError::UnknownParameter { .. }));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BindError {
     /// `--set` named a parameter the model does not declare.
@@ -157,6 +171,13 @@ impl BindError {
 }
 
 /// An impact law with its barrier at a number.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let bound = model.bind(&[]).unwrap();
+/// assert_eq!(bound.impact().unwrap().map.to_string(), "0.95*v");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundImpact {
     /// Index of the state that meets the barrier.
@@ -171,6 +192,14 @@ pub struct BoundImpact {
 
 /// A model whose parameters are numbers: every expression in it mentions only the states
 /// (and, in the noise matrix, nothing else). What the FPK, EPC and Monte Carlo stages consume.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// let bound = model.bind(&[fpsolve::model::Override::number("c", 0.2)]).unwrap();
+/// assert_eq!(bound.param("c"), Some(0.2));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundModel {
     pub(crate) name: String,

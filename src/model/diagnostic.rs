@@ -28,6 +28,12 @@ const WINDOW_AFTER: usize = 80;
 const WINDOW_BEFORE: usize = 160;
 
 /// One located, rendered error message.
+///
+/// ```
+/// let err = fpsolve::model::parse_expr("1 +").unwrap_err();
+/// let d = err.diagnostic().unwrap();
+/// assert_eq!((d.line(), d.column()), (1, 4));
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Diagnostic {
     inner: Box<DiagnosticInner>,

@@ -8,6 +8,12 @@ use super::validate::SemanticError;
 
 /// Why a model file could not be turned into a [`crate::model::Model`]. `Display` is the
 /// full rendered message (`error: ...`, location, source line, caret).
+///
+/// ```
+/// use fpsolve::model::{parse_model, ModelError};
+/// let err = parse_model("model m\nstate z\n", None).unwrap_err();
+/// assert!(matches!(err, ModelError::Semantic { .. }));
+/// ```
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
     /// The file could not be read.

@@ -44,6 +44,11 @@ pub fn number(v: f64) -> String {
 }
 
 /// How products of state-dependent noise with white noise are read.
+///
+/// ```
+/// use fpsolve::model::Interpretation;
+/// assert_eq!(Interpretation::default(), Interpretation::Stratonovich);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Interpretation {
@@ -55,6 +60,11 @@ pub enum Interpretation {
 }
 
 /// How `delta(·)` terms are treated inside the Galerkin integrals.
+///
+/// ```
+/// use fpsolve::model::DeltaTreatment;
+/// assert_eq!(DeltaTreatment::default(), DeltaTreatment::Exact);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase", tag = "kind")]
 pub enum DeltaTreatment {
@@ -69,6 +79,13 @@ pub enum DeltaTreatment {
 }
 
 /// A parameter with its default value, an expression of constants and other parameters.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.params()[0].default.to_string(), "0.1");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Parameter {
     /// The parameter's name.
@@ -78,6 +95,13 @@ pub struct Parameter {
 }
 
 /// A Gaussian white-noise source ξ with E[ξ(t) ξ(t+τ)] = `intensity` · δ(τ).
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.noises()[0].intensity, fpsolve::symbolic::Expr::num(1.0));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct NoiseSource {
     /// The source's name, as used in `diffusion` lines.
@@ -88,6 +112,13 @@ pub struct NoiseSource {
 
 /// A correlation coefficient ρ between two noise sources: their cross intensity is
 /// ρ·√(S_aa·S_bb).
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vdp_vibro_impact.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let rho = &model.correlations()[0];
+/// assert_eq!((rho.a, rho.b), (0, 1));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Correlation {
     /// Index of the first source in [`Model::noises`].
@@ -99,6 +130,13 @@ pub struct Correlation {
 }
 
 /// An impact law: when state `state` reaches `at`, state `other` jumps to `map`.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let law = model.impact().unwrap();
+/// assert_eq!(law.map.to_string(), "r*v");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImpactLaw {
     /// Index of the state that meets the barrier.
@@ -112,6 +150,13 @@ pub struct ImpactLaw {
 }
 
 /// A named quantity computed from the state, whose PDF fpsolve reports.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.observables()[0].expr.to_string(), "abs(z)");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Observable {
     /// The observable's name (`y`, `ydot`).
@@ -123,6 +168,14 @@ pub struct Observable {
 /// A validated model: two states, their drifts, noise sources, how the noise enters, and what
 /// to report. Built by [`crate::model::parse_model`]; every name in it is known, parameters
 /// are acyclic, and the noise matrix has one entry per state and source.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.name(), "lin");
+/// assert_eq!(model.drift()[1].to_string(), "-c*v - z");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
     pub(crate) name: String,

@@ -8,6 +8,15 @@ use crate::model::{number, BoundImpact, BoundModel};
 use crate::symbolic::{sift, Expr, Symbol};
 
 /// Why EPC cannot use an impact law.
+///
+/// ```
+/// use fpsolve::physics::{impact_form, ImpactForm, UnsupportedImpact};
+/// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 1\n\
+///             diffusion v: xi\nimpact z = 0: v -> 0*v\n";
+/// let bound = fpsolve::model::parse_model(text, None).unwrap().bind(&[]).unwrap();
+/// let Some(ImpactForm::Unsupported { reason, .. }) = impact_form(&bound) else { panic!() };
+/// assert_eq!(reason, UnsupportedImpact::Plastic);
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum UnsupportedImpact {
     /// `v -> -r*v`: the state stays on its side (the model in its original coordinates).
@@ -70,6 +79,13 @@ pub enum UnsupportedImpact {
 }
 
 /// What EPC makes of a model's impact law.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let form = fpsolve::physics::impact_form(&model.bind(&[]).unwrap()).unwrap();
+/// assert_eq!(form.to_string(), "Zhuravlev (r = 0.95)");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub enum ImpactForm {
     /// The Zhuravlev form EPC solves: a pass-through jump `v -> r*v` (0 < r ≤ 1) with the

@@ -4,6 +4,14 @@ use crate::model::number;
 
 /// Why a model has no (non-degenerate) stationary density. `Display` says it in the user's
 /// terms, starting with "no stationary density: ".
+///
+/// ```
+/// use fpsolve::physics::{check, Inadmissible};
+/// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 0\n\
+///             diffusion v: xi\n";
+/// let bound = fpsolve::model::parse_model(text, None).unwrap().bind(&[]).unwrap();
+/// assert_eq!(check(&bound), Err(Inadmissible::NoNoise));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum Inadmissible {
     /// The diffusion matrix is zero everywhere: the response is deterministic and settles on

@@ -9,9 +9,20 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 
 /// A name in an expression: a state variable, a parameter or a noise source.
+///
+/// ```
+/// let s: fpsolve::symbolic::Symbol = "z".into();
+/// assert_eq!(fpsolve::symbolic::Expr::sym("z"), fpsolve::symbolic::Expr::Sym(s));
+/// ```
 pub type Symbol = Arc<str>;
 
 /// The functions of the model language.
+///
+/// ```
+/// use fpsolve::symbolic::Func;
+/// assert_eq!(Func::from_name("abs"), Some(Func::Abs));
+/// assert_eq!(Func::Abs.name(), "abs");
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Func {
     /// `abs(u)`, |u|.
@@ -137,6 +148,13 @@ pub fn sgn(u: f64) -> f64 {
 }
 
 /// What a pointwise evaluation does with `delta(u)`.
+///
+/// ```
+/// use fpsolve::symbolic::{DeltaPolicy, Expr, Func};
+/// let e = Expr::call(Func::Delta, Expr::sym("z"));
+/// let z = ["z".into(), "v".into()];
+/// assert_eq!(e.eval_states(&z, [1.0, 0.0], DeltaPolicy::Zero), Ok(0.0));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum DeltaPolicy {
     /// Refuse: a Dirac delta has no value at a point.
@@ -173,6 +191,11 @@ impl DeltaPolicy {
 }
 
 /// Why an expression could not be evaluated at a point.
+///
+/// ```
+/// use fpsolve::symbolic::{EvalError, Expr};
+/// assert_eq!(Expr::sym("k").eval(&|_| None), Err(EvalError::Unbound("k".into())));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EvalError {
     /// A symbol had no value.

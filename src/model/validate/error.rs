@@ -5,10 +5,27 @@ use super::super::ast::Span;
 
 /// Longest chain of parameters defined through one another (`a = b`, `b = c`, ...) accepted;
 /// binding evaluates such chains recursively.
+///
+/// ```
+/// use fpsolve::model::{parse_model, SemanticError, MAX_PARAMETER_CHAIN};
+/// let mut text = String::from("model m\nparam p0 = 1\n");
+/// for i in 1..=MAX_PARAMETER_CHAIN + 1 {
+///     text.push_str(&format!("param p{i} = p{}\n", i - 1));
+/// }
+/// text.push_str("state z, v\ndrift z: v\ndrift v: -z\nnoise xi: intensity 1\ndiffusion v: xi\n");
+/// let err = parse_model(&text, None).unwrap_err();
+/// assert!(matches!(err.semantic(), Some(SemanticError::ParameterChainTooLong { .. })));
+/// ```
 pub const MAX_PARAMETER_CHAIN: usize = 256;
 
 /// What is wrong with a model that parses. Each variant is one kind of mistake; the
 /// [`crate::model::ModelError`] that carries it also says where.
+///
+/// ```
+/// use fpsolve::model::{parse_model, SemanticError};
+/// let err = parse_model("model m\nstate z\n", None).unwrap_err();
+/// assert_eq!(err.semantic(), Some(&SemanticError::StateCount { found: 1 }));
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum SemanticError {
     /// The file has no `model` line.
@@ -238,6 +255,15 @@ pub enum SemanticError {
 /// Where a `delta(...)` was written that has no meaning there. A Dirac delta is a
 /// distribution: in a drift it may only multiply an ordinary function, with an argument
 /// linear in one state (`-(1 - r)*v*abs(v)*delta(z)`); everywhere else it is refused.
+///
+/// ```
+/// use fpsolve::model::{parse_model, DeltaMisuse, SemanticError};
+/// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -z - abs(delta(z))\n\
+///             noise xi: intensity 1\ndiffusion v: xi\n";
+/// let err = parse_model(text, None).unwrap_err();
+/// let Some(SemanticError::MisplacedDelta { misuse, .. }) = err.semantic() else { panic!() };
+/// assert_eq!(misuse, &DeltaMisuse::InFunction { func: "abs".into() });
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeltaMisuse {
     /// Inside a function call: `abs(delta(z))`, `exp(delta(z))`.
