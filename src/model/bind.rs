@@ -300,7 +300,7 @@ impl BoundModel {
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
     /// let model = fpsolve::model::load_model(&path).unwrap();
     /// let bound = model.bind(&[]).unwrap();
-    /// assert_eq!(bound.states().map(|s| s.to_string()), ["z", "v"]);
+    /// assert_eq!(&*bound.states()[1], "v");
     /// ```
     pub fn states(&self) -> &[Symbol; 2] {
         &self.states
