@@ -137,6 +137,7 @@ impl Func {
 /// assert_eq!(fpsolve::symbolic::sgn(-3.0), -1.0);
 /// assert_eq!(fpsolve::symbolic::sgn(0.0), 0.0);
 /// ```
+#[inline]
 pub fn sgn(u: f64) -> f64 {
     if u > 0.0 {
         1.0
@@ -539,6 +540,7 @@ impl Expr {
 /// assert_eq!(fpsolve::symbolic::powf(-2.0, 3.0), -8.0);
 /// assert_eq!(fpsolve::symbolic::powf(4.0, 0.5), 2.0);
 /// ```
+#[inline]
 pub fn powf(base: f64, exponent: f64) -> f64 {
     if exponent.fract() == 0.0 && exponent.abs() <= i32::MAX as f64 {
         base.powi(exponent as i32)
