@@ -40,14 +40,63 @@ fn assert_located_model_error(text: &str, e: &ModelError) -> Result<(), TestCase
         ModelError::Io { .. } => prop_assert!(false, "no I/O here: {e}"),
         _ => {}
     }
-    let (line, col) = (e.line(), e.column());
-    prop_assert!(line.is_some() && col.is_some(), "unlocated: {e}");
-    let (line, col) = (line.unwrap(), col.unwrap());
+    let Some(d) = e.diagnostic() else {
+        return Err(TestCaseError::fail(format!("unlocated: {e}")));
+    };
+    let (line, col) = (d.line(), d.column());
+    prop_assert_eq!((e.line(), e.column()), (Some(line), Some(col)));
     prop_assert!(
         inside(text, line, col),
         "{line}:{col} outside the input\n{text:?}\n{e}"
     );
-    prop_assert!(e.to_string().starts_with("error: "));
+    let rendered = e.to_string();
+    // The rendering leads with the message, then says where.
+    prop_assert!(
+        rendered.starts_with(&format!("error: {}\n", d.message())),
+        "{rendered}"
+    );
+    prop_assert!(
+        rendered.contains(&format!("--> {line}:{col}\n")),
+        "{rendered}"
+    );
+    // It shows the offending line from the column on (control characters as U+FFFD).
+    let shown: String = text
+        .split('\n')
+        .nth(line - 1)
+        .unwrap_or_default()
+        .chars()
+        .skip(col - 1)
+        .take(16)
+        .take_while(|c| *c != '\r')
+        .map(|c| {
+            if c.is_control() && c != '\t' {
+                '\u{fffd}'
+            } else {
+                c
+            }
+        })
+        .collect();
+    prop_assert!(
+        rendered.contains(shown.trim_end()),
+        "{shown:?} not shown in\n{rendered}"
+    );
+    match e {
+        // A syntax error says what was expected there (or which limit was passed).
+        ModelError::Syntax(d) => prop_assert!(
+            d.message().starts_with("expected ")
+                || d.message().starts_with("unexpected ")
+                || d.message().starts_with("malformed number")
+                || d.message().contains("the limit is")
+                || d.message().contains("nested too deeply"),
+            "{}",
+            d.message()
+        ),
+        // A semantic error's message is the typed error's own.
+        ModelError::Semantic { error, diagnostic } => {
+            prop_assert_eq!(diagnostic.message(), error.to_string())
+        }
+        _ => {}
+    }
     Ok(())
 }
 
@@ -84,9 +133,23 @@ fn bind_and_derive(text: &str, model: &Model, overrides: &[Override]) -> Result<
     Ok(())
 }
 
+/// A model's printed form parses, and prints again to itself. (The trees may differ where
+/// the input was not in printed form: `- - a` is printed `+ a`.)
+fn assert_reprints(model: &Model) -> Result<(), TestCaseError> {
+    let printed = model.to_string();
+    match parse_model(&printed, None) {
+        Ok(back) => prop_assert_eq!(back.to_string(), printed),
+        Err(e) => prop_assert!(false, "printed as\n{printed}\ndoes not parse: {e}"),
+    }
+    Ok(())
+}
+
 fn check_text(text: &str) -> Result<(), TestCaseError> {
     match parse_model(text, None) {
-        Ok(model) => bind_and_derive(text, &model, &[])?,
+        Ok(model) => {
+            assert_reprints(&model)?;
+            bind_and_derive(text, &model, &[])?
+        }
         Err(e) => assert_located_model_error(text, &e)?,
     }
     Ok(())
@@ -136,6 +199,50 @@ fn token() -> impl Strategy<Value = &'static str> {
         Just("\n"),
         Just("#"),
     ]
+}
+
+/// Lines built from the language's own tokens, so that the parser gets deep into its
+/// rules before it fails (random unicode rarely passes the first keyword).
+fn token_soup() -> impl Strategy<Value = String> {
+    let token = prop_oneof![
+        Just("model m"),
+        Just("param"),
+        Just("state z, v"),
+        Just("drift"),
+        Just("noise"),
+        Just("diffusion"),
+        Just("correlate"),
+        Just("impact"),
+        Just("observe"),
+        Just("delta"),
+        Just(":"),
+        Just(","),
+        Just("="),
+        Just("->"),
+        Just("("),
+        Just(")"),
+        Just("+"),
+        Just("-"),
+        Just("*"),
+        Just("/"),
+        Just("^"),
+        Just("z"),
+        Just("v"),
+        Just("xi"),
+        Just("1e"),
+        Just(".5"),
+        Just("abs"),
+        Just("max"),
+        Just("intensity"),
+        Just("\n"),
+        Just("#"),
+        Just("\""),
+        Just("gaussian"),
+        Just("exact"),
+        Just("\0"),
+        Just("é"),
+    ];
+    proptest::collection::vec(token, 0..60).prop_map(|t| t.join(" "))
 }
 
 fn token_text() -> impl Strategy<Value = String> {
@@ -271,5 +378,15 @@ proptest! {
                 bind_and_derive(&text, &model, &[o])?;
             }
         }
+    }
+
+    #[test]
+    fn token_soup_gives_a_model_or_a_located_error(text in token_soup()) {
+        check_text(&text)?;
+    }
+
+    #[test]
+    fn any_unicode_gives_a_model_or_a_located_error(text in "\\PC{0,200}") {
+        check_text(&text)?;
     }
 }

@@ -17,40 +17,11 @@ pub struct Span {
 
 impl Span {
     /// The span from `start` to `end`.
-    ///
-    /// ```
-    /// use fpsolve::model::ast::Span;
-    /// let s = Span::new(2, 5);
-    /// assert_eq!(s.len(), 3);
-    /// ```
     pub fn new(start: usize, end: usize) -> Span {
         Span { start, end }
     }
 
-    /// Length in bytes.
-    ///
-    /// ```
-    /// assert!(fpsolve::model::ast::Span::new(4, 4).is_empty());
-    /// ```
-    pub fn len(&self) -> usize {
-        self.end - self.start
-    }
-
-    /// Whether the span covers no byte.
-    ///
-    /// ```
-    /// assert!(!fpsolve::model::ast::Span::new(0, 1).is_empty());
-    /// ```
-    pub fn is_empty(&self) -> bool {
-        self.end <= self.start
-    }
-
     /// The smallest span covering both.
-    ///
-    /// ```
-    /// use fpsolve::model::ast::Span;
-    /// assert_eq!(Span::new(1, 3).to(Span::new(6, 9)), Span::new(1, 9));
-    /// ```
     pub fn to(self, other: Span) -> Span {
         Span::new(self.start.min(other.start), self.end.max(other.end))
     }
@@ -216,4 +187,15 @@ pub enum StatementKind {
 pub struct ModelAst {
     /// The statements, in file order.
     pub statements: Vec<Statement>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Span;
+
+    #[test]
+    fn a_span_joined_to_another_covers_both() {
+        assert_eq!(Span::new(1, 3).to(Span::new(6, 9)), Span::new(1, 9));
+        assert_eq!(Span::new(6, 9).to(Span::new(1, 3)), Span::new(1, 9));
+    }
 }

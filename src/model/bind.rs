@@ -2,10 +2,17 @@
 
 use std::collections::HashMap;
 
+use super::dependency::{walk, WalkError};
 use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable, Origin};
 use crate::symbolic::{Expr, Func, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
+///
+/// ```
+/// use fpsolve::model::Override;
+/// let o = Override::number("c", 0.5);
+/// assert_eq!(o.name, "c");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Override {
     /// The parameter to set.
@@ -30,6 +37,14 @@ impl Override {
 }
 
 /// Why a model could not be bound to parameter values.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// let err = model.bind(&[fpsolve::model::Override::number("nope", 1.0)]).unwrap_err();
+/// assert!(matches!(err, fpsolve::model::BindError::UnknownParameter { .. }));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum BindError {
     /// `--set` named a parameter the model does not declare.
@@ -110,6 +125,7 @@ pub enum BindError {
         /// Its value.
         value: f64,
     },
+    /// An error placed at the expression of the model file that produced the bad value.
     #[error("{}", diagnostic.without_prefix())]
     Located {
         /// The error.
@@ -155,6 +171,13 @@ impl BindError {
 }
 
 /// An impact law with its barrier at a number.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let bound = model.bind(&[]).unwrap();
+/// assert_eq!(bound.impact().unwrap().map.to_string(), "0.95*v");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundImpact {
     /// Index of the state that meets the barrier.
@@ -169,6 +192,14 @@ pub struct BoundImpact {
 
 /// A model whose parameters are numbers: every expression in it mentions only the states
 /// (and, in the noise matrix, nothing else). What the FPK, EPC and Monte Carlo stages consume.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// let bound = model.bind(&[fpsolve::model::Override::number("c", 0.2)]).unwrap();
+/// assert_eq!(bound.param("c"), Some(0.2));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundModel {
     pub(crate) name: String,
@@ -231,50 +262,134 @@ impl BoundModel {
     }
 
     /// The model's name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.name(), "vibro_duffing");
+    /// ```
     pub fn name(&self) -> &str {
         &self.name
     }
     /// Parameter values, in declaration order.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.params()[4].1, 0.95);
+    /// ```
     pub fn params(&self) -> &[(Symbol, f64)] {
         &self.params
     }
     /// The value of one parameter.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.param("r"), Some(0.95));
+    /// ```
     pub fn param(&self, name: &str) -> Option<f64> {
         self.params.iter().find(|(n, _)| &**n == name).map(|p| p.1)
     }
     /// The two state variables' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(&*bound.states()[1], "v");
+    /// ```
     pub fn states(&self) -> &[Symbol; 2] {
         &self.states
     }
     /// The drift of each state, as written (before any Wong–Zakai correction).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.drift()[0].to_string(), "v");
+    /// ```
     pub fn drift(&self) -> &[Expr; 2] {
         &self.drift
     }
     /// The noise sources' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.noise_names()[0].as_ref(), "xi");
+    /// ```
     pub fn noise_names(&self) -> &[Symbol] {
         &self.noise_names
     }
     /// The intensity matrix S, E[ξ_k(t) ξ_l(t+τ)] = S_kl δ(τ).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert!((bound.intensity()[0][0] - 1.0).abs() < 1e-15);
+    /// ```
     pub fn intensity(&self) -> &[Vec<f64>] {
         &self.intensity
     }
     /// G_ik: how source k enters the equation of state i.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.noise_matrix()[1].len(), 1);
+    /// ```
     pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
         &self.noise_matrix
     }
     /// Itô or Stratonovich.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.interpretation(), fpsolve::model::Interpretation::Stratonovich);
+    /// ```
     pub fn interpretation(&self) -> Interpretation {
         self.interpretation
     }
     /// The impact law, if any.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.impact().map(|law| law.at), Some(0.0));
+    /// ```
     pub fn impact(&self) -> Option<&BoundImpact> {
         self.impact.as_ref()
     }
     /// The observables, parameters substituted.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.observables()[0].name.as_ref(), "y");
+    /// ```
     pub fn observables(&self) -> &[Observable] {
         &self.observables
     }
     /// How `delta(·)` is treated in integrals.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let bound = model.bind(&[]).unwrap();
+    /// assert_eq!(bound.delta_treatment(), fpsolve::model::DeltaTreatment::Exact);
+    /// ```
     pub fn delta_treatment(&self) -> DeltaTreatment {
         self.delta
     }
@@ -450,59 +565,65 @@ impl Model {
             }
             defs.insert(o.name.as_str(), &o.value);
         }
-        let mut memo: HashMap<String, f64> = HashMap::new();
-        let mut out = Vec::with_capacity(self.params.len());
-        for p in &self.params {
-            let mut stack = Vec::new();
-            let v = eval_param(&p.name, &defs, &mut memo, &mut stack)?;
-            out.push((p.name.clone(), v));
+        // Every parameter after those its definition mentions, without recursion; the order
+        // of visits (and so which of several problems is reported) is that of evaluating
+        // each parameter's symbols in turn, depth first.
+        let index: HashMap<&str, usize> = self
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (&*p.name, i))
+            .collect();
+        let definition = |i: usize| defs[&*self.params[i].name];
+        let edges = |i: usize| -> Vec<Result<usize, BindError>> {
+            definition(i)
+                .symbols()
+                .iter()
+                .map(|s| {
+                    index
+                        .get(&**s)
+                        .copied()
+                        .ok_or_else(|| BindError::NotAParameter {
+                            name: self.params[i].name.to_string(),
+                            symbol: s.to_string(),
+                        })
+                })
+                .collect()
+        };
+        let mut values: Vec<f64> = vec![f64::NAN; self.params.len()];
+        let finish = |i: usize| -> Result<(), BindError> {
+            let v = definition(i)
+                .eval(&|s| index.get(s).map(|j| values[*j]))
+                .unwrap_or(f64::NAN);
+            if !v.is_finite() {
+                return Err(BindError::NotFinite {
+                    name: self.params[i].name.to_string(),
+                    value: v,
+                });
+            }
+            values[i] = v;
+            Ok(())
+        };
+        match walk(self.params.len(), edges, None, finish) {
+            Ok(()) => {}
+            Err(WalkError::Stopped(e)) => return Err(e),
+            Err(WalkError::Cycle { chain }) => {
+                let repeated = *chain.last().expect("a cycle has nodes");
+                let names: Vec<&str> = chain.iter().map(|i| &*self.params[*i].name).collect();
+                return Err(BindError::Cycle {
+                    name: self.params[repeated].name.to_string(),
+                    chain: names.join(" -> "),
+                });
+            }
+            Err(WalkError::TooLong { .. }) => unreachable!("the walk was given no limit"),
         }
-        Ok(out)
+        Ok(self
+            .params
+            .iter()
+            .zip(values)
+            .map(|(p, v)| (p.name.clone(), v))
+            .collect())
     }
-}
-
-/// Depth-first evaluation of one parameter; `stack` holds the chain being evaluated, so a
-/// name met again on it is a cycle.
-fn eval_param(
-    name: &str,
-    defs: &HashMap<&str, &Expr>,
-    memo: &mut HashMap<String, f64>,
-    stack: &mut Vec<String>,
-) -> Result<f64, BindError> {
-    if let Some(v) = memo.get(name) {
-        return Ok(*v);
-    }
-    if let Some(pos) = stack.iter().position(|s| s == name) {
-        let mut chain: Vec<&str> = stack[pos..].iter().map(String::as_str).collect();
-        chain.push(name);
-        return Err(BindError::Cycle {
-            name: name.to_string(),
-            chain: chain.join(" -> "),
-        });
-    }
-    let def = defs[name];
-    stack.push(name.to_string());
-    let mut deps = HashMap::new();
-    for s in def.symbols() {
-        if !defs.contains_key(&*s) {
-            return Err(BindError::NotAParameter {
-                name: name.to_string(),
-                symbol: s.to_string(),
-            });
-        }
-        let v = eval_param(&s, defs, memo, stack)?;
-        deps.insert(s.to_string(), v);
-    }
-    stack.pop();
-    let v = def.eval(&|s| deps.get(s).copied()).unwrap_or(f64::NAN);
-    if !v.is_finite() {
-        return Err(BindError::NotFinite {
-            name: name.to_string(),
-            value: v,
-        });
-    }
-    memo.insert(name.to_string(), v);
-    Ok(v)
 }
 
 #[cfg(test)]

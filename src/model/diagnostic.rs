@@ -17,13 +17,10 @@
 //! so that NUL bytes, binary garbage or a 10 MB line never reach the terminal.
 
 use std::fmt;
-use std::path::PathBuf;
 
-use pest::error::{Error as PestError, ErrorVariant, InputLocation, LineColLocation};
+use pest::error::{Error as PestError, ErrorVariant, LineColLocation};
 
 use super::ast::Span;
-use super::parse::Rule;
-use super::validate::SemanticError;
 
 /// How many bytes of the offending line are shown after the span.
 const WINDOW_AFTER: usize = 80;
@@ -31,6 +28,12 @@ const WINDOW_AFTER: usize = 80;
 const WINDOW_BEFORE: usize = 160;
 
 /// One located, rendered error message.
+///
+/// ```
+/// let err = fpsolve::model::parse_expr("1 +").unwrap_err();
+/// let d = err.diagnostic().unwrap();
+/// assert_eq!((d.line(), d.column()), (1, 4));
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Diagnostic {
     inner: Box<DiagnosticInner>,
@@ -57,7 +60,7 @@ impl Diagnostic {
     ) -> Diagnostic {
         let (display, start, end, column) = display_window(source, span);
         let note = help.clone().unwrap_or_else(|| message.clone());
-        let variant = ErrorVariant::<Rule>::CustomError { message: note };
+        let variant = ErrorVariant::<()>::CustomError { message: note };
         let error = match pest::Span::new(&display, start, end) {
             Some(s) if end > start => PestError::new_from_span(variant, s),
             _ => {
@@ -146,189 +149,6 @@ impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.inner.rendered)
     }
-}
-
-/// Why a model file could not be turned into a [`crate::model::Model`]. `Display` is the
-/// full rendered message (`error: ...`, location, source line, caret).
-#[derive(Debug, thiserror::Error)]
-pub enum ModelError {
-    /// The file could not be read.
-    #[error("error: cannot read `{}`: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What the operating system said.
-        source: std::io::Error,
-    },
-    /// The file is larger than any model file has reason to be.
-    #[error("error: `{path}` is larger than {limit} bytes; is it really a model file?")]
-    TooLarge {
-        /// The file, as given.
-        path: String,
-        /// The limit, in bytes.
-        limit: usize,
-    },
-    /// The file is not UTF-8; the diagnostic points at the first bad byte.
-    #[error("{0}")]
-    Encoding(Diagnostic),
-    /// The text does not follow the grammar (or exceeds a nesting or line-length limit).
-    #[error("{0}")]
-    Syntax(Diagnostic),
-    /// The text parses, but says something impossible (unknown name, cycle, ...).
-    #[error("{diagnostic}")]
-    Semantic {
-        /// What is wrong, as a typed value.
-        error: Box<SemanticError>,
-        /// Where, rendered.
-        diagnostic: Diagnostic,
-    },
-}
-
-impl ModelError {
-    /// The located diagnostic, for every kind of error except I/O and size.
-    ///
-    /// ```
-    /// let err = fpsolve::model::parse_expr("(1").unwrap_err();
-    /// assert!(err.diagnostic().unwrap().message().contains("`)`"));
-    /// ```
-    pub fn diagnostic(&self) -> Option<&Diagnostic> {
-        match self {
-            ModelError::Io { .. } | ModelError::TooLarge { .. } => None,
-            ModelError::Encoding(d) | ModelError::Syntax(d) => Some(d),
-            ModelError::Semantic { diagnostic, .. } => Some(diagnostic),
-        }
-    }
-
-    /// The typed semantic error, if this is one.
-    ///
-    /// ```
-    /// use fpsolve::model::{parse_model, SemanticError};
-    /// let err = parse_model("param a = 1\n", None).unwrap_err();
-    /// assert!(matches!(err.semantic(), Some(SemanticError::MissingModelLine)));
-    /// ```
-    pub fn semantic(&self) -> Option<&SemanticError> {
-        match self {
-            ModelError::Semantic { error, .. } => Some(error),
-            _ => None,
-        }
-    }
-
-    /// 1-based line of the error, where known.
-    ///
-    /// ```
-    /// let err = fpsolve::model::parse_model("model m\nstate z\n", None).unwrap_err();
-    /// assert_eq!(err.line(), Some(2));
-    /// ```
-    pub fn line(&self) -> Option<usize> {
-        self.diagnostic().map(Diagnostic::line)
-    }
-
-    /// 1-based column (in characters) of the error, where known.
-    ///
-    /// ```
-    /// let err = fpsolve::model::parse_model("model m\nstate z\n", None).unwrap_err();
-    /// assert_eq!(err.column(), Some(1));
-    /// ```
-    pub fn column(&self) -> Option<usize> {
-        self.diagnostic().map(Diagnostic::column)
-    }
-}
-
-/// A syntax failure before rendering: where and what.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct SyntaxFailure {
-    pub(crate) span: Span,
-    pub(crate) message: String,
-}
-
-impl SyntaxFailure {
-    /// Converts pest's error, naming rules for people (`expected `:``, not `colon`).
-    pub(crate) fn from_pest(error: PestError<Rule>) -> SyntaxFailure {
-        let span = match error.location {
-            InputLocation::Pos(p) => Span::new(p, p),
-            InputLocation::Span((s, e)) => Span::new(s, e),
-        };
-        let error = match error.variant {
-            ErrorVariant::ParsingError {
-                positives,
-                negatives,
-            } => PestError::new_from_pos(
-                ErrorVariant::ParsingError {
-                    positives: readable_positives(positives),
-                    negatives,
-                },
-                pest::Position::from_start(""),
-            ),
-            other => PestError::new_from_pos(other, pest::Position::from_start("")),
-        };
-        let message = error
-            .renamed_rules(describe_rule)
-            .variant
-            .message()
-            .into_owned();
-        SyntaxFailure { span, message }
-    }
-}
-
-/// Folds the alternatives pest reports into what a person would expect to be told: the five
-/// binary operators are "an operator", and where a statement may start, "end of line" adds
-/// nothing, and `(` after a name is noise next to "an operator".
-fn readable_positives(positives: Vec<Rule>) -> Vec<Rule> {
-    let mut out: Vec<Rule> = Vec::new();
-    for r in positives {
-        let r = match r {
-            Rule::sub | Rule::mul | Rule::div | Rule::pow => Rule::add,
-            other => other,
-        };
-        if !out.contains(&r) {
-            out.push(r);
-        }
-    }
-    if out.contains(&Rule::statement) {
-        out.retain(|r| *r != Rule::EOI);
-    }
-    // After a name, `(` would make it a call; next to "an operator" that only distracts.
-    if out.contains(&Rule::add) {
-        out.retain(|r| *r != Rule::lparen);
-    }
-    // Operators first, the end of the line last: the order in which a reader looks.
-    out.sort_by_key(|r| match r {
-        Rule::add => 0,
-        Rule::EOI => 2,
-        _ => 1,
-    });
-    out
-}
-
-/// The name of a grammar rule in an error message.
-fn describe_rule(rule: &Rule) -> String {
-    let s = match rule {
-        Rule::statement => {
-            "a statement (model, param, state, drift, noise, correlate, diffusion, \
-             interpretation, impact, observe or delta)"
-        }
-        Rule::EOI => "end of line",
-        Rule::expr | Rule::operand | Rule::paren | Rule::call | Rule::number => "an expression",
-        Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::pow => "an operator",
-        Rule::neg => "`-`",
-        Rule::ident => "a name",
-        Rule::binding => "`name = value`",
-        Rule::description => "a quoted description",
-        Rule::colon => "`:`",
-        Rule::comma => "`,`",
-        Rule::equals => "`=`",
-        Rule::arrow => "`->`",
-        Rule::lparen => "`(`",
-        Rule::rparen => "`)`",
-        Rule::kw_intensity => "`intensity`",
-        Rule::stratonovich => "`stratonovich`",
-        Rule::ito => "`ito`",
-        Rule::exact => "`exact`",
-        Rule::kw_gaussian | Rule::gaussian => "`gaussian(width)`",
-        Rule::kw_model => "`model`",
-        other => return format!("{other:?}"),
-    };
-    s.to_string()
 }
 
 /// Builds the text pest renders from: the source up to the offending line, then that line

@@ -4,8 +4,10 @@ use std::io::Read;
 use std::path::Path;
 
 use super::ast::Span;
-use super::diagnostic::{Diagnostic, ModelError, SyntaxFailure};
+use super::diagnostic::Diagnostic;
+use super::error::ModelError;
 use super::parse::{parse_file, parse_lone_expr, MAX_SOURCE_BYTES};
+use super::syntax::SyntaxFailure;
 use super::validate::{lower_free, validate, Located, SemanticError};
 use super::Model;
 use crate::symbolic::Expr;

@@ -4,17 +4,21 @@
 //! it to new values cheaply; [`Model::bind`] evaluates the parameters and substitutes them,
 //! giving the [`BoundModel`] that the Fokker–Planck, EPC and Monte Carlo stages consume.
 
-pub mod ast;
+pub(crate) mod ast;
 mod bind;
+mod dependency;
 mod diagnostic;
+mod error;
 mod load;
 mod parse;
 mod print;
 pub(crate) mod set;
+mod syntax;
 mod validate;
 
 pub use bind::{BindError, BoundImpact, BoundModel, Override};
-pub use diagnostic::{Diagnostic, ModelError};
+pub use diagnostic::Diagnostic;
+pub use error::ModelError;
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
 pub use set::SetError;
@@ -42,6 +46,11 @@ pub fn number(v: f64) -> String {
 }
 
 /// How products of state-dependent noise with white noise are read.
+///
+/// ```
+/// use fpsolve::model::Interpretation;
+/// assert_eq!(Interpretation::default(), Interpretation::Stratonovich);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Interpretation {
@@ -53,6 +62,11 @@ pub enum Interpretation {
 }
 
 /// How `delta(·)` terms are treated inside the Galerkin integrals.
+///
+/// ```
+/// use fpsolve::model::DeltaTreatment;
+/// assert_eq!(DeltaTreatment::default(), DeltaTreatment::Exact);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase", tag = "kind")]
 pub enum DeltaTreatment {
@@ -67,6 +81,13 @@ pub enum DeltaTreatment {
 }
 
 /// A parameter with its default value, an expression of constants and other parameters.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.params()[0].default.to_string(), "0.1");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Parameter {
     /// The parameter's name.
@@ -76,6 +97,13 @@ pub struct Parameter {
 }
 
 /// A Gaussian white-noise source ξ with E[ξ(t) ξ(t+τ)] = `intensity` · δ(τ).
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.noises()[0].intensity, fpsolve::symbolic::Expr::num(1.0));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct NoiseSource {
     /// The source's name, as used in `diffusion` lines.
@@ -86,6 +114,13 @@ pub struct NoiseSource {
 
 /// A correlation coefficient ρ between two noise sources: their cross intensity is
 /// ρ·√(S_aa·S_bb).
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vdp_vibro_impact.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let rho = &model.correlations()[0];
+/// assert_eq!((rho.a, rho.b), (0, 1));
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Correlation {
     /// Index of the first source in [`Model::noises`].
@@ -97,6 +132,13 @@ pub struct Correlation {
 }
 
 /// An impact law: when state `state` reaches `at`, state `other` jumps to `map`.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let law = model.impact().unwrap();
+/// assert_eq!(law.map.to_string(), "r*v");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImpactLaw {
     /// Index of the state that meets the barrier.
@@ -110,6 +152,13 @@ pub struct ImpactLaw {
 }
 
 /// A named quantity computed from the state, whose PDF fpsolve reports.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.observables()[0].expr.to_string(), "abs(z)");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Observable {
     /// The observable's name (`y`, `ydot`).
@@ -121,6 +170,14 @@ pub struct Observable {
 /// A validated model: two states, their drifts, noise sources, how the noise enters, and what
 /// to report. Built by [`crate::model::parse_model`]; every name in it is known, parameters
 /// are acyclic, and the noise matrix has one entry per state and source.
+///
+/// ```
+/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
+/// let model = fpsolve::model::parse_model(text, None).unwrap();
+/// assert_eq!(model.name(), "lin");
+/// assert_eq!(model.drift()[1].to_string(), "-c*v - z");
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
     pub(crate) name: String,
@@ -185,66 +242,144 @@ impl PartialEq for Origin {
 
 impl Model {
     /// The model's name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.name(), "vibro_duffing");
+    /// ```
     pub fn name(&self) -> &str {
         &self.name
     }
 
     /// The one-line description.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.description().starts_with("Vibro-impact Duffing"));
+    /// ```
     pub fn description(&self) -> &str {
         &self.description
     }
 
     /// The parameters in the order they were declared.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.params()[0].name.as_ref(), "c");
+    /// ```
     pub fn params(&self) -> &[Parameter] {
         &self.params
     }
 
     /// The two state variables' names.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(&*model.states()[1], "v");
+    /// ```
     pub fn states(&self) -> &[Symbol; 2] {
         &self.states
     }
 
     /// The drift of each state.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.drift()[0].to_string(), "v");
+    /// ```
     pub fn drift(&self) -> &[Expr; 2] {
         &self.drift
     }
 
     /// The noise sources.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.noises()[0].name.as_ref(), "xi");
+    /// ```
     pub fn noises(&self) -> &[NoiseSource] {
         &self.noises
     }
 
     /// The correlations declared between noise sources (absent pairs are independent).
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.correlations().is_empty());
+    /// ```
     pub fn correlations(&self) -> &[Correlation] {
         &self.correlations
     }
 
     /// G_ik: how source k enters the equation of state i.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.noise_matrix()[0][0], fpsolve::symbolic::Expr::num(0.0));
+    /// ```
     pub fn noise_matrix(&self) -> &[Vec<Expr>; 2] {
         &self.noise_matrix
     }
 
     /// Itô or Stratonovich.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.interpretation(), fpsolve::model::Interpretation::Stratonovich);
+    /// ```
     pub fn interpretation(&self) -> Interpretation {
         self.interpretation
     }
 
     /// The impact law, if the model has a barrier.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.impact().map(|law| (law.state, law.other)), Some((0, 1)));
+    /// ```
     pub fn impact(&self) -> Option<&ImpactLaw> {
         self.impact.as_ref()
     }
 
     /// The observables, in the order declared.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.observables()[1].name.as_ref(), "ydot");
+    /// ```
     pub fn observables(&self) -> &[Observable] {
         &self.observables
     }
 
     /// How `delta(·)` is treated in integrals.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.delta_treatment(), fpsolve::model::DeltaTreatment::Exact);
+    /// ```
     pub fn delta_treatment(&self) -> DeltaTreatment {
         self.delta
     }
 
     /// Index of a state by name.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert_eq!(model.state_index("v"), Some(1));
+    /// ```
     pub fn state_index(&self, name: &str) -> Option<usize> {
         self.states.iter().position(|s| &**s == name)
     }

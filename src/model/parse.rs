@@ -13,19 +13,31 @@ use super::ast::{
     Binding, DeltaSpec, ExprKind, ExprNode, Ident, ModelAst, ProductOp, Span, Statement,
     StatementKind, SumOp,
 };
-use super::diagnostic::SyntaxFailure;
+use super::syntax::{Rule, SdeParser, SyntaxFailure};
 use super::Interpretation;
 
-/// The pest parser generated from `grammar/sde.pest`.
-#[derive(pest_derive::Parser)]
-#[grammar = "grammar/sde.pest"]
-pub(crate) struct SdeParser;
-
 /// Deepest nesting of parentheses, `^` and unary minus accepted in one line.
+///
+/// ```
+/// let deep = format!("{}1{}", "(".repeat(300), ")".repeat(300));
+/// assert!(deep.len() > fpsolve::model::MAX_NESTING);
+/// assert!(fpsolve::model::parse_expr(&deep).is_err());
+/// ```
 pub const MAX_NESTING: usize = 200;
 /// Longest line accepted, in bytes.
+///
+/// ```
+/// let long = "1+".repeat(fpsolve::model::MAX_LINE_BYTES) + "1";
+/// assert!(fpsolve::model::parse_expr(&long).is_err());
+/// ```
 pub const MAX_LINE_BYTES: usize = 65_536;
 /// Largest model source accepted, in bytes.
+///
+/// ```
+/// let huge = " ".repeat(fpsolve::model::MAX_SOURCE_BYTES + 1);
+/// let err = fpsolve::model::parse_model(&huge, None).unwrap_err();
+/// assert!(matches!(err, fpsolve::model::ModelError::TooLarge { .. }));
+/// ```
 pub const MAX_SOURCE_BYTES: usize = 1 << 20;
 
 /// Rejects inputs whose parse tree would be deeper than [`MAX_NESTING`] or whose lines are

@@ -4,6 +4,12 @@ use super::Symbol;
 
 /// Why a symbolic operation (compilation, differentiation, sifting) failed. Expressions are
 /// carried as printed text so the message shows the user what went wrong.
+///
+/// ```
+/// use fpsolve::symbolic::{DeltaPolicy, Expr, SymbolicError, Tape};
+/// let err = Tape::compile(&[Expr::sym("k")], &["z"], DeltaPolicy::Reject).unwrap_err();
+/// assert_eq!(err, SymbolicError::Unbound("k".into()));
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SymbolicError {
     /// A symbol that is neither a tape variable nor bound to a number.

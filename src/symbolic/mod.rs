@@ -5,6 +5,7 @@ mod delta;
 mod diff;
 mod error;
 mod expr;
+mod print;
 mod sift;
 mod simplify;
 mod tape;
