@@ -117,6 +117,8 @@
 //! failures say what was tried and how far it got (see `docs/method.md` on what an EPC
 //! failure means).
 
+#![warn(missing_docs)]
+
 pub mod epc;
 mod error;
 pub mod fpk;
