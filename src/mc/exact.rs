@@ -13,6 +13,35 @@ pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Err
     text.parse().map_err(serde::de::Error::custom)
 }
 
+/// A finite `f64` as a JSON number (exact: serde_json prints the shortest round-trip decimal
+/// and, with its `float_roundtrip` feature, parses it back to the same bits), a non-finite one
+/// as the string `"inf"`, `"-inf"` or `"NaN"`; either form is read back.
+pub(crate) mod number {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(crate) fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else {
+            super::serialize(v, s)
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Either {
+        Number(f64),
+        Text(String),
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Either::deserialize(d)? {
+            Either::Number(v) => Ok(v),
+            Either::Text(t) => t.parse().map_err(serde::de::Error::custom),
+        }
+    }
+}
+
 /// The same for `[f64; 4]`.
 pub(crate) mod array4 {
     use serde::{Deserialize, Deserializer, Serializer};
@@ -53,6 +82,28 @@ pub(crate) mod array2 {
 #[cfg(test)]
 mod tests {
     use serde::{Deserialize, Serialize};
+
+    /// Parameter values are JSON numbers that read back to the same bits (also the awkward
+    /// ones), non-finite values strings; the older string form still reads.
+    #[test]
+    fn numbers_round_trip_through_json_bit_for_bit() {
+        #[derive(Serialize, Deserialize)]
+        struct N(#[serde(with = "super::number")] f64);
+        for v in [0.1, 1.0 / 3.0, 2.0_f64.sqrt() * 1e-300, 5e-324, 1e308, -0.0] {
+            let json = serde_json::to_string(&N(v)).unwrap();
+            assert!(!json.contains('"'), "{json}");
+            assert_eq!(
+                serde_json::from_str::<N>(&json).unwrap().0.to_bits(),
+                v.to_bits()
+            );
+        }
+        assert_eq!(
+            serde_json::to_string(&N(f64::INFINITY)).unwrap(),
+            r#""inf""#
+        );
+        assert_eq!(serde_json::from_str::<N>(r#""0.1""#).unwrap().0, 0.1);
+        assert!(serde_json::from_str::<N>(r#""NaN""#).unwrap().0.is_nan());
+    }
 
     #[test]
     fn exact_floats_round_trip_through_json() {

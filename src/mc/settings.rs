@@ -9,14 +9,14 @@ use super::rng::Increments;
 use super::scheme::SchemeKind;
 
 /// A parameter and the value a model was bound with, as runs and reports record it (in
-/// `mc_summary.json`, shard files and blow-up reports). The value is written as its shortest
-/// round-trip decimal string, so a file read back gives the same bits.
+/// `summary.json`, `mc_summary.json`, shard files and blow-up reports). The value is a JSON
+/// number, which reads back to the same bits.
 ///
 /// ```
 /// use fpsolve::mc::ParamValue;
 /// let p = ParamValue { name: "mu".into(), value: 0.1 };
 /// let json = serde_json::to_string(&p).unwrap();
-/// assert_eq!(json, r#"{"name":"mu","value":"0.1"}"#);
+/// assert_eq!(json, r#"{"name":"mu","value":0.1}"#);
 /// assert_eq!(serde_json::from_str::<ParamValue>(&json).unwrap(), p);
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -24,7 +24,7 @@ pub struct ParamValue {
     /// The parameter's name.
     pub name: String,
     /// Its value.
-    #[serde(with = "exact")]
+    #[serde(with = "exact::number")]
     pub value: f64,
 }
 
