@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use approx::assert_relative_eq;
-use fpsolve::model::{load_model, Model};
+use fpsolve::model::{load_model, Model, SetError};
 use fpsolve::report::OutputDir;
 use fpsolve::sweep::{PointFailure, PointOutcome, PointSolution, Sweep, SweepError, SweepSpec};
 
@@ -49,7 +49,10 @@ fn parses_ranges_lists_and_fixed_values() {
 fn parse_errors_name_the_argument() {
     let err = |list: &[&str]| SweepSpec::parse(&args(list)).unwrap_err();
     assert!(matches!(err(&["c"]), SweepError::MissingEquals { arg } if arg == "c"));
-    assert!(matches!(err(&["=1,2"]), SweepError::MissingName { .. }));
+    assert!(matches!(
+        err(&["=1,2"]),
+        SweepError::Set(SetError::MissingName { .. })
+    ));
     assert!(matches!(err(&["c=0:1"]), SweepError::BadRange { arg, .. } if arg == "c=0:1"));
     assert!(matches!(err(&["c=0:1:1"]), SweepError::BadRange { .. }));
     assert!(matches!(err(&["c=0:1:2.5"]), SweepError::BadRange { .. }));
@@ -66,7 +69,10 @@ fn parse_errors_name_the_argument() {
         err(&["c=1,,2"]),
         SweepError::EmptyListItem { index: 2, .. }
     ));
-    assert!(matches!(err(&["c=1,2*"]), SweepError::BadExpression { arg, .. } if arg == "c=1,2*"));
+    assert!(matches!(
+        err(&["c=1,2*"]),
+        SweepError::Set(SetError::BadExpression { arg, .. }) if arg == "c=1,2*"
+    ));
     assert!(matches!(err(&["k=2"]), SweepError::NothingSwept));
     assert!(matches!(err(&["c=1,2", "c=3"]), SweepError::Duplicate { name } if name == "c"));
     let three = err(&["c=1,2", "k=1,2", "K=1,2"]);

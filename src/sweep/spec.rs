@@ -5,7 +5,7 @@ use std::str::FromStr;
 use serde::Serialize;
 
 use crate::model::set::split_assignment;
-use crate::model::{parse_expr, Model, ModelError, Override, SetError};
+use crate::model::{parse_expr, Model, Override, SetError};
 
 use super::{MAX_POINTS, MAX_SWEPT};
 
@@ -19,20 +19,10 @@ pub enum SweepError {
         /// The argument.
         arg: String,
     },
-    /// An argument with nothing before `=`.
-    #[error("`--set {arg}`: the parameter name is missing")]
-    MissingName {
-        /// The argument.
-        arg: String,
-    },
-    /// A value (or a range end, or a list item) that is not an expression.
-    #[error("error: in `--set {arg}`\n{source}")]
-    BadExpression {
-        /// The argument.
-        arg: String,
-        /// The parser's diagnostic.
-        source: ModelError,
-    },
+    /// An argument with nothing before `=`, or a value (or a range end, or a list item) that
+    /// is not an expression: the one `--set` reader's error ([`SetError`]).
+    #[error(transparent)]
+    Set(SetError),
     /// A range end or list item that is not a finite number (it mentions a parameter, or
     /// evaluates to NaN or ±∞).
     #[error("`--set {arg}`: `{item}` {reason}; swept values must be numbers")]
@@ -327,10 +317,10 @@ impl FromStr for SetArg {
     /// # Ok::<(), fpsolve::sweep::SweepError>(())
     /// ```
     fn from_str(arg: &str) -> Result<SetArg, SweepError> {
+        // The sweep's own message for a missing `=` names its range and list forms too.
         let set_error = |e: SetError| match e {
             SetError::MissingEquals { arg } => SweepError::MissingEquals { arg },
-            SetError::MissingName { arg } => SweepError::MissingName { arg },
-            SetError::BadExpression { arg, source } => SweepError::BadExpression { arg, source },
+            other => SweepError::Set(other),
         };
         match arg.split_once('=').map(|(_, value)| classify(value)) {
             Some(Value::Range(parts)) => {
@@ -392,9 +382,11 @@ fn classify(value: &str) -> Value<'_> {
 
 /// A range end or list item: a constant expression with a finite value.
 fn number(arg: &str, item: &str) -> Result<f64, SweepError> {
-    let expr = parse_expr(item).map_err(|source| SweepError::BadExpression {
-        arg: arg.to_string(),
-        source,
+    let expr = parse_expr(item).map_err(|source| {
+        SweepError::Set(SetError::BadExpression {
+            arg: arg.to_string(),
+            source,
+        })
     })?;
     let not_a_number = |reason: String| SweepError::NotANumber {
         arg: arg.to_string(),
