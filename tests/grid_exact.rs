@@ -299,6 +299,28 @@ fn unsupported_models_are_refused() {
         ),
         "{err:?}"
     );
+    // The δ-term model without its impact law: the grid solver would drop the δ term and
+    // solve a different model, so it refuses.
+    let delta_only = parse_model(
+        "model m\nparam r = 0.9\nstate z, v\ndrift z: v\n\
+         drift v: -0.1*v - z - (1 - r)*v*abs(v)*delta(z)\nnoise a: intensity 1\n\
+         diffusion v: a\n",
+        None,
+    )
+    .unwrap()
+    .bind(&[])
+    .unwrap();
+    let err = GridSolver::new(&delta_only).solve().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            GridError::Unsupported {
+                reason: Unsupported::DeltaWithoutImpact { .. },
+                ..
+            }
+        ),
+        "{err:?}"
+    );
     let d = Domain {
         x: [1.0, 2.0],
         v: [-1.0, 1.0],

@@ -45,6 +45,27 @@ pub enum Unsupported {
         /// The map, printed.
         map: String,
     },
+    /// `delta(·)` terms in the velocity's drift or diffusion with no impact law: the solver
+    /// represents an impact by re-injecting the flux at the barrier and leaves δ terms out
+    /// (they are the paper's approximation of that impact), so without an impact law it would
+    /// solve a different model.
+    #[error(
+        "the {coefficient} of `{velocity}` has delta(...) terms and the model has no impact law: \
+         the grid solver treats impacts exactly (an `impact` statement) and does not solve delta \
+         terms; use EPC for this model"
+    )]
+    DeltaWithoutImpact {
+        /// The second state.
+        velocity: String,
+        /// `drift` or `diffusion`.
+        coefficient: &'static str,
+    },
+    /// `delta(·)` in the diffusion, which no impact law accounts for.
+    #[error("the diffusion of `{velocity}` has delta(...) terms, which the grid solver cannot represent")]
+    DeltaInDiffusion {
+        /// The second state.
+        velocity: String,
+    },
     /// A domain given explicitly does not contain the barrier (or, for a reflecting barrier,
     /// does not start at it on the domain's side).
     #[error("the domain {lo}..{hi} of the position does not fit the barrier at {at}")]

@@ -81,6 +81,16 @@ impl Mechanical {
             }
         }
         crate::physics::check(model)?;
+        // δ terms are dropped below only because an impact law stands for them exactly.
+        if model.impact().is_none() && model.drift()[1].contains_delta() {
+            return Err(refuse(Unsupported::DeltaWithoutImpact {
+                velocity: v,
+                coefficient: "drift",
+            }));
+        }
+        if (0..g[1].len()).any(|k| g[1][k].contains_delta()) {
+            return Err(refuse(Unsupported::DeltaInDiffusion { velocity: v }));
+        }
         let (_, ito) = crate::fpk::ito_drift(model)?;
         let m = simplify(&ito[1].without_deltas());
         let mut terms = Vec::new();
