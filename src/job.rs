@@ -14,8 +14,8 @@ use crate::report::{
     write_json_flagging_undefined, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError,
     UndefinedField,
 };
-use crate::solve::reported;
-use crate::study::{Study, StudyError, StudySummary};
+use crate::solve::{reported, Quantity};
+use crate::study::{Study, StudyError, StudyRunner, StudySummary};
 
 /// What a job reports PDFs of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -244,7 +244,22 @@ fn run(
     progress: &dyn Progress,
 ) -> Result<JobReport, JobError> {
     progress.stage("solving EPC");
-    let study = Study::run(model, &spec.overrides, &spec.degrees)?;
+    let bound = model.bind(&spec.overrides).map_err(StudyError::from)?;
+    // With Monte Carlo, each curve is also averaged over the bins its histogram will have (the
+    // user's `--grid`, or the curve's range in `mc_bins` bins), from the same prepared density.
+    let choose = |q: &Quantity, x: &[f64]| -> Option<Grid> {
+        let config = spec.mc.as_ref()?;
+        if let Some((_, grid)) = config.grids.iter().find(|(n, _)| n == &q.name) {
+            return Some(*grid);
+        }
+        (x.len() >= 2)
+            .then(|| Grid::new(x[0], x[x.len() - 1], spec.mc_bins).ok())
+            .flatten()
+    };
+    let study = StudyRunner::new(&bound)
+        .degrees(&spec.degrees)
+        .bins(&choose)
+        .run()?;
     let names: Vec<String> = match spec.target {
         Target::States => study
             .quantities
@@ -265,9 +280,9 @@ fn run(
         progress.stage("Monte Carlo");
         let mut config = config.clone();
         for c in &study.curves {
-            if c.x.len() >= 2 && !config.grids.iter().any(|(n, _)| n == &c.name) {
-                if let Ok(grid) = Grid::new(c.x[0], c.x[c.x.len() - 1], spec.mc_bins) {
-                    config.grids.push((c.name.clone(), grid));
+            if let Some(grid) = &c.bins {
+                if !config.grids.iter().any(|(n, _)| n == &c.name) {
+                    config.grids.push((c.name.clone(), *grid));
                 }
             }
         }
@@ -309,11 +324,16 @@ fn run(
         }
         // The histogram beside each degree's bin averages, on the histogram's bins.
         if let Some(q) = mc_q {
-            let averages = bin_averages(&study, name, &q.grid);
+            // A failed degree has no column here; it is flagged with the study's other
+            // failures. The bins are the histogram's own (set from the curve above).
             let mut columns = mc_columns(q);
-            for (d, p) in &averages {
-                comparisons.push(compare(name, *d, p, q));
-                columns.push((format!("epc_n{d}_bin_mean"), p.clone()));
+            for c in curve
+                .columns
+                .iter()
+                .filter(|c| c.bin_means.len() == q.grid.bins)
+            {
+                comparisons.push(compare(name, c.degree, &c.bin_means, q));
+                columns.push((format!("epc_n{}_bin_mean", c.degree), c.bin_means.clone()));
             }
             let table = PdfTable {
                 variable: name.clone(),
@@ -516,40 +536,6 @@ fn compare(
         ratio_1e3: worst(1e-3),
         ratio_1e5: worst(1e-5),
     }
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
-/// average of a density sampled by a histogram of ≥ 50 bins.
-const GL4: [(f64, f64); 4] = [
-    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-];
-
-/// Each converged degree's density of `name` averaged over the bins of `grid`.
-fn bin_averages(study: &Study, name: &str, grid: &Grid) -> Vec<(usize, Vec<f64>)> {
-    let (lo, w) = (grid.lo, grid.width());
-    let nodes: Vec<f64> = (0..grid.bins)
-        .flat_map(|b| {
-            let c = lo + (b as f64 + 0.5) * w;
-            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
-        })
-        .collect();
-    // A failed degree has no column here; it is flagged with the study's other failures.
-    study
-        .pdf_at(name, &nodes)
-        .unwrap_or_default()
-        .into_iter()
-        .filter_map(|d| {
-            let p = d.pdf.ok()?;
-            let avg = p
-                .chunks(GL4.len())
-                .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
-                .collect();
-            Some((d.degree, avg))
-        })
-        .collect()
 }
 
 /// The short table the command line prints after a job.

@@ -8,7 +8,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::epc::{EpcError, EpcSolution};
-use crate::mc::ParamValue;
+use crate::mc::{Grid, ParamValue};
 use crate::model::{BindError, BoundModel, Model, Override};
 use crate::observe::{JointDensity, ObservableDensity};
 use crate::solve::{
@@ -56,7 +56,14 @@ pub struct DegreeColumn {
     pub degree: usize,
     /// The PDF on the grid (NaN where it is infinite).
     pub pdf: Vec<f64>,
+    /// The PDF averaged over each bin of [`PdfCurves::bins`] (4-point Gauss–Legendre per bin),
+    /// from the same prepared density as `pdf`; empty without bins.
+    pub bin_means: Vec<f64>,
 }
+
+/// The histogram bins a study also averages each curve over (for comparing with Monte Carlo),
+/// chosen from the quantity and its curve's grid; `None` for no bins.
+pub type BinChoice<'a> = dyn Fn(&Quantity, &[f64]) -> Option<Grid> + Sync + 'a;
 
 /// The PDF of one quantity on a grid, one column per converged degree.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,6 +74,8 @@ pub struct PdfCurves {
     pub x: Vec<f64>,
     /// One column per converged degree, in the order asked.
     pub columns: Vec<DegreeColumn>,
+    /// The bins the columns' `bin_means` average over, if any were asked for.
+    pub bins: Option<Grid>,
 }
 
 /// The PDF of a quantity at one degree, or why that degree has none.
@@ -120,6 +129,7 @@ pub struct Study {
 pub struct StudyRunner<'a> {
     model: &'a BoundModel,
     degrees: Vec<usize>,
+    bins: Option<&'a BinChoice<'a>>,
 }
 
 impl<'a> StudyRunner<'a> {
@@ -128,7 +138,15 @@ impl<'a> StudyRunner<'a> {
         StudyRunner {
             model,
             degrees: vec![2, 4],
+            bins: None,
         }
+    }
+
+    /// Also averages every curve over histogram bins chosen by `choose` from the quantity and
+    /// its curve's grid ([`DegreeColumn::bin_means`]), with the density prepared once for both.
+    pub fn bins(mut self, choose: &'a BinChoice<'a>) -> Self {
+        self.bins = Some(choose);
+        self
     }
 
     /// The EPC degrees, solved in order with continuation.
@@ -179,7 +197,10 @@ impl<'a> StudyRunner<'a> {
             .iter()
             .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.degree, s)))
             .collect();
-        let curves = quantities.iter().map(|q| curves(q, &solved)).collect();
+        let curves = quantities
+            .iter()
+            .map(|q| curves(q, &solved, self.bins))
+            .collect();
         Ok(Study {
             model: self.model.clone(),
             degrees,
@@ -245,7 +266,32 @@ impl Study {
     }
 }
 
-fn curves(q: &Quantity, solved: &[(usize, &Solution)]) -> PdfCurves {
+/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
+/// average of a density sampled by a histogram of ≥ 50 bins.
+const GL4: [(f64, f64); 4] = [
+    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+];
+
+/// The density averaged over each bin of `grid`.
+fn bin_means(density: &ObservableDensity, grid: &Grid) -> Vec<f64> {
+    let (lo, w) = (grid.lo, grid.width());
+    let nodes: Vec<f64> = (0..grid.bins)
+        .flat_map(|b| {
+            let c = lo + (b as f64 + 0.5) * w;
+            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
+        })
+        .collect();
+    density
+        .pdf(&nodes)
+        .chunks(GL4.len())
+        .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
+        .collect()
+}
+
+fn curves(q: &Quantity, solved: &[(usize, &Solution)], bins: Option<&BinChoice>) -> PdfCurves {
     // Each degree's observable density is prepared once, scanned for its window, then
     // evaluated on the common grid (the union of the windows).
     let densities: Vec<(usize, &dyn JointDensity, ObservableDensity)> = solved
@@ -261,14 +307,22 @@ fn curves(q: &Quantity, solved: &[(usize, &Solution)]) -> PdfCurves {
     let windows: Vec<(&dyn JointDensity, &ObservableDensity)> =
         densities.iter().map(|(_, j, d)| (*j, d)).collect();
     let x = common_grid(q, &windows);
-    let columns = if x.is_empty() {
+    let bins = bins.and_then(|choose| choose(q, &x));
+    let columns = if x.is_empty() && bins.is_none() {
         Vec::new()
     } else {
         densities
             .iter()
             .map(|(degree, _, density)| DegreeColumn {
                 degree: *degree,
-                pdf: printable(density.pdf(&x)),
+                pdf: if x.is_empty() {
+                    Vec::new()
+                } else {
+                    printable(density.pdf(&x))
+                },
+                bin_means: bins
+                    .as_ref()
+                    .map_or_else(Vec::new, |g| bin_means(density, g)),
             })
             .collect()
     };
@@ -276,6 +330,7 @@ fn curves(q: &Quantity, solved: &[(usize, &Solution)]) -> PdfCurves {
         name: q.name.clone(),
         x,
         columns,
+        bins,
     }
 }
 
