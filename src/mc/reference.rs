@@ -57,6 +57,35 @@ pub fn linear_oscillator(c: f64, k: f64, intensity: f64) -> Model {
     )
 }
 
+/// The linear oscillator with a second, independent source of intensity 1 entering the
+/// velocity as ½·v·ξ₁: `v' = −c v − k z + ξ₀ + ½ v ξ₁`, read as `interpretation`. The
+/// stationary E[v²] is S/(2c − ¼) read as Itô and S/(2c − ½) read as Stratonovich (Wong–Zakai
+/// adds ⅛·v to the drift).
+///
+/// ```
+/// use fpsolve::model::Interpretation;
+/// let m = fpsolve::mc::reference::linear_with_velocity_noise(1.0, 1.0, 1.0, Interpretation::Ito);
+/// assert_eq!(m.bind(&[]).unwrap().noise_names().len(), 2);
+/// ```
+pub fn linear_with_velocity_noise(
+    c: f64,
+    k: f64,
+    intensity: f64,
+    interpretation: Interpretation,
+) -> Model {
+    let mut m = linear_oscillator(c, k, intensity);
+    m.noises.push(NoiseSource {
+        name: "xi1".into(),
+        intensity: Expr::num(1.0),
+    });
+    m.noise_matrix = [
+        vec![Expr::num(0.0), Expr::num(0.0)],
+        vec![Expr::num(1.0), Expr::num(0.5) * s("v")],
+    ];
+    m.interpretation = interpretation;
+    m
+}
+
 /// `z'' + c z' + k z + μ z³ = ξ(t)`, E[ξ(t)ξ(t+τ)] = S δ(τ); parameters `c`, `k`, `mu`, `S`.
 /// The stationary density is ∝ exp(−(2c/S)(v²/2 + k z²/2 + μ z⁴/4)).
 ///

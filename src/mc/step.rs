@@ -228,15 +228,7 @@ impl BatchState {
         kernel.eval_batch(&self.x, &self.v, e0, &mut self.scratch[0]);
         xp.resize(n, 0.0);
         vp.resize(n, 0.0);
-        for i in 0..n {
-            let (mut dx, mut dv) = (e0[i] * h, e0[n + i] * h);
-            for k in 0..m {
-                dx += e0[(2 + k) * n + i] * dw[k * n + i];
-                dv += e0[(2 + m + k) * n + i] * dw[k * n + i];
-            }
-            xp[i] = self.x[i] + dx;
-            vp[i] = self.v[i] + dv;
-        }
+        euler_predictor(&self.x, &self.v, e0, dw, h, m, xp, vp);
         if *stratonovich {
             kernel.eval_batch(&xp[..n], &vp[..n], e1, &mut self.scratch[0]);
             for i in 0..n {
@@ -336,15 +328,7 @@ impl BatchState {
                 }
             }
             kernel.eval_batch(&self.x, &self.v, e0, &mut self.scratch[0]);
-            for i in 0..n {
-                let (mut dx, mut dv) = (e0[i] * h, e0[n + i] * h);
-                for j in 0..m {
-                    dx += e0[(2 + j) * n + i] * dw[j * n + i];
-                    dv += e0[(2 + m + j) * n + i] * dw[j * n + i];
-                }
-                px[i] = self.x[i] + dx;
-                pv[i] = self.v[i] + dv;
-            }
+            euler_predictor(&self.x, &self.v, e0, dw, h, m, px, pv);
             pk.drift
                 .eval_batch(&px[..n], &pv[..n], e1, &mut self.scratch[1]);
             for i in 0..n {
@@ -612,6 +596,34 @@ fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]
         p[0] + 0.5 * (incr(&e0, 0) + incr(&e1, 0)),
         p[1] + 0.5 * (incr(&e0, 1) + incr(&e1, 1)),
     ]
+}
+
+/// The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k of every lane, from the kernel's
+/// outputs `e0` (drift of x and v, then the m diffusion columns of x, then of v, lane-major
+/// blocks of n) and the increments `dw` (noise k of lane i at `dw[k*n + i]`): the one
+/// predictor of the general scheme and of Platen's.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn euler_predictor(
+    x: &[f64],
+    v: &[f64],
+    e0: &[f64],
+    dw: &[f64],
+    h: f64,
+    m: usize,
+    px: &mut [f64],
+    pv: &mut [f64],
+) {
+    let n = x.len();
+    for i in 0..n {
+        let (mut dx, mut dv) = (e0[i] * h, e0[n + i] * h);
+        for k in 0..m {
+            dx += e0[(2 + k) * n + i] * dw[k * n + i];
+            dv += e0[(2 + m + k) * n + i] * dw[k * n + i];
+        }
+        px[i] = x[i] + dx;
+        pv[i] = v[i] + dv;
+    }
 }
 
 #[cfg(test)]

@@ -186,18 +186,7 @@ fn velocity_noise(
     scheme: SchemeChoice,
     seed: u64,
 ) -> McResult {
-    use crate::model::NoiseSource;
-    use crate::symbolic::Expr;
-    let mut m = linear_oscillator(0.5, 1.0, 1.0);
-    m.noises.push(NoiseSource {
-        name: "xi1".into(),
-        intensity: Expr::num(1.0),
-    });
-    m.noise_matrix = [
-        vec![Expr::num(0.0), Expr::num(0.0)],
-        vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
-    ];
-    m.interpretation = interpretation;
+    let m = super::reference::linear_with_velocity_noise(0.5, 1.0, 1.0, interpretation);
     let config = McConfig {
         dt: 0.005,
         spacing: 0.5,

@@ -53,19 +53,9 @@ fn cubic_second_moment(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> (Es
 
 /// `v' = −v − z + ξ₀ + ½ v ξ₁` read as Itô: E[v²] = 1/(2 − ¼) exactly.
 fn multiplicative_ito() -> BoundModel {
-    use crate::model::{Interpretation, NoiseSource};
-    use crate::symbolic::Expr;
-    let mut m = reference::linear_oscillator(1.0, 1.0, 1.0);
-    m.noises.push(NoiseSource {
-        name: "xi1".into(),
-        intensity: Expr::num(1.0),
-    });
-    m.noise_matrix = [
-        vec![Expr::num(0.0), Expr::num(0.0)],
-        vec![Expr::num(1.0), Expr::num(0.5) * Expr::sym("v")],
-    ];
-    m.interpretation = Interpretation::Ito;
-    m.bind(&[]).unwrap()
+    reference::linear_with_velocity_noise(1.0, 1.0, 1.0, crate::model::Interpretation::Ito)
+        .bind(&[])
+        .unwrap()
 }
 
 fn linear_variance(choice: SchemeChoice, dt: f64, bias_fraction: f64) -> McResult {
