@@ -9,8 +9,8 @@ use std::path::Path;
 use approx::assert_relative_eq;
 use common::exact::{self, EpcTolerance, ExactCase};
 use fpsolve::epc::{
-    AttemptEnd, BestPointKind, BranchEnd, Epc, EpcError, EpcSolution, HomotopyEnd, Method,
-    NormalisationKind,
+    AttemptEnd, BestPointKind, BranchEnd, Epc, EpcError, EpcSolution, HomotopyEnd,
+    NormalisationKind, SolverMethod,
 };
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, DeltaTreatment, Override};
@@ -196,7 +196,7 @@ fn table1_case1_degree6_branch_from_the_exact_case() {
     let operator_path = attempts
         .iter()
         .find_map(|a| match &a.end {
-            AttemptEnd::Homotopy(p) if p.method == Method::OperatorHomotopy => Some(p),
+            AttemptEnd::Homotopy(p) if p.method == SolverMethod::OperatorHomotopy => Some(p),
             _ => None,
         })
         .unwrap_or_else(|| panic!("no operator homotopy in {attempts:?}"));

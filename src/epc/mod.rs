@@ -54,8 +54,8 @@ pub use degrees::{DegreeList, DegreeListError};
 pub use error::EpcError;
 pub use normalise::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 pub use outcome::{
-    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, Method,
-    NewtonStop, StartPoint,
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, NewtonStop,
+    SolverMethod, StartPoint,
 };
 pub use solution::{EpcSolution, SolveReport};
 

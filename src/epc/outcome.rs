@@ -1,5 +1,5 @@
 //! What a solve of the Galerkin system did, as data: the method that produced the solution
-//! and where it started ([`Method`], [`StartPoint`]), and when nothing converged, every
+//! and where it started ([`SolverMethod`], [`StartPoint`]), and when nothing converged, every
 //! attempt with how it ended ([`Attempt`], [`AttemptEnd`], [`HomotopyPath`]) and the best
 //! point reached ([`BestPoint`]). `Display` turns each into the sentence the CLI prints; tests
 //! and callers branch on the fields.
@@ -16,7 +16,7 @@ use serde::{Serialize, Serializer};
 /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
 /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
 /// let sol = Epc::new(&fpk).degree(2).solve().unwrap();
-/// assert_eq!(sol.solve.method, Method::Newton { from: StartPoint::GaussianClosure });
+/// assert_eq!(sol.solve.method, SolverMethod::Newton { from: StartPoint::GaussianClosure });
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StartPoint {
@@ -53,10 +53,10 @@ impl fmt::Display for StartPoint {
 /// let res = Epc::new(&fpk).solve_degrees(&[2, 4]);
 /// // Degree 4 starts from the degree-2 solution (continuation in degree).
 /// let from = StartPoint::LowerDegree { degree: 2 };
-/// assert_eq!(res[1].as_ref().unwrap().solve.method, Method::Newton { from });
+/// assert_eq!(res[1].as_ref().unwrap().solve.method, SolverMethod::Newton { from });
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
+pub enum SolverMethod {
     /// Damped Newton (backtracking line search on ½‖R‖²).
     Newton {
         /// Its start.
@@ -82,40 +82,42 @@ pub enum Method {
     },
 }
 
-impl Method {
+impl SolverMethod {
     /// The method as the list of attempts of a failure names it (`Newton from …`).
     fn attempt_name(&self) -> String {
         match self {
-            Method::Newton { from } => format!("Newton from {from}"),
-            Method::OperatorHomotopy => {
+            SolverMethod::Newton { from } => format!("Newton from {from}"),
+            SolverMethod::OperatorHomotopy => {
                 "operator homotopy from the Gaussian-exact operator".to_string()
             }
-            Method::NewtonHomotopy { from } => format!("Newton homotopy from {from}"),
-            Method::LevenbergMarquardt { from } => format!("Levenberg-Marquardt from {from}"),
-            Method::PerturbedLevenbergMarquardt { start } => {
+            SolverMethod::NewtonHomotopy { from } => format!("Newton homotopy from {from}"),
+            SolverMethod::LevenbergMarquardt { from } => format!("Levenberg-Marquardt from {from}"),
+            SolverMethod::PerturbedLevenbergMarquardt { start } => {
                 format!("Levenberg-Marquardt from perturbed start {start}")
             }
         }
     }
 }
 
-impl fmt::Display for Method {
+impl fmt::Display for SolverMethod {
     /// The method in lower case, as the CLI table and `summary.json` report it.
     ///
     /// ```
-    /// use fpsolve::epc::{Method, StartPoint};
-    /// let m = Method::Newton { from: StartPoint::GaussianClosure };
+    /// use fpsolve::epc::{SolverMethod, StartPoint};
+    /// let m = SolverMethod::Newton { from: StartPoint::GaussianClosure };
     /// assert_eq!(m.to_string(), "newton from the Gaussian closure");
     /// ```
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Method::Newton { from } => write!(f, "newton from {from}"),
-            Method::LevenbergMarquardt { from } => write!(f, "levenberg-marquardt from {from}"),
-            Method::PerturbedLevenbergMarquardt { start } => {
+            SolverMethod::Newton { from } => write!(f, "newton from {from}"),
+            SolverMethod::LevenbergMarquardt { from } => {
+                write!(f, "levenberg-marquardt from {from}")
+            }
+            SolverMethod::PerturbedLevenbergMarquardt { start } => {
                 write!(f, "levenberg-marquardt from perturbed start {start}")
             }
             // A homotopy is reported by its whole name in lower case.
-            Method::OperatorHomotopy | Method::NewtonHomotopy { .. } => {
+            SolverMethod::OperatorHomotopy | SolverMethod::NewtonHomotopy { .. } => {
                 f.write_str(&self.attempt_name().to_lowercase())
             }
         }
@@ -123,7 +125,7 @@ impl fmt::Display for Method {
 }
 
 /// Serialised as its `Display` string (the `method` field of `summary.json`).
-impl Serialize for Method {
+impl Serialize for SolverMethod {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.collect_str(self)
     }
@@ -244,7 +246,7 @@ pub enum HomotopyEnd {
 ///     panic!("degree 6 of case 1 does not converge")
 /// };
 /// let operator = attempts.iter().find_map(|a| match &a.end {
-///     AttemptEnd::Homotopy(p) if p.method == Method::OperatorHomotopy => Some(p),
+///     AttemptEnd::Homotopy(p) if p.method == SolverMethod::OperatorHomotopy => Some(p),
 ///     _ => None,
 /// }).unwrap();
 /// // The branch from the Gaussian-exact operator folds at λ ≈ 0.497, before the model.
@@ -252,10 +254,10 @@ pub enum HomotopyEnd {
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct HomotopyPath {
-    /// [`Method::OperatorHomotopy`] or [`Method::NewtonHomotopy`]: λ deforms the operator
+    /// [`SolverMethod::OperatorHomotopy`] or [`SolverMethod::NewtonHomotopy`]: λ deforms the operator
     /// (a fold then shows that the solution branch connected to the start does not reach the
     /// model) or the residual.
-    pub method: Method,
+    pub method: SolverMethod,
     /// How it ended.
     pub end: HomotopyEnd,
     /// The largest λ reached.
@@ -270,9 +272,9 @@ impl fmt::Display for HomotopyPath {
     /// What the path showed, claiming only what the continuation established.
     ///
     /// ```
-    /// use fpsolve::epc::{HomotopyEnd, HomotopyPath, Method};
+    /// use fpsolve::epc::{HomotopyEnd, HomotopyPath, SolverMethod};
     /// let p = HomotopyPath {
-    ///     method: Method::OperatorHomotopy,
+    ///     method: SolverMethod::OperatorHomotopy,
     ///     end: HomotopyEnd::Escaped { lambda: -0.01 },
     ///     lambda_max: 0.5,
     ///     folds: vec![0.4967],
@@ -304,7 +306,7 @@ impl fmt::Display for HomotopyPath {
         };
         let meaning = if self.end == HomotopyEnd::Reached {
             ""
-        } else if self.method == Method::OperatorHomotopy && !self.folds.is_empty() {
+        } else if self.method == SolverMethod::OperatorHomotopy && !self.folds.is_empty() {
             // A fold in a deformation of the operator is where the real solution connected to
             // the start meets another and both turn complex.
             ": the solution branch connected to the Gaussian-exact one does not reach the model along this path (real solutions off this path are not excluded)"
@@ -366,12 +368,12 @@ pub enum AttemptEnd {
 /// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
 ///     panic!("degree 6 of case 1 does not converge")
 /// };
-/// assert_eq!(attempts[0].method, Method::Newton { from: StartPoint::LowerDegree { degree: 4 } });
+/// assert_eq!(attempts[0].method, SolverMethod::Newton { from: StartPoint::LowerDegree { degree: 4 } });
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Attempt {
     /// The method and its start.
-    pub method: Method,
+    pub method: SolverMethod,
     /// How it ended.
     pub end: AttemptEnd,
 }
@@ -439,11 +441,11 @@ impl fmt::Display for BestPointKind {
 pub(crate) fn tried(attempts: &[Attempt]) -> String {
     let perturbed = attempts
         .iter()
-        .filter(|a| matches!(a.method, Method::PerturbedLevenbergMarquardt { .. }))
+        .filter(|a| matches!(a.method, SolverMethod::PerturbedLevenbergMarquardt { .. }))
         .count();
     let mut names: Vec<String> = attempts
         .iter()
-        .filter(|a| !matches!(a.method, Method::PerturbedLevenbergMarquardt { .. }))
+        .filter(|a| !matches!(a.method, SolverMethod::PerturbedLevenbergMarquardt { .. }))
         .map(|a| a.method.attempt_name())
         .collect();
     if perturbed > 0 {
@@ -480,7 +482,7 @@ mod tests {
         };
         let attempts = vec![
             Attempt {
-                method: Method::Newton {
+                method: SolverMethod::Newton {
                     from: StartPoint::GaussianClosure,
                 },
                 end: AttemptEnd::Newton {
@@ -488,11 +490,11 @@ mod tests {
                     residual: 1.0,
                 },
             },
-            lm(Method::LevenbergMarquardt {
+            lm(SolverMethod::LevenbergMarquardt {
                 from: StartPoint::GaussianClosure,
             }),
-            lm(Method::PerturbedLevenbergMarquardt { start: 1 }),
-            lm(Method::PerturbedLevenbergMarquardt { start: 2 }),
+            lm(SolverMethod::PerturbedLevenbergMarquardt { start: 1 }),
+            lm(SolverMethod::PerturbedLevenbergMarquardt { start: 2 }),
         ];
         assert_eq!(
             tried(&attempts),
@@ -501,11 +503,11 @@ mod tests {
         );
         assert_eq!(continuation(&attempts), "");
         assert_eq!(
-            Method::PerturbedLevenbergMarquardt { start: 3 }.to_string(),
+            SolverMethod::PerturbedLevenbergMarquardt { start: 3 }.to_string(),
             "levenberg-marquardt from perturbed start 3"
         );
         assert_eq!(
-            Method::NewtonHomotopy {
+            SolverMethod::NewtonHomotopy {
                 from: StartPoint::GaussianClosure
             }
             .to_string(),

@@ -4,7 +4,7 @@ use serde::Serialize;
 
 use super::closure::GaussianClosure;
 use super::normalise::{DensityGrid, NormalisationReport, Poly};
-use super::outcome::Method;
+use super::outcome::SolverMethod;
 use crate::moments::Moments;
 
 /// Timings and convergence of one solve.
@@ -24,7 +24,7 @@ pub struct SolveReport {
     pub degree: usize,
     /// The method that converged and its start (`summary.json` and the CLI print its
     /// `Display`).
-    pub method: Method,
+    pub method: SolverMethod,
     /// Its iterations.
     pub iterations: usize,
     /// Final ‖R‖ in scaled variables (test functions ξ^e·φ(ξ1)φ(ξ2)), recomputed from the

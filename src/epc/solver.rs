@@ -20,8 +20,8 @@ use serde::Serialize;
 use super::continuation::{self, PathEnd, TraceOptions};
 use super::galerkin::GalerkinSystem;
 use super::outcome::{
-    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, Method,
-    NewtonStop, StartPoint, HOMOTOPY_NORM_FACTOR, HOMOTOPY_STEPS,
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, NewtonStop,
+    SolverMethod, StartPoint, HOMOTOPY_NORM_FACTOR, HOMOTOPY_STEPS,
 };
 use super::EpcError;
 
@@ -29,7 +29,7 @@ use super::EpcError;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub(crate) struct SolveOutcome {
     /// The method that converged, with its start.
-    pub method: Method,
+    pub method: SolverMethod,
     /// Iterations of the successful method.
     pub iterations: usize,
     /// Final ‖R‖ (scaled variables, weights φ(ξ1)φ(ξ2)), recomputed at the returned point.
@@ -113,7 +113,7 @@ fn newton(
 fn homotopy(
     eval: &continuation::Homotopy,
     a0: &DVector<f64>,
-    method: Method,
+    method: SolverMethod,
 ) -> (HomotopyPath, Option<DVector<f64>>) {
     let scale = 1.0 + a0.norm();
     let opts = TraceOptions {
@@ -169,7 +169,7 @@ fn newton_homotopy(
         let (r, j) = sys.residual_and_jacobian(a);
         Ok((r - (1.0 - l) * &r0, j, r0.clone()))
     };
-    homotopy(&eval, a0, Method::NewtonHomotopy { from })
+    homotopy(&eval, a0, SolverMethod::NewtonHomotopy { from })
 }
 
 /// Follows the family R_λ = (1 − λ) R_G + λ R from its exact root `a_g` of R_G at λ = 0 (the
@@ -186,7 +186,7 @@ fn operator_homotopy(
         let dl = &r - &rg;
         Ok((rg + l * &dl, &jg + l * (j - &jg), dl))
     };
-    homotopy(&eval, a_g, Method::OperatorHomotopy)
+    homotopy(&eval, a_g, SolverMethod::OperatorHomotopy)
 }
 
 fn levenberg_marquardt(
@@ -284,7 +284,7 @@ pub(crate) fn solve(
         }
     };
     // The reported residual is recomputed at the returned point, whatever the method tracked.
-    let done = |a: DVector<f64>, method: Method, iterations: usize| {
+    let done = |a: DVector<f64>, method: SolverMethod, iterations: usize| {
         let residual = sys.residual_and_jacobian(&a).0.norm();
         (
             a,
@@ -297,7 +297,7 @@ pub(crate) fn solve(
         )
     };
     for &(from, ref a0) in starts {
-        let method = Method::Newton { from };
+        let method = SolverMethod::Newton { from };
         let (a, n, it, stop) = newton(sys, a0, threshold, 60);
         if stop == NewtonStop::Converged {
             return Ok(done(a, method, it));
@@ -348,7 +348,7 @@ pub(crate) fn solve(
     // genuine nonzero minimum: perturbing it would only find the same minimum again.
     let mut clearly_nonzero = false;
     for &(from, ref a0) in starts {
-        let method = Method::LevenbergMarquardt { from };
+        let method = SolverMethod::LevenbergMarquardt { from };
         let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold, 400);
         if stop == LmStop::Converged {
             return Ok(done(a, method, it));
@@ -372,7 +372,7 @@ pub(crate) fn solve(
     };
     let perturbed = if clearly_nonzero { 0 } else { PERTURBED_STARTS };
     for trial in 0..perturbed {
-        let method = Method::PerturbedLevenbergMarquardt { start: trial + 1 };
+        let method = SolverMethod::PerturbedLevenbergMarquardt { start: trial + 1 };
         let amp = 0.05 * scale * (1 + trial % 4) as f64;
         let a0 = DVector::from_iterator(centre.len(), centre.iter().map(|v| v + amp * next()));
         let (a, n, it, stop) = levenberg_marquardt(sys, &a0, threshold, 400);
@@ -440,7 +440,8 @@ mod tests {
         assert!(
             matches!(
                 out.method,
-                Method::PerturbedLevenbergMarquardt { .. } | Method::LevenbergMarquardt { .. }
+                SolverMethod::PerturbedLevenbergMarquardt { .. }
+                    | SolverMethod::LevenbergMarquardt { .. }
             ),
             "{:?}",
             out.method
@@ -462,7 +463,7 @@ mod tests {
         let from = StartPoint::LowerDegree { degree: 2 };
         let (a, out) = solve(&sys, &[(from, start)], None, true, 1e-10, 1e6).unwrap();
         approx::assert_relative_eq!(out.threshold, 1e-4);
-        assert_eq!(out.method, Method::Newton { from });
+        assert_eq!(out.method, SolverMethod::Newton { from });
         assert!(out.residual <= 1e-4);
         approx::assert_relative_eq!(a[0], 1.0, max_relative = 1e-9);
     }
@@ -488,7 +489,7 @@ mod tests {
             })
             .collect();
         assert_eq!(paths.len(), 1);
-        assert_eq!(paths[0].method, Method::NewtonHomotopy { from });
+        assert_eq!(paths[0].method, SolverMethod::NewtonHomotopy { from });
         assert!(!paths[0].folds.is_empty(), "{:?}", paths[0]);
         assert_ne!(paths[0].end, HomotopyEnd::Reached);
         // Newton from 0.7 and, last, LM from 0.7 stopped (no perturbed starts at a clear minimum).
