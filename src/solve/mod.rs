@@ -21,6 +21,7 @@
 //! degrees with their PDF curves, [`crate::sweep::Sweep`] for a parameter sweep.
 
 mod grid;
+mod name;
 mod quantity;
 mod solution;
 mod tail;
@@ -33,6 +34,7 @@ use crate::grid::{GridError, GridSolver};
 use crate::model::BoundModel;
 
 pub(crate) use grid::{common_grid, printable};
+pub use name::{MethodName, MethodNameError, MethodSet};
 pub use quantity::{quantities, Quantity};
 pub(crate) use quantity::{quantities_of, reported};
 pub use solution::{Density, QuantityMoments, Solution};
