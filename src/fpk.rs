@@ -479,7 +479,7 @@ mod tests {
                 vec![Expr::call(Func::Sgn, z.clone()) + Expr::num(0.1) * z],
             ],
             interpretation,
-            impact: None,
+            impacts: vec![],
             observables: vec![],
             delta: DeltaTreatment::Exact,
             origin: None,

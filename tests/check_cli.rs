@@ -157,7 +157,7 @@ fn epc_refuses_an_impact_law_in_original_coordinates() {
         &model,
         "model orig\nparam c = 0.1, k = 1, mu = 0.1, eps = 0.1, r = 0.95, K = 1/(2*pi)\n\
          state x, v\ndrift x: v\ndrift v: -c*v - k*x - mu*x^3\nnoise xi: intensity 2*pi*K\n\
-         diffusion v: (1 + eps*x) * xi\nimpact x = 0: v -> -r*v\n",
+         diffusion v: (1 + eps*x) * xi\nimpact x = 0: v -> -r*v\ndomain x >= 0\n",
     )
     .unwrap();
     let path = model.to_str().unwrap();

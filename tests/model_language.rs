@@ -48,8 +48,11 @@ fn the_vibro_impact_model_is_the_papers_eq_10() {
     let at = |z: f64| g[1][0].eval(&|s| (s == "z").then_some(z)).unwrap();
     assert_relative_eq!(at(2.0), 1.2, epsilon = 1e-15);
     assert_relative_eq!(at(-2.0), -1.2, epsilon = 1e-15);
-    let impact = b.impact().unwrap();
+    let [impact] = b.impacts() else {
+        panic!("one impact law")
+    };
     assert_eq!((impact.state, impact.at, impact.other), (0, 0.0, 1));
+    assert_eq!(impact.side, None, "a pass-through law has no side");
     let names: Vec<&str> = model.observables().iter().map(|o| &*o.name).collect();
     assert_eq!(names, ["y", "ydot"]);
     assert!(model.drift()[1].contains_delta());

@@ -45,6 +45,9 @@ pub enum Unsupported {
         /// The map, printed.
         map: String,
     },
+    /// Two impact laws (a strip): not solved by this version.
+    #[error("the model has two impact laws (a strip), which the grid solver does not handle yet")]
+    TwoBarriers,
     /// `delta(·)` terms in the velocity's drift or diffusion with no impact law: the solver
     /// represents an impact by re-injecting the flux at the barrier and leaves δ terms out
     /// (they are the paper's approximation of that impact), so without an impact law it would

@@ -52,8 +52,6 @@ mod solution;
 
 use std::time::Instant;
 
-use serde::Serialize;
-
 pub use error::{GridError, Unsupported};
 pub use mesh::Domain;
 pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
@@ -71,18 +69,7 @@ const MAX_GROWTH: usize = 3;
 /// The order the discretisation-error estimate assumes (measured 2 to 3 on exact cases).
 const ASSUMED_ORDER: f64 = 2.0;
 
-/// Which side of a reflecting barrier the state lives on.
-///
-/// ```
-/// assert_ne!(fpsolve::grid::BarrierSide::Above, fpsolve::grid::BarrierSide::Below);
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub enum BarrierSide {
-    /// The state exceeds the barrier (a lower bound, the paper's y > 0).
-    Above,
-    /// The state stays below the barrier (an upper bound).
-    Below,
-}
+pub use crate::model::BarrierSide;
 
 /// The grid solver of one bound model: a builder, then [`GridSolver::solve`].
 ///

@@ -82,7 +82,7 @@ impl Mechanical {
         }
         crate::physics::check(model)?;
         // δ terms are dropped below only because an impact law stands for them exactly.
-        if model.impact().is_none() && model.drift()[1].contains_delta() {
+        if model.impacts().is_empty() && model.drift()[1].contains_delta() {
             return Err(refuse(Unsupported::DeltaWithoutImpact {
                 velocity: v,
                 coefficient: "drift",
@@ -112,7 +112,10 @@ impl Mechanical {
                 what: format!("the drift and diffusion of `{v}`"),
                 source,
             })?;
-        let barrier = match model.impact() {
+        if model.impacts().len() > 1 {
+            return Err(refuse(Unsupported::TwoBarriers));
+        }
+        let barrier = match model.impacts().first() {
             None => None,
             Some(law) => {
                 if law.state != 0 || law.other != 1 {
@@ -139,7 +142,7 @@ impl Mechanical {
                 barrier.kind = match kind {
                     // The side holding the origin, as Monte Carlo starts its trajectories.
                     BarrierKind::Reflecting(_) => {
-                        BarrierKind::Reflecting(side.unwrap_or(if law.at <= 0.0 {
+                        BarrierKind::Reflecting(side.or(law.side).unwrap_or(if law.at <= 0.0 {
                             BarrierSide::Above
                         } else {
                             BarrierSide::Below

@@ -28,6 +28,9 @@ pub enum McError {
         /// The expression with the delta, printed.
         expr: String,
     },
+    /// Two impact laws (a strip): not simulated by this version.
+    #[error("the model has two impact laws (a strip), which the simulation does not handle yet")]
+    TwoBarriers,
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
     #[error(
         "the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value:.6e})"

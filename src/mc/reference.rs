@@ -34,7 +34,8 @@ fn oscillator(name: &str, params: Vec<Parameter>, force: Expr, noise: Expr) -> M
         correlations: vec![],
         noise_matrix: [vec![Expr::num(0.0)], vec![Expr::num(1.0)]],
         interpretation: Interpretation::Stratonovich,
-        impact: None,
+        impacts: vec![],
+        domain: None,
         observables: vec![],
         delta: DeltaTreatment::Exact,
         origin: None,
@@ -155,12 +156,12 @@ pub fn vibro_impact(p: VibroImpact) -> Model {
         Expr::num(2.0 * std::f64::consts::PI) * s("K"),
     );
     m.noise_matrix[1] = vec![sgn_z.clone() + s("eps") * z.clone()];
-    m.impact = Some(ImpactLaw {
+    m.impacts = vec![ImpactLaw {
         state: 0,
         at: Expr::num(0.0),
         other: 1,
         map: s("r") * v.clone(),
-    });
+    }];
     m.observables = vec![
         Observable {
             name: "y".into(),
@@ -204,11 +205,12 @@ pub fn reflecting_vibro_impact(p: VibroImpact) -> Model {
     m.states = ["y".into(), "ydot".into()];
     m.drift[0] = v.clone();
     m.noise_matrix[1] = vec![Expr::num(1.0) + s("eps") * y];
-    m.impact = Some(ImpactLaw {
+    m.impacts = vec![ImpactLaw {
         state: 0,
         at: Expr::num(0.0),
         other: 1,
         map: -(s("r") * v),
-    });
+    }];
+    m.domain = Some(crate::model::Domain::above(0, Expr::num(0.0)));
     m
 }

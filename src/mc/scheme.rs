@@ -258,7 +258,7 @@ impl Plan {
         let g = &model.noise_matrix;
         let s = &model.intensity;
         let m = model.noise_names.len();
-        let mechanical_barrier = match &model.impact {
+        let mechanical_barrier = match model.impacts.first() {
             None => true,
             Some(b) => b.state == 0 && b.other == 1,
         };
@@ -268,7 +268,7 @@ impl Plan {
             && g[1].iter().all(|e| !e.mentions(v))
             && mechanical_barrier;
         let mut coefficients = model.drift.iter().chain(g[0].iter()).chain(g[1].iter());
-        if model.impact.is_none() {
+        if model.impacts.is_empty() {
             if let Some(e) = coefficients.find(|e| e.contains_delta()) {
                 return Err(McError::DeltaWithoutImpact {
                     expr: e.to_string(),
@@ -357,7 +357,10 @@ impl Plan {
                 },
             )
         };
-        let barrier = match &model.impact {
+        if model.impacts.len() > 1 {
+            return Err(McError::TwoBarriers);
+        }
+        let barrier = match model.impacts.first() {
             None => None,
             Some(b) => Some(Barrier {
                 state: b.state,

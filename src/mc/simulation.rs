@@ -57,7 +57,7 @@ impl Simulation {
             lanes: config.lanes,
             batches,
             seed: config.seed,
-            has_barrier: model.impact.is_some(),
+            has_barrier: !model.impacts.is_empty(),
             quantities: names
                 .iter()
                 .map(|(n, s)| QuantitySpec {

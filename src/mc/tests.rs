@@ -171,7 +171,7 @@ fn a_delta_term_without_an_impact_law_is_an_error() {
         big_k: 0.1,
     };
     let mut m = vibro_impact(p);
-    m.impact = None;
+    m.impacts.clear();
     assert!(matches!(
         Simulation::new(&m.bind(&[]).unwrap(), &small(32)),
         Err(McError::DeltaWithoutImpact { .. })

@@ -108,6 +108,15 @@ pub enum DeltaSpec {
     Gaussian(ExprNode),
 }
 
+/// One bound of a `domain` line: `>= at` / `> at` (a lower bound) or `<= at` / `< at`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DomainLimit {
+    /// Where the bound is.
+    pub at: ExprNode,
+    /// `<` or `>` rather than `<=` or `>=` (the same density; kept for printing).
+    pub strict: bool,
+}
+
 /// One line of a model file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Statement {
@@ -175,6 +184,15 @@ pub enum StatementKind {
         other: Ident,
         /// Its value after the impact.
         map: ExprNode,
+    },
+    /// `domain y >= 0`, `domain y <= b`, `domain a <= y <= b`.
+    Domain {
+        /// The state the domain restricts.
+        state: Ident,
+        /// Its lower bound, if any.
+        lower: Option<DomainLimit>,
+        /// Its upper bound, if any.
+        upper: Option<DomainLimit>,
     },
     /// `observe y = abs(z), ydot = v*sgn(z)`.
     Observe(Vec<Binding>),

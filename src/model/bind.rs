@@ -2,8 +2,10 @@
 
 use std::collections::HashMap;
 
+use super::barrier::{bind_impacts, BarrierSide, DomainPart, Placed};
+pub use super::bind_error::BindError;
 use super::dependency::{walk, WalkError};
-use super::{number, DeltaTreatment, Diagnostic, Interpretation, Model, Observable, Origin};
+use super::{DeltaTreatment, Interpretation, Model, Observable, Origin};
 use crate::symbolic::{Expr, Func, Symbol};
 
 /// A parameter override, `--set name=value`; the value may mention other parameters.
@@ -36,147 +38,14 @@ impl Override {
     }
 }
 
-/// Why a model could not be bound to parameter values.
-///
-/// ```
-/// let text = "model lin\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
-///             noise xi: intensity 1\ndiffusion v: xi\nobserve y = abs(z)\n";
-/// let model = fpsolve::model::parse_model(text, None).unwrap();
-/// let err = model.bind(&[fpsolve::model::Override::number("nope", 1.0)]).unwrap_err();
-/// assert!(matches!(err, fpsolve::model::BindError::UnknownParameter { .. }));
-/// ```
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum BindError {
-    /// `--set` named a parameter the model does not declare.
-    #[error("unknown parameter `{name}` (the model declares: {known})")]
-    UnknownParameter {
-        /// The name given.
-        name: String,
-        /// The declared parameters, comma-separated.
-        known: String,
-    },
-    /// The same parameter was overridden twice.
-    #[error("parameter `{name}` is set more than once")]
-    DuplicateOverride {
-        /// The parameter.
-        name: String,
-    },
-    /// Parameters are defined through each other.
-    #[error("parameter `{name}` is defined through itself: {chain}")]
-    Cycle {
-        /// The parameter where the cycle was found.
-        name: String,
-        /// The cycle, `a -> b -> a`.
-        chain: String,
-    },
-    /// A parameter's value mentions something that is not a parameter.
-    #[error("the value of `{name}` mentions `{symbol}`, which is not a parameter")]
-    NotAParameter {
-        /// The parameter being evaluated.
-        name: String,
-        /// The stray symbol.
-        symbol: String,
-    },
-    /// A parameter evaluated to NaN or ±∞.
-    #[error("parameter `{name}` evaluates to {}", number(*value))]
-    NotFinite {
-        /// The parameter.
-        name: String,
-        /// Its value.
-        value: f64,
-    },
-    /// A noise intensity is negative (or not finite).
-    #[error("noise `{noise}` has intensity {}; an intensity must be ≥ 0", number(*value))]
-    NegativeIntensity {
-        /// The noise source.
-        noise: String,
-        /// The value found.
-        value: f64,
-    },
-    /// A correlation coefficient outside [−1, 1].
-    #[error("correlation of `{a}` and `{b}` is {}; it must lie in [-1, 1]", number(*value))]
-    BadCorrelation {
-        /// First source.
-        a: String,
-        /// Second source.
-        b: String,
-        /// The value found.
-        value: f64,
-    },
-    /// A barrier position that is not a finite number.
-    #[error("the impact barrier evaluates to {}", number(*value))]
-    BadBarrier {
-        /// The value found.
-        value: f64,
-    },
-    /// One of the errors above, at the place in the model file where the offending value is
-    /// written (`Display`: the message, then file:line:col and the source line with a caret).
-    /// An expression of the model whose constant part, once the parameters are numbers, is
-    /// not finite (`-c*v/0`, `1e300*1e10*z`).
-    #[error(
-        "{what} contains `{term}`, which evaluates to {} with the parameter values bound",
-        number(*value)
-    )]
-    NotFiniteTerm {
-        /// Which expression (`the drift of `v``).
-        what: String,
-        /// The constant subexpression, printed.
-        term: String,
-        /// Its value.
-        value: f64,
-    },
-    /// An error placed at the expression of the model file that produced the bad value.
-    #[error("{}", diagnostic.without_prefix())]
-    Located {
-        /// The error.
-        error: Box<BindError>,
-        /// Where, rendered.
-        diagnostic: Diagnostic,
-    },
-}
-
-impl BindError {
-    /// The error itself, whether located or not.
-    ///
-    /// ```
-    /// use fpsolve::model::{parse_model, BindError};
-    /// let m = parse_model("model m\nparam bad = 1/0\nstate z, v\ndrift z: v\ndrift v: -z - v\n\
-    ///     noise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
-    /// let err = m.bind(&[]).unwrap_err();
-    /// assert!(matches!(err.cause(), BindError::NotFinite { .. }));
-    /// ```
-    pub fn cause(&self) -> &BindError {
-        match self {
-            BindError::Located { error, .. } => error.cause(),
-            other => other,
-        }
-    }
-
-    /// Where in the model file the offending value is written, when it is in the file (not
-    /// for values given by overrides).
-    ///
-    /// ```
-    /// use fpsolve::model::parse_model;
-    /// let m = parse_model("model m\nparam bad = 1/0\nstate z, v\ndrift z: v\ndrift v: -z - v\n\
-    ///     noise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
-    /// let d = m.bind(&[]).unwrap_err().diagnostic().cloned().unwrap();
-    /// assert_eq!((d.line(), d.column()), (2, 13));
-    /// ```
-    pub fn diagnostic(&self) -> Option<&Diagnostic> {
-        match self {
-            BindError::Located { diagnostic, .. } => Some(diagnostic),
-            _ => None,
-        }
-    }
-}
-
 /// An impact law with its barrier at a number.
 ///
 /// ```
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let model = fpsolve::model::load_model(&path).unwrap();
 /// let bound = model.bind(&[]).unwrap();
-/// assert_eq!(bound.impact().unwrap().map.to_string(), "0.95*v");
+/// assert_eq!(bound.impacts()[0].map.to_string(), "0.95*v");
+/// assert_eq!(bound.impacts()[0].side, None);
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundImpact {
@@ -188,6 +57,10 @@ pub struct BoundImpact {
     pub other: usize,
     /// The post-impact value of `other`, an expression of the states only.
     pub map: Expr,
+    /// The side of the barrier the state lives on, for a law that reverses the velocity
+    /// (`v -> -r*v`, from the `domain` line or the strip of two barriers); `None` for a law
+    /// the state passes through (`v -> r*v`, the Zhuravlev form).
+    pub side: Option<BarrierSide>,
 }
 
 /// A model whose parameters are numbers: every expression in it mentions only the states
@@ -211,7 +84,8 @@ pub struct BoundModel {
     pub(crate) intensity: Vec<Vec<f64>>,
     pub(crate) noise_matrix: [Vec<Expr>; 2],
     pub(crate) interpretation: Interpretation,
-    pub(crate) impact: Option<BoundImpact>,
+    /// 0, 1 or 2 laws; two bound a strip on one state, sorted by position.
+    pub(crate) impacts: Vec<BoundImpact>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
     /// Where the model was read from (for locating errors of later stages).
@@ -250,7 +124,7 @@ impl BoundModel {
                 exprs.push((format!("the diffusion of `{}`", self.states[i]), g));
             }
         }
-        if let Some(law) = &self.impact {
+        for law in &self.impacts {
             exprs.push(("the impact map".to_string(), &law.map));
         }
         for (what, e) in exprs {
@@ -360,16 +234,17 @@ impl BoundModel {
     pub fn interpretation(&self) -> Interpretation {
         self.interpretation
     }
-    /// The impact law, if any.
+    /// The impact laws: none, one, or two on the same state bounding a strip (sorted by
+    /// position, the lower one [`BarrierSide::Above`], the upper one [`BarrierSide::Below`]).
     ///
     /// ```
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
     /// let model = fpsolve::model::load_model(&path).unwrap();
     /// let bound = model.bind(&[]).unwrap();
-    /// assert_eq!(bound.impact().map(|law| law.at), Some(0.0));
+    /// assert_eq!(bound.impacts().iter().map(|law| law.at).collect::<Vec<_>>(), [0.0]);
     /// ```
-    pub fn impact(&self) -> Option<&BoundImpact> {
-        self.impact.as_ref()
+    pub fn impacts(&self) -> &[BoundImpact] {
+        &self.impacts
     }
     /// The observables, parameters substituted.
     ///
@@ -439,7 +314,7 @@ impl Model {
                     .position(|c| *self.noises[c.a].name == **a && *self.noises[c.b].name == **b);
                 (i.and_then(|i| origin.correlations.get(i).copied()), None)
             }
-            BindError::BadBarrier { .. } => (origin.barrier, None),
+            BindError::BadBarrier { .. } => (origin.barriers.first().copied(), None),
             BindError::NotFiniteTerm { what, .. } => {
                 let state = |i: usize| format!("`{}`", self.states[i]);
                 let span = if what.starts_with("the drift") {
@@ -451,7 +326,14 @@ impl Model {
                         .find(|i| what.ends_with(&state(*i)))
                         .and_then(|i| origin.diffusions[i])
                 } else {
-                    origin.map
+                    // The first map with a non-finite constant, in file order.
+                    let table = self.param_values(overrides).unwrap_or_default();
+                    let value =
+                        |s: &Symbol| table.iter().find(|(n, _)| n == s).map(|p| Expr::num(p.1));
+                    self.impacts
+                        .iter()
+                        .position(|l| non_finite_constant(&l.map.map_symbols(&value)).is_some())
+                        .and_then(|i| origin.maps.get(i).copied())
                 };
                 (span, None)
             }
@@ -498,21 +380,7 @@ impl Model {
             intensity[c.a][c.b] = s;
             intensity[c.b][c.a] = s;
         }
-        let impact = match &self.impact {
-            None => None,
-            Some(law) => {
-                let at = number(&law.at);
-                if !at.is_finite() {
-                    return Err(BindError::BadBarrier { value: at });
-                }
-                Some(BoundImpact {
-                    state: law.state,
-                    at,
-                    other: law.other,
-                    map: subst(&law.map),
-                })
-            }
-        };
+        let impacts = bind_impacts(self, &number, &subst).map_err(|p| self.place(p))?;
         let bound = BoundModel {
             name: self.name.clone(),
             states: self.states.clone(),
@@ -524,7 +392,7 @@ impl Model {
                 self.noise_matrix[1].iter().map(subst).collect(),
             ],
             interpretation: self.interpretation,
-            impact,
+            impacts,
             observables: self
                 .observables
                 .iter()
@@ -539,6 +407,36 @@ impl Model {
         };
         bound.check_constants()?;
         Ok(bound)
+    }
+
+    /// A barrier error placed at its impact law or `domain` bound in the model file.
+    fn place(&self, placed: Placed) -> BindError {
+        let (span, error) = match (placed, &self.origin) {
+            (Placed::Impact(i, e), Some(o)) => (o.barriers.get(i).copied(), e),
+            (Placed::Domain(part, e), Some(o)) => (
+                match part {
+                    DomainPart::Line => o.domain,
+                    DomainPart::Lower => o.domain_bounds[0].or(o.domain),
+                    DomainPart::Upper => o.domain_bounds[1].or(o.domain),
+                },
+                e,
+            ),
+            (Placed::Impact(_, e) | Placed::Domain(_, e), None) => return e,
+        };
+        let (Some(span), Some(origin)) = (span, &self.origin) else {
+            return error;
+        };
+        let help = match &error {
+            BindError::ReflectingWithoutDomain { suggestion, .. } => {
+                Some(format!("add the line `{suggestion}`"))
+            }
+            _ => None,
+        };
+        let diagnostic = origin.diagnostic(span, error.to_string(), help);
+        BindError::Located {
+            error: Box::new(error),
+            diagnostic,
+        }
     }
 
     /// Evaluates every parameter, overrides first, in declaration order.
@@ -653,7 +551,8 @@ mod tests {
             correlations: vec![],
             noise_matrix: [vec![Expr::num(0.0)], vec![Expr::num(1.0)]],
             interpretation: Interpretation::Stratonovich,
-            impact: None,
+            impacts: vec![],
+            domain: None,
             observables: vec![],
             delta: DeltaTreatment::Exact,
             origin: None,

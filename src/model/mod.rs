@@ -5,7 +5,9 @@
 //! giving the [`BoundModel`] that the Fokker–Planck, EPC and Monte Carlo stages consume.
 
 pub(crate) mod ast;
+mod barrier;
 mod bind;
+mod bind_error;
 mod dependency;
 mod diagnostic;
 mod error;
@@ -16,6 +18,7 @@ pub(crate) mod set;
 mod syntax;
 mod validate;
 
+pub use barrier::{BarrierSide, Domain, DomainBound};
 pub use bind::{BindError, BoundImpact, BoundModel, Override};
 pub use diagnostic::Diagnostic;
 pub use error::ModelError;
@@ -136,7 +139,7 @@ pub struct Correlation {
 /// ```
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let model = fpsolve::model::load_model(&path).unwrap();
-/// let law = model.impact().unwrap();
+/// let law = &model.impacts()[0];
 /// assert_eq!(law.map.to_string(), "r*v");
 /// ```
 #[derive(Clone, Debug, PartialEq)]
@@ -190,7 +193,10 @@ pub struct Model {
     /// `noise_matrix[i][k]`: how source k enters the equation of state i (G_ik).
     pub(crate) noise_matrix: [Vec<Expr>; 2],
     pub(crate) interpretation: Interpretation,
-    pub(crate) impact: Option<ImpactLaw>,
+    /// 0, 1 or 2 laws (two on the same state, in file order).
+    pub(crate) impacts: Vec<ImpactLaw>,
+    /// The `domain` line, if any.
+    pub(crate) domain: Option<Domain>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
     /// Where the model was read from, for locating errors found when it is bound (`None` for
@@ -210,10 +216,14 @@ pub(crate) struct Origin {
     pub(crate) intensities: Vec<ast::Span>,
     /// The coefficient of each correlation.
     pub(crate) correlations: Vec<ast::Span>,
-    /// The barrier position.
-    pub(crate) barrier: Option<ast::Span>,
-    /// The jump map.
-    pub(crate) map: Option<ast::Span>,
+    /// The barrier position of each impact law.
+    pub(crate) barriers: Vec<ast::Span>,
+    /// The jump map of each impact law.
+    pub(crate) maps: Vec<ast::Span>,
+    /// The `domain` line.
+    pub(crate) domain: Option<ast::Span>,
+    /// Its lower and upper bound.
+    pub(crate) domain_bounds: [Option<ast::Span>; 2],
     /// The drift of each state.
     pub(crate) drifts: [Option<ast::Span>; 2],
     /// The diffusion line of each state.
@@ -340,15 +350,28 @@ impl Model {
         self.interpretation
     }
 
-    /// The impact law, if the model has a barrier.
+    /// The impact laws, in file order: none, one, or two on the same state (a strip; which
+    /// side each bounds is decided when the model is bound, see [`BoundModel::impacts`]).
     ///
     /// ```
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
     /// let model = fpsolve::model::load_model(&path).unwrap();
-    /// assert_eq!(model.impact().map(|law| (law.state, law.other)), Some((0, 1)));
+    /// let laws: Vec<_> = model.impacts().iter().map(|law| (law.state, law.other)).collect();
+    /// assert_eq!(laws, [(0, 1)]);
     /// ```
-    pub fn impact(&self) -> Option<&ImpactLaw> {
-        self.impact.as_ref()
+    pub fn impacts(&self) -> &[ImpactLaw] {
+        &self.impacts
+    }
+
+    /// The `domain` line: which side of its reflecting barrier(s) the state lives on.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.domain().is_none());
+    /// ```
+    pub fn domain(&self) -> Option<&Domain> {
+        self.domain.as_ref()
     }
 
     /// The observables, in the order declared.

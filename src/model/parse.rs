@@ -10,8 +10,8 @@ use pest::pratt_parser::{Assoc, Op, PrattParser};
 use pest::Parser;
 
 use super::ast::{
-    Binding, DeltaSpec, ExprKind, ExprNode, Ident, ModelAst, ProductOp, Span, Statement,
-    StatementKind, SumOp,
+    Binding, DeltaSpec, DomainLimit, ExprKind, ExprNode, Ident, ModelAst, ProductOp, Span,
+    Statement, StatementKind, SumOp,
 };
 use super::syntax::{Rule, SdeParser, SyntaxFailure};
 use super::Interpretation;
@@ -183,6 +183,7 @@ fn content(pair: Pair<'_, Rule>) -> impl Iterator<Item = Pair<'_, Rule>> {
                 | Rule::kw_interpretation
                 | Rule::kw_impact
                 | Rule::kw_observe
+                | Rule::kw_domain
                 | Rule::kw_delta
                 | Rule::kw_gaussian
         )
@@ -273,6 +274,7 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
             other: parts.ident(),
             map: parts.expr(),
         },
+        Rule::domain_stmt => build_domain(parts.next()),
         _ => {
             let spec = parts.next();
             StatementKind::Delta(match spec.as_rule() {
@@ -285,6 +287,45 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
         kind,
         span,
         keyword,
+    }
+}
+
+/// `domain a <= y <= b` or `domain y >= a` / `domain y <= b`.
+fn build_domain(pair: Pair<'_, Rule>) -> StatementKind {
+    let range = pair.as_rule() == Rule::domain_range;
+    let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
+    let limit = |op: &Pair<'_, Rule>, at: Pair<'_, Rule>| DomainLimit {
+        strict: !op.as_str().ends_with('='),
+        at: build_expr(at),
+    };
+    if range {
+        let upper_at = parts.pop().expect("the grammar's upper bound");
+        let upper_op = parts.pop().expect("the grammar's `<=`");
+        let state = ident(parts.pop().expect("the grammar's state"));
+        let lower_op = parts.pop().expect("the grammar's `<=`");
+        let lower_at = parts.pop().expect("the grammar's lower bound");
+        return StatementKind::Domain {
+            state,
+            lower: Some(limit(&lower_op, lower_at)),
+            upper: Some(limit(&upper_op, upper_at)),
+        };
+    }
+    let at = parts.pop().expect("the grammar's bound");
+    let op = parts.pop().expect("the grammar's comparison");
+    let state = ident(parts.pop().expect("the grammar's state"));
+    let bound = Some(limit(&op, at));
+    if op.as_rule() == Rule::above {
+        StatementKind::Domain {
+            state,
+            lower: bound,
+            upper: None,
+        }
+    } else {
+        StatementKind::Domain {
+            state,
+            lower: None,
+            upper: bound,
+        }
     }
 }
 

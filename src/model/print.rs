@@ -55,12 +55,15 @@ impl fmt::Display for Model {
             Interpretation::Ito => "ito",
         };
         writeln!(f, "interpretation: {interpretation}")?;
-        if let Some(law) = &self.impact {
+        for law in &self.impacts {
             writeln!(
                 f,
                 "impact {} = {}: {} -> {}",
                 self.states[law.state], law.at, self.states[law.other], law.map
             )?;
+        }
+        if let Some(domain) = &self.domain {
+            writeln!(f, "domain {}", domain.text(&self.states))?;
         }
         if !self.observables.is_empty() {
             let list: Vec<String> = self

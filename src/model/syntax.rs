@@ -82,7 +82,7 @@ fn describe_rule(rule: &Rule) -> String {
     let s = match rule {
         Rule::statement => {
             "a statement (model, param, state, drift, noise, correlate, diffusion, \
-             interpretation, impact, observe or delta)"
+             interpretation, impact, domain, observe or delta)"
         }
         Rule::EOI => "end of line",
         Rule::expr | Rule::operand | Rule::paren | Rule::call | Rule::number => "an expression",
@@ -95,6 +95,11 @@ fn describe_rule(rule: &Rule) -> String {
         Rule::comma => "`,`",
         Rule::equals => "`=`",
         Rule::arrow => "`->`",
+        Rule::above => "`>=` or `>`",
+        Rule::below => "`<=` or `<`",
+        Rule::domain_range | Rule::domain_bound => {
+            "`STATE >= BOUND`, `STATE <= BOUND` or `LOW <= STATE <= HIGH`"
+        }
         Rule::lparen => "`(`",
         Rule::rparen => "`)`",
         Rule::kw_intensity => "`intensity`",

@@ -50,7 +50,7 @@ pub(crate) fn check_with_drift(
 
     // An impact map that increases |v|.
     let mut impact_dissipates = false;
-    if let Some(law) = model.impact() {
+    for law in model.impacts() {
         let (ratio, least) = jump_ratio(law, states);
         let restitution = ratio.map_or(least, f64::abs);
         if restitution > 1.0 + 1e-12 {
@@ -59,7 +59,7 @@ pub(crate) fn check_with_drift(
                 restitution,
             });
         }
-        impact_dissipates = match ratio {
+        impact_dissipates |= match ratio {
             Some(r) => r.abs() < 1.0 - 1e-12,
             None => least < 1.0,
         };
@@ -145,7 +145,7 @@ pub(crate) fn check_with_drift(
     vanishing_diffusion_at_rest(model, m)?;
 
     // A linear drift with additive noise and a mode that does not decay.
-    if model.impact().is_none() && !model.drift().iter().any(Expr::contains_delta) {
+    if model.impacts().is_empty() && !model.drift().iter().any(Expr::contains_delta) {
         let origin = [0.0, 0.0];
         let m0 = [at(&m[0], states, origin), at(&m[1], states, origin)];
         let jac = jacobian(m, states, origin);

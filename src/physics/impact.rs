@@ -20,14 +20,33 @@ use crate::symbolic::{sift, Expr, Symbol};
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum UnsupportedImpact {
     /// `v -> -r*v`: the state stays on its side (the model in its original coordinates).
+    /// The δ-term EPC solves such a model through its Zhuravlev transform
+    /// (see [`crate::physics`]), which `fpsolve::solve` and `fpsolve check` apply; EPC
+    /// given the original model directly refuses it, as it would solve it without the barrier.
     #[error(
-        "it reflects the velocity (r = {}): the state stays on one side of the barrier, the \
-         model in its original coordinates",
+        "it reflects the velocity (r = {}): the model is in its original coordinates; EPC \
+         solves it through its Zhuravlev transform (`fpsolve solve` does this, `fpsolve check` \
+         prints the transformed model)",
         number(*restitution)
     )]
     Reflecting {
         /// r in v⁺ = −r·v⁻.
         restitution: f64,
+    },
+    /// Two reflecting barriers bounding a strip: the δ-term EPC has no form for them.
+    #[error(
+        "two barriers bound a strip of `{position}` (at {} and {}): the δ-term EPC has no form \
+         for a two-sided impact; use the `grid` or `epc-impact` method",
+        number(*lower),
+        number(*upper)
+    )]
+    TwoBarriers {
+        /// The barrier state.
+        position: String,
+        /// The lower barrier.
+        lower: f64,
+        /// The upper barrier.
+        upper: f64,
     },
     /// `v -> 0`: the motion stops at the barrier.
     #[error("it stops the motion at the barrier (a plastic impact, r = 0)")]
@@ -183,7 +202,33 @@ pub(super) fn weight_at(
 /// assert_eq!(reason, UnsupportedImpact::Reflecting { restitution: 0.95 });
 /// ```
 pub fn impact_form(model: &BoundModel) -> Option<ImpactForm> {
-    let law = model.impact()?;
+    match model.impacts() {
+        [] => None,
+        [law] => one_barrier(model, law),
+        [lower, upper, ..] => {
+            let states = model.states();
+            let text = |law: &BoundImpact| {
+                format!(
+                    "impact {} = {}: {}",
+                    states[law.state],
+                    number(law.at),
+                    jump_text(model, law)
+                )
+            };
+            Some(ImpactForm::Unsupported {
+                law: format!("{}; {}", text(lower), text(upper)),
+                reason: UnsupportedImpact::TwoBarriers {
+                    position: states[lower.state].to_string(),
+                    lower: lower.at,
+                    upper: upper.at,
+                },
+            })
+        }
+    }
+}
+
+/// [`impact_form`] of a model with one impact law.
+fn one_barrier(model: &BoundModel, law: &BoundImpact) -> Option<ImpactForm> {
     let states = model.states();
     let (p, q) = (law.state, law.other);
     let position = states[p].to_string();

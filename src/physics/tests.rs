@@ -37,6 +37,7 @@ drift v: -c*v - k*x - mu*x^3
 noise xi: intensity 2*pi*K
 diffusion v: (1 + eps*x) * xi
 impact x = 0: v -> -r*v
+domain x >= 0
 ";
 
 #[test]

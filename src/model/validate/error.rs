@@ -145,6 +145,48 @@ pub enum SemanticError {
         /// The state.
         state: String,
     },
+    /// A third `impact` line: two bound a strip, more have no meaning.
+    #[error(
+        "a third `impact` line (the others are on lines {} and {}): a state has at most two \
+         barriers, bounding a strip",
+        previous_lines.0,
+        previous_lines.1
+    )]
+    TooManyImpacts {
+        /// Lines of the first two.
+        previous_lines: (usize, usize),
+    },
+    /// Two impact laws on different states.
+    #[error(
+        "the second impact law is on `{second}`, the first on `{first}`: two barriers bound a \
+         strip of one state"
+    )]
+    ImpactsOnDifferentStates {
+        /// The first law's barrier state.
+        first: String,
+        /// The second law's.
+        second: String,
+    },
+    /// A `domain` line in a model without impact laws.
+    #[error(
+        "`domain` confines `{state}`, but the model has no `impact` line: a bound of the domain \
+         is where an impact law puts a reflecting barrier"
+    )]
+    DomainWithoutImpact {
+        /// The confined state.
+        state: String,
+    },
+    /// A `domain` line on another state than the impact laws'.
+    #[error(
+        "`domain` confines `{domain_state}`, but the impact laws put their barriers on \
+         `{impact_state}`"
+    )]
+    DomainOnOtherState {
+        /// The state of the `domain` line.
+        domain_state: String,
+        /// The barrier state of the impact laws.
+        impact_state: String,
+    },
     /// Parameters defined through one another in a cycle.
     #[error("parameter `{name}` is defined through itself: {chain}")]
     ParameterCycle {

@@ -18,7 +18,8 @@ use std::collections::BTreeMap;
 
 use super::ast::{Binding, ExprNode, Ident, ModelAst, Span, StatementKind};
 use super::{
-    Correlation, DeltaTreatment, ImpactLaw, Interpretation, Model, NoiseSource, Observable, Origin,
+    Correlation, DeltaTreatment, Domain, DomainBound, ImpactLaw, Interpretation, Model,
+    NoiseSource, Observable, Origin,
 };
 use crate::symbolic::{Expr, Symbol};
 pub(crate) use error::Located;
@@ -76,13 +77,15 @@ impl<'a> Validator<'a> {
         let mut correlations: Vec<(Correlation, Span)> = Vec::new();
         let mut noises = Vec::new();
         let mut interpretation = Interpretation::default();
-        let mut impact = None;
+        let mut impacts: Vec<(ImpactLaw, Span)> = Vec::new();
+        let mut domain: Option<(Domain, Span, Ident)> = None;
+        let mut domain_bounds = [None, None];
         let mut observables = Vec::new();
         let mut delta = DeltaTreatment::default();
         let mut intensity_spans = Vec::new();
         let mut correlation_spans = Vec::new();
-        let mut barrier_span = None;
-        let mut map_span = None;
+        let mut barrier_spans = Vec::new();
+        let mut map_spans = Vec::new();
         let mut drift_spans = [None, None];
         let mut diffusion_spans = [None, None];
 
@@ -158,6 +161,14 @@ impl<'a> Validator<'a> {
                     other,
                     map,
                 } => {
+                    if let [(_, first), (_, second)] = impacts.as_slice() {
+                        return fail(
+                            SemanticError::TooManyImpacts {
+                                previous_lines: (self.line(*first), self.line(*second)),
+                            },
+                            st.keyword,
+                        );
+                    }
                     let s = self.state_index(state, Some("impact"))?;
                     let o = self.state_index(other, Some("impact"))?;
                     if s == o {
@@ -185,9 +196,54 @@ impl<'a> Validator<'a> {
                         },
                     )?;
                     self.forbid_delta(map, DeltaMisuse::InImpactMap)?;
-                    barrier_span = Some(at.span);
-                    map_span = Some(map.span);
-                    impact = Some(law);
+                    if let Some((first, _)) = impacts.first() {
+                        if first.state != s {
+                            return fail(
+                                SemanticError::ImpactsOnDifferentStates {
+                                    first: states[first.state].to_string(),
+                                    second: state.name.clone(),
+                                },
+                                state.span,
+                            );
+                        }
+                    }
+                    barrier_spans.push(at.span);
+                    map_spans.push(map.span);
+                    impacts.push((law, st.span));
+                }
+                StatementKind::Domain {
+                    state,
+                    lower,
+                    upper,
+                } => {
+                    let s = self.state_index(state, Some("domain"))?;
+                    let mut bound = |limit: &Option<super::ast::DomainLimit>,
+                                     k: usize|
+                     -> Result<Option<DomainBound>> {
+                        let Some(limit) = limit else {
+                            return Ok(None);
+                        };
+                        let at = self
+                            .scope
+                            .lower(&limit.at, Context::Constant("a domain bound"))?;
+                        self.forbid_delta(
+                            &limit.at,
+                            DeltaMisuse::InConstant {
+                                context: "a domain bound",
+                            },
+                        )?;
+                        domain_bounds[k] = Some(limit.at.span);
+                        Ok(Some(DomainBound {
+                            at,
+                            strict: limit.strict,
+                        }))
+                    };
+                    let d = Domain {
+                        state: s,
+                        lower: bound(lower, 0)?,
+                        upper: bound(upper, 1)?,
+                    };
+                    domain = Some((d, st.span, state.clone()));
                 }
                 StatementKind::Observe(bindings) => {
                     for b in bindings {
@@ -219,6 +275,29 @@ impl<'a> Validator<'a> {
             }
         }
         let noise_matrix = self.noise_matrix(diffusion)?;
+        if let Some((d, span, name)) = &domain {
+            match impacts.first() {
+                None => {
+                    return fail(
+                        SemanticError::DomainWithoutImpact {
+                            state: name.name.clone(),
+                        },
+                        *span,
+                    )
+                }
+                Some((law, _)) if law.state != d.state => {
+                    return fail(
+                        SemanticError::DomainOnOtherState {
+                            domain_state: name.name.clone(),
+                            impact_state: states[law.state].to_string(),
+                        },
+                        name.span,
+                    )
+                }
+                Some(_) => {}
+            }
+        }
+        let domain_span = domain.as_ref().map(|(_, span, _)| *span);
         self.check_parameter_graph(&params)?;
 
         let [d0, d1]: [Expr; 2] = drift_exprs
@@ -234,7 +313,8 @@ impl<'a> Validator<'a> {
             correlations: correlations.into_iter().map(|(c, _)| c).collect(),
             noise_matrix,
             interpretation,
-            impact,
+            impacts: impacts.into_iter().map(|(law, _)| law).collect(),
+            domain: domain.map(|(d, ..)| d),
             observables,
             delta,
             origin: Some(std::sync::Arc::new(Origin {
@@ -243,8 +323,10 @@ impl<'a> Validator<'a> {
                 params: self.params.iter().map(|b| b.value.span).collect(),
                 intensities: intensity_spans,
                 correlations: correlation_spans,
-                barrier: barrier_span,
-                map: map_span,
+                barriers: barrier_spans,
+                maps: map_spans,
+                domain: domain_span,
+                domain_bounds,
                 drifts: drift_spans,
                 diffusions: diffusion_spans,
             })),

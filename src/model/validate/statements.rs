@@ -121,14 +121,14 @@ impl<'a> Validator<'a> {
         Ok((name.name.clone(), description.clone()))
     }
 
-    /// `state`, `interpretation`, `impact` and `delta` appear at most once.
+    /// `state`, `interpretation`, `domain` and `delta` appear at most once.
     pub(super) fn once_only(&self) -> Result<()> {
         let mut seen: HashMap<&'static str, Span> = HashMap::new();
         for st in &self.ast.statements {
             let keyword = match st.kind {
                 StatementKind::State(_) => "state",
                 StatementKind::Interpretation(_) => "interpretation",
-                StatementKind::Impact { .. } => "impact",
+                StatementKind::Domain { .. } => "domain",
                 StatementKind::Delta(_) => "delta",
                 _ => continue,
             };
