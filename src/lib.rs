@@ -134,6 +134,7 @@ pub mod solve;
 pub mod study;
 pub mod sweep;
 pub mod symbolic;
+pub mod transform;
 
 pub use error::Error;
 pub use solve::{solve, Method, Solution};

@@ -551,6 +551,24 @@ fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     for line in fpk.to_string().lines() {
         writeln!(out, "# {line}").context("writing to stdout")?;
     }
+    // A reflecting barrier in original coordinates: the model EPC solves instead (Eqs. 5-10).
+    if let (Ok(unbound), Ok(transformed)) = (
+        fpsolve::transform::zhuravlev(model),
+        fpsolve::transform::zhuravlev_bound(bound),
+    ) {
+        writeln!(
+            out,
+            "\n# Zhuravlev transform (Eqs. 5-10), the model EPC solves; the lines below are a \
+             model file\n{}",
+            unbound.model
+        )
+        .context("writing to stdout")?;
+        let fpk = FpkOperator::derive(&transformed.model).map_err(at_error(path))?;
+        writeln!(out, "# its derived Fokker-Planck operator").context("writing to stdout")?;
+        for line in fpk.to_string().lines() {
+            writeln!(out, "# {line}").context("writing to stdout")?;
+        }
+    }
     out.flush().context("writing to stdout")?;
     Ok(())
 }
