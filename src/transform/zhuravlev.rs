@@ -128,7 +128,7 @@ struct Transformed {
 /// A name not in `taken`: `base`, else `base_`, `base__`, ….
 fn free_name(base: &str, taken: &[String]) -> Symbol {
     let mut name = base.to_string();
-    while taken.iter().any(|t| *t == name) {
+    while taken.contains(&name) {
         name.push('_');
     }
     Symbol::from(name.as_str())
