@@ -466,8 +466,8 @@ fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Targe
     let (model, overrides, bound) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with an impact law EPC does not represent, is
     // refused here, before any work.
-    let fpk = FpkOperator::derive(&bound).map_err(at_error(&path))?;
-    if let Some(ImpactForm::Unsupported { law, reason }) = &fpk.impact {
+    let problem = fpsolve::solve::Problem::new(&bound).map_err(at_error(&path))?;
+    if let Some(ImpactForm::Unsupported { law, reason }) = &problem.fpk().impact {
         let e = EpcError::UnsupportedImpact {
             law: law.clone(),
             reason: reason.clone(),

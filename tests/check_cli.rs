@@ -146,10 +146,11 @@ fn invalid_physics_is_refused_with_exit_2_and_plain_words() {
 }
 
 /// Issue 9, item 5: a model in original coordinates (reflecting impact, no delta term) was
-/// solved by EPC as if there were no barrier (E[x] = 0). EPC now refuses it, saying what it
-/// supports; `check` still accepts the model (Monte Carlo can simulate it).
+/// solved by EPC as if there were no barrier (E[x] = 0). Issue 11: EPC given that model
+/// directly still refuses it; `check` prints its Zhuravlev transform and `solve` solves that
+/// transform, answering for the original states (x >= 0, so E[x] > 0).
 #[test]
-fn epc_refuses_an_impact_law_in_original_coordinates() {
+fn a_model_in_original_coordinates_is_solved_through_its_zhuravlev_transform() {
     let dir = std::env::temp_dir().join(format!("fpsolve-check-cli-orig-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let model = dir.join("orig.sde");
@@ -167,15 +168,31 @@ fn epc_refuses_an_impact_law_in_original_coordinates() {
         stdout.contains("Impact law `impact x = 0: v -> -0.95*v`: it reflects the velocity"),
         "{stdout}"
     );
+    // The names z and v: v is taken by the model, so the new velocity is `v_`.
+    for line in [
+        "# Zhuravlev transform (Eqs. 5-10), the model EPC solves",
+        "state z, v_",
+        "drift v_: -c*v_ - k*z - mu*z^3 - (1 - r)*v_*abs(v_)*delta(z)",
+        "impact z = 0: v_ -> r*v_",
+        "observe x = abs(z), v = v_*sgn(z)",
+    ] {
+        assert!(stdout.contains(line), "`{line}` not in\n{stdout}");
+    }
     let out = dir.join("out");
-    let (status, stdout, stderr) = run(&["solve", path, "--out", out.to_str().unwrap()]);
-    // Refused before any work: exit 2, nothing written, never a number for x.
-    assert_eq!(status, Some(2), "{stdout}\n{stderr}");
-    assert!(!out.exists());
-    assert!(
-        stderr.contains("EPC cannot use the impact law `impact x = 0: v -> -0.95*v`"),
-        "{stderr}"
-    );
-    assert!(stderr.contains("Monte Carlo"), "{stderr}");
+    let (status, stdout, stderr) = run(&[
+        "solve",
+        path,
+        "--degree",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(status, Some(0), "{stdout}\n{stderr}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(out.join("pdf_x.csv").exists() && out.join("pdf_v.csv").exists());
+    // The displacement lives on x >= 0: its grid starts at the barrier.
+    let csv = std::fs::read_to_string(out.join("pdf_x.csv")).unwrap();
+    assert!(csv.lines().nth(1).unwrap().starts_with("0,"), "{csv}");
+    assert!(summary.contains("\"x\""), "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
 }

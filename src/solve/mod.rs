@@ -32,11 +32,12 @@ use crate::epc::{Epc, EpcError};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::grid::{GridError, GridSolver};
 use crate::model::BoundModel;
+use crate::transform::{zhuravlev_bound, Zhuravlev, ZhuravlevError};
 
 pub(crate) use grid::{common_grid, printable};
 pub use name::{MethodName, MethodNameError, MethodSet};
 pub use quantity::{quantities, Quantity};
-pub(crate) use quantity::{quantities_of, reported};
+pub(crate) use quantity::{quantities_of, reported, through};
 pub use solution::{Density, QuantityMoments, Solution};
 pub(crate) use tail::tail_probability;
 
@@ -81,6 +82,12 @@ pub enum SolveError {
     /// The grid solver did not give a density (or does not apply to the model).
     #[error(transparent)]
     Grid(#[from] GridError),
+    /// The model has one reflecting barrier in its own coordinates, and its Zhuravlev
+    /// transform, which EPC solves, cannot be derived.
+    #[error(
+        "EPC solves a reflecting barrier through the Zhuravlev transform, which fails here: {0}"
+    )]
+    Zhuravlev(#[from] ZhuravlevError),
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -92,6 +99,12 @@ pub enum SolveError {
 }
 
 /// A bound model with its FPK operator and its quantities, ready to be solved by any method.
+///
+/// A model in its own coordinates with one reflecting barrier (`impact y = 0: ydot -> -r*ydot`,
+/// `domain y >= 0`) is solved by EPC through its Zhuravlev transform
+/// ([`crate::transform::zhuravlev_bound`], the paper's Eqs. 5–10), and its solution answers the
+/// original quantities by name (`y`, `ydot`, the original observables); the grid solver
+/// solves the model as it stands.
 ///
 /// ```
 /// use fpsolve::model::parse_model;
@@ -105,20 +118,51 @@ pub enum SolveError {
 /// ```
 pub struct Problem<'a> {
     model: &'a BoundModel,
+    /// The operator EPC solves: of the Zhuravlev transform when there is one.
     fpk: FpkOperator,
+    /// The quantities of EPC's solutions (maps of the transformed states when transformed).
     quantities: Arc<[Quantity]>,
+    /// The quantities of the model as it stands (what the grid solver's solutions know).
+    own_quantities: Arc<[Quantity]>,
+    /// The transform EPC solves, or why a reflecting barrier has none.
+    zhuravlev: Option<Result<Zhuravlev<BoundModel>, ZhuravlevError>>,
 }
 
 impl<'a> Problem<'a> {
-    /// Derives the FPK operator of `model` and lists its quantities.
+    /// Derives the FPK operator of `model` (of its Zhuravlev transform for a model with one
+    /// reflecting barrier in its own coordinates) and lists its quantities.
     ///
     /// # Errors
     /// [`SolveError::Fpk`] when the operator cannot be derived.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_impact_duffing.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let problem = fpsolve::solve::Problem::new(&bound)?;
+    /// // EPC solves the paper's Eq. 10 in z, v and answers for y and ydot.
+    /// assert_eq!(problem.fpk().states[0].as_ref(), "z");
+    /// assert!(problem.zhuravlev().is_some());
+    /// let names: Vec<&str> = problem.quantities().iter().map(|q| q.name.as_str()).collect();
+    /// assert_eq!(names, ["y", "ydot"]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new(model: &'a BoundModel) -> Result<Problem<'a>, SolveError> {
+        let own: Arc<[Quantity]> = quantities(model).into();
+        let reflecting = matches!(model.impacts(), [law] if law.side.is_some());
+        let zhuravlev = reflecting.then(|| zhuravlev_bound(model));
+        let (fpk, quantities) = match &zhuravlev {
+            Some(Ok(t)) => (
+                FpkOperator::derive(&t.model)?,
+                through(&t.model, model.observables().len()).into(),
+            ),
+            _ => (FpkOperator::derive(model)?, own.clone()),
+        };
         Ok(Problem {
             model,
-            fpk: FpkOperator::derive(model)?,
-            quantities: quantities(model).into(),
+            fpk,
+            quantities,
+            own_quantities: own,
+            zhuravlev,
         })
     }
 
@@ -127,12 +171,21 @@ impl<'a> Problem<'a> {
         self.model
     }
 
-    /// The derived FPK operator.
+    /// The FPK operator EPC solves: the model's, or its Zhuravlev transform's (see
+    /// [`Problem::zhuravlev`]).
     pub fn fpk(&self) -> &FpkOperator {
         &self.fpk
     }
 
-    /// The states, then the observables.
+    /// The Zhuravlev transform EPC solves instead of the model (one reflecting barrier in the
+    /// model's own coordinates), `None` when EPC solves the model as it stands.
+    pub fn zhuravlev(&self) -> Option<&Zhuravlev<BoundModel>> {
+        self.zhuravlev.as_ref().and_then(|t| t.as_ref().ok())
+    }
+
+    /// The states, then the observables, as EPC's solutions know them: by the model's names,
+    /// as maps of the states EPC solves for (z, v under the Zhuravlev transform). Each
+    /// [`Solution`] carries its own list; use that one with its density.
     pub fn quantities(&self) -> &[Quantity] {
         &self.quantities
     }
@@ -144,14 +197,19 @@ impl<'a> Problem<'a> {
     /// [`SolveError::Grid`] when the grid solver refuses the model or fails.
     pub fn solve(&self, method: Method) -> Result<Solution, SolveError> {
         match method {
-            Method::Epc { degree } => Ok(self.solution(self.epc().degree(degree).solve()?)),
+            Method::Epc { degree } => {
+                if let Some(Err(e)) = &self.zhuravlev {
+                    return Err(SolveError::Zhuravlev(e.clone()));
+                }
+                Ok(self.solution(self.epc().degree(degree).solve()?))
+            }
             Method::Grid { cells } => {
                 let grid = GridSolver::new(self.model)
                     .cells(cells[0], cells[1])
                     .solve()?;
                 Ok(Solution::new(
                     Density::Grid(Box::new(grid)),
-                    self.quantities.clone(),
+                    self.own_quantities.clone(),
                 ))
             }
         }
@@ -303,6 +361,75 @@ mod tests {
             );
         }
         assert_eq!(solution.all_moments(), study.degrees[0].stats);
+    }
+
+    /// Issue 11, item 4: the paper's Eqs. 1–2 as written are solved by EPC through their
+    /// Zhuravlev transform and answer y and ẏ exactly as the Zhuravlev-form model does.
+    #[test]
+    fn epc_of_eqs_1_2_is_epc_of_their_zhuravlev_form() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+        let original = load_model(&dir.join("vibro_impact_duffing.sde")).unwrap();
+        let paper = load_model(&dir.join("vibro_duffing.sde")).unwrap();
+        for set in [vec![], vec![("mu", 1.0), ("eps", -0.1)]] {
+            let o: Vec<crate::model::Override> = set
+                .iter()
+                .map(|(n, v)| crate::model::Override::number(n, *v))
+                .collect();
+            let (a, b) = (original.bind(&o).unwrap(), paper.bind(&o).unwrap());
+            let problem = Problem::new(&a).unwrap();
+            assert!(problem.zhuravlev().is_some());
+            let names: Vec<(&str, bool)> = problem
+                .quantities()
+                .iter()
+                .map(|q| (q.name.as_str(), q.is_state))
+                .collect();
+            assert_eq!(names, [("y", true), ("ydot", true)]);
+            let sa = problem.solve(Method::Epc { degree: 4 }).unwrap();
+            let sb = solve(&b, Method::Epc { degree: 4 }).unwrap();
+            let ys: Vec<f64> = (0..60).map(|i| 0.07 * i as f64).collect();
+            let vs: Vec<f64> = (0..60).map(|i| -6.0 + 0.2 * i as f64).collect();
+            for (name, xs) in [("y", &ys), ("ydot", &vs)] {
+                let (pa, pb) = (sa.pdf(name, xs).unwrap(), sb.pdf(name, xs).unwrap());
+                for (x, (p, q)) in xs.iter().zip(pa.iter().zip(&pb)) {
+                    assert!(
+                        (p - q).abs() <= 1e-10 * q.abs().max(1e-300),
+                        "{set:?} p_{name}({x}): {p:e} vs {q:e}"
+                    );
+                }
+                assert!(pa.iter().any(|p| *p > 0.1), "{name}");
+                let (ma, mb) = (sa.moments(name).unwrap(), sb.moments(name).unwrap());
+                assert!((ma.moments.mean - mb.moments.mean).abs() < 1e-10, "{name}");
+            }
+            // y lives above the barrier: no mass below it.
+            assert_eq!(sa.pdf("y", &[-0.5]).unwrap()[0], 0.0);
+            assert!(
+                sa.pdf("z", &[0.0]).is_err(),
+                "the solution answers the original names"
+            );
+        }
+    }
+
+    /// The grid solver solves the model as it stands, and answers the same names.
+    #[test]
+    fn the_grid_solves_eqs_1_2_as_written() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models/vibro_impact_duffing.sde");
+        let bound = load_model(&path).unwrap().bind(&[]).unwrap();
+        let problem = Problem::new(&bound).unwrap();
+        let grid = problem.solve(Method::Grid { cells: [40, 80] }).unwrap();
+        let names: Vec<&str> = grid.quantities().iter().map(|q| q.name.as_str()).collect();
+        assert_eq!(names, ["y", "ydot"]);
+        let Density::Grid(g) = grid.density() else {
+            panic!("a grid density")
+        };
+        assert!(g.report.domain.x[0] >= 0.0, "{:?}", g.report.domain);
+        let epc = problem.solve(Method::Epc { degree: 2 }).unwrap();
+        // Gaussian closure vs the grid: the same mean displacement to a few percent.
+        let (mg, me) = (
+            grid.moments("y").unwrap().moments.mean,
+            epc.moments("y").unwrap().moments.mean,
+        );
+        assert!((mg / me - 1.0).abs() < 0.1, "{mg} vs {me}");
     }
 
     #[test]

@@ -53,6 +53,24 @@ fn listed(states: &[Symbol; 2], observables: &[Observable]) -> Vec<Quantity> {
     out
 }
 
+/// The quantities of a model solved through its Zhuravlev transform `transformed`, by the
+/// original model's names: its states (the transform's first two observables, `y`, `ydot`),
+/// then its `observables` own observables, each a map of the transformed states.
+pub(crate) fn through(transformed: &BoundModel, observables: usize) -> Vec<Quantity> {
+    let states = transformed.states();
+    let listed = transformed.observables();
+    debug_assert_eq!(listed.len(), 2 + observables);
+    listed
+        .iter()
+        .enumerate()
+        .map(|(k, o)| Quantity {
+            name: o.name.to_string(),
+            map: ObservableMap::classify(&o.expr, states),
+            is_state: k < 2,
+        })
+        .collect()
+}
+
 /// What reports and figures show: the observables, or the states when the model declares none.
 pub(crate) fn reported(quantities: &[Quantity]) -> Vec<&Quantity> {
     let observables: Vec<&Quantity> = quantities.iter().filter(|q| !q.is_state).collect();
