@@ -1,19 +1,25 @@
-//! A study: one bound model, EPC at several degrees, and the PDFs of its states and
-//! observables on common grids — what `fpsolve solve` and the main job report. Built on the
-//! front door ([`crate::solve::Problem`]): each degree is a [`Solution`] or the reason there is
-//! none.
+//! A study: one bound model, the methods asked for (EPC at several degrees, the grid solver,
+//! …) and the PDFs of its states and observables on common grids — what `fpsolve solve` and
+//! the main job report. Built on the front door ([`crate::solve::Problem`]): each degree of a
+//! ladder method, and the grid, is a [`Solution`] or the reason there is none.
+
+mod curves;
+mod methods;
 
 use std::time::Instant;
 
 use serde::Serialize;
 
 use crate::epc::{EpcError, EpcSolution};
-use crate::mc::{Grid, ParamValue};
+use crate::grid::GridReport;
+use crate::mc::ParamValue;
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::observe::{JointDensity, ObservableDensity};
 use crate::solve::{
-    common_grid, printable, Problem, Quantity, QuantityMoments, Solution, SolveError,
+    Density, Method, MethodName, Problem, Quantity, QuantityMoments, Solution, SolveError,
 };
+
+pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
+pub use methods::{applies, MethodPlan, NotApplicable, PlanError, Refused, Skipped};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
 #[derive(Debug, thiserror::Error)]
@@ -27,11 +33,24 @@ pub enum StudyError {
     /// No degree was asked for.
     #[error("no EPC degree was asked for")]
     NoDegree,
+    /// No method was asked for.
+    #[error("no method was asked for")]
+    NoMethod,
+    /// A method asked for does not apply to the model.
+    #[error("{method}: {why}")]
+    NotApplicable {
+        /// The method.
+        method: MethodName,
+        /// Why.
+        why: NotApplicable,
+    },
 }
 
-/// The outcome at one degree.
+/// The outcome of a ladder method at one degree.
 #[derive(Debug)]
 pub struct DegreeResult {
+    /// The method (EPC, or EPC with the exact impact condition).
+    pub method: MethodName,
     /// The degree n.
     pub degree: usize,
     /// The solution, or why there is none.
@@ -47,35 +66,44 @@ impl DegreeResult {
     pub fn epc(&self) -> Option<&EpcSolution> {
         self.outcome.as_ref().ok().and_then(Solution::epc)
     }
+
+    /// Which column its curves fill.
+    pub fn source(&self) -> Source {
+        Source {
+            method: self.method,
+            degree: Some(self.degree),
+        }
+    }
 }
 
-/// One degree's PDF column on a curve's grid.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DegreeColumn {
-    /// The degree n.
-    pub degree: usize,
-    /// The PDF on the grid (NaN where it is infinite).
-    pub pdf: Vec<f64>,
-    /// The PDF averaged over each bin of [`PdfCurves::bins`] (4-point Gauss–Legendre per bin),
-    /// from the same prepared density as `pdf`; empty without bins.
-    pub bin_means: Vec<f64>,
+/// The outcome of the grid solver.
+#[derive(Debug)]
+pub struct GridRun {
+    /// Cells asked for (position, velocity).
+    pub cells: [usize; 2],
+    /// The solution, or why there is none.
+    pub outcome: Result<Solution, SolveError>,
+    /// Moments of each state, then each observable (empty when the solve failed).
+    pub stats: Vec<QuantityMoments>,
+    /// Time of the solve and of the moments, in milliseconds.
+    pub wall_ms: f64,
 }
 
-/// The histogram bins a study also averages each curve over (for comparing with Monte Carlo),
-/// chosen from the quantity and its curve's grid; `None` for no bins.
-pub type BinChoice<'a> = dyn Fn(&Quantity, &[f64]) -> Option<Grid> + Sync + 'a;
+impl GridRun {
+    /// The solver's report (cells, domain, clipped mass, error estimate, timings), if it
+    /// solved.
+    pub fn report(&self) -> Option<&GridReport> {
+        match self.outcome.as_ref().ok().map(Solution::density) {
+            Some(Density::Grid(g)) => Some(&g.report),
+            _ => None,
+        }
+    }
 
-/// The PDF of one quantity on a grid, one column per converged degree.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PdfCurves {
-    /// The quantity's name.
-    pub name: String,
-    /// The grid.
-    pub x: Vec<f64>,
-    /// One column per converged degree, in the order asked.
-    pub columns: Vec<DegreeColumn>,
-    /// The bins the columns' `bin_means` average over, if any were asked for.
-    pub bins: Option<Grid>,
+    /// The column its curves fill.
+    pub const SOURCE: Source = Source {
+        method: MethodName::Grid,
+        degree: None,
+    };
 }
 
 /// The PDF of a quantity at one degree, or why that degree has none.
@@ -92,8 +120,10 @@ pub struct DegreePdf<'a> {
 pub struct Study {
     /// The bound model.
     pub model: BoundModel,
-    /// One result per degree asked, in order.
+    /// One result per degree asked of each ladder method, in order (EPC first).
     pub degrees: Vec<DegreeResult>,
+    /// The grid solver's outcome, when it was asked for.
+    pub grid: Option<GridRun>,
     /// PDFs of the states, then of the observables.
     pub curves: Vec<PdfCurves>,
     /// The states, then the observables, with how each is computed.
@@ -129,48 +159,130 @@ pub struct Study {
 pub struct StudyRunner<'a> {
     model: &'a BoundModel,
     degrees: Vec<usize>,
+    methods: Vec<MethodName>,
+    cells: [usize; 2],
     bins: Option<&'a BinChoice<'a>>,
 }
 
 impl<'a> StudyRunner<'a> {
-    /// A study of `model` at degrees 2 and 4.
+    /// A study of `model` by EPC at degrees 2 and 4.
     pub fn new(model: &'a BoundModel) -> StudyRunner<'a> {
         StudyRunner {
             model,
             degrees: vec![2, 4],
+            methods: vec![MethodName::Epc],
+            cells: crate::grid::DEFAULT_CELLS,
             bins: None,
         }
     }
 
     /// Also averages every curve over histogram bins chosen by `choose` from the quantity and
-    /// its curve's grid ([`DegreeColumn::bin_means`]), with the density prepared once for both.
+    /// its curve's grid ([`MethodColumn::bin_means`]), with the density prepared once for both.
     pub fn bins(mut self, choose: &'a BinChoice<'a>) -> Self {
         self.bins = Some(choose);
         self
     }
 
-    /// The EPC degrees, solved in order with continuation.
+    /// The degrees of every ladder method, solved in order with continuation.
     pub fn degrees(mut self, degrees: &[usize]) -> Self {
         self.degrees = degrees.to_vec();
         self
     }
 
-    /// Derives the FPK operator and solves EPC at each degree (each degree continued from the
-    /// previous one), then computes the PDFs of the states and the observables on grids
-    /// reaching 1e−8 of their peaks.
+    /// The methods (default: EPC alone); ladder methods are solved at [`Self::degrees`].
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::study::{StudyRunner, GridRun};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let study = StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .methods(&[MethodName::Epc, MethodName::Grid])
+    ///     .cells([40, 60])
+    ///     .run()?;
+    /// let grid = study.grid.as_ref().unwrap();
+    /// assert_eq!(grid.report().unwrap().cells, [40, 60]);
+    /// let z = &study.curves[0];
+    /// assert!(z.column(GridRun::SOURCE).is_some() && z.columns.len() == 2);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn methods(mut self, methods: &[MethodName]) -> Self {
+        self.methods = methods.to_vec();
+        self
+    }
+
+    /// Cells of the grid solver (position, velocity); default [`crate::grid::DEFAULT_CELLS`].
+    pub fn cells(mut self, cells: [usize; 2]) -> Self {
+        self.cells = cells;
+        self
+    }
+
+    /// Derives the FPK operator and solves each ladder method at each degree (each degree
+    /// continued from the previous one) and the grid, the grid beside the ladders on another
+    /// thread; then computes the PDFs of the states and the observables on grids reaching
+    /// 1e−8 of their peaks.
     ///
     /// # Errors
-    /// [`StudyError::NoDegree`], or [`StudyError::Solve`] when the operator cannot be derived;
-    /// a degree that fails is kept in [`Study::degrees`].
+    /// [`StudyError::NoMethod`], [`StudyError::NoDegree`] (a ladder method without degrees),
+    /// [`StudyError::NotApplicable`] for a ladder method not available, or
+    /// [`StudyError::Solve`] when the operator cannot be derived; a degree (or a grid solve)
+    /// that fails is kept in the study.
     pub fn run(self) -> Result<Study, StudyError> {
-        if self.degrees.is_empty() {
+        if self.methods.is_empty() {
+            return Err(StudyError::NoMethod);
+        }
+        let mut ladders = Vec::new();
+        for &method in &self.methods {
+            if let Some(solver) = methods::ladder(method) {
+                let solver = solver.map_err(|why| StudyError::NotApplicable { method, why })?;
+                ladders.push((method, solver));
+            }
+        }
+        if !ladders.is_empty() && self.degrees.is_empty() {
             return Err(StudyError::NoDegree);
         }
         let start = Instant::now();
         let problem = Problem::new(self.model)?;
         let quantities = problem.quantities().to_vec();
-        let degrees: Vec<DegreeResult> = problem
-            .solve_epc_degrees(&self.degrees)
+        let with_grid = self.methods.contains(&MethodName::Grid);
+        let (degrees, grid) = rayon::join(
+            || {
+                ladders
+                    .iter()
+                    .flat_map(|&(method, solve)| self.ladder(&problem, method, solve))
+                    .collect::<Vec<DegreeResult>>()
+            },
+            || with_grid.then(|| self.grid(&problem)),
+        );
+        let mut solved: Vec<(Source, &Solution)> = degrees
+            .iter()
+            .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.source(), s)))
+            .collect();
+        if let Some(Ok(s)) = grid.as_ref().map(|g| &g.outcome) {
+            solved.push((GridRun::SOURCE, s));
+        }
+        let curves = quantities
+            .iter()
+            .map(|q| curves::curves(q, &solved, self.bins))
+            .collect();
+        Ok(Study {
+            model: self.model.clone(),
+            degrees,
+            grid,
+            curves,
+            quantities,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    fn ladder(
+        &self,
+        problem: &Problem,
+        method: MethodName,
+        solve: methods::LadderSolver,
+    ) -> Vec<DegreeResult> {
+        solve(problem, &self.degrees)
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {
@@ -186,28 +298,28 @@ impl<'a> StudyRunner<'a> {
                     .as_ref()
                     .map_or_else(|_| Vec::new(), Solution::all_moments);
                 DegreeResult {
+                    method,
                     degree,
                     outcome,
                     stats,
                     wall_ms,
                 }
             })
-            .collect();
-        let solved: Vec<(usize, &Solution)> = degrees
-            .iter()
-            .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.degree, s)))
-            .collect();
-        let curves = quantities
-            .iter()
-            .map(|q| curves(q, &solved, self.bins))
-            .collect();
-        Ok(Study {
-            model: self.model.clone(),
-            degrees,
-            curves,
-            quantities,
-            wall_ms: start.elapsed().as_secs_f64() * 1e3,
-        })
+            .collect()
+    }
+
+    fn grid(&self, problem: &Problem) -> GridRun {
+        let t = Instant::now();
+        let outcome = problem.solve(Method::Grid { cells: self.cells });
+        let stats = outcome
+            .as_ref()
+            .map_or_else(|_| Vec::new(), Solution::all_moments);
+        GridRun {
+            cells: self.cells,
+            outcome,
+            stats,
+            wall_ms: t.elapsed().as_secs_f64() * 1e3,
+        }
     }
 }
 
@@ -260,86 +372,31 @@ impl Study {
         Ok(out)
     }
 
+    /// The methods run, in the order [`MethodName::ALL`] lists them.
+    pub fn methods(&self) -> Vec<MethodName> {
+        MethodName::ALL
+            .into_iter()
+            .filter(|m| match m {
+                MethodName::Grid => self.grid.is_some(),
+                _ => self.degrees.iter().any(|d| d.method == *m),
+            })
+            .collect()
+    }
+
     /// Whether every degree converged.
     pub fn all_converged(&self) -> bool {
         self.degrees.iter().all(|d| d.outcome.is_ok())
     }
 }
 
-/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
-/// average of a density sampled by a histogram of ≥ 50 bins.
-const GL4: [(f64, f64); 4] = [
-    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-];
-
-/// The density averaged over each bin of `grid`.
-fn bin_means(density: &ObservableDensity, grid: &Grid) -> Vec<f64> {
-    let (lo, w) = (grid.lo, grid.width());
-    let nodes: Vec<f64> = (0..grid.bins)
-        .flat_map(|b| {
-            let c = lo + (b as f64 + 0.5) * w;
-            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
-        })
-        .collect();
-    density
-        .pdf(&nodes)
-        .chunks(GL4.len())
-        .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
-        .collect()
-}
-
-fn curves(q: &Quantity, solved: &[(usize, &Solution)], bins: Option<&BinChoice>) -> PdfCurves {
-    // Each degree's observable density is prepared once, scanned for its window, then
-    // evaluated on the common grid (the union of the windows).
-    let densities: Vec<(usize, &dyn JointDensity, ObservableDensity)> = solved
-        .iter()
-        .map(|&(degree, sol)| {
-            (
-                degree,
-                sol.joint(),
-                ObservableDensity::new(sol.joint(), &q.map),
-            )
-        })
-        .collect();
-    let windows: Vec<(&dyn JointDensity, &ObservableDensity)> =
-        densities.iter().map(|(_, j, d)| (*j, d)).collect();
-    let x = common_grid(q, &windows);
-    let bins = bins.and_then(|choose| choose(q, &x));
-    let columns = if x.is_empty() && bins.is_none() {
-        Vec::new()
-    } else {
-        densities
-            .iter()
-            .map(|(degree, _, density)| DegreeColumn {
-                degree: *degree,
-                pdf: if x.is_empty() {
-                    Vec::new()
-                } else {
-                    printable(density.pdf(&x))
-                },
-                bin_means: bins
-                    .as_ref()
-                    .map_or_else(Vec::new, |g| bin_means(density, g)),
-            })
-            .collect()
-    };
-    PdfCurves {
-        name: q.name.clone(),
-        x,
-        columns,
-        bins,
-    }
-}
-
 /// One degree in a study's summary.
 #[derive(Debug, Serialize)]
 pub struct DegreeSummary<'a> {
+    /// The method.
+    pub method: MethodName,
     /// The degree n.
     pub degree: usize,
-    /// Whether EPC converged at this degree.
+    /// Whether the method converged at this degree.
     pub converged: bool,
     /// Why not, if it did not.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -354,6 +411,26 @@ pub struct DegreeSummary<'a> {
     pub solution: Option<&'a EpcSolution>,
 }
 
+/// The grid solver in a study's summary.
+#[derive(Debug, Serialize)]
+pub struct GridSummary<'a> {
+    /// Cells asked for (position, velocity).
+    pub cells: [usize; 2],
+    /// Whether it solved.
+    pub solved: bool,
+    /// Why not, if it did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// How it solved: cells, domain, clipped negative mass, discretisation-error estimate,
+    /// timings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<&'a GridReport>,
+    /// Time of the solve and of the moments, in milliseconds.
+    pub wall_ms: f64,
+    /// Moments of each state and observable.
+    pub stats: &'a [QuantityMoments],
+}
+
 /// What `summary.json` holds.
 #[derive(Debug, Serialize)]
 pub struct StudySummary<'a> {
@@ -365,8 +442,13 @@ pub struct StudySummary<'a> {
     pub delta_treatment: crate::model::DeltaTreatment,
     /// Itô or Stratonovich.
     pub interpretation: crate::model::Interpretation,
-    /// One entry per degree asked.
+    /// The methods run, in the order [`MethodName::ALL`] lists them.
+    pub methods: Vec<MethodName>,
+    /// One entry per degree asked of each ladder method.
     pub degrees: Vec<DegreeSummary<'a>>,
+    /// The grid solver's outcome and report, when it was run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridSummary<'a>>,
     /// Whether every degree converged.
     pub all_converged: bool,
     /// Total wall time of the study in milliseconds.
@@ -389,10 +471,12 @@ impl Study {
                 .collect(),
             delta_treatment: self.model.delta_treatment(),
             interpretation: self.model.interpretation(),
+            methods: self.methods(),
             degrees: self
                 .degrees
                 .iter()
                 .map(|d| DegreeSummary {
+                    method: d.method,
                     degree: d.degree,
                     converged: d.outcome.is_ok(),
                     error: d.outcome.as_ref().err().map(|e| e.to_string()),
@@ -401,6 +485,14 @@ impl Study {
                     solution: d.epc(),
                 })
                 .collect(),
+            grid: self.grid.as_ref().map(|g| GridSummary {
+                cells: g.cells,
+                solved: g.outcome.is_ok(),
+                error: g.outcome.as_ref().err().map(|e| e.to_string()),
+                report: g.report(),
+                wall_ms: g.wall_ms,
+                stats: &g.stats,
+            }),
             all_converged: self.all_converged(),
             wall_ms: self.wall_ms,
         }
