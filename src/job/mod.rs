@@ -21,7 +21,7 @@ use crate::model::{Model, Override};
 use crate::report::{
     write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
 };
-use crate::solve::{reported, MethodName, MethodSet, Problem, Quantity};
+use crate::solve::{quantities, reported, MethodName, MethodSet, Problem, Quantity};
 use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
 
 pub use cells::{memory_limit_bytes, Cells, CellsError};
@@ -281,25 +281,29 @@ fn run(
             .then(|| Grid::new(x[0], x[x.len() - 1], spec.mc_bins).ok())
             .flatten()
     };
+    let all = quantities(&bound);
+    let names: Vec<String> = match spec.target {
+        Target::States => all
+            .iter()
+            .filter(|q| q.is_state)
+            .map(|q| q.name.clone())
+            .collect(),
+        Target::Observables => reported(&all).into_iter().map(|q| q.name.clone()).collect(),
+    };
+    // The curves of the quantities reported; with a Monte Carlo run, of every quantity: their
+    // ranges are the histograms' grids (no pilot run needed).
+    let curves_of = if spec.mc.is_some() {
+        all.iter().map(|q| q.name.clone()).collect()
+    } else {
+        names.clone()
+    };
     let study = StudyRunner::new(&bound)
+        .curves_of(&curves_of)
         .degrees(&spec.degrees)
         .methods(&plan.run)
         .cells(spec.cells)
         .bins(&choose)
         .run()?;
-    let names: Vec<String> = match spec.target {
-        Target::States => study
-            .quantities
-            .iter()
-            .filter(|q| q.is_state)
-            .map(|q| q.name.clone())
-            .collect(),
-        Target::Observables => reported(&study.quantities)
-            .into_iter()
-            .map(|q| q.name.clone())
-            .collect(),
-    };
-
     let mut mc = spec.mc_from.as_ref().map(|f| f.result.clone());
     let mut mc_error = None;
     let mut mc_wall_s = 0.0;

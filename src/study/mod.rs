@@ -124,7 +124,8 @@ pub struct Study {
     pub degrees: Vec<DegreeResult>,
     /// The grid solver's outcome, when it was asked for.
     pub grid: Option<GridRun>,
-    /// PDFs of the states, then of the observables.
+    /// PDFs of the states, then of the observables (those asked by
+    /// [`StudyRunner::curves_of`]).
     pub curves: Vec<PdfCurves>,
     /// The states, then the observables, with how each is computed.
     pub quantities: Vec<Quantity>,
@@ -162,6 +163,7 @@ pub struct StudyRunner<'a> {
     methods: Vec<MethodName>,
     cells: [usize; 2],
     bins: Option<&'a BinChoice<'a>>,
+    curves_of: Option<Vec<String>>,
 }
 
 impl<'a> StudyRunner<'a> {
@@ -173,7 +175,27 @@ impl<'a> StudyRunner<'a> {
             methods: vec![MethodName::Epc],
             cells: crate::grid::DEFAULT_CELLS,
             bins: None,
+            curves_of: None,
         }
+    }
+
+    /// Computes the PDF curves of these quantities only (default: every state and
+    /// observable); the moments are computed for all of them either way.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let study = fpsolve::study::StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .curves_of(&["y".to_string()])
+    ///     .run()?;
+    /// assert_eq!(study.curves.len(), 1);
+    /// assert_eq!(study.degrees[0].stats.len(), 4);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn curves_of(mut self, names: &[String]) -> Self {
+        self.curves_of = Some(names.to_vec());
+        self
     }
 
     /// Also averages every curve over histogram bins chosen by `choose` from the quantity and
@@ -262,8 +284,10 @@ impl<'a> StudyRunner<'a> {
         if let Some(Ok(s)) = grid.as_ref().map(|g| &g.outcome) {
             solved.push((GridRun::SOURCE, s));
         }
+        let wanted = |q: &&Quantity| self.curves_of.as_ref().is_none_or(|n| n.contains(&q.name));
         let curves = quantities
             .iter()
+            .filter(wanted)
             .map(|q| curves::curves(q, &solved, self.bins))
             .collect();
         Ok(Study {
