@@ -49,6 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }),
             mc_bins: 120,
             figures: true,
+            ..JobSpec::default()
         };
         let out = OutputDir::create(format!("out/paper_cases/case{}", k + 1))?;
         let report = Job::new(&model, &spec).run(&out)?;
@@ -69,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 report
                     .comparisons
                     .iter()
-                    .find(|c| c.quantity == q && c.degree == d.degree)
+                    .find(|c| c.quantity == q && c.source.degree == Some(d.degree))
             };
             let (cy, cyd) = (c("y"), c("ydot"));
             writeln!(

@@ -1,30 +1,36 @@
 //! The `fpsolve` command line: argument parsing and calls into the library, nothing more.
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use fpsolve::epc::{DegreeList, EpcError};
+use fpsolve::epc::DegreeList;
 use fpsolve::fpk::FpkOperator;
-use fpsolve::job::{self, JobSpec, Progress, Target};
+use fpsolve::job::{self, Cells, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
-use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
+use fpsolve::solve::MethodSet;
 use fpsolve::sweep::{Sweep, SweepSpec};
 
+#[path = "cli/job_plan.rs"]
+mod job_plan;
 #[path = "cli/mc_flags.rs"]
 mod mc_flags;
+#[path = "cli/progress.rs"]
+mod progress;
+use job_plan::plan_job;
 #[cfg(test)]
 use mc_flags::parse_count;
 use mc_flags::McFlags;
+use progress::Bar;
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
 ///
-/// `fpsolve MODEL` runs the main job: EPC at degrees 2 and 4, the PDFs of every observable,
-/// a table, CSV files, summary.json and figures in out/<model>/.
+/// `fpsolve MODEL` runs the main job: EPC at degrees 2 and 4 and the grid solver, the PDFs of
+/// every observable, a table, CSV files, summary.json and figures in out/<model>/.
 #[derive(Parser, Debug)]
 #[command(
     name = "fpsolve",
@@ -50,6 +56,11 @@ struct RunArgs {
     /// 1e-4 of its peak for the bundled model).
     #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "6e8")]
     mc: Option<String>,
+    /// Compare with a finished Monte Carlo run instead of running one: the output directory
+    /// of `fpsolve simulate` or `fpsolve merge` (same model and parameters; its histogram
+    /// grids are the comparison bins).
+    #[arg(long = "mc-from", value_name = "DIR", conflicts_with = "mc")]
+    mc_from: Option<PathBuf>,
     #[command(flatten)]
     mc_args: McArgs,
 }
@@ -61,6 +72,15 @@ struct SolveArgs {
     /// others asked.
     #[arg(long, value_name = "N,N,...", default_value = "2,4")]
     degree: DegreeList,
+    /// Methods, comma-separated: `epc` (the paper's closure, δ-term impacts), `epc-impact`
+    /// (EPC with the exact impact condition), `grid` (finite volumes, impacts exact). Default
+    /// for the main job: epc,grid, the grid only where it applies; for `solve`: epc. A method
+    /// named here that does not apply to the model is refused.
+    #[arg(long, value_name = "NAME,...")]
+    method: Option<MethodSet>,
+    /// Cells of the grid solver, position and velocity: even, at least 8 each.
+    #[arg(long, value_name = "NX,NV")]
+    cells: Option<Cells>,
     #[command(flatten)]
     set: SetArgs,
     /// Output directory (default: out/<model name>).
@@ -361,7 +381,9 @@ fn plan(cli: Cli) -> Result<Planned> {
                 bound,
             }
         }
-        Some(Command::Solve { model, solve }) => plan_job(model, &solve, None, Target::States)?,
+        Some(Command::Solve { model, solve }) => {
+            plan_job(model, &solve, None, None, Target::States)?
+        }
         Some(Command::Simulate {
             model,
             samples,
@@ -452,44 +474,19 @@ fn plan(cli: Cli) -> Result<Planned> {
                 }
                 None => None,
             };
-            plan_job(model, &cli.run.solve, mc, Target::Observables)?
+            plan_job(
+                model,
+                &cli.run.solve,
+                mc,
+                cli.run.mc_from.as_deref(),
+                Target::Observables,
+            )?
         }
     };
     Ok(Planned {
         plan,
         notes,
         threads,
-    })
-}
-
-fn plan_job(path: PathBuf, args: &SolveArgs, mc: Option<McConfig>, target: Target) -> Result<Plan> {
-    let (model, overrides, bound) = load(&path, &args.set.set)?;
-    // A model without a stationary density, or with an impact law EPC does not represent, is
-    // refused here, before any work.
-    let problem = fpsolve::solve::Problem::new(&bound).map_err(at_error(&path))?;
-    if let Some(ImpactForm::Unsupported { law, reason }) = &problem.fpk().impact {
-        let e = EpcError::UnsupportedImpact {
-            law: law.clone(),
-            reason: reason.clone(),
-        };
-        bail!("{}: {e}", path.display());
-    }
-    if let Some(config) = &mc {
-        config.preflight(&bound).map_err(lib)?;
-    }
-    Ok(Plan::Job {
-        out: default_out(args.out.clone(), &model),
-        spec: JobSpec {
-            degrees: args.degree.as_slice().to_vec(),
-            overrides,
-            target,
-            mc,
-            mc_bins: 100,
-            figures: target == Target::Observables,
-        },
-        path,
-        model,
-        quiet: args.quiet.quiet,
     })
 }
 
@@ -593,48 +590,6 @@ fn commit_output(run: RunDir, files: usize) -> Result<()> {
     let dest = run.commit().map_err(lib)?;
     println!("wrote {files} files to {}", dest.display());
     Ok(())
-}
-
-/// Progress on stderr: a spinner per stage and a bar with ETA for Monte Carlo; silent when
-/// stderr is not a terminal or with `--quiet`.
-struct Bar(Option<indicatif::ProgressBar>);
-
-impl Bar {
-    fn new(quiet: bool) -> Bar {
-        if quiet || !std::io::stderr().is_terminal() {
-            return Bar(None);
-        }
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.enable_steady_tick(std::time::Duration::from_millis(120));
-        Bar(Some(bar))
-    }
-    fn finish(&self) {
-        if let Some(b) = &self.0 {
-            b.finish_and_clear();
-        }
-    }
-}
-
-impl Progress for Bar {
-    fn stage(&self, message: &str) {
-        if let Some(b) = &self.0 {
-            b.set_style(indicatif::ProgressStyle::default_spinner());
-            b.set_message(message.to_string());
-        }
-    }
-    fn advance(&self, done: u64, total: u64) {
-        if let Some(b) = &self.0 {
-            if b.length() != Some(total) {
-                b.set_length(total);
-                if let Ok(style) = indicatif::ProgressStyle::with_template(
-                    "{msg} [{bar:40}] {pos}/{len} parts, {elapsed} elapsed, ETA {eta}",
-                ) {
-                    b.set_style(style.progress_chars("=> "));
-                }
-            }
-            b.set_position(done);
-        }
-    }
 }
 
 fn main_job(

@@ -248,3 +248,90 @@ fn output_directories() {
     );
     let _ = std::fs::remove_dir_all(&root);
 }
+
+#[test]
+fn methods_cells_and_monte_carlo_references() {
+    let models = scratch("methods-models");
+    let plain = models.join("plain.sde");
+    // Not in mechanical form (x' is not the second state): EPC applies, the grid does not.
+    std::fs::write(
+        &plain,
+        "model plain\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
+         diffusion y: xi\n",
+    )
+    .unwrap();
+    let plain = plain.to_str().unwrap();
+    refused(
+        "method-unknown",
+        &[MODEL, "--method", "mc"],
+        &["`mc` is not a method"],
+    );
+    refused(
+        "method-twice",
+        &[MODEL, "--method", "grid,grid"],
+        &["given twice"],
+    );
+    refused(
+        "method-impact",
+        &[MODEL, "--method", "epc,epc-impact"],
+        &["--method epc-impact", "not available"],
+    );
+    refused(
+        "method-grid",
+        &[plain, "--method", "grid"],
+        &[
+            "--method grid",
+            "cannot solve model `plain`",
+            "mechanical form",
+        ],
+    );
+    refused(
+        "method-grid-solve",
+        &["solve", plain, "--method", "epc,grid"],
+        &["--method grid", "mechanical form"],
+    );
+    refused(
+        "cells-odd",
+        &[MODEL, "--cells", "141,280"],
+        &["--cells", "even"],
+    );
+    refused(
+        "cells-few",
+        &[MODEL, "--cells", "6,280"],
+        &["--cells", "at least 8"],
+    );
+    refused(
+        "cells-syntax",
+        &[MODEL, "--cells", "140x280"],
+        &["--cells", "NX,NV"],
+    );
+    refused(
+        "cells-memory",
+        &[MODEL, "--cells", "100000,100000"],
+        &["--cells", "GiB"],
+    );
+    refused(
+        "cells-no-grid",
+        &[MODEL, "--method", "epc", "--cells", "40,40"],
+        &["--cells", "not among the methods"],
+    );
+    refused(
+        "mc-from-missing",
+        &[MODEL, "--mc-from", "/nonexistent/fpsolve/mc"],
+        &["--mc-from", "/nonexistent/fpsolve/mc/mc_summary.json"],
+    );
+    refused(
+        "mc-from-and-mc",
+        &[MODEL, "--mc", "1e5", "--mc-from", "/nonexistent"],
+        &["--mc-from", "cannot be used with"],
+    );
+    let garbage = scratch("mc-from-garbage-src");
+    std::fs::write(garbage.join("mc_summary.json"), b"{\"settings\": 1}").unwrap();
+    refused(
+        "mc-from-garbage",
+        &[MODEL, "--mc-from", garbage.to_str().unwrap()],
+        &["--mc-from", "mc_summary.json", "not a Monte Carlo summary"],
+    );
+    let _ = std::fs::remove_dir_all(garbage);
+    let _ = std::fs::remove_dir_all(models);
+}

@@ -222,7 +222,7 @@ fn epc_and_monte_carlo_are_compared_on_bin_averages_and_the_epc_curves_are_not_c
     assert!(table.contains("fpk resid"), "{table}");
     // The EPC curve reaches 1e-8 of its peak, far beyond the histogram's [0, 2].
     let (head, epc) = csv(&out.join("pdf_y.csv"));
-    assert_eq!(head, ["y", "epc_n2", "epc_n4"]);
+    assert_eq!(head, ["y", "epc_n2", "epc_n4", "grid"]);
     assert!(epc.last().unwrap()[0] > 5.0);
     // Each bin's EPC value is the density's average over the bin: recompute it from the fine
     // EPC curve (trapezoid on its 401 points, linear interpolation at the bin edges).

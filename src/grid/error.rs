@@ -5,7 +5,9 @@ use crate::physics::Inadmissible;
 use crate::symbolic::SymbolicError;
 
 /// What the grid solver does not handle: a refusal before any work, never a wrong number.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+/// As JSON, a `kind` tag (`not_mechanical`, …) beside the variant's fields.
+#[derive(Clone, Debug, PartialEq, thiserror::Error, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Unsupported {
     /// The rate of the first state is not the second state (`drift x: v`): the solver needs
     /// the mechanical form x' = v.

@@ -174,6 +174,19 @@ impl<'a> GridSolver<'a> {
         self
     }
 
+    /// Whether the solver applies to the model, without solving (milliseconds: it reads the
+    /// mechanical form and the barrier, as [`GridSolver::solve`] does first).
+    ///
+    /// ```
+    /// use fpsolve::grid::{GridError, GridSolver};
+    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
+    /// assert!(matches!(GridSolver::new(&bound).check(), Err(GridError::Unsupported { .. })));
+    /// ```
+    pub fn check(&self) -> Result<(), GridError> {
+        Mechanical::new(self.model, self.side).map(|_| ())
+    }
+
     /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
     /// models without a stationary density ([`GridError::Inadmissible`]).
     ///

@@ -353,7 +353,10 @@ fn solve_point(model: &Model, spec: &SweepSpec, values: Vec<f64>, degrees: &[usi
                         error,
                     },
                     // A study of a bound model with degrees fails only in deriving.
-                    e @ (StudyError::NoDegree | StudyError::Solve(_)) => {
+                    e @ (StudyError::NoDegree
+                    | StudyError::NoMethod
+                    | StudyError::NotApplicable { .. }
+                    | StudyError::Solve(_)) => {
                         unreachable!("a sweep point's study failed before EPC: {e}")
                     }
                 })
@@ -408,7 +411,11 @@ fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
     for q in &study.quantities {
         let st = last.stats.iter().find(|s| s.name == q.name);
         let curve = study.curves.iter().find(|c| c.name == q.name);
-        let column = curve.and_then(|c| c.columns.iter().find(|c| c.degree == last.degree));
+        let column = curve.and_then(|c| {
+            c.columns
+                .iter()
+                .find(|c| c.source.degree == Some(last.degree))
+        });
         let (Some(st), Some(curve), Some(column)) = (st, curve, column) else {
             return Err(PointFailure::NoCurve {
                 quantity: q.name.clone(),

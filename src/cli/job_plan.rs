@@ -1,0 +1,82 @@
+//! The main job's and `solve`'s plan: the model, the methods that run (each checked against
+//! the model), the grid's cells, the Monte Carlo reference (run or read), all before any work.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Result};
+use fpsolve::grid::DEFAULT_CELLS;
+use fpsolve::job::{memory_limit_bytes, Cells, JobSpec, McFrom, Target};
+use fpsolve::mc::McConfig;
+use fpsolve::solve::{MethodName, MethodSet, Problem};
+use fpsolve::study::MethodPlan;
+
+use super::{at_error, default_out, flag, lib, load, Plan, SolveArgs};
+
+/// The methods when `--method` is not given: EPC and the grid for the main job (the grid
+/// only where it applies), EPC for `solve`.
+fn default_methods(target: Target) -> MethodSet {
+    let names = match target {
+        Target::Observables => vec![MethodName::Epc, MethodName::Grid],
+        Target::States => vec![MethodName::Epc],
+    };
+    MethodSet::new(names).expect("distinct methods")
+}
+
+pub(crate) fn plan_job(
+    path: PathBuf,
+    args: &SolveArgs,
+    mc: Option<McConfig>,
+    mc_from: Option<&Path>,
+    target: Target,
+) -> Result<Plan> {
+    let (model, overrides, bound) = load(&path, &args.set.set)?;
+    // A model without a stationary density, or with methods that do not apply to it, is
+    // refused here, before any work.
+    let problem = Problem::new(&bound).map_err(at_error(&path))?;
+    let (methods, named) = match &args.method {
+        Some(m) => (m.clone(), true),
+        None => (default_methods(target), false),
+    };
+    let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
+        anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())
+    })?;
+    let cells = match args.cells {
+        Some(c) if !methods.contains(MethodName::Grid) => {
+            bail!("--cells {c}: the grid solver is not among the methods ({methods})")
+        }
+        Some(c) => c,
+        None => Cells(DEFAULT_CELLS),
+    };
+    if plan.run.contains(&MethodName::Grid) {
+        cells
+            .within(memory_limit_bytes())
+            .map_err(flag("--cells"))?;
+    }
+    if let Some(config) = &mc {
+        config.preflight(&bound).map_err(lib)?;
+    }
+    let mc_from = match mc_from {
+        Some(dir) => Some(Box::new(
+            McFrom::read(dir, &bound).map_err(flag("--mc-from"))?,
+        )),
+        None => None,
+    };
+    Ok(Plan::Job {
+        out: default_out(args.out.clone(), &model),
+        spec: JobSpec {
+            degrees: args.degree.as_slice().to_vec(),
+            overrides,
+            target,
+            methods,
+            methods_named: named,
+            cells: cells.0,
+            mc,
+            mc_from,
+            mc_bins: 100,
+            figures: target == Target::Observables,
+        },
+        path,
+        model,
+        quiet: args.quiet.quiet,
+    })
+}

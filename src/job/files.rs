@@ -1,0 +1,168 @@
+//! A job's per-quantity files: `pdf_<name>.csv` (one column per method and degree),
+//! `mc_<name>.csv` (the histogram beside every method's bin averages), the figures, and the
+//! distances between methods and to Monte Carlo computed on the same bins.
+
+use std::path::PathBuf;
+
+use super::compare::{against_grid, compare, Comparison, Reference};
+use super::{mc_columns, Unwritten};
+use crate::mc::McResult;
+use crate::report::{Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
+use crate::solve::MethodName;
+use crate::study::{Source, Study};
+
+/// What writing the per-quantity files gave.
+pub(super) struct Written {
+    pub(super) files: Vec<PathBuf>,
+    pub(super) unwritten: Vec<Unwritten>,
+    pub(super) comparisons: Vec<Comparison>,
+}
+
+/// Records a written file, or which file could not be written and why.
+fn keep(
+    file: String,
+    written: Result<Vec<PathBuf>, ReportError>,
+    files: &mut Vec<PathBuf>,
+    unwritten: &mut Vec<Unwritten>,
+) {
+    match written {
+        Ok(p) => files.extend(p),
+        Err(e) => unwritten.push(Unwritten {
+            file,
+            error: e.to_string(),
+        }),
+    }
+}
+
+/// Writes the files of the quantities `names` and computes the comparisons: every method
+/// against Monte Carlo (when there is a result), every other method against the grid.
+pub(super) fn write(
+    study: &Study,
+    names: &[String],
+    mc: Option<&McResult>,
+    figures: bool,
+    out: &OutputDir,
+) -> Written {
+    let mut files = Vec::new();
+    // A file that cannot be written does not cost the others: it is recorded in the summary.
+    let mut unwritten: Vec<Unwritten> = Vec::new();
+    let mut to_mc = Vec::new();
+    let mut to_grid = Vec::new();
+    for name in names {
+        let curve = study
+            .curves
+            .iter()
+            .find(|c| &c.name == name)
+            .expect("a curve per quantity");
+        let mc_q = mc.and_then(|m| m.quantity(name));
+        // Every method on its common grid, whatever the histogram's range.
+        if !curve.x.is_empty() {
+            let table = PdfTable {
+                variable: name.clone(),
+                x: curve.x.clone(),
+                columns: curve
+                    .columns
+                    .iter()
+                    .map(|c| (c.source.label(), c.pdf.clone()))
+                    .collect(),
+            };
+            let file = format!("pdf_{name}.csv");
+            let written = table.write_csv(out, &file).map(|p| vec![p]);
+            keep(file, written, &mut files, &mut unwritten);
+        }
+        to_grid.extend(against_grid(curve));
+        // The histogram beside each method's bin averages, on the histogram's bins.
+        if let Some(q) = mc_q {
+            // A failed degree has no column here; it is flagged with the study's other
+            // failures. The bins are the histogram's own (set from the curve above).
+            let mut columns = mc_columns(q);
+            for c in curve
+                .columns
+                .iter()
+                .filter(|c| c.bin_means.len() == q.grid.bins)
+            {
+                to_mc.push(compare(
+                    name,
+                    c.source,
+                    Reference::Mc,
+                    &c.bin_means,
+                    &q.density,
+                    &q.grid,
+                ));
+                columns.push((
+                    format!("{}_bin_mean", c.source.label()),
+                    c.bin_means.clone(),
+                ));
+            }
+            let table = PdfTable {
+                variable: name.clone(),
+                x: q.grid.centers(),
+                columns,
+            };
+            let file = format!("mc_{name}.csv");
+            let written = table.write_csv(out, &file).map(|p| vec![p]);
+            keep(file, written, &mut files, &mut unwritten);
+        }
+        if figures && !curve.x.is_empty() {
+            let figure = PdfFigure {
+                title: format!("{}: PDF of {name}", study.model.name()),
+                variable_label: name.clone(),
+                curves: curve
+                    .columns
+                    .iter()
+                    .map(|c| Curve {
+                        label: legend(study, c.source),
+                        x: curve.x.clone(),
+                        y: c.pdf.clone(),
+                    })
+                    .collect(),
+                points: mc_q.map(|q| Points {
+                    label: "Monte Carlo".into(),
+                    x: q.grid.centers(),
+                    y: q.density.clone(),
+                    stderr: q.stderr.clone(),
+                }),
+            };
+            let written = figure
+                .write(out, &format!("pdf_{name}"))
+                .map(|w| vec![w.png, w.svg]);
+            keep(
+                format!("pdf_{name}.png/.svg"),
+                written,
+                &mut files,
+                &mut unwritten,
+            );
+        }
+    }
+    // Monte Carlo first (as before the grid), then the grid as the reference.
+    to_mc.extend(to_grid);
+    Written {
+        files,
+        unwritten,
+        comparisons: to_mc,
+    }
+}
+
+/// The legend text of a curve: an EPC degree says when its density is normalised inside a
+/// ridge; the grid says its cells.
+fn legend(study: &Study, source: Source) -> String {
+    if source.method == MethodName::Grid {
+        return match study.grid.as_ref().and_then(|g| g.report()) {
+            Some(r) => format!("grid {}×{}", r.cells[0], r.cells[1]),
+            None => "grid".into(),
+        };
+    }
+    let ridge = study
+        .degrees
+        .iter()
+        .find(|d| d.source() == source)
+        .and_then(|d| d.epc())
+        .and_then(|s| match &s.normalisation.kind {
+            crate::epc::NormalisationKind::InsideRidge { depth, .. } => Some(*depth),
+            crate::epc::NormalisationKind::Plane { .. } => None,
+        });
+    match ridge {
+        Some(depth) => format!("{source} (inside ridge, {depth:.1} e-folds)"),
+        None => source.to_string(),
+    }
+}

@@ -1,0 +1,489 @@
+//! The jobs the command line runs, as library functions: a study (EPC at several degrees,
+//! the grid solver, …; PDFs of states or observables), optionally a Monte Carlo reference on
+//! the same grids (run, or read from a finished run's directory), the distances of every
+//! method to Monte Carlo and to the grid, and the files: `pdf_<name>.csv`, `mc_<name>.csv`,
+//! `summary.json`, figures. A finished job's [`JobReport`] prints as the table the command
+//! line shows.
+
+mod cells;
+mod compare;
+mod files;
+mod mc_from;
+mod table;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
+use crate::model::{Model, Override};
+use crate::report::{
+    write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
+};
+use crate::solve::{quantities, reported, MethodName, MethodSet, Problem, Quantity};
+use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
+
+pub use cells::{memory_limit_bytes, Cells, CellsError};
+pub use compare::{Comparison, LogRatio, Reference};
+pub use mc_from::{McFrom, McFromError};
+
+/// What a job reports PDFs of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// The model's observables (the states when it declares none): the main job.
+    Observables,
+    /// The states' marginals: `fpsolve solve`.
+    States,
+}
+
+/// What to run. [`JobSpec::default`] is EPC at degrees 2 and 4 on the observables, without
+/// Monte Carlo or figures.
+#[derive(Clone, Debug)]
+pub struct JobSpec {
+    /// Degrees of every ladder method (EPC, EPC-impact), solved in order with continuation.
+    pub degrees: Vec<usize>,
+    /// Parameter overrides.
+    pub overrides: Vec<Override>,
+    /// States or observables.
+    pub target: Target,
+    /// The methods.
+    pub methods: MethodSet,
+    /// Whether the user named the methods: then each must apply to the model (else the job
+    /// is refused); otherwise one that does not apply is skipped, with its reason reported.
+    pub methods_named: bool,
+    /// Cells of the grid solver (position, velocity).
+    pub cells: [usize; 2],
+    /// Monte Carlo settings, if a Monte Carlo reference is to be run. Its grids are set by
+    /// the job to the curves' grids.
+    pub mc: Option<McConfig>,
+    /// A finished Monte Carlo run to compare with instead of running one: its histogram
+    /// grids are the comparison bins.
+    pub mc_from: Option<Box<McFrom>>,
+    /// Bins of each Monte Carlo histogram, and of the comparisons between methods.
+    pub mc_bins: usize,
+    /// Whether to render figures.
+    pub figures: bool,
+}
+
+impl Default for JobSpec {
+    fn default() -> JobSpec {
+        JobSpec {
+            degrees: vec![2, 4],
+            overrides: Vec::new(),
+            target: Target::Observables,
+            methods: MethodSet::new(vec![MethodName::Epc]).expect("one method"),
+            methods_named: false,
+            cells: crate::grid::DEFAULT_CELLS,
+            mc: None,
+            mc_from: None,
+            mc_bins: 100,
+            figures: false,
+        }
+    }
+}
+
+/// Hears about a job's progress (a progress bar in the command line; nothing in tests).
+pub trait Progress: Sync {
+    /// A new stage begins.
+    fn stage(&self, _message: &str) {}
+    /// Monte Carlo progress: `done` of `total` parts finished.
+    fn advance(&self, _done: u64, _total: u64) {}
+}
+
+/// Progress that goes nowhere.
+pub struct Quiet;
+impl Progress for Quiet {}
+
+/// Why a job failed as a whole.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The study could not run.
+    #[error(transparent)]
+    Study(#[from] StudyError),
+    /// The methods asked for cannot run on the model.
+    #[error(transparent)]
+    Methods(#[from] PlanError),
+    /// The Monte Carlo run failed.
+    #[error("Monte Carlo: {0}")]
+    Mc(#[from] McError),
+    /// The Monte Carlo run to compare with is not of this model, or not readable.
+    #[error("--mc-from: {0}")]
+    McFrom(#[from] McFromError),
+    /// Both a Monte Carlo run and a finished one to read were asked for.
+    #[error("a Monte Carlo run and --mc-from were both asked for; give one")]
+    TwoMonteCarlo,
+    /// A file could not be written.
+    #[error(transparent)]
+    Report(#[from] ReportError),
+}
+
+/// What `summary.json` holds.
+#[derive(Serialize)]
+struct Summary<'a> {
+    #[serde(flatten)]
+    study: StudySummary<'a>,
+    #[serde(skip_serializing_if = "<[Skipped]>::is_empty")]
+    skipped_methods: &'a [Skipped],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo: Option<&'a McResult>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo_from: Option<&'a std::path::Path>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo_error: Option<&'a str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    monte_carlo_wall_s: Option<f64>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    epc_vs_mc: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    epc_impact_vs_mc: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    grid_vs_mc: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    epc_vs_grid: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    epc_impact_vs_grid: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
+    unwritten: &'a [Unwritten],
+}
+
+/// A result file that could not be written, and why (the run's other files are kept).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unwritten {
+    /// The file's name.
+    pub file: String,
+    /// Why it could not be written.
+    pub error: String,
+}
+
+/// A finished job.
+#[derive(Debug)]
+pub struct JobReport {
+    /// The study.
+    pub study: Study,
+    /// Methods of the set asked for that were not run because they do not apply to the
+    /// model (only when the user did not name the methods).
+    pub skipped: Vec<Skipped>,
+    /// The Monte Carlo result, if one was run or read.
+    pub mc: Option<McResult>,
+    /// The directory it was read from, with `--mc-from`.
+    pub mc_from: Option<PathBuf>,
+    /// Why the Monte Carlo run asked for gave no result (the other results are still
+    /// written).
+    pub mc_error: Option<String>,
+    /// Its wall time in seconds (0 for a run read from a directory).
+    pub mc_wall_s: f64,
+    /// Distances of every method (every degree) to Monte Carlo and to the grid, per
+    /// quantity reported.
+    pub comparisons: Vec<Comparison>,
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// Numbers of `summary.json` that have no finite value (written there as `null` and listed
+    /// under `undefined`).
+    pub undefined: Vec<UndefinedField>,
+    /// Result files that could not be written (listed in `summary.json` under `unwritten`).
+    pub unwritten: Vec<Unwritten>,
+}
+
+/// A job to run: a model and a [`JobSpec`] (the builder; [`Job::run`] writes the files and
+/// gives the [`JobReport`]), the shape of every runner of the crate.
+///
+/// ```
+/// use fpsolve::job::{Job, JobSpec, Reference};
+/// use fpsolve::report::OutputDir;
+/// let model = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\nobserve y = abs(z)\n", None)?;
+/// let spec = JobSpec {
+///     degrees: vec![2],
+///     methods: "epc,grid".parse()?,
+///     cells: [40, 60],
+///     ..JobSpec::default()
+/// };
+/// # let tmp = std::env::temp_dir().join(format!("fpsolve-doc-job-{}", std::process::id()));
+/// let report = Job::new(&model, &spec).run(&OutputDir::create(&tmp)?)?;
+/// assert!(report.study.all_converged() && tmp.join("pdf_y.csv").is_file());
+/// // EPC n = 2 is exact here: it agrees with the grid to the grid's accuracy.
+/// let c = &report.comparisons[0];
+/// assert!(c.reference == Reference::Grid && c.l1 < 2e-2);
+/// assert!(report.to_string().contains("degree")); // the table the command line prints
+/// # std::fs::remove_dir_all(&tmp)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Job<'a> {
+    model: &'a Model,
+    spec: &'a JobSpec,
+    progress: &'a dyn Progress,
+}
+
+impl<'a> Job<'a> {
+    /// A job of `model` as `spec` says, reporting progress nowhere.
+    pub fn new(model: &'a Model, spec: &'a JobSpec) -> Job<'a> {
+        Job {
+            model,
+            spec,
+            progress: &Quiet,
+        }
+    }
+
+    /// Where progress goes (a progress bar in the command line).
+    pub fn progress(mut self, progress: &'a dyn Progress) -> Self {
+        self.progress = progress;
+        self
+    }
+
+    /// Runs the job and writes its files into `out`.
+    ///
+    /// # Errors
+    /// A [`JobError`] when the study cannot run, a method named does not apply, the Monte
+    /// Carlo reference to read is not of this model, or `summary.json` cannot be written; a
+    /// degree, a grid solve, a Monte Carlo run or another file that fails is recorded in the
+    /// report.
+    pub fn run(&self, out: &OutputDir) -> Result<JobReport, JobError> {
+        run(self.model, self.spec, out, self.progress)
+    }
+}
+
+fn run(
+    model: &Model,
+    spec: &JobSpec,
+    out: &OutputDir,
+    progress: &dyn Progress,
+) -> Result<JobReport, JobError> {
+    progress.stage("solving");
+    let bound = model.bind(&spec.overrides).map_err(StudyError::from)?;
+    if spec.mc.is_some() && spec.mc_from.is_some() {
+        return Err(JobError::TwoMonteCarlo);
+    }
+    if let Some(from) = &spec.mc_from {
+        from.check(&bound)?;
+    }
+    let plan = MethodPlan::new(
+        &Problem::new(&bound).map_err(StudyError::from)?,
+        &spec.methods,
+        spec.methods_named,
+    )?;
+    // Each curve is also averaged over the bins the comparisons use, from the same prepared
+    // density: the Monte Carlo histogram's (the user's `--grid`, the run read, or the
+    // curve's range in `mc_bins` bins); without Monte Carlo, the curve's range when there is
+    // a grid solution to compare the other methods with.
+    let compared = plan.run.contains(&MethodName::Grid) && plan.run.len() > 1;
+    let choose = |q: &Quantity, x: &[f64]| -> Option<Grid> {
+        if let Some(from) = &spec.mc_from {
+            return from.result.quantity(&q.name).map(|h| h.grid);
+        }
+        if let Some((_, grid)) = spec
+            .mc
+            .as_ref()
+            .and_then(|c| c.grids.iter().find(|(n, _)| n == &q.name))
+        {
+            return Some(*grid);
+        }
+        (x.len() >= 2 && (spec.mc.is_some() || compared))
+            .then(|| Grid::new(x[0], x[x.len() - 1], spec.mc_bins).ok())
+            .flatten()
+    };
+    let all = quantities(&bound);
+    let names: Vec<String> = match spec.target {
+        Target::States => all
+            .iter()
+            .filter(|q| q.is_state)
+            .map(|q| q.name.clone())
+            .collect(),
+        Target::Observables => reported(&all).into_iter().map(|q| q.name.clone()).collect(),
+    };
+    // The curves of the quantities reported; with a Monte Carlo run, of every quantity: their
+    // ranges are the histograms' grids (no pilot run needed).
+    let curves_of = if spec.mc.is_some() {
+        all.iter().map(|q| q.name.clone()).collect()
+    } else {
+        names.clone()
+    };
+    let study = StudyRunner::new(&bound)
+        .curves_of(&curves_of)
+        .degrees(&spec.degrees)
+        .methods(&plan.run)
+        .cells(spec.cells)
+        .bins(&choose)
+        .run()?;
+    let mut mc = spec.mc_from.as_ref().map(|f| f.result.clone());
+    let mut mc_error = None;
+    let mut mc_wall_s = 0.0;
+    if let Some(config) = &spec.mc {
+        progress.stage("Monte Carlo");
+        let mut config = config.clone();
+        for c in &study.curves {
+            if let Some(grid) = &c.bins {
+                if !config.grids.iter().any(|(n, _)| n == &c.name) {
+                    config.grids.push((c.name.clone(), *grid));
+                }
+            }
+        }
+        let t = Instant::now();
+        // A Monte Carlo failure does not cost the other results: it is recorded beside them.
+        match simulate(&study, &config, progress) {
+            Ok(result) => mc = Some(result),
+            Err(e) => mc_error = Some(e.to_string()),
+        }
+        mc_wall_s = t.elapsed().as_secs_f64();
+    }
+
+    progress.stage("writing results");
+    let written = files::write(&study, &names, mc.as_ref(), spec.figures, out);
+    let comparisons = written.comparisons;
+    let mut files = written.files;
+    let unwritten = written.unwritten;
+    let pair = |method: MethodName, reference: Reference| -> Vec<&Comparison> {
+        comparisons
+            .iter()
+            .filter(|c| c.source.method == method && c.reference == reference)
+            .collect()
+    };
+    let summary = Summary {
+        study: study.summary(),
+        skipped_methods: &plan.skipped,
+        monte_carlo: mc.as_ref(),
+        monte_carlo_from: spec.mc_from.as_ref().map(|f| f.dir.as_path()),
+        monte_carlo_error: mc_error.as_deref(),
+        monte_carlo_wall_s: (mc.is_some() && spec.mc.is_some()).then_some(mc_wall_s),
+        epc_vs_mc: pair(MethodName::Epc, Reference::Mc),
+        epc_impact_vs_mc: pair(MethodName::EpcImpact, Reference::Mc),
+        grid_vs_mc: pair(MethodName::Grid, Reference::Mc),
+        epc_vs_grid: pair(MethodName::Epc, Reference::Grid),
+        epc_impact_vs_grid: pair(MethodName::EpcImpact, Reference::Grid),
+        unwritten: &unwritten,
+    };
+    let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
+    files.push(path);
+    Ok(JobReport {
+        study,
+        skipped: plan.skipped,
+        mc,
+        mc_from: spec.mc_from.as_ref().map(|f| f.dir.clone()),
+        mc_error,
+        mc_wall_s,
+        comparisons,
+        files,
+        undefined,
+        unwritten,
+    })
+}
+
+/// What a finished job flags, one line each: degrees that did not converge and numbers that
+/// have no finite value. Empty when everything asked for was computed and is defined.
+pub fn flags(report: &JobReport) -> Vec<String> {
+    let mut out: Vec<String> = report
+        .study
+        .degrees
+        .iter()
+        .filter_map(|d| {
+            d.outcome.as_ref().err().map(|e| match d.method {
+                MethodName::Epc => format!("degree {}: {e}", d.degree),
+                m => format!("{m} degree {}: {e}", d.degree),
+            })
+        })
+        .collect();
+    if let Some(Err(e)) = report.study.grid.as_ref().map(|g| &g.outcome) {
+        out.push(format!("grid: {e}"));
+    }
+    if let Some(e) = &report.mc_error {
+        out.push(format!("Monte Carlo: {e}"));
+    }
+    out.extend(defect_notes(&report.study));
+    for u in &report.unwritten {
+        out.push(format!("{} was not written: {}", u.file, u.error));
+    }
+    if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
+        out.push(format!("Monte Carlo: {e}"));
+    }
+    match report.undefined.as_slice() {
+        [] => {}
+        [u] => out.push(format!(
+            "summary.json: {} is {} (written as null)",
+            u.field, u.value
+        )),
+        [u, rest @ ..] => out.push(format!(
+            "summary.json: {} is {} and {} more numbers have no finite value (written as null, \
+             listed under `undefined`)",
+            u.field,
+            u.value,
+            rest.len()
+        )),
+    }
+    out
+}
+
+/// What is wrong with each defective observable (one with no finite value on part of the
+/// plane), once per observable: its undefined mass is a property of the map, the same at every
+/// degree up to the solution's accuracy.
+fn defect_notes(study: &Study) -> Vec<String> {
+    let mut seen: Vec<&str> = Vec::new();
+    let mut notes = Vec::new();
+    let grid = study.grid.iter().flat_map(|g| &g.stats);
+    for st in study.degrees.iter().flat_map(|d| &d.stats).chain(grid) {
+        if let Some(note) = st.note() {
+            if !seen.contains(&st.name.as_str()) {
+                seen.push(&st.name);
+                notes.push(note);
+            }
+        }
+    }
+    notes
+}
+
+/// Runs the Monte Carlo in consecutive shards so that progress can be shown; merging the
+/// shards gives exactly the unsplit result (the statistics batches are the unit of both).
+fn simulate(
+    study: &Study,
+    config: &McConfig,
+    progress: &dyn Progress,
+) -> Result<McResult, McError> {
+    let sim = Simulation::new(&study.model, config)?;
+    let batches = sim.settings().batches;
+    let threads = rayon::current_num_threads() as u64;
+    // Enough batches per part to keep every thread busy, at most 50 parts.
+    let parts = (batches / (2 * threads).max(1)).clamp(1, 50);
+    let mut outputs = Vec::with_capacity(parts as usize);
+    for k in 0..parts {
+        outputs.push(sim.run_shard(Shard::new(k, parts)?)?);
+        progress.advance(k + 1, parts);
+    }
+    merge_shards(&outputs)
+}
+
+/// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
+/// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
+/// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
+/// whole [`McResult`]: verdicts and warnings included). A merged set of shards writes exactly what the unsplit run writes.
+pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, ReportError> {
+    let mut files = Vec::new();
+    for q in &result.quantities {
+        let table = PdfTable {
+            variable: q.name.clone(),
+            x: q.grid.centers(),
+            columns: mc_columns(q),
+        };
+        files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
+    }
+    files.push(write_json_flagging_undefined(out, "mc_summary.json", result)?.0);
+    Ok(files)
+}
+
+/// A histogram's columns: `mc`, `mc_stderr`, and the time-step bias estimate of each bin
+/// beside its statistical error (`mc_bias`, `mc_bias_stderr`) when one was made.
+fn mc_columns(q: &crate::mc::QuantityHistogram) -> Vec<(String, Vec<f64>)> {
+    let mut columns = vec![
+        ("mc".into(), q.density.clone()),
+        ("mc_stderr".into(), q.stderr.clone()),
+    ];
+    if let Some(b) = &q.time_step_bias {
+        // A bin whose bias has no finite estimate (too few samples in it) is a missing cell,
+        // not a number.
+        let defined = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .map(|x| if x.is_finite() { *x } else { f64::NAN })
+                .collect()
+        };
+        columns.push(("mc_bias".into(), defined(&b.density)));
+        columns.push(("mc_bias_stderr".into(), defined(&b.density_stderr)));
+    }
+    columns
+}

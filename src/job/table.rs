@@ -1,0 +1,181 @@
+//! The short table the command line prints after a job.
+
+use std::fmt::Write;
+
+use super::{Comparison, JobReport, Reference};
+use crate::solve::{MethodName, QuantityMoments};
+use crate::study::{DegreeResult, Study};
+
+impl std::fmt::Display for JobReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&table(self))
+    }
+}
+
+fn table(report: &JobReport) -> String {
+    let study = &report.study;
+    let mut s = String::new();
+    let params: Vec<String> = study
+        .model
+        .params()
+        .iter()
+        .map(|(n, v)| format!("{n} = {v:.6}"))
+        .collect();
+    let _ = writeln!(s, "{}: {}", study.model.name(), params.join(", "));
+    if !study.degrees.is_empty() {
+        // Two quality figures: the Galerkin residual says the projected equations were
+        // solved; the FPK residual ∫|F|·p says how far the density is from solving the FPK
+        // equation itself.
+        let _ = writeln!(
+            s,
+            "{:>6} {:>6} {:>10} {:>10} {:>10}  normalisation",
+            "degree", "iters", "galerkin", "fpk resid", "solve ms"
+        );
+    }
+    let mut method = MethodName::Epc;
+    for d in &study.degrees {
+        if d.method != method {
+            method = d.method;
+            let _ = writeln!(s, "{method}:");
+        }
+        degree_row(&mut s, d);
+    }
+    if let Some(g) = &study.grid {
+        match (&g.outcome, g.report()) {
+            (Ok(_), Some(r)) => {
+                let _ = writeln!(s, "{r}");
+            }
+            (Err(e), _) => {
+                let _ = writeln!(s, "grid {}x{}: failed: {e}", g.cells[0], g.cells[1]);
+            }
+            (Ok(_), None) => {
+                let _ = writeln!(s, "grid: not a grid solution");
+            }
+        }
+    }
+    for skipped in &report.skipped {
+        let _ = writeln!(s, "{}: not run: {}", skipped.method, skipped.why);
+    }
+    let _ = writeln!(
+        s,
+        "{:>8} {:>6} {:>12} {:>12} {:>10}",
+        "quantity", "degree", "mean", "std dev", "kurtosis"
+    );
+    for d in &study.degrees {
+        let key = match d.method {
+            MethodName::Epc => d.degree.to_string(),
+            _ => format!("i{}", d.degree),
+        };
+        stats_rows(&mut s, &key, &d.stats);
+    }
+    if let Some(g) = &study.grid {
+        stats_rows(&mut s, "grid", &g.stats);
+    }
+    for note in super::defect_notes(study) {
+        let _ = writeln!(s, "warning: {note}");
+    }
+    if let Some(mc) = &report.mc {
+        // The same table `fpsolve simulate` prints, then the run's wall time or origin.
+        let _ = write!(s, "{mc}");
+        match &report.mc_from {
+            Some(dir) => {
+                let _ = writeln!(s, "Monte Carlo read from {}", dir.display());
+            }
+            None => {
+                let _ = writeln!(s, "Monte Carlo wall time: {:.1} s", report.mc_wall_s);
+            }
+        }
+        distances(&mut s, study, report, Reference::Mc);
+    }
+    distances(&mut s, study, report, Reference::Grid);
+    s
+}
+
+fn degree_row(s: &mut String, d: &DegreeResult) {
+    match d.outcome.as_ref().map(|s| s.epc()) {
+        Ok(Some(sol)) => {
+            let norm = match &sol.normalisation.kind {
+                crate::epc::NormalisationKind::Plane { .. } => "plane".to_string(),
+                crate::epc::NormalisationKind::InsideRidge { depth, .. } => {
+                    format!("inside ridge, {depth:.1} e-folds below the mode")
+                }
+            };
+            let _ = writeln!(
+                s,
+                "{:>6} {:>6} {:>10.2e} {:>10.2e} {:>10.1}  {}",
+                d.degree,
+                sol.solve.iterations,
+                sol.solve.residual,
+                sol.fpk_residual,
+                d.wall_ms,
+                norm
+            );
+        }
+        Ok(None) => {
+            let _ = writeln!(s, "{:>6}  not an EPC solution", d.degree);
+        }
+        Err(e) => {
+            let _ = writeln!(s, "{:>6}  failed: {e}", d.degree);
+        }
+    }
+}
+
+fn stats_rows(s: &mut String, key: &str, stats: &[QuantityMoments]) {
+    for st in stats {
+        let _ = writeln!(
+            s,
+            "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}{}",
+            st.name,
+            key,
+            st.moments.mean,
+            st.std_dev(),
+            st.moments.kurtosis,
+            if st.note().is_some() {
+                "   (see warning)"
+            } else {
+                ""
+            }
+        );
+    }
+}
+
+/// One line per method, degree and quantity compared with `reference`; a degree that failed
+/// says so in place of its distances, nothing is dropped.
+fn distances(s: &mut String, study: &Study, report: &JobReport, reference: Reference) {
+    let of: Vec<&Comparison> = report
+        .comparisons
+        .iter()
+        .filter(|c| c.reference == reference)
+        .collect();
+    if of.is_empty() {
+        return;
+    }
+    for d in study.degrees.iter().filter(|d| d.outcome.is_err()) {
+        let _ = writeln!(
+            s,
+            "{} vs {reference}: no distances, the degree failed",
+            d.source()
+        );
+    }
+    if let Some(Err(_)) = study.grid.as_ref().map(|g| &g.outcome) {
+        if reference != Reference::Grid {
+            let _ = writeln!(
+                s,
+                "grid vs {reference}: no distances, the grid solve failed"
+            );
+        }
+    }
+    for c in of {
+        let _ = writeln!(
+            s,
+            "{} vs {reference}, {} on [{:.4}, {:.4}]: L1 = {:.4}, max|log10 ratio| = {} ({reference} > 1e-3 peak), {} (> 1e-5 peak)",
+            c.source,
+            c.quantity,
+            c.range[0],
+            c.range[1],
+            c.l1,
+            c.ratio_1e3,
+            c.ratio_1e5
+        );
+    }
+}

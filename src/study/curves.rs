@@ -1,0 +1,161 @@
+//! The PDF of each quantity under every solution of a study, on one grid per quantity, and
+//! averaged over histogram bins for the comparisons.
+
+use serde::Serialize;
+
+use crate::mc::Grid;
+use crate::observe::{JointDensity, ObservableDensity};
+use crate::solve::{common_grid, printable, MethodName, Quantity, Solution};
+
+/// Which solution a column holds: a method, and its degree for a ladder method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Source {
+    /// The method.
+    pub method: MethodName,
+    /// The degree, for a method solved at degrees (`None` for the grid).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub degree: Option<usize>,
+}
+
+impl Source {
+    /// The column name in CSV files: `epc_n4`, `epc_impact_n4`, `grid`.
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::study::Source;
+    /// assert_eq!(Source { method: MethodName::Epc, degree: Some(4) }.label(), "epc_n4");
+    /// assert_eq!(Source { method: MethodName::EpcImpact, degree: Some(6) }.label(), "epc_impact_n6");
+    /// assert_eq!(Source { method: MethodName::Grid, degree: None }.label(), "grid");
+    /// ```
+    pub fn label(&self) -> String {
+        let name = self.method.as_str().replace('-', "_");
+        match self.degree {
+            Some(d) => format!("{name}_n{d}"),
+            None => name,
+        }
+    }
+}
+
+impl std::fmt::Display for Source {
+    /// As tables and legends say it: `EPC n = 4`, `EPC-impact n = 4`, `grid`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self.method {
+            MethodName::Epc => "EPC",
+            MethodName::EpcImpact => "EPC-impact",
+            MethodName::Grid => "grid",
+        };
+        match self.degree {
+            Some(d) => write!(f, "{name} n = {d}"),
+            None => f.write_str(name),
+        }
+    }
+}
+
+/// One solution's PDF column on a curve's grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MethodColumn {
+    /// The method (and degree) that produced it.
+    pub source: Source,
+    /// The PDF on the grid (NaN where it is infinite).
+    pub pdf: Vec<f64>,
+    /// The PDF averaged over each bin of [`PdfCurves::bins`] (4-point Gauss–Legendre per bin),
+    /// from the same prepared density as `pdf`; empty without bins.
+    pub bin_means: Vec<f64>,
+}
+
+/// The histogram bins a study also averages each curve over (for comparing with Monte Carlo
+/// or between methods), chosen from the quantity and its curve's grid; `None` for no bins.
+pub type BinChoice<'a> = dyn Fn(&Quantity, &[f64]) -> Option<Grid> + Sync + 'a;
+
+/// The PDF of one quantity on a grid, one column per solution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PdfCurves {
+    /// The quantity's name.
+    pub name: String,
+    /// The grid.
+    pub x: Vec<f64>,
+    /// One column per solution, ladder methods first (in the order asked), the grid last.
+    pub columns: Vec<MethodColumn>,
+    /// The bins the columns' `bin_means` average over, if any were asked for.
+    pub bins: Option<Grid>,
+}
+
+impl PdfCurves {
+    /// The column of `source`, if that solution exists.
+    pub fn column(&self, source: Source) -> Option<&MethodColumn> {
+        self.columns.iter().find(|c| c.source == source)
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
+/// average of a density sampled by a histogram of ≥ 50 bins.
+const GL4: [(f64, f64); 4] = [
+    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+];
+
+/// The density averaged over each bin of `grid`.
+fn bin_means(density: &ObservableDensity, grid: &Grid) -> Vec<f64> {
+    let (lo, w) = (grid.lo, grid.width());
+    let nodes: Vec<f64> = (0..grid.bins)
+        .flat_map(|b| {
+            let c = lo + (b as f64 + 0.5) * w;
+            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
+        })
+        .collect();
+    density
+        .pdf(&nodes)
+        .chunks(GL4.len())
+        .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
+        .collect()
+}
+
+/// The curves of quantity `q` under every solution: one grid (the union of the windows where
+/// each density is at least 1e−8 of its peak), each density prepared once for its grid values
+/// and its bin means.
+pub(super) fn curves(
+    q: &Quantity,
+    solved: &[(Source, &Solution)],
+    bins: Option<&BinChoice>,
+) -> PdfCurves {
+    let densities: Vec<(Source, &dyn JointDensity, ObservableDensity)> = solved
+        .iter()
+        .map(|&(source, sol)| {
+            (
+                source,
+                sol.joint(),
+                ObservableDensity::new(sol.joint(), &q.map),
+            )
+        })
+        .collect();
+    let windows: Vec<(&dyn JointDensity, &ObservableDensity)> =
+        densities.iter().map(|(_, j, d)| (*j, d)).collect();
+    let x = common_grid(q, &windows);
+    let bins = bins.and_then(|choose| choose(q, &x));
+    let columns = if x.is_empty() && bins.is_none() {
+        Vec::new()
+    } else {
+        densities
+            .iter()
+            .map(|(source, _, density)| MethodColumn {
+                source: *source,
+                pdf: if x.is_empty() {
+                    Vec::new()
+                } else {
+                    printable(density.pdf(&x))
+                },
+                bin_means: bins
+                    .as_ref()
+                    .map_or_else(Vec::new, |g| bin_means(density, g)),
+            })
+            .collect()
+    };
+    PdfCurves {
+        name: q.name.clone(),
+        x,
+        columns,
+        bins,
+    }
+}

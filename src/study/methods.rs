@@ -1,0 +1,206 @@
+//! Which methods a study runs: whether each applies to the model (a typed reason when it does
+//! not), and the solver behind each ladder method (a method solved at a ladder of degrees).
+
+use serde::Serialize;
+
+use crate::epc::EpcError;
+use crate::grid::{GridError, GridSolver, Unsupported};
+use crate::physics::ImpactForm;
+use crate::solve::{MethodName, MethodSet, Problem, Solution, SolveError};
+
+/// Why a method does not apply to a model: found before any work. As JSON, a `reason` tag
+/// beside the variant's fields.
+///
+/// ```
+/// use fpsolve::solve::{MethodName, Problem};
+/// use fpsolve::study::{applies, NotApplicable};
+/// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
+/// let problem = Problem::new(&bound)?;
+/// assert!(applies(&problem, MethodName::Epc)?.is_ok());
+/// assert!(matches!(applies(&problem, MethodName::Grid)?, Err(NotApplicable::Grid { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum NotApplicable {
+    /// EPC (δ-term form) cannot represent the model's impact law.
+    #[error("{message}")]
+    ImpactLaw {
+        /// The law, printed.
+        law: String,
+        /// Why, in words (what EPC represents, what handles this law).
+        message: String,
+    },
+    /// The grid solver does not handle the model.
+    #[error("the grid solver cannot solve model `{model}`: {unsupported}")]
+    Grid {
+        /// The model's name.
+        model: String,
+        /// What it does not handle.
+        unsupported: Unsupported,
+    },
+    /// The method is not available in this build of fpsolve.
+    #[error("the method `{method}` is not available in this build")]
+    NotAvailable {
+        /// The method.
+        method: MethodName,
+    },
+}
+
+/// A method of the set asked for that was not run because it does not apply to the model,
+/// and why (only methods the user did not name are skipped; a named one is refused).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Skipped {
+    /// The method.
+    pub method: MethodName,
+    /// Why it does not apply.
+    #[serde(flatten)]
+    pub why: NotApplicable,
+}
+
+/// A method named by the user that does not apply to the model.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("--method {method}: {why}")]
+pub struct Refused {
+    /// The method.
+    pub method: MethodName,
+    /// Why it does not apply.
+    pub why: NotApplicable,
+}
+
+/// The methods a study runs, and those of the set asked for that it skips.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MethodPlan {
+    /// The methods to run, in the order [`MethodName::ALL`] lists them.
+    pub run: Vec<MethodName>,
+    /// Methods left out, with the reason.
+    pub skipped: Vec<Skipped>,
+}
+
+/// Why no plan: a named method does not apply, nothing applies, or the model cannot be
+/// prepared at all.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// A method the user named does not apply.
+    #[error(transparent)]
+    Refused(#[from] Refused),
+    /// None of the methods of the set applies.
+    #[error("no method of `{asked}` applies to the model: {}", reasons(skipped))]
+    NothingApplies {
+        /// The set asked for.
+        asked: MethodSet,
+        /// Why each does not apply.
+        skipped: Vec<Skipped>,
+    },
+    /// The model cannot be prepared for a method (a coefficient that does not compile, …).
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}
+
+fn reasons(skipped: &[Skipped]) -> String {
+    let r: Vec<String> = skipped
+        .iter()
+        .map(|s| format!("{}: {}", s.method, s.why))
+        .collect();
+    r.join("; ")
+}
+
+impl MethodPlan {
+    /// The plan for `asked`: with `required` (the user named the methods) every method must
+    /// apply; otherwise those that do not are skipped with their reason, and at least one must
+    /// apply.
+    ///
+    /// # Errors
+    /// [`PlanError::Refused`], [`PlanError::NothingApplies`], or [`PlanError::Solve`] when a
+    /// method cannot even check the model.
+    ///
+    /// ```
+    /// use fpsolve::solve::{MethodName, Problem};
+    /// use fpsolve::study::{MethodPlan, PlanError};
+    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
+    /// let problem = Problem::new(&bound)?;
+    /// let plan = MethodPlan::new(&problem, &"epc,grid".parse()?, false)?;
+    /// assert_eq!(plan.run, [MethodName::Epc]);
+    /// assert_eq!(plan.skipped[0].method, MethodName::Grid);
+    /// let named = MethodPlan::new(&problem, &"epc,grid".parse()?, true);
+    /// assert!(matches!(named, Err(PlanError::Refused(_))));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn new(
+        problem: &Problem,
+        asked: &MethodSet,
+        required: bool,
+    ) -> Result<MethodPlan, PlanError> {
+        let mut plan = MethodPlan {
+            run: Vec::new(),
+            skipped: Vec::new(),
+        };
+        for &method in asked.names() {
+            match applies(problem, method)? {
+                Ok(()) => plan.run.push(method),
+                Err(why) if required => return Err(Refused { method, why }.into()),
+                Err(why) => plan.skipped.push(Skipped { method, why }),
+            }
+        }
+        if plan.run.is_empty() {
+            return Err(PlanError::NothingApplies {
+                asked: asked.clone(),
+                skipped: plan.skipped,
+            });
+        }
+        Ok(plan)
+    }
+}
+
+/// Whether `method` applies to the problem's model (the outer `Result` is a model that cannot
+/// even be checked).
+///
+/// # Errors
+/// [`SolveError::Grid`] when the grid solver cannot read the model for another reason than
+/// not handling it (a coefficient that does not compile).
+pub fn applies(
+    problem: &Problem,
+    method: MethodName,
+) -> Result<Result<(), NotApplicable>, SolveError> {
+    if let Some(Err(why)) = ladder(method) {
+        return Ok(Err(why));
+    }
+    match method {
+        MethodName::Epc => Ok(match &problem.fpk().impact {
+            Some(ImpactForm::Unsupported { law, reason }) => Err(NotApplicable::ImpactLaw {
+                law: law.clone(),
+                message: EpcError::UnsupportedImpact {
+                    law: law.clone(),
+                    reason: reason.clone(),
+                }
+                .to_string(),
+            }),
+            _ => Ok(()),
+        }),
+        MethodName::EpcImpact => Ok(Ok(())),
+        MethodName::Grid => match GridSolver::new(problem.model()).check() {
+            Ok(()) => Ok(Ok(())),
+            Err(GridError::Unsupported { model, reason }) => Ok(Err(NotApplicable::Grid {
+                model,
+                unsupported: reason,
+            })),
+            Err(e) => Err(e.into()),
+        },
+    }
+}
+
+/// How a ladder method solves its degrees: one result per degree asked, in order.
+pub(crate) type LadderSolver = fn(&Problem, &[usize]) -> Vec<Result<Solution, EpcError>>;
+
+/// The solver of a ladder method, or why there is none (`None`: the method is not solved at
+/// degrees): the one place where a ladder method's name meets its solver.
+pub(crate) fn ladder(method: MethodName) -> Option<Result<LadderSolver, NotApplicable>> {
+    match method {
+        MethodName::Epc => Some(Ok(|problem, degrees| problem.solve_epc_degrees(degrees))),
+        // Until EPC with the exact impact condition is on the front door.
+        MethodName::EpcImpact => Some(Err(NotApplicable::NotAvailable { method })),
+        MethodName::Grid => None,
+    }
+}

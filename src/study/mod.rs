@@ -1,0 +1,524 @@
+//! A study: one bound model, the methods asked for (EPC at several degrees, the grid solver,
+//! …) and the PDFs of its states and observables on common grids — what `fpsolve solve` and
+//! the main job report. Built on the front door ([`crate::solve::Problem`]): each degree of a
+//! ladder method, and the grid, is a [`Solution`] or the reason there is none.
+
+mod curves;
+mod methods;
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::epc::{EpcError, EpcSolution};
+use crate::grid::GridReport;
+use crate::mc::ParamValue;
+use crate::model::{BindError, BoundModel, Model, Override};
+use crate::solve::{
+    Density, Method, MethodName, Problem, Quantity, QuantityMoments, Solution, SolveError,
+};
+
+pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
+pub use methods::{applies, MethodPlan, NotApplicable, PlanError, Refused, Skipped};
+
+/// Why a study could not run at all (a failing degree is not this: it is kept in the study).
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// The parameters could not be bound.
+    #[error(transparent)]
+    Bind(#[from] BindError),
+    /// The FPK operator could not be derived.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    /// No degree was asked for.
+    #[error("no EPC degree was asked for")]
+    NoDegree,
+    /// No method was asked for.
+    #[error("no method was asked for")]
+    NoMethod,
+    /// A method asked for does not apply to the model.
+    #[error("{method}: {why}")]
+    NotApplicable {
+        /// The method.
+        method: MethodName,
+        /// Why.
+        why: NotApplicable,
+    },
+}
+
+/// The outcome of a ladder method at one degree.
+#[derive(Debug)]
+pub struct DegreeResult {
+    /// The method (EPC, or EPC with the exact impact condition).
+    pub method: MethodName,
+    /// The degree n.
+    pub degree: usize,
+    /// The solution, or why there is none.
+    pub outcome: Result<Solution, EpcError>,
+    /// Moments of each state, then each observable (empty when the degree failed).
+    pub stats: Vec<QuantityMoments>,
+    /// Time of the degree's solve (closure, assembly, solver, normalisation), in milliseconds.
+    pub wall_ms: f64,
+}
+
+impl DegreeResult {
+    /// The EPC solution, if the degree converged.
+    pub fn epc(&self) -> Option<&EpcSolution> {
+        self.outcome.as_ref().ok().and_then(Solution::epc)
+    }
+
+    /// Which column its curves fill.
+    pub fn source(&self) -> Source {
+        Source {
+            method: self.method,
+            degree: Some(self.degree),
+        }
+    }
+}
+
+/// The outcome of the grid solver.
+#[derive(Debug)]
+pub struct GridRun {
+    /// Cells asked for (position, velocity).
+    pub cells: [usize; 2],
+    /// The solution, or why there is none.
+    pub outcome: Result<Solution, SolveError>,
+    /// Moments of each state, then each observable (empty when the solve failed).
+    pub stats: Vec<QuantityMoments>,
+    /// Time of the solve and of the moments, in milliseconds.
+    pub wall_ms: f64,
+}
+
+impl GridRun {
+    /// The solver's report (cells, domain, clipped mass, error estimate, timings), if it
+    /// solved.
+    pub fn report(&self) -> Option<&GridReport> {
+        match self.outcome.as_ref().ok().map(Solution::density) {
+            Some(Density::Grid(g)) => Some(&g.report),
+            _ => None,
+        }
+    }
+
+    /// The column its curves fill.
+    pub const SOURCE: Source = Source {
+        method: MethodName::Grid,
+        degree: None,
+    };
+}
+
+/// The PDF of a quantity at one degree, or why that degree has none.
+#[derive(Debug)]
+pub struct DegreePdf<'a> {
+    /// The degree n.
+    pub degree: usize,
+    /// The PDF at the points asked, or the degree's failure.
+    pub pdf: Result<Vec<f64>, &'a EpcError>,
+}
+
+/// A finished study.
+#[derive(Debug)]
+pub struct Study {
+    /// The bound model.
+    pub model: BoundModel,
+    /// One result per degree asked of each ladder method, in order (EPC first).
+    pub degrees: Vec<DegreeResult>,
+    /// The grid solver's outcome, when it was asked for.
+    pub grid: Option<GridRun>,
+    /// PDFs of the states, then of the observables (those asked by
+    /// [`StudyRunner::curves_of`]).
+    pub curves: Vec<PdfCurves>,
+    /// The states, then the observables, with how each is computed.
+    pub quantities: Vec<Quantity>,
+    /// Total wall time in milliseconds.
+    pub wall_ms: f64,
+}
+
+/// A study to run: a bound model and the EPC degrees (the builder of [`Study`]).
+///
+/// ```
+/// use fpsolve::model::parse_model;
+/// use fpsolve::study::StudyRunner;
+/// let text = "model linear
+/// param c = 0.1, k = 1
+/// state z, v
+/// drift z: v
+/// drift v: -c*v - k*z
+/// noise xi: intensity 1
+/// diffusion v: xi
+/// observe y = abs(z)
+/// ";
+/// let bound = parse_model(text, None)?.bind(&[])?;
+/// let study = StudyRunner::new(&bound).degrees(&[2, 3]).run()?;
+/// assert!(study.degrees[0].outcome.is_ok());
+/// assert!(study.degrees[1].outcome.is_err()); // an odd degree fails alone, visibly
+/// let y = study.curves.iter().find(|c| c.name == "y").unwrap();
+/// assert_eq!(y.x[0], 0.0); // |z| has no mass below 0: its grid starts at the barrier
+/// let at = study.pdf_at("y", &[0.5])?;
+/// assert!(at[0].pdf.is_ok() && at[1].pdf.is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct StudyRunner<'a> {
+    model: &'a BoundModel,
+    degrees: Vec<usize>,
+    methods: Vec<MethodName>,
+    cells: [usize; 2],
+    bins: Option<&'a BinChoice<'a>>,
+    curves_of: Option<Vec<String>>,
+}
+
+impl<'a> StudyRunner<'a> {
+    /// A study of `model` by EPC at degrees 2 and 4.
+    pub fn new(model: &'a BoundModel) -> StudyRunner<'a> {
+        StudyRunner {
+            model,
+            degrees: vec![2, 4],
+            methods: vec![MethodName::Epc],
+            cells: crate::grid::DEFAULT_CELLS,
+            bins: None,
+            curves_of: None,
+        }
+    }
+
+    /// Computes the PDF curves of these quantities only (default: every state and
+    /// observable); the moments are computed for all of them either way.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let study = fpsolve::study::StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .curves_of(&["y".to_string()])
+    ///     .run()?;
+    /// assert_eq!(study.curves.len(), 1);
+    /// assert_eq!(study.degrees[0].stats.len(), 4);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn curves_of(mut self, names: &[String]) -> Self {
+        self.curves_of = Some(names.to_vec());
+        self
+    }
+
+    /// Also averages every curve over histogram bins chosen by `choose` from the quantity and
+    /// its curve's grid ([`MethodColumn::bin_means`]), with the density prepared once for both.
+    pub fn bins(mut self, choose: &'a BinChoice<'a>) -> Self {
+        self.bins = Some(choose);
+        self
+    }
+
+    /// The degrees of every ladder method, solved in order with continuation.
+    pub fn degrees(mut self, degrees: &[usize]) -> Self {
+        self.degrees = degrees.to_vec();
+        self
+    }
+
+    /// The methods (default: EPC alone); ladder methods are solved at [`Self::degrees`].
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::study::{StudyRunner, GridRun};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let study = StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .methods(&[MethodName::Epc, MethodName::Grid])
+    ///     .cells([40, 60])
+    ///     .run()?;
+    /// let grid = study.grid.as_ref().unwrap();
+    /// assert_eq!(grid.report().unwrap().cells, [40, 60]);
+    /// let z = &study.curves[0];
+    /// assert!(z.column(GridRun::SOURCE).is_some() && z.columns.len() == 2);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn methods(mut self, methods: &[MethodName]) -> Self {
+        self.methods = methods.to_vec();
+        self
+    }
+
+    /// Cells of the grid solver (position, velocity); default [`crate::grid::DEFAULT_CELLS`].
+    pub fn cells(mut self, cells: [usize; 2]) -> Self {
+        self.cells = cells;
+        self
+    }
+
+    /// Derives the FPK operator and solves each ladder method at each degree (each degree
+    /// continued from the previous one) and the grid, the grid beside the ladders on another
+    /// thread; then computes the PDFs of the states and the observables on grids reaching
+    /// 1e−8 of their peaks.
+    ///
+    /// # Errors
+    /// [`StudyError::NoMethod`], [`StudyError::NoDegree`] (a ladder method without degrees),
+    /// [`StudyError::NotApplicable`] for a ladder method not available, or
+    /// [`StudyError::Solve`] when the operator cannot be derived; a degree (or a grid solve)
+    /// that fails is kept in the study.
+    pub fn run(self) -> Result<Study, StudyError> {
+        if self.methods.is_empty() {
+            return Err(StudyError::NoMethod);
+        }
+        let mut ladders = Vec::new();
+        for &method in &self.methods {
+            if let Some(solver) = methods::ladder(method) {
+                let solver = solver.map_err(|why| StudyError::NotApplicable { method, why })?;
+                ladders.push((method, solver));
+            }
+        }
+        if !ladders.is_empty() && self.degrees.is_empty() {
+            return Err(StudyError::NoDegree);
+        }
+        let start = Instant::now();
+        let problem = Problem::new(self.model)?;
+        let quantities = problem.quantities().to_vec();
+        let with_grid = self.methods.contains(&MethodName::Grid);
+        let (degrees, grid) = rayon::join(
+            || {
+                ladders
+                    .iter()
+                    .flat_map(|&(method, solve)| self.ladder(&problem, method, solve))
+                    .collect::<Vec<DegreeResult>>()
+            },
+            || with_grid.then(|| self.grid(&problem)),
+        );
+        let mut solved: Vec<(Source, &Solution)> = degrees
+            .iter()
+            .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.source(), s)))
+            .collect();
+        if let Some(Ok(s)) = grid.as_ref().map(|g| &g.outcome) {
+            solved.push((GridRun::SOURCE, s));
+        }
+        let wanted = |q: &&Quantity| self.curves_of.as_ref().is_none_or(|n| n.contains(&q.name));
+        let curves = quantities
+            .iter()
+            .filter(wanted)
+            .map(|q| curves::curves(q, &solved, self.bins))
+            .collect();
+        Ok(Study {
+            model: self.model.clone(),
+            degrees,
+            grid,
+            curves,
+            quantities,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    fn ladder(
+        &self,
+        problem: &Problem,
+        method: MethodName,
+        solve: methods::LadderSolver,
+    ) -> Vec<DegreeResult> {
+        solve(problem, &self.degrees)
+            .into_iter()
+            .zip(&self.degrees)
+            .map(|(outcome, &degree)| {
+                let wall_ms = outcome
+                    .as_ref()
+                    .ok()
+                    .and_then(Solution::epc)
+                    .map_or(0.0, |s| {
+                        let r = &s.solve;
+                        r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+                    });
+                let stats = outcome
+                    .as_ref()
+                    .map_or_else(|_| Vec::new(), Solution::all_moments);
+                DegreeResult {
+                    method,
+                    degree,
+                    outcome,
+                    stats,
+                    wall_ms,
+                }
+            })
+            .collect()
+    }
+
+    fn grid(&self, problem: &Problem) -> GridRun {
+        let t = Instant::now();
+        let outcome = problem.solve(Method::Grid { cells: self.cells });
+        let stats = outcome
+            .as_ref()
+            .map_or_else(|_| Vec::new(), Solution::all_moments);
+        GridRun {
+            cells: self.cells,
+            outcome,
+            stats,
+            wall_ms: t.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+}
+
+impl Study {
+    /// Binds `model` with `overrides` and runs [`StudyRunner`] at `degrees`.
+    ///
+    /// # Errors
+    /// [`StudyError::Bind`], or as [`StudyRunner::run`].
+    ///
+    /// ```
+    /// use fpsolve::model::parse_model;
+    /// use fpsolve::study::Study;
+    /// let model = parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+    /// let study = Study::run(&model, &["k=1".parse()?], &[2]);
+    /// assert!(study.is_err()); // the model has no parameter k
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn run(
+        model: &Model,
+        overrides: &[Override],
+        degrees: &[usize],
+    ) -> Result<Study, StudyError> {
+        let bound = model.bind(overrides)?;
+        StudyRunner::new(&bound).degrees(degrees).run()
+    }
+
+    /// The PDF of quantity `name` at the points `x`, one entry per degree asked: the PDF, or
+    /// the degree's failure.
+    ///
+    /// # Errors
+    /// [`SolveError::UnknownQuantity`] when there is no such quantity.
+    pub fn pdf_at(&self, name: &str, x: &[f64]) -> Result<Vec<DegreePdf<'_>>, SolveError> {
+        if !self.quantities.iter().any(|q| q.name == name) {
+            return Err(SolveError::UnknownQuantity {
+                name: name.to_string(),
+                known: self.quantities.iter().map(|q| q.name.clone()).collect(),
+            });
+        }
+        let mut out = Vec::with_capacity(self.degrees.len());
+        for d in &self.degrees {
+            let pdf = match &d.outcome {
+                Ok(sol) => Ok(sol.pdf(name, x)?),
+                Err(e) => Err(e),
+            };
+            out.push(DegreePdf {
+                degree: d.degree,
+                pdf,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The methods run, in the order [`MethodName::ALL`] lists them.
+    pub fn methods(&self) -> Vec<MethodName> {
+        MethodName::ALL
+            .into_iter()
+            .filter(|m| match m {
+                MethodName::Grid => self.grid.is_some(),
+                _ => self.degrees.iter().any(|d| d.method == *m),
+            })
+            .collect()
+    }
+
+    /// Whether every degree converged.
+    pub fn all_converged(&self) -> bool {
+        self.degrees.iter().all(|d| d.outcome.is_ok())
+    }
+}
+
+/// One degree in a study's summary.
+#[derive(Debug, Serialize)]
+pub struct DegreeSummary<'a> {
+    /// The method.
+    pub method: MethodName,
+    /// The degree n.
+    pub degree: usize,
+    /// Whether the method converged at this degree.
+    pub converged: bool,
+    /// Why not, if it did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Solve time (closure, assembly, solver, normalisation) in milliseconds.
+    pub solve_ms: f64,
+    /// Moments of each state and observable.
+    pub stats: &'a [QuantityMoments],
+    /// The solution: coefficients with exponents, weights' σ, iterations, residual,
+    /// normalisation, moments of the states.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solution: Option<&'a EpcSolution>,
+}
+
+/// The grid solver in a study's summary.
+#[derive(Debug, Serialize)]
+pub struct GridSummary<'a> {
+    /// Cells asked for (position, velocity).
+    pub cells: [usize; 2],
+    /// Whether it solved.
+    pub solved: bool,
+    /// Why not, if it did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// How it solved: cells, domain, clipped negative mass, discretisation-error estimate,
+    /// timings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<&'a GridReport>,
+    /// Time of the solve and of the moments, in milliseconds.
+    pub wall_ms: f64,
+    /// Moments of each state and observable.
+    pub stats: &'a [QuantityMoments],
+}
+
+/// What `summary.json` holds.
+#[derive(Debug, Serialize)]
+pub struct StudySummary<'a> {
+    /// The model's name.
+    pub model: &'a str,
+    /// Parameter values used.
+    pub parameters: Vec<ParamValue>,
+    /// How δ terms were integrated.
+    pub delta_treatment: crate::model::DeltaTreatment,
+    /// Itô or Stratonovich.
+    pub interpretation: crate::model::Interpretation,
+    /// The methods run, in the order [`MethodName::ALL`] lists them.
+    pub methods: Vec<MethodName>,
+    /// One entry per degree asked of each ladder method.
+    pub degrees: Vec<DegreeSummary<'a>>,
+    /// The grid solver's outcome and report, when it was run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridSummary<'a>>,
+    /// Whether every degree converged.
+    pub all_converged: bool,
+    /// Total wall time of the study in milliseconds.
+    pub wall_ms: f64,
+}
+
+impl Study {
+    /// The study as the data of `summary.json`.
+    pub fn summary(&self) -> StudySummary<'_> {
+        StudySummary {
+            model: self.model.name(),
+            parameters: self
+                .model
+                .params()
+                .iter()
+                .map(|(n, v)| ParamValue {
+                    name: n.to_string(),
+                    value: *v,
+                })
+                .collect(),
+            delta_treatment: self.model.delta_treatment(),
+            interpretation: self.model.interpretation(),
+            methods: self.methods(),
+            degrees: self
+                .degrees
+                .iter()
+                .map(|d| DegreeSummary {
+                    method: d.method,
+                    degree: d.degree,
+                    converged: d.outcome.is_ok(),
+                    error: d.outcome.as_ref().err().map(|e| e.to_string()),
+                    solve_ms: d.wall_ms,
+                    stats: &d.stats,
+                    solution: d.epc(),
+                })
+                .collect(),
+            grid: self.grid.as_ref().map(|g| GridSummary {
+                cells: g.cells,
+                solved: g.outcome.is_ok(),
+                error: g.outcome.as_ref().err().map(|e| e.to_string()),
+                report: g.report(),
+                wall_ms: g.wall_ms,
+                stats: &g.stats,
+            }),
+            all_converged: self.all_converged(),
+            wall_ms: self.wall_ms,
+        }
+    }
+}
