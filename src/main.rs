@@ -14,6 +14,7 @@ use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::solve::MethodSet;
 use fpsolve::sweep::{Sweep, SweepSpec};
+use fpsolve::transform::{zhuravlev, zhuravlev_bound};
 
 #[path = "cli/job_plan.rs"]
 mod job_plan;
@@ -545,28 +546,24 @@ fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     }
     let fpk = FpkOperator::derive(bound).map_err(at_error(path))?;
     writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
-    for line in fpk.to_string().lines() {
-        writeln!(out, "# {line}").context("writing to stdout")?;
-    }
+    commented(&mut out, &fpk)?;
     // A reflecting barrier in original coordinates: the model EPC solves instead (Eqs. 5-10).
-    if let (Ok(unbound), Ok(transformed)) = (
-        fpsolve::transform::zhuravlev(model),
-        fpsolve::transform::zhuravlev_bound(bound),
-    ) {
-        writeln!(
-            out,
-            "\n# Zhuravlev transform (Eqs. 5-10), the model EPC solves; the lines below are a \
-             model file\n{}",
-            unbound.model
-        )
-        .context("writing to stdout")?;
-        let fpk = FpkOperator::derive(&transformed.model).map_err(at_error(path))?;
+    if let (Ok(t), Ok(tb)) = (zhuravlev(model), zhuravlev_bound(bound)) {
+        let fpk = FpkOperator::derive(&tb.model).map_err(at_error(path))?;
+        let head = "Zhuravlev transform (Eqs. 5-10), the model EPC solves; the lines below are a";
+        write!(out, "\n# {head} model file\n{}", t.model).context("writing to stdout")?;
         writeln!(out, "# its derived Fokker-Planck operator").context("writing to stdout")?;
-        for line in fpk.to_string().lines() {
-            writeln!(out, "# {line}").context("writing to stdout")?;
-        }
+        commented(&mut out, &fpk)?;
     }
     out.flush().context("writing to stdout")?;
+    Ok(())
+}
+
+/// `text` as `# ` comment lines.
+fn commented(out: &mut impl Write, text: &impl std::fmt::Display) -> Result<()> {
+    for line in text.to_string().lines() {
+        writeln!(out, "# {line}").context("writing to stdout")?;
+    }
     Ok(())
 }
 

@@ -196,3 +196,34 @@ fn a_model_in_original_coordinates_is_solved_through_its_zhuravlev_transform() {
     assert!(summary.contains("\"x\""), "{summary}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 11: `check` of the paper's Eqs. 1–2 prints their Zhuravlev transform, which is
+/// `vibro_duffing.sde`'s model (the same equations, impact law, observables and δ treatment).
+#[test]
+fn check_prints_the_zhuravlev_transform_of_eqs_1_2() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let (status, stdout, stderr) = run(&[
+        "check",
+        dir.join("vibro_impact_duffing.sde").to_str().unwrap(),
+    ]);
+    assert_eq!(status, Some(0), "{stderr}");
+    let (_, tail) = stdout
+        .split_once("# Zhuravlev transform (Eqs. 5-10), the model EPC solves; the lines below are a model file\n")
+        .unwrap_or_else(|| panic!("no transform in\n{stdout}"));
+    let text: String = tail
+        .lines()
+        .take_while(|l| !l.starts_with('#'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let transformed = fpsolve::model::parse_model(&text, None).unwrap();
+    let paper = fpsolve::model::load_model(&dir.join("vibro_duffing.sde")).unwrap();
+    assert_eq!(transformed.states(), paper.states());
+    assert_eq!(transformed.drift(), paper.drift());
+    assert_eq!(transformed.impacts(), paper.impacts());
+    assert_eq!(transformed.observables(), paper.observables());
+    assert_eq!(transformed.delta_treatment(), paper.delta_treatment());
+    assert_eq!(transformed.interpretation(), paper.interpretation());
+    // The noise: `(eps*z + sgn(z))*xi` against the file's `(sgn(z) + eps*z) * xi`.
+    let b = |m: &fpsolve::model::Model| fpsolve::symbolic::simplify(&m.noise_matrix()[1][0]);
+    assert_eq!(b(&transformed), b(&paper));
+}

@@ -141,16 +141,16 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// The side of a reflecting barrier the state lives on (default: the side holding the
-    /// origin, above a barrier at 0); ignored for a pass-through barrier.
+    /// The side of a reflecting barrier the state lives on (default: the model's `domain`
+    /// side); ignored for a pass-through barrier.
     ///
     /// ```
     /// # let bound = fpsolve::model::parse_model("model m\nstate y, v\ndrift y: v\n\
     /// #   drift v: -0.2*v - y\nnoise xi: intensity 1\ndiffusion v: xi\n\
-    /// #   impact y = 0.5: v -> -v\n", None).unwrap().bind(&[]).unwrap();
+    /// #   impact y = 0.5: v -> -v\ndomain y <= 0.5\n", None).unwrap().bind(&[]).unwrap();
     /// use fpsolve::grid::{BarrierSide, GridSolver};
     /// let below = GridSolver::new(&bound).cells(32, 32).estimate(false).solve().unwrap();
-    /// assert_eq!(below.domain().x[1], 0.5); // the side of the origin
+    /// assert_eq!(below.domain().x[1], 0.5); // the model's `domain` side
     /// let above = GridSolver::new(&bound).cells(32, 32).barrier_side(BarrierSide::Above)
     ///     .estimate(false).solve().unwrap();
     /// assert_eq!(above.domain().x[0], 0.5);

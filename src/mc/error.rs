@@ -31,6 +31,13 @@ pub enum McError {
     /// Two impact laws (a strip): not simulated by this version.
     #[error("the model has two impact laws (a strip), which the simulation does not handle yet")]
     TwoBarriers,
+    /// The model's `domain` puts the state on the side of its barrier away from the origin,
+    /// where this version does not start trajectories.
+    #[error("the `domain` puts the state on the side of the barrier at {at} away from the origin, where the simulation does not start trajectories yet")]
+    SideAwayFromOrigin {
+        /// The barrier position.
+        at: f64,
+    },
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
     #[error(
         "the noise intensity matrix is not positive semi-definite (pivot {pivot} is {value:.6e})"

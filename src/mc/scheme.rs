@@ -360,6 +360,13 @@ impl Plan {
         if model.impacts.len() > 1 {
             return Err(McError::TwoBarriers);
         }
+        use crate::model::BarrierSide::{Above, Below};
+        if let Some(b) = model.impacts.iter().find(|b| {
+            matches!((b.side, b.at), (Some(Above), a) if a > 0.0)
+                || matches!((b.side, b.at), (Some(Below), a) if a < 0.0)
+        }) {
+            return Err(McError::SideAwayFromOrigin { at: b.at });
+        }
         let barrier = match model.impacts.first() {
             None => None,
             Some(b) => Some(Barrier {

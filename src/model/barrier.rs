@@ -179,6 +179,12 @@ fn jump(law: &BoundImpact, states: &[Symbol; 2]) -> Jump {
     }
 }
 
+/// A domain bound and a barrier position are the same place: equal to rounding (a bound
+/// `0.3` and a barrier `0.1 + 0.2` are one wall).
+fn same_place(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
+}
+
 /// Which bound of the `domain` line an error is about (for locating it in the file).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum DomainPart {
@@ -262,14 +268,16 @@ pub(crate) fn bind_impacts(
                 }
                 (Jump::Reflecting, Some((lower, upper))) => {
                     laws[0].side = Some(match (lower, upper) {
-                        (Some(lo), None) if lo == at => BarrierSide::Above,
-                        (None, Some(hi)) if hi == at => BarrierSide::Below,
+                        (Some(lo), None) if same_place(lo, at) => BarrierSide::Above,
+                        (None, Some(hi)) if same_place(hi, at) => BarrierSide::Below,
                         _ => {
                             // A bound away from the barrier, or a second bound with none.
                             let (part, b) =
                                 [(DomainPart::Lower, lower), (DomainPart::Upper, upper)]
                                     .into_iter()
-                                    .find_map(|(p, b)| b.filter(|b| *b != at).map(|b| (p, b)))
+                                    .find_map(|(p, b)| {
+                                        b.filter(|b| !same_place(*b, at)).map(|b| (p, b))
+                                    })
                                     .unwrap_or((DomainPart::Upper, at));
                             return Err(Placed::Domain(
                                 part,
@@ -307,7 +315,7 @@ pub(crate) fn bind_impacts(
                     ));
                 }
             }
-            if laws[0].at == laws[1].at {
+            if same_place(laws[0].at, laws[1].at) {
                 return Err(Placed::Impact(
                     1,
                     BindError::SameBarrier {
@@ -319,7 +327,8 @@ pub(crate) fn bind_impacts(
             laws.sort_by(|a, b| a.at.total_cmp(&b.at));
             let (lo, hi) = (laws[0].at, laws[1].at);
             if let Some((lower, upper)) = domain {
-                if lower != Some(lo) || upper != Some(hi) {
+                let matches = |b: Option<f64>, at: f64| b.is_some_and(|b| same_place(b, at));
+                if !matches(lower, lo) || !matches(upper, hi) {
                     let declared = model.domain.as_ref().expect("a domain was bound");
                     let mut declared_text = declared.text(states);
                     if let (Some(l), Some(u)) = (lower, upper) {
@@ -409,6 +418,11 @@ mod tests {
                 "impact y = 2*d: v -> -v\ndomain y >= 2\n",
                 BarrierSide::Above,
                 2.0,
+            ),
+            (
+                "impact y = 0.1 + 0.2: v -> -v\ndomain y >= 0.3\n",
+                BarrierSide::Above,
+                0.1 + 0.2,
             ),
         ];
         for (extra, side, at) in cases {
