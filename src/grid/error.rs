@@ -66,6 +66,17 @@ pub enum Unsupported {
         /// The second state.
         velocity: String,
     },
+    /// Two impact laws that do not bound a strip (both reflecting, the lower one with the
+    /// state above it, the upper one with the state below it), or more than two laws.
+    #[error(
+        "{count} impact laws at {at:?} do not bound a strip of the position (two reflecting walls)"
+    )]
+    NotAStrip {
+        /// How many laws.
+        count: usize,
+        /// Where they are.
+        at: Vec<f64>,
+    },
     /// A domain given explicitly does not contain the barrier (or, for a reflecting barrier,
     /// does not start at it on the domain's side).
     #[error("the domain {lo}..{hi} of the position does not fit the barrier at {at}")]

@@ -49,6 +49,8 @@ mod error;
 mod mesh;
 mod problem;
 mod solution;
+#[cfg(test)]
+mod strip_tests;
 
 use std::time::Instant;
 
@@ -102,6 +104,7 @@ pub struct GridSolver<'a> {
     cells: [usize; 2],
     domain: Option<Domain>,
     side: Option<BarrierSide>,
+    laws: Option<Vec<problem::Law>>,
     estimate: bool,
 }
 
@@ -119,6 +122,7 @@ impl<'a> GridSolver<'a> {
             cells: DEFAULT_CELLS,
             domain: None,
             side: None,
+            laws: None,
             estimate: true,
         }
     }
@@ -139,7 +143,8 @@ impl<'a> GridSolver<'a> {
     }
 
     /// Solves on `domain` instead of sizing one. The velocity range is made symmetric (the
-    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side.
+    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side,
+    /// two walls cut the domain to their strip.
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -170,6 +175,14 @@ impl<'a> GridSolver<'a> {
     /// ```
     pub fn barrier_side(mut self, side: BarrierSide) -> Self {
         self.side = Some(side);
+        self
+    }
+
+    /// Solves with the impact laws `laws` in place of the model's own (two walls of a strip
+    /// before the model language can state them).
+    #[cfg(test)]
+    pub(crate) fn impacts(mut self, laws: Vec<problem::Law>) -> Self {
+        self.laws = Some(laws);
         self
     }
 
@@ -207,8 +220,11 @@ impl<'a> GridSolver<'a> {
                 expected: "even numbers of cells, at least 8 per axis",
             });
         }
-        let problem = Mechanical::new(self.model, self.side)?;
-        let barrier = problem.barrier.as_ref();
+        let problem = match &self.laws {
+            Some(laws) => Mechanical::with_laws(self.model, laws.clone())?,
+            None => Mechanical::new(self.model, self.side)?,
+        };
+        let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
                 check_domain(&d, &problem, self.model)?;
@@ -224,7 +240,7 @@ impl<'a> GridSolver<'a> {
         let t = Instant::now();
         let (mut mesh, mut p, mut assemble_ms);
         loop {
-            mesh = Mesh::new(domain, nx, nv, barrier, 4);
+            mesh = Mesh::new(domain, nx, nv, barriers, 4);
             (p, assemble_ms) = domain::solve_pinned(&mesh, &problem, guess)?;
             // An automatic domain that cut into the density is enlarged and solved again.
             match domain::grow(&mesh, &p, &problem) {
@@ -239,7 +255,7 @@ impl<'a> GridSolver<'a> {
         let negative_mass = clip(&mut p, mesh.hx * mesh.hv);
         let t = Instant::now();
         let discretisation_estimate = if self.estimate && nx >= 16 && nv >= 16 {
-            let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barrier, 2);
+            let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barriers, 2);
             let (mut q, _) = domain::solve_pinned(&coarse, &problem, domain::peak(&mesh, &p))?;
             clip(&mut q, coarse.hx * coarse.hv);
             Some(estimate(&mesh, &p, &coarse, &q))
@@ -334,7 +350,20 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
         });
     }
-    if let Some(b) = &problem.barrier {
+    if let [lo, hi] = problem.barriers.as_slice() {
+        if !(d.x[0] < hi.at && lo.at < d.x[1]) {
+            return Err(GridError::Unsupported {
+                model: model.name().to_string(),
+                reason: Unsupported::BarrierOutsideDomain {
+                    at: if d.x[1] <= lo.at { lo.at } else { hi.at },
+                    lo: d.x[0],
+                    hi: d.x[1],
+                },
+            });
+        }
+        return Ok(());
+    }
+    if let Some(b) = problem.barriers.first() {
         let fits = match b.kind {
             BarrierKind::PassThrough => d.x[0] < b.at && b.at < d.x[1],
             BarrierKind::Reflecting(BarrierSide::Above) => b.at < d.x[1],

@@ -56,6 +56,8 @@ mod step;
 mod verdict;
 
 #[cfg(test)]
+pub(crate) mod strip_tests;
+#[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod trust_tests;
@@ -66,13 +68,13 @@ pub use config::{
     BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
     TIME_LIMIT_SECONDS,
 };
-pub use error::{McError, ShardDefect};
+pub use error::{BarrierLayout, McError, ShardDefect};
 pub use estimate::Estimate;
 pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};
-pub use settings::{ParamValue, QuantitySpec, RunSettings};
+pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
 pub use simulation::Simulation;
 pub use verdict::{

@@ -21,9 +21,11 @@
 //!   of the step taken with the Brownian-bridge remainder of its increment (so a step with
 //!   an impact is of weak order 1 on every general scheme).
 
+use super::error::BarrierLayout;
 use super::error::McError;
 use super::eval::{compile, BatchKernel};
-use super::impact::Barrier;
+use super::impact::{Barrier, ImpactSpec};
+use crate::grid::BarrierSide;
 use crate::model::{BoundModel, Interpretation};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
 use nalgebra::{Matrix2, Matrix3, Vector3};
@@ -148,7 +150,8 @@ pub(crate) struct PlatenKernels {
 pub(crate) struct Plan {
     pub(crate) kind: SchemeKind,
     pub(crate) dynamics: Dynamics,
-    pub(crate) barrier: Option<Barrier>,
+    /// The impact laws: none, one, or two bounding a strip (lower first).
+    pub(crate) barriers: Vec<Barrier>,
     pub(crate) observables: Box<dyn BatchKernel>,
     pub(crate) drift: Box<dyn BatchKernel>,
     /// The diffusion matrix b = G·S·Gᵀ next to the origin (averaged over x = ±ε, so that
@@ -251,24 +254,75 @@ fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2])
     Ok((drift, columns))
 }
 
+/// The model's impact laws as the simulation reads them: the one place that knows how the
+/// model states them. Today a model has at most one law, whose state lives on the side
+/// holding the origin (where the trajectories start).
+pub(crate) fn impact_specs(model: &BoundModel) -> Vec<ImpactSpec> {
+    model
+        .impact()
+        .map(|law| ImpactSpec {
+            state: law.state,
+            at: law.at,
+            other: law.other,
+            map: law.map.clone(),
+            side: Some(if 0.0 >= law.at {
+                BarrierSide::Above
+            } else {
+                BarrierSide::Below
+            }),
+        })
+        .into_iter()
+        .collect()
+}
+
+/// Checks that `specs` is a layout the simulation handles: none, one, or two on the same
+/// state bounding a strip (the lower one with the state above it, the upper one below);
+/// returns them lower first.
+fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLayout> {
+    match specs.len() {
+        0 | 1 => Ok(specs),
+        2 => {
+            specs.sort_by(|a, b| a.at.total_cmp(&b.at));
+            let (lo, hi) = (&specs[0], &specs[1]);
+            if lo.state != hi.state || lo.other != hi.other {
+                return Err(BarrierLayout::DifferentStates);
+            }
+            let strip = lo.at < hi.at
+                && lo.side == Some(BarrierSide::Above)
+                && hi.side == Some(BarrierSide::Below);
+            if !strip {
+                return Err(BarrierLayout::NotAStrip {
+                    lower: lo.at,
+                    upper: hi.at,
+                });
+            }
+            Ok(specs)
+        }
+        count => Err(BarrierLayout::TooMany { count }),
+    }
+}
+
 impl Plan {
-    pub(crate) fn new(model: &BoundModel, choice: SchemeChoice) -> Result<Plan, McError> {
+    /// `model` compiled with the impact laws `specs` in place of its own.
+    pub(crate) fn with_impacts(
+        model: &BoundModel,
+        choice: SchemeChoice,
+        specs: Vec<ImpactSpec>,
+    ) -> Result<Plan, McError> {
+        let specs = check_layout(specs).map_err(|layout| McError::Barriers { layout })?;
         let [x, v] = [&*model.states[0], &*model.states[1]];
         let states = [x, v];
         let g = &model.noise_matrix;
         let s = &model.intensity;
         let m = model.noise_names.len();
-        let mechanical_barrier = match &model.impact {
-            None => true,
-            Some(b) => b.state == 0 && b.other == 1,
-        };
+        let mechanical_barrier = specs.iter().all(|b| b.state == 0 && b.other == 1);
         let mechanical = choice == SchemeChoice::Auto
             && is_state(&model.drift[0], v)
             && g[0].iter().all(is_zero)
             && g[1].iter().all(|e| !e.mentions(v))
             && mechanical_barrier;
         let mut coefficients = model.drift.iter().chain(g[0].iter()).chain(g[1].iter());
-        if model.impact.is_none() {
+        if specs.is_empty() {
             if let Some(e) = coefficients.find(|e| e.contains_delta()) {
                 return Err(McError::DeltaWithoutImpact {
                     expr: e.to_string(),
@@ -357,15 +411,23 @@ impl Plan {
                 },
             )
         };
-        let barrier = match &model.impact {
-            None => None,
-            Some(b) => Some(Barrier {
-                state: b.state,
-                at: b.at,
-                other: b.other,
-                map: compile(std::slice::from_ref(&b.map), states)?,
-            }),
-        };
+        let barriers = specs
+            .iter()
+            .map(|b| {
+                Ok(Barrier {
+                    state: b.state,
+                    at: b.at,
+                    other: b.other,
+                    map: compile(std::slice::from_ref(&b.map), states)?,
+                    expr: b.map.clone(),
+                    side: match b.side {
+                        Some(BarrierSide::Above) => 1.0,
+                        Some(BarrierSide::Below) => -1.0,
+                        None => Barrier::side_of(b.at, 0.0),
+                    },
+                })
+            })
+            .collect::<Result<Vec<_>, McError>>()?;
         let obs: Vec<Expr> = model.observables.iter().map(|o| o.expr.clone()).collect();
         let mut origin_diffusion = [[0.0; 2]; 2];
         for x0 in [-1e-9, 1e-9] {
@@ -388,7 +450,7 @@ impl Plan {
             origin_diffusion,
             kind,
             dynamics,
-            barrier,
+            barriers,
             observables: compile(&obs, states)?,
             drift: compile(&model.drift, states)?,
         })
