@@ -151,7 +151,7 @@ impl Mesh {
     fn strip(domain: Domain, nx: usize, nv: usize, [lo, hi]: [f64; 2]) -> Mesh {
         let vmax = domain.v[0].abs().max(domain.v[1].abs());
         let mut x = [domain.x[0].max(lo), domain.x[1].min(hi)];
-        if !(x[0] < x[1]) {
+        if x[0] >= x[1] || x[0].is_nan() || x[1].is_nan() {
             x = [lo, hi];
         }
         let mut exits = Vec::new();

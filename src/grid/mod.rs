@@ -25,7 +25,11 @@
 //! A reflecting barrier (`impact y = 0: v -> -r*v`) keeps the state on the side that holds
 //! the origin, as Monte Carlo starts its trajectories there: above a barrier at or below 0
 //! (the paper's y > 0), below one above 0. [`GridSolver::barrier_side`] says otherwise until
-//! the model language can.
+//! the model language can. Two reflecting walls bound a strip: the domain is the strip
+//! exactly (cell faces on both walls), the flux leaving the lower wall at v < 0 re-enters at
+//! its map, the flux leaving the upper wall at v > 0 at its; the automatic sizing then
+//! chooses the velocity range, and cuts the position range only where the density's reach
+//! ends inside the strip.
 //!
 //! ```
 //! use fpsolve::grid::GridSolver;

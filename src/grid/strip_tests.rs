@@ -108,7 +108,7 @@ fn elastic_strip_converges_at_order_two() {
         );
         l1.push(e[0].0 + e[1].0);
     }
-    // Measured 1.76 then 1.89, rising towards 2 (≥ 1.9 from 160×320 to 320×640 in the
+    // Measured 1.76 then 1.89, rising towards 2 (1.95 from 160×320 to 320×640 in the
     // release-mode `strip_r09_against_a_long_monte_carlo`).
     let last = (l1[1] / l1[2]).log2();
     println!("strip: orders {:.2} {last:.2}", (l1[0] / l1[1]).log2());

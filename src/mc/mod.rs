@@ -1,7 +1,7 @@
 //! Monte Carlo simulation of a bound model: the reference the EPC solution is checked against.
 //!
 //! Trajectories start from the stationary Gaussian of the drift linearised at the origin
-//! (folded onto the barrier's side) and are integrated with a scheme matching the model (see
+//! (folded onto the barrier's side, or into the strip between two walls) and are integrated with a scheme matching the model (see
 //! [`SchemeKind`]), impacts handled as events, and after a burn-in each trajectory's states
 //! and observables are sampled at a fixed spacing into streaming histograms on fixed grids.
 //! Trajectories run in statistics batches of [`McConfig::lanes`] (structure-of-arrays, one
