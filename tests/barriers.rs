@@ -50,8 +50,9 @@ fn grid_errors(sol: &GridSolution, domain: [f64; 2]) -> [(f64, f64); 2] {
 }
 
 /// The grid's domain ends exactly on the wall, and the error of both marginals falls at an
-/// order rising towards 2 over 40×80, 80×160, 160×320 cells (measured 1.40 then 1.71 above
-/// the lower wall, then 1.87 from 160×320 to 320×640 in `grid_order_at_finer_cells`) on a box that holds the density down to
+/// order rising towards 2 over 40×80, 80×160, 160×320 cells (measured 1.40, 1.71 above the
+/// lower wall and 1.47, 1.73 below the upper one, then 1.87 and 1.88 from 160×320 to 320×640
+/// in `grid_order_at_finer_cells`) on a box that holds the density down to
 /// e^−35 (the automatic box, sized for linear damping, is twice as wide in v for this
 /// energy-dependent damping: see `automatic_domain_meets_the_restricted_density`).
 #[test]
