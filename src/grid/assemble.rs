@@ -78,25 +78,24 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
         }
     }
     let (mut outflow, mut reinjection) = (Vec::new(), Vec::new());
-    if let Some(barrier) = &problem.barrier {
-        for exit in &mesh.exits {
-            for j in (0..nv).filter(|&j| mesh.vc(j) * exit.direction > 0.0) {
-                // Outflow |v| p_face / hx, p_face extrapolated linearly from the two cells on
-                // the outgoing side (the other side may have a jump).
-                let rate = mesh.vc(j).abs() / mesh.hx;
-                let (from, inner) = (mesh.index(exit.from, j), mesh.index(exit.inner, j));
-                let (e0, e1) = (
-                    mesh.v0 + j as f64 * mesh.hv,
-                    mesh.v0 + (j + 1) as f64 * mesh.hv,
-                );
-                let (m0, m1) = (barrier.map(e0), barrier.map(e1));
-                let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
-                for (col, w) in [(from, 1.5), (inner, -0.5)] {
-                    push(&mut outflow, from, col, -rate * w);
-                    for &(jd, share) in &targets {
-                        let into = mesh.index(exit.into, jd);
-                        push(&mut reinjection, into, col, rate * w * share);
-                    }
+    for exit in &mesh.exits {
+        let barrier = &problem.barriers[exit.barrier];
+        for j in (0..nv).filter(|&j| mesh.vc(j) * exit.direction > 0.0) {
+            // Outflow |v| p_face / hx, p_face extrapolated linearly from the two cells on
+            // the outgoing side (the other side may have a jump).
+            let rate = mesh.vc(j).abs() / mesh.hx;
+            let (from, inner) = (mesh.index(exit.from, j), mesh.index(exit.inner, j));
+            let (e0, e1) = (
+                mesh.v0 + j as f64 * mesh.hv,
+                mesh.v0 + (j + 1) as f64 * mesh.hv,
+            );
+            let (m0, m1) = (barrier.map(e0), barrier.map(e1));
+            let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
+            for (col, w) in [(from, 1.5), (inner, -0.5)] {
+                push(&mut outflow, from, col, -rate * w);
+                for &(jd, share) in &targets {
+                    let into = mesh.index(exit.into, jd);
+                    push(&mut reinjection, into, col, rate * w * share);
                 }
             }
         }
@@ -157,12 +156,12 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let set = [crate::model::Override::number("r", r)];
         let b = crate::model::load_model(&path).unwrap().bind(&set).unwrap();
-        let problem = Mechanical::new(&b, None).unwrap();
+        let problem = Mechanical::new(&b).unwrap();
         let d = Domain {
             x: [-6.0, 6.0],
             v: [-9.0, 9.0],
         };
-        let mesh = Mesh::new(d, 24, 36, problem.barrier.as_ref(), 4);
+        let mesh = Mesh::new(d, 24, 36, &problem.barriers, 4);
         let op = assemble(&mesh, &problem).unwrap();
         (mesh, op)
     }

@@ -77,11 +77,14 @@ pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
     let b0 = problem.eval(&[0.0], &[0.0]).ok()?.b[0];
     // 2c = b0/σv²: f(E) = 2c/b_eff(E).
     let two_c = b0 / (sv * sv);
-    let (lo_wall, hi_wall) = match problem.barrier.as_ref().map(|b| (b.at, b.kind)) {
-        Some((at, BarrierKind::Reflecting(BarrierSide::Above))) => (at.min(0.0), f64::INFINITY),
-        Some((at, BarrierKind::Reflecting(BarrierSide::Below))) => (f64::NEG_INFINITY, at.max(0.0)),
-        _ => (f64::NEG_INFINITY, f64::INFINITY),
-    };
+    let (mut lo_wall, mut hi_wall) = (f64::NEG_INFINITY, f64::INFINITY);
+    for b in &problem.barriers {
+        match b.kind {
+            BarrierKind::Reflecting(BarrierSide::Above) => lo_wall = b.at.min(0.0),
+            BarrierKind::Reflecting(BarrierSide::Below) => hi_wall = b.at.max(0.0),
+            BarrierKind::PassThrough => {}
+        }
+    }
     // U and b on both sides, out to where U is far beyond any energy the cut can need.
     let step = sx / 40.0;
     let mut sides: [Vec<(f64, f64, f64)>; 2] = [Vec::new(), Vec::new()];
@@ -146,9 +149,15 @@ pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
 const MARGIN: f64 = 1.15;
 
 /// `domain` fitted to the model's barrier: a reflecting barrier replaces the end on its
-/// side, a pass-through barrier is kept a few cells inside.
+/// side, a pass-through barrier is kept a few cells inside; two walls cut it to the strip
+/// (the whole strip when the density's reach misses it).
 pub(crate) fn fit_barrier(mut d: Domain, problem: &Mechanical) -> Domain {
-    if let Some(b) = &problem.barrier {
+    if let [lo, hi] = problem.barriers.as_slice() {
+        let x = [d.x[0].max(lo.at), d.x[1].min(hi.at)];
+        d.x = if x[0] < x[1] { x } else { [lo.at, hi.at] };
+        return d;
+    }
+    if let Some(b) = problem.barriers.first() {
         let w = d.x[1] - d.x[0];
         match b.kind {
             BarrierKind::Reflecting(BarrierSide::Above) => {
@@ -183,10 +192,18 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
                 .max(p[mesh.index(i, nv - 1)].abs()),
         );
     }
-    let fixed = match problem.barrier.as_ref().map(|b| b.kind) {
-        Some(BarrierKind::Reflecting(BarrierSide::Above)) => [true, false],
-        Some(BarrierKind::Reflecting(BarrierSide::Below)) => [false, true],
-        _ => [false, false],
+    // Ends that are walls stay; a strip's free end grows up to its wall.
+    let (fixed, limit) = match problem.barriers.as_slice() {
+        [lo, hi] => ([mesh.ends_on_wall(0), mesh.ends_on_wall(1)], [lo.at, hi.at]),
+        [b] => (
+            match b.kind {
+                BarrierKind::Reflecting(BarrierSide::Above) => [true, false],
+                BarrierKind::Reflecting(BarrierSide::Below) => [false, true],
+                BarrierKind::PassThrough => [false, false],
+            },
+            [f64::NEG_INFINITY, f64::INFINITY],
+        ),
+        _ => ([false, false], [f64::NEG_INFINITY, f64::INFINITY]),
     };
     let mut d = mesh.domain();
     let w = d.x[1] - d.x[0];
@@ -194,6 +211,7 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
     for side in 0..2 {
         if !fixed[side] && edge[side] > EDGE * top {
             d.x[side] += if side == 0 { -0.3 } else { 0.3 } * w;
+            d.x[side] = d.x[side].clamp(limit[0], limit[1]);
             grown = true;
         }
     }
@@ -207,14 +225,18 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
 /// The automatically sized domain, the number of passes and the peak location: coarse
 /// passes, for models whose origin gives no energy box.
 pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), GridError> {
-    let barrier = problem.barrier.as_ref();
+    let barriers = problem.barriers.as_slice();
     let centre = 0.0;
     let [sx, sv] = problem.linear_scale(centre).unwrap_or([1.0, 1.0]);
     let mut x = [centre - SPAN * sx, centre + SPAN * sx];
     let mut vmax = SPAN * sv;
     // Which x edges are walls that stay where they are.
     let mut fixed = [false, false];
-    if let Some(b) = barrier {
+    if let [lo, hi] = barriers {
+        // A strip: the walls are the ends; only the velocity range is sized.
+        x = [lo.at, hi.at];
+        fixed = [true, true];
+    } else if let Some(b) = barriers.first() {
         match b.kind {
             BarrierKind::Reflecting(BarrierSide::Above) => {
                 x = [b.at, x[1].max(b.at + SPAN * sx)];
@@ -236,7 +258,7 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             x,
             v: [-vmax, vmax],
         };
-        let mesh = Mesh::new(domain, COARSE[0], COARSE[1], barrier, 2);
+        let mesh = Mesh::new(domain, COARSE[0], COARSE[1], barriers, 2);
         let (p, _) = solve_pinned(&mesh, problem, guess)?;
         guess = peak(&mesh, &p);
         let (nx, nv) = (mesh.nx, mesh.nv);
@@ -281,7 +303,7 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             mesh_x(first.saturating_sub(1))
         };
         let hi = if fixed[1] {
-            mesh_x(nx)
+            mesh.domain().x[1]
         } else {
             mesh_x((last + 2).min(nx))
         };
@@ -290,7 +312,10 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             .map(|j| mesh.vc(j).abs() + 1.5 * mesh.hv)
             .fold(0.0f64, f64::max);
         let mut xr = [lo, hi];
-        if let Some(b) = barrier.filter(|b| b.kind == BarrierKind::PassThrough) {
+        if let Some(b) = barriers
+            .first()
+            .filter(|b| b.kind == BarrierKind::PassThrough)
+        {
             // A pass-through barrier stays inside, a few cells from either end.
             xr = [
                 xr[0].min(b.at - 4.0 * mesh.hx),

@@ -47,9 +47,6 @@ pub enum Unsupported {
         /// The map, printed.
         map: String,
     },
-    /// Two impact laws (a strip): not solved by this version.
-    #[error("the model has two impact laws (a strip), which the grid solver does not handle yet")]
-    TwoBarriers,
     /// `delta(·)` terms in the velocity's drift or diffusion with no impact law: the solver
     /// represents an impact by re-injecting the flux at the barrier and leaves δ terms out
     /// (they are the paper's approximation of that impact), so without an impact law it would
@@ -70,6 +67,17 @@ pub enum Unsupported {
     DeltaInDiffusion {
         /// The second state.
         velocity: String,
+    },
+    /// Two impact laws that do not bound a strip (both reflecting, the lower one with the
+    /// state above it, the upper one with the state below it), or more than two laws.
+    #[error(
+        "{count} impact laws at {at:?} do not bound a strip of the position (two reflecting walls)"
+    )]
+    NotAStrip {
+        /// How many laws.
+        count: usize,
+        /// Where they are.
+        at: Vec<f64>,
     },
     /// A domain given explicitly does not contain the barrier (or, for a reflecting barrier,
     /// does not start at it on the domain's side).

@@ -41,6 +41,8 @@ pub(crate) struct Exit {
     pub(crate) inner: usize,
     pub(crate) direction: f64,
     pub(crate) into: usize,
+    /// Which of the problem's barriers (its index) the flux leaves through.
+    pub(crate) barrier: usize,
 }
 
 /// Uniform cells; the velocity axis has a face at v = 0 (nv even, symmetric range) so that
@@ -50,6 +52,9 @@ pub(crate) struct Mesh {
     pub(crate) nx: usize,
     pub(crate) nv: usize,
     pub(crate) x0: f64,
+    /// The upper end of the position range (x0 + nx·hx up to rounding; a strip's wall
+    /// exactly).
+    x1: f64,
     pub(crate) hx: f64,
     pub(crate) v0: f64,
     pub(crate) hv: f64,
@@ -62,14 +67,20 @@ impl Mesh {
     /// Cells on `domain`, moved (by less than `align` cells) so that a pass-through barrier
     /// falls on a face with a multiple of `align` cells below it (with `align` = 4 the
     /// half-resolution mesh of the error estimate has the same face, on an even cell), and
-    /// clipped to a reflecting barrier's side.
+    /// clipped to a reflecting barrier's side; between two walls (a strip), cut to the strip,
+    /// the flux re-injected at each wall that is an end of the domain (a wall beyond the
+    /// density's reach is left out of a domain cut before it).
     pub(crate) fn new(
         domain: Domain,
         nx: usize,
         nv: usize,
-        barrier: Option<&Barrier>,
+        barriers: &[Barrier],
         align: usize,
     ) -> Mesh {
+        if let [lo, hi] = barriers {
+            return Mesh::strip(domain, nx, nv, [lo.at, hi.at]);
+        }
+        let barrier = barriers.first();
         let vmax = domain.v[0].abs().max(domain.v[1].abs());
         let hv = 2.0 * vmax / nv as f64;
         let mut x = domain.x;
@@ -83,6 +94,7 @@ impl Mesh {
                     inner: 1,
                     direction: -1.0,
                     into: 0,
+                    barrier: 0,
                 });
             }
             Some((at, BarrierKind::Reflecting(BarrierSide::Below))) => {
@@ -92,6 +104,7 @@ impl Mesh {
                     inner: nx - 2,
                     direction: 1.0,
                     into: nx - 1,
+                    barrier: 0,
                 });
             }
             Some((at, BarrierKind::PassThrough)) => {
@@ -107,12 +120,14 @@ impl Mesh {
                     inner: k - 2,
                     direction: 1.0,
                     into: k,
+                    barrier: 0,
                 });
                 exits.push(Exit {
                     from: k,
                     inner: k + 1,
                     direction: -1.0,
                     into: k - 1,
+                    barrier: 0,
                 });
             }
             None => {}
@@ -121,6 +136,7 @@ impl Mesh {
             nx,
             nv,
             x0: x[0],
+            x1: x[0] + nx as f64 * ((x[1] - x[0]) / nx as f64),
             hx: (x[1] - x[0]) / nx as f64,
             v0: -vmax,
             hv,
@@ -129,9 +145,57 @@ impl Mesh {
         }
     }
 
+    /// Cells on `domain` cut to the strip between the walls `[lo, hi]`, with exits at the
+    /// walls the domain ends on: the lower one (barrier 0) takes the flux at v < 0, the
+    /// upper one (barrier 1) at v > 0.
+    fn strip(domain: Domain, nx: usize, nv: usize, [lo, hi]: [f64; 2]) -> Mesh {
+        let vmax = domain.v[0].abs().max(domain.v[1].abs());
+        let mut x = [domain.x[0].max(lo), domain.x[1].min(hi)];
+        if x[0] >= x[1] || x[0].is_nan() || x[1].is_nan() {
+            x = [lo, hi];
+        }
+        let mut exits = Vec::new();
+        if x[0] == lo {
+            exits.push(Exit {
+                from: 0,
+                inner: 1,
+                direction: -1.0,
+                into: 0,
+                barrier: 0,
+            });
+        }
+        if x[1] == hi {
+            exits.push(Exit {
+                from: nx - 1,
+                inner: nx - 2,
+                direction: 1.0,
+                into: nx - 1,
+                barrier: 1,
+            });
+        }
+        Mesh {
+            nx,
+            nv,
+            x0: x[0],
+            x1: x[1],
+            hx: (x[1] - x[0]) / nx as f64,
+            v0: -vmax,
+            hv: 2.0 * vmax / nv as f64,
+            segments: vec![[0, nx]],
+            exits,
+        }
+    }
+
+    /// Whether the domain's lower (`0`) or upper (`1`) end is a wall of the problem.
+    pub(crate) fn ends_on_wall(&self, end: usize) -> bool {
+        self.exits
+            .iter()
+            .any(|e| e.direction == if end == 0 { -1.0 } else { 1.0 } && e.from == e.into)
+    }
+
     pub(crate) fn domain(&self) -> Domain {
         Domain {
-            x: [self.x0, self.x0 + self.nx as f64 * self.hx],
+            x: [self.x0, self.x1],
             v: [self.v0, self.v0 + self.nv as f64 * self.hv],
         }
     }

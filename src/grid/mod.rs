@@ -22,10 +22,12 @@
 //! * negative cell values (the scheme is not a Markov chain) clipped, their mass reported;
 //!   a discretisation-error estimate from a second solve on half the cells per axis.
 //!
-//! A reflecting barrier (`impact y = 0: v -> -r*v`) keeps the state on the side that holds
-//! the origin, as Monte Carlo starts its trajectories there: above a barrier at or below 0
-//! (the paper's y > 0), below one above 0. [`GridSolver::barrier_side`] says otherwise until
-//! the model language can.
+//! A reflecting barrier (`impact y = 0: v -> -r*v`) keeps the state on the side the model's
+//! `domain` line says (`domain y >= 0`, the paper's y > 0). Two reflecting walls bound a strip: the domain is the strip
+//! exactly (cell faces on both walls), the flux leaving the lower wall at v < 0 re-enters at
+//! its map, the flux leaving the upper wall at v > 0 at its; the automatic sizing then
+//! chooses the velocity range, and cuts the position range only where the density's reach
+//! ends inside the strip.
 //!
 //! ```
 //! use fpsolve::grid::GridSolver;
@@ -49,6 +51,8 @@ mod error;
 mod mesh;
 mod problem;
 mod solution;
+#[cfg(test)]
+mod strip_tests;
 
 use std::time::Instant;
 
@@ -88,7 +92,7 @@ pub struct GridSolver<'a> {
     model: &'a BoundModel,
     cells: [usize; 2],
     domain: Option<Domain>,
-    side: Option<BarrierSide>,
+    laws: Option<Vec<problem::Law>>,
     estimate: bool,
 }
 
@@ -105,7 +109,7 @@ impl<'a> GridSolver<'a> {
             model,
             cells: DEFAULT_CELLS,
             domain: None,
-            side: None,
+            laws: None,
             estimate: true,
         }
     }
@@ -126,7 +130,8 @@ impl<'a> GridSolver<'a> {
     }
 
     /// Solves on `domain` instead of sizing one. The velocity range is made symmetric (the
-    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side.
+    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side,
+    /// two walls cut the domain to their strip.
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -141,22 +146,11 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// The side of a reflecting barrier the state lives on (default: the model's `domain`
-    /// side); ignored for a pass-through barrier.
-    ///
-    /// ```
-    /// # let bound = fpsolve::model::parse_model("model m\nstate y, v\ndrift y: v\n\
-    /// #   drift v: -0.2*v - y\nnoise xi: intensity 1\ndiffusion v: xi\n\
-    /// #   impact y = 0.5: v -> -v\ndomain y <= 0.5\n", None).unwrap().bind(&[]).unwrap();
-    /// use fpsolve::grid::{BarrierSide, GridSolver};
-    /// let below = GridSolver::new(&bound).cells(32, 32).estimate(false).solve().unwrap();
-    /// assert_eq!(below.domain().x[1], 0.5); // the model's `domain` side
-    /// let above = GridSolver::new(&bound).cells(32, 32).barrier_side(BarrierSide::Above)
-    ///     .estimate(false).solve().unwrap();
-    /// assert_eq!(above.domain().x[0], 0.5);
-    /// ```
-    pub fn barrier_side(mut self, side: BarrierSide) -> Self {
-        self.side = Some(side);
+    /// Solves with the impact laws `laws` in place of the model's own (two walls of a strip
+    /// before the model language can state them).
+    #[cfg(test)]
+    pub(crate) fn impacts(mut self, laws: Vec<problem::Law>) -> Self {
+        self.laws = Some(laws);
         self
     }
 
@@ -184,7 +178,7 @@ impl<'a> GridSolver<'a> {
     /// assert!(matches!(GridSolver::new(&bound).check(), Err(GridError::Unsupported { .. })));
     /// ```
     pub fn check(&self) -> Result<(), GridError> {
-        Mechanical::new(self.model, self.side).map(|_| ())
+        Mechanical::new(self.model).map(|_| ())
     }
 
     /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
@@ -207,8 +201,11 @@ impl<'a> GridSolver<'a> {
                 expected: "even numbers of cells, at least 8 per axis",
             });
         }
-        let problem = Mechanical::new(self.model, self.side)?;
-        let barrier = problem.barrier.as_ref();
+        let problem = match &self.laws {
+            Some(laws) => Mechanical::with_laws(self.model, laws.clone())?,
+            None => Mechanical::new(self.model)?,
+        };
+        let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
                 check_domain(&d, &problem, self.model)?;
@@ -224,7 +221,7 @@ impl<'a> GridSolver<'a> {
         let t = Instant::now();
         let (mut mesh, mut p, mut assemble_ms);
         loop {
-            mesh = Mesh::new(domain, nx, nv, barrier, 4);
+            mesh = Mesh::new(domain, nx, nv, barriers, 4);
             (p, assemble_ms) = domain::solve_pinned(&mesh, &problem, guess)?;
             // An automatic domain that cut into the density is enlarged and solved again.
             match domain::grow(&mesh, &p, &problem) {
@@ -239,7 +236,7 @@ impl<'a> GridSolver<'a> {
         let negative_mass = clip(&mut p, mesh.hx * mesh.hv);
         let t = Instant::now();
         let discretisation_estimate = if self.estimate && nx >= 16 && nv >= 16 {
-            let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barrier, 2);
+            let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barriers, 2);
             let (mut q, _) = domain::solve_pinned(&coarse, &problem, domain::peak(&mesh, &p))?;
             clip(&mut q, coarse.hx * coarse.hv);
             Some(estimate(&mesh, &p, &coarse, &q))
@@ -334,7 +331,20 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
         });
     }
-    if let Some(b) = &problem.barrier {
+    if let [lo, hi] = problem.barriers.as_slice() {
+        if !(d.x[0] < hi.at && lo.at < d.x[1]) {
+            return Err(GridError::Unsupported {
+                model: model.name().to_string(),
+                reason: Unsupported::BarrierOutsideDomain {
+                    at: if d.x[1] <= lo.at { lo.at } else { hi.at },
+                    lo: d.x[0],
+                    hi: d.x[1],
+                },
+            });
+        }
+        return Ok(());
+    }
+    if let Some(b) = problem.barriers.first() {
         let fits = match b.kind {
             BarrierKind::PassThrough => d.x[0] < b.at && b.at < d.x[1],
             BarrierKind::Reflecting(BarrierSide::Above) => b.at < d.x[1],

@@ -18,6 +18,33 @@ pub(crate) enum BarrierKind {
     Reflecting(BarrierSide),
 }
 
+/// An impact law as the grid solver reads it from a model, before compilation.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Law {
+    pub(crate) state: usize,
+    pub(crate) other: usize,
+    pub(crate) at: f64,
+    pub(crate) map: Expr,
+    /// The side the state lives on for a reflecting law (`None` for a pass-through law).
+    pub(crate) side: Option<BarrierSide>,
+}
+
+/// The model's impact laws as the grid solver reads them: the one place that knows how the
+/// model states them (none, one, or the two walls of a strip, each with its side).
+fn model_laws(model: &BoundModel) -> Vec<Law> {
+    model
+        .impacts()
+        .iter()
+        .map(|law| Law {
+            state: law.state,
+            other: law.other,
+            at: law.at,
+            map: law.map.clone(),
+            side: law.side,
+        })
+        .collect()
+}
+
 /// The model's impact law on the position axis.
 #[derive(Clone, Debug)]
 pub(crate) struct Barrier {
@@ -42,7 +69,8 @@ pub(crate) struct Mechanical {
     /// Outputs m, b, ∂b/∂v over (x, v). δ terms of the drift are left out: they are the
     /// paper's approximation of the impact that the re-injection represents exactly.
     coefficients: Tape,
-    pub(crate) barrier: Option<Barrier>,
+    /// None, one, or two reflecting walls bounding a strip (lower first).
+    pub(crate) barriers: Vec<Barrier>,
 }
 
 /// Coefficients at a batch of points.
@@ -53,9 +81,13 @@ pub(crate) struct Coefficients {
 }
 
 impl Mechanical {
-    /// Reads the mechanical form of `model`, or says why it has none. `side` decides a
-    /// reflecting barrier's side when the caller knows it.
-    pub(crate) fn new(model: &BoundModel, side: Option<BarrierSide>) -> Result<Self, GridError> {
+    /// Reads the mechanical form of `model`, or says why it has none.
+    pub(crate) fn new(model: &BoundModel) -> Result<Self, GridError> {
+        Mechanical::with_laws(model, model_laws(model))
+    }
+
+    /// [`Mechanical::new`] with the impact laws `laws` in place of the model's own.
+    pub(crate) fn with_laws(model: &BoundModel, laws: Vec<Law>) -> Result<Self, GridError> {
         let states = model.states();
         let (x, v) = (states[0].to_string(), states[1].to_string());
         let refuse = |reason| GridError::Unsupported {
@@ -82,7 +114,7 @@ impl Mechanical {
         }
         crate::physics::check(model)?;
         // δ terms are dropped below only because an impact law stands for them exactly.
-        if model.impacts().is_empty() && model.drift()[1].contains_delta() {
+        if laws.is_empty() && model.drift()[1].contains_delta() {
             return Err(refuse(Unsupported::DeltaWithoutImpact {
                 velocity: v,
                 coefficient: "drift",
@@ -112,50 +144,59 @@ impl Mechanical {
                 what: format!("the drift and diffusion of `{v}`"),
                 source,
             })?;
-        if model.impacts().len() > 1 {
-            return Err(refuse(Unsupported::TwoBarriers));
-        }
-        let barrier = match model.impacts().first() {
-            None => None,
-            Some(law) => {
-                if law.state != 0 || law.other != 1 {
-                    return Err(refuse(Unsupported::ImpactNotOnPosition {
-                        position: x,
-                        velocity: v,
-                    }));
-                }
-                let map = Tape::compile(std::slice::from_ref(&law.map), &vars, DeltaPolicy::Reject)
-                    .map_err(|source| GridError::Symbolic {
-                        what: "the jump map".into(),
-                        source,
-                    })?;
-                let mut barrier = Barrier {
-                    at: law.at,
-                    kind: BarrierKind::PassThrough,
-                    map,
-                };
-                let kind = classify(&barrier).ok_or_else(|| {
+        let mut barriers = Vec::with_capacity(laws.len());
+        for law in &laws {
+            if law.state != 0 || law.other != 1 {
+                return Err(refuse(Unsupported::ImpactNotOnPosition {
+                    position: x,
+                    velocity: v,
+                }));
+            }
+            let map = Tape::compile(std::slice::from_ref(&law.map), &vars, DeltaPolicy::Reject)
+                .map_err(|source| GridError::Symbolic {
+                    what: "the jump map".into(),
+                    source,
+                })?;
+            let mut barrier = Barrier {
+                at: law.at,
+                kind: BarrierKind::PassThrough,
+                map,
+            };
+            let kind = classify(&barrier).ok_or_else(|| {
+                refuse(Unsupported::ImpactMap {
+                    map: format!("{:#}", law.map),
+                })
+            })?;
+            barrier.kind = match kind {
+                // The model says the side of every reflecting law (its `domain` line); a map
+                // this solver reads as reflecting where the model did not is refused.
+                BarrierKind::Reflecting(_) => BarrierKind::Reflecting(law.side.ok_or_else(|| {
                     refuse(Unsupported::ImpactMap {
                         map: format!("{:#}", law.map),
                     })
-                })?;
-                barrier.kind = match kind {
-                    // The side holding the origin, as Monte Carlo starts its trajectories.
-                    BarrierKind::Reflecting(_) => {
-                        BarrierKind::Reflecting(side.or(law.side).unwrap_or(if law.at <= 0.0 {
-                            BarrierSide::Above
-                        } else {
-                            BarrierSide::Below
-                        }))
-                    }
-                    pass => pass,
-                };
-                Some(barrier)
+                })?),
+                pass => pass,
+            };
+            barriers.push(barrier);
+        }
+        barriers.sort_by(|a, b| a.at.total_cmp(&b.at));
+        let strip = match barriers.as_slice() {
+            [lo, hi] => {
+                lo.at < hi.at
+                    && lo.kind == BarrierKind::Reflecting(BarrierSide::Above)
+                    && hi.kind == BarrierKind::Reflecting(BarrierSide::Below)
             }
+            _ => barriers.len() < 2,
         };
+        if !strip {
+            return Err(refuse(Unsupported::NotAStrip {
+                count: barriers.len(),
+                at: barriers.iter().map(|b| b.at).collect(),
+            }));
+        }
         Ok(Mechanical {
             coefficients,
-            barrier,
+            barriers,
         })
     }
 

@@ -207,6 +207,15 @@ impl McConfig {
     }
 
     pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
+        self.resolve_with(model, super::scheme::impact_specs(model))
+    }
+
+    /// [`McConfig::resolve`] with the impact laws `specs` in place of the model's own.
+    pub(super) fn resolve_with(
+        &self,
+        model: &BoundModel,
+        specs: Vec<super::impact::ImpactSpec>,
+    ) -> Result<Resolved, McError> {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
         crate::physics::check(model)?;
@@ -302,7 +311,7 @@ impl McConfig {
                 format!("must lie in [0, 1], got {:?}", self.bias_fraction),
             ));
         }
-        let plan = Plan::new(model, self.scheme)?;
+        let plan = Plan::with_impacts(model, self.scheme, specs)?;
         let burn_in = match self.burn_in {
             BurnIn::Time(t) if t.is_finite() && t >= 0.0 => t,
             BurnIn::DecayTimes(k) if k.is_finite() && k >= 0.0 => {

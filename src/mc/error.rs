@@ -1,5 +1,35 @@
 //! Why a Monte Carlo run could not be set up, run or merged.
 
+/// Why a set of impact laws is not one the simulation handles: it takes none, one, or two on
+/// the same state bounding a strip.
+///
+/// ```
+/// use fpsolve::mc::BarrierLayout;
+/// let e = BarrierLayout::NotAStrip { lower: 1.0, upper: 1.0 };
+/// assert!(e.to_string().contains("strip"));
+/// ```
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BarrierLayout {
+    /// More than two laws.
+    #[error("{count} barriers; at most two (a strip) are supported")]
+    TooMany {
+        /// How many.
+        count: usize,
+    },
+    /// Two laws on different states (or jumping different states).
+    #[error("two barriers on different states")]
+    DifferentStates,
+    /// Two laws that do not bound a strip (lower wall with the state above it, upper wall
+    /// with the state below it).
+    #[error("barriers at {lower} and {upper} do not bound a strip")]
+    NotAStrip {
+        /// The lower barrier's position.
+        lower: f64,
+        /// The upper one's.
+        upper: f64,
+    },
+}
+
 /// Errors of the Monte Carlo stage.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum McError {
@@ -28,15 +58,11 @@ pub enum McError {
         /// The expression with the delta, printed.
         expr: String,
     },
-    /// Two impact laws (a strip): not simulated by this version.
-    #[error("the model has two impact laws (a strip), which the simulation does not handle yet")]
-    TwoBarriers,
-    /// The model's `domain` puts the state on the side of its barrier away from the origin,
-    /// where this version does not start trajectories.
-    #[error("the `domain` puts the state on the side of the barrier at {at} away from the origin, where the simulation does not start trajectories yet")]
-    SideAwayFromOrigin {
-        /// The barrier position.
-        at: f64,
+    /// The model's impact laws are not a layout the simulation handles.
+    #[error("cannot simulate these impact laws: {layout}")]
+    Barriers {
+        /// What is wrong with them.
+        layout: BarrierLayout,
     },
     /// The noise intensity matrix has no real square root (it is not positive semi-definite).
     #[error(

@@ -1,4 +1,5 @@
-//! Impacts as events: a barrier on one state, and the jump map applied where a step meets it.
+//! Impacts as events: barriers on one state (one, or two bounding a strip), and the jump map
+//! applied where a step meets one.
 //!
 //! Each trajectory remembers the side of the barrier it is on. A move "meets" the barrier
 //! when it ends strictly on the other side, or lands exactly on the barrier from off it;
@@ -9,8 +10,37 @@
 //! motion at the barrier and moves away from it, so it meets the barrier at most once per
 //! flight: a chattering trajectory costs at most one event per sub-step, and one that has
 //! lost all its velocity waits on the barrier until the force or the noise carries it away.
+//!
+//! Between two walls (a strip, both laws reflecting) a fast trajectory may hit both walls,
+//! even several times, within one flight: the flight is continued from each impact with the
+//! remaining time until it is used up, each impact located exactly, at most
+//! [`MAX_FLIGHT_EVENTS`] per flight (every one counted). A flight that needs more spends the
+//! rest of its time on the wall it last hit (its speed is then beyond any the model can
+//! reach: the strip's width crossed that many times in one sub-step).
 
 use super::eval::BatchKernel;
+use crate::model::BarrierSide;
+use crate::symbolic::Expr;
+
+/// Impacts one free flight between two walls may have before its remaining time is spent on
+/// the wall (see the module's documentation).
+pub(crate) const MAX_FLIGHT_EVENTS: usize = 64;
+
+/// An impact law as the simulation reads it from a model, before compilation.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ImpactSpec {
+    /// Index of the state that meets the barrier.
+    pub(crate) state: usize,
+    /// Where the barrier is.
+    pub(crate) at: f64,
+    /// Index of the state that jumps.
+    pub(crate) other: usize,
+    /// The post-impact value of `other`.
+    pub(crate) map: Expr,
+    /// The side the state lives on (`None`: a pass-through law, whose trajectories start on
+    /// the side holding the origin).
+    pub(crate) side: Option<BarrierSide>,
+}
 
 /// A compiled impact law.
 pub(crate) struct Barrier {
@@ -22,6 +52,10 @@ pub(crate) struct Barrier {
     pub(crate) other: usize,
     /// The post-impact value of `other`, an expression of the states.
     pub(crate) map: Box<dyn BatchKernel>,
+    /// The map as an expression (for the run's settings).
+    pub(crate) expr: Expr,
+    /// The side (±1) trajectories start on.
+    pub(crate) side: f64,
 }
 
 impl Barrier {
@@ -32,9 +66,9 @@ impl Barrier {
         out[0]
     }
 
-    /// The side (±1) a trajectory starting at `s` on the barrier state is on.
-    pub(crate) fn initial_side(&self, s: f64) -> f64 {
-        if s >= self.at {
+    /// The side (±1) of a barrier at `at` holding the value `s` (+1 on the barrier).
+    pub(crate) fn side_of(at: f64, s: f64) -> f64 {
+        if s >= at {
             1.0
         } else {
             -1.0
@@ -51,8 +85,8 @@ pub(crate) fn meets(b: f64, side: f64, s0: f64, s1: f64) -> bool {
 }
 
 /// Free flight `x ← x + v·τ` of a batch, with impacts located exactly (the motion is
-/// linear within the flight) for the mechanical form, where the barrier is on `x` and the
-/// jump acts on `v`.
+/// linear within the flight) for the mechanical form, where the barriers are on `x` and the
+/// jumps act on `v`: none, one, or two bounding a strip (lower first).
 ///
 /// `scratch` holds the new positions; `impacts[i]` counts lane i's events.
 #[allow(clippy::too_many_arguments)]
@@ -63,15 +97,19 @@ pub(crate) fn free_flight(
     side: &mut [f64],
     impacts: &mut [u64],
     tau: f64,
-    barrier: Option<&Barrier>,
+    barriers: &[Barrier],
     scratch: &mut Vec<f64>,
 ) {
     let n = x.len();
-    let Some(bar) = barrier else {
-        for (x, v) in x.iter_mut().zip(v.iter()) {
-            *x += *v * tau;
+    let bar = match barriers {
+        [] => {
+            for (x, v) in x.iter_mut().zip(v.iter()) {
+                *x += *v * tau;
+            }
+            return;
         }
-        return;
+        [bar] => bar,
+        [lo, hi, ..] => return strip_flight(x, v, impacts, tau, [lo, hi]),
     };
     let b = bar.at;
     scratch.resize(n, 0.0);
@@ -99,6 +137,47 @@ pub(crate) fn free_flight(
     std::mem::swap(x, scratch);
 }
 
+/// Free flight between two reflecting walls `lo.at < hi.at`, the state inside: each lane's
+/// flight is continued from every impact with its remaining time (see the module's
+/// documentation).
+#[inline(always)]
+fn strip_flight(
+    x: &mut [f64],
+    v: &mut [f64],
+    impacts: &mut [u64],
+    tau: f64,
+    [lo, hi]: [&Barrier; 2],
+) {
+    let (a, b) = (lo.at, hi.at);
+    for i in 0..x.len() {
+        let end = x[i] + v[i] * tau;
+        if a < end && end < b {
+            x[i] = end;
+            continue;
+        }
+        // Out of events, the rest of the flight is spent on the wall last hit.
+        let (mut s, mut u, mut rest) = (x[i], v[i], tau);
+        for _ in 0..MAX_FLIGHT_EVENTS {
+            let end = s + u * rest;
+            let wall = if meets(a, 1.0, s, end) {
+                lo
+            } else if meets(b, -1.0, s, end) {
+                hi
+            } else {
+                s = end;
+                break;
+            };
+            let t_hit = ((wall.at - s) / u).clamp(0.0, rest);
+            u = wall.jump(wall.at, u);
+            s = wall.at;
+            rest -= t_hit;
+            impacts[i] += 1;
+        }
+        x[i] = s;
+        v[i] = u;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -110,8 +189,49 @@ mod tests {
             state: 0,
             at: 0.0,
             other: 1,
-            map: compile(&[map], ["z", "v"]).unwrap(),
+            map: compile(std::slice::from_ref(&map), ["z", "v"]).unwrap(),
+            expr: map,
+            side: 1.0,
         }
+    }
+
+    fn wall(at: f64, r: f64, side: f64) -> Barrier {
+        Barrier {
+            at,
+            side,
+            ..barrier(Expr::num(-r) * Expr::sym("v"))
+        }
+    }
+
+    /// A fast flight across a strip hits both walls, each impact exactly located, until the
+    /// flight's time is used up.
+    #[test]
+    fn a_fast_flight_bounces_between_both_walls() {
+        let walls = [wall(-0.5, 1.0, 1.0), wall(0.5, 0.5, -1.0)];
+        let (mut x, mut v, mut side, mut k) = (vec![0.0], vec![10.0], vec![1.0], vec![0]);
+        let mut s = Vec::new();
+        // 0.05 to the upper wall, back at speed 5 for 0.2 to the lower wall, up at 5: 0.05 left.
+        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, &walls, &mut s);
+        assert_eq!((v[0], k[0]), (5.0, 2));
+        assert!((x[0] - (-0.25)).abs() < 1e-14, "{}", x[0]);
+        // A slow lane inside moves freely.
+        let (mut x, mut v) = (vec![0.1], vec![-1.0]);
+        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, &walls, &mut s);
+        assert!((x[0] + 0.2).abs() < 1e-15);
+        assert_eq!(k[0], 2);
+    }
+
+    /// With r = 1 and an absurd speed the events stop at the bound, counted, and the lane
+    /// stays on a wall, never outside the strip.
+    #[test]
+    fn events_per_flight_are_bounded_and_counted() {
+        let walls = [wall(0.0, 1.0, 1.0), wall(1.0, 1.0, -1.0)];
+        let (mut x, mut v, mut side, mut k) = (vec![0.5], vec![1e6], vec![1.0], vec![0]);
+        let mut s = Vec::new();
+        free_flight(&mut x, &mut v, &mut side, &mut k, 1.0, &walls, &mut s);
+        assert_eq!(k[0], MAX_FLIGHT_EVENTS as u64);
+        assert!(x[0] == 0.0 || x[0] == 1.0);
+        assert_eq!(v[0].abs(), 1e6);
     }
 
     #[test]
@@ -119,12 +239,28 @@ mod tests {
         let bar = barrier(Expr::num(0.5) * Expr::sym("v"));
         let (mut x, mut v, mut side, mut k) = (vec![0.1], vec![-1.0], vec![1.0], vec![0]);
         let mut s = Vec::new();
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.3,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         // 0.1 to reach the barrier, then 0.2 at speed −0.5.
         assert!((x[0] + 0.1).abs() < 1e-15);
         assert_eq!((v[0], side[0], k[0]), (-0.5, -1.0, 1));
         // Moving on, away from the barrier: no more events.
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.3,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         assert_eq!(k[0], 1);
     }
 
@@ -133,7 +269,15 @@ mod tests {
         let bar = barrier(Expr::num(-0.8) * Expr::sym("v"));
         let (mut x, mut v, mut side, mut k) = (vec![0.1], vec![-1.0], vec![1.0], vec![0]);
         let mut s = Vec::new();
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.3,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         assert!((x[0] - 0.16).abs() < 1e-15);
         assert_eq!((v[0], side[0], k[0]), (0.8, 1.0, 1));
     }
@@ -143,14 +287,38 @@ mod tests {
         let bar = barrier(Expr::num(0.0) * Expr::sym("v"));
         let (mut x, mut v, mut side, mut k) = (vec![0.1], vec![-1.0], vec![1.0], vec![0]);
         let mut s = Vec::new();
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.3,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         assert_eq!((x[0], v[0], k[0]), (0.0, 0.0, 1));
         v[0] = 0.5;
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.2, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.2,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         assert_eq!((x[0], k[0]), (0.1, 1));
         // Pushed into the barrier again: a new impact, which stops it again.
         v[0] = -2.0;
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.2, Some(&bar), &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut k,
+            0.2,
+            std::slice::from_ref(&bar),
+            &mut s,
+        );
         assert_eq!((x[0], v[0], k[0]), (0.0, 0.0, 2));
     }
 }

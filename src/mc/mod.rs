@@ -1,7 +1,7 @@
 //! Monte Carlo simulation of a bound model: the reference the EPC solution is checked against.
 //!
 //! Trajectories start from the stationary Gaussian of the drift linearised at the origin
-//! (folded onto the barrier's side) and are integrated with a scheme matching the model (see
+//! (folded onto the barrier's side, or into the strip between two walls) and are integrated with a scheme matching the model (see
 //! [`SchemeKind`]), impacts handled as events, and after a burn-in each trajectory's states
 //! and observables are sampled at a fixed spacing into streaming histograms on fixed grids.
 //! Trajectories run in statistics batches of [`McConfig::lanes`] (structure-of-arrays, one
@@ -56,6 +56,8 @@ mod step;
 mod verdict;
 
 #[cfg(test)]
+pub(crate) mod strip_tests;
+#[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod trust_tests;
@@ -66,13 +68,13 @@ pub use config::{
     BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
     TIME_LIMIT_SECONDS,
 };
-pub use error::{McError, ShardDefect};
+pub use error::{BarrierLayout, McError, ShardDefect};
 pub use estimate::Estimate;
 pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};
-pub use settings::{ParamValue, QuantitySpec, RunSettings};
+pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
 pub use simulation::Simulation;
 pub use verdict::{

@@ -21,9 +21,11 @@
 //!   of the step taken with the Brownian-bridge remainder of its increment (so a step with
 //!   an impact is of weak order 1 on every general scheme).
 
+use super::error::BarrierLayout;
 use super::error::McError;
 use super::eval::{compile, BatchKernel};
-use super::impact::Barrier;
+use super::impact::{Barrier, ImpactSpec};
+use crate::model::BarrierSide;
 use crate::model::{BoundModel, Interpretation};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
 use nalgebra::{Matrix2, Matrix3, Vector3};
@@ -148,7 +150,8 @@ pub(crate) struct PlatenKernels {
 pub(crate) struct Plan {
     pub(crate) kind: SchemeKind,
     pub(crate) dynamics: Dynamics,
-    pub(crate) barrier: Option<Barrier>,
+    /// The impact laws: none, one, or two bounding a strip (lower first).
+    pub(crate) barriers: Vec<Barrier>,
     pub(crate) observables: Box<dyn BatchKernel>,
     pub(crate) drift: Box<dyn BatchKernel>,
     /// The diffusion matrix b = G·S·Gᵀ next to the origin (averaged over x = ±ε, so that
@@ -251,24 +254,71 @@ fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2])
     Ok((drift, columns))
 }
 
+/// The model's impact laws as the simulation reads them: the one place that knows how the
+/// model states them (none, one, or the two walls of a strip, each reflecting law with the
+/// side its `domain` line gives).
+pub(crate) fn impact_specs(model: &BoundModel) -> Vec<ImpactSpec> {
+    model
+        .impacts()
+        .iter()
+        .map(|law| ImpactSpec {
+            state: law.state,
+            at: law.at,
+            other: law.other,
+            map: law.map.clone(),
+            side: law.side,
+        })
+        .collect()
+}
+
+/// Checks that `specs` is a layout the simulation handles: none, one, or two on the same
+/// state bounding a strip (the lower one with the state above it, the upper one below);
+/// returns them lower first.
+fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLayout> {
+    match specs.len() {
+        0 | 1 => Ok(specs),
+        2 => {
+            specs.sort_by(|a, b| a.at.total_cmp(&b.at));
+            let (lo, hi) = (&specs[0], &specs[1]);
+            if lo.state != hi.state || lo.other != hi.other {
+                return Err(BarrierLayout::DifferentStates);
+            }
+            let strip = lo.at < hi.at
+                && lo.side == Some(BarrierSide::Above)
+                && hi.side == Some(BarrierSide::Below);
+            if !strip {
+                return Err(BarrierLayout::NotAStrip {
+                    lower: lo.at,
+                    upper: hi.at,
+                });
+            }
+            Ok(specs)
+        }
+        count => Err(BarrierLayout::TooMany { count }),
+    }
+}
+
 impl Plan {
-    pub(crate) fn new(model: &BoundModel, choice: SchemeChoice) -> Result<Plan, McError> {
+    /// `model` compiled with the impact laws `specs` in place of its own.
+    pub(crate) fn with_impacts(
+        model: &BoundModel,
+        choice: SchemeChoice,
+        specs: Vec<ImpactSpec>,
+    ) -> Result<Plan, McError> {
+        let specs = check_layout(specs).map_err(|layout| McError::Barriers { layout })?;
         let [x, v] = [&*model.states[0], &*model.states[1]];
         let states = [x, v];
         let g = &model.noise_matrix;
         let s = &model.intensity;
         let m = model.noise_names.len();
-        let mechanical_barrier = match model.impacts.first() {
-            None => true,
-            Some(b) => b.state == 0 && b.other == 1,
-        };
+        let mechanical_barrier = specs.iter().all(|b| b.state == 0 && b.other == 1);
         let mechanical = choice == SchemeChoice::Auto
             && is_state(&model.drift[0], v)
             && g[0].iter().all(is_zero)
             && g[1].iter().all(|e| !e.mentions(v))
             && mechanical_barrier;
         let mut coefficients = model.drift.iter().chain(g[0].iter()).chain(g[1].iter());
-        if model.impacts.is_empty() {
+        if specs.is_empty() {
             if let Some(e) = coefficients.find(|e| e.contains_delta()) {
                 return Err(McError::DeltaWithoutImpact {
                     expr: e.to_string(),
@@ -357,25 +407,23 @@ impl Plan {
                 },
             )
         };
-        if model.impacts.len() > 1 {
-            return Err(McError::TwoBarriers);
-        }
-        use crate::model::BarrierSide::{Above, Below};
-        if let Some(b) = model.impacts.iter().find(|b| {
-            matches!((b.side, b.at), (Some(Above), a) if a > 0.0)
-                || matches!((b.side, b.at), (Some(Below), a) if a < 0.0)
-        }) {
-            return Err(McError::SideAwayFromOrigin { at: b.at });
-        }
-        let barrier = match model.impacts.first() {
-            None => None,
-            Some(b) => Some(Barrier {
-                state: b.state,
-                at: b.at,
-                other: b.other,
-                map: compile(std::slice::from_ref(&b.map), states)?,
-            }),
-        };
+        let barriers = specs
+            .iter()
+            .map(|b| {
+                Ok(Barrier {
+                    state: b.state,
+                    at: b.at,
+                    other: b.other,
+                    map: compile(std::slice::from_ref(&b.map), states)?,
+                    expr: b.map.clone(),
+                    side: match b.side {
+                        Some(BarrierSide::Above) => 1.0,
+                        Some(BarrierSide::Below) => -1.0,
+                        None => Barrier::side_of(b.at, 0.0),
+                    },
+                })
+            })
+            .collect::<Result<Vec<_>, McError>>()?;
         let obs: Vec<Expr> = model.observables.iter().map(|o| o.expr.clone()).collect();
         let mut origin_diffusion = [[0.0; 2]; 2];
         for x0 in [-1e-9, 1e-9] {
@@ -398,7 +446,7 @@ impl Plan {
             origin_diffusion,
             kind,
             dynamics,
-            barrier,
+            barriers,
             observables: compile(&obs, states)?,
             drift: compile(&model.drift, states)?,
         })

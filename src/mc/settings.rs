@@ -28,6 +28,27 @@ pub struct ParamValue {
     pub value: f64,
 }
 
+/// An impact law as a run records it.
+///
+/// ```
+/// use fpsolve::mc::BarrierSetting;
+/// let b = BarrierSetting { state: "y".into(), at: -0.5, map: "-v".into(), above: true };
+/// let json = serde_json::to_string(&b).unwrap();
+/// assert_eq!(serde_json::from_str::<BarrierSetting>(&json).unwrap(), b);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BarrierSetting {
+    /// The state that meets the barrier.
+    pub state: String,
+    /// Where the barrier is.
+    #[serde(with = "exact")]
+    pub at: f64,
+    /// The post-impact value of the other state, printed.
+    pub map: String,
+    /// Whether trajectories start above the barrier (else below).
+    pub above: bool,
+}
+
 /// A quantity a run histograms: a state or an observable, with its grid.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct QuantitySpec {
@@ -67,6 +88,10 @@ pub struct RunSettings {
     pub seed: u64,
     /// Whether the model has an impact law (so impacts are counted).
     pub has_barrier: bool,
+    /// The impact laws simulated (none, one, or two bounding a strip, lower first): shards
+    /// of runs with different barriers do not merge.
+    #[serde(default)]
+    pub barriers: Vec<BarrierSetting>,
     /// The histogrammed quantities: the two states, then the observables.
     pub quantities: Vec<QuantitySpec>,
     /// Statistics batches `0..bias_batches` are run a second time at 2·dt for the

@@ -58,6 +58,17 @@ impl RunSettings {
                 format!("{} of {} batches", self.bias_batches, self.batches),
             ));
         }
+        // Files written before the barriers were recorded have none (and may have a barrier).
+        if self.barriers.len() > 2 || (!self.barriers.is_empty() && !self.has_barrier) {
+            return Err(defect_setting(
+                "barriers",
+                format!(
+                    "{} barriers recorded, has_barrier = {}",
+                    self.barriers.len(),
+                    self.has_barrier
+                ),
+            ));
+        }
         let states = self.quantities.iter().take_while(|q| q.is_state).count();
         if self.quantities.len() < 2 || states != 2 {
             return Err(defect_setting(

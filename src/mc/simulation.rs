@@ -5,9 +5,10 @@ use super::batch::run_batches;
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
 use super::histogram::{Grid, QuantityHistogram};
+use super::impact::ImpactSpec;
 use super::result::{finalize_run, McResult};
 use super::scheme::Plan;
-use super::settings::{ParamValue, QuantitySpec, RunSettings};
+use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 use super::shard::{Shard, ShardOutput};
 use crate::model::BoundModel;
 
@@ -25,6 +26,16 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
+        Simulation::with_impacts(model, config, super::scheme::impact_specs(model))
+    }
+
+    /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (two
+    /// walls of a strip before the model language can state them).
+    pub(crate) fn with_impacts(
+        model: &BoundModel,
+        config: &McConfig,
+        specs: Vec<ImpactSpec>,
+    ) -> Result<Simulation, McError> {
         let Resolved {
             plan,
             names,
@@ -33,7 +44,7 @@ impl Simulation {
             batches,
             bias_batches,
             estimate,
-        } = config.resolve(model)?;
+        } = config.resolve_with(model, specs)?;
         // The run may be split into as many shards as batches: the smallest shard must fit.
         estimate.within_limits(batches)?;
         let dt = config.dt;
@@ -57,7 +68,17 @@ impl Simulation {
             lanes: config.lanes,
             batches,
             seed: config.seed,
-            has_barrier: !model.impacts.is_empty(),
+            has_barrier: !plan.barriers.is_empty(),
+            barriers: plan
+                .barriers
+                .iter()
+                .map(|b| BarrierSetting {
+                    state: model.states[b.state].to_string(),
+                    at: b.at,
+                    map: b.expr.to_string(),
+                    above: b.side > 0.0,
+                })
+                .collect(),
             quantities: names
                 .iter()
                 .map(|(n, s)| QuantitySpec {

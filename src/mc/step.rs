@@ -31,7 +31,8 @@ pub(crate) struct BatchState {
 impl BatchState {
     /// Trajectories `first..first + lanes` of the run seeded with `seed`, started from the
     /// linearised stationary Gaussian (`spread` from [`Plan::initial_spread`]), reflected
-    /// into the barrier's side that holds the origin.
+    /// into the barrier's side, or folded into a strip by reflections at its walls (never
+    /// on a wall: a start that lands on one moves to the strip's middle).
     pub(crate) fn new(
         plan: &Plan,
         spread: &[[f64; 2]; 2],
@@ -40,7 +41,8 @@ impl BatchState {
         lanes: usize,
         increments: Increments,
     ) -> BatchState {
-        let side0 = plan.barrier.as_ref().map_or(1.0, |b| b.initial_side(0.0));
+        let side0 = plan.barriers.first().map_or(1.0, |b| b.side);
+        let sides: Vec<f64> = plan.barriers.iter().map(|b| b.side).collect();
         let noises = match &plan.dynamics {
             Dynamics::Mechanical { .. } => 1,
             Dynamics::General { noises, .. } => *noises,
@@ -48,7 +50,11 @@ impl BatchState {
         let mut st = BatchState {
             x: vec![0.0; lanes],
             v: vec![0.0; lanes],
-            side: vec![side0; lanes],
+            side: if sides.len() > 1 {
+                sides.iter().flat_map(|&s| vec![s; lanes]).collect()
+            } else {
+                vec![side0; lanes]
+            },
             impacts: vec![0; lanes],
             rng: LaneRng::new(seed, first, lanes),
             inc: IncrementStream::new(increments, lanes),
@@ -74,11 +80,15 @@ impl BatchState {
         for i in 0..lanes {
             let (z0, z1) = (st.lane_normal(i), st.lane_normal(i));
             let mut p = [spread[0][0] * z0, spread[1][0] * z0 + spread[1][1] * z1];
-            if let Some(bar) = &plan.barrier {
-                let s = &mut p[bar.state];
-                if (*s - bar.at) * side0 < 0.0 {
-                    *s = 2.0 * bar.at - *s;
+            match plan.barriers.as_slice() {
+                [] => {}
+                [bar] => {
+                    let s = &mut p[bar.state];
+                    if (*s - bar.at) * side0 < 0.0 {
+                        *s = 2.0 * bar.at - *s;
+                    }
                 }
+                [lo, hi, ..] => p[lo.state] = fold_into(p[lo.state], lo.at, hi.at),
             }
             st.x[i] = p[0];
             st.v[i] = p[1];
@@ -118,7 +128,7 @@ impl BatchState {
                 force,
                 affine,
             } => {
-                let bar = plan.barrier.as_ref();
+                let bar = plan.barriers.as_slice();
                 self.flight(bar, 0.5 * h);
                 for k in 0..steps {
                     self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
@@ -135,7 +145,7 @@ impl BatchState {
     }
 
     #[inline(always)]
-    fn flight(&mut self, bar: Option<&Barrier>, tau: f64) {
+    fn flight(&mut self, bar: &[Barrier], tau: f64) {
         free_flight(
             &mut self.x,
             &mut self.v,
@@ -259,21 +269,17 @@ impl BatchState {
         h: f64,
     ) {
         let n = self.x.len();
-        if let Some(bar) = &plan.barrier {
+        if !plan.barriers.is_empty() {
             for i in 0..n {
-                let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
-                let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
-                if meets(bar.at, self.side[i], s0, s1) {
+                let met = plan.barriers.iter().enumerate().any(|(k, bar)| {
+                    let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
+                    let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
+                    meets(bar.at, self.side[k * n + i], s0, s1)
+                });
+                if met {
                     let w: Vec<f64> = (0..m).map(|k| dw[k * n + i]).collect();
-                    let (x1, v1) = self.resolve_events(
-                        plan,
-                        bar,
-                        i,
-                        [self.x[i], self.v[i]],
-                        [xp[i], vp[i]],
-                        h,
-                        w,
-                    );
+                    let (x1, v1) =
+                        self.resolve_events(plan, i, [self.x[i], self.v[i]], [xp[i], vp[i]], h, w);
                     xp[i] = x1;
                     vp[i] = v1;
                 }
@@ -408,13 +414,12 @@ impl BatchState {
         self.extra = ex;
     }
 
-    /// Cuts lane `i`'s step `p0 → p1` (increment `w` over `h`) at the barrier, applies the
-    /// jump and finishes the step, repeating for further events up to a limit.
-    #[allow(clippy::too_many_arguments)]
+    /// Cuts lane `i`'s step `p0 → p1` (increment `w` over `h`) at the first barrier it
+    /// meets (the earliest crossing), applies the jump and finishes the step, repeating for
+    /// further events up to a limit.
     fn resolve_events(
         &mut self,
         plan: &Plan,
-        bar: &Barrier,
         i: usize,
         mut p0: [f64; 2],
         mut p1: [f64; 2],
@@ -425,12 +430,24 @@ impl BatchState {
             unreachable!("general events on a mechanical plan")
         };
         let m = *noises;
-        let (s, o) = (bar.state, bar.other);
+        let n = self.x.len();
         for _ in 0..MAX_EVENTS_PER_STEP {
-            if !meets(bar.at, self.side[i], p0[s], p1[s]) {
-                break;
+            // The barrier met first along the step (the only one, but in a strip).
+            let mut first: Option<(usize, f64)> = None;
+            for (k, bar) in plan.barriers.iter().enumerate() {
+                let s = bar.state;
+                if meets(bar.at, self.side[k * n + i], p0[s], p1[s]) {
+                    let theta = ((bar.at - p0[s]) / (p1[s] - p0[s])).clamp(0.0, 1.0);
+                    if first.is_none_or(|(_, t)| theta < t) {
+                        first = Some((k, theta));
+                    }
+                }
             }
-            let theta = ((bar.at - p0[s]) / (p1[s] - p0[s])).clamp(0.0, 1.0);
+            let Some((k, theta)) = first else {
+                break;
+            };
+            let bar = &plan.barriers[k];
+            let (s, o) = (bar.state, bar.other);
             let mut c = [0.0; 2];
             for k in 0..2 {
                 c[k] = p0[k] + theta * (p1[k] - p0[k]);
@@ -441,8 +458,8 @@ impl BatchState {
             // The side after the event follows the barrier state's drift there.
             let mut drift = [0.0; 2];
             plan.drift.eval_point(c[0], c[1], &mut drift);
-            if drift[s] * self.side[i] < 0.0 {
-                self.side[i] = -self.side[i];
+            if drift[s] * self.side[k * n + i] < 0.0 {
+                self.side[k * n + i] = -self.side[k * n + i];
             }
             // Brownian bridge: given W(h) − W(0) = w, W(h) − W(θh) ~ N((1−θ)w, θ(1−θ)h·S).
             let rest = (1.0 - theta) * h;
@@ -481,6 +498,22 @@ impl BatchState {
         let u1 = ((a >> 11) as f64 + 0.5) / 9_007_199_254_740_992.0;
         let u2 = ((b >> 11) as f64 + 0.5) / 9_007_199_254_740_992.0;
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+/// `s` folded into the strip [lo, hi] by reflections at its walls; a value that lands on a
+/// wall goes to the middle (a trajectory starts inside, never on a wall).
+fn fold_into(s: f64, lo: f64, hi: f64) -> f64 {
+    let w = hi - lo;
+    let mut y = (s - lo).rem_euclid(2.0 * w);
+    if y > w {
+        y = 2.0 * w - y;
+    }
+    let s = lo + y;
+    if s <= lo || s >= hi || !s.is_finite() {
+        0.5 * (lo + hi)
+    } else {
+        s
     }
 }
 
@@ -644,7 +677,8 @@ mod tests {
         };
         let model = vibro_impact(p).bind(&[]).unwrap();
         for choice in [SchemeChoice::Auto, SchemeChoice::General] {
-            let plan = Plan::new(&model, choice).unwrap();
+            let specs = crate::mc::scheme::impact_specs(&model);
+            let plan = Plan::with_impacts(&model, choice, specs).unwrap();
             let spread = plan.initial_spread();
             let mut a = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
             let mut b = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
