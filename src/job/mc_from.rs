@@ -363,4 +363,45 @@ mod tests {
         assert_eq!(pointer("$.a").as_deref(), Some("/a"));
         assert_eq!(pointer("a.b"), None);
     }
+
+    /// A run whose summary has numbers written as `null` (listed under `undefined`) reads back
+    /// with NaN in their place and every other number bit for bit; a `null` the result has no
+    /// room for is refused.
+    #[test]
+    fn undefined_numbers_come_back_as_nan() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+        let bound = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
+        let config = crate::mc::McConfig {
+            trajectories: 256,
+            samples: 40,
+            lanes: 64,
+            ..crate::mc::McConfig::default()
+        };
+        let mut result = crate::mc::Simulation::new(&bound, &config)
+            .unwrap()
+            .run()
+            .unwrap();
+        result.quantities[1].stderr[3] = f64::NAN;
+        result.quantities[0].moments.kurtosis.stderr = f64::INFINITY;
+        let dir = std::env::temp_dir().join(format!("fpsolve-mc-from-{}", std::process::id()));
+        let out = crate::report::OutputDir::create(&dir).unwrap();
+        let (file, undefined) =
+            crate::report::write_json_flagging_undefined(&out, "mc_summary.json", &result).unwrap();
+        assert_eq!(undefined.len(), 2);
+        let text = std::fs::read_to_string(&file).unwrap();
+        let back = parse_summary(&text).unwrap();
+        assert!(back.quantities[1].stderr[3].is_nan());
+        assert!(back.quantities[0].moments.kurtosis.stderr.is_nan());
+        let mut expected = result.clone();
+        expected.quantities[1].stderr[3] = 0.0;
+        expected.quantities[0].moments.kurtosis.stderr = 0.0;
+        let mut got = back;
+        got.quantities[1].stderr[3] = 0.0;
+        got.quantities[0].moments.kurtosis.stderr = 0.0;
+        assert_eq!(got, expected);
+        // A null listed where the result holds no number that may be undefined.
+        let bad = text.replacen("\"seed\": ", "\"seed\": null, \"was\": ", 1);
+        assert!(parse_summary(&bad).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

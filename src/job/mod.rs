@@ -5,6 +5,8 @@
 //! `summary.json`, figures. A finished job's [`JobReport`] prints as the table the command
 //! line shows.
 
+#![warn(missing_docs)]
+
 mod cells;
 mod compare;
 mod files;

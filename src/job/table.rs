@@ -2,9 +2,9 @@
 
 use std::fmt::Write;
 
-use super::{Comparison, JobReport, Reference};
+use super::{Comparison, JobReport, LogRatio, Reference};
 use crate::solve::{MethodName, QuantityMoments};
-use crate::study::{DegreeResult, Study};
+use crate::study::{DegreeResult, Source, Study};
 
 impl std::fmt::Display for JobReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -174,8 +174,32 @@ fn distances(s: &mut String, study: &Study, report: &JobReport, reference: Refer
             c.range[0],
             c.range[1],
             c.l1,
-            c.ratio_1e3,
-            c.ratio_1e5
+            ratio(&c.ratio_1e3, c.source),
+            ratio(&c.ratio_1e5, c.source)
         );
     }
+}
+
+/// A worst log-ratio, saying where the method's density is 0 and why (EPC is cut beyond its
+/// ridge, the grid ends at its domain).
+fn ratio(r: &LogRatio, source: Source) -> String {
+    if source.method == MethodName::Epc {
+        return r.to_string(); // "(EPC is 0 in k of n bins: beyond its ridge)"
+    }
+    let mut s = match r.max_abs_log10 {
+        Some(m) => format!("{m:.3}"),
+        None => "undefined".into(),
+    };
+    if r.bins_epc_zero > 0 {
+        let why = match source.method {
+            MethodName::Grid => "outside its domain",
+            _ => "beyond its ridge",
+        };
+        let _ = write!(
+            s,
+            " ({source} is 0 in {} of {} bins: {why})",
+            r.bins_epc_zero, r.bins
+        );
+    }
+    s
 }

@@ -25,6 +25,8 @@
 //! # Ok::<(), fpsolve::report::ReportError>(())
 //! ```
 
+#![warn(missing_docs)]
+
 mod csv;
 mod figure;
 mod font;

@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use crate::epc::EpcError;
 use crate::grid::{GridError, GridSolver, Unsupported};
+use crate::observe::ObservableMap;
 use crate::physics::ImpactForm;
 use crate::solve::{MethodName, MethodSet, Problem, Solution, SolveError};
 
@@ -39,6 +40,18 @@ pub enum NotApplicable {
         model: String,
         /// What it does not handle.
         unsupported: Unsupported,
+    },
+    /// Not run unless named: the grid's PDFs of these observables (neither a state nor ± a
+    /// state on each quadrant) go through level-set quadrature of its piecewise-bilinear
+    /// density, which takes minutes where everything else takes a second.
+    #[error(
+        "not run by default: the PDFs of {} under the grid solution take minutes (level-set \
+         quadrature of a piecewise-bilinear density); name it with --method to run it anyway",
+        observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+    )]
+    SlowObservables {
+        /// The observables.
+        observables: Vec<String>,
     },
     /// The method is not available in this build of fpsolve.
     #[error("the method `{method}` is not available in this build")]
@@ -138,7 +151,8 @@ impl MethodPlan {
             skipped: Vec::new(),
         };
         for &method in asked.names() {
-            match applies(problem, method)? {
+            let applies = applies(problem, method)?;
+            match applies.and_then(|()| default_cost(problem, method, required)) {
                 Ok(()) => plan.run.push(method),
                 Err(why) if required => return Err(Refused { method, why }.into()),
                 Err(why) => plan.skipped.push(Skipped { method, why }),
@@ -151,6 +165,29 @@ impl MethodPlan {
             });
         }
         Ok(plan)
+    }
+}
+
+/// A method that applies but is not run unless named: the grid when the model has
+/// observables whose PDFs need level-set quadrature.
+fn default_cost(
+    problem: &Problem,
+    method: MethodName,
+    required: bool,
+) -> Result<(), NotApplicable> {
+    if required || method != MethodName::Grid {
+        return Ok(());
+    }
+    let observables: Vec<String> = problem
+        .quantities()
+        .iter()
+        .filter(|q| !q.is_state && matches!(q.map, ObservableMap::General { .. }))
+        .map(|q| q.name.clone())
+        .collect();
+    if observables.is_empty() {
+        Ok(())
+    } else {
+        Err(NotApplicable::SlowObservables { observables })
     }
 }
 

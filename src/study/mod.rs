@@ -3,6 +3,8 @@
 //! the main job report. Built on the front door ([`crate::solve::Problem`]): each degree of a
 //! ladder method, and the grid, is a [`Solution`] or the reason there is none.
 
+#![warn(missing_docs)]
+
 mod curves;
 mod methods;
 
