@@ -170,11 +170,13 @@ impl Mechanical {
             barrier.kind = match kind {
                 // The model says the side of every reflecting law (its `domain` line); a map
                 // this solver reads as reflecting where the model did not is refused.
-                BarrierKind::Reflecting(_) => BarrierKind::Reflecting(law.side.ok_or_else(|| {
-                    refuse(Unsupported::ImpactMap {
-                        map: format!("{:#}", law.map),
-                    })
-                })?),
+                BarrierKind::Reflecting(_) => {
+                    BarrierKind::Reflecting(law.side.ok_or_else(|| {
+                        refuse(Unsupported::ImpactMap {
+                            map: format!("{:#}", law.map),
+                        })
+                    })?)
+                }
                 pass => pass,
             };
             barriers.push(barrier);

@@ -190,6 +190,90 @@ impl GridSolution {
     }
 }
 
+impl GridSolution {
+    /// ∫ p dx_other over `range` on the line x_axis = `at`, exactly for the interpolant
+    /// [`GridSolution::pdf`] evaluates.
+    fn line_integral(&self, axis: usize, at: f64, [a, b]: [f64; 2]) -> f64 {
+        let m = &self.mesh;
+        let d = m.domain();
+        if axis == 0 {
+            if !(d.x[0] <= at && at <= d.x[1]) {
+                return 0.0;
+            }
+            let i = (((at - m.x0) / m.hx).floor().max(0.0) as usize).min(m.nx - 1);
+            let (i0, i1, tx) = bracket(at, m.x0, m.hx, m.segment_of(i));
+            let f = |j: usize| (1.0 - tx) * self.cell(i0, j) + tx * self.cell(i1, j);
+            run_integral(&f, m.v0, m.hv, [0, m.nv], d.v, [a, b])
+        } else {
+            if !(d.v[0] <= at && at <= d.v[1]) {
+                return 0.0;
+            }
+            let (j0, j1, tv) = bracket(at, m.v0, m.hv, [0, m.nv]);
+            let f = |i: usize| (1.0 - tv) * self.cell(i, j0) + tv * self.cell(i, j1);
+            let runs = if m.segments.is_empty() {
+                vec![[0, m.nx]]
+            } else {
+                m.segments.clone()
+            };
+            runs.iter()
+                .map(|&[s0, s1]| {
+                    let lo = if s0 == 0 {
+                        d.x[0]
+                    } else {
+                        m.x0 + s0 as f64 * m.hx
+                    };
+                    let hi = if s1 == m.nx {
+                        d.x[1]
+                    } else {
+                        m.x0 + s1 as f64 * m.hx
+                    };
+                    run_integral(&f, m.x0, m.hx, [s0, s1], [lo, hi], [a, b])
+                })
+                .sum()
+        }
+    }
+}
+
+/// ∫ over [a, b] of the function that is `f(k)` at the centres lo + (k + ½)·h of the run
+/// [start, end), linear between them and constant from the end centres to the run's edges
+/// `[e0, e1]` (zero outside them).
+fn run_integral(
+    f: &dyn Fn(usize) -> f64,
+    lo: f64,
+    h: f64,
+    [start, end]: [usize; 2],
+    [e0, e1]: [f64; 2],
+    [a, b]: [f64; 2],
+) -> f64 {
+    let centre = |k: usize| lo + (k as f64 + 0.5) * h;
+    // The integral of the linear piece through (p, fp), (q, fq) over [p, q] ∩ [a, b].
+    let piece = |p: f64, fp: f64, q: f64, fq: f64| {
+        let (u, w) = (p.max(a), q.min(b));
+        if w <= u {
+            return 0.0;
+        }
+        let at = |t: f64| {
+            if q > p {
+                fp + (fq - fp) * (t - p) / (q - p)
+            } else {
+                fp
+            }
+        };
+        0.5 * (at(u) + at(w)) * (w - u)
+    };
+    let first = f(start);
+    let last = f(end - 1);
+    let mut total = piece(e0, first, centre(start).max(e0), first);
+    total += piece(centre(end - 1).min(e1), last, e1, last);
+    let mut prev = first;
+    for k in start + 1..end {
+        let next = f(k);
+        total += piece(centre(k - 1), prev, centre(k), next);
+        prev = next;
+    }
+    total
+}
+
 /// The two cell centres of the run [start, end) around `u` and the weight of the second.
 fn bracket(u: f64, lo: f64, h: f64, [start, end]: [usize; 2]) -> (usize, usize, f64) {
     let s = (u - lo) / h - 0.5;
@@ -208,9 +292,86 @@ impl JointDensity for GridSolution {
         GridSolution::pdf(self, x[0], x[1])
     }
 
+    /// Exact: along a line the interpolant of [`GridSolution::pdf`] is piecewise linear
+    /// between cell centres (constant from the last centre to the run's edge), so its
+    /// integral is a sum of trapezoids; adaptive quadrature of this kinked function would
+    /// subdivide at every cell.
+    fn line_integral(&self, axis: usize, at: f64, range: [f64; 2]) -> Option<f64> {
+        Some(self.line_integral(axis, at, range))
+    }
+
     /// The domain: the density is zero outside it.
     fn extent(&self) -> [[f64; 2]; 2] {
         let d = self.domain();
         [d.x, d.v]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::grid::GridSolver;
+    use crate::model::parse_model;
+    use crate::observe::JointDensity;
+
+    /// The exact line integrals equal adaptive quadrature of the interpolant, on both axes,
+    /// over whole lines and half-lines, for a pass-through barrier (two runs in x) and a wall.
+    #[test]
+    fn line_integrals_are_those_of_the_interpolant() {
+        for (impact, domain) in [
+            ("impact x = 0: v -> 0.9*v", ""),
+            ("impact x = -0.3: v -> -0.8*v", "domain x >= -0.3"),
+        ] {
+            let text = format!(
+                "model m\nstate x, v\ndrift x: v\ndrift v: -0.3*v - x - 0.2*x^3\n\
+                 noise xi: intensity 0.5\ndiffusion v: xi\n{impact}\n{domain}\n"
+            );
+            let bound = parse_model(&text, None).unwrap().bind(&[]).unwrap();
+            let sol = GridSolver::new(&bound)
+                .cells(24, 30)
+                .estimate(false)
+                .solve()
+                .unwrap();
+            let ext = JointDensity::extent(&sol);
+            for axis in 0..2 {
+                let other = 1 - axis;
+                let [lo, hi] = ext[other];
+                for frac in [0.0, 0.13, 0.5, 0.77, 1.0] {
+                    let at = ext[axis][0] + frac * (ext[axis][1] - ext[axis][0]);
+                    for range in [
+                        [lo, hi],
+                        [lo.min(0.0), 0.0],
+                        [0.0, hi.max(0.0)],
+                        [lo - 1.0, 0.4],
+                    ] {
+                        let exact = JointDensity::line_integral(&sol, axis, at, range).unwrap();
+                        let f = |t: f64| {
+                            let mut x = [0.0; 2];
+                            x[axis] = at;
+                            x[other] = t;
+                            sol.pdf(x[0], x[1])
+                        };
+                        // Integrate run by run so the adaptive rule sees every kink at a node.
+                        let h = (hi - lo) / 4000.0;
+                        let (a, b) = (range[0].max(lo), range[1].min(hi));
+                        let mut quad = 0.0;
+                        if b > a {
+                            let n = ((b - a) / h).ceil() as usize;
+                            for k in 0..n {
+                                let (u, w) = (
+                                    a + k as f64 * (b - a) / n as f64,
+                                    a + (k + 1) as f64 * (b - a) / n as f64,
+                                );
+                                quad +=
+                                    crate::observe::quadrature::integrate_adaptive(&f, u, w, 1e-13);
+                            }
+                        }
+                        assert!(
+                            (exact - quad).abs() <= 1e-6 * quad.abs().max(1e-3),
+                            "{impact}: axis {axis} at {at} over {range:?}: {exact} vs {quad}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }

@@ -26,7 +26,7 @@
 mod critical;
 mod level;
 mod moments;
-mod quadrature;
+pub(crate) mod quadrature;
 
 use crate::epc::EpcSolution;
 use rayon::prelude::*;
@@ -46,6 +46,13 @@ pub trait JointDensity: Sync {
     /// A box `[[lo1, hi1], [lo2, hi2]]` outside which the density is negligible (below about
     /// 1e−16 of its peak) or zero.
     fn extent(&self) -> [[f64; 2]; 2];
+    /// ∫ p dx_other over `range` on the line x_axis = `at`, when the density can give it
+    /// exactly (a piecewise-polynomial density, e.g. the grid solver's); `None` (the default)
+    /// and the caller integrates [`JointDensity::pdf`] along the line by adaptive quadrature.
+    fn line_integral(&self, axis: usize, at: f64, range: [f64; 2]) -> Option<f64> {
+        let _ = (axis, at, range);
+        None
+    }
 }
 
 impl JointDensity for EpcSolution {
@@ -312,6 +319,10 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
                 (ext[other][0].min(0.0), 0.0)
             };
             if hi <= lo {
+                continue;
+            }
+            if let Some(line) = density.line_integral(state, xs, [lo, hi]) {
+                total += line;
                 continue;
             }
             let f = |t: f64| {
