@@ -58,6 +58,12 @@ pub enum Method {
         /// L1 < 1e−3 on the paper's cases.
         cells: [usize; 2],
     },
+    /// EPC with the exact impact condition ([`crate::epc_impact`]) at this (even) degree,
+    /// on the domain of the model's original coordinates, continued from degree 2.
+    EpcImpact {
+        /// The degree n of the polynomial Q in p = C·exp(Q).
+        degree: usize,
+    },
 }
 
 impl std::fmt::Display for Method {
@@ -65,6 +71,7 @@ impl std::fmt::Display for Method {
         match self {
             Method::Epc { degree } => write!(f, "EPC n = {degree}"),
             Method::Grid { cells } => write!(f, "grid {}×{}", cells[0], cells[1]),
+            Method::EpcImpact { degree } => write!(f, "EPC-impact n = {degree}"),
         }
     }
 }
@@ -81,6 +88,9 @@ pub enum SolveError {
     /// The grid solver did not give a density (or does not apply to the model).
     #[error(transparent)]
     Grid(#[from] GridError),
+    /// EPC with the exact impact condition did not give a density (or does not apply).
+    #[error(transparent)]
+    EpcImpact(#[from] crate::epc_impact::EpcImpactError),
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -151,6 +161,13 @@ impl<'a> Problem<'a> {
                     .solve()?;
                 Ok(Solution::new(
                     Density::Grid(Box::new(grid)),
+                    self.quantities.clone(),
+                ))
+            }
+            Method::EpcImpact { degree } => {
+                let sol = crate::epc_impact::EpcImpact::new(self.model).solve(degree)?;
+                Ok(Solution::new(
+                    Density::EpcImpact(Box::new(sol)),
                     self.quantities.clone(),
                 ))
             }
