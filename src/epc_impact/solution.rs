@@ -75,9 +75,10 @@ pub struct EpcImpactReport {
 /// let set = ["r=1".parse()?, "eps=0".parse()?];
 /// let bound = fpsolve::model::load_model(&path)?.bind(&set)?;
 /// let sol = EpcImpact::new(&bound).solve(4)?;
-/// // Elastic impacts: the Duffing density restricted to y > 0, exp(−2(v²/2 + y²/2 + 0.1 y⁴/4)).
-/// assert!((sol.coefficient(0, 2) + 1.0).abs() < 1e-7);
-/// assert!((sol.coefficient(4, 0) + 0.05).abs() < 1e-7);
+/// // Elastic impacts: the Duffing density restricted to y > 0,
+/// // exp(−0.2(v²/2 + y²/2 + 0.1 y⁴/4)).
+/// assert!((sol.coefficient(0, 2) + 0.1).abs() < 1e-9);
+/// assert!((sol.coefficient(4, 0) + 0.005).abs() < 1e-9);
 /// assert_eq!(sol.pdf(-0.1, 0.0), 0.0); // below the barrier
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
