@@ -96,6 +96,10 @@ const BOX_ROUNDS: usize = 3;
 const WASTE: f64 = 1.6;
 /// The density at the box's free edges must be below e^−this of its peak.
 const EDGE_E_FOLDS: f64 = 36.0;
+/// Inside a ridge the box's free edges must lie at least the ridge threshold less this many
+/// e-folds below the peak (the box is fitted one e-fold above the pass; the root moves a
+/// little when it is followed onto the fitted box).
+const RIDGE_EDGE_MARGIN: f64 = 3.0;
 
 /// An `epc-impact` problem: a bound model and options; [`EpcImpact::solve`] or
 /// [`EpcImpact::solve_degrees`] runs it.
@@ -117,6 +121,9 @@ pub struct EpcImpact<'a> {
     ridge_threshold: f64,
     barriers: Option<Vec<Barrier>>,
 }
+
+/// A lower-degree solution (exponents, scaled coefficients) that starts the next degree.
+type Start = (Vec<(usize, usize)>, DVector<f64>);
 
 /// A solved degree before it is reported, and what the next degree starts from.
 struct Solved {
@@ -259,7 +266,7 @@ impl<'a> EpcImpact<'a> {
         };
         let mut window = prep.start;
         let mut panels = self.panels;
-        let mut previous: Option<(Vec<(usize, usize)>, DVector<f64>)> = None;
+        let mut previous: Option<Start> = None;
         let mut by_degree = Vec::new();
         for n in (2..=max_n).step_by(2) {
             let result = self.degree(&prep, n, window, panels, previous.as_ref());
@@ -348,7 +355,7 @@ impl<'a> EpcImpact<'a> {
         n: usize,
         window: Window,
         panels: [usize; 2],
-        previous: Option<&(Vec<(usize, usize)>, DVector<f64>)>,
+        previous: Option<&Start>,
     ) -> Result<Solved, EpcImpactError> {
         let t0 = Instant::now();
         let (mech, sigma) = (&prep.mech, prep.sigma);
@@ -472,7 +479,7 @@ impl<'a> EpcImpact<'a> {
         );
         let least = match normalisation {
             Normalisation::Domain => EDGE_E_FOLDS,
-            Normalisation::InsideRidge { .. } => self.ridge_threshold - 1.0,
+            Normalisation::InsideRidge { .. } => self.ridge_threshold - RIDGE_EDGE_MARGIN,
         };
         if edge_e_folds < least {
             return Err(not_normalisable(Divergence::Unbounded {

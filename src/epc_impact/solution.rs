@@ -61,7 +61,7 @@ pub struct EpcImpactReport {
     pub normalisation: Normalisation,
     /// ln(peak/largest value on the box's free edges): at least 36 (the density is below
     /// about 2e−16 of its peak outside the box) when Q decays along every ray of the domain;
-    /// inside a ridge at least the ridge threshold less one.
+    /// inside a ridge at least the ridge threshold less 3.
     pub edge_e_folds: f64,
     /// Milliseconds for this degree (assembly, solves, checks).
     pub solve_ms: f64,
