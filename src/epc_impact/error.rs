@@ -5,6 +5,16 @@ use crate::fpk::FpkError;
 use crate::symbolic::SymbolicError;
 
 /// What the method does not handle: a refusal before any work, never a wrong number.
+///
+/// ```
+/// use fpsolve::epc_impact::{EpcImpact, EpcImpactError, Unsupported};
+/// let text = "model m\nstate x, v\ndrift x: v\ndrift v: -0.2*v - x\nnoise xi: intensity 1\n\
+///             diffusion v: xi\nimpact x = 0: v -> 0.9*v\n";
+/// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
+/// let err = EpcImpact::new(&bound).solve(2).unwrap_err();
+/// assert!(matches!(err, EpcImpactError::Unsupported { reason: Unsupported::PassThrough { .. }, .. }));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum Unsupported {
     /// The rate of the first state is not the second state: the method needs x' = v.
@@ -85,6 +95,19 @@ pub enum Unsupported {
 }
 
 /// How exp(Q) fails to be a density on the domain.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// use fpsolve::epc_impact::{Divergence, EpcImpact, EpcImpactError};
+/// // Case 1 at degree 4 grows beyond a ridge 16 e-folds deep: refused with a higher threshold.
+/// let err = EpcImpact::new(&bound).ridge_threshold(30.0).solve(4).unwrap_err();
+/// assert!(matches!(
+///     err,
+///     EpcImpactError::NotNormalisable { reason: Divergence::ShallowRidge { .. }, .. }
+/// ));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum Divergence {
     /// Along the ray from `from` in direction `direction` (inside the domain) the highest
@@ -150,6 +173,16 @@ pub enum Divergence {
 }
 
 /// Why `epc-impact` has no density for a model at some degree.
+///
+/// ```
+/// use fpsolve::epc::EpcError;
+/// use fpsolve::epc_impact::{EpcImpact, EpcImpactError};
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// let err = EpcImpact::new(&bound).solve(14).unwrap_err();
+/// assert!(matches!(err, EpcImpactError::Epc(EpcError::Degree { degree: 14, .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EpcImpactError {
     /// The model is outside what the method handles ([`Unsupported`]).

@@ -7,6 +7,16 @@ use crate::model::BoundModel;
 use crate::symbolic::{simplify, DeltaPolicy, Expr, Tape, TapeScratch};
 
 /// Which side of a barrier the state lives on.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// use fpsolve::epc_impact::{EpcImpact, Side};
+/// // `impact y = 0: v -> -r*v`: the state lives above the barrier (the side of the origin).
+/// let sol = EpcImpact::new(&bound).solve(2)?;
+/// assert_eq!(sol.barriers[0].side, Side::Above);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Side {
     /// x ≥ the barrier: a lower bound, hit with v < 0.

@@ -22,6 +22,16 @@ use crate::epc::MAX_DEGREE;
 pub(crate) const NODES_PER_PANEL: usize = 8;
 
 /// A box [x_lo, x_hi] × [v_lo, v_hi] (original units) with v_lo < 0 < v_hi.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// let sol = fpsolve::epc_impact::EpcImpact::new(&bound).solve(2)?;
+/// // The barrier at y = 0 is the window's lower position edge.
+/// assert_eq!(sol.window.x[0], 0.0);
+/// assert!(sol.window.v[0] < 0.0 && sol.window.v[1] > 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Window {
     /// The position range.

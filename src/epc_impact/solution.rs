@@ -9,6 +9,15 @@ use crate::moments::Moments;
 use crate::observe::JointDensity;
 
 /// A barrier of the solved domain.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// let sol = fpsolve::epc_impact::EpcImpact::new(&bound).solve(2)?;
+/// assert_eq!(sol.barriers.len(), 1);
+/// assert_eq!(sol.barriers[0].at, 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct DomainBarrier {
     /// Its position.
@@ -18,6 +27,16 @@ pub struct DomainBarrier {
 }
 
 /// How the solved exp(Q) is a density.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// use fpsolve::epc_impact::{EpcImpact, Normalisation};
+/// // The degree-2 (Gaussian) root decays along every ray of y ≥ 0.
+/// let sol = EpcImpact::new(&bound).solve(2)?;
+/// assert_eq!(sol.report.normalisation, Normalisation::Domain);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Normalisation {
     /// Q → −∞ along every ray of the domain: exp(Q) is integrable on all of it (the window
@@ -36,6 +55,15 @@ pub enum Normalisation {
 }
 
 /// How one degree was solved.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+/// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// let r = fpsolve::epc_impact::EpcImpact::new(&bound).solve(4)?.report;
+/// assert!(r.residual <= r.residual_threshold);
+/// assert!(r.quadrature_change < 1e-7);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EpcImpactReport {
     /// The degree n.
@@ -52,7 +80,7 @@ pub struct EpcImpactReport {
     /// Gauss–Legendre panels of the final rule, [position, velocity] (8 nodes each).
     pub panels: [usize; 2],
     /// ‖R‖ at the solution on a rule with twice the panels per axis: the quadrature error
-    /// of the equations, below `residual_threshold`.
+    /// of the equations, below `residual_threshold` or 1e−7 of their scale.
     pub quadrature_change: f64,
     /// Times the root was followed by Newton onto a refitted box or a finer rule.
     pub refits: usize,
