@@ -120,6 +120,7 @@
 #![warn(missing_docs)]
 
 pub mod epc;
+pub mod epc_impact;
 mod error;
 pub mod fpk;
 pub mod grid;

@@ -34,15 +34,15 @@ mod coefficients;
 mod continuation;
 mod degrees;
 mod error;
-mod galerkin;
+pub(crate) mod galerkin;
 mod gaussian;
 mod normalise;
 mod outcome;
 mod prepare;
-mod quadrature;
+pub(crate) mod quadrature;
 mod residual;
 mod solution;
-mod solver;
+pub(crate) mod solver;
 
 use std::time::Instant;
 

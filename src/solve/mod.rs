@@ -59,6 +59,12 @@ pub enum Method {
         /// L1 < 1e−3 on the paper's cases.
         cells: [usize; 2],
     },
+    /// EPC with the exact impact condition ([`crate::epc_impact`]) at this (even) degree,
+    /// on the domain of the model's original coordinates, continued from degree 2.
+    EpcImpact {
+        /// The degree n of the polynomial Q in p = C·exp(Q).
+        degree: usize,
+    },
 }
 
 impl std::fmt::Display for Method {
@@ -66,6 +72,7 @@ impl std::fmt::Display for Method {
         match self {
             Method::Epc { degree } => write!(f, "EPC n = {degree}"),
             Method::Grid { cells } => write!(f, "grid {}×{}", cells[0], cells[1]),
+            Method::EpcImpact { degree } => write!(f, "EPC-impact n = {degree}"),
         }
     }
 }
@@ -88,6 +95,9 @@ pub enum SolveError {
         "EPC solves a reflecting barrier through the Zhuravlev transform, which fails here: {0}"
     )]
     Zhuravlev(#[from] ZhuravlevError),
+    /// EPC with the exact impact condition did not give a density (or does not apply).
+    #[error(transparent)]
+    EpcImpact(#[from] crate::epc_impact::EpcImpactError),
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -212,6 +222,13 @@ impl<'a> Problem<'a> {
                     self.own_quantities.clone(),
                 ))
             }
+            Method::EpcImpact { degree } => {
+                let sol = crate::epc_impact::EpcImpact::new(self.model).solve(degree)?;
+                Ok(Solution::new(
+                    Density::EpcImpact(Box::new(sol)),
+                    self.own_quantities.clone(),
+                ))
+            }
         }
     }
 
@@ -222,6 +239,23 @@ impl<'a> Problem<'a> {
             .solve_degrees(degrees)
             .into_iter()
             .map(|r| r.map(|s| self.solution(s)))
+            .collect()
+    }
+
+    /// Solves by EPC with the exact impact condition at each degree asked, continuing through
+    /// every lower even degree, one result per degree in the order given (see
+    /// [`crate::epc_impact::EpcImpact::solve_degrees`]). The model is solved as written, in
+    /// its own coordinates.
+    pub fn solve_epc_impact_degrees(&self, degrees: &[usize]) -> Vec<Result<Solution, SolveError>> {
+        crate::epc_impact::EpcImpact::new(self.model)
+            .solve_degrees(degrees)
+            .into_iter()
+            .map(|r| {
+                r.map(|s| {
+                    Solution::new(Density::EpcImpact(Box::new(s)), self.own_quantities.clone())
+                })
+                .map_err(SolveError::from)
+            })
             .collect()
     }
 

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use crate::epc::EpcSolution;
+use crate::epc_impact::EpcImpactSolution;
 use crate::grid::GridSolution;
 use crate::moments::Moments;
 use crate::observe::{moments_of_all, JointDensity, ObservableDensity};
@@ -20,6 +21,9 @@ pub enum Density {
     Epc(Box<EpcSolution>),
     /// A grid solution (cell densities and its [`crate::grid::GridReport`]).
     Grid(Box<GridSolution>),
+    /// An EPC solution with the exact impact condition (its density and its
+    /// [`crate::epc_impact::EpcImpactReport`]).
+    EpcImpact(Box<EpcImpactSolution>),
 }
 
 /// A solved stationary density and every state and observable of the model, by name.
@@ -123,6 +127,7 @@ impl Solution {
             Density::Grid(g) => Method::Grid {
                 cells: g.report.cells,
             },
+            Density::EpcImpact(s) => Method::EpcImpact { degree: s.degree },
         }
     }
 
@@ -135,7 +140,7 @@ impl Solution {
     pub fn epc(&self) -> Option<&EpcSolution> {
         match &self.density {
             Density::Epc(s) => Some(s),
-            Density::Grid(_) => None,
+            Density::Grid(_) | Density::EpcImpact(_) => None,
         }
     }
 
@@ -144,6 +149,7 @@ impl Solution {
         match &self.density {
             Density::Epc(s) => s.as_ref(),
             Density::Grid(g) => g.as_ref(),
+            Density::EpcImpact(s) => s.as_ref(),
         }
     }
 

@@ -53,11 +53,13 @@ pub enum NotApplicable {
         /// The observables.
         observables: Vec<String>,
     },
-    /// The method is not available in this build of fpsolve.
-    #[error("the method `{method}` is not available in this build")]
-    NotAvailable {
-        /// The method.
-        method: MethodName,
+    /// EPC with the exact impact condition does not handle the model.
+    #[error("EPC with the exact impact condition cannot solve model `{model}`: {unsupported}")]
+    EpcImpact {
+        /// The model's name.
+        model: String,
+        /// What it does not handle.
+        unsupported: crate::epc_impact::Unsupported,
     },
 }
 
@@ -216,7 +218,18 @@ pub fn applies(
             }),
             _ => Ok(()),
         }),
-        MethodName::EpcImpact => Ok(Ok(())),
+        MethodName::EpcImpact => Ok(
+            match crate::epc_impact::EpcImpact::new(problem.model()).check() {
+                Ok(()) => Ok(()),
+                Err(crate::epc_impact::EpcImpactError::Unsupported { model, reason }) => {
+                    Err(NotApplicable::EpcImpact {
+                        model,
+                        unsupported: reason,
+                    })
+                }
+                Err(e) => return Err(e.into()),
+            },
+        ),
         MethodName::Grid => match GridSolver::new(problem.model()).check() {
             Ok(()) => Ok(Ok(())),
             Err(GridError::Unsupported { model, reason }) => Ok(Err(NotApplicable::Grid {
@@ -229,15 +242,22 @@ pub fn applies(
 }
 
 /// How a ladder method solves its degrees: one result per degree asked, in order.
-pub(crate) type LadderSolver = fn(&Problem, &[usize]) -> Vec<Result<Solution, EpcError>>;
+pub(crate) type LadderSolver = fn(&Problem, &[usize]) -> Vec<Result<Solution, SolveError>>;
 
 /// The solver of a ladder method, or why there is none (`None`: the method is not solved at
 /// degrees): the one place where a ladder method's name meets its solver.
 pub(crate) fn ladder(method: MethodName) -> Option<Result<LadderSolver, NotApplicable>> {
     match method {
-        MethodName::Epc => Some(Ok(|problem, degrees| problem.solve_epc_degrees(degrees))),
-        // Until EPC with the exact impact condition is on the front door.
-        MethodName::EpcImpact => Some(Err(NotApplicable::NotAvailable { method })),
+        MethodName::Epc => Some(Ok(|problem, degrees| {
+            problem
+                .solve_epc_degrees(degrees)
+                .into_iter()
+                .map(|r| r.map_err(SolveError::Epc))
+                .collect()
+        })),
+        MethodName::EpcImpact => Some(Ok(|problem, degrees| {
+            problem.solve_epc_impact_degrees(degrees)
+        })),
         MethodName::Grid => None,
     }
 }

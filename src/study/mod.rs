@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::epc::{EpcError, EpcSolution};
+use crate::epc::EpcSolution;
 use crate::grid::GridReport;
 use crate::mc::ParamValue;
 use crate::model::{BindError, BoundModel, Model, Override};
@@ -56,7 +56,7 @@ pub struct DegreeResult {
     /// The degree n.
     pub degree: usize,
     /// The solution, or why there is none.
-    pub outcome: Result<Solution, EpcError>,
+    pub outcome: Result<Solution, SolveError>,
     /// Moments of each state, then each observable (empty when the degree failed).
     pub stats: Vec<QuantityMoments>,
     /// Time of the degree's solve (closure, assembly, solver, normalisation), in milliseconds.
@@ -114,7 +114,7 @@ pub struct DegreePdf<'a> {
     /// The degree n.
     pub degree: usize,
     /// The PDF at the points asked, or the degree's failure.
-    pub pdf: Result<Vec<f64>, &'a EpcError>,
+    pub pdf: Result<Vec<f64>, &'a SolveError>,
 }
 
 /// A finished study.

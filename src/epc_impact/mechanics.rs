@@ -1,0 +1,225 @@
+//! The mechanical form x' = v, v' = m(x, v) + noise read from a bound model (the Itô drift m
+//! of v and the v–v diffusion b, compiled to one tape), and the model's barrier(s) on x.
+
+use super::error::{EpcImpactError, Unsupported};
+use crate::fpk::FpkOperator;
+use crate::model::BoundModel;
+use crate::symbolic::{simplify, DeltaPolicy, Expr, Tape, TapeScratch};
+
+pub use crate::model::BarrierSide;
+
+/// A reflecting barrier on the position.
+#[derive(Clone, Debug)]
+pub(crate) struct Barrier {
+    /// Its position.
+    pub(crate) at: f64,
+    /// The side the state lives on.
+    pub(crate) side: BarrierSide,
+    /// The post-impact velocity v -> map(x, v), compiled over (x, v).
+    map: Tape,
+}
+
+impl Barrier {
+    /// The post-impact velocity of an arriving `v`.
+    pub(crate) fn map(&self, v: f64) -> f64 {
+        let mut out = [0.0];
+        self.map.eval(&[self.at, v], &mut Vec::new(), &mut out);
+        out[0]
+    }
+
+    /// The sign of the arriving velocities (−1 at a lower barrier, +1 at an upper one).
+    pub(crate) fn arriving(&self) -> f64 {
+        match self.side {
+            BarrierSide::Above => -1.0,
+            BarrierSide::Below => 1.0,
+        }
+    }
+}
+
+/// Drift, diffusion and barriers of a mechanical-form model with reflecting impacts.
+#[derive(Clone, Debug)]
+pub(crate) struct Mechanics {
+    /// Outputs m and b over (x, v).
+    coefficients: Tape,
+    /// 0, 1 or 2 barriers (two bound a strip, the lower one first).
+    pub(crate) barriers: Vec<Barrier>,
+}
+
+impl Mechanics {
+    /// Reads the mechanical form of `model` and its barriers, or says why it has none.
+    pub(crate) fn new(model: &BoundModel) -> Result<Mechanics, EpcImpactError> {
+        let states = model.states();
+        let (x, v) = (states[0].to_string(), states[1].to_string());
+        let refuse = |reason| EpcImpactError::Unsupported {
+            model: model.name().to_string(),
+            reason,
+        };
+        for (coefficient, e) in [("drift", &model.drift()[1]), ("drift", &model.drift()[0])] {
+            if e.contains_delta() {
+                return Err(refuse(Unsupported::DeltaTerms {
+                    velocity: v.clone(),
+                    coefficient,
+                }));
+            }
+        }
+        if model.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
+            return Err(refuse(Unsupported::DeltaTerms {
+                velocity: v.clone(),
+                coefficient: "diffusion",
+            }));
+        }
+        if model.impacts().iter().any(|law| law.state != 0 || law.other != 1) {
+            return Err(refuse(Unsupported::ImpactNotOnPosition {
+                position: x,
+                velocity: v,
+            }));
+        }
+        let fpk = FpkOperator::derive(model)?;
+        let rate = simplify(&fpk.drift[0]);
+        if rate != Expr::sym(&v) {
+            return Err(refuse(Unsupported::NotMechanical {
+                position: x,
+                velocity: v,
+                rate: format!("{rate:#}"),
+            }));
+        }
+        for entry in [&fpk.diffusion[0][0], &fpk.diffusion[0][1]] {
+            let e = simplify(entry);
+            if e.as_num() != Some(0.0) {
+                return Err(refuse(Unsupported::NoiseInPosition {
+                    position: x,
+                    diffusion: format!("{e:#}"),
+                }));
+            }
+        }
+        let vars = [x.as_str(), v.as_str()];
+        let exprs = [simplify(&fpk.drift[1]), simplify(&fpk.diffusion[1][1])];
+        let coefficients = Tape::compile(&exprs, &vars, DeltaPolicy::Reject).map_err(|source| {
+            EpcImpactError::Symbolic {
+                what: format!("the drift and diffusion of `{v}`"),
+                source,
+            }
+        })?;
+        let barriers = barriers(model, &vars)?;
+        Ok(Mechanics {
+            coefficients,
+            barriers,
+        })
+    }
+
+    /// m and b at the points (x[k], v[k]); an error names the first point where one is not
+    /// finite.
+    pub(crate) fn eval_batch(&self, x: &[f64], v: &[f64]) -> Result<[Vec<f64>; 2], EpcImpactError> {
+        let mut out = [vec![0.0; x.len()], vec![0.0; x.len()]];
+        self.coefficients
+            .eval_batch(&[x, v], &mut out, &mut TapeScratch::new());
+        for (what, col) in ["the drift of the velocity", "the diffusion"]
+            .into_iter()
+            .zip(&out)
+        {
+            if let Some(k) = col.iter().position(|c| !c.is_finite()) {
+                return Err(EpcImpactError::NotFinite {
+                    what,
+                    x: x[k],
+                    v: v[k],
+                });
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The model's barrier(s), each with the side the state lives on. The one place that reads
+/// the model's impact law: today a single law, on the side holding the origin (as Monte Carlo
+/// starts its trajectories there); the model's own `side` and a second barrier (a strip)
+/// replace this rule when the model language says them.
+fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImpactError> {
+    let mut out = Vec::new();
+    for law in model.impacts() {
+        // The model gives every reflecting law its side; a law without one passes through
+        // (the Zhuravlev form), which this method does not solve.
+        let Some(side) = law.side else {
+            return Err(EpcImpactError::Unsupported {
+                model: model.name().to_string(),
+                reason: Unsupported::PassThrough {
+                    law: format!("impact at {}: v -> {:#}", law.at, law.map),
+                },
+            });
+        };
+        let map = Tape::compile(std::slice::from_ref(&law.map), vars, DeltaPolicy::Reject).map_err(
+            |source| EpcImpactError::Symbolic {
+                what: "the jump map".into(),
+                source,
+            },
+        )?;
+        let barrier = Barrier {
+            at: law.at,
+            side,
+            map,
+        };
+        check_law(&barrier, &format!("{:#}", law.map)).map_err(|reason| {
+            EpcImpactError::Unsupported {
+                model: model.name().to_string(),
+                reason,
+            }
+        })?;
+        out.push(barrier);
+    }
+    out.sort_by(|a, b| a.at.total_cmp(&b.at));
+    Ok(out)
+}
+
+/// A barrier pair must bound a strip: the lower one `Above`, the upper one `Below`.
+pub(crate) fn check_strip(barriers: &[Barrier]) -> Result<(), Unsupported> {
+    if let [a, b] = barriers {
+        let ok = a.side == BarrierSide::Above && b.side == BarrierSide::Below && a.at < b.at;
+        if !ok {
+            return Err(Unsupported::NotAStrip {
+                lower: a.at,
+                upper: b.at,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The law must reflect: every arriving velocity is sent back into the domain, without
+/// gaining speed (probes from 1e-3 to 1e3); a law that keeps the sign is the Zhuravlev form.
+pub(crate) fn check_law(barrier: &Barrier, printed: &str) -> Result<(), Unsupported> {
+    let s = barrier.arriving();
+    for e in -3..=3 {
+        for f in [1.0, 2.0, 5.0] {
+            let v = s * f * 10f64.powi(e);
+            let w = barrier.map(v);
+            if w.is_finite() && w != 0.0 && w.signum() == v.signum() {
+                return Err(Unsupported::PassThrough {
+                    law: format!("impact at {}: v -> {printed}", barrier.at),
+                });
+            }
+            if !(w.is_finite() && w.signum() == -v.signum() && w.abs() <= v.abs() * (1.0 + 1e-12)) {
+                return Err(Unsupported::ImpactMap {
+                    map: printed.to_string(),
+                    at: barrier.at,
+                    velocity: v,
+                    image: w,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+impl Barrier {
+    /// A barrier with the law v -> −r·v, for tests of barrier sets the model language cannot
+    /// state yet (a strip).
+    pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Barrier {
+        let map = Tape::compile(
+            &[Expr::num(-r) * Expr::sym("v")],
+            &["x", "v"],
+            DeltaPolicy::Reject,
+        )
+        .expect("a linear map compiles");
+        Barrier { at, side, map }
+    }
+}
