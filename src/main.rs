@@ -13,7 +13,8 @@ use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulatio
 use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::physics::ImpactForm;
 use fpsolve::report::{write_json, OutputDir, RunDir};
-use fpsolve::sweep::{Sweep, SweepSpec};
+use fpsolve::solve::{MethodName, MethodSet};
+use fpsolve::sweep::{Cells, Sweep, SweepSpec};
 
 #[path = "cli/mc_flags.rs"]
 mod mc_flags;
@@ -163,6 +164,14 @@ enum Command {
         /// The EPC degree solved at each point (continued from degree 2): one even degree.
         #[arg(long, default_value = "4")]
         degree: DegreeList,
+        /// The methods each point is solved by: any of epc, epc-impact, grid,
+        /// comma-separated; each gets its own columns and curves.
+        #[arg(long, value_name = "M,M,...", default_value = "epc")]
+        method: MethodSet,
+        /// Cells of the grid method, position and velocity: even, at least 8 (default
+        /// 140,280).
+        #[arg(long, value_name = "NX,NV")]
+        cells: Option<Cells>,
         /// Output directory (default: out/<model name>_sweep).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
@@ -330,6 +339,8 @@ enum Plan {
         model: Model,
         spec: SweepSpec,
         degree: usize,
+        methods: MethodSet,
+        cells: Cells,
         out: PathBuf,
         quiet: bool,
     },
@@ -420,6 +431,8 @@ fn plan(cli: Cli) -> Result<Planned> {
             model,
             set,
             degree,
+            method,
+            cells,
             out,
             threads: t,
             quiet,
@@ -427,15 +440,30 @@ fn plan(cli: Cli) -> Result<Planned> {
             let [d] = degree.as_slice() else {
                 bail!("--degree {degree}: a sweep solves one degree at each point");
             };
+            if cells.is_some() && !method.contains(MethodName::Grid) {
+                bail!(
+                    "--cells applies to the grid method, which --method {method} does not ask for"
+                );
+            }
+            let cells = cells.unwrap_or_default();
             let m = load_model(&model).map_err(lib)?;
             let spec = SweepSpec::parse(&set.set).map_err(at(&model))?;
             spec.validate(&m).map_err(at(&model))?;
+            // A method that does not apply to the model is refused before any work.
+            Sweep::new(&m, &spec)
+                .methods(method.clone())
+                .degree(*d)
+                .cells(cells)
+                .check()
+                .map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
             Plan::Sweep {
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
                 model: m,
                 spec,
                 degree: *d,
+                methods: method,
+                cells,
                 quiet: quiet.quiet,
             }
         }
@@ -516,9 +544,11 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             model,
             spec,
             degree,
+            methods,
+            cells,
             out,
             quiet,
-        } => sweep(&model, &spec, degree, &out, quiet),
+        } => sweep(&model, &spec, degree, methods, cells, &out, quiet),
         Plan::Merge {
             result,
             shards,
@@ -707,6 +737,8 @@ fn sweep(
     model: &Model,
     spec: &SweepSpec,
     degree: usize,
+    methods: MethodSet,
+    cells: Cells,
     dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
@@ -715,22 +747,45 @@ fn sweep(
     let bar = Bar::new(quiet);
     bar.stage("sweep");
     let result = Sweep::new(model, spec)
+        .methods(methods)
         .degree(degree)
+        .cells(cells)
         .progress(&|done, total| bar.advance(done, total))
         .run();
     bar.finish();
     let files = result.write(run.out()).map_err(lib)?;
-    println!(
-        "{} of {} points converged at degree {degree} in {:.1} s",
-        result.converged(),
-        spec.len(),
-        t.elapsed().as_secs_f64(),
-    );
+    let seconds = t.elapsed().as_secs_f64();
+    let failed: usize = result
+        .methods
+        .names()
+        .iter()
+        .map(|&m| spec.len() - result.converged_by(m))
+        .sum();
+    if result.methods.names() == [MethodName::Epc] {
+        println!(
+            "{} of {} points converged at degree {degree} in {seconds:.1} s",
+            result.converged(),
+            spec.len(),
+        );
+    } else {
+        for &m in result.methods.names() {
+            println!(
+                "{m}: {} of {} points solved",
+                result.converged_by(m),
+                spec.len()
+            );
+        }
+        println!("in {seconds:.1} s");
+    }
     commit_output(run, files.len())?;
-    if result.converged() < spec.len() {
+    if failed > 0 {
+        let what = if result.methods.names().len() == 1 {
+            format!("{failed} points failed")
+        } else {
+            format!("{failed} (point, method) pairs failed")
+        };
         return Err(Failure::Flagged(format!(
-            "error: {} points failed (reported in sweep.csv and sweep.json; the others were kept)",
-            spec.len() - result.converged()
+            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
         )));
     }
     Ok(())

@@ -200,13 +200,7 @@ impl<'a> GridSolver<'a> {
     pub fn solve(&self) -> Result<GridSolution, GridError> {
         let start = Instant::now();
         let [nx, nv] = self.cells;
-        if nx < 8 || nv < 8 || nx % 2 == 1 || nv % 2 == 1 {
-            return Err(GridError::Setting {
-                setting: "cells",
-                value: format!("{nx}x{nv}"),
-                expected: "even numbers of cells, at least 8 per axis",
-            });
-        }
+        check_cells(self.cells)?;
         let problem = Mechanical::new(self.model, self.side)?;
         let barrier = problem.barrier.as_ref();
         let (mut domain, mut passes, guess) = match self.domain {
@@ -267,6 +261,51 @@ impl<'a> GridSolver<'a> {
             report,
         })
     }
+}
+
+impl GridSolver<'_> {
+    /// Checks the settings and that the model is one the solver handles (the refusals of
+    /// [`solve`](Self::solve) that do not need a solve), in milliseconds: for commands that
+    /// refuse a method before any work.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::GridSolver;
+    /// assert!(GridSolver::new(&bound).check().is_ok());
+    /// assert!(GridSolver::new(&bound).cells(8, 7).check().is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve) before it discretises: [`GridError::Setting`],
+    /// [`GridError::Unsupported`], [`GridError::Inadmissible`], [`GridError::Derivation`],
+    /// [`GridError::Symbolic`].
+    pub fn check(&self) -> Result<(), GridError> {
+        check_cells(self.cells)?;
+        Mechanical::new(self.model, self.side).map(|_| ())
+    }
+}
+
+/// Cells per axis must be even (the error estimate halves them) and at least 8.
+///
+/// ```
+/// use fpsolve::grid::{check_cells, GridError};
+/// assert!(check_cells([140, 280]).is_ok());
+/// assert!(matches!(check_cells([9, 8]), Err(GridError::Setting { setting: "cells", .. })));
+/// ```
+///
+/// # Errors
+/// [`GridError::Setting`] naming the cells.
+pub fn check_cells(cells: [usize; 2]) -> Result<(), GridError> {
+    let [nx, nv] = cells;
+    if nx < 8 || nv < 8 || nx % 2 == 1 || nv % 2 == 1 {
+        return Err(GridError::Setting {
+            setting: "cells",
+            value: format!("{nx}x{nv}"),
+            expected: "even numbers of cells, at least 8 per axis",
+        });
+    }
+    Ok(())
 }
 
 fn ms(since: Instant) -> f64 {
