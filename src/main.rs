@@ -153,9 +153,10 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
-    /// Solve at every point of a parameter sweep in parallel: `--set eps=-0.3:0.3:13`
-    /// (lo:hi:count), `--set mu=0.1,1` (a list), other `--set` fixed. Writes sweep.csv,
-    /// sweep.json and figures of moments and tail probabilities.
+    /// Solve at every point of a parameter sweep in parallel, by each method asked
+    /// (`--method epc,grid`): `--set eps=-0.3:0.3:13` (lo:hi:count), `--set mu=0.1,1` (a
+    /// list), other `--set` fixed. Writes sweep.csv, sweep.json and figures of moments and
+    /// tail probabilities, one column set and one curve per method.
     Sweep {
         /// The model file (`.sde`).
         model: PathBuf,

@@ -82,7 +82,7 @@ impl<'a> Sweep<'a> {
     /// let result = Sweep::new(&model, &spec)
     ///     .methods("epc,grid".parse()?)
     ///     .degree(2)
-    ///     .cells(Cells([40, 40]))
+    ///     .cells(Cells([80, 80]))
     ///     .run();
     /// // Var v = S/(2c) = 1/c, exactly by EPC, to the grid's accuracy by the grid.
     /// for point in &result.points {
@@ -90,7 +90,7 @@ impl<'a> Sweep<'a> {
     ///     let epc = point.solution(MethodName::Epc).unwrap().stats_of("v").unwrap();
     ///     let grid = point.solution(MethodName::Grid).unwrap().stats_of("v").unwrap();
     ///     assert!((epc.moments.variance / exact - 1.0).abs() < 1e-6);
-    ///     assert!((grid.moments.variance / exact - 1.0).abs() < 3e-2);
+    ///     assert!((grid.moments.variance / exact - 1.0).abs() < 1e-2); // measured 8.0e−3 at c = 0.5
     /// }
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
