@@ -13,6 +13,7 @@ use std::path::Path;
 
 use fpsolve::model::load_model;
 use fpsolve::report::OutputDir;
+use fpsolve::solve::MethodName;
 use fpsolve::sweep::{PointOutcome, Sweep, SweepSpec};
 
 /// The EPC degree of every point (continued from degree 2 within each point).
@@ -58,7 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for point in &result.points {
         let (eps, mu) = (point.values[0], point.values[1]);
-        match &point.outcome {
+        match point.outcome(MethodName::Epc).expect("an EPC sweep") {
             PointOutcome::Converged(sol) => {
                 let find = |name: &str| sol.stats.iter().find(|s| s.name == name);
                 let (Some(y), Some(ydot)) = (find("y"), find("ydot")) else {
@@ -67,8 +68,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 println!(
                     "{eps:>6.2} {mu:>5} {:>10} {:>5} {:>10} {:>9.4} {:>9.4} {:>9.3} {:>10.3e} {:>9.4} {:>9.3}",
                     "converged",
-                    sol.iterations,
-                    sol.normalisation,
+                    sol.epc().map_or(0, |e| e.iterations),
+                    sol.epc().map_or("", |e| &e.normalisation),
                     y.moments.mean,
                     y.moments.std_dev(),
                     y.moments.kurtosis,

@@ -8,11 +8,12 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::DegreeList;
 use fpsolve::fpk::FpkOperator;
-use fpsolve::job::{self, Cells, JobSpec, Progress, Target};
+use fpsolve::grid::Cells;
+use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::report::{write_json, OutputDir, RunDir};
-use fpsolve::solve::MethodSet;
+use fpsolve::solve::{MethodName, MethodSet};
 use fpsolve::sweep::{Sweep, SweepSpec};
 use fpsolve::transform::{zhuravlev, zhuravlev_bound};
 
@@ -173,9 +174,10 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
-    /// Solve at every point of a parameter sweep in parallel: `--set eps=-0.3:0.3:13`
-    /// (lo:hi:count), `--set mu=0.1,1` (a list), other `--set` fixed. Writes sweep.csv,
-    /// sweep.json and figures of moments and tail probabilities.
+    /// Solve at every point of a parameter sweep in parallel, by each method asked
+    /// (`--method epc,grid`): `--set eps=-0.3:0.3:13` (lo:hi:count), `--set mu=0.1,1` (a
+    /// list), other `--set` fixed. Writes sweep.csv, sweep.json and figures of moments and
+    /// tail probabilities, one column set and one curve per method.
     Sweep {
         /// The model file (`.sde`).
         model: PathBuf,
@@ -184,6 +186,14 @@ enum Command {
         /// The EPC degree solved at each point (continued from degree 2): one even degree.
         #[arg(long, default_value = "4")]
         degree: DegreeList,
+        /// The methods each point is solved by: any of epc, epc-impact, grid,
+        /// comma-separated; each gets its own columns and curves.
+        #[arg(long, value_name = "M,M,...", default_value = "epc")]
+        method: MethodSet,
+        /// Cells of the grid method, position and velocity: even, at least 8 (default
+        /// 140,280).
+        #[arg(long, value_name = "NX,NV")]
+        cells: Option<Cells>,
         /// Output directory (default: out/<model name>_sweep).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
@@ -351,6 +361,8 @@ enum Plan {
         model: Model,
         spec: SweepSpec,
         degree: usize,
+        methods: MethodSet,
+        cells: Cells,
         out: PathBuf,
         quiet: bool,
     },
@@ -443,6 +455,8 @@ fn plan(cli: Cli) -> Result<Planned> {
             model,
             set,
             degree,
+            method,
+            cells,
             out,
             threads: t,
             quiet,
@@ -450,15 +464,30 @@ fn plan(cli: Cli) -> Result<Planned> {
             let [d] = degree.as_slice() else {
                 bail!("--degree {degree}: a sweep solves one degree at each point");
             };
+            if cells.is_some() && !method.contains(MethodName::Grid) {
+                bail!(
+                    "--cells applies to the grid method, which --method {method} does not ask for"
+                );
+            }
+            let cells = cells.unwrap_or_default();
             let m = load_model(&model).map_err(lib)?;
             let spec = SweepSpec::parse(&set.set).map_err(at(&model))?;
             spec.validate(&m).map_err(at(&model))?;
+            // A method that does not apply to the model is refused before any work.
+            Sweep::new(&m, &spec)
+                .methods(method.clone())
+                .degree(*d)
+                .cells(cells)
+                .check()
+                .map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
             Plan::Sweep {
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
                 model: m,
                 spec,
                 degree: *d,
+                methods: method,
+                cells,
                 quiet: quiet.quiet,
             }
         }
@@ -514,9 +543,11 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             model,
             spec,
             degree,
+            methods,
+            cells,
             out,
             quiet,
-        } => sweep(&model, &spec, degree, &out, quiet),
+        } => sweep(&model, &spec, degree, methods, cells, &out, quiet),
         Plan::Merge {
             result,
             shards,
@@ -677,6 +708,8 @@ fn sweep(
     model: &Model,
     spec: &SweepSpec,
     degree: usize,
+    methods: MethodSet,
+    cells: Cells,
     dir: &Path,
     quiet: bool,
 ) -> Result<(), Failure> {
@@ -685,22 +718,45 @@ fn sweep(
     let bar = Bar::new(quiet);
     bar.stage("sweep");
     let result = Sweep::new(model, spec)
+        .methods(methods)
         .degree(degree)
+        .cells(cells)
         .progress(&|done, total| bar.advance(done, total))
         .run();
     bar.finish();
     let files = result.write(run.out()).map_err(lib)?;
-    println!(
-        "{} of {} points converged at degree {degree} in {:.1} s",
-        result.converged(),
-        spec.len(),
-        t.elapsed().as_secs_f64(),
-    );
+    let seconds = t.elapsed().as_secs_f64();
+    let failed: usize = result
+        .methods
+        .names()
+        .iter()
+        .map(|&m| spec.len() - result.converged_by(m))
+        .sum();
+    if result.methods.names() == [MethodName::Epc] {
+        println!(
+            "{} of {} points converged at degree {degree} in {seconds:.1} s",
+            result.converged(),
+            spec.len(),
+        );
+    } else {
+        for &m in result.methods.names() {
+            println!(
+                "{m}: {} of {} points solved",
+                result.converged_by(m),
+                spec.len()
+            );
+        }
+        println!("in {seconds:.1} s");
+    }
     commit_output(run, files.len())?;
-    if result.converged() < spec.len() {
+    if failed > 0 {
+        let what = if result.methods.names().len() == 1 {
+            format!("{failed} points failed")
+        } else {
+            format!("{failed} (point, method) pairs failed")
+        };
         return Err(Failure::Flagged(format!(
-            "error: {} points failed (reported in sweep.csv and sweep.json; the others were kept)",
-            spec.len() - result.converged()
+            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
         )));
     }
     Ok(())

@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use fpsolve::grid::DEFAULT_CELLS;
-use fpsolve::job::{memory_limit_bytes, Cells, JobSpec, McFrom, Target};
+use fpsolve::grid::{memory_limit_bytes, Cells};
+use fpsolve::job::{JobSpec, McFrom, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::study::MethodPlan;

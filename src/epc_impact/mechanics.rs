@@ -68,7 +68,11 @@ impl Mechanics {
                 coefficient: "diffusion",
             }));
         }
-        if model.impacts().iter().any(|law| law.state != 0 || law.other != 1) {
+        if model
+            .impacts()
+            .iter()
+            .any(|law| law.state != 0 || law.other != 1)
+        {
             return Err(refuse(Unsupported::ImpactNotOnPosition {
                 position: x,
                 velocity: v,
@@ -146,12 +150,11 @@ fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImp
                 },
             });
         };
-        let map = Tape::compile(std::slice::from_ref(&law.map), vars, DeltaPolicy::Reject).map_err(
-            |source| EpcImpactError::Symbolic {
+        let map = Tape::compile(std::slice::from_ref(&law.map), vars, DeltaPolicy::Reject)
+            .map_err(|source| EpcImpactError::Symbolic {
                 what: "the jump map".into(),
                 source,
-            },
-        )?;
+            })?;
         let barrier = Barrier {
             at: law.at,
             side,

@@ -81,8 +81,8 @@ use std::time::Instant;
 
 use nalgebra::DVector;
 
-pub use error::{Divergence, EpcImpactError, Unsupported};
 pub use crate::model::BarrierSide;
+pub use error::{Divergence, EpcImpactError, Unsupported};
 pub use rule::Window;
 pub use solution::{DomainBarrier, EpcImpactReport, EpcImpactSolution, Normalisation};
 

@@ -14,7 +14,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::error::EpcImpactError;
-use super::mechanics::{Barrier, Mechanics, BarrierSide};
+use super::mechanics::{Barrier, BarrierSide, Mechanics};
 use crate::epc::quadrature::gauss_legendre;
 use crate::epc::MAX_DEGREE;
 

@@ -2,9 +2,9 @@
 
 use serde::Serialize;
 
-use crate::model::BarrierSide;
 use super::rule::{q_at, Window};
 use crate::epc::SolverMethod;
+use crate::model::BarrierSide;
 use crate::moments::Moments;
 use crate::observe::JointDensity;
 
@@ -52,6 +52,17 @@ pub enum Normalisation {
         #[serde(skip)]
         ray: super::Divergence,
     },
+}
+
+impl std::fmt::Display for Normalisation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Normalisation::Domain => f.write_str("on the whole domain"),
+            Normalisation::InsideRidge { depth, .. } => {
+                write!(f, "inside a ridge {depth:.1} e-folds deep")
+            }
+        }
+    }
 }
 
 /// How one degree was solved.

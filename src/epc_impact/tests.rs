@@ -4,7 +4,7 @@
 
 use nalgebra::DVector;
 
-use super::mechanics::{Barrier, Mechanics, BarrierSide};
+use super::mechanics::{Barrier, BarrierSide, Mechanics};
 use super::rule::{System, Window};
 use super::{EpcImpact, Normalisation};
 use crate::model::{parse_model, BoundModel};

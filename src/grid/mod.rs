@@ -46,6 +46,7 @@
 #![warn(missing_docs)]
 
 mod assemble;
+mod cells;
 mod domain;
 mod error;
 mod mesh;
@@ -56,6 +57,7 @@ mod strip_tests;
 
 use std::time::Instant;
 
+pub use cells::{memory_limit_bytes, Cells, CellsError};
 pub use error::{GridError, Unsupported};
 pub use mesh::Domain;
 pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
@@ -177,7 +179,13 @@ impl<'a> GridSolver<'a> {
     ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
     /// assert!(matches!(GridSolver::new(&bound).check(), Err(GridError::Unsupported { .. })));
     /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve) before it discretises: [`GridError::Setting`] (the cells),
+    /// [`GridError::Unsupported`], [`GridError::Inadmissible`], [`GridError::Derivation`],
+    /// [`GridError::Symbolic`].
     pub fn check(&self) -> Result<(), GridError> {
+        check_cells(self.cells)?;
         Mechanical::new(self.model).map(|_| ())
     }
 
@@ -194,13 +202,7 @@ impl<'a> GridSolver<'a> {
     pub fn solve(&self) -> Result<GridSolution, GridError> {
         let start = Instant::now();
         let [nx, nv] = self.cells;
-        if nx < 8 || nv < 8 || nx % 2 == 1 || nv % 2 == 1 {
-            return Err(GridError::Setting {
-                setting: "cells",
-                value: format!("{nx}x{nv}"),
-                expected: "even numbers of cells, at least 8 per axis",
-            });
-        }
+        check_cells(self.cells)?;
         let problem = match &self.laws {
             Some(laws) => Mechanical::with_laws(self.model, laws.clone())?,
             None => Mechanical::new(self.model)?,
@@ -264,6 +266,28 @@ impl<'a> GridSolver<'a> {
             report,
         })
     }
+}
+
+/// Cells per axis must be even (the error estimate halves them) and at least 8.
+///
+/// ```
+/// use fpsolve::grid::{check_cells, GridError};
+/// assert!(check_cells([140, 280]).is_ok());
+/// assert!(matches!(check_cells([9, 8]), Err(GridError::Setting { setting: "cells", .. })));
+/// ```
+///
+/// # Errors
+/// [`GridError::Setting`] naming the cells.
+pub fn check_cells(cells: [usize; 2]) -> Result<(), GridError> {
+    let [nx, nv] = cells;
+    if nx < 8 || nv < 8 || nx % 2 == 1 || nv % 2 == 1 {
+        return Err(GridError::Setting {
+            setting: "cells",
+            value: format!("{nx}x{nv}"),
+            expected: "even numbers of cells, at least 8 per axis",
+        });
+    }
+    Ok(())
 }
 
 fn ms(since: Instant) -> f64 {

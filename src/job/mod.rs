@@ -7,7 +7,6 @@
 
 #![warn(missing_docs)]
 
-mod cells;
 mod compare;
 mod files;
 mod mc_from;
@@ -26,7 +25,6 @@ use crate::report::{
 use crate::solve::{quantities, reported, MethodName, MethodSet, Problem, Quantity};
 use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
 
-pub use cells::{memory_limit_bytes, Cells, CellsError};
 pub use compare::{Comparison, LogRatio, Reference};
 pub use mc_from::{McFrom, McFromError};
 

@@ -78,7 +78,7 @@ impl std::fmt::Display for Method {
 }
 
 /// Why there is no solution, or no answer to a question asked of one.
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, thiserror::Error)]
 pub enum SolveError {
     /// The FPK operator could not be derived.
     #[error(transparent)]
@@ -484,7 +484,10 @@ mod tests {
         let at = study.pdf_at("y", &[0.5]).unwrap();
         assert_eq!(at.len(), 2);
         assert!(at[0].pdf.is_ok());
-        assert!(matches!(at[1].pdf, Err(EpcError::OddDegree { degree: 5 })));
+        assert!(matches!(
+            at[1].pdf,
+            Err(SolveError::Epc(EpcError::OddDegree { degree: 5 }))
+        ));
         assert!(matches!(
             solve(&bound, Method::Epc { degree: 5 }),
             Err(SolveError::Epc(EpcError::OddDegree { degree: 5 }))

@@ -1,23 +1,28 @@
-//! Parameter sweeps: one model solved by EPC on a grid of parameter values, with the moments
-//! and tail probabilities of every state and observable at each point — how a response
-//! statistic changes with, say, the parametric-noise strength ε, for two nonlinearities μ.
+//! Parameter sweeps: one model solved on a grid of parameter values by one or several methods
+//! (EPC, the grid FPK solver), with the moments and tail probabilities of every state and
+//! observable at each point — how a response statistic changes with, say, the
+//! parametric-noise strength ε, for two nonlinearities μ, and where the closure departs from
+//! the grid solution.
 //!
 //! A sweep is described by `--set` arguments ([`SweepSpec::parse`], each read by [`SetArg`]): a range
 //! `name=lo:hi:count`, a list `name=v1,v2,...`, or a plain `name=expr` that stays fixed. The
 //! points are the Cartesian product of the ranged and listed parameters (one or two of them).
-//! [`Sweep::run`] solves every point in parallel through the study (built on
-//! [`crate::solve::Problem`]) and keeps the points that fail next to the others, each with its
-//! typed [`PointFailure`]; [`SweepResult::write`] writes `sweep.csv`, `sweep.json` and
-//! figures of the statistics against the first swept parameter.
+//! [`Sweep::check`] refuses, before any work, a method that does not apply to the model;
+//! [`Sweep::run`] solves every point by every method in parallel (EPC through the study, the
+//! others through [`crate::solve::Problem`]) and keeps what fails next to the rest, each
+//! method's failure at a point a typed [`PointFailure`] in that method's [`MethodOutcome`];
+//! [`SweepResult::write`] writes `sweep.csv`, `sweep.json` and figures of the statistics
+//! against the first swept parameter.
 //!
-//! Each point is solved from scratch (Gaussian closure, degree 2, then the target degree):
-//! the study API takes no starting solution, so a point is not continued from its neighbour.
-//! That costs some iterations, but makes every point independent of the others — of the
-//! sweep's order, of its spacing and of which neighbour happened to fail — so a point's result
-//! is the same as `fpsolve solve` at those values, and the points can run in parallel.
+//! Each point is solved from scratch (EPC: Gaussian closure, degree 2, then the target
+//! degree): the study API takes no starting solution, so a point is not continued from its
+//! neighbour. That costs some iterations, but makes every point independent of the others —
+//! of the sweep's order, of its spacing and of which neighbour happened to fail — so a point's
+//! result is the same as `fpsolve solve` at those values, and the points can run in parallel.
 //!
 //! ```
 //! use fpsolve::model::parse_model;
+//! use fpsolve::solve::MethodName;
 //! use fpsolve::sweep::{PointOutcome, Sweep, SweepSpec};
 //!
 //! let model = parse_model(
@@ -36,7 +41,9 @@
 //! assert_eq!(result.points.len(), 2);
 //! // The exact stationary variance of z is πK/(ck) = 1/(2ck).
 //! for point in &result.points {
-//!     let PointOutcome::Converged(solution) = &point.outcome else { panic!("failed") };
+//!     let Some(PointOutcome::Converged(solution)) = point.outcome(MethodName::Epc) else {
+//!         panic!("failed")
+//!     };
 //!     let z = &solution.stats[0];
 //!     let exact = 1.0 / (2.0 * point.values[0] * 2.0);
 //!     assert!((z.moments.variance - exact).abs() < 1e-4 * exact);
@@ -44,14 +51,18 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod method;
+mod outcome;
 mod report;
 mod run;
 mod spec;
 
-pub use run::{
-    PointFailure, PointOutcome, PointSolution, PointStats, Sweep, SweepPoint, SweepResult,
-    TailThresholds,
+pub use method::MethodRefusal;
+pub use outcome::{
+    EpcFigures, MethodOutcome, PointFailure, PointOutcome, PointSolution, PointStats,
+    SolverFigures, SweepPoint, SweepResult, TailThresholds,
 };
+pub use run::Sweep;
 pub use spec::{SetArg, SweepError, SweepSpec, SweptParameter};
 
 /// Most parameters a sweep may vary at once (a table and line figures stay readable).

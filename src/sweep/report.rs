@@ -5,98 +5,210 @@ use std::path::PathBuf;
 
 use crate::report::{write_json, Cell, Curve, LineFigure, OutputDir, ReportError, TextTable};
 
-use super::{PointOutcome, PointSolution, PointStats, SweepResult, TAIL_MULTIPLES};
+use crate::solve::MethodName;
+
+use super::{PointOutcome, PointSolution, PointStats, SolverFigures, SweepResult, TAIL_MULTIPLES};
+
+/// The figures of an EPC solution in `sweep.csv`, after status, stage and message.
+const EPC_COLUMNS: [&str; 5] = [
+    "iterations",
+    "residual",
+    "residual_threshold",
+    "fpk_residual",
+    "normalisation",
+];
+/// The figures of an EPC-impact solution: as EPC's, with the quadrature's change of ‖R‖ on
+/// a rule twice as fine in place of the FPK residual.
+const EPC_IMPACT_COLUMNS: [&str; 5] = [
+    "iterations",
+    "residual",
+    "residual_threshold",
+    "quadrature_change",
+    "normalisation",
+];
+/// The figures of a grid solution in `sweep.csv`: clipped negative mass and the estimated L1
+/// errors of the position and velocity marginals.
+const GRID_COLUMNS: [&str; 3] = ["negative_mass", "estimate_x", "estimate_v"];
 
 impl SweepResult {
-    /// The points that converged.
+    /// The points every method solved (for an EPC sweep: the points that converged).
     pub fn converged(&self) -> usize {
         self.points
             .iter()
-            .filter(|p| matches!(p.outcome, PointOutcome::Converged(_)))
+            .filter(|p| {
+                p.outcomes
+                    .iter()
+                    .all(|o| matches!(o.outcome, PointOutcome::Converged(_)))
+            })
             .count()
     }
 
-    /// The sweep as CSV text: one row per point with the swept parameters, `status`
-    /// (`converged` or `failed`), `stage` and `message` of a failure, the solver's
-    /// iterations, residual, residual threshold, FPK residual and normalisation, then per
-    /// quantity `<g>_mean`, `<g>_std_dev`, `<g>_kurtosis` and `<g>_p_gt_<k>rms` = P(|g| > k·rms)
-    /// for k = 2, 3, 4 (the thresholds are in `sweep.json`). A failed point has empty
-    /// statistic fields.
+    /// The points `method` solved.
+    pub fn converged_by(&self, method: MethodName) -> usize {
+        self.points
+            .iter()
+            .filter(|p| p.solution(method).is_some())
+            .count()
+    }
+
+    /// The sweep as CSV text: one row per point with the swept parameters, then one block of
+    /// columns per method: `status` (`converged` or `failed`), `stage` and `message` of a
+    /// failure, the method's own figures (EPC: iterations, residual, residual threshold, FPK
+    /// residual and normalisation; grid: clipped negative mass and the estimated L1 errors of
+    /// the two marginals), then per quantity `<g>_mean`, `<g>_std_dev`, `<g>_kurtosis` and
+    /// `<g>_p_gt_<k>rms` = P(|g| > k·rms) for k = 2, 3, 4 (the thresholds are in
+    /// `sweep.json`). A sweep by EPC alone has these names as they are; with any other
+    /// method every column of a block starts with its method (`grid_status`,
+    /// `epc_y_mean`, `epc_impact_y_mean`). A failed method has empty fields after its
+    /// message.
     pub fn to_csv(&self) -> String {
         self.table().to_csv()
+    }
+
+    /// The prefix of a method's columns: none for a sweep by EPC alone (the columns it
+    /// always had), else the method's name with `_` for `-`.
+    fn prefix(&self, method: MethodName) -> String {
+        if self.methods.names() == [MethodName::Epc] {
+            String::new()
+        } else {
+            format!("{}_", method.as_str().replace('-', "_"))
+        }
     }
 
     /// The rows of [`to_csv`](Self::to_csv).
     fn table(&self) -> TextTable {
         let mut header: Vec<String> = self.parameters.clone();
-        header.extend(
-            [
-                "status",
-                "stage",
-                "message",
-                "iterations",
-                "residual",
-                "residual_threshold",
-                "fpk_residual",
-                "normalisation",
-            ]
-            .map(String::from),
-        );
-        for q in &self.quantities {
-            header.extend(["mean", "std_dev", "kurtosis"].map(|s| format!("{q}_{s}")));
-            if self.tail_thresholds.iter().any(|t| &t.name == q) {
-                header.extend(TAIL_MULTIPLES.iter().map(|k| format!("{q}_p_gt_{k}rms")));
+        let mut widths = Vec::new();
+        for &method in self.methods.names() {
+            let p = self.prefix(method);
+            let before = header.len();
+            let own: &[&str] = match method {
+                MethodName::Epc => &EPC_COLUMNS,
+                MethodName::EpcImpact => &EPC_IMPACT_COLUMNS,
+                MethodName::Grid => &GRID_COLUMNS,
+            };
+            header.extend(
+                ["status", "stage", "message"]
+                    .iter()
+                    .chain(own)
+                    .map(|c| format!("{p}{c}")),
+            );
+            for q in &self.quantities {
+                header.extend(["mean", "std_dev", "kurtosis"].map(|s| format!("{p}{q}_{s}")));
+                if self.has_tails(q) {
+                    header.extend(TAIL_MULTIPLES.iter().map(|k| format!("{p}{q}_p_gt_{k}rms")));
+                }
             }
+            widths.push(header.len() - before);
         }
         let mut rows = Vec::with_capacity(self.points.len());
         for point in &self.points {
             let mut row: Vec<Cell> = point.values.iter().map(|&v| Cell::Number(v)).collect();
-            match &point.outcome {
-                PointOutcome::Converged(s) => {
-                    row.extend([
-                        Cell::Word("converged".into()),
-                        Cell::Empty,
-                        Cell::Empty,
-                        Cell::Word(s.iterations.to_string()),
-                        Cell::Number(s.residual),
-                        Cell::Number(s.residual_threshold),
-                        Cell::Number(s.fpk_residual),
-                        Cell::Word(s.normalisation.clone()),
-                    ]);
-                    for q in &self.quantities {
-                        let st = s.stats.iter().find(|st| &st.name == q);
-                        row.extend(
-                            [
-                                st.map(|s| s.moments.mean),
-                                st.map(|s| s.moments.std_dev()),
-                                st.map(|s| s.moments.kurtosis),
-                            ]
-                            .map(|v| v.map_or(Cell::Empty, Cell::Number)),
-                        );
-                        if self.tail_thresholds.iter().any(|t| &t.name == q) {
-                            for k in 0..TAIL_MULTIPLES.len() {
-                                let v = st.and_then(|s| s.tail.get(k).copied().flatten());
-                                row.push(v.map_or(Cell::Empty, Cell::Number));
-                            }
-                        }
-                    }
-                }
-                PointOutcome::Failed(failure) => {
-                    row.extend([
+            for (o, width) in point.outcomes.iter().zip(&widths) {
+                let block = match &o.outcome {
+                    PointOutcome::Converged(s) => self.converged_cells(s),
+                    PointOutcome::Failed(failure) => vec![
                         Cell::Word("failed".into()),
                         Cell::Word(failure.stage().into()),
                         Cell::Text(failure.to_string()),
-                    ]);
-                }
+                    ],
+                };
+                let n = block.len();
+                row.extend(block);
+                row.extend((n..*width).map(|_| Cell::Empty));
             }
             rows.push(row);
         }
         TextTable { header, rows }
     }
 
+    /// A solved method's block of a row.
+    fn converged_cells(&self, s: &PointSolution) -> Vec<Cell> {
+        let mut row = vec![Cell::Word("converged".into()), Cell::Empty, Cell::Empty];
+        match &s.solver {
+            SolverFigures::Epc(f) => row.extend([
+                Cell::Word(f.iterations.to_string()),
+                Cell::Number(f.residual),
+                Cell::Number(f.residual_threshold),
+                Cell::Number(f.fpk_residual),
+                Cell::Word(f.normalisation.clone()),
+            ]),
+            SolverFigures::EpcImpact(r) => row.extend([
+                Cell::Word(r.iterations.to_string()),
+                Cell::Number(r.residual),
+                Cell::Number(r.residual_threshold),
+                Cell::Number(r.quadrature_change),
+                Cell::Word(r.normalisation.to_string()),
+            ]),
+            SolverFigures::Grid(r) => {
+                let e = r.discretisation_estimate.as_ref();
+                row.extend(
+                    [Some(r.negative_mass), e.map(|e| e.x), e.map(|e| e.v)]
+                        .map(|v| v.map_or(Cell::Empty, Cell::Number)),
+                );
+            }
+        }
+        for q in &self.quantities {
+            let st = s.stats_of(q);
+            row.extend(
+                [
+                    st.map(|s| s.moments.mean),
+                    st.map(|s| s.moments.std_dev()),
+                    st.map(|s| s.moments.kurtosis),
+                ]
+                .map(|v| v.map_or(Cell::Empty, Cell::Number)),
+            );
+            if self.has_tails(q) {
+                for k in 0..TAIL_MULTIPLES.len() {
+                    let v = st.and_then(|s| s.tail.get(k).copied().flatten());
+                    row.push(v.map_or(Cell::Empty, Cell::Number));
+                }
+            }
+        }
+        row
+    }
+
+    fn has_tails(&self, q: &str) -> bool {
+        self.tail_thresholds.iter().any(|t| t.name == q)
+    }
+
+    /// How figures name a method: `EPC n = 4`, `grid 140×280`.
+    fn method_label(&self, method: MethodName) -> String {
+        match method {
+            MethodName::Epc => format!("EPC n = {}", self.degree),
+            MethodName::EpcImpact => format!("EPC-impact n = {}", self.degree),
+            MethodName::Grid => match self.cells {
+                Some([nx, nv]) => format!("grid {nx}×{nv}"),
+                None => "grid".to_string(),
+            },
+        }
+    }
+
+    /// The methods in a figure's title: `EPC n = 4`, or `EPC n = 4, grid 140×280`.
+    fn methods_label(&self) -> String {
+        let labels: Vec<String> = self
+            .methods
+            .names()
+            .iter()
+            .map(|&m| self.method_label(m))
+            .collect();
+        labels.join(", ")
+    }
+
+    /// A series' method in its legend: nothing when the sweep has one method (the title says
+    /// it).
+    fn series_method(&self, method: MethodName) -> String {
+        if self.methods.names().len() == 1 {
+            String::new()
+        } else {
+            self.method_label(method)
+        }
+    }
+
     /// The line figures: mean, standard deviation and kurtosis of the figure quantities
-    /// against the first swept parameter (one series per quantity and value of the second
-    /// parameter), and per figure quantity log10 P(|g| > a) for each threshold. Figures
+    /// against the first swept parameter (one series per quantity, method and value of the
+    /// second parameter), and per figure quantity log10 P(|g| > a) for each threshold and
+    /// method. Figures
     /// without any finite value (every point failed) are left out. Returned with their file
     /// stems.
     pub fn figures(&self) -> Vec<(String, LineFigure)> {
@@ -118,24 +230,24 @@ impl SweepResult {
         {
             let mut series = Vec::new();
             for q in &self.figure_quantities {
-                for (group_label, indices) in &groups {
-                    let (x, y) = self.column(indices, |sol| {
-                        sol.stats
-                            .iter()
-                            .find(|s| &s.name == q)
-                            .map_or(f64::NAN, |s| stat(s, which))
-                    });
-                    series.push(Curve {
-                        label: join_label(q, group_label),
-                        x,
-                        y,
-                    });
+                for &method in self.methods.names() {
+                    for (group_label, indices) in &groups {
+                        let (x, y) = self.column(indices, method, |sol| {
+                            sol.stats_of(q).map_or(f64::NAN, |s| stat(s, which))
+                        });
+                        let label = join_label(q, &self.series_method(method));
+                        series.push(Curve {
+                            label: join_label(&label, group_label),
+                            x,
+                            y,
+                        });
+                    }
                 }
             }
             out.push((
                 format!("sweep_{stem}"),
                 LineFigure {
-                    title: format!("{}: {label} (EPC n = {})", self.model, self.degree),
+                    title: format!("{}: {label} ({})", self.model, self.methods_label()),
                     x_label: x_label.clone(),
                     y_label: label.to_string(),
                     series,
@@ -148,29 +260,31 @@ impl SweepResult {
             };
             let mut series = Vec::new();
             for (k, a) in t.thresholds.iter().enumerate() {
-                for (group_label, indices) in &groups {
-                    let (x, y) = self.column(indices, |sol| {
-                        sol.stats
-                            .iter()
-                            .find(|s| &s.name == q)
-                            .and_then(|s| s.tail.get(k).copied().flatten())
-                            .map_or(f64::NAN, |p| if p > 0.0 { p.log10() } else { f64::NAN })
-                    });
-                    series.push(Curve {
-                        label: join_label(&format!("a = {}", short(*a)), group_label),
-                        x,
-                        y,
-                    });
+                for &method in self.methods.names() {
+                    for (group_label, indices) in &groups {
+                        let (x, y) = self.column(indices, method, |sol| {
+                            sol.stats_of(q)
+                                .and_then(|s| s.tail.get(k).copied().flatten())
+                                .map_or(f64::NAN, |p| if p > 0.0 { p.log10() } else { f64::NAN })
+                        });
+                        let label =
+                            join_label(&format!("a = {}", short(*a)), &self.series_method(method));
+                        series.push(Curve {
+                            label: join_label(&label, group_label),
+                            x,
+                            y,
+                        });
+                    }
                 }
             }
             out.push((
                 format!("sweep_tail_{q}"),
                 LineFigure {
                     title: format!(
-                        "{}: P(|{q}| > a), a = 2, 3, 4 × rms at {} (EPC n = {})",
+                        "{}: P(|{q}| > a), a = 2, 3, 4 × rms at {} ({})",
                         self.model,
                         self.threshold_label(),
-                        self.degree
+                        self.methods_label()
                     ),
                     x_label: x_label.clone(),
                     y_label: format!("log10 P(|{q}| > a)"),
@@ -215,21 +329,19 @@ impl SweepResult {
             .collect()
     }
 
-    /// The first swept parameter and a statistic at the given points (NaN where a point
-    /// failed, leaving a gap in the line).
+    /// The first swept parameter and a statistic of `method` at the given points (NaN where
+    /// the method failed, leaving a gap in the line).
     fn column(
         &self,
         indices: &[usize],
+        method: MethodName,
         value: impl Fn(&PointSolution) -> f64,
     ) -> (Vec<f64>, Vec<f64>) {
         indices
             .iter()
             .map(|&i| {
                 let p = &self.points[i];
-                let y = match &p.outcome {
-                    PointOutcome::Converged(sol) => value(sol),
-                    PointOutcome::Failed(_) => f64::NAN,
-                };
+                let y = p.solution(method).map_or(f64::NAN, &value);
                 (p.values[0], if y.is_finite() { y } else { f64::NAN })
             })
             .unzip()

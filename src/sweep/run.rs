@@ -1,180 +1,33 @@
-//! Solving every point of a sweep, in parallel, through the study.
+//! Solving every point of a sweep by every method asked, in parallel.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::Serialize;
 
-use crate::epc::{EpcError, NormalisationKind};
-use crate::model::Model;
-use crate::moments::Moments;
-use crate::solve::{quantities_of, reported, tail_probability, SolveError};
+use crate::grid::Cells;
+use crate::model::{BoundModel, Model};
+use crate::solve::{
+    quantities_of, reported, tail_probability, Density, Method, MethodName, MethodSet, Problem,
+    QuantityMoments, Solution, SolveError,
+};
 use crate::study::{Study, StudyError, StudyRunner};
 
-use super::{SweepSpec, TAIL_MULTIPLES};
+use super::method::{applies, settle};
+use super::{
+    EpcFigures, MethodOutcome, MethodRefusal, PointFailure, PointOutcome, PointSolution,
+    PointStats, SolverFigures, SweepError, SweepPoint, SweepResult, SweepSpec, TailThresholds,
+    TAIL_MULTIPLES,
+};
 
-/// Statistics of one state or observable at one point.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PointStats {
-    /// The quantity's name.
-    pub name: String,
-    /// Mean, variance, kurtosis and raw moments (all finite at a converged point).
-    #[serde(flatten)]
-    pub moments: Moments,
-    /// P(|g| > a) for each threshold a of [`SweepResult::tail_thresholds`] (empty when no
-    /// threshold could be set); `None` where a lies beyond the tabulated PDF on both sides
-    /// (the density there is below about 1e−8 of its peak, so the tail is not resolved).
-    /// Accurate to a few per mille while P ≳ 1e−7; smaller values lean on an exponential
-    /// continuation of the curve beyond its last point and are good to a few per cent.
-    pub tail: Vec<Option<f64>>,
-}
-
-/// A point that was solved at the sweep's degree.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PointSolution {
-    /// Nonlinear-solver iterations at the target degree.
-    pub iterations: usize,
-    /// Final Galerkin residual ‖R‖ (scaled variables).
-    pub residual: f64,
-    /// The bound ‖R‖ had to reach.
-    pub residual_threshold: f64,
-    /// FPK residual indicator ∫|F|·p dx (0 for an exact solution).
-    pub fpk_residual: f64,
-    /// How the density was normalised: `plane` or `inside_ridge`.
-    pub normalisation: String,
-    /// Statistics of each state, then each observable.
-    pub stats: Vec<PointStats>,
-}
-
-/// What happened at one point.
-#[derive(Clone, Debug, Serialize)]
-#[serde(tag = "status", rename_all = "snake_case")]
-pub enum PointOutcome {
-    /// EPC converged at the target degree.
-    Converged(PointSolution),
-    /// The point could not be solved; the other points are unaffected.
-    Failed(PointFailure),
-}
-
-/// Why a point has no solution, by the stage that failed. `Display` gives the message of
-/// `sweep.csv`; [`PointFailure::stage`] its `stage` column.
-#[derive(Clone, Debug, thiserror::Error)]
-pub enum PointFailure {
-    /// The parameters could not be bound at this point (e.g. a negative intensity).
-    #[error(transparent)]
-    Bind(crate::model::BindError),
-    /// The FPK operator could not be derived.
-    #[error(transparent)]
-    Derive(crate::fpk::FpkError),
-    /// EPC failed at `degree` (degree 2 failing is why the target degree has no solution
-    /// either).
-    #[error("degree {degree}: {error}")]
-    Solve {
-        /// The first degree that failed.
-        degree: usize,
-        /// Why.
-        #[source]
-        error: EpcError,
-    },
-    /// No PDF of a quantity could be tabulated (its density has no window above 1e−8 of its
-    /// peak).
-    #[error("no PDF of `{quantity}` could be tabulated")]
-    NoCurve {
-        /// The quantity.
-        quantity: String,
-    },
-    /// A statistic of a quantity has no finite value.
-    #[error("statistics of `{quantity}` are not finite (mean {mean}, std dev {std_dev}, kurtosis {kurtosis})")]
-    NotFinite {
-        /// The quantity.
-        quantity: String,
-        /// Its mean.
-        mean: f64,
-        /// Its standard deviation.
-        std_dev: f64,
-        /// Its kurtosis.
-        kurtosis: f64,
-    },
-}
-
-impl PointFailure {
-    /// The stage that failed, as `sweep.csv` names it: `bind`, `fpk`, `epc` or `statistics`.
-    pub fn stage(&self) -> &'static str {
-        match self {
-            PointFailure::Bind(_) => "bind",
-            PointFailure::Derive(_) => "fpk",
-            PointFailure::Solve { .. } => "epc",
-            PointFailure::NoCurve { .. } | PointFailure::NotFinite { .. } => "statistics",
-        }
-    }
-}
-
-/// In `sweep.json` a failure is its stage and its message.
-impl Serialize for PointFailure {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeStruct;
-        let mut st = s.serialize_struct("PointFailure", 2)?;
-        st.serialize_field("stage", self.stage())?;
-        st.serialize_field("message", &self.to_string())?;
-        st.end()
-    }
-}
-
-/// One point of a sweep.
-#[derive(Clone, Debug, Serialize)]
-pub struct SweepPoint {
-    /// The swept parameters' values, in the order of [`SweepResult::parameters`].
-    pub values: Vec<f64>,
-    /// The solution's statistics, or why there is none.
-    #[serde(flatten)]
-    pub outcome: PointOutcome,
-    /// Wall time of this point's study in milliseconds.
-    pub wall_ms: f64,
-}
-
-/// The thresholds a of P(|g| > a) for one quantity.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct TailThresholds {
-    /// The quantity's name.
-    pub name: String,
-    /// √E\[g²\] of the degree-2 solution at the reference point.
-    pub rms: f64,
-    /// [`TAIL_MULTIPLES`] × `rms`.
-    pub thresholds: Vec<f64>,
-}
-
-/// A finished sweep.
-#[derive(Clone, Debug, Serialize)]
-pub struct SweepResult {
-    /// The model's name.
-    pub model: String,
-    /// The EPC degree every point was solved at.
-    pub degree: usize,
-    /// The swept parameters' names.
-    pub parameters: Vec<String>,
-    /// The fixed overrides, as `name=expr`.
-    pub fixed: Vec<String>,
-    /// The states, then the observables: the order of [`PointSolution::stats`].
-    pub quantities: Vec<String>,
-    /// The observables (the states when the model declares none): what the figures show.
-    pub figure_quantities: Vec<String>,
-    /// Index of the point whose degree-2 solution set the tail thresholds (the first point
-    /// whose degree 2 converged), if any.
-    pub threshold_point: Option<usize>,
-    /// Tail thresholds per quantity, fixed for the whole sweep so that curves are comparable.
-    pub tail_thresholds: Vec<TailThresholds>,
-    /// One entry per point, in the order of [`SweepSpec::points`].
-    pub points: Vec<SweepPoint>,
-    /// Total wall time in milliseconds.
-    pub wall_ms: f64,
-}
-
-/// A sweep to run: a model, the points, the degree (the builder; [`Sweep::run`] gives the
-/// report).
+/// A sweep to run: a model, the points, the methods and their settings (the builder;
+/// [`Sweep::run`] gives the report).
 pub struct Sweep<'a> {
     model: &'a Model,
     spec: &'a SweepSpec,
+    methods: MethodSet,
     degree: usize,
+    cells: Cells,
     progress: &'a (dyn Fn(u64, u64) + Sync),
 }
 
@@ -182,13 +35,20 @@ pub struct Sweep<'a> {
 struct Raw {
     values: Vec<f64>,
     wall_ms: f64,
-    outcome: Result<PointCurves, PointFailure>,
-    /// √E\[g²\] per quantity at degree 2, when degree 2 converged.
-    rms2: Option<Vec<f64>>,
+    methods: Vec<RawMethod>,
 }
 
-/// A converged point's figures and, per quantity, its moments and PDF curve at the target
-/// degree (the tails are taken from the curves once the thresholds are known).
+/// One method's data at a point.
+struct RawMethod {
+    method: MethodName,
+    wall_ms: f64,
+    outcome: Result<PointCurves, PointFailure>,
+    /// √E\[g²\] per quantity under the reference solution (EPC: degree 2), when it has one.
+    rms: Option<Vec<f64>>,
+}
+
+/// A solved point's figures and, per quantity, its moments and PDF curve (the tails are
+/// taken from the curves once the thresholds are known).
 struct PointCurves {
     solution: PointSolution,
     curves: Vec<QuantityCurve>,
@@ -199,20 +59,57 @@ struct QuantityCurve {
     x: Vec<f64>,
     p: Vec<f64>,
 }
+
 impl<'a> Sweep<'a> {
-    /// A sweep of `model` over the points of `spec`, at degree 4.
+    /// A sweep of `model` over the points of `spec`, by EPC at degree 4.
     pub fn new(model: &'a Model, spec: &'a SweepSpec) -> Sweep<'a> {
         Sweep {
             model,
             spec,
+            methods: MethodSet::new(vec![MethodName::Epc]).expect("one method is a set"),
             degree: 4,
+            cells: Cells::default(),
             progress: &|_, _| {},
         }
+    }
+
+    /// The methods each point is solved by (default: `epc`).
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::grid::Cells;
+    /// use fpsolve::sweep::{Sweep, SweepSpec};
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+    /// let spec = SweepSpec::parse(&["c=0.5,1".into()])?;
+    /// let result = Sweep::new(&model, &spec)
+    ///     .methods("epc,grid".parse()?)
+    ///     .degree(2)
+    ///     .cells(Cells([80, 80]))
+    ///     .run();
+    /// // Var v = S/(2c) = 1/c, exactly by EPC, to the grid's accuracy by the grid.
+    /// for point in &result.points {
+    ///     let exact = 1.0 / point.values[0];
+    ///     let epc = point.solution(MethodName::Epc).unwrap().stats_of("v").unwrap();
+    ///     let grid = point.solution(MethodName::Grid).unwrap().stats_of("v").unwrap();
+    ///     assert!((epc.moments.variance / exact - 1.0).abs() < 1e-6);
+    ///     assert!((grid.moments.variance / exact - 1.0).abs() < 1e-2); // measured 8.0e−3 at c = 0.5
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn methods(mut self, methods: MethodSet) -> Self {
+        self.methods = methods;
+        self
     }
 
     /// The EPC degree every point is solved at (continued from degree 2 within the point).
     pub fn degree(mut self, degree: usize) -> Self {
         self.degree = degree;
+        self
+    }
+
+    /// The grid solver's cells (default [`crate::grid::DEFAULT_CELLS`]).
+    pub fn cells(mut self, cells: Cells) -> Self {
+        self.cells = cells;
         self
     }
 
@@ -237,36 +134,81 @@ impl<'a> Sweep<'a> {
         self
     }
 
-    /// Solves every point by EPC at the degree (continued from degree 2 within the
-    /// point), all points in parallel, and collects the statistics of each state and
-    /// observable. A point that fails — bind error (e.g. a negative intensity), FPK error,
-    /// EPC failure at degree 2 or at `degree` — is kept as [`PointOutcome::Failed`] with its
-    /// message; the other points are unaffected.
+    /// Checks, in milliseconds and before any work, that every method applies to the model:
+    /// that it is built in, that its settings are valid, and that the model has the form it
+    /// needs (EPC: an impact law it represents; grid: the mechanical form). The model is
+    /// bound at the first point whose parameters bind; what depends on the values (a point
+    /// without a stationary density) is not checked here but recorded at that point.
     ///
-    /// Tail probabilities P(|g| > a) use thresholds a = 2, 3, 4 × √E\[g²\] of the degree-2
-    /// solution at the first point (the first whose degree 2 converged), fixed for the whole
-    /// sweep. √E\[g²\] is σ for a zero-mean quantity and makes the thresholds of |z| those of
-    /// z. The probabilities are integrals of the quantity's PDF curve (Eqs. 23–28 via
-    /// [`Study`]) beyond ±a, normalised by the curve's mass.
+    /// # Errors
+    /// [`SweepError::Method`] naming the method and why.
     ///
-    /// Every point's result is the same as a [`Study::run`] at its values, whatever the
+    /// ```
+    /// use fpsolve::sweep::{Sweep, SweepError, SweepSpec};
+    /// // x' = −c·x + y: not the mechanical form x' = v the grid solver needs.
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate x, y\ndrift x: -c*x + y\ndrift y: -y\nnoise xi: intensity 1\ndiffusion x: xi\n", None)?;
+    /// let spec = SweepSpec::parse(&["c=0.5,1".into()])?;
+    /// assert!(Sweep::new(&model, &spec).check().is_ok()); // EPC applies
+    /// let err = Sweep::new(&model, &spec).methods("epc,grid".parse()?).check().unwrap_err();
+    /// assert!(matches!(err, SweepError::Method { method: fpsolve::solve::MethodName::Grid, .. }));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn check(&self) -> Result<(), SweepError> {
+        let refused = |method: MethodName, reason: MethodRefusal| SweepError::Method {
+            method,
+            model: self.model.name().to_string(),
+            reason: Box::new(reason),
+        };
+        let mut settled = Vec::new();
+        for &name in self.methods.names() {
+            settled.push((name, settle(name, self.degree, self.cells)));
+        }
+        let bound = self
+            .spec
+            .points()
+            .into_iter()
+            .find_map(|values| self.model.bind(&self.spec.overrides_at(&values)).ok());
+        if let Some(bound) = bound {
+            for (name, method) in settled {
+                applies(&bound, name, method).map_err(|r| refused(name, r))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves every point by every method (EPC at the degree, continued from degree 2 within
+    /// the point), all points in parallel, and collects the statistics of each state and
+    /// observable. A method that fails at a point — bind error (e.g. a negative intensity),
+    /// FPK error, EPC failure at degree 2 or at `degree`, grid failure — is kept as
+    /// [`PointOutcome::Failed`] with its stage and message; the other methods and points are
+    /// unaffected.
+    ///
+    /// Tail probabilities P(|g| > a) use thresholds a = 2, 3, 4 × √E\[g²\] at the first
+    /// point the first method solved (for EPC its degree-2 solution), fixed for the whole
+    /// sweep and every method. √E\[g²\] is σ for a zero-mean quantity and makes the
+    /// thresholds of |z| those of z. The probabilities are integrals of the quantity's PDF
+    /// curve (Eqs. 23–28) beyond ±a, normalised by the curve's mass.
+    ///
+    /// Every point's EPC result is the same as a [`Study::run`] at its values, and its
+    /// other methods' results the same as [`crate::solve()`] at its values, whatever the
     /// number of threads.
     pub fn run(&self) -> SweepResult {
-        let (model, spec, degree, progress) = (self.model, self.spec, self.degree, self.progress);
         let start = Instant::now();
+        let (model, spec, progress) = (self.model, self.spec, self.progress);
         let total = spec.len() as u64;
-        let done = std::sync::atomic::AtomicU64::new(0);
-        let degrees: Vec<usize> = if degree == 2 {
-            vec![2]
-        } else {
-            vec![2, degree]
-        };
+        let done = AtomicU64::new(0);
+        let settled: Vec<(MethodName, Method)> = self
+            .methods
+            .names()
+            .iter()
+            .map(|&name| (name, settle(name, self.degree, self.cells)))
+            .collect();
         let raw: Vec<Raw> = spec
             .points()
             .into_par_iter()
             .map(|values| {
-                let point = solve_point(model, spec, values, &degrees);
-                let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                let point = solve_point(model, spec, values, &settled);
+                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(k, total);
                 point
             })
@@ -277,14 +219,16 @@ impl<'a> Sweep<'a> {
             .into_iter()
             .map(|q| q.name.clone())
             .collect();
-        let threshold_point = raw.iter().position(|r| r.rms2.is_some());
+        let threshold_method = self.methods.names()[0];
+        let reference = |r: &Raw| r.methods[0].rms.clone();
+        let threshold_point = raw.iter().position(|r| reference(r).is_some());
         let tail_thresholds: Vec<TailThresholds> = threshold_point
-            .and_then(|i| raw[i].rms2.as_ref())
+            .and_then(|i| reference(&raw[i]))
             .map(|rms| {
                 quantities
                     .iter()
                     .zip(rms)
-                    .map(|(name, &rms)| TailThresholds {
+                    .map(|(name, rms)| TailThresholds {
                         name: name.clone(),
                         rms,
                         thresholds: TAIL_MULTIPLES.iter().map(|k| k * rms).collect(),
@@ -297,29 +241,25 @@ impl<'a> Sweep<'a> {
             .map(|r| SweepPoint {
                 values: r.values,
                 wall_ms: r.wall_ms,
-                outcome: match r.outcome {
-                    Ok(PointCurves {
-                        mut solution,
-                        curves,
-                    }) => {
-                        for (stats, curve) in solution.stats.iter_mut().zip(&curves) {
-                            if let Some(t) = tail_thresholds.iter().find(|t| t.name == stats.name) {
-                                stats.tail = t
-                                    .thresholds
-                                    .iter()
-                                    .map(|&a| tail_probability(&curve.x, &curve.p, a))
-                                    .collect();
-                            }
-                        }
-                        PointOutcome::Converged(solution)
-                    }
-                    Err(failure) => PointOutcome::Failed(failure),
-                },
+                outcomes: r
+                    .methods
+                    .into_iter()
+                    .map(|m| MethodOutcome {
+                        method: m.method,
+                        wall_ms: m.wall_ms,
+                        outcome: with_tails(m.outcome, &tail_thresholds),
+                    })
+                    .collect(),
             })
             .collect();
         SweepResult {
             model: model.name().to_string(),
-            degree,
+            methods: self.methods.clone(),
+            degree: self.degree,
+            cells: self
+                .methods
+                .contains(MethodName::Grid)
+                .then_some(self.cells.0),
             parameters: spec.swept.iter().map(|s| s.name.clone()).collect(),
             fixed: spec
                 .fixed
@@ -328,6 +268,7 @@ impl<'a> Sweep<'a> {
                 .collect(),
             quantities,
             figure_quantities,
+            threshold_method,
             threshold_point,
             tail_thresholds,
             points,
@@ -336,55 +277,113 @@ impl<'a> Sweep<'a> {
     }
 }
 
-fn solve_point(model: &Model, spec: &SweepSpec, values: Vec<f64>, degrees: &[usize]) -> Raw {
+/// The outcome with P(|g| > a) at the sweep's thresholds, from each quantity's curve.
+fn with_tails(
+    outcome: Result<PointCurves, PointFailure>,
+    thresholds: &[TailThresholds],
+) -> PointOutcome {
+    match outcome {
+        Ok(PointCurves {
+            mut solution,
+            curves,
+        }) => {
+            for (stats, curve) in solution.stats.iter_mut().zip(&curves) {
+                if let Some(t) = thresholds.iter().find(|t| t.name == stats.name) {
+                    stats.tail = t
+                        .thresholds
+                        .iter()
+                        .map(|&a| tail_probability(&curve.x, &curve.p, a))
+                        .collect();
+                }
+            }
+            PointOutcome::Converged(solution)
+        }
+        Err(failure) => PointOutcome::Failed(failure),
+    }
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn solve_point(
+    model: &Model,
+    spec: &SweepSpec,
+    values: Vec<f64>,
+    settled: &[(MethodName, Method)],
+) -> Raw {
     let start = Instant::now();
-    let study = model
-        .bind(&spec.overrides_at(&values))
-        .map_err(PointFailure::Bind)
-        .and_then(|bound| {
-            StudyRunner::new(&bound)
-                .degrees(degrees)
-                .run()
-                .map_err(|e| match e {
-                    StudyError::Bind(e) => PointFailure::Bind(e),
-                    StudyError::Solve(SolveError::Fpk(e)) => PointFailure::Derive(e),
-                    StudyError::Solve(SolveError::Epc(error)) => PointFailure::Solve {
-                        degree: degrees[degrees.len() - 1],
-                        error,
-                    },
-                    // A study of a bound model with degrees fails only in deriving.
-                    e @ (StudyError::NoDegree
-                    | StudyError::NoMethod
-                    | StudyError::NotApplicable { .. }
-                    | StudyError::Solve(_)) => {
-                        unreachable!("a sweep point's study failed before EPC: {e}")
-                    }
-                })
+    let bound = model.bind(&spec.overrides_at(&values));
+    let methods = settled
+        .iter()
+        .map(|(name, method)| {
+            let t = Instant::now();
+            let (outcome, rms) = match (&bound, method) {
+                (Err(e), _) => (Err(PointFailure::Bind(e.clone())), None),
+                (Ok(bound), Method::Epc { degree }) => by_epc(bound, *degree),
+                (Ok(bound), method) => by_method(bound, *method),
+            };
+            RawMethod {
+                method: *name,
+                wall_ms: ms(t),
+                outcome,
+                rms,
+            }
+        })
+        .collect();
+    Raw {
+        values,
+        wall_ms: ms(start),
+        methods,
+    }
+}
+
+/// √E\[g²\] of every quantity, when all are finite and positive.
+fn rms_of(moments: &[QuantityMoments], count: usize) -> Option<Vec<f64>> {
+    let rms: Vec<f64> = moments
+        .iter()
+        .map(|s| s.moments.mean.hypot(s.std_dev()))
+        .collect();
+    (rms.len() == count && rms.iter().all(|v| v.is_finite() && *v > 0.0)).then_some(rms)
+}
+
+/// EPC at `degree`, continued from degree 2, through the study (whose degree-2 solution sets
+/// the tail thresholds and whose common grid of both degrees carries the curves).
+fn by_epc(
+    bound: &BoundModel,
+    degree: usize,
+) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
+    let degrees: Vec<usize> = if degree == 2 {
+        vec![2]
+    } else {
+        vec![2, degree]
+    };
+    let study = StudyRunner::new(bound)
+        .degrees(&degrees)
+        .run()
+        .map_err(|e| match e {
+            StudyError::Bind(e) => PointFailure::Bind(e),
+            StudyError::Solve(SolveError::Fpk(e)) => PointFailure::Derive(e),
+            StudyError::Solve(e) => failure(e, Method::Epc { degree }),
+            // A model EPC cannot represent (when `check` was not called first).
+            StudyError::NotApplicable { why, .. } => {
+                PointFailure::Refused(MethodRefusal::NotApplicable(why))
+            }
+            // The study is always given EPC and its degrees.
+            e @ (StudyError::NoDegree | StudyError::NoMethod) => {
+                unreachable!("a sweep point's study failed before EPC: {e}")
+            }
         });
-    let (outcome, rms2) = match study {
+    match study {
         Err(e) => (Err(e), None),
         Ok(study) => {
             let rms2 = study.degrees[0]
                 .outcome
                 .is_ok()
-                .then(|| {
-                    study.degrees[0]
-                        .stats
-                        .iter()
-                        .map(|s| s.moments.mean.hypot(s.std_dev()))
-                        .collect::<Vec<f64>>()
-                })
-                .filter(|r| {
-                    r.len() == study.quantities.len() && r.iter().all(|v| v.is_finite() && *v > 0.0)
-                });
+                .then(|| rms_of(&study.degrees[0].stats, study.quantities.len()))
+                .flatten();
             (solved(&study), rms2)
         }
-    };
-    Raw {
-        values,
-        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-        outcome,
-        rms2,
     }
 }
 
@@ -396,18 +395,14 @@ fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
         .iter()
         .find_map(|d| d.outcome.as_ref().err().map(|e| (d.degree, e)))
     {
-        return Err(PointFailure::Solve {
-            degree,
-            error: error.clone(),
-        });
+        return Err(failure(error.clone(), Method::Epc { degree }));
     }
     let last = study
         .degrees
         .last()
         .expect("a study has at least one degree");
     let sol = last.epc().expect("an EPC study solves by EPC");
-    let mut stats = Vec::with_capacity(study.quantities.len());
-    let mut curves = Vec::with_capacity(study.quantities.len());
+    let mut collected = Collected::default();
     for q in &study.quantities {
         let st = last.stats.iter().find(|s| s.name == q.name);
         let curve = study.curves.iter().find(|c| c.name == q.name);
@@ -421,41 +416,105 @@ fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
                 quantity: q.name.clone(),
             });
         };
+        collected.push(st, curve.x.clone(), column.pdf.clone())?;
+    }
+    Ok(collected.finish(SolverFigures::Epc(EpcFigures::of(sol))))
+}
+
+/// Any other method through the front door: the solution's moments and its marginals on the
+/// report grid.
+fn by_method(
+    bound: &BoundModel,
+    method: Method,
+) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
+    let solution = match Problem::new(bound).and_then(|p| p.solve(method)) {
+        Ok(s) => s,
+        Err(e) => return (Err(failure(e, method)), None),
+    };
+    let moments = solution.all_moments();
+    let rms = rms_of(&moments, solution.quantities().len());
+    (curves_of(&solution, &moments), rms)
+}
+
+fn curves_of(
+    solution: &Solution,
+    moments: &[QuantityMoments],
+) -> Result<PointCurves, PointFailure> {
+    let mut collected = Collected::default();
+    for (q, st) in solution.quantities().iter().zip(moments) {
+        let (x, p) = solution
+            .marginal(&q.name)
+            .expect("a quantity of the solution");
+        if x.is_empty() {
+            return Err(PointFailure::NoCurve {
+                quantity: q.name.clone(),
+            });
+        }
+        collected.push(st, x, p)?;
+    }
+    let solver = match solution.density() {
+        Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
+        Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
+        Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
+    };
+    Ok(collected.finish(solver))
+}
+
+/// A front-door failure as the stage that failed.
+fn failure(e: SolveError, method: Method) -> PointFailure {
+    match (e, method) {
+        (SolveError::Fpk(e), _) => PointFailure::Derive(e),
+        (SolveError::Epc(error), Method::Epc { degree }) => PointFailure::Solve { degree, error },
+        (SolveError::Grid(e), _) => PointFailure::Grid(e),
+        (SolveError::EpcImpact(error), Method::EpcImpact { degree }) => {
+            PointFailure::EpcImpact { degree, error }
+        }
+        (SolveError::Zhuravlev(e), _) => PointFailure::Zhuravlev(e),
+        (
+            e
+            @ (SolveError::Epc(_) | SolveError::EpcImpact(_) | SolveError::UnknownQuantity { .. }),
+            _,
+        ) => unreachable!("{method} failed where it cannot: {e}"),
+    }
+}
+
+/// Statistics and curves of the quantities, each checked to be finite.
+#[derive(Default)]
+struct Collected {
+    stats: Vec<PointStats>,
+    curves: Vec<QuantityCurve>,
+}
+
+impl Collected {
+    fn push(&mut self, st: &QuantityMoments, x: Vec<f64>, p: Vec<f64>) -> Result<(), PointFailure> {
         let m = &st.moments;
         if [m.mean, st.std_dev(), m.kurtosis]
             .iter()
             .any(|v| !v.is_finite())
         {
             return Err(PointFailure::NotFinite {
-                quantity: q.name.clone(),
+                quantity: st.name.clone(),
                 mean: m.mean,
                 std_dev: st.std_dev(),
                 kurtosis: m.kurtosis,
             });
         }
-        stats.push(PointStats {
-            name: q.name.clone(),
+        self.stats.push(PointStats {
+            name: st.name.clone(),
             moments: st.moments,
             tail: Vec::new(),
         });
-        curves.push(QuantityCurve {
-            x: curve.x.clone(),
-            p: column.pdf.clone(),
-        });
+        self.curves.push(QuantityCurve { x, p });
+        Ok(())
     }
-    Ok(PointCurves {
-        solution: PointSolution {
-            iterations: sol.solve.iterations,
-            residual: sol.solve.residual,
-            residual_threshold: sol.solve.residual_threshold,
-            fpk_residual: sol.fpk_residual,
-            normalisation: match sol.normalisation.kind {
-                NormalisationKind::Plane { .. } => "plane",
-                NormalisationKind::InsideRidge { .. } => "inside_ridge",
-            }
-            .to_string(),
-            stats,
-        },
-        curves,
-    })
+
+    fn finish(self, solver: SolverFigures) -> PointCurves {
+        PointCurves {
+            solution: PointSolution {
+                solver,
+                stats: self.stats,
+            },
+            curves: self.curves,
+        }
+    }
 }

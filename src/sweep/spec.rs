@@ -9,8 +9,8 @@ use crate::model::{parse_expr, Model, Override, SetError};
 
 use super::{MAX_POINTS, MAX_SWEPT};
 
-/// Why `--set` arguments do not describe a sweep. Every variant names the offending argument
-/// (or parameter).
+/// Why a sweep cannot run: `--set` arguments that do not describe one, or a method that does
+/// not apply to the model. Every variant names the offending argument, parameter or method.
 #[derive(Debug, thiserror::Error)]
 pub enum SweepError {
     /// An argument without `=`.
@@ -73,6 +73,17 @@ pub enum SweepError {
         "nothing to sweep: give at least one `--set NAME=LO:HI:COUNT` or `--set NAME=V1,V2,...`"
     )]
     NothingSwept,
+    /// A method that does not apply to the model, found before any work.
+    #[error("--method {method}: {reason}")]
+    Method {
+        /// The method.
+        method: crate::solve::MethodName,
+        /// The model's name.
+        model: String,
+        /// Why.
+        #[source]
+        reason: Box<super::MethodRefusal>,
+    },
     /// More than [`MAX_POINTS`] points.
     #[error("the sweep has {points} points; at most {max} are allowed")]
     TooManyPoints {

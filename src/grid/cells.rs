@@ -7,7 +7,7 @@ use std::str::FromStr;
 /// Cells of the grid solver, (position, velocity).
 ///
 /// ```
-/// use fpsolve::job::{Cells, CellsError};
+/// use fpsolve::grid::{Cells, CellsError};
 /// let c: Cells = "140,280".parse()?;
 /// assert_eq!(c.0, [140, 280]);
 /// assert!(matches!("141,280".parse::<Cells>(), Err(CellsError::Invalid { .. })));
@@ -17,6 +17,13 @@ use std::str::FromStr;
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Cells(pub [usize; 2]);
+
+impl Default for Cells {
+    /// [`crate::grid::DEFAULT_CELLS`].
+    fn default() -> Self {
+        Cells(super::DEFAULT_CELLS)
+    }
+}
 
 /// Why a `--cells` value is refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -66,7 +73,7 @@ impl FromStr for Cells {
         let (a, b) = s.split_once(',').ok_or_else(syntax)?;
         let nx: usize = a.trim().parse().map_err(|_| syntax())?;
         let nv: usize = b.trim().parse().map_err(|_| syntax())?;
-        if nx < 8 || nv < 8 || nx % 2 == 1 || nv % 2 == 1 {
+        if super::check_cells([nx, nv]).is_err() {
             return Err(CellsError::Invalid { nx, nv });
         }
         Ok(Cells([nx, nv]))
@@ -88,7 +95,7 @@ impl Cells {
     /// 24, 1.5 to 2 times that.
     ///
     /// ```
-    /// let c = fpsolve::job::Cells([140, 280]);
+    /// let c = fpsolve::grid::Cells([140, 280]);
     /// assert!(c.memory_bytes() < 1e9);
     /// ```
     pub fn memory_bytes(&self) -> f64 {
@@ -102,7 +109,7 @@ impl Cells {
     /// [`CellsError::TooMuchMemory`] with the estimate.
     ///
     /// ```
-    /// use fpsolve::job::{Cells, CellsError};
+    /// use fpsolve::grid::{Cells, CellsError};
     /// assert!(Cells([140, 280]).within(4e9).is_ok());
     /// assert!(matches!(Cells([20000, 20000]).within(4e9), Err(CellsError::TooMuchMemory { .. })));
     /// ```

@@ -1,0 +1,290 @@
+//! What a sweep reports: per point, per method, the statistics of every quantity or the
+//! reason there are none.
+
+use serde::Serialize;
+
+use crate::epc::{EpcError, EpcSolution, NormalisationKind};
+use crate::grid::{GridError, GridReport};
+use crate::moments::Moments;
+use crate::solve::{MethodName, MethodSet};
+
+use super::MethodRefusal;
+
+/// Statistics of one state or observable at one point.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointStats {
+    /// The quantity's name.
+    pub name: String,
+    /// Mean, variance, kurtosis and raw moments (all finite at a converged point).
+    #[serde(flatten)]
+    pub moments: Moments,
+    /// P(|g| > a) for each threshold a of [`SweepResult::tail_thresholds`] (empty when no
+    /// threshold could be set); `None` where a lies beyond the tabulated PDF on both sides
+    /// (the density there is below about 1e−8 of its peak, so the tail is not resolved).
+    /// Accurate to a few per mille while P ≳ 1e−7; smaller values lean on an exponential
+    /// continuation of the curve beyond its last point and are good to a few per cent.
+    pub tail: Vec<Option<f64>>,
+}
+
+/// How an EPC solution was reached, in numbers.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EpcFigures {
+    /// Nonlinear-solver iterations at the target degree.
+    pub iterations: usize,
+    /// Final Galerkin residual ‖R‖ (scaled variables).
+    pub residual: f64,
+    /// The bound ‖R‖ had to reach.
+    pub residual_threshold: f64,
+    /// FPK residual indicator ∫|F|·p dx (0 for an exact solution).
+    pub fpk_residual: f64,
+    /// How the density was normalised: `plane` or `inside_ridge`.
+    pub normalisation: String,
+}
+
+impl EpcFigures {
+    pub(crate) fn of(sol: &EpcSolution) -> EpcFigures {
+        EpcFigures {
+            iterations: sol.solve.iterations,
+            residual: sol.solve.residual,
+            residual_threshold: sol.solve.residual_threshold,
+            fpk_residual: sol.fpk_residual,
+            normalisation: match sol.normalisation.kind {
+                NormalisationKind::Plane { .. } => "plane",
+                NormalisationKind::InsideRidge { .. } => "inside_ridge",
+            }
+            .to_string(),
+        }
+    }
+}
+
+/// The method's own figures of a solved point.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum SolverFigures {
+    /// EPC (`epc`).
+    Epc(EpcFigures),
+    /// EPC with the exact impact condition (`epc-impact`).
+    EpcImpact(crate::epc_impact::EpcImpactReport),
+    /// The grid solver: cells, domain, clipped negative mass, discretisation-error estimate,
+    /// timings.
+    Grid(GridReport),
+}
+
+/// A point that one method solved.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointSolution {
+    /// How the method got there.
+    #[serde(flatten)]
+    pub solver: SolverFigures,
+    /// Statistics of each state, then each observable.
+    pub stats: Vec<PointStats>,
+}
+
+impl PointSolution {
+    /// The EPC figures, when EPC solved the point.
+    pub fn epc(&self) -> Option<&EpcFigures> {
+        match &self.solver {
+            SolverFigures::Epc(f) => Some(f),
+            SolverFigures::Grid(_) | SolverFigures::EpcImpact(_) => None,
+        }
+    }
+
+    /// The grid solver's report, when the grid solver solved the point.
+    pub fn grid(&self) -> Option<&GridReport> {
+        match &self.solver {
+            SolverFigures::Grid(r) => Some(r),
+            SolverFigures::Epc(_) | SolverFigures::EpcImpact(_) => None,
+        }
+    }
+
+    /// The statistics of the quantity `name`.
+    pub fn stats_of(&self, name: &str) -> Option<&PointStats> {
+        self.stats.iter().find(|s| s.name == name)
+    }
+}
+
+/// What happened at one point with one method.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum PointOutcome {
+    /// The method solved the point (EPC: converged at the target degree).
+    Converged(PointSolution),
+    /// The method has no answer at this point; the other methods and points are unaffected.
+    Failed(PointFailure),
+}
+
+/// Why a method has no solution at a point, by the stage that failed. `Display` gives the
+/// message of `sweep.csv`; [`PointFailure::stage`] its `stage` column; the method is that of
+/// the [`MethodOutcome`] holding it.
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum PointFailure {
+    /// The parameters could not be bound at this point (e.g. a negative intensity).
+    #[error(transparent)]
+    Bind(crate::model::BindError),
+    /// The FPK operator could not be derived.
+    #[error(transparent)]
+    Derive(crate::fpk::FpkError),
+    /// EPC failed at `degree` (degree 2 failing is why the target degree has no solution
+    /// either).
+    #[error("degree {degree}: {error}")]
+    Solve {
+        /// The first degree that failed.
+        degree: usize,
+        /// Why.
+        #[source]
+        error: EpcError,
+    },
+    /// The grid solver failed (or found no stationary density at this point).
+    #[error(transparent)]
+    Grid(GridError),
+    /// EPC with the exact impact condition failed at a degree.
+    #[error("degree {degree}: {error}")]
+    EpcImpact {
+        /// The degree that failed (the target degree, or a lower one on the way).
+        degree: usize,
+        /// Why.
+        #[source]
+        error: crate::epc_impact::EpcImpactError,
+    },
+    /// The Zhuravlev transform EPC solves a reflecting barrier through could not be derived.
+    #[error(transparent)]
+    Zhuravlev(crate::transform::ZhuravlevError),
+    /// The method does not apply to the model (when [`super::Sweep::check`] was not asked
+    /// first; the command line refuses such a sweep before any work).
+    #[error(transparent)]
+    Refused(MethodRefusal),
+    /// No PDF of a quantity could be tabulated (its density has no window above 1e−8 of its
+    /// peak).
+    #[error("no PDF of `{quantity}` could be tabulated")]
+    NoCurve {
+        /// The quantity.
+        quantity: String,
+    },
+    /// A statistic of a quantity has no finite value.
+    #[error("statistics of `{quantity}` are not finite (mean {mean}, std dev {std_dev}, kurtosis {kurtosis})")]
+    NotFinite {
+        /// The quantity.
+        quantity: String,
+        /// Its mean.
+        mean: f64,
+        /// Its standard deviation.
+        std_dev: f64,
+        /// Its kurtosis.
+        kurtosis: f64,
+    },
+}
+
+impl PointFailure {
+    /// The stage that failed, as `sweep.csv` names it: `bind`, `fpk`, `epc`, `grid`,
+    /// `method` or `statistics`.
+    pub fn stage(&self) -> &'static str {
+        match self {
+            PointFailure::Bind(_) => "bind",
+            PointFailure::Derive(_) => "fpk",
+            PointFailure::Solve { .. } => "epc",
+            PointFailure::Grid(_) => "grid",
+            PointFailure::EpcImpact { .. } => "epc-impact",
+            PointFailure::Zhuravlev(_) => "fpk",
+            PointFailure::Refused(_) => "method",
+            PointFailure::NoCurve { .. } | PointFailure::NotFinite { .. } => "statistics",
+        }
+    }
+}
+
+/// In `sweep.json` a failure is its stage and its message.
+impl Serialize for PointFailure {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("PointFailure", 2)?;
+        st.serialize_field("stage", self.stage())?;
+        st.serialize_field("message", &self.to_string())?;
+        st.end()
+    }
+}
+
+/// One method's outcome at one point.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodOutcome {
+    /// The method.
+    pub method: MethodName,
+    /// Its statistics, or why there are none.
+    #[serde(flatten)]
+    pub outcome: PointOutcome,
+    /// Wall time of this method at this point in milliseconds.
+    pub wall_ms: f64,
+}
+
+/// One point of a sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepPoint {
+    /// The swept parameters' values, in the order of [`SweepResult::parameters`].
+    pub values: Vec<f64>,
+    /// One outcome per method, in the order of [`SweepResult::methods`].
+    pub outcomes: Vec<MethodOutcome>,
+    /// Wall time of the whole point (every method) in milliseconds.
+    pub wall_ms: f64,
+}
+
+impl SweepPoint {
+    /// The outcome of `method` at this point (`None` when the sweep did not ask for it).
+    pub fn outcome(&self, method: MethodName) -> Option<&PointOutcome> {
+        self.outcomes
+            .iter()
+            .find(|o| o.method == method)
+            .map(|o| &o.outcome)
+    }
+
+    /// The solution of `method` at this point, if it solved it.
+    pub fn solution(&self, method: MethodName) -> Option<&PointSolution> {
+        match self.outcome(method)? {
+            PointOutcome::Converged(s) => Some(s),
+            PointOutcome::Failed(_) => None,
+        }
+    }
+}
+
+/// The thresholds a of P(|g| > a) for one quantity.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TailThresholds {
+    /// The quantity's name.
+    pub name: String,
+    /// √E\[g²\] at the reference point ([`SweepResult::threshold_point`]) under the reference
+    /// method ([`SweepResult::threshold_method`]; for EPC its degree-2 solution).
+    pub rms: f64,
+    /// [`super::TAIL_MULTIPLES`] × `rms`.
+    pub thresholds: Vec<f64>,
+}
+
+/// A finished sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepResult {
+    /// The model's name.
+    pub model: String,
+    /// The methods every point was solved by.
+    pub methods: MethodSet,
+    /// The EPC degree every point was solved at (by `epc` and `epc-impact`).
+    pub degree: usize,
+    /// The grid solver's cells (position, velocity), when `grid` is among the methods.
+    pub cells: Option<[usize; 2]>,
+    /// The swept parameters' names.
+    pub parameters: Vec<String>,
+    /// The fixed overrides, as `name=expr`.
+    pub fixed: Vec<String>,
+    /// The states, then the observables: the order of [`PointSolution::stats`].
+    pub quantities: Vec<String>,
+    /// The observables (the states when the model declares none): what the figures show.
+    pub figure_quantities: Vec<String>,
+    /// The method whose solutions set the tail thresholds: the first of
+    /// [`methods`](Self::methods) (for EPC, its degree-2 solution, the Gaussian closure).
+    pub threshold_method: MethodName,
+    /// Index of the point whose solution set the tail thresholds (the first point the
+    /// threshold method solved), if any.
+    pub threshold_point: Option<usize>,
+    /// Tail thresholds per quantity, fixed for the whole sweep and every method so that
+    /// curves are comparable.
+    pub tail_thresholds: Vec<TailThresholds>,
+    /// One entry per point, in the order of [`super::SweepSpec::points`].
+    pub points: Vec<SweepPoint>,
+    /// Total wall time in milliseconds.
+    pub wall_ms: f64,
+}
