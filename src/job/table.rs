@@ -111,9 +111,22 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
                 norm
             );
         }
-        Ok(None) => {
-            let _ = writeln!(s, "{:>6}  not an EPC solution", d.degree);
-        }
+        Ok(None) => match d.outcome.as_ref().ok().and_then(|s| s.epc_impact()) {
+            // EPC with the exact impact condition has no FPK residual of its own: its
+            // equations are the weak form itself; the column shows the quadrature's change
+            // of ‖R‖ on a rule twice as fine instead.
+            Some(sol) => {
+                let r = &sol.report;
+                let _ = writeln!(
+                    s,
+                    "{:>6} {:>6} {:>10.2e} {:>10.2e} {:>10.1}  {} (quadrature check in the 4th column)",
+                    d.degree, r.iterations, r.residual, r.quadrature_change, d.wall_ms, r.normalisation
+                );
+            }
+            None => {
+                let _ = writeln!(s, "{:>6}  not an EPC solution", d.degree);
+            }
+        },
         Err(e) => {
             let _ = writeln!(s, "{:>6}  failed: {e}", d.degree);
         }

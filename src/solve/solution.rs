@@ -144,6 +144,15 @@ impl Solution {
         }
     }
 
+    /// The EPC-impact solution behind this one, when it was solved by
+    /// [`Method::EpcImpact`](crate::solve::Method::EpcImpact).
+    pub fn epc_impact(&self) -> Option<&crate::epc_impact::EpcImpactSolution> {
+        match &self.density {
+            Density::EpcImpact(s) => Some(s),
+            Density::Epc(_) | Density::Grid(_) => None,
+        }
+    }
+
     /// The joint density p(x1, x2) of the states.
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {

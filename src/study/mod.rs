@@ -312,14 +312,16 @@ impl<'a> StudyRunner<'a> {
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {
-                let wall_ms = outcome
-                    .as_ref()
-                    .ok()
-                    .and_then(Solution::epc)
-                    .map_or(0.0, |s| {
-                        let r = &s.solve;
-                        r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
-                    });
+                let wall_ms = outcome.as_ref().map_or(0.0, |sol| {
+                    match (sol.epc(), sol.epc_impact()) {
+                        (Some(s), _) => {
+                            let r = &s.solve;
+                            r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+                        }
+                        (None, Some(s)) => s.report.solve_ms,
+                        (None, None) => 0.0,
+                    }
+                });
                 let stats = outcome
                     .as_ref()
                     .map_or_else(|_| Vec::new(), Solution::all_moments);
@@ -435,6 +437,10 @@ pub struct DegreeSummary<'a> {
     /// normalisation, moments of the states.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub solution: Option<&'a EpcSolution>,
+    /// The EPC-impact solution (method `epc-impact`): coefficients with exponents, domain,
+    /// window, iterations, residual, quadrature check, normalisation, moments of the states.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub impact_solution: Option<&'a crate::epc_impact::EpcImpactSolution>,
 }
 
 /// The grid solver in a study's summary.
@@ -509,6 +515,11 @@ impl Study {
                     solve_ms: d.wall_ms,
                     stats: &d.stats,
                     solution: d.epc(),
+                    impact_solution: d
+                        .outcome
+                        .as_ref()
+                        .ok()
+                        .and_then(Solution::epc_impact),
                 })
                 .collect(),
             grid: self.grid.as_ref().map(|g| GridSummary {
