@@ -274,7 +274,7 @@ fn methods_cells_and_monte_carlo_references() {
     refused(
         "method-impact",
         &[MODEL, "--method", "epc,epc-impact"],
-        &["--method epc-impact", "not available"],
+        &["--method epc-impact", "delta", "original coordinates"],
     );
     refused(
         "method-grid",

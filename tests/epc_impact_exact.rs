@@ -158,11 +158,11 @@ fn elastic_caughey_ma_with_a_barrier_off_zero_is_exact() {
         (2, 2) => -0.05 / 2.0,
         _ => 0.0,
     };
-    let lower = caughey_ma("impact x = -0.5: v -> -v");
+    let lower = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let sol = EpcImpact::new(&lower).solve(4).unwrap();
     assert_exact(&sol, &exact, [-0.5, 14.0]);
     assert_eq!(sol.window.x[0], -0.5);
-    let upper = caughey_ma("impact x = 0.7: v -> -v");
+    let upper = caughey_ma("impact x = 0.7: v -> -v\ndomain x <= 0.7");
     let sol = EpcImpact::new(&upper).solve(4).unwrap();
     assert_exact(&sol, &exact, [-14.0, 0.7]);
     assert_eq!(sol.window.x[1], 0.7);

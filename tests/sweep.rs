@@ -610,7 +610,7 @@ fn bad_methods_and_cells_exit_2_before_any_work() {
     )
     .unwrap();
     let odd = odd.to_str().unwrap();
-    let cases: [(&str, &[&str], &[&str]); 7] = [
+    let cases: [(&str, &[&str], &[&str]); 6] = [
         (
             "unknown",
             &["--method", "epc,mc"],
@@ -636,11 +636,6 @@ fn bad_methods_and_cells_exit_2_before_any_work() {
             "cells-no-grid",
             &["--cells", "140,280"],
             &["--cells", "grid"],
-        ),
-        (
-            "impact",
-            &["--method", "epc-impact"],
-            &["epc-impact", "not available"],
         ),
     ];
     for (tag, extra, expect) in cases {
@@ -678,6 +673,26 @@ fn bad_methods_and_cells_exit_2_before_any_work() {
     assert!(!out.exists());
     assert!(
         stderr.contains("--method grid") && stderr.contains("noise `xi`"),
+        "{stderr}"
+    );
+    // EPC with the exact impact condition takes the impact law itself: the Zhuravlev form
+    // (δ terms, a pass-through law) is refused before any work.
+    let out = root.join("impact");
+    let o = fpsolve_cli(&[
+        "sweep",
+        "models/vibro_duffing.sde",
+        "--set",
+        "eps=0.1,0.2",
+        "--method",
+        "epc-impact",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(!out.exists());
+    assert!(
+        stderr.contains("epc-impact") && stderr.contains("original coordinates"),
         "{stderr}"
     );
     std::fs::remove_dir_all(&root).unwrap();

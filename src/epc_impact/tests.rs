@@ -37,7 +37,7 @@ fn exact_q(exps: &[(usize, usize)]) -> Vec<f64> {
 /// for a lower barrier off 0, an upper barrier and a strip.
 #[test]
 fn the_exact_elastic_density_is_a_root() {
-    let model = caughey_ma("impact x = -0.5: v -> -v");
+    let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let base = Mechanics::new(&model).unwrap();
     let sigma = [2.0, 2.0];
     for (barriers, x) in [
@@ -88,7 +88,7 @@ fn the_exact_elastic_density_is_a_root() {
 /// language cannot state yet.
 #[test]
 fn a_strip_is_solved_exactly() {
-    let model = caughey_ma("impact x = -0.5: v -> -v");
+    let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let strip = vec![
         Barrier::restitution(-0.5, BarrierSide::Above, 1.0),
         Barrier::restitution(0.8, BarrierSide::Below, 1.0),
@@ -107,7 +107,7 @@ fn a_strip_is_solved_exactly() {
 /// Two barriers with the state above the upper one do not bound a strip.
 #[test]
 fn barriers_that_do_not_bound_a_strip_are_refused() {
-    let model = caughey_ma("impact x = -0.5: v -> -v");
+    let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let crossed = vec![
         Barrier::restitution(0.8, BarrierSide::Above, 1.0),
         Barrier::restitution(-0.5, BarrierSide::Below, 1.0),

@@ -312,16 +312,17 @@ impl<'a> StudyRunner<'a> {
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {
-                let wall_ms = outcome.as_ref().map_or(0.0, |sol| {
-                    match (sol.epc(), sol.epc_impact()) {
-                        (Some(s), _) => {
-                            let r = &s.solve;
-                            r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
-                        }
-                        (None, Some(s)) => s.report.solve_ms,
-                        (None, None) => 0.0,
-                    }
-                });
+                let wall_ms =
+                    outcome
+                        .as_ref()
+                        .map_or(0.0, |sol| match (sol.epc(), sol.epc_impact()) {
+                            (Some(s), _) => {
+                                let r = &s.solve;
+                                r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+                            }
+                            (None, Some(s)) => s.report.solve_ms,
+                            (None, None) => 0.0,
+                        });
                 let stats = outcome
                     .as_ref()
                     .map_or_else(|_| Vec::new(), Solution::all_moments);
@@ -515,11 +516,7 @@ impl Study {
                     solve_ms: d.wall_ms,
                     stats: &d.stats,
                     solution: d.epc(),
-                    impact_solution: d
-                        .outcome
-                        .as_ref()
-                        .ok()
-                        .and_then(Solution::epc_impact),
+                    impact_solution: d.outcome.as_ref().ok().and_then(Solution::epc_impact),
                 })
                 .collect(),
             grid: self.grid.as_ref().map(|g| GridSummary {
