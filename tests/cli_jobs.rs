@@ -49,7 +49,7 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     assert_eq!(summary["methods"], serde_json::json!(["epc", "grid"]));
     let grid = &summary["grid"];
     assert_eq!(grid["solved"], true);
-    assert_eq!(grid["report"]["cells"], serde_json::json!([140, 280]));
+    assert_eq!(grid["report"]["cells"], serde_json::json!(fpsolve::grid::DEFAULT_CELLS));
     for key in [
         "domain",
         "negative_mass",
