@@ -49,7 +49,10 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     assert_eq!(summary["methods"], serde_json::json!(["epc", "grid"]));
     let grid = &summary["grid"];
     assert_eq!(grid["solved"], true);
-    assert_eq!(grid["report"]["cells"], serde_json::json!(fpsolve::grid::DEFAULT_CELLS));
+    assert_eq!(
+        grid["report"]["cells"],
+        serde_json::json!(fpsolve::grid::DEFAULT_CELLS)
+    );
     for key in [
         "domain",
         "negative_mass",
@@ -291,13 +294,28 @@ fn l1(x: &[f64], a: &[f64], b: &[f64]) -> f64 {
 /// meets the exact density to its stated accuracy, and the two agree.
 #[test]
 fn the_grid_column_meets_the_exact_density_of_the_elastic_case() {
+    // The Zhuravlev form, and the paper's Eqs. 1-2 as written (whose EPC runs on the
+    // transform fpsolve derives, and whose grid and epc-impact run in its own coordinates):
+    // each column must map y and ydot from its own solution's states (y = |z| under the
+    // transform, y itself on the half-line), at y = 0 too.
+    for (file, methods) in [
+        ("models/vibro_duffing.sde", "epc,grid"),
+        ("models/vibro_impact_duffing.sde", "epc,epc-impact,grid"),
+    ] {
+        exact_elastic_columns(file, methods);
+    }
+}
+
+fn exact_elastic_columns(file: &str, methods: &str) {
     let dir = fresh_path("exact");
     let out = fpsolve(&[
-        "models/vibro_duffing.sde",
+        file,
         "--set",
         "r=1",
         "--set",
         "eps=0",
+        "--method",
+        methods,
         "--quiet",
         "--out",
         dir.to_str().unwrap(),
@@ -345,10 +363,38 @@ fn the_grid_column_meets_the_exact_density_of_the_elastic_case() {
         let p: Vec<f64> = x.iter().map(|v| exact(*v)).collect();
         let grid = l1(x, column(&cols, "grid"), &p);
         let epc4 = l1(x, column(&cols, "epc_n4"), &p);
+        // Point by point at the first point (y = 0, the edge of the half-line, for y).
+        let first = column(&cols, "epc_n4")[0];
+        assert!(
+            (first / p[0] - 1.0).abs() < 1e-6,
+            "{file} {name}: EPC n = 4 at {} is {first}, exact {}",
+            x[0],
+            p[0]
+        );
+        if methods.contains("epc-impact") {
+            let impact = l1(x, column(&cols, "epc_impact_n4"), &p);
+            assert!(
+                impact < 1e-6,
+                "{file} {name}: epc-impact n = 4 L1 {impact:e}"
+            );
+            let first = column(&cols, "epc_impact_n4")[0];
+            assert!(
+                (first / p[0] - 1.0).abs() < 1e-6,
+                "{file} {name}: epc-impact n = 4 at {} is {first}, exact {}",
+                x[0],
+                p[0]
+            );
+        }
+        let first = column(&cols, "grid")[0];
+        assert!(
+            name != "y" || (first / p[0] - 1.0).abs() < 1e-3,
+            "{file} {name}: grid at {} is {first}, exact {}",
+            x[0],
+            p[0]
+        );
         let epc2 = l1(x, column(&cols, "epc_n2"), &p);
-        // The grid's own accuracy at its default cells, measured: L1 4.6e-4 (y) and 3.7e-4
-        // (ydot) against the exact density, where its discretisation estimate says 1.9e-4 and
-        // 2.7e-4: the estimate is of the right size but not an upper bound.
+        // The grid's own accuracy at its default cells (200×400), measured on the half-line:
+        // L1 7.3e-5 (y) and 1.4e-4 (ydot) against the exact density.
         assert!(grid < 1e-3, "{name}: grid L1 {grid:e}");
         assert!(
             grid < 4.0 * stated,

@@ -120,13 +120,21 @@ pub(super) fn curves(
     solved: &[(Source, &Solution)],
     bins: Option<&BinChoice>,
 ) -> PdfCurves {
+    // Each solution maps `q` from its own states: EPC of an original-coordinates model
+    // solves the Zhuravlev transform (y = |z| …), the grid and epc-impact the model as
+    // written (y itself), so the same name has a different map under each.
     let densities: Vec<(Source, &dyn JointDensity, ObservableDensity)> = solved
         .iter()
         .map(|&(source, sol)| {
+            let map = sol
+                .quantities()
+                .iter()
+                .find(|own| own.name == q.name)
+                .map_or(&q.map, |own| &own.map);
             (
                 source,
                 sol.joint(),
-                ObservableDensity::new(sol.joint(), &q.map),
+                ObservableDensity::new(sol.joint(), map),
             )
         })
         .collect();
