@@ -298,3 +298,26 @@ fn the_bundled_strip_model_against_exact_and_monte_carlo() {
         );
     }
 }
+
+/// The automatic histogram grid of a state held by walls ends on them (no bin straddles a
+/// wall, where a bin mean of the exact density and a histogram would differ by construction).
+#[test]
+fn automatic_grids_end_on_the_walls() {
+    let model =
+        load_model(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_impact_strip.sde"))
+            .unwrap()
+            .bind(&[])
+            .unwrap();
+    let config = McConfig {
+        trajectories: 256,
+        samples: 50,
+        seed: 3,
+        ..McConfig::default()
+    };
+    let res = Simulation::new(&model, &config).unwrap().run().unwrap();
+    let g = res.quantity("y").unwrap().grid;
+    assert_eq!((g.lo, g.hi), (-1.0, 1.0));
+    let lower = bound("tests/models/barrier_caughey_lower.sde");
+    let res = Simulation::new(&lower, &config).unwrap().run().unwrap();
+    assert_eq!(res.quantity("y").unwrap().grid.lo, -0.5);
+}

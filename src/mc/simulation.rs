@@ -107,9 +107,29 @@ impl Simulation {
             let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
                 name: settings.quantities[0].name.clone(),
             })?;
+            // A state held by walls (reflecting laws, with a side in the model) is never
+            // beyond them: its grid ends on them, so no bin straddles a wall.
+            let walls = |name: &str| {
+                let mut range = [f64::NEG_INFINITY, f64::INFINITY];
+                for law in model.impacts() {
+                    match law.side {
+                        Some(side) if model.states[law.state].as_ref() == name => match side {
+                            crate::model::BarrierSide::Above => range[0] = law.at,
+                            crate::model::BarrierSide::Below => range[1] = law.at,
+                        },
+                        _ => {}
+                    }
+                }
+                range
+            };
             for (spec, stats) in settings.quantities.iter_mut().zip(&res.quantities) {
                 if !given(&spec.name) {
-                    spec.grid = auto_grid(stats, config.bins)?;
+                    let [lo, hi] = if spec.is_state {
+                        walls(&spec.name)
+                    } else {
+                        [f64::NEG_INFINITY, f64::INFINITY]
+                    };
+                    spec.grid = auto_grid(stats, config.bins, [lo, hi])?;
                 }
             }
         }
@@ -191,8 +211,8 @@ impl Simulation {
 }
 
 /// A grid covering mean ± 6 sd of the pilot samples, one-sided where the pilot saw only
-/// values of one sign (|z|, energies).
-fn auto_grid(stats: &QuantityHistogram, bins: usize) -> Result<Grid, McError> {
+/// values of one sign (|z|, energies), and cut at `walls` (the state's reflecting barriers).
+fn auto_grid(stats: &QuantityHistogram, bins: usize, walls: [f64; 2]) -> Result<Grid, McError> {
     let (m, var) = (stats.moments.mean.value, stats.moments.variance.value);
     if stats.samples == 0 || !m.is_finite() || !var.is_finite() {
         return Err(McError::NoPilotRange {
@@ -211,6 +231,12 @@ fn auto_grid(stats: &QuantityHistogram, bins: usize) -> Result<Grid, McError> {
     }
     if stats.max <= 0.0 && hi > 0.0 && lo < 0.0 {
         hi = 0.0;
+    }
+    if lo < walls[0] && walls[0] < hi {
+        lo = walls[0];
+    }
+    if hi > walls[1] && walls[1] > lo {
+        hi = walls[1];
     }
     Grid::new(lo, hi, bins)
 }
