@@ -14,7 +14,7 @@
 //! ‖R‖ ≤ tol·max(1, ‖R(a_ref)‖), with a_ref the Gaussian-closure start, so that the test is
 //! absolute for well-scaled systems and relative for systems whose entries are large.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use super::continuation::{self, PathEnd, TraceOptions};
@@ -189,8 +189,23 @@ fn operator_homotopy(
     homotopy(&eval, a_g, SolverMethod::OperatorHomotopy)
 }
 
-fn levenberg_marquardt(
-    sys: &GalerkinSystem,
+/// A square system R(a) = 0 with its Jacobian: what [`levenberg_marquardt`] needs (the δ-term
+/// Galerkin system, and the exact-impact moment equations of [`crate::epc_impact`]).
+pub(crate) trait Equations {
+    /// R(a) and ∂R/∂a.
+    fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>);
+}
+
+impl Equations for GalerkinSystem {
+    fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+        GalerkinSystem::residual_and_jacobian(self, a)
+    }
+}
+
+/// Levenberg–Marquardt on ‖R‖² from `a0`, at most `max_iter` steps: the end point, its ‖R‖,
+/// the steps taken and why it stopped.
+pub(crate) fn levenberg_marquardt<S: Equations + ?Sized>(
+    sys: &S,
     a0: &DVector<f64>,
     tol: f64,
     max_iter: usize,

@@ -7,6 +7,7 @@
 use nalgebra::DVector;
 
 use super::rule::System;
+use crate::epc::solver::levenberg_marquardt;
 use crate::epc::{
     Attempt, AttemptEnd, BestPoint, BestPointKind, EpcError, LmStop, NewtonStop, SolverMethod,
     StartPoint,
@@ -100,65 +101,6 @@ pub(crate) fn newton(
     (a, norm, NEWTON_ITERATIONS, stop)
 }
 
-fn levenberg_marquardt(
-    sys: &System,
-    a0: &DVector<f64>,
-    tol: f64,
-) -> (DVector<f64>, f64, usize, LmStop) {
-    let mut a = a0.clone();
-    let (mut r, mut j) = sys.residual_and_jacobian(&a);
-    let mut norm = r.norm();
-    let mut lambda = 1e-3;
-    let n = a.len();
-    let mut history = std::collections::VecDeque::with_capacity(11);
-    for it in 0..LM_ITERATIONS {
-        if norm <= tol {
-            return (a, norm, it, LmStop::Converged);
-        }
-        history.push_back(norm);
-        if history.len() > 10 {
-            let old = history.pop_front().expect("non-empty");
-            if norm > (1.0 - 1e-6) * old {
-                return (a, norm, it, LmStop::Stationary);
-            }
-        }
-        let jtj = j.tr_mul(&j);
-        let g = j.tr_mul(&r);
-        if g.norm() <= 1e-14 * (1.0 + jtj.norm()) * norm.max(1e-300) {
-            return (a, norm, it, LmStop::Critical);
-        }
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut mat = jtj.clone();
-            for d in 0..n {
-                mat[(d, d)] += lambda * (jtj[(d, d)] + 1e-12);
-            }
-            if let Some(step) = mat.cholesky().map(|c| c.solve(&(-&g))) {
-                let an = &a + &step;
-                let nn = sys.residual(&an).norm();
-                if nn.is_finite() && nn < norm {
-                    a = an;
-                    (r, j) = sys.residual_and_jacobian(&a);
-                    norm = nn;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = true;
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            return (a, norm, it, LmStop::Stationary);
-        }
-    }
-    let stop = if norm <= tol {
-        LmStop::Converged
-    } else {
-        LmStop::IterationLimit
-    };
-    (a, norm, LM_ITERATIONS, stop)
-}
-
 /// Newton from each start in order, then Levenberg–Marquardt from each; the first to reach
 /// ‖R‖ ≤ `threshold` wins. A failure is [`EpcError::NoConvergence`] with every attempt.
 pub(crate) fn solve(
@@ -194,7 +136,7 @@ pub(crate) fn solve(
     }
     for (from, a0) in starts {
         let method = SolverMethod::LevenbergMarquardt { from: *from };
-        let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold);
+        let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold, LM_ITERATIONS);
         if stop == LmStop::Converged {
             // Polish the LM root by Newton (quadratic convergence near a regular root).
             let (a, _, more, _) = newton(sys, &a, threshold);

@@ -275,3 +275,9 @@ pub(crate) fn free_x_edges(barriers: &[Barrier]) -> [bool; 2] {
     }
     free
 }
+
+impl crate::epc::solver::Equations for System {
+    fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+        System::residual_and_jacobian(self, a)
+    }
+}
