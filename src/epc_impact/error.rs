@@ -200,8 +200,9 @@ pub enum EpcImpactError {
     Fpk(#[from] FpkError),
     /// The degree is not supported, the Gaussian closure that starts the ladder failed, or
     /// the equations had no solution from any start ([`EpcError::NoConvergence`], with every
-    /// attempt and the best point reached).
-    #[error(transparent)]
+    /// attempt and the best point reached). Printed after `epc-impact:`, so a failure of
+    /// this method never reads as one of the δ-term EPC.
+    #[error("epc-impact: {0}")]
     Epc(#[from] EpcError),
     /// A coefficient or the jump map could not be compiled.
     #[error("while preparing {what}: {source}")]
