@@ -16,15 +16,13 @@ pub(crate) struct Barrier {
     /// The side the state lives on.
     pub(crate) side: BarrierSide,
     /// The post-impact velocity v -> map(x, v), compiled over (x, v).
-    map: Tape,
+    map: crate::physics::Jump,
 }
 
 impl Barrier {
     /// The post-impact velocity of an arriving `v`.
     pub(crate) fn map(&self, v: f64) -> f64 {
-        let mut out = [0.0];
-        self.map.eval(&[self.at, v], &mut Vec::new(), &mut out);
-        out[0]
+        self.map.map(self.at, v)
     }
 
     /// The sign of the arriving velocities (−1 at a lower barrier, +1 at an upper one).
@@ -150,11 +148,12 @@ fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImp
                 },
             });
         };
-        let map = Tape::compile(std::slice::from_ref(&law.map), vars, DeltaPolicy::Reject)
-            .map_err(|source| EpcImpactError::Symbolic {
+        let map = crate::physics::Jump::compile(&law.map, vars).map_err(|source| {
+            EpcImpactError::Symbolic {
                 what: "the jump map".into(),
                 source,
-            })?;
+            }
+        })?;
         let barrier = Barrier {
             at: law.at,
             side,
@@ -217,12 +216,8 @@ impl Barrier {
     /// A barrier with the law v -> −r·v, for tests of barrier sets the model language cannot
     /// state yet (a strip).
     pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Barrier {
-        let map = Tape::compile(
-            &[Expr::num(-r) * Expr::sym("v")],
-            &["x", "v"],
-            DeltaPolicy::Reject,
-        )
-        .expect("a linear map compiles");
+        let map = crate::physics::Jump::compile(&(Expr::num(-r) * Expr::sym("v")), &["x", "v"])
+            .expect("a linear map compiles");
         Barrier { at, side, map }
     }
 }

@@ -256,6 +256,12 @@ impl<'a> EpcImpact<'a> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn check(&self) -> Result<(), EpcImpactError> {
+        self.mechanics().map(|_| ())
+    }
+
+    /// The model's mechanical form with its barriers (the injected ones, if any), checked to
+    /// be none, one, or a strip.
+    fn mechanics(&self) -> Result<Mechanics, EpcImpactError> {
         let mut mech = Mechanics::new(self.model)?;
         if let Some(b) = &self.barriers {
             mech.barriers = b.clone();
@@ -263,7 +269,8 @@ impl<'a> EpcImpact<'a> {
         mechanics::check_strip(&mech.barriers).map_err(|reason| EpcImpactError::Unsupported {
             model: self.model.name().to_string(),
             reason,
-        })
+        })?;
+        Ok(mech)
     }
 
     /// Solves at degree `n` by continuation through every lower even degree: what
@@ -345,14 +352,7 @@ impl<'a> EpcImpact<'a> {
 
     /// The mechanics, the closure's scales and exponent, and the first box.
     fn prepare(&self) -> Result<Prepared, EpcImpactError> {
-        let mut mech = Mechanics::new(self.model)?;
-        if let Some(b) = &self.barriers {
-            mech.barriers = b.clone();
-        }
-        mechanics::check_strip(&mech.barriers).map_err(|reason| EpcImpactError::Unsupported {
-            model: self.model.name().to_string(),
-            reason,
-        })?;
+        let mech = self.mechanics()?;
         // The Gaussian closure of the model without its barrier gives the scales and the
         // first start.
         let mut fpk = crate::fpk::FpkOperator::derive(self.model)?;

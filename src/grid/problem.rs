@@ -51,15 +51,13 @@ pub(crate) struct Barrier {
     pub(crate) at: f64,
     pub(crate) kind: BarrierKind,
     /// The jump map v -> map(x, v), compiled over (x, v).
-    map: Tape,
+    map: crate::physics::Jump,
 }
 
 impl Barrier {
     /// The post-impact velocity of `v` at the barrier.
     pub(crate) fn map(&self, v: f64) -> f64 {
-        let mut out = [0.0];
-        self.map.eval(&[self.at, v], &mut Vec::new(), &mut out);
-        out[0]
+        self.map.map(self.at, v)
     }
 }
 
@@ -152,11 +150,12 @@ impl Mechanical {
                     velocity: v,
                 }));
             }
-            let map = Tape::compile(std::slice::from_ref(&law.map), &vars, DeltaPolicy::Reject)
-                .map_err(|source| GridError::Symbolic {
+            let map = crate::physics::Jump::compile(&law.map, &vars).map_err(|source| {
+                GridError::Symbolic {
                     what: "the jump map".into(),
                     source,
-                })?;
+                }
+            })?;
             let mut barrier = Barrier {
                 at: law.at,
                 kind: BarrierKind::PassThrough,

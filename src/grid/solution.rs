@@ -210,10 +210,11 @@ impl GridSolution {
             }
             let (j0, j1, tv) = bracket(at, m.v0, m.hv, [0, m.nv]);
             let f = |i: usize| (1.0 - tv) * self.cell(i, j0) + tv * self.cell(i, j1);
-            let runs = if m.segments.is_empty() {
-                vec![[0, m.nx]]
+            let whole = [[0, m.nx]];
+            let runs: &[[usize; 2]] = if m.segments.is_empty() {
+                &whole
             } else {
-                m.segments.clone()
+                &m.segments
             };
             runs.iter()
                 .map(|&[s0, s1]| {

@@ -39,6 +39,7 @@
 mod admissibility;
 mod impact;
 mod inadmissible;
+mod jump;
 mod probe;
 mod rest;
 #[cfg(test)]
@@ -48,3 +49,4 @@ pub use admissibility::check;
 pub(crate) use admissibility::check_with_drift;
 pub use impact::{impact_form, ImpactForm, UnsupportedImpact};
 pub use inadmissible::Inadmissible;
+pub(crate) use jump::Jump;
