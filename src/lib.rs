@@ -119,6 +119,7 @@
 
 #![warn(missing_docs)]
 
+pub mod cancel;
 pub mod epc;
 pub mod epc_impact;
 mod error;

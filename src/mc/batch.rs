@@ -10,6 +10,7 @@ use super::histogram::{Accumulator, QuantityBatch};
 use super::scheme::Plan;
 use super::settings::{ParamValue, RunSettings};
 use super::step::BatchState;
+use crate::cancel::Cancel;
 
 /// A trajectory whose state stopped being finite: it is left out of every statistic.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -48,13 +49,15 @@ pub(crate) struct BatchSummary {
 }
 
 /// Runs statistics batch `index` (all its trajectories from their start), leaving out the
-/// lanes in `excluded`; returns its summary and the lanes that blew up.
+/// lanes in `excluded`; returns its summary and the lanes that blew up, or `None` when
+/// `cancel` was set (checked at every sample point).
 fn run_batch_once(
     plan: &Plan,
     st: &RunSettings,
     index: u64,
     excluded: &[bool],
-) -> (BatchSummary, Vec<usize>) {
+    cancel: &Cancel,
+) -> Option<(BatchSummary, Vec<usize>)> {
     let lanes = st.lanes;
     let first = index * lanes as u64;
     let spread = plan.initial_spread();
@@ -74,6 +77,9 @@ fn run_batch_once(
     let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
     let mut step = st.burn_in_steps;
     for s in 0..st.samples_per_trajectory {
+        if cancel.is_cancelled() {
+            return None;
+        }
         let window = ((s as u128 * 4) / st.samples_per_trajectory as u128) as usize;
         for a in &mut acc {
             a.set_window(window);
@@ -123,40 +129,62 @@ fn run_batch_once(
         quantities: acc.into_iter().map(Accumulator::finish).collect(),
         blowups,
     };
-    (summary, blown)
+    Some((summary, blown))
 }
 
 /// Runs statistics batch `index`; if trajectories blow up, runs it again without them (their
 /// streams are their own, so the others repeat exactly) so that none of their samples count.
-pub(crate) fn run_batch(plan: &Plan, st: &RunSettings, index: u64) -> BatchSummary {
+/// `None` when `cancel` was set before the batch finished.
+pub(crate) fn run_batch(
+    plan: &Plan,
+    st: &RunSettings,
+    index: u64,
+    cancel: &Cancel,
+) -> Option<BatchSummary> {
     let mut excluded = vec![false; st.lanes];
-    let (summary, blown) = run_batch_once(plan, st, index, &excluded);
+    let (summary, blown) = run_batch_once(plan, st, index, &excluded, cancel)?;
     if blown.is_empty() {
-        return summary;
+        return Some(summary);
     }
     let blowups = summary.blowups;
     for &i in &blown {
         excluded[i] = true;
     }
-    let (mut again, _) = run_batch_once(plan, st, index, &excluded);
+    let (mut again, _) = run_batch_once(plan, st, index, &excluded, cancel)?;
     again.blowups = blowups;
-    again
+    Some(again)
 }
 
 /// Runs the batches in `range` in parallel; the summaries come back in batch order.
-/// `done` hears about every finished batch.
+/// `done` hears about every finished batch. `None` when `cancel` was set before every batch
+/// finished (batches not yet started are not started).
 pub(crate) fn run_batches(
     plan: &Plan,
     st: &RunSettings,
     range: std::ops::Range<u64>,
     done: &(dyn Fn() + Sync),
-) -> Vec<BatchSummary> {
+    cancel: &Cancel,
+) -> Option<Vec<BatchSummary>> {
     range
         .into_par_iter()
         .map(|k| {
-            let b = run_batch(plan, st, k);
+            if cancel.is_cancelled() {
+                return None;
+            }
+            let b = run_batch(plan, st, k, cancel)?;
             done();
-            b
+            Some(b)
         })
         .collect()
+}
+
+/// [`run_batches`] for a run nobody can cancel.
+pub(crate) fn run_batches_to_end(
+    plan: &Plan,
+    st: &RunSettings,
+    range: std::ops::Range<u64>,
+    done: &(dyn Fn() + Sync),
+) -> Vec<BatchSummary> {
+    run_batches(plan, st, range, done, &Cancel::new())
+        .expect("a run whose flag nobody holds is never cancelled")
 }

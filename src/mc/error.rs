@@ -96,6 +96,10 @@ pub enum McError {
         /// The quantity.
         name: String,
     },
+    /// The run was cancelled through its [`crate::cancel::Cancel`] flag before it finished;
+    /// nothing of it is returned.
+    #[error("the Monte Carlo run was cancelled before it finished")]
+    Cancelled,
     /// Every trajectory of the run blew up: there is nothing to estimate from.
     #[error(
         "all {blowups} trajectories blew up (non-finite state): there is no stationary law to \

@@ -1,7 +1,7 @@
 //! The simulation driver: a model compiled with its settings resolved (the pilot run fixes
 //! the grids not given), run whole or in shards.
 
-use super::batch::run_batches;
+use super::batch::{run_batches, run_batches_to_end};
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
 use super::histogram::{Grid, QuantityHistogram};
@@ -10,6 +10,7 @@ use super::result::{finalize_run, McResult};
 use super::scheme::Plan;
 use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 use super::shard::{Shard, ShardOutput};
+use crate::cancel::Cancel;
 use crate::model::BoundModel;
 
 /// Half-width of an automatic grid, in pilot standard deviations.
@@ -102,7 +103,7 @@ impl Simulation {
                 bias_batches: 0,
                 ..settings.clone()
             };
-            let summaries = run_batches(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
+            let summaries = run_batches_to_end(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
             let refs: Vec<_> = summaries.iter().collect();
             let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
                 name: settings.quantities[0].name.clone(),
@@ -177,8 +178,47 @@ impl Simulation {
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(k, total);
         };
-        let summaries = run_batches(&self.plan, st, 0..st.batches, &tick);
-        let coarse = run_batches(&self.plan, &st.coarse(), 0..st.bias_batches, &tick);
+        let summaries = run_batches_to_end(&self.plan, st, 0..st.batches, &tick);
+        let coarse = run_batches_to_end(&self.plan, &st.coarse(), 0..st.bias_batches, &tick);
+        let refs: Vec<_> = summaries.iter().collect();
+        let coarse_refs: Vec<_> = coarse.iter().collect();
+        finalize_run(st, &refs, &coarse_refs)
+    }
+
+    /// [`Simulation::run_with_progress`] that stops when `cancel` is set: checked before
+    /// every batch and at every sample point of a batch in flight, so a run stops within
+    /// one sample spacing's worth of steps per thread. A cancelled run returns
+    /// [`McError::Cancelled`] and nothing else (its batches are not a sample of the run).
+    ///
+    /// ```
+    /// use fpsolve::cancel::Cancel;
+    /// use fpsolve::mc::{McConfig, McError, Simulation};
+    /// use fpsolve::model::{load_model, Override};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let model = load_model(path.as_ref()).unwrap().bind(&[Override::number("c", 0.5)]).unwrap();
+    /// let config = McConfig { trajectories: 64, lanes: 16, samples: 20, ..McConfig::default() };
+    /// let sim = Simulation::new(&model, &config).unwrap();
+    /// let cancel = Cancel::new();
+    /// assert!(sim.run_cancellable(&|_, _| {}, &cancel).is_ok());
+    /// cancel.cancel();
+    /// assert!(matches!(sim.run_cancellable(&|_, _| {}, &cancel), Err(McError::Cancelled)));
+    /// ```
+    pub fn run_cancellable(
+        &self,
+        progress: &(dyn Fn(u64, u64) + Sync),
+        cancel: &Cancel,
+    ) -> Result<McResult, McError> {
+        let st = &self.settings;
+        let total = st.batches + st.bias_batches;
+        let done = std::sync::atomic::AtomicU64::new(0);
+        let tick = || {
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(k, total);
+        };
+        let summaries =
+            run_batches(&self.plan, st, 0..st.batches, &tick, cancel).ok_or(McError::Cancelled)?;
+        let coarse = run_batches(&self.plan, &st.coarse(), 0..st.bias_batches, &tick, cancel)
+            .ok_or(McError::Cancelled)?;
         let refs: Vec<_> = summaries.iter().collect();
         let coarse_refs: Vec<_> = coarse.iter().collect();
         finalize_run(st, &refs, &coarse_refs)
@@ -204,8 +244,8 @@ impl Simulation {
         Ok(ShardOutput {
             settings: st.clone(),
             shard,
-            batches: run_batches(&self.plan, st, range, &|| {}),
-            coarse: run_batches(&self.plan, &st.coarse(), coarse, &|| {}),
+            batches: run_batches_to_end(&self.plan, st, range, &|| {}),
+            coarse: run_batches_to_end(&self.plan, &st.coarse(), coarse, &|| {}),
         })
     }
 }

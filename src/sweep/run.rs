@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::grid::Cells;
 use crate::model::{BoundModel, Model};
 use crate::solve::{
@@ -193,6 +194,25 @@ impl<'a> Sweep<'a> {
     /// other methods' results the same as [`crate::solve()`] at its values, whatever the
     /// number of threads.
     pub fn run(&self) -> SweepResult {
+        self.run_cancellable(&Cancel::new())
+            .expect("a sweep whose flag nobody holds is never cancelled")
+    }
+
+    /// [`Sweep::run`] that stops when `cancel` is set: no point starts after it is set, and
+    /// the points in flight finish (each takes milliseconds to a second). A cancelled sweep
+    /// returns [`Cancelled`] and nothing else.
+    ///
+    /// ```
+    /// use fpsolve::cancel::{Cancel, Cancelled};
+    /// use fpsolve::sweep::{Sweep, SweepSpec};
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// let spec = SweepSpec::parse(&["c=0.5,1".into()]).unwrap();
+    /// let cancel = Cancel::new();
+    /// assert!(Sweep::new(&model, &spec).degree(2).run_cancellable(&cancel).is_ok());
+    /// cancel.cancel();
+    /// assert_eq!(Sweep::new(&model, &spec).degree(2).run_cancellable(&cancel).err(), Some(Cancelled));
+    /// ```
+    pub fn run_cancellable(&self, cancel: &Cancel) -> Result<SweepResult, Cancelled> {
         let start = Instant::now();
         let (model, spec, progress) = (self.model, self.spec, self.progress);
         let total = spec.len() as u64;
@@ -207,12 +227,18 @@ impl<'a> Sweep<'a> {
             .points()
             .into_par_iter()
             .map(|values| {
+                if cancel.is_cancelled() {
+                    return Err(Cancelled);
+                }
                 let point = solve_point(model, spec, values, &settled);
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(k, total);
-                point
+                Ok(point)
             })
-            .collect();
+            .collect::<Result<_, _>>()?;
+        if cancel.is_cancelled() {
+            return Err(Cancelled);
+        }
         let listed = quantities_of(model);
         let quantities: Vec<String> = listed.iter().map(|q| q.name.clone()).collect();
         let figure_quantities = reported(&listed)
@@ -252,7 +278,7 @@ impl<'a> Sweep<'a> {
                     .collect(),
             })
             .collect();
-        SweepResult {
+        Ok(SweepResult {
             model: model.name().to_string(),
             methods: self.methods.clone(),
             degree: self.degree,
@@ -273,7 +299,7 @@ impl<'a> Sweep<'a> {
             tail_thresholds,
             points,
             wall_ms: start.elapsed().as_secs_f64() * 1e3,
-        }
+        })
     }
 }
 
