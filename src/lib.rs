@@ -120,6 +120,7 @@
 #![warn(missing_docs)]
 
 pub mod cancel;
+pub mod check;
 pub mod epc;
 pub mod epc_impact;
 mod error;

@@ -7,7 +7,6 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::DegreeList;
-use fpsolve::fpk::FpkOperator;
 use fpsolve::grid::Cells;
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
@@ -15,7 +14,6 @@ use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::solve::{MethodName, MethodSet};
 use fpsolve::sweep::{Sweep, SweepSpec};
-use fpsolve::transform::{zhuravlev, zhuravlev_bound};
 
 #[path = "cli/job_plan.rs"]
 mod job_plan;
@@ -568,33 +566,11 @@ fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel
 }
 
 fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
+    let text = fpsolve::check::render(model, bound).map_err(at_error(path))?;
     let mut out = std::io::stdout().lock();
-    write!(out, "{model}").context("writing to stdout")?;
-    writeln!(out, "\n# parameter values").context("writing to stdout")?;
-    for (name, value) in bound.params() {
-        writeln!(out, "#   {name} = {}", fpsolve::model::number(*value))
-            .context("writing to stdout")?;
-    }
-    let fpk = FpkOperator::derive(bound).map_err(at_error(path))?;
-    writeln!(out, "\n# derived Fokker-Planck operator").context("writing to stdout")?;
-    commented(&mut out, &fpk)?;
-    // A reflecting barrier in original coordinates: the model EPC solves instead (Eqs. 5-10).
-    if let (Ok(t), Ok(tb)) = (zhuravlev(model), zhuravlev_bound(bound)) {
-        let fpk = FpkOperator::derive(&tb.model).map_err(at_error(path))?;
-        let head = "Zhuravlev transform (Eqs. 5-10), the model EPC solves; the lines below are a";
-        write!(out, "\n# {head} model file\n{}", t.model).context("writing to stdout")?;
-        writeln!(out, "# its derived Fokker-Planck operator").context("writing to stdout")?;
-        commented(&mut out, &fpk)?;
-    }
+    out.write_all(text.as_bytes())
+        .context("writing to stdout")?;
     out.flush().context("writing to stdout")?;
-    Ok(())
-}
-
-/// `text` as `# ` comment lines.
-fn commented(out: &mut impl Write, text: &impl std::fmt::Display) -> Result<()> {
-    for line in text.to_string().lines() {
-        writeln!(out, "# {line}").context("writing to stdout")?;
-    }
     Ok(())
 }
 

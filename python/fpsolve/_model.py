@@ -1,0 +1,151 @@
+"""fpsolve.Model: a validated model and the calls that solve and simulate it."""
+
+from __future__ import annotations
+
+import os
+from typing import Dict, Mapping, Optional, Sequence, Tuple, Union
+
+from . import _fpsolve
+from ._montecarlo import MonteCarlo
+from ._solution import Solution
+
+Value = Union[float, int, str]
+"""A parameter override: a number, or an expression of numbers, ``pi``, ``e`` and other
+parameters (as ``--set name=expr`` takes it)."""
+
+
+def _cells(cells: Optional[Sequence[int]]) -> Optional[Tuple[int, int]]:
+    if cells is None:
+        return None
+    nx, nv = cells
+    return (int(nx), int(nv))
+
+
+class Model:
+    """A model file read and validated (``Model.load``) or model text (``Model.from_text``).
+
+    Parameter overrides are keyword arguments of every call (``model.solve("epc", mu=0.5)``);
+    the model itself never changes.
+    """
+
+    __slots__ = ("_inner",)
+
+    def __init__(self, inner: "_fpsolve._Model"):
+        self._inner = inner
+
+    @classmethod
+    def load(cls, path: Union[str, os.PathLike]) -> "Model":
+        """Reads and validates the model file at ``path``.
+
+        Raises :class:`ModelError` (``.path``, ``.line``, ``.column``, ``.message``) with the
+        command line's file:line:col message when the file cannot be read or is not a valid
+        model.
+        """
+        return cls(_fpsolve._Model.load(os.fspath(path)))
+
+    @classmethod
+    def from_text(cls, text: str, path: Optional[str] = None) -> "Model":
+        """Parses and validates model text; ``path`` only names it in error messages."""
+        return cls(_fpsolve._Model.from_text(text, path))
+
+    @property
+    def name(self) -> str:
+        """The model's name (its ``model NAME`` line)."""
+        return self._inner.name
+
+    @property
+    def description(self) -> str:
+        """The model's description (its ``model NAME "..."`` text), or ``""``."""
+        return self._inner.description
+
+    @property
+    def path(self) -> Optional[str]:
+        """The file it was read from, or None for text."""
+        return self._inner.path
+
+    @property
+    def states(self) -> Tuple[str, str]:
+        """The two state names."""
+        a, b = self._inner.states
+        return (a, b)
+
+    @property
+    def observables(self) -> Tuple[str, ...]:
+        """The observables' names (``observe`` lines)."""
+        return tuple(self._inner.observables)
+
+    @property
+    def quantities(self) -> Tuple[str, ...]:
+        """Every name ``Solution.pdf`` takes: the states, then the observables."""
+        return self.states + self.observables
+
+    def parameters(self, **set: Value) -> Dict[str, float]:
+        """The parameters' values with the overrides ``set`` applied, in declaration order."""
+        return dict(self._inner.parameters(set))
+
+    def check(self, **set: Value) -> str:
+        """What ``fpsolve check`` prints: the model, its parameter values and its derived
+        Fokker-Planck operator (and, for a reflecting barrier, the Zhuravlev transform EPC
+        solves)."""
+        return self._inner.check(set)
+
+    def solve(
+        self,
+        method: str = "epc",
+        degree: int = 4,
+        cells: Optional[Sequence[int]] = None,
+        **set: Value,
+    ) -> Solution:
+        """Solves the stationary FPK equation with the overrides ``set``.
+
+        ``method`` is ``"epc"`` (the paper's closure, the impact as a delta term),
+        ``"epc-impact"`` (EPC with the exact impact condition) or ``"grid"`` (finite volumes
+        on ``cells = (nx, nv)``, default (200, 400)); ``degree`` is the EPC degree (even,
+        2 to 12; every even degree up to it is solved in turn). Releases the GIL.
+
+        Raises :class:`NoConvergenceError`, :class:`NotNormalisableError`,
+        :class:`GridSolveError`, :class:`NotApplicableError` (all :class:`SolveError`) with
+        the failure's data, or :class:`ParameterError` for a bad override.
+        """
+        inner = self._inner.solve(method, int(degree), _cells(cells), set)
+        return Solution(inner)
+
+    def simulate(
+        self,
+        samples: int = 1_000_000,
+        seed: int = 0,
+        threads: Optional[int] = None,
+        dt: Optional[float] = None,
+        spacing: Optional[float] = None,
+        trajectories: Optional[int] = None,
+        bins: Optional[int] = None,
+        grids: Optional[Mapping[str, Tuple[float, float, int]]] = None,
+        **set: Value,
+    ) -> MonteCarlo:
+        """Monte Carlo simulation: ``samples`` recorded samples in all (rounded up to whole
+        trajectories, as ``fpsolve simulate --samples``), histograms of every state and
+        observable with standard errors.
+
+        ``grids`` maps a quantity to its histogram grid ``(lo, hi, bins)`` (the others are
+        chosen from a pilot run); ``threads`` defaults to the cores available. The result
+        does not depend on ``threads``. Releases the GIL; Ctrl-C stops the run and raises
+        KeyboardInterrupt. Raises :class:`MonteCarloError` for a run refused or failed.
+        """
+        grid_list = [
+            (name, float(lo), float(hi), int(n)) for name, (lo, hi, n) in (grids or {}).items()
+        ]
+        text = self._inner.simulate(
+            int(samples),
+            int(seed),
+            None if threads is None else int(threads),
+            None if dt is None else float(dt),
+            None if spacing is None else float(spacing),
+            None if trajectories is None else int(trajectories),
+            None if bins is None else int(bins),
+            grid_list,
+            set,
+        )
+        return MonteCarlo._from_json(text)
+
+    def __repr__(self) -> str:
+        return repr(self._inner)

@@ -1,0 +1,101 @@
+"""fpsolve.MonteCarlo: histograms of a Monte Carlo run as NumPy arrays."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, Iterator, Optional, Tuple
+
+import numpy as np
+
+
+def _num(v: Any) -> float:
+    """A number of the library's JSON: null (no finite value) is NaN, and exact numbers are
+    written as their shortest round-trip decimal string ("0.1", "inf")."""
+    return math.nan if v is None else float(v)
+
+
+def _arr(values) -> np.ndarray:
+    """A float64 array of the library's JSON numbers."""
+    return np.array([_num(v) for v in values], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Histogram:
+    """The histogram of one state or observable: ``density`` and its standard error
+    ``stderr`` (from the spread over statistics batches) on the bins ``edges``, with bin
+    centres ``x``; ``moments`` maps ``mean``, ``variance``, ``kurtosis`` to
+    ``(value, stderr)``; ``bias`` is the time-step bias estimate of the density (a paired run
+    at 2*dt), or None."""
+
+    name: str
+    is_state: bool
+    x: np.ndarray
+    edges: np.ndarray
+    density: np.ndarray
+    stderr: np.ndarray
+    samples: int
+    outside: int
+    moments: Dict[str, Tuple[float, float]]
+    bias: Optional[np.ndarray]
+    bias_stderr: Optional[np.ndarray]
+
+    @classmethod
+    def _from_dict(cls, d: Dict[str, Any]) -> "Histogram":
+        g = d["grid"]
+        lo, hi, bins = _num(g["lo"]), _num(g["hi"]), int(g["bins"])
+        width = (hi - lo) / bins
+        # The library's bin centres, lo + (j + 1/2)·width, to the bit.
+        x = lo + (np.arange(bins) + 0.5) * width
+        edges = lo + np.arange(bins + 1) * width
+        m = d["moments"]
+        moments = {
+            k: (_num(m[k]["value"]), _num(m[k]["stderr"])) for k in ("mean", "variance", "kurtosis")
+        }
+        b = d.get("time_step_bias")
+        return cls(
+            name=d["name"],
+            is_state=bool(d["is_state"]),
+            x=x,
+            edges=edges,
+            density=_arr(d["density"]),
+            stderr=_arr(d["stderr"]),
+            samples=int(d["samples"]),
+            outside=int(d["underflow"]) + int(d["overflow"]) + int(d["invalid"]),
+            moments=moments,
+            bias=None if b is None else _arr(b["density"]),
+            bias_stderr=None if b is None else _arr(b["density_stderr"]),
+        )
+
+
+class MonteCarlo:
+    """The result of :meth:`Model.simulate`: a :class:`Histogram` per state and observable
+    (``mc["y"]``, ``mc.histograms``), and ``report``, the run as a dict (settings, scheme,
+    stationarity test, blow-ups, impacts: the library's serde form)."""
+
+    __slots__ = ("histograms", "report")
+
+    def __init__(self, histograms: Dict[str, Histogram], report: Dict[str, Any]):
+        self.histograms = histograms
+        self.report = report
+
+    @classmethod
+    def _from_json(cls, text: str) -> "MonteCarlo":
+        report = json.loads(text)
+        hists = {q["name"]: Histogram._from_dict(q) for q in report["quantities"]}
+        return cls(hists, report)
+
+    def __getitem__(self, name: str) -> Histogram:
+        return self.histograms[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.histograms)
+
+    @property
+    def samples(self) -> int:
+        """Recorded samples of each quantity."""
+        return next(iter(self.histograms.values())).samples
+
+    def __repr__(self) -> str:
+        return f"<fpsolve.MonteCarlo {self.samples} samples of {', '.join(self.histograms)}>"

@@ -1,0 +1,85 @@
+//! `fpsolve.run_job`: the command line's main job (`fpsolve MODEL --out DIR`) from Python,
+//! writing the same files the same way (staged, moved into place whole).
+
+use std::path::PathBuf;
+
+use fpsolve::job::{self, Job, JobSpec, Target};
+use fpsolve::report::RunDir;
+use fpsolve::solve::{MethodName, MethodSet, Problem};
+use fpsolve::study::MethodPlan;
+use pyo3::prelude::*;
+
+use crate::errors::{self, Asked};
+use crate::interrupt::interruptible;
+use crate::model::{overrides, PyModel};
+
+/// What the main job did: the table the command line prints, the files written, and what in
+/// them is flagged (the reasons the command line would exit 1).
+#[derive(IntoPyObject)]
+pub(crate) struct JobOutcome {
+    table: String,
+    files: Vec<PathBuf>,
+    flags: Vec<String>,
+}
+
+/// Runs the main job on `model` into `out`: EPC at `degrees` and the grid (where it applies)
+/// unless `methods` names others, with the overrides `set`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (model, out, methods=None, degrees=vec![2, 4], cells=None, set=None, figures=true))]
+pub(crate) fn run_job(
+    py: Python<'_>,
+    model: &PyModel,
+    out: PathBuf,
+    methods: Option<Vec<String>>,
+    degrees: Vec<usize>,
+    cells: Option<[usize; 2]>,
+    set: Option<&Bound<'_, pyo3::types::PyDict>>,
+    figures: bool,
+) -> PyResult<JobOutcome> {
+    let path = model.path.clone();
+    let overrides = overrides(py, set)?;
+    let bound = model
+        .model
+        .bind(&overrides)
+        .map_err(|e| errors::bind_error(py, &e, path.as_deref()))?;
+    let named = methods.is_some();
+    let names = match methods {
+        Some(m) => m
+            .iter()
+            .map(|m| m.parse::<MethodName>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| errors::bad_argument(e.to_string()))?,
+        None => vec![MethodName::Epc, MethodName::Grid],
+    };
+    let methods = MethodSet::new(names).map_err(|e| errors::bad_argument(e.to_string()))?;
+    let asked = Asked {
+        method: "job",
+        degree: None,
+    };
+    let problem = Problem::new(&bound).map_err(|e| errors::solve_error(py, &e, &asked))?;
+    MethodPlan::new(&problem, &methods, named)
+        .map_err(|e| errors::other::<errors::NotApplicableError>(py, "methods", e.to_string()))?;
+    let spec = JobSpec {
+        degrees,
+        overrides,
+        target: Target::Observables,
+        methods,
+        methods_named: named,
+        cells: cells.unwrap_or(fpsolve::grid::DEFAULT_CELLS),
+        figures,
+        ..JobSpec::default()
+    };
+    let run = RunDir::begin(&out, "fpsolve (Python) run_job")
+        .map_err(|e| errors::other::<errors::JobError>(py, "output", e.to_string()))?;
+    let inner = &model.model;
+    let report = interruptible(py, |_cancel| Job::new(inner, &spec).run(run.out()))?
+        .map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
+    run.commit()
+        .map_err(|e| errors::other::<errors::JobError>(py, "output", e.to_string()))?;
+    Ok(JobOutcome {
+        table: report.to_string(),
+        files: report.files.clone(),
+        flags: job::flags(&report),
+    })
+}

@@ -1,0 +1,265 @@
+//! `fpsolve.Model`: a model file read and validated, its derived operator, and the calls that
+//! solve or simulate it with parameter overrides.
+
+use std::path::{Path, PathBuf};
+
+use fpsolve::grid::{memory_limit_bytes, Cells};
+use fpsolve::mc::{Grid, McConfig, Simulation};
+use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
+use fpsolve::solve::{Method, MethodName, Problem};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyFloat, PyInt, PyString};
+
+use crate::errors::{self, Asked};
+use crate::interrupt::interruptible;
+use crate::solution::PySolution;
+
+/// A validated model (`Model.load(path)`, `Model.from_text(text)`).
+#[pyclass(name = "_Model", module = "fpsolve._fpsolve", frozen)]
+pub(crate) struct PyModel {
+    pub(crate) model: Model,
+    pub(crate) path: Option<PathBuf>,
+}
+
+/// Overrides from a dict `{name: value}`: a number, or a string holding an expression of
+/// numbers, `pi`, `e` and other parameters (as `--set name=expr` takes it).
+pub(crate) fn overrides(
+    py: Python<'_>,
+    set: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Vec<Override>> {
+    let Some(set) = set else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::with_capacity(set.len());
+    for (key, value) in set.iter() {
+        let name: String = key.extract()?;
+        if value.is_instance_of::<PyString>() {
+            let text: String = value.extract()?;
+            let parsed = format!("{name}={text}")
+                .parse::<Override>()
+                .map_err(|e| errors::set_error(py, &e))?;
+            out.push(parsed);
+        } else if value.is_instance_of::<PyFloat>() || value.is_instance_of::<PyInt>() {
+            out.push(Override::number(&name, value.extract::<f64>()?));
+        } else {
+            let t = value.get_type().name()?.to_string();
+            return Err(errors::bad_argument(format!(
+                "parameter `{name}`: expected a number or an expression string, got {t}"
+            )));
+        }
+    }
+    Ok(out)
+}
+
+impl PyModel {
+    pub(crate) fn bind(
+        &self,
+        py: Python<'_>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<BoundModel> {
+        let overrides = overrides(py, set)?;
+        self.model
+            .bind(&overrides)
+            .map_err(|e| errors::bind_error(py, &e, self.path.as_deref()))
+    }
+}
+
+/// The method named `method` at `degree` / on `cells`.
+pub(crate) fn method(name: &str, degree: usize, cells: Option<[usize; 2]>) -> PyResult<Method> {
+    let parsed: MethodName = name
+        .parse()
+        .map_err(|e: fpsolve::solve::MethodNameError| errors::bad_argument(e.to_string()))?;
+    Ok(match parsed {
+        MethodName::Epc => Method::Epc { degree },
+        MethodName::EpcImpact => Method::EpcImpact { degree },
+        MethodName::Grid => {
+            let cells = Cells(cells.unwrap_or(fpsolve::grid::DEFAULT_CELLS));
+            cells
+                .within(memory_limit_bytes())
+                .map_err(|e| errors::bad_argument(format!("cells: {e}")))?;
+            Method::Grid { cells: cells.0 }
+        }
+    })
+}
+
+#[pymethods]
+impl PyModel {
+    /// Reads and validates the model file at `path`.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyModel> {
+        let model = py
+            .allow_threads(|| load_model(&path))
+            .map_err(|e| errors::model_error(py, &e, Some(&path)))?;
+        Ok(PyModel {
+            model,
+            path: Some(path),
+        })
+    }
+
+    /// Parses and validates model text; `path` only names it in messages.
+    #[staticmethod]
+    #[pyo3(signature = (text, path=None))]
+    fn from_text(py: Python<'_>, text: &str, path: Option<PathBuf>) -> PyResult<PyModel> {
+        let model = parse_model(text, path.as_deref())
+            .map_err(|e| errors::model_error(py, &e, path.as_deref()))?;
+        Ok(PyModel { model, path })
+    }
+
+    #[getter]
+    fn name(&self) -> &str {
+        self.model.name()
+    }
+
+    #[getter]
+    fn description(&self) -> &str {
+        self.model.description()
+    }
+
+    #[getter]
+    fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    #[getter]
+    fn states(&self) -> Vec<String> {
+        self.model.states().iter().map(|s| s.to_string()).collect()
+    }
+
+    #[getter]
+    fn observables(&self) -> Vec<String> {
+        self.model
+            .observables()
+            .iter()
+            .map(|o| o.name.to_string())
+            .collect()
+    }
+
+    /// The parameters' values with `set` applied, in declaration order.
+    #[pyo3(signature = (set=None))]
+    fn parameters(
+        &self,
+        py: Python<'_>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Vec<(String, f64)>> {
+        let bound = self.bind(py, set)?;
+        Ok(bound
+            .params()
+            .iter()
+            .map(|(n, v)| (n.to_string(), *v))
+            .collect())
+    }
+
+    /// What `fpsolve check` prints: the model, its parameter values and derived operator.
+    #[pyo3(signature = (set=None))]
+    fn check(&self, py: Python<'_>, set: Option<&Bound<'_, PyDict>>) -> PyResult<String> {
+        let bound = self.bind(py, set)?;
+        fpsolve::check::render(&self.model, &bound)
+            .map_err(|e| errors::derive_error(py, &e, self.path.as_deref()))
+    }
+
+    /// Solves the stationary FPK equation by `method` (GIL released).
+    #[pyo3(signature = (method, degree, cells=None, set=None))]
+    fn solve(
+        &self,
+        py: Python<'_>,
+        method: &str,
+        degree: usize,
+        cells: Option<[usize; 2]>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PySolution> {
+        let chosen = self::method(method, degree, cells)?;
+        let asked = Asked {
+            method,
+            degree: (!matches!(chosen, Method::Grid { .. })).then_some(degree),
+        };
+        let bound = self.bind(py, set)?;
+        let solved = py.allow_threads(|| {
+            let problem = Problem::new(&bound)?;
+            problem.solve(chosen)
+        });
+        let solution = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;
+        Ok(PySolution::new(solution, method.to_string(), asked.degree))
+    }
+
+    /// Runs the Monte Carlo simulation; returns its result as JSON (the `McResult`'s serde
+    /// form). Interruptible: Ctrl-C cancels the run and raises KeyboardInterrupt.
+    #[pyo3(signature = (samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate(
+        &self,
+        py: Python<'_>,
+        samples: u64,
+        seed: u64,
+        threads: Option<usize>,
+        dt: Option<f64>,
+        spacing: Option<f64>,
+        trajectories: Option<u64>,
+        bins: Option<usize>,
+        grids: Vec<(String, f64, f64, usize)>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<String> {
+        let bound = self.bind(py, set)?;
+        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        config
+            .preflight(&bound)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        let simulation = Simulation::new(&bound, &config).map_err(|e| errors::mc_error(py, &e))?;
+        let threads = threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+        });
+        if threads == 0 {
+            return Err(errors::bad_argument("threads must be at least 1"));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| errors::bad_argument(format!("threads: {e}")))?;
+        let run = interruptible(py, |cancel| {
+            pool.install(|| simulation.run_cancellable(&|_, _| {}, cancel))
+        })?;
+        let result = run.map_err(|e| errors::mc_error(py, &e))?;
+        serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        match &self.path {
+            Some(p) => format!("Model.load({:?})", p.display().to_string()),
+            None => format!("<fpsolve.Model {:?}>", self.model.name()),
+        }
+    }
+}
+
+/// The Monte Carlo configuration of `simulate`: `samples` recorded samples in all, spread over
+/// the trajectories as the command line's `--samples` does.
+fn mc_config(
+    samples: u64,
+    seed: u64,
+    dt: Option<f64>,
+    spacing: Option<f64>,
+    trajectories: Option<u64>,
+    bins: Option<usize>,
+    grids: &[(String, f64, f64, usize)],
+) -> Result<McConfig, fpsolve::mc::McError> {
+    let default = McConfig::default();
+    let lanes = default.lanes as u64;
+    let trajectories = trajectories
+        .unwrap_or(default.trajectories)
+        .max(1)
+        .div_ceil(lanes)
+        .saturating_mul(lanes);
+    let grids = grids
+        .iter()
+        .map(|(name, lo, hi, n)| Ok((name.clone(), Grid::new(*lo, *hi, *n)?)))
+        .collect::<Result<Vec<_>, fpsolve::mc::McError>>()?;
+    Ok(McConfig {
+        dt: dt.unwrap_or(default.dt),
+        spacing: spacing.unwrap_or(default.spacing),
+        trajectories,
+        samples: samples.div_ceil(trajectories).max(1),
+        seed,
+        bins: bins.unwrap_or(default.bins),
+        grids,
+        ..default
+    })
+}

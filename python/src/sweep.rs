@@ -1,0 +1,56 @@
+//! `fpsolve.sweep`'s native half: a parameter sweep over every point, in parallel, by each
+//! method asked; the result is the library's `SweepResult` in its serde form (JSON text), from
+//! which the Python layer builds arrays. Interruptible: Ctrl-C stops it between points.
+
+use fpsolve::grid::Cells;
+use fpsolve::solve::{MethodName, MethodSet};
+use fpsolve::sweep::{Sweep, SweepSpec};
+use pyo3::prelude::*;
+
+use crate::errors;
+use crate::interrupt::interruptible;
+use crate::model::PyModel;
+
+/// Runs the sweep of `model` over `swept` (name, values; the points are their Cartesian
+/// product) with the overrides `fixed` (name, expression) at every point.
+#[pyfunction]
+#[pyo3(signature = (model, swept, fixed, methods, degree, cells=None))]
+pub(crate) fn sweep_json(
+    py: Python<'_>,
+    model: &PyModel,
+    swept: Vec<(String, Vec<f64>)>,
+    fixed: Vec<(String, String)>,
+    methods: Vec<String>,
+    degree: usize,
+    cells: Option<[usize; 2]>,
+) -> PyResult<String> {
+    // The command line's `--set` arguments, so that one reader checks them (duplicates, too
+    // many points, …); Rust prints an f64 so that it reads back exactly.
+    let mut args: Vec<String> = swept
+        .iter()
+        .map(|(name, values)| {
+            let list: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
+            format!("{name}={}", list.join(","))
+        })
+        .collect();
+    args.extend(fixed.iter().map(|(name, expr)| format!("{name}={expr}")));
+    let spec = SweepSpec::parse(&args).map_err(|e| errors::sweep_error(py, &e))?;
+    spec.validate(&model.model)
+        .map_err(|e| errors::sweep_error(py, &e))?;
+    let names = methods
+        .iter()
+        .map(|m| m.parse::<MethodName>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| errors::bad_argument(e.to_string()))?;
+    let methods = MethodSet::new(names).map_err(|e| errors::bad_argument(e.to_string()))?;
+    let mut sweep = Sweep::new(&model.model, &spec)
+        .methods(methods)
+        .degree(degree);
+    if let Some(c) = cells {
+        sweep = sweep.cells(Cells(c));
+    }
+    sweep.check().map_err(|e| errors::sweep_error(py, &e))?;
+    let result = interruptible(py, |cancel| sweep.run_cancellable(cancel))?
+        .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
+    serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
+}
