@@ -61,7 +61,8 @@ class Model:
     @property
     def path(self) -> Optional[str]:
         """The file it was read from, or None for text."""
-        return self._inner.path
+        p = self._inner.path
+        return None if p is None else os.fspath(p)
 
     @property
     def states(self) -> Tuple[str, str]:

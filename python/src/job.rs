@@ -75,11 +75,22 @@ pub(crate) fn run_job(
     let inner = &model.model;
     let report = interruptible(py, |_cancel| Job::new(inner, &spec).run(run.out()))?
         .map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
-    run.commit()
+    let staging = run.out().path().to_path_buf();
+    let dest = run
+        .commit()
         .map_err(|e| errors::other::<errors::JobError>(py, "output", e.to_string()))?;
+    // The files where they are now: moved from the staging directory into `out`.
+    let files = report
+        .files
+        .iter()
+        .map(|f| {
+            f.strip_prefix(&staging)
+                .map_or_else(|_| f.clone(), |rel| dest.join(rel))
+        })
+        .collect();
     Ok(JobOutcome {
         table: report.to_string(),
-        files: report.files.clone(),
+        files,
         flags: job::flags(&report),
     })
 }

@@ -1,0 +1,136 @@
+"""Model.simulate: histograms as arrays, determinism, errors, and Ctrl-C."""
+
+import _thread
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import fpsolve
+from conftest import MODELS, REPO
+
+
+def test_histograms_are_arrays(linear):
+    mc = linear.simulate(samples=100_000, seed=3, grids={"z": (-8.0, 8.0, 64)})
+    assert isinstance(mc, fpsolve.MonteCarlo)
+    assert list(mc) == list(linear.quantities)
+    h = mc["z"]
+    assert isinstance(h, fpsolve.Histogram)
+    for a in (h.x, h.density, h.stderr):
+        assert a.dtype == np.float64 and a.shape == (64,)
+    assert h.edges.shape == (65,)
+    np.testing.assert_allclose(h.x, 0.5 * (h.edges[1:] + h.edges[:-1]), rtol=0, atol=1e-12)
+    assert np.all(h.stderr >= 0)
+    assert mc.samples == h.samples >= 100_000
+    # The histogram is a density: its mass is the fraction of samples inside the grid.
+    inside = 1 - h.outside / h.samples
+    assert np.sum(h.density) * (h.edges[1] - h.edges[0]) == pytest.approx(inside, rel=1e-9)
+    assert mc.report["trajectories"] >= 1
+
+
+def test_linear_moments_agree_with_the_exact_variance(linear):
+    # Var z = Var v = 5 exactly; Monte Carlo within five standard errors (plus the
+    # time-step bias allowance of 1%).
+    mc = linear.simulate(samples=400_000, seed=11)
+    for name in ("z", "v"):
+        value, stderr = mc[name].moments["variance"]
+        assert abs(value - 5.0) < 5 * stderr + 0.05
+
+
+def test_same_seed_same_histograms_whatever_the_threads(linear):
+    a = linear.simulate(samples=50_000, seed=7, threads=1)
+    b = linear.simulate(samples=50_000, seed=7, threads=2)
+    np.testing.assert_array_equal(a["z"].density, b["z"].density)
+    c = linear.simulate(samples=50_000, seed=8, threads=2)
+    assert not np.array_equal(a["z"].density, c["z"].density)
+
+
+def test_overrides_apply(linear):
+    a = linear.simulate(samples=50_000, seed=1, k=4.0)
+    # Var z = pi K / (c k) = 1.25 at k = 4.
+    value, stderr = a["z"].moments["variance"]
+    assert abs(value - 1.25) < 5 * stderr + 0.02
+
+
+def test_bad_settings_are_monte_carlo_errors(linear):
+    with pytest.raises(fpsolve.MonteCarloError) as info:
+        linear.simulate(samples=1000, dt=-0.1)
+    assert info.value.kind == "bad_setting"
+    with pytest.raises(fpsolve.MonteCarloError) as info:
+        linear.simulate(samples=1000, grids={"z": (1.0, 1.0, 10)})
+    assert info.value.kind == "bad_setting"
+
+
+def _threads():
+    return len(os.listdir("/proc/self/task"))
+
+
+def test_ctrl_c_stops_a_long_simulation(vibro):
+    vibro.simulate(samples=20_000, seed=0, threads=2)  # warm-up: any lazily started threads
+    before_py = threading.active_count()
+    before_os = _threads()
+    fired = []
+
+    def interrupt():
+        fired.append(time.monotonic())
+        _thread.interrupt_main()  # as Ctrl-C: SIGINT's default handler raises KeyboardInterrupt
+
+    timer = threading.Timer(0.5, interrupt)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        # About a minute of work on two cores if it were not interrupted.
+        vibro.simulate(samples=2_000_000_000, seed=0, threads=2)
+    latency = time.monotonic() - fired[0]
+    timer.join()
+    assert latency < 1.0, f"KeyboardInterrupt {latency:.2f} s after Ctrl-C"
+    assert threading.active_count() == before_py
+    # The worker is joined before the exception is raised; the pool's threads exit with it.
+    deadline = time.monotonic() + 2.0
+    while _threads() > before_os and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert _threads() <= before_os
+
+
+def test_ctrl_c_stops_a_sweep(vibro):
+    fired = []
+
+    def interrupt():
+        fired.append(time.monotonic())
+        _thread.interrupt_main()
+
+    timer = threading.Timer(0.3, interrupt)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        fpsolve.sweep(vibro, method="grid", eps=np.linspace(-0.3, 0.3, 40), mu=[0.1, 0.5, 1.0])
+    latency = time.monotonic() - fired[0]
+    timer.join()
+    # A sweep stops between points: at most the points in progress (a grid solve, ~1 s) finish.
+    assert latency < 3.0, f"KeyboardInterrupt {latency:.2f} s after Ctrl-C"
+
+
+def test_sigint_to_a_python_process(tmp_path):
+    script = tmp_path / "long.py"
+    script.write_text(
+        "import sys, fpsolve\n"
+        f"m = fpsolve.Model.load({str(MODELS / 'vibro_duffing.sde')!r})\n"
+        "print('started', flush=True)\n"
+        "try:\n"
+        "    m.simulate(samples=2_000_000_000, threads=1)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(0.5)
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=30)
+    assert time.monotonic() - sent < 1.5
+    assert proc.returncode == 130
+    assert out.strip() == "interrupted"
