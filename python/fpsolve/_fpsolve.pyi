@@ -1,0 +1,150 @@
+"""Type stubs of the native module fpsolve._fpsolve (the Rust library's thin wrappers; the
+public API is the pure-Python layer in fpsolve/)."""
+
+import os
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple, TypedDict, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Value = Union[float, int, str]
+_Float64 = npt.NDArray[np.float64]
+
+class FpsolveError(Exception):
+    """Base class of every error fpsolve raises; ``kind`` names the library's variant."""
+
+    kind: str
+
+class ModelError(FpsolveError):
+    """A model that cannot be read, parsed or validated; ``str(e)`` is the CLI's
+    file:line:col message."""
+
+    path: Optional[str]
+    line: Optional[int]
+    column: Optional[int]
+    message: Optional[str]
+    help: Optional[str]
+
+class ParameterError(ModelError):
+    """A parameter override that is malformed or cannot be bound."""
+
+class SolveError(FpsolveError):
+    """A method that gave no density."""
+
+    method: str
+    degree: Optional[int]
+
+class NoConvergenceError(SolveError):
+    """EPC found no root: ``residual`` (best ‖R‖), ``threshold``, ``gradient``."""
+
+    residual: float
+    threshold: float
+    gradient: float
+
+class NotNormalisableError(SolveError):
+    """exp(Q) has no finite mass: ``reason`` in words."""
+
+    reason: str
+
+class GridSolveError(SolveError):
+    """The grid solver failed (``kind``: singular, degenerate, domain_not_found, …)."""
+
+class NotApplicableError(SolveError):
+    """The method does not apply to the model: ``reason``."""
+
+    reason: str
+
+class UnknownQuantityError(SolveError):
+    """Neither a state nor an observable: ``name``, ``known``."""
+
+    name: str
+    known: List[str]
+
+class MonteCarloError(FpsolveError):
+    """A Monte Carlo run refused or failed."""
+
+class SweepError(FpsolveError):
+    """A sweep that cannot run: ``argument`` or ``name`` when it is about one."""
+
+    argument: Optional[str]
+    name: Optional[str]
+
+class JobError(FpsolveError):
+    """The main job failed as a whole (its output directory, …)."""
+
+class _Model:
+    @staticmethod
+    def load(path: Union[str, os.PathLike]) -> "_Model": ...
+    @staticmethod
+    def from_text(text: str, path: Optional[str] = None) -> "_Model": ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def description(self) -> str: ...
+    @property
+    def path(self) -> Optional[os.PathLike]: ...
+    @property
+    def states(self) -> List[str]: ...
+    @property
+    def observables(self) -> List[str]: ...
+    def parameters(self, set: Optional[Mapping[str, _Value]] = None) -> List[Tuple[str, float]]: ...
+    def check(self, set: Optional[Mapping[str, _Value]] = None) -> str: ...
+    def solve(
+        self,
+        method: str,
+        degree: int,
+        cells: Optional[Tuple[int, int]] = None,
+        set: Optional[Mapping[str, _Value]] = None,
+    ) -> "_Solution": ...
+    def simulate(
+        self,
+        samples: int,
+        seed: int,
+        threads: Optional[int],
+        dt: Optional[float],
+        spacing: Optional[float],
+        trajectories: Optional[int],
+        bins: Optional[int],
+        grids: Sequence[Tuple[str, float, float, int]],
+        set: Optional[Mapping[str, _Value]] = None,
+    ) -> str: ...
+
+class _Solution:
+    @property
+    def method(self) -> str: ...
+    @property
+    def degree(self) -> Optional[int]: ...
+    @property
+    def quantities(self) -> List[str]: ...
+    def pdf(self, name: str, x: _Float64) -> _Float64: ...
+    def joint(self, x1: _Float64, x2: _Float64) -> _Float64: ...
+    def marginal(self, name: str) -> Tuple[_Float64, _Float64]: ...
+    def moments_json(self, name: str) -> str: ...
+    def tail_probability(self, name: str, a: float) -> Optional[float]: ...
+    def coefficients(self) -> Tuple[List[Tuple[int, int]], List[float]]: ...
+    def report_json(self) -> str: ...
+
+class _JobOutcome(TypedDict):
+    table: str
+    files: List[os.PathLike]
+    flags: List[str]
+
+def sweep_json(
+    model: _Model,
+    swept: Sequence[Tuple[str, Sequence[float]]],
+    fixed: Sequence[Tuple[str, str]],
+    methods: Sequence[str],
+    degree: int,
+    cells: Optional[Tuple[int, int]] = None,
+) -> str: ...
+def run_job(
+    model: _Model,
+    out: Union[str, os.PathLike],
+    methods: Optional[Sequence[str]] = None,
+    degrees: Sequence[int] = ...,
+    cells: Optional[Tuple[int, int]] = None,
+    set: Optional[Mapping[str, _Value]] = None,
+    figures: bool = True,
+) -> _JobOutcome: ...
