@@ -20,7 +20,8 @@
 //! * one sparse linear system (the scheme is linear), solved by faer's sparse LU (COLAMD
 //!   ordering) with one equation replaced by fixing one cell, then scaled to unit mass;
 //! * negative cell values (the scheme is not a Markov chain) clipped, their mass reported;
-//!   a discretisation-error estimate from a second solve on half the cells per axis.
+//!   a discretisation-error estimate from a second solve on half the cells per axis, run
+//!   alongside the main solve on the second core.
 //!
 //! A reflecting barrier (`impact y = 0: v -> -r*v`) keeps the state on the side the model's
 //! `domain` line says (`domain y >= 0`, the paper's y > 0). Two reflecting walls bound a strip: the domain is the strip
