@@ -6,9 +6,7 @@
 //! puts back into the destination cells exactly what left, so every column sums to zero:
 //! mass is conserved to rounding.
 
-use faer::linalg::solvers::SolveCore;
-use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, Mat};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat, Triplet};
 
 use super::error::GridError;
 use super::mesh::{face_weights, overlaps, Mesh};
@@ -107,35 +105,86 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
     })
 }
 
+/// The matrix of operator · p = 0 with the equation of cell `pin` replaced by p_pin = 1, in
+/// compressed columns: entries bucketed by column in assembly order, then sorted by row
+/// within each column (stably, by insertion: a column holds a dozen entries) and
+/// duplicates summed in assembly order. A general triplet sort costs several times the
+/// assembly itself at 80k cells.
+pub(crate) fn matrix(n: usize, op: &Operator, pin: usize) -> SparseColMat<usize, f64> {
+    let parts = [&op.transport, &op.outflow, &op.reinjection];
+    let kept = |t: &&Triplet<usize, usize, f64>| t.row != pin;
+    let mut col_ptr = vec![0usize; n + 2];
+    for t in parts.iter().flat_map(|p| p.iter()).filter(kept) {
+        col_ptr[t.col + 2] += 1;
+    }
+    col_ptr[pin + 2] += 1;
+    for c in 2..n + 2 {
+        col_ptr[c] += col_ptr[c - 1];
+    }
+    // col_ptr[c + 1] is the next free slot of column c while scattering.
+    let total = col_ptr[n + 1];
+    let (mut rows, mut vals) = (vec![0usize; total], vec![0.0f64; total]);
+    let mut place = |row: usize, col: usize, val: f64| {
+        let at = col_ptr[col + 1];
+        rows[at] = row;
+        vals[at] = val;
+        col_ptr[col + 1] += 1;
+    };
+    for t in parts.iter().flat_map(|p| p.iter()).filter(kept) {
+        place(t.row, t.col, t.val);
+    }
+    place(pin, pin, 1.0);
+    // Sort each column by row, merge duplicates, compact.
+    let mut write = 0;
+    let mut start = 0;
+    let mut out_ptr = Vec::with_capacity(n + 1);
+    out_ptr.push(0);
+    for c in 0..n {
+        let end = col_ptr[c + 1];
+        for k in start + 1..end {
+            let (r, v) = (rows[k], vals[k]);
+            let mut m = k;
+            while m > start && rows[m - 1] > r {
+                rows[m] = rows[m - 1];
+                vals[m] = vals[m - 1];
+                m -= 1;
+            }
+            rows[m] = r;
+            vals[m] = v;
+        }
+        let first = write;
+        for k in start..end {
+            if write > first && rows[write - 1] == rows[k] {
+                vals[write - 1] += vals[k];
+            } else {
+                rows[write] = rows[k];
+                vals[write] = vals[k];
+                write += 1;
+            }
+        }
+        out_ptr.push(write);
+        start = end;
+    }
+    rows.truncate(write);
+    vals.truncate(write);
+    let symbolic = SymbolicSparseColMat::new_checked(n, n, out_ptr, None, rows);
+    SparseColMat::new(symbolic, vals)
+}
+
 /// Solves operator · p = 0 with the equation of cell `pin` replaced by p_pin = 1 (the rows
 /// are linearly dependent, since the columns sum to zero), then scales p to unit mass.
 pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, GridError> {
     let n = mesh.cells();
-    let mut entries: Vec<Triplet<usize, usize, f64>> = op
-        .transport
-        .iter()
-        .chain(&op.outflow)
-        .chain(&op.reinjection)
-        .filter(|e| e.row != pin)
-        .copied()
-        .collect();
-    entries.push(Triplet {
-        row: pin,
-        col: pin,
-        val: 1.0,
-    });
     let singular = |detail: String| GridError::Singular {
         nx: mesh.nx,
         nv: mesh.nv,
         detail,
     };
-    let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries)
-        .map_err(|e| singular(format!("{e:?}")))?;
-    let lu = a.sp_lu().map_err(|e| singular(format!("{e:?}")))?;
-    let mut rhs = Mat::<f64>::zeros(n, 1);
-    rhs[(pin, 0)] = 1.0;
-    lu.solve_in_place_with_conj(Conj::No, rhs.as_mut());
-    let mut p: Vec<f64> = (0..n).map(|k| rhs[(k, 0)]).collect();
+    let a = matrix(n, op, pin);
+    let factor = super::lu::Factor::new(a.as_ref(), &super::lu::ORDERING).map_err(singular)?;
+    let mut p = vec![0.0; n];
+    p[pin] = 1.0;
+    factor.solve(&mut p);
     let mass: f64 = p.iter().sum::<f64>() * mesh.hx * mesh.hv;
     if !(mass.is_finite() && mass > 0.0) {
         return Err(GridError::Degenerate {

@@ -91,8 +91,11 @@ impl Cells {
     /// n = NX·NV unknowns, whose fill grows like n·√n on a two-dimensional grid, and the
     /// solution's own arrays. Measured peak resident memory of `fpsolve solve` on
     /// `models/linear.sde` above the 50 MB of a run without the grid: 125 MB at 140×280,
-    /// 340 MB at 200×400, 780 MB at 280×560 (12.6 to 16 bytes per n·√n); the estimate takes
-    /// 24, 1.5 to 2 times that.
+    /// 340 MB at 200×400, 780 MB at 280×560 (12.6 to 16 bytes per n·√n); on
+    /// `models/vibro_impact_duffing.sde`, with the error estimate's solve alongside the main
+    /// one: 440 MB at 200×400, 990 MB at 280×560, 2.2 GB at 392×800 (17, 15, 12 bytes per
+    /// n·√n: the fill grows more slowly than n·√n). The estimate takes 24, 1.4 to 2 times
+    /// that.
     ///
     /// ```
     /// let c = fpsolve::grid::Cells([140, 280]);

@@ -32,7 +32,8 @@ pub struct GridTimings {
     pub assemble_ms: f64,
     /// Sparse LU factorisation and solve of the main system.
     pub solve_ms: f64,
-    /// The coarse solve of the error estimate.
+    /// The coarse solve of the error estimate (it runs alongside the main solve, so the
+    /// times overlap).
     pub estimate_ms: f64,
     /// Everything.
     pub total_ms: f64,
