@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use super::closure::GaussianClosure;
-use super::normalise::{DensityGrid, NormalisationReport, Poly};
+use super::normalise::{powers, DensityGrid, NormalisationReport, Poly};
 use super::outcome::SolverMethod;
 use crate::moments::Moments;
 
@@ -196,6 +196,66 @@ impl EpcSolution {
             return 0.0;
         }
         (q + self.log_c()).exp() * w
+    }
+
+    /// [`EpcSolution::pdf`] on the tensor grid `x1` × `x2` into `out` (row-major in x1), each
+    /// value bit for bit `pdf`'s: the same monomials a·ξ1^i·ξ2^j summed in the same order, with
+    /// a·ξ1^i taken once per row and the powers of ξ2 once per column, four columns at a time
+    /// (independent sums the processor overlaps).
+    pub(crate) fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        const LANES: usize = 4;
+        assert_eq!(out.len(), x1.len() * x2.len(), "pdf_on_grid: output size");
+        let (exps, a) = (&self.q.exps, &self.q.a);
+        if exps.is_empty() || x2.is_empty() {
+            for (i, &u) in x1.iter().enumerate() {
+                for (j, &v) in x2.iter().enumerate() {
+                    out[i * x2.len() + j] = self.pdf(u, v);
+                }
+            }
+            return;
+        }
+        let n2 = x2.len();
+        let xi2: Vec<f64> = x2.iter().map(|v| v / self.sigma[1]).collect();
+        // power_of[j][k] = ξ2[k]^j, contiguous across columns.
+        let table: Vec<_> = xi2.iter().map(|&v| powers(v)).collect();
+        let top = exps.iter().map(|e| e.1).max().unwrap_or(0);
+        let power_of: Vec<Vec<f64>> = (0..=top)
+            .map(|j| table.iter().map(|p| p[j]).collect())
+            .collect();
+        let log_c = self.log_c();
+        let g = &self.grid;
+        let node2: Vec<_> = xi2.iter().map(|&v| g.node(1, v)).collect();
+        let mut row = vec![0.0; exps.len()];
+        for (i, &u) in x1.iter().enumerate() {
+            let t = u / self.sigma[0];
+            let node1 = g.node(0, t);
+            let p1 = powers(t);
+            for (r, (&(e1, _), a)) in row.iter_mut().zip(exps.iter().zip(a)) {
+                *r = a * p1[e1];
+            }
+            let line = &mut out[i * n2..(i + 1) * n2];
+            let mut k0 = 0;
+            while k0 < n2 {
+                let lanes = LANES.min(n2 - k0);
+                // The first monomial starts each sum, as it does in `Poly::eval` (−0 + x = x).
+                let mut q = [0.0; LANES];
+                let first = &power_of[exps[0].1][k0..k0 + lanes];
+                for (q, p) in q.iter_mut().zip(first) {
+                    *q = row[0] * p;
+                }
+                for (r, &(_, e2)) in row.iter().zip(exps).skip(1) {
+                    let col = &power_of[e2][k0..k0 + lanes];
+                    for (q, p) in q.iter_mut().zip(col) {
+                        *q += r * p;
+                    }
+                }
+                for (l, &q) in q[..lanes].iter().enumerate() {
+                    let w = g.weight_at([node1, node2[k0 + l]], q);
+                    line[k0 + l] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
+                }
+                k0 += lanes;
+            }
+        }
     }
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original

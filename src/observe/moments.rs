@@ -2,6 +2,8 @@
 
 use serde::Serialize;
 
+use rayon::prelude::*;
+
 use super::{JointDensity, ObservableMap};
 use crate::moments::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
@@ -210,6 +212,9 @@ pub fn moments_of_all(
         .collect()
 }
 
+/// Rows of a rule evaluated together (one task of the parallel evaluation).
+const ROWS_PER_BLOCK: usize = 32;
+
 /// How many of E|g|^k, k = 1…4, the two rules agree on.
 fn established(fine: &Samples, check: &Samples) -> usize {
     let mut existing = 0;
@@ -226,9 +231,10 @@ fn established(fine: &Samples, check: &Samples) -> usize {
     existing
 }
 
-/// The nodes of a rule with their weights times the density (zero-density nodes left out).
+/// The nodes of a rule with their weights times the density (zero-density nodes left out),
+/// in blocks of rows (in order; not concatenated, which would copy them).
 struct Grid {
-    nodes: Vec<([f64; 2], f64)>,
+    blocks: Vec<Vec<([f64; 2], f64)>>,
 }
 
 impl Grid {
@@ -236,16 +242,27 @@ impl Grid {
         let ext = density.extent();
         let r1 = axis_rule(ext[0][0], ext[0][1], rule);
         let r2 = axis_rule(ext[1][0], ext[1][1], rule);
-        let mut nodes = Vec::with_capacity(r1.len() * r2.len());
-        for &(x1, w1) in &r1 {
-            for &(x2, w2) in &r2 {
-                let p = density.pdf([x1, x2]);
-                if p != 0.0 {
-                    nodes.push(([x1, x2], w1 * w2 * p));
+        // Blocks of rows in parallel, kept in order: the sums over the nodes are the same, bit
+        // for bit, on any number of threads.
+        let x2: Vec<f64> = r2.iter().map(|r| r.0).collect();
+        let blocks: Vec<Vec<([f64; 2], f64)>> = r1
+            .par_chunks(ROWS_PER_BLOCK)
+            .map(|rows| {
+                let x1: Vec<f64> = rows.iter().map(|r| r.0).collect();
+                let mut p = vec![0.0; x1.len() * x2.len()];
+                density.pdf_on_grid(&x1, &x2, &mut p);
+                let mut nodes = Vec::with_capacity(p.len());
+                for (&(x1, w1), p) in rows.iter().zip(p.chunks(x2.len())) {
+                    for (&(x2, w2), &p) in r2.iter().zip(p) {
+                        if p != 0.0 {
+                            nodes.push(([x1, x2], w1 * w2 * p));
+                        }
+                    }
                 }
-            }
-        }
-        Grid { nodes }
+                nodes
+            })
+            .collect();
+        Grid { blocks }
     }
 
     /// (g, weight·p) at every node; g is NaN where it is undefined.
@@ -260,8 +277,9 @@ impl Grid {
         };
         let (mut scratch, mut out) = (Vec::new(), [0.0]);
         let samples: Vec<(f64, f64)> = self
-            .nodes
+            .blocks
             .iter()
+            .flatten()
             .map(|&(x, w)| {
                 let g = match (map, &tape) {
                     (ObservableMap::SignedState { state, sign }, _) => {
@@ -300,17 +318,25 @@ struct Samples {
 impl Samples {
     /// The moments, the first `existing` of them established (the others NaN).
     fn moments(&self, existing: usize) -> ObservableMoments {
-        let e = |f: &dyn Fn(f64) -> f64| self.expect(f);
         let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
-        let raw = [
-            upto(1, e(&|g| g)),
-            upto(2, e(&|g| g * g)),
-            upto(3, e(&|g| g.powi(3))),
-            upto(4, e(&|g| g.powi(4))),
-        ];
+        // Each E[·] is its own sum in node order (as `expect` takes it), the four raw ones in
+        // one pass and the two central ones in a second.
+        let mut s = [-0.0; 4];
+        for (g, w) in self.defined() {
+            s[0] += g * w;
+            s[1] += (g * g) * w;
+            s[2] += g.powi(3) * w;
+            s[3] += g.powi(4) * w;
+        }
+        let raw = [1, 2, 3, 4].map(|k| upto(k, s[k - 1] / self.defined));
         let mean = raw[0];
-        let var = upto(2, e(&|g| (g - mean).powi(2)));
-        let m4 = upto(4, e(&|g| (g - mean).powi(4)));
+        let mut c = [-0.0; 2];
+        for (g, w) in self.defined() {
+            c[0] += (g - mean).powi(2) * w;
+            c[1] += (g - mean).powi(4) * w;
+        }
+        let var = upto(2, c[0] / self.defined);
+        let m4 = upto(4, c[1] / self.defined);
         ObservableMoments {
             moments: Moments {
                 raw,
@@ -323,18 +349,18 @@ impl Samples {
         }
     }
 
+    /// The samples where g is defined.
+    fn defined(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.samples.iter().copied().filter(|s| s.0.is_finite())
+    }
+
     /// E[f(g)] given g defined.
-    fn expect(&self, f: &dyn Fn(f64) -> f64) -> f64 {
-        self.samples
-            .iter()
-            .filter(|s| s.0.is_finite())
-            .map(|&(g, w)| f(g) * w)
-            .sum::<f64>()
-            / self.defined
+    fn expect(&self, f: impl Fn(f64) -> f64) -> f64 {
+        self.defined().map(|(g, w)| f(g) * w).sum::<f64>() / self.defined
     }
 
     /// E[|g|^k] given g defined.
     fn absolute(&self, k: usize) -> f64 {
-        self.expect(&|g| g.abs().powi(k as i32))
+        self.expect(|g| g.abs().powi(k as i32))
     }
 }
