@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use super::closure::GaussianClosure;
-use super::normalise::{powers, DensityGrid, NormalisationReport, Poly};
+use super::normalise::{powers, DensityGrid, NormalisationReport, Poly, MAX_POWER};
 use super::outcome::SolverMethod;
 use crate::moments::Moments;
 
@@ -200,60 +200,65 @@ impl EpcSolution {
 
     /// [`EpcSolution::pdf`] on the tensor grid `x1` × `x2` into `out` (row-major in x1), each
     /// value bit for bit `pdf`'s: the same monomials a·ξ1^i·ξ2^j summed in the same order, with
-    /// a·ξ1^i taken once per row and the powers of ξ2 once per column, four columns at a time
-    /// (independent sums the processor overlaps).
+    /// the powers of ξ2 taken once per column and a·ξ1^i once per row and block of columns, the
+    /// sums of four columns side by side (independent, so the processor overlaps them). No
+    /// allocation beyond one row of products: the observables' quadrature calls this once per
+    /// 15-node panel.
     pub(crate) fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
         const LANES: usize = 4;
+        const BLOCK: usize = 4 * LANES;
         assert_eq!(out.len(), x1.len() * x2.len(), "pdf_on_grid: output size");
         let (exps, a) = (&self.q.exps, &self.q.a);
-        if exps.is_empty() || x2.is_empty() {
+        let n2 = x2.len();
+        if exps.is_empty() {
             for (i, &u) in x1.iter().enumerate() {
                 for (j, &v) in x2.iter().enumerate() {
-                    out[i * x2.len() + j] = self.pdf(u, v);
+                    out[i * n2 + j] = self.pdf(u, v);
                 }
             }
             return;
         }
-        let n2 = x2.len();
-        let xi2: Vec<f64> = x2.iter().map(|v| v / self.sigma[1]).collect();
-        // power_of[j][k] = ξ2[k]^j, contiguous across columns.
-        let table: Vec<_> = xi2.iter().map(|&v| powers(v)).collect();
-        let top = exps.iter().map(|e| e.1).max().unwrap_or(0);
-        let power_of: Vec<Vec<f64>> = (0..=top)
-            .map(|j| table.iter().map(|p| p[j]).collect())
-            .collect();
         let log_c = self.log_c();
         let g = &self.grid;
-        let node2: Vec<_> = xi2.iter().map(|&v| g.node(1, v)).collect();
         let mut row = vec![0.0; exps.len()];
-        for (i, &u) in x1.iter().enumerate() {
-            let t = u / self.sigma[0];
-            let node1 = g.node(0, t);
-            let p1 = powers(t);
-            for (r, (&(e1, _), a)) in row.iter_mut().zip(exps.iter().zip(a)) {
-                *r = a * p1[e1];
-            }
-            let line = &mut out[i * n2..(i + 1) * n2];
-            let mut k0 = 0;
-            while k0 < n2 {
-                let lanes = LANES.min(n2 - k0);
-                // The first monomial starts each sum, as it does in `Poly::eval` (−0 + x = x).
-                let mut q = [0.0; LANES];
-                let first = &power_of[exps[0].1][k0..k0 + lanes];
-                for (q, p) in q.iter_mut().zip(first) {
-                    *q = row[0] * p;
+        for b0 in (0..n2).step_by(BLOCK) {
+            let width = BLOCK.min(n2 - b0);
+            // power_of[j][c] = ξ2^j at column b0 + c, contiguous across columns.
+            let mut xi2 = [0.0; BLOCK];
+            let mut node2 = [None; BLOCK];
+            let mut power_of = [[0.0; BLOCK]; MAX_POWER + 1];
+            for c in 0..width {
+                xi2[c] = x2[b0 + c] / self.sigma[1];
+                node2[c] = g.node(1, xi2[c]);
+                for (j, p) in powers(xi2[c]).iter().enumerate() {
+                    power_of[j][c] = *p;
                 }
-                for (r, &(_, e2)) in row.iter().zip(exps).skip(1) {
-                    let col = &power_of[e2][k0..k0 + lanes];
-                    for (q, p) in q.iter_mut().zip(col) {
-                        *q += r * p;
+            }
+            for (i, &u) in x1.iter().enumerate() {
+                let t = u / self.sigma[0];
+                let node1 = g.node(0, t);
+                let p1 = powers(t);
+                for (r, (&(e1, _), a)) in row.iter_mut().zip(exps.iter().zip(a)) {
+                    *r = a * p1[e1];
+                }
+                for l0 in (0..width).step_by(LANES) {
+                    // The first monomial starts each sum, as in `Poly::eval` (whose `sum`
+                    // starts from −0, and −0 + x = x).
+                    let mut q = [0.0; LANES];
+                    for (q, p) in q.iter_mut().zip(&power_of[exps[0].1][l0..l0 + LANES]) {
+                        *q = row[0] * p;
+                    }
+                    for (r, &(_, e2)) in row.iter().zip(exps).skip(1) {
+                        for (q, p) in q.iter_mut().zip(&power_of[e2][l0..l0 + LANES]) {
+                            *q += r * p;
+                        }
+                    }
+                    for (l, &q) in q.iter().enumerate().take(width - l0) {
+                        let c = l0 + l;
+                        let w = g.weight_at([node1, node2[c]], q);
+                        out[i * n2 + b0 + c] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
                     }
                 }
-                for (l, &q) in q[..lanes].iter().enumerate() {
-                    let w = g.weight_at([node1, node2[k0 + l]], q);
-                    line[k0 + l] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
-                }
-                k0 += lanes;
             }
         }
     }

@@ -259,7 +259,16 @@ mod tests {
     #[test]
     fn round_half_away_is_round() {
         let mut t = 0.0_f64;
-        let cases = [0.5, -0.5, 1.5, -1.5, 2.5, 0.49999999999999994, -2.5000000000000004, 1e15 + 0.5];
+        let cases = [
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            0.49999999999999994,
+            -2.5000000000000004,
+            1e15 + 0.5,
+        ];
         for c in cases {
             assert_eq!(round_half_away(c), c.round(), "{c}");
         }
