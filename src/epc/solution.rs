@@ -225,18 +225,17 @@ impl EpcSolution {
             let width = BLOCK.min(n2 - b0);
             // power_of[j][c] = ξ2^j at column b0 + c, contiguous across columns.
             let mut xi2 = [0.0; BLOCK];
-            let mut node2 = [None; BLOCK];
             let mut power_of = [[0.0; BLOCK]; MAX_POWER + 1];
             for c in 0..width {
                 xi2[c] = x2[b0 + c] / self.sigma[1];
-                node2[c] = g.node(1, xi2[c]);
                 for (j, p) in powers(xi2[c]).iter().enumerate() {
                     power_of[j][c] = *p;
                 }
             }
             for (i, &u) in x1.iter().enumerate() {
                 let t = u / self.sigma[0];
-                let node1 = g.node(0, t);
+                // The mask's nodes only where it is looked up (see `weight_with`).
+                let mut node1 = None;
                 let p1 = powers(t);
                 for (r, (&(e1, _), a)) in row.iter_mut().zip(exps.iter().zip(a)) {
                     *r = a * p1[e1];
@@ -255,7 +254,12 @@ impl EpcSolution {
                     }
                     for (l, &q) in q.iter().enumerate().take(width - l0) {
                         let c = l0 + l;
-                        let w = g.weight_at([node1, node2[c]], q);
+                        let w = g.weight_with(q, || {
+                            [
+                                *node1.get_or_insert_with(|| g.node(0, t)),
+                                g.node(1, xi2[c]),
+                            ]
+                        });
                         out[i * n2 + b0 + c] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
                     }
                 }

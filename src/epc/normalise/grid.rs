@@ -39,7 +39,7 @@ impl DensityGrid {
         if self.mask.is_none() {
             return 1.0;
         }
-        self.weight_at([self.node(0, x[0]), self.node(1, x[1])], q)
+        self.weight_with(q, || [self.node(0, x[0]), self.node(1, x[1])])
     }
 
     /// The index of the grid node nearest to ξ_axis = `x`, `None` off the grid: what
@@ -55,8 +55,9 @@ impl DensityGrid {
         (i >= 0.0 && (i as usize) < g.len()).then_some(i as usize)
     }
 
-    /// [`DensityGrid::weight`] at a point whose nodes ([`DensityGrid::node`]) are known.
-    pub(crate) fn weight_at(&self, node: [Option<usize>; 2], q: f64) -> f64 {
+    /// [`DensityGrid::weight`] at a point whose nodes ([`DensityGrid::node`]) `node` gives,
+    /// called only when the mask is looked up (inside a ridge, Q within the region's bounds).
+    pub(crate) fn weight_with(&self, q: f64, node: impl FnOnce() -> [Option<usize>; 2]) -> f64 {
         let Some(mask) = &self.mask else {
             return 1.0;
         };
@@ -65,7 +66,7 @@ impl DensityGrid {
         if q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()) {
             return 0.0;
         }
-        match node {
+        match node() {
             [Some(i), Some(j)] if mask[i * self.g2.len() + j] => {
                 taper((q - self.floor) / TAPER_E_FOLDS)
             }
