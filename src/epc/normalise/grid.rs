@@ -81,7 +81,8 @@ impl DensityGrid {
 /// `round`'s, which no caller sees (the result is compared with 0 and used as an index).
 #[inline]
 pub(crate) fn round_half_away(t: f64) -> f64 {
-    if !(t.abs() < 4.0e15) {
+    // NaN, infinities and values too large to have a fraction: the library routine.
+    if t.is_nan() || t.abs() >= 4.0e15 {
         return t.round();
     }
     let r = t as i64 as f64;
