@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use super::closure::GaussianClosure;
-use super::normalise::{DensityGrid, NormalisationReport, Poly};
+use super::normalise::{powers, DensityGrid, NormalisationReport, Poly, MAX_POWER};
 use super::outcome::SolverMethod;
 use crate::moments::Moments;
 
@@ -196,6 +196,75 @@ impl EpcSolution {
             return 0.0;
         }
         (q + self.log_c()).exp() * w
+    }
+
+    /// [`EpcSolution::pdf`] on the tensor grid `x1` × `x2` into `out` (row-major in x1), each
+    /// value bit for bit `pdf`'s: the same monomials a·ξ1^i·ξ2^j summed in the same order, with
+    /// the powers of ξ2 taken once per column and a·ξ1^i once per row and block of columns, the
+    /// sums of four columns side by side (independent, so the processor overlaps them). No
+    /// allocation beyond one row of products: the observables' quadrature calls this once per
+    /// 15-node panel.
+    pub(crate) fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        const LANES: usize = 4;
+        const BLOCK: usize = 4 * LANES;
+        assert_eq!(out.len(), x1.len() * x2.len(), "pdf_on_grid: output size");
+        let (exps, a) = (&self.q.exps, &self.q.a);
+        let n2 = x2.len();
+        if exps.is_empty() {
+            for (i, &u) in x1.iter().enumerate() {
+                for (j, &v) in x2.iter().enumerate() {
+                    out[i * n2 + j] = self.pdf(u, v);
+                }
+            }
+            return;
+        }
+        let log_c = self.log_c();
+        let g = &self.grid;
+        let mut row = vec![0.0; exps.len()];
+        for b0 in (0..n2).step_by(BLOCK) {
+            let width = BLOCK.min(n2 - b0);
+            // power_of[j][c] = ξ2^j at column b0 + c, contiguous across columns.
+            let mut xi2 = [0.0; BLOCK];
+            let mut power_of = [[0.0; BLOCK]; MAX_POWER + 1];
+            for c in 0..width {
+                xi2[c] = x2[b0 + c] / self.sigma[1];
+                for (j, p) in powers(xi2[c]).iter().enumerate() {
+                    power_of[j][c] = *p;
+                }
+            }
+            for (i, &u) in x1.iter().enumerate() {
+                let t = u / self.sigma[0];
+                // The mask's nodes only where it is looked up (see `weight_with`).
+                let mut node1 = None;
+                let p1 = powers(t);
+                for (r, (&(e1, _), a)) in row.iter_mut().zip(exps.iter().zip(a)) {
+                    *r = a * p1[e1];
+                }
+                for l0 in (0..width).step_by(LANES) {
+                    // The first monomial starts each sum, as in `Poly::eval` (whose `sum`
+                    // starts from −0, and −0 + x = x).
+                    let mut q = [0.0; LANES];
+                    for (q, p) in q.iter_mut().zip(&power_of[exps[0].1][l0..l0 + LANES]) {
+                        *q = row[0] * p;
+                    }
+                    for (r, &(_, e2)) in row.iter().zip(exps).skip(1) {
+                        for (q, p) in q.iter_mut().zip(&power_of[e2][l0..l0 + LANES]) {
+                            *q += r * p;
+                        }
+                    }
+                    for (l, &q) in q.iter().enumerate().take(width - l0) {
+                        let c = l0 + l;
+                        let w = g.weight_with(q, || {
+                            [
+                                *node1.get_or_insert_with(|| g.node(0, t)),
+                                g.node(1, xi2[c]),
+                            ]
+                        });
+                        out[i * n2 + b0 + c] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
+                    }
+                }
+            }
+        }
     }
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original

@@ -57,7 +57,7 @@ fn composite(a: f64, b: f64, panels: usize) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// The monomials ξ^i η^j of the basis at one point, and x^i up to `n` in `out`.
-fn powers(t: f64, n: usize, out: &mut [f64]) {
+pub(crate) fn powers(t: f64, n: usize, out: &mut [f64]) {
     out[0] = 1.0;
     for k in 1..=n {
         out[k] = out[k - 1] * t;

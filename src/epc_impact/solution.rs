@@ -2,8 +2,9 @@
 
 use serde::Serialize;
 
-use super::rule::{q_at, Window};
+use super::rule::{powers, q_at, Window};
 use crate::epc::SolverMethod;
+use crate::epc::MAX_DEGREE;
 use crate::model::BarrierSide;
 use crate::moments::Moments;
 use crate::observe::JointDensity;
@@ -203,9 +204,49 @@ impl EpcImpactSolution {
     }
 }
 
+impl EpcImpactSolution {
+    /// [`EpcImpactSolution::pdf`] on the tensor grid `x1` × `x2` into `out` (row-major in x1),
+    /// bit for bit: the same monomials (c·ξ^i)·η^j summed in the same order as `q_at`, with
+    /// c·ξ^i taken once per row and the powers of η once per column.
+    fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        assert_eq!(out.len(), x1.len() * x2.len(), "pdf_on_grid: output size");
+        let (exps, a) = (&self.exponents, &self.scaled_coefficients);
+        let n = exps.iter().map(|e| e.0 + e.1).max().unwrap_or(0);
+        let columns: Vec<[f64; MAX_DEGREE + 1]> = x2
+            .iter()
+            .map(|v| {
+                let mut p = [0.0; MAX_DEGREE + 1];
+                powers(v / self.sigma[1], n, &mut p);
+                p
+            })
+            .collect();
+        let mut row = vec![0.0; exps.len()];
+        let mut p1 = [0.0; MAX_DEGREE + 1];
+        for (i, &x) in x1.iter().enumerate() {
+            powers(x / self.sigma[0], n, &mut p1);
+            for (r, (&(e1, _), c)) in row.iter_mut().zip(exps.iter().zip(a)) {
+                *r = c * p1[e1];
+            }
+            for ((o, &v), p2) in out[i * x2.len()..].iter_mut().zip(x2).zip(&columns) {
+                *o = if self.admits(x, v) {
+                    let q: f64 = row.iter().zip(exps).map(|(r, &(_, e2))| r * p2[e2]).sum();
+                    (q + self.log_c).exp()
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+}
+
 impl JointDensity for EpcImpactSolution {
     fn pdf(&self, x: [f64; 2]) -> f64 {
         EpcImpactSolution::pdf(self, x[0], x[1])
+    }
+
+    /// Bit for bit `pdf` at each point, with the powers shared along rows and columns.
+    fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        EpcImpactSolution::pdf_on_grid(self, x1, x2, out);
     }
 
     /// The solution's window: its barrier edges are the barriers, its free edges lie where

@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+use rayon::prelude::*;
+
 use super::compare::{against_grid, compare, Comparison, Reference};
 use super::{mc_columns, Unwritten};
 use crate::mc::McResult;
@@ -43,103 +45,139 @@ pub(super) fn write(
     figures: bool,
     out: &OutputDir,
 ) -> Written {
+    // Quantities in parallel (the figures are most of the work), their files, failures and
+    // comparisons gathered in the order of `names`, as written one after another.
+    let parts: Vec<QuantityFiles> = names
+        .par_iter()
+        .map(|name| write_quantity(study, name, mc, figures, out))
+        .collect();
+    let mut written = Written {
+        files: Vec::new(),
+        unwritten: Vec::new(),
+        comparisons: Vec::new(),
+    };
+    let mut to_grid = Vec::new();
+    for part in parts {
+        written.files.extend(part.files);
+        written.unwritten.extend(part.unwritten);
+        written.comparisons.extend(part.to_mc);
+        to_grid.extend(part.to_grid);
+    }
+    // Monte Carlo first (as before the grid), then the grid as the reference.
+    written.comparisons.extend(to_grid);
+    written
+}
+
+/// One quantity's files, failures and comparisons.
+struct QuantityFiles {
+    files: Vec<PathBuf>,
+    unwritten: Vec<Unwritten>,
+    to_mc: Vec<Comparison>,
+    to_grid: Vec<Comparison>,
+}
+
+/// Writes the files of quantity `name` (see [`write`]).
+fn write_quantity(
+    study: &Study,
+    name: &str,
+    mc: Option<&McResult>,
+    figures: bool,
+    out: &OutputDir,
+) -> QuantityFiles {
     let mut files = Vec::new();
     // A file that cannot be written does not cost the others: it is recorded in the summary.
     let mut unwritten: Vec<Unwritten> = Vec::new();
     let mut to_mc = Vec::new();
     let mut to_grid = Vec::new();
-    for name in names {
-        let curve = study
-            .curves
-            .iter()
-            .find(|c| &c.name == name)
-            .expect("a curve per quantity");
-        let mc_q = mc.and_then(|m| m.quantity(name));
-        // Every method on its common grid, whatever the histogram's range.
-        if !curve.x.is_empty() {
-            let table = PdfTable {
-                variable: name.clone(),
-                x: curve.x.clone(),
-                columns: curve
-                    .columns
-                    .iter()
-                    .map(|c| (c.source.label(), c.pdf.clone()))
-                    .collect(),
-            };
-            let file = format!("pdf_{name}.csv");
-            let written = table.write_csv(out, &file).map(|p| vec![p]);
-            keep(file, written, &mut files, &mut unwritten);
-        }
-        to_grid.extend(against_grid(curve));
-        // The histogram beside each method's bin averages, on the histogram's bins.
-        if let Some(q) = mc_q {
-            // A failed degree has no column here; it is flagged with the study's other
-            // failures. The bins are the histogram's own (set from the curve above).
-            let mut columns = mc_columns(q);
-            for c in curve
+    let curve = study
+        .curves
+        .iter()
+        .find(|c| c.name == name)
+        .expect("a curve per quantity");
+    let mc_q = mc.and_then(|m| m.quantity(name));
+    // Every method on its common grid, whatever the histogram's range.
+    if !curve.x.is_empty() {
+        let table = PdfTable {
+            variable: name.to_string(),
+            x: curve.x.clone(),
+            columns: curve
                 .columns
                 .iter()
-                .filter(|c| c.bin_means.len() == q.grid.bins)
-            {
-                to_mc.push(compare(
-                    name,
-                    c.source,
-                    Reference::Mc,
-                    &c.bin_means,
-                    &q.density,
-                    &q.grid,
-                ));
-                columns.push((
-                    format!("{}_bin_mean", c.source.label()),
-                    c.bin_means.clone(),
-                ));
-            }
-            let table = PdfTable {
-                variable: name.clone(),
-                x: q.grid.centers(),
-                columns,
-            };
-            let file = format!("mc_{name}.csv");
-            let written = table.write_csv(out, &file).map(|p| vec![p]);
-            keep(file, written, &mut files, &mut unwritten);
-        }
-        if figures && !curve.x.is_empty() {
-            let figure = PdfFigure {
-                title: format!("{}: PDF of {name}", study.model.name()),
-                variable_label: name.clone(),
-                curves: curve
-                    .columns
-                    .iter()
-                    .map(|c| Curve {
-                        label: legend(study, c.source),
-                        x: curve.x.clone(),
-                        y: c.pdf.clone(),
-                    })
-                    .collect(),
-                points: mc_q.map(|q| Points {
-                    label: "Monte Carlo".into(),
-                    x: q.grid.centers(),
-                    y: q.density.clone(),
-                    stderr: q.stderr.clone(),
-                }),
-            };
-            let written = figure
-                .write(out, &format!("pdf_{name}"))
-                .map(|w| vec![w.png, w.svg]);
-            keep(
-                format!("pdf_{name}.png/.svg"),
-                written,
-                &mut files,
-                &mut unwritten,
-            );
-        }
+                .map(|c| (c.source.label(), c.pdf.clone()))
+                .collect(),
+        };
+        let file = format!("pdf_{name}.csv");
+        let written = table.write_csv(out, &file).map(|p| vec![p]);
+        keep(file, written, &mut files, &mut unwritten);
     }
-    // Monte Carlo first (as before the grid), then the grid as the reference.
-    to_mc.extend(to_grid);
-    Written {
+    to_grid.extend(against_grid(curve));
+    // The histogram beside each method's bin averages, on the histogram's bins.
+    if let Some(q) = mc_q {
+        // A failed degree has no column here; it is flagged with the study's other
+        // failures. The bins are the histogram's own (set from the curve above).
+        let mut columns = mc_columns(q);
+        for c in curve
+            .columns
+            .iter()
+            .filter(|c| c.bin_means.len() == q.grid.bins)
+        {
+            to_mc.push(compare(
+                name,
+                c.source,
+                Reference::Mc,
+                &c.bin_means,
+                &q.density,
+                &q.grid,
+            ));
+            columns.push((
+                format!("{}_bin_mean", c.source.label()),
+                c.bin_means.clone(),
+            ));
+        }
+        let table = PdfTable {
+            variable: name.to_string(),
+            x: q.grid.centers(),
+            columns,
+        };
+        let file = format!("mc_{name}.csv");
+        let written = table.write_csv(out, &file).map(|p| vec![p]);
+        keep(file, written, &mut files, &mut unwritten);
+    }
+    if figures && !curve.x.is_empty() {
+        let figure = PdfFigure {
+            title: format!("{}: PDF of {name}", study.model.name()),
+            variable_label: name.to_string(),
+            curves: curve
+                .columns
+                .iter()
+                .map(|c| Curve {
+                    label: legend(study, c.source),
+                    x: curve.x.clone(),
+                    y: c.pdf.clone(),
+                })
+                .collect(),
+            points: mc_q.map(|q| Points {
+                label: "Monte Carlo".into(),
+                x: q.grid.centers(),
+                y: q.density.clone(),
+                stderr: q.stderr.clone(),
+            }),
+        };
+        let written = figure
+            .write(out, &format!("pdf_{name}"))
+            .map(|w| vec![w.png, w.svg]);
+        keep(
+            format!("pdf_{name}.png/.svg"),
+            written,
+            &mut files,
+            &mut unwritten,
+        );
+    }
+    QuantityFiles {
         files,
         unwritten,
-        comparisons: to_mc,
+        to_mc,
+        to_grid,
     }
 }
 

@@ -53,11 +53,48 @@ pub trait JointDensity: Sync {
         let _ = (axis, at, range);
         None
     }
+    /// p at the points of the tensor grid `x1` × `x2`, into `out` (row-major in x1:
+    /// `out[i·x2.len() + j]` = p(`x1[i]`, `x2[j]`)), each value equal to
+    /// [`JointDensity::pdf`]'s. The default calls `pdf` point by point; a density that can
+    /// share work along a row (an EPC density: the powers of x1) overrides it. The
+    /// observables' quadratures ask for whole rows, lines and panels this way.
+    ///
+    /// # Panics
+    /// If `out.len()` is not `x1.len()·x2.len()`.
+    ///
+    /// ```
+    /// use fpsolve::observe::JointDensity;
+    /// struct Normal;
+    /// impl JointDensity for Normal {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-9.0, 9.0], [-9.0, 9.0]]
+    ///     }
+    /// }
+    /// let mut out = [0.0; 6];
+    /// Normal.pdf_on_grid(&[0.0, 1.0], &[-1.0, 0.0, 1.0], &mut out);
+    /// assert_eq!(out[3], Normal.pdf([1.0, -1.0]));
+    /// ```
+    fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        assert_eq!(out.len(), x1.len() * x2.len(), "pdf_on_grid: output size");
+        for (i, &a) in x1.iter().enumerate() {
+            for (j, &b) in x2.iter().enumerate() {
+                out[i * x2.len() + j] = self.pdf([a, b]);
+            }
+        }
+    }
 }
 
 impl JointDensity for EpcSolution {
     fn pdf(&self, x: [f64; 2]) -> f64 {
         EpcSolution::pdf(self, x[0], x[1])
+    }
+
+    /// Bit for bit `pdf` at each point, with the powers shared along rows and columns.
+    fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
+        EpcSolution::pdf_on_grid(self, x1, x2, out);
     }
 
     /// The normalisation grid, which reaches e^−40 of the peak (or the ridge region).
@@ -325,13 +362,15 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
                 total += line;
                 continue;
             }
-            let f = |t: f64| {
-                let mut x = [0.0; 2];
-                x[state] = xs;
-                x[other] = t;
-                density.pdf(x)
+            // A panel's nodes at once: one row (or column) of the density's tensor grid.
+            let f = |t: &[f64], out: &mut [f64]| {
+                if state == 0 {
+                    density.pdf_on_grid(&[xs], t, out);
+                } else {
+                    density.pdf_on_grid(t, &[xs], out);
+                }
             };
-            total += quadrature::integrate_adaptive(&f, lo, hi, 1e-10);
+            total += quadrature::integrate_adaptive_batch(&f, lo, hi, 1e-10);
         }
     }
     total

@@ -2,6 +2,8 @@
 
 use serde::Serialize;
 
+use rayon::prelude::*;
+
 use super::{JointDensity, ObservableMap};
 use crate::moments::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
@@ -195,19 +197,70 @@ pub fn moments_of_all(
         .iter()
         .any(|m| matches!(m, ObservableMap::General { .. }))
         .then(|| Grid::new(density, CHECK));
-    maps.iter()
+    // Each quantity on its own thread: its sums are its own, so the result does not depend
+    // on the number of threads.
+    maps.par_iter()
         .map(|map| {
+            if let ObservableMap::SignedState { state, sign } = map {
+                // ± a state: g is as cheap as reading the node, so it is not stored.
+                let g = |x: [f64; 2]| {
+                    sign[usize::from(x[0] >= 0.0)][usize::from(x[1] >= 0.0)] * x[*state]
+                };
+                return moments_of_pairs(|| fine.nodes().map(|&(x, w)| (g(x), w)), 4);
+            }
             let f = fine.samples(map);
-            let existing = match (&check, map) {
-                (Some(check), ObservableMap::General { .. }) => {
-                    let c = check.samples(map);
-                    established(&f, &c)
-                }
-                _ => 4,
+            let existing = match &check {
+                Some(check) => established(&f, &check.samples(map)),
+                None => 4,
             };
             f.moments(existing)
         })
         .collect()
+}
+
+/// Rows of a rule evaluated together (one task of the parallel evaluation).
+const ROWS_PER_BLOCK: usize = 32;
+
+/// The moments from (g, weight·p) pairs (g NaN where undefined), the first `existing` of them
+/// established (the others NaN). `pairs` gives the same sequence each time it is called. Every
+/// sum is its own, taken in the order of the pairs: the four raw moments, the total and the
+/// defined mass in one pass, the two central moments in a second.
+fn moments_of_pairs<I: Iterator<Item = (f64, f64)>>(
+    pairs: impl Fn() -> I,
+    existing: usize,
+) -> ObservableMoments {
+    let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
+    // −0 is where `Iterator::sum` starts, so that these sums are its sums bit for bit.
+    let (mut total, mut defined, mut s) = (-0.0, -0.0, [-0.0; 4]);
+    for (g, w) in pairs() {
+        total += w;
+        if g.is_finite() {
+            defined += w;
+            s[0] += g * w;
+            s[1] += (g * g) * w;
+            s[2] += g.powi(3) * w;
+            s[3] += g.powi(4) * w;
+        }
+    }
+    let raw = [1, 2, 3, 4].map(|k| upto(k, s[k - 1] / defined));
+    let mean = raw[0];
+    let mut c = [-0.0; 2];
+    for (g, w) in pairs().filter(|p| p.0.is_finite()) {
+        c[0] += (g - mean).powi(2) * w;
+        c[1] += (g - mean).powi(4) * w;
+    }
+    let var = upto(2, c[0] / defined);
+    let m4 = upto(4, c[1] / defined);
+    ObservableMoments {
+        moments: Moments {
+            raw,
+            mean,
+            variance: var,
+            kurtosis: m4 / (var * var),
+        },
+        undefined_mass: ((total - defined) / total).max(0.0),
+        existing,
+    }
 }
 
 /// How many of E|g|^k, k = 1…4, the two rules agree on.
@@ -226,9 +279,10 @@ fn established(fine: &Samples, check: &Samples) -> usize {
     existing
 }
 
-/// The nodes of a rule with their weights times the density (zero-density nodes left out).
+/// The nodes of a rule with their weights times the density (zero-density nodes left out),
+/// in blocks of rows (in order; not concatenated, which would copy them).
 struct Grid {
-    nodes: Vec<([f64; 2], f64)>,
+    blocks: Vec<Vec<([f64; 2], f64)>>,
 }
 
 impl Grid {
@@ -236,16 +290,32 @@ impl Grid {
         let ext = density.extent();
         let r1 = axis_rule(ext[0][0], ext[0][1], rule);
         let r2 = axis_rule(ext[1][0], ext[1][1], rule);
-        let mut nodes = Vec::with_capacity(r1.len() * r2.len());
-        for &(x1, w1) in &r1 {
-            for &(x2, w2) in &r2 {
-                let p = density.pdf([x1, x2]);
-                if p != 0.0 {
-                    nodes.push(([x1, x2], w1 * w2 * p));
+        // Blocks of rows in parallel, kept in order: the sums over the nodes are the same, bit
+        // for bit, on any number of threads.
+        let x2: Vec<f64> = r2.iter().map(|r| r.0).collect();
+        let blocks: Vec<Vec<([f64; 2], f64)>> = r1
+            .par_chunks(ROWS_PER_BLOCK)
+            .map(|rows| {
+                let x1: Vec<f64> = rows.iter().map(|r| r.0).collect();
+                let mut p = vec![0.0; x1.len() * x2.len()];
+                density.pdf_on_grid(&x1, &x2, &mut p);
+                let mut nodes = Vec::with_capacity(p.len());
+                for (&(x1, w1), p) in rows.iter().zip(p.chunks(x2.len())) {
+                    for (&(x2, w2), &p) in r2.iter().zip(p) {
+                        if p != 0.0 {
+                            nodes.push(([x1, x2], w1 * w2 * p));
+                        }
+                    }
                 }
-            }
-        }
-        Grid { nodes }
+                nodes
+            })
+            .collect();
+        Grid { blocks }
+    }
+
+    /// The nodes with their weights times the density, in order.
+    fn nodes(&self) -> impl Iterator<Item = &([f64; 2], f64)> + '_ {
+        self.blocks.iter().flatten()
     }
 
     /// (g, weight·p) at every node; g is NaN where it is undefined.
@@ -260,8 +330,7 @@ impl Grid {
         };
         let (mut scratch, mut out) = (Vec::new(), [0.0]);
         let samples: Vec<(f64, f64)> = self
-            .nodes
-            .iter()
+            .nodes()
             .map(|&(x, w)| {
                 let g = match (map, &tape) {
                     (ObservableMap::SignedState { state, sign }, _) => {
@@ -276,65 +345,40 @@ impl Grid {
                 (g, w)
             })
             .collect();
-        let total: f64 = samples.iter().map(|s| s.1).sum();
         let defined: f64 = samples
             .iter()
             .filter(|s| s.0.is_finite())
             .map(|s| s.1)
             .sum();
-        Samples {
-            samples,
-            total,
-            defined,
-        }
+        Samples { samples, defined }
     }
 }
 
 /// (g, weight·p) at every node of a rule; g is NaN where it is undefined.
 struct Samples {
     samples: Vec<(f64, f64)>,
-    total: f64,
+    /// Σ weight·p where g is defined.
     defined: f64,
 }
 
 impl Samples {
     /// The moments, the first `existing` of them established (the others NaN).
     fn moments(&self, existing: usize) -> ObservableMoments {
-        let e = |f: &dyn Fn(f64) -> f64| self.expect(f);
-        let upto = |k: usize, v: f64| if existing >= k { v } else { f64::NAN };
-        let raw = [
-            upto(1, e(&|g| g)),
-            upto(2, e(&|g| g * g)),
-            upto(3, e(&|g| g.powi(3))),
-            upto(4, e(&|g| g.powi(4))),
-        ];
-        let mean = raw[0];
-        let var = upto(2, e(&|g| (g - mean).powi(2)));
-        let m4 = upto(4, e(&|g| (g - mean).powi(4)));
-        ObservableMoments {
-            moments: Moments {
-                raw,
-                mean,
-                variance: var,
-                kurtosis: m4 / (var * var),
-            },
-            undefined_mass: ((self.total - self.defined) / self.total).max(0.0),
-            existing,
-        }
+        moments_of_pairs(|| self.samples.iter().copied(), existing)
+    }
+
+    /// The samples where g is defined.
+    fn defined(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.samples.iter().copied().filter(|s| s.0.is_finite())
     }
 
     /// E[f(g)] given g defined.
-    fn expect(&self, f: &dyn Fn(f64) -> f64) -> f64 {
-        self.samples
-            .iter()
-            .filter(|s| s.0.is_finite())
-            .map(|&(g, w)| f(g) * w)
-            .sum::<f64>()
-            / self.defined
+    fn expect(&self, f: impl Fn(f64) -> f64) -> f64 {
+        self.defined().map(|(g, w)| f(g) * w).sum::<f64>() / self.defined
     }
 
     /// E[|g|^k] given g defined.
     fn absolute(&self, k: usize) -> f64 {
-        self.expect(&|g| g.abs().powi(k as i32))
+        self.expect(|g| g.abs().powi(k as i32))
     }
 }

@@ -36,6 +36,28 @@ impl DensityGrid {
     /// last [`TAPER_E_FOLDS`] above the floor, so that the density falls continuously (with
     /// all its derivatives) to 0 at the region's edge instead of jumping there.
     pub(crate) fn weight(&self, x: [f64; 2], q: f64) -> f64 {
+        if self.mask.is_none() {
+            return 1.0;
+        }
+        self.weight_with(q, || [self.node(0, x[0]), self.node(1, x[1])])
+    }
+
+    /// The index of the grid node nearest to ξ_axis = `x`, `None` off the grid: what
+    /// [`DensityGrid::weight`] looks the mask up with, for callers that evaluate many points
+    /// on one line and find each line's node once.
+    pub(crate) fn node(&self, axis: usize, x: f64) -> Option<usize> {
+        let (g, h) = if axis == 0 {
+            (&self.g1, self.h[0])
+        } else {
+            (&self.g2, self.h[1])
+        };
+        let i = round_half_away((x - g[0]) / h);
+        (i >= 0.0 && (i as usize) < g.len()).then_some(i as usize)
+    }
+
+    /// [`DensityGrid::weight`] at a point whose nodes ([`DensityGrid::node`]) `node` gives,
+    /// called only when the mask is looked up (inside a ridge, Q within the region's bounds).
+    pub(crate) fn weight_with(&self, q: f64, node: impl FnOnce() -> [Option<usize>; 2]) -> f64 {
         let Some(mask) = &self.mask else {
             return 1.0;
         };
@@ -44,16 +66,33 @@ impl DensityGrid {
         if q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()) {
             return 0.0;
         }
-        let i = ((x[0] - self.g1[0]) / self.h[0]).round();
-        let j = ((x[1] - self.g2[0]) / self.h[1]).round();
-        if i < 0.0 || j < 0.0 || i as usize >= self.g1.len() || j as usize >= self.g2.len() {
-            return 0.0;
+        match node() {
+            [Some(i), Some(j)] if mask[i * self.g2.len() + j] => {
+                taper((q - self.floor) / TAPER_E_FOLDS)
+            }
+            _ => 0.0,
         }
-        if mask[i as usize * self.g2.len() + j as usize] {
-            taper((q - self.floor) / TAPER_E_FOLDS)
-        } else {
-            0.0
-        }
+    }
+}
+
+/// `t.round()` (halves away from zero) without the library call that `round` is on the
+/// baseline x86-64 target: truncation by conversion to an integer, then the exact remainder
+/// (t − trunc t is exact for |t| < 2^52). Only the sign of a zero result may differ from
+/// `round`'s, which no caller sees (the result is compared with 0 and used as an index).
+#[inline]
+pub(crate) fn round_half_away(t: f64) -> f64 {
+    // NaN, infinities and values too large to have a fraction: the library routine.
+    if t.is_nan() || t.abs() >= 4.0e15 {
+        return t.round();
+    }
+    let r = t as i64 as f64;
+    let f = t - r;
+    if f >= 0.5 {
+        r + 1.0
+    } else if f <= -0.5 {
+        r - 1.0
+    } else {
+        r
     }
 }
 
@@ -213,4 +252,34 @@ pub(super) fn trapezoid_on_region(
     grid.q_max = q_ref;
     grid.log_z = zh.ln() + q_ref;
     Ok((grid, zh, z2h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round_half_away;
+
+    #[test]
+    fn round_half_away_is_round() {
+        let mut t = 0.0_f64;
+        let cases = [
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            0.49999999999999994,
+            -2.5000000000000004,
+            1e15 + 0.5,
+        ];
+        for c in cases {
+            assert_eq!(round_half_away(c), c.round(), "{c}");
+        }
+        for k in 0..100_000 {
+            t = (t * 3.7 + 0.61).fract();
+            let x = (t - 0.5) * 2e3 + (k % 7) as f64 * 0.5;
+            assert_eq!(round_half_away(x), x.round(), "{x}");
+        }
+        assert!(round_half_away(f64::NAN).is_nan());
+        assert_eq!(round_half_away(1e300), 1e300);
+    }
 }

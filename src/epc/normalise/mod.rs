@@ -24,7 +24,7 @@ mod region;
 mod report;
 
 pub(crate) use grid::DensityGrid;
-pub(crate) use poly::Poly;
+pub(crate) use poly::{powers, Poly, MAX_POWER};
 pub use report::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 
 use grid::trapezoid_on_region;

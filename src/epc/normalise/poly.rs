@@ -13,12 +13,14 @@ pub(crate) struct Poly {
 }
 
 impl Poly {
-    /// Q(x).
+    /// Q(x), Σ a·x1^i·x2^j summed in the order of [`Poly::exps`], with the powers from
+    /// [`powers`] (bit for bit those of `powi`, without a call per monomial).
     pub(crate) fn eval(&self, x: [f64; 2]) -> f64 {
+        let (p1, p2) = (powers(x[0]), powers(x[1]));
         self.exps
             .iter()
             .zip(&self.a)
-            .map(|(&(i, j), a)| a * x[0].powi(i as i32) * x[1].powi(j as i32))
+            .map(|(&(i, j), a)| a * p1[i] * p2[j])
             .sum()
     }
 
@@ -86,7 +88,92 @@ impl Poly {
     }
 }
 
+/// The highest power [`powers`] tabulates: the largest degree of Q (12) and then some.
+pub(crate) const MAX_POWER: usize = 15;
+
+/// x^k for k = 0…[`MAX_POWER`], each bit for bit equal to `x.powi(k)`: `powi` with an exponent
+/// known only at run time is compiler-rt's `__powidf2`, which multiplies, from the lowest bit
+/// of k up, the squares x, x², x⁴, x⁸ of the bits set in k (so x³ = x·x², x⁴ = (x²)², not
+/// ((x·x)·x)·x). The table does the same multiplications once for all k, so evaluating Q
+/// at a point costs four squarings and a product per power instead of a call per monomial,
+/// and every printed number stays what `powi` gave.
+#[inline]
+pub(crate) fn powers(x: f64) -> [f64; MAX_POWER + 1] {
+    // The highest set bit of k is multiplied last: x^k = x^(k − 2^h)·x^(2^h), and
+    // 1·x^(2^h) is exact.
+    let x2 = x * x;
+    let x3 = x * x2;
+    let x4 = x2 * x2;
+    let x5 = x * x4;
+    let x6 = x2 * x4;
+    let x7 = x3 * x4;
+    let x8 = x4 * x4;
+    [
+        1.0,
+        x,
+        x2,
+        x3,
+        x4,
+        x5,
+        x6,
+        x7,
+        x8,
+        x * x8,
+        x2 * x8,
+        x3 * x8,
+        x4 * x8,
+        x5 * x8,
+        x6 * x8,
+        x7 * x8,
+    ]
+}
+
 /// q(r) = Σ_d q_d r^d by Horner's rule.
 pub(crate) fn horner(q: &[f64], r: f64) -> f64 {
     q.iter().rev().fold(0.0, |acc, c| acc * r + c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn powers_are_powi_bit_for_bit() {
+        // Exponents hidden from the optimiser, so that `powi` is the run-time routine the
+        // code used before the table (a constant exponent may be expanded differently).
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..2000 {
+            x = (x * 7.919 + 0.3).fract() * 40.0 - 20.0;
+            let p = powers(x);
+            for (k, pk) in p.iter().enumerate() {
+                let e = std::hint::black_box(k as i32);
+                assert_eq!(pk.to_bits(), x.powi(e).to_bits(), "{x}^{k}");
+            }
+        }
+    }
+
+    #[test]
+    fn eval_is_the_polynomial() {
+        let q = Poly {
+            exps: vec![
+                (1, 0),
+                (0, 1),
+                (2, 0),
+                (1, 1),
+                (0, 2),
+                (3, 1),
+                (0, 4),
+                (4, 0),
+            ],
+            a: vec![0.3, -0.2, -0.5, 0.1, -0.7, 0.05, -0.01, -0.02],
+            degree: 4,
+        };
+        let x = 1.7_f64;
+        let y = -2.3_f64;
+        let direct: f64 = 0.3 * x - 0.2 * y - 0.5 * x * x + 0.1 * x * y - 0.7 * y * y
+            + 0.05 * x * x * x * y
+            - 0.01 * y.powi(4)
+            - 0.02 * x.powi(4);
+        assert!((q.eval([x, y]) - direct).abs() < 1e-12);
+    }
 }

@@ -78,18 +78,20 @@ pub(super) fn render_svg(
 pub(super) fn write_both(
     dir: &OutputDir,
     stem: &str,
-    png: impl FnOnce() -> Result<Vec<u8>, FigureError>,
-    svg: impl FnOnce() -> Result<String, FigureError>,
+    png: impl FnOnce() -> Result<Vec<u8>, FigureError> + Send,
+    svg: impl FnOnce() -> Result<String, FigureError> + Send,
 ) -> Result<FigureFiles, ReportError> {
     let png_name = format!("{stem}.png");
     let svg_name = format!("{stem}.svg");
     let png_path = dir.file_path(&png_name)?;
     let svg_path = dir.file_path(&svg_name)?;
-    let png_bytes = png().map_err(|source| ReportError::Figure {
+    // The two renderings are independent: side by side.
+    let (png_bytes, svg_text) = rayon::join(png, svg);
+    let png_bytes = png_bytes.map_err(|source| ReportError::Figure {
         path: png_path,
         source,
     })?;
-    let svg_text = svg().map_err(|source| ReportError::Figure {
+    let svg_text = svg_text.map_err(|source| ReportError::Figure {
         path: svg_path,
         source,
     })?;
