@@ -56,6 +56,7 @@ mod outcome;
 mod point;
 mod report;
 mod run;
+mod shard;
 mod spec;
 mod thresholds;
 
@@ -65,6 +66,7 @@ pub use outcome::{
     SolverFigures, SweepPoint, SweepResult, TailThresholds,
 };
 pub use run::Sweep;
+pub use shard::{merge_sweep_shards, MergedSweep, SweepIdentity, SweepShard, SweepShardError};
 pub use spec::{SetArg, SweepError, SweepSpec, SweptParameter};
 
 /// Most parameters a sweep may vary at once (a table and line figures stay readable).
