@@ -76,3 +76,6 @@ pub const MAX_SWEPT: usize = 2;
 pub const MAX_POINTS: usize = 10_000;
 /// Tail thresholds are these multiples of a quantity's root mean square at the first point.
 pub const TAIL_MULTIPLES: [f64; 3] = [2.0, 3.0, 4.0];
+
+#[cfg(test)]
+mod tests;
