@@ -73,22 +73,32 @@ pub(crate) fn run_shard(
     Ok(())
 }
 
+/// The files in `dir` whose names start with `prefix` and end in `.json`, sorted.
+fn shard_files(dir: &Path, prefix: &str) -> Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
+    let mut names: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(prefix) && n.ends_with(".json"))
+        })
+        .collect();
+    names.sort();
+    Ok(names)
+}
+
 /// Every `sweep_shard_*.json` in `dirs`, read and named by its path; `None` when there is
-/// none (the directories hold Monte Carlo shards, or nothing).
+/// none (the directories hold Monte Carlo shards, or nothing). Directories holding both
+/// kinds are refused: one merge joins one run.
 pub(crate) fn read_sweep_shards(dirs: &[PathBuf]) -> Result<Option<Vec<(String, SweepShard)>>> {
     let mut shards = Vec::new();
+    let mut monte_carlo = None;
     for dir in dirs {
-        let entries =
-            std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
-        let mut names: Vec<PathBuf> = entries
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                p.file_name()
-                    .and_then(|n| n.to_str())
-                    .is_some_and(|n| n.starts_with("sweep_shard_") && n.ends_with(".json"))
-            })
-            .collect();
-        names.sort();
+        if let Some(p) = shard_files(dir, "shard_")?.into_iter().next() {
+            monte_carlo = Some(p);
+        }
+        let names = shard_files(dir, "sweep_shard_")?;
         for p in names {
             let text =
                 std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
@@ -96,6 +106,12 @@ pub(crate) fn read_sweep_shards(dirs: &[PathBuf]) -> Result<Option<Vec<(String, 
                 .with_context(|| format!("{} is not a sweep shard file", p.display()))?;
             shards.push((p.display().to_string(), shard));
         }
+    }
+    if let (Some(mc), Some((sweep, _))) = (monte_carlo, shards.first()) {
+        bail!(
+            "{} is a Monte Carlo shard and {sweep} a sweep shard: merge each run on its own",
+            mc.display()
+        );
     }
     Ok((!shards.is_empty()).then_some(shards))
 }
@@ -127,4 +143,26 @@ pub(crate) fn write_merged(merged: &MergedSweep, out: &Path) -> Result<(), Failu
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SweepShardArg;
+
+    fn arg(text: &str) -> SweepShardArg {
+        SweepShardArg {
+            shard: Some(text.to_string()),
+        }
+    }
+
+    #[test]
+    fn shard_flags_are_checked_against_the_points() {
+        let part = arg("2/3").parse(10).unwrap().unwrap();
+        assert_eq!((part.index, part.count), (1, 3));
+        assert!(SweepShardArg { shard: None }.parse(10).unwrap().is_none());
+        for bad in ["0/3", "4/3", "a/b", "3", "1/0", "-1/2", "1/11"] {
+            assert!(arg(bad).parse(10).is_err(), "{bad}");
+        }
+        assert!(arg("10/10").parse(10).is_ok());
+    }
 }

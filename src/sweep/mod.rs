@@ -16,8 +16,8 @@
 //!
 //! Each point is solved from scratch (EPC: Gaussian closure, degree 2, then the target
 //! degree), and is not continued from its neighbour: measured on the paper's case 1, the EPC
-//! engine (closure, assembly, Newton at both degrees, normalisation) is about 2 % of a
-//! point's time, the rest being the moments and PDF curves, so a warm start could save at
+//! engine (closure, assembly, Newton at both degrees, normalisation) is about 5 % of a
+//! sweep's time, the rest being the moments and PDF curves, so a warm start could save at
 //! most that, while it would make a point depend on its neighbours. Solved from scratch, a
 //! point's result is the same as `fpsolve solve` at those values, whatever the sweep's order,
 //! spacing, thread count or sharding, and the points run in parallel. A point computes only
