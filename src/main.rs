@@ -573,7 +573,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
                 .cells(cells);
             match shard {
                 Some(shard) => sweep_flags::run_shard(sweep, shard, &out, quiet),
-                None => sweep_run(sweep, &spec, degree, &out, quiet),
+                None => sweep_flags::run_whole(sweep, &spec, degree, &out, quiet),
             }
         }
         Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
@@ -731,59 +731,6 @@ fn check_threads(threads: Option<usize>, notes: &mut Vec<String>) -> Result<Opti
         return Ok(Some(cores));
     }
     Ok(Some(n))
-}
-
-fn sweep_run(
-    sweep: Sweep<'_>,
-    spec: &SweepSpec,
-    degree: usize,
-    dir: &Path,
-    quiet: bool,
-) -> Result<(), Failure> {
-    let run = begin_output(dir)?;
-    let t = std::time::Instant::now();
-    let bar = Bar::new(quiet);
-    bar.stage("sweep");
-    let result = sweep
-        .progress(&|done, total| bar.advance(done, total))
-        .run();
-    bar.finish();
-    let files = result.write(run.out()).map_err(lib)?;
-    let seconds = t.elapsed().as_secs_f64();
-    let failed: usize = result
-        .methods
-        .names()
-        .iter()
-        .map(|&m| spec.len() - result.converged_by(m))
-        .sum();
-    if result.methods.names() == [MethodName::Epc] {
-        println!(
-            "{} of {} points converged at degree {degree} in {seconds:.1} s",
-            result.converged(),
-            spec.len(),
-        );
-    } else {
-        for &m in result.methods.names() {
-            println!(
-                "{m}: {} of {} points solved",
-                result.converged_by(m),
-                spec.len()
-            );
-        }
-        println!("in {seconds:.1} s");
-    }
-    commit_output(run, files.len())?;
-    if failed > 0 {
-        let what = if result.methods.names().len() == 1 {
-            format!("{failed} points failed")
-        } else {
-            format!("{failed} (point, method) pairs failed")
-        };
-        return Err(Failure::Flagged(format!(
-            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
-        )));
-    }
-    Ok(())
 }
 
 /// Reads every `shard_*.json` in `dirs`.

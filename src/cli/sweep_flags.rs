@@ -10,7 +10,8 @@ use fpsolve::cancel::Cancel;
 use fpsolve::job::Progress;
 use fpsolve::mc::Shard;
 use fpsolve::report::OutputDir;
-use fpsolve::sweep::{merge_sweep_shards, MergedSweep, Sweep, SweepShard};
+use fpsolve::solve::MethodName;
+use fpsolve::sweep::{merge_sweep_shards, MergedSweep, Sweep, SweepShard, SweepSpec};
 
 use super::{begin_output, commit_output, flag, lib, Bar, Failure};
 
@@ -86,6 +87,61 @@ fn shard_files(dir: &Path, prefix: &str) -> Result<Vec<PathBuf>> {
         .collect();
     names.sort();
     Ok(names)
+}
+
+/// Solves every point of `sweep` and writes its files into `dir`; failed points are flagged
+/// (exit 1) after the files are written.
+pub(crate) fn run_whole(
+    sweep: Sweep<'_>,
+    spec: &SweepSpec,
+    degree: usize,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let run = begin_output(dir)?;
+    let t = std::time::Instant::now();
+    let bar = Bar::new(quiet);
+    bar.stage("sweep");
+    let result = sweep
+        .progress(&|done, total| bar.advance(done, total))
+        .run();
+    bar.finish();
+    let files = result.write(run.out()).map_err(lib)?;
+    let seconds = t.elapsed().as_secs_f64();
+    let failed: usize = result
+        .methods
+        .names()
+        .iter()
+        .map(|&m| spec.len() - result.converged_by(m))
+        .sum();
+    if result.methods.names() == [MethodName::Epc] {
+        println!(
+            "{} of {} points converged at degree {degree} in {seconds:.1} s",
+            result.converged(),
+            spec.len(),
+        );
+    } else {
+        for &m in result.methods.names() {
+            println!(
+                "{m}: {} of {} points solved",
+                result.converged_by(m),
+                spec.len()
+            );
+        }
+        println!("in {seconds:.1} s");
+    }
+    commit_output(run, files.len())?;
+    if failed > 0 {
+        let what = if result.methods.names().len() == 1 {
+            format!("{failed} points failed")
+        } else {
+            format!("{failed} (point, method) pairs failed")
+        };
+        return Err(Failure::Flagged(format!(
+            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
+        )));
+    }
+    Ok(())
 }
 
 /// Every `sweep_shard_*.json` in `dirs`, read and named by its path; `None` when there is
