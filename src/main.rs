@@ -21,6 +21,8 @@ mod job_plan;
 mod mc_flags;
 #[path = "cli/progress.rs"]
 mod progress;
+#[path = "cli/sweep_flags.rs"]
+mod sweep_flags;
 use job_plan::plan_job;
 #[cfg(test)]
 use mc_flags::parse_count;
@@ -199,11 +201,14 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
         #[command(flatten)]
+        shard: sweep_flags::SweepShardArg,
+        #[command(flatten)]
         quiet: QuietArg,
     },
-    /// Merge the shard files of `simulate --shard` found in the given directories.
+    /// Merge the shard files of `simulate --shard` (or of `sweep --shard`) found in the given
+    /// directories.
     Merge {
-        /// Directories holding shard_K_of_N.json files.
+        /// Directories holding shard_K_of_N.json (or sweep_shard_K_of_N.json) files.
         #[arg(required = true)]
         dirs: Vec<PathBuf>,
         /// Output directory.
@@ -361,9 +366,11 @@ enum Plan {
         degree: usize,
         methods: MethodSet,
         cells: Cells,
+        shard: Option<Shard>,
         out: PathBuf,
         quiet: bool,
     },
+    MergeSweep(Box<fpsolve::sweep::MergedSweep>, PathBuf),
     Merge {
         result: Box<McResult>,
         shards: usize,
@@ -439,6 +446,14 @@ fn plan(cli: Cli) -> Result<Planned> {
             }
         }
         Some(Command::Merge { dirs, out, .. }) => {
+            if let Some(shards) = sweep_flags::read_sweep_shards(&dirs)? {
+                let merged = sweep_flags::merge(&shards)?;
+                return Ok(Planned {
+                    plan: Plan::MergeSweep(Box::new(merged), out),
+                    notes,
+                    threads,
+                });
+            }
             let shards = read_shards(&dirs)?;
             // Every shard is validated (and named when it is not right) before anything is
             // written.
@@ -457,6 +472,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             cells,
             out,
             threads: t,
+            shard,
             quiet,
         }) => {
             let [d] = degree.as_slice() else {
@@ -479,7 +495,9 @@ fn plan(cli: Cli) -> Result<Planned> {
                 .check()
                 .map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
+            let shard = shard.parse(spec.len())?;
             Plan::Sweep {
+                shard,
                 out: out.unwrap_or_else(|| Path::new("out").join(format!("{}_sweep", m.name()))),
                 model: m,
                 spec,
@@ -543,9 +561,20 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             degree,
             methods,
             cells,
+            shard,
             out,
             quiet,
-        } => sweep(&model, &spec, degree, methods, cells, &out, quiet),
+        } => {
+            let sweep = Sweep::new(&model, &spec)
+                .methods(methods)
+                .degree(degree)
+                .cells(cells);
+            match shard {
+                Some(shard) => sweep_flags::run_shard(sweep, shard, &out, quiet),
+                None => sweep_flags::run_whole(sweep, &spec, degree, &out, quiet),
+            }
+        }
+        Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
         Plan::Merge {
             result,
             shards,
@@ -678,64 +707,6 @@ fn check_threads(threads: Option<usize>, notes: &mut Vec<String>) -> Result<Opti
         return Ok(Some(cores));
     }
     Ok(Some(n))
-}
-
-fn sweep(
-    model: &Model,
-    spec: &SweepSpec,
-    degree: usize,
-    methods: MethodSet,
-    cells: Cells,
-    dir: &Path,
-    quiet: bool,
-) -> Result<(), Failure> {
-    let run = begin_output(dir)?;
-    let t = std::time::Instant::now();
-    let bar = Bar::new(quiet);
-    bar.stage("sweep");
-    let result = Sweep::new(model, spec)
-        .methods(methods)
-        .degree(degree)
-        .cells(cells)
-        .progress(&|done, total| bar.advance(done, total))
-        .run();
-    bar.finish();
-    let files = result.write(run.out()).map_err(lib)?;
-    let seconds = t.elapsed().as_secs_f64();
-    let failed: usize = result
-        .methods
-        .names()
-        .iter()
-        .map(|&m| spec.len() - result.converged_by(m))
-        .sum();
-    if result.methods.names() == [MethodName::Epc] {
-        println!(
-            "{} of {} points converged at degree {degree} in {seconds:.1} s",
-            result.converged(),
-            spec.len(),
-        );
-    } else {
-        for &m in result.methods.names() {
-            println!(
-                "{m}: {} of {} points solved",
-                result.converged_by(m),
-                spec.len()
-            );
-        }
-        println!("in {seconds:.1} s");
-    }
-    commit_output(run, files.len())?;
-    if failed > 0 {
-        let what = if result.methods.names().len() == 1 {
-            format!("{failed} points failed")
-        } else {
-            format!("{failed} (point, method) pairs failed")
-        };
-        return Err(Failure::Flagged(format!(
-            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
-        )));
-    }
-    Ok(())
 }
 
 /// Reads every `shard_*.json` in `dirs`.

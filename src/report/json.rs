@@ -163,6 +163,27 @@ impl ser::Error for CheckError {
     }
 }
 
+/// Checks that `value` serialises without a non-finite float (as [`write_json`] does before
+/// writing), for a caller that renders the JSON text itself; `path` names the file in errors.
+pub(crate) fn check_finite<T: Serialize + ?Sized>(
+    path: &std::path::Path,
+    value: &T,
+) -> Result<(), ReportError> {
+    let path = path.to_path_buf();
+    match value.serialize(FiniteCheck {
+        path: "$".to_string(),
+    }) {
+        Ok(()) => Ok(()),
+        Err(CheckError::NonFinite { path: field, value }) => {
+            Err(ReportError::NonFiniteJson { path, field, value })
+        }
+        Err(CheckError::Custom(message)) => Err(ReportError::Json {
+            path,
+            source: <serde_json::Error as ser::Error>::custom(message),
+        }),
+    }
+}
+
 /// A serialiser that produces nothing and fails at the first non-finite float; `path` is the
 /// JSONPath of the value it is given.
 struct FiniteCheck {

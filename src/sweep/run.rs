@@ -1,5 +1,6 @@
 //! Solving every point of a sweep by every method asked, in parallel.
 
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -7,58 +8,26 @@ use rayon::prelude::*;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::grid::Cells;
-use crate::model::{BoundModel, Model};
-use crate::solve::{
-    quantities_of, reported, tail_probability, Density, Method, MethodName, MethodSet, Problem,
-    QuantityMoments, Solution, SolveError,
-};
-use crate::study::{Study, StudyError, StudyRunner};
+use crate::model::Model;
+use crate::solve::{quantities_of, reported, tail_probability, Method, MethodName, MethodSet};
 
 use super::method::{applies, settle};
+use super::point::{solve_point, PointCurves, Raw};
+use super::thresholds::{self, Reference};
 use super::{
-    EpcFigures, MethodOutcome, MethodRefusal, PointFailure, PointOutcome, PointSolution,
-    PointStats, SolverFigures, SweepError, SweepPoint, SweepResult, SweepSpec, TailThresholds,
-    TAIL_MULTIPLES,
+    MethodOutcome, MethodRefusal, PointFailure, PointOutcome, SweepError, SweepPoint, SweepResult,
+    SweepSpec, TailThresholds, TAIL_MULTIPLES,
 };
 
 /// A sweep to run: a model, the points, the methods and their settings (the builder;
 /// [`Sweep::run`] gives the report).
 pub struct Sweep<'a> {
-    model: &'a Model,
-    spec: &'a SweepSpec,
+    pub(super) model: &'a Model,
+    pub(super) spec: &'a SweepSpec,
     methods: MethodSet,
     degree: usize,
     cells: Cells,
     progress: &'a (dyn Fn(u64, u64) + Sync),
-}
-
-/// A point's data before the tail thresholds are known.
-struct Raw {
-    values: Vec<f64>,
-    wall_ms: f64,
-    methods: Vec<RawMethod>,
-}
-
-/// One method's data at a point.
-struct RawMethod {
-    method: MethodName,
-    wall_ms: f64,
-    outcome: Result<PointCurves, PointFailure>,
-    /// √E\[g²\] per quantity under the reference solution (EPC: degree 2), when it has one.
-    rms: Option<Vec<f64>>,
-}
-
-/// A solved point's figures and, per quantity, its moments and PDF curve (the tails are
-/// taken from the curves once the thresholds are known).
-struct PointCurves {
-    solution: PointSolution,
-    curves: Vec<QuantityCurve>,
-}
-
-/// A quantity's PDF curve at one point.
-struct QuantityCurve {
-    x: Vec<f64>,
-    p: Vec<f64>,
 }
 
 impl<'a> Sweep<'a> {
@@ -214,31 +183,76 @@ impl<'a> Sweep<'a> {
     /// ```
     pub fn run_cancellable(&self, cancel: &Cancel) -> Result<SweepResult, Cancelled> {
         let start = Instant::now();
+        let total = self.spec.len();
+        let (raw, reference) = self.solve_range(0..total, cancel)?;
+        Ok(self.assemble(raw, reference, start))
+    }
+
+    /// Solves the points of `range` (indices into [`SweepSpec::points`]) in parallel and
+    /// finds the reference point of the tail thresholds among all the sweep's points, in
+    /// order (see [`super::thresholds`]): the same whatever the range, so that shards agree.
+    pub(super) fn solve_range(
+        &self,
+        range: Range<usize>,
+        cancel: &Cancel,
+    ) -> Result<(Vec<Raw>, Option<Reference>), Cancelled> {
         let (model, spec, progress) = (self.model, self.spec, self.progress);
-        let total = spec.len() as u64;
+        let total = range.len() as u64;
         let done = AtomicU64::new(0);
-        let settled: Vec<(MethodName, Method)> = self
-            .methods
-            .names()
-            .iter()
-            .map(|&name| (name, settle(name, self.degree, self.cells)))
-            .collect();
-        let raw: Vec<Raw> = spec
-            .points()
-            .into_par_iter()
-            .map(|values| {
-                if cancel.is_cancelled() {
-                    return Err(Cancelled);
-                }
-                let point = solve_point(model, spec, values, &settled);
-                let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(k, total);
-                Ok(point)
-            })
-            .collect::<Result<_, _>>()?;
+        let settled = self.settled();
+        let all = spec.points();
+        let solve = || {
+            all[range.clone()]
+                .par_iter()
+                .map(|values| {
+                    if cancel.is_cancelled() {
+                        return Err(Cancelled);
+                    }
+                    let point = solve_point(model, spec, values.clone(), &settled);
+                    let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(k, total);
+                    Ok(point)
+                })
+                .collect::<Result<Vec<Raw>, Cancelled>>()
+        };
+        let reference_of = |raw: Option<(&[Raw], Range<usize>)>| {
+            thresholds::reference(model, spec, &all, settled[0].1, raw, cancel)
+        };
+        // EPC's reference is its degree-2 solution, which a point does not keep: found on one
+        // core while the others solve. Another method's is the reported solution: looked up
+        // in the points solved here first.
+        let (raw, reference) = if matches!(settled[0].1, Method::Epc { .. }) {
+            let (raw, reference) = rayon::join(solve, || reference_of(None));
+            (raw?, reference)
+        } else {
+            let raw = solve()?;
+            let reference = reference_of(Some((&raw, range.clone())));
+            (raw, reference)
+        };
         if cancel.is_cancelled() {
             return Err(Cancelled);
         }
+        Ok((raw, reference))
+    }
+
+    /// Each method with the sweep's settings.
+    fn settled(&self) -> Vec<(MethodName, Method)> {
+        self.methods
+            .names()
+            .iter()
+            .map(|&name| (name, settle(name, self.degree, self.cells)))
+            .collect()
+    }
+
+    /// The points of `raw` (consecutive, from the sweep's start or a shard's) with their
+    /// tails at the thresholds of `reference`, as a result.
+    pub(super) fn assemble(
+        &self,
+        raw: Vec<Raw>,
+        reference: Option<Reference>,
+        start: Instant,
+    ) -> SweepResult {
+        let (model, spec) = (self.model, self.spec);
         let listed = quantities_of(model);
         let quantities: Vec<String> = listed.iter().map(|q| q.name.clone()).collect();
         let figure_quantities = reported(&listed)
@@ -246,14 +260,12 @@ impl<'a> Sweep<'a> {
             .map(|q| q.name.clone())
             .collect();
         let threshold_method = self.methods.names()[0];
-        let reference = |r: &Raw| r.methods[0].rms.clone();
-        let threshold_point = raw.iter().position(|r| reference(r).is_some());
-        let tail_thresholds: Vec<TailThresholds> = threshold_point
-            .and_then(|i| reference(&raw[i]))
-            .map(|rms| {
+        let threshold_point = reference.as_ref().map(|r| r.point);
+        let tail_thresholds: Vec<TailThresholds> = reference
+            .map(|r| {
                 quantities
                     .iter()
-                    .zip(rms)
+                    .zip(r.rms)
                     .map(|(name, rms)| TailThresholds {
                         name: name.clone(),
                         rms,
@@ -278,7 +290,7 @@ impl<'a> Sweep<'a> {
                     .collect(),
             })
             .collect();
-        Ok(SweepResult {
+        SweepResult {
             model: model.name().to_string(),
             methods: self.methods.clone(),
             degree: self.degree,
@@ -299,7 +311,7 @@ impl<'a> Sweep<'a> {
             tail_thresholds,
             points,
             wall_ms: start.elapsed().as_secs_f64() * 1e3,
-        })
+        }
     }
 }
 
@@ -325,222 +337,5 @@ fn with_tails(
             PointOutcome::Converged(solution)
         }
         Err(failure) => PointOutcome::Failed(failure),
-    }
-}
-
-fn ms(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
-}
-
-fn solve_point(
-    model: &Model,
-    spec: &SweepSpec,
-    values: Vec<f64>,
-    settled: &[(MethodName, Method)],
-) -> Raw {
-    let start = Instant::now();
-    let bound = model.bind(&spec.overrides_at(&values));
-    let methods = settled
-        .iter()
-        .map(|(name, method)| {
-            let t = Instant::now();
-            let (outcome, rms) = match (&bound, method) {
-                (Err(e), _) => (Err(PointFailure::Bind(e.clone())), None),
-                (Ok(bound), Method::Epc { degree }) => by_epc(bound, *degree),
-                (Ok(bound), method) => by_method(bound, *method),
-            };
-            RawMethod {
-                method: *name,
-                wall_ms: ms(t),
-                outcome,
-                rms,
-            }
-        })
-        .collect();
-    Raw {
-        values,
-        wall_ms: ms(start),
-        methods,
-    }
-}
-
-/// √E\[g²\] of every quantity, when all are finite and positive.
-fn rms_of(moments: &[QuantityMoments], count: usize) -> Option<Vec<f64>> {
-    let rms: Vec<f64> = moments
-        .iter()
-        .map(|s| s.moments.mean.hypot(s.std_dev()))
-        .collect();
-    (rms.len() == count && rms.iter().all(|v| v.is_finite() && *v > 0.0)).then_some(rms)
-}
-
-/// EPC at `degree`, continued from degree 2, through the study (whose degree-2 solution sets
-/// the tail thresholds and whose common grid of both degrees carries the curves).
-fn by_epc(
-    bound: &BoundModel,
-    degree: usize,
-) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
-    let degrees: Vec<usize> = if degree == 2 {
-        vec![2]
-    } else {
-        vec![2, degree]
-    };
-    let study = StudyRunner::new(bound)
-        .degrees(&degrees)
-        .run()
-        .map_err(|e| match e {
-            StudyError::Bind(e) => PointFailure::Bind(e),
-            StudyError::Solve(SolveError::Fpk(e)) => PointFailure::Derive(e),
-            StudyError::Solve(e) => failure(e, Method::Epc { degree }),
-            // A model EPC cannot represent (when `check` was not called first).
-            StudyError::NotApplicable { why, .. } => {
-                PointFailure::Refused(MethodRefusal::NotApplicable(why))
-            }
-            // The study is always given EPC and its degrees.
-            e @ (StudyError::NoDegree | StudyError::NoMethod) => {
-                unreachable!("a sweep point's study failed before EPC: {e}")
-            }
-        });
-    match study {
-        Err(e) => (Err(e), None),
-        Ok(study) => {
-            let rms2 = study.degrees[0]
-                .outcome
-                .is_ok()
-                .then(|| rms_of(&study.degrees[0].stats, study.quantities.len()))
-                .flatten();
-            (solved(&study), rms2)
-        }
-    }
-}
-
-/// The target degree's data (the last degree of the study), or why there is none.
-fn solved(study: &Study) -> Result<PointCurves, PointFailure> {
-    // A failure at degree 2 is the reason the target degree has no solution either.
-    if let Some((degree, error)) = study
-        .degrees
-        .iter()
-        .find_map(|d| d.outcome.as_ref().err().map(|e| (d.degree, e)))
-    {
-        return Err(failure(error.clone(), Method::Epc { degree }));
-    }
-    let last = study
-        .degrees
-        .last()
-        .expect("a study has at least one degree");
-    let sol = last.epc().expect("an EPC study solves by EPC");
-    let mut collected = Collected::default();
-    for q in &study.quantities {
-        let st = last.stats.iter().find(|s| s.name == q.name);
-        let curve = study.curves.iter().find(|c| c.name == q.name);
-        let column = curve.and_then(|c| {
-            c.columns
-                .iter()
-                .find(|c| c.source.degree == Some(last.degree))
-        });
-        let (Some(st), Some(curve), Some(column)) = (st, curve, column) else {
-            return Err(PointFailure::NoCurve {
-                quantity: q.name.clone(),
-            });
-        };
-        collected.push(st, curve.x.clone(), column.pdf.clone())?;
-    }
-    Ok(collected.finish(SolverFigures::Epc(EpcFigures::of(sol))))
-}
-
-/// Any other method through the front door: the solution's moments and its marginals on the
-/// report grid.
-fn by_method(
-    bound: &BoundModel,
-    method: Method,
-) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
-    let solution = match Problem::new(bound).and_then(|p| p.solve(method)) {
-        Ok(s) => s,
-        Err(e) => return (Err(failure(e, method)), None),
-    };
-    let moments = solution.all_moments();
-    let rms = rms_of(&moments, solution.quantities().len());
-    (curves_of(&solution, &moments), rms)
-}
-
-fn curves_of(
-    solution: &Solution,
-    moments: &[QuantityMoments],
-) -> Result<PointCurves, PointFailure> {
-    let mut collected = Collected::default();
-    for (q, st) in solution.quantities().iter().zip(moments) {
-        let (x, p) = solution
-            .marginal(&q.name)
-            .expect("a quantity of the solution");
-        if x.is_empty() {
-            return Err(PointFailure::NoCurve {
-                quantity: q.name.clone(),
-            });
-        }
-        collected.push(st, x, p)?;
-    }
-    let solver = match solution.density() {
-        Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
-        Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
-        Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
-    };
-    Ok(collected.finish(solver))
-}
-
-/// A front-door failure as the stage that failed.
-fn failure(e: SolveError, method: Method) -> PointFailure {
-    match (e, method) {
-        (SolveError::Fpk(e), _) => PointFailure::Derive(e),
-        (SolveError::Epc(error), Method::Epc { degree }) => PointFailure::Solve { degree, error },
-        (SolveError::Grid(e), _) => PointFailure::Grid(e),
-        (SolveError::EpcImpact(error), Method::EpcImpact { degree }) => {
-            PointFailure::EpcImpact { degree, error }
-        }
-        (SolveError::Zhuravlev(e), _) => PointFailure::Zhuravlev(e),
-        (
-            e
-            @ (SolveError::Epc(_) | SolveError::EpcImpact(_) | SolveError::UnknownQuantity { .. }),
-            _,
-        ) => unreachable!("{method} failed where it cannot: {e}"),
-    }
-}
-
-/// Statistics and curves of the quantities, each checked to be finite.
-#[derive(Default)]
-struct Collected {
-    stats: Vec<PointStats>,
-    curves: Vec<QuantityCurve>,
-}
-
-impl Collected {
-    fn push(&mut self, st: &QuantityMoments, x: Vec<f64>, p: Vec<f64>) -> Result<(), PointFailure> {
-        let m = &st.moments;
-        if [m.mean, st.std_dev(), m.kurtosis]
-            .iter()
-            .any(|v| !v.is_finite())
-        {
-            return Err(PointFailure::NotFinite {
-                quantity: st.name.clone(),
-                mean: m.mean,
-                std_dev: st.std_dev(),
-                kurtosis: m.kurtosis,
-            });
-        }
-        self.stats.push(PointStats {
-            name: st.name.clone(),
-            moments: st.moments,
-            tail: Vec::new(),
-        });
-        self.curves.push(QuantityCurve { x, p });
-        Ok(())
-    }
-
-    fn finish(self, solver: SolverFigures) -> PointCurves {
-        PointCurves {
-            solution: PointSolution {
-                solver,
-                stats: self.stats,
-            },
-            curves: self.curves,
-        }
     }
 }

@@ -1,0 +1,224 @@
+//! The sweep's shard flags: `fpsolve sweep --shard K/N` (one shard's points, written as
+//! `sweep_shard_K_of_N.json`) and `fpsolve merge` of sweep shards into `sweep.csv` and
+//! `sweep.json` of the whole sweep.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use fpsolve::cancel::Cancel;
+use fpsolve::job::Progress;
+use fpsolve::mc::Shard;
+use fpsolve::report::OutputDir;
+use fpsolve::solve::MethodName;
+use fpsolve::sweep::{merge_sweep_shards, MergedSweep, Sweep, SweepShard, SweepSpec};
+
+use super::{begin_output, commit_output, flag, lib, Bar, Failure};
+
+/// `--shard K/N` of `fpsolve sweep`.
+#[derive(Args, Debug)]
+pub(crate) struct SweepShardArg {
+    /// Solve only part K of N of the points (`--shard 3/10`, K from 1, consecutive points)
+    /// and write sweep_shard_K_of_N.json into --out; `fpsolve merge` joins the parts.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+}
+
+impl SweepShardArg {
+    /// The shard asked for, checked against the sweep's `points`: K/N well formed with
+    /// 1 ≤ K ≤ N ≤ points.
+    pub(crate) fn parse(&self, points: usize) -> Result<Option<Shard>> {
+        let Some(spec) = self.shard.as_deref() else {
+            return Ok(None);
+        };
+        // The Monte Carlo shards' K/N, with the sweep's words when it is malformed.
+        let Ok(part) = spec.parse::<Shard>() else {
+            bail!("--shard `{spec}`: expected K/N with 1 <= K <= N");
+        };
+        if part.count > points as u64 {
+            bail!("--shard `{spec}`: at most {points} shards (the sweep's points)");
+        }
+        Ok(Some(part))
+    }
+}
+
+/// Solves one shard of `sweep` and writes its file into `dir` (shards of one sweep share a
+/// directory: each adds its own file, atomically). Failed points are in the file; the merge
+/// reports them.
+pub(crate) fn run_shard(
+    sweep: Sweep<'_>,
+    shard: Shard,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let out = OutputDir::create(dir).map_err(flag("--out"))?;
+    let bar = Bar::new(quiet);
+    bar.stage("sweep shard");
+    let part = sweep
+        .progress(&|done, total| bar.advance(done, total))
+        .run_shard(shard, &Cancel::new())
+        .expect("a sweep whose flag nobody holds is never cancelled");
+    bar.finish();
+    let file = part.write(&out).map_err(lib)?;
+    let points = part.points();
+    println!(
+        "shard {} of {}: points {}..{} of {} in {:.1} s",
+        shard.index + 1,
+        shard.count,
+        points.start,
+        points.end,
+        part.identity.points.len(),
+        part.wall_ms / 1e3
+    );
+    println!("wrote {}", file.display());
+    Ok(())
+}
+
+/// The files in `dir` whose names start with `prefix` and end in `.json`, sorted.
+fn shard_files(dir: &Path, prefix: &str) -> Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))?;
+    let mut names: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(prefix) && n.ends_with(".json"))
+        })
+        .collect();
+    names.sort();
+    Ok(names)
+}
+
+/// Solves every point of `sweep` and writes its files into `dir`; failed points are flagged
+/// (exit 1) after the files are written.
+pub(crate) fn run_whole(
+    sweep: Sweep<'_>,
+    spec: &SweepSpec,
+    degree: usize,
+    dir: &Path,
+    quiet: bool,
+) -> Result<(), Failure> {
+    let run = begin_output(dir)?;
+    let t = std::time::Instant::now();
+    let bar = Bar::new(quiet);
+    bar.stage("sweep");
+    let result = sweep
+        .progress(&|done, total| bar.advance(done, total))
+        .run();
+    bar.finish();
+    let files = result.write(run.out()).map_err(lib)?;
+    let seconds = t.elapsed().as_secs_f64();
+    let failed: usize = result
+        .methods
+        .names()
+        .iter()
+        .map(|&m| spec.len() - result.converged_by(m))
+        .sum();
+    if result.methods.names() == [MethodName::Epc] {
+        println!(
+            "{} of {} points converged at degree {degree} in {seconds:.1} s",
+            result.converged(),
+            spec.len(),
+        );
+    } else {
+        for &m in result.methods.names() {
+            println!(
+                "{m}: {} of {} points solved",
+                result.converged_by(m),
+                spec.len()
+            );
+        }
+        println!("in {seconds:.1} s");
+    }
+    commit_output(run, files.len())?;
+    if failed > 0 {
+        let what = if result.methods.names().len() == 1 {
+            format!("{failed} points failed")
+        } else {
+            format!("{failed} (point, method) pairs failed")
+        };
+        return Err(Failure::Flagged(format!(
+            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
+        )));
+    }
+    Ok(())
+}
+
+/// Every `sweep_shard_*.json` in `dirs`, read and named by its path; `None` when there is
+/// none (the directories hold Monte Carlo shards, or nothing). Directories holding both
+/// kinds are refused: one merge joins one run.
+pub(crate) fn read_sweep_shards(dirs: &[PathBuf]) -> Result<Option<Vec<(String, SweepShard)>>> {
+    let mut shards = Vec::new();
+    let mut monte_carlo = None;
+    for dir in dirs {
+        if let Some(p) = shard_files(dir, "shard_")?.into_iter().next() {
+            monte_carlo = Some(p);
+        }
+        let names = shard_files(dir, "sweep_shard_")?;
+        for p in names {
+            let text =
+                std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+            let shard: SweepShard = serde_json::from_str(&text)
+                .with_context(|| format!("{} is not a sweep shard file", p.display()))?;
+            shards.push((p.display().to_string(), shard));
+        }
+    }
+    if let (Some(mc), Some((sweep, _))) = (monte_carlo, shards.first()) {
+        bail!(
+            "{} is a Monte Carlo shard and {sweep} a sweep shard: merge each run on its own",
+            mc.display()
+        );
+    }
+    Ok((!shards.is_empty()).then_some(shards))
+}
+
+/// The shards checked and merged (before anything is written): any defect names its file.
+pub(crate) fn merge(shards: &[(String, SweepShard)]) -> Result<MergedSweep> {
+    merge_sweep_shards(shards).map_err(anyhow::Error::new)
+}
+
+/// Writes a merged sweep and says what it holds; failed points are flagged (exit 1) as by
+/// a single run.
+pub(crate) fn write_merged(merged: &MergedSweep, out: &Path) -> Result<(), Failure> {
+    let run = begin_output(out)?;
+    let files = merged.write(run.out()).map_err(lib)?;
+    let points = merged.points();
+    let mut failed = 0;
+    for (method, solved) in merged.solved_by() {
+        println!("{method}: {solved} of {points} points solved");
+        failed += points - solved;
+    }
+    println!(
+        "merged {} sweep shards (sweep.csv and sweep.json; figures are drawn by a single run)",
+        merged.shards()
+    );
+    commit_output(run, files.len())?;
+    if failed > 0 {
+        return Err(Failure::Flagged(format!(
+            "error: {failed} (point, method) pairs failed (reported in sweep.csv and sweep.json; the others were kept)"
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SweepShardArg;
+
+    fn arg(text: &str) -> SweepShardArg {
+        SweepShardArg {
+            shard: Some(text.to_string()),
+        }
+    }
+
+    #[test]
+    fn shard_flags_are_checked_against_the_points() {
+        let part = arg("2/3").parse(10).unwrap().unwrap();
+        assert_eq!((part.index, part.count), (1, 3));
+        assert!(SweepShardArg { shard: None }.parse(10).unwrap().is_none());
+        for bad in ["0/3", "4/3", "a/b", "3", "1/0", "-1/2", "1/11"] {
+            assert!(arg(bad).parse(10).is_err(), "{bad}");
+        }
+        assert!(arg("10/10").parse(10).is_ok());
+    }
+}

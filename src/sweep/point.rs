@@ -1,0 +1,266 @@
+//! One point of a sweep by every method: only what the sweep reports (the target degree's
+//! moments and its PDF curves, from which the tails are taken), nothing else.
+
+use std::time::Instant;
+
+use crate::model::{BoundModel, Model};
+use crate::observe::ObservableDensity;
+use crate::solve::{
+    common_grid, printable, Density, Method, MethodName, Problem, QuantityMoments, Solution,
+    SolveError,
+};
+
+use super::{EpcFigures, PointFailure, PointSolution, PointStats, SolverFigures, SweepSpec};
+
+/// A point's data before the tail thresholds are known.
+pub(super) struct Raw {
+    pub(super) values: Vec<f64>,
+    pub(super) wall_ms: f64,
+    pub(super) methods: Vec<RawMethod>,
+}
+
+/// One method's data at a point.
+pub(super) struct RawMethod {
+    pub(super) method: MethodName,
+    pub(super) wall_ms: f64,
+    pub(super) outcome: Result<PointCurves, PointFailure>,
+    /// √E\[g²\] per quantity under this solution, for a method whose reference solution is
+    /// the one reported (not EPC: its reference is the degree-2 solution, which the point
+    /// does not keep; see [`super::thresholds`]).
+    pub(super) rms: Option<Vec<f64>>,
+}
+
+/// A solved point's figures and, per quantity, its moments and PDF curve (the tails are
+/// taken from the curves once the thresholds are known).
+pub(super) struct PointCurves {
+    pub(super) solution: PointSolution,
+    pub(super) curves: Vec<QuantityCurve>,
+}
+
+/// A quantity's PDF curve at one point.
+pub(super) struct QuantityCurve {
+    pub(super) x: Vec<f64>,
+    pub(super) p: Vec<f64>,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+/// The point `values` of `spec` solved by every method in `settled`.
+pub(super) fn solve_point(
+    model: &Model,
+    spec: &SweepSpec,
+    values: Vec<f64>,
+    settled: &[(MethodName, Method)],
+) -> Raw {
+    let start = Instant::now();
+    let bound = model.bind(&spec.overrides_at(&values));
+    let methods = settled
+        .iter()
+        .map(|(name, method)| {
+            let t = Instant::now();
+            let (outcome, rms) = match (&bound, method) {
+                (Err(e), _) => (Err(PointFailure::Bind(e.clone())), None),
+                (Ok(bound), Method::Epc { degree }) => (by_epc(bound, *degree), None),
+                (Ok(bound), method) => by_method(bound, *method),
+            };
+            RawMethod {
+                method: *name,
+                wall_ms: ms(t),
+                outcome,
+                rms,
+            }
+        })
+        .collect();
+    Raw {
+        values,
+        wall_ms: ms(start),
+        methods,
+    }
+}
+
+/// √E\[g²\] of every quantity, when all are finite and positive.
+pub(super) fn rms_of(moments: &[QuantityMoments], count: usize) -> Option<Vec<f64>> {
+    let rms: Vec<f64> = moments
+        .iter()
+        .map(|s| s.moments.mean.hypot(s.std_dev()))
+        .collect();
+    (rms.len() == count && rms.iter().all(|v| v.is_finite() && *v > 0.0)).then_some(rms)
+}
+
+/// The degrees of a point's EPC ladder: 2, then the target degree.
+fn ladder(degree: usize) -> Vec<usize> {
+    if degree == 2 {
+        vec![2]
+    } else {
+        vec![2, degree]
+    }
+}
+
+/// Every degree of the point's EPC ladder, each solution or its failure.
+fn epc_ladder(
+    bound: &BoundModel,
+    degree: usize,
+) -> Result<(Problem<'_>, Vec<Result<Solution, PointFailure>>), PointFailure> {
+    let problem = Problem::new(bound).map_err(|e| failure(e, Method::Epc { degree }))?;
+    let degrees = ladder(degree);
+    let solved = problem
+        .solve_epc_degrees(&degrees)
+        .into_iter()
+        .zip(&degrees)
+        .map(|(r, &degree)| r.map_err(|error| PointFailure::Solve { degree, error }))
+        .collect();
+    Ok((problem, solved))
+}
+
+/// √E\[g²\] per quantity under the degree-2 EPC solution at a point (the reference the tail
+/// thresholds are set from), when it converged with finite positive values. The ladder is
+/// solved exactly as [`by_epc`] solves it, so the degree-2 solution is bit for bit the one a
+/// point reports beside its target degree.
+pub(super) fn epc_reference_rms(bound: &BoundModel, degree: usize) -> Option<Vec<f64>> {
+    let (problem, solved) = epc_ladder(bound, degree).ok()?;
+    let first = solved.first()?.as_ref().ok()?;
+    rms_of(&first.all_moments(), problem.quantities().len())
+}
+
+/// EPC at `degree`, continued from degree 2. Reported: the target degree's moments, and its
+/// PDF curves on the grid common to both degrees (the union of the windows where each density
+/// is at least 1e−8 of its peak, as the main job's `pdf_*.csv` tabulates both): the curves and
+/// hence the tails are those of the study at the point, without the degree-2 curves and
+/// moments the study also computes and the sweep never reports.
+fn by_epc(bound: &BoundModel, degree: usize) -> Result<PointCurves, PointFailure> {
+    let (problem, solved) = epc_ladder(bound, degree)?;
+    // A failure at degree 2 is the reason the target degree has no solution either.
+    let mut solutions = Vec::with_capacity(solved.len());
+    for r in solved {
+        solutions.push(r?);
+    }
+    let last = solutions.last().expect("a ladder has at least one degree");
+    let sol = last.epc().expect("an EPC ladder solves by EPC");
+    let moments = last.all_moments();
+    let mut collected = Collected::default();
+    for (q, st) in problem.quantities().iter().zip(&moments) {
+        // Each solution maps the quantity from its own states.
+        let densities: Vec<(&dyn crate::observe::JointDensity, ObservableDensity)> = solutions
+            .iter()
+            .map(|s| {
+                let map = s
+                    .quantities()
+                    .iter()
+                    .find(|own| own.name == q.name)
+                    .map_or(&q.map, |own| &own.map);
+                (s.joint(), ObservableDensity::new(s.joint(), map))
+            })
+            .collect();
+        let windows: Vec<_> = densities.iter().map(|(j, d)| (*j, d)).collect();
+        let x = common_grid(q, &windows);
+        if x.is_empty() {
+            return Err(PointFailure::NoCurve {
+                quantity: q.name.clone(),
+            });
+        }
+        let (_, target) = densities.last().expect("one density per degree");
+        let p = printable(target.pdf(&x));
+        collected.push(st, x, p)?;
+    }
+    Ok(collected.finish(SolverFigures::Epc(EpcFigures::of(sol))))
+}
+
+/// Any other method through the front door: the solution's moments and its marginals on the
+/// report grid.
+pub(super) fn by_method(
+    bound: &BoundModel,
+    method: Method,
+) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
+    let solution = match Problem::new(bound).and_then(|p| p.solve(method)) {
+        Ok(s) => s,
+        Err(e) => return (Err(failure(e, method)), None),
+    };
+    let moments = solution.all_moments();
+    let rms = rms_of(&moments, solution.quantities().len());
+    (curves_of(&solution, &moments), rms)
+}
+
+fn curves_of(
+    solution: &Solution,
+    moments: &[QuantityMoments],
+) -> Result<PointCurves, PointFailure> {
+    let mut collected = Collected::default();
+    for (q, st) in solution.quantities().iter().zip(moments) {
+        let (x, p) = solution
+            .marginal(&q.name)
+            .expect("a quantity of the solution");
+        if x.is_empty() {
+            return Err(PointFailure::NoCurve {
+                quantity: q.name.clone(),
+            });
+        }
+        collected.push(st, x, p)?;
+    }
+    let solver = match solution.density() {
+        Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
+        Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
+        Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
+    };
+    Ok(collected.finish(solver))
+}
+
+/// A front-door failure as the stage that failed.
+fn failure(e: SolveError, method: Method) -> PointFailure {
+    match (e, method) {
+        (SolveError::Fpk(e), _) => PointFailure::Derive(e),
+        (SolveError::Epc(error), Method::Epc { degree }) => PointFailure::Solve { degree, error },
+        (SolveError::Grid(e), _) => PointFailure::Grid(e),
+        (SolveError::EpcImpact(error), Method::EpcImpact { degree }) => {
+            PointFailure::EpcImpact { degree, error }
+        }
+        (SolveError::Zhuravlev(e), _) => PointFailure::Zhuravlev(e),
+        (
+            e
+            @ (SolveError::Epc(_) | SolveError::EpcImpact(_) | SolveError::UnknownQuantity { .. }),
+            _,
+        ) => unreachable!("{method} failed where it cannot: {e}"),
+    }
+}
+
+/// Statistics and curves of the quantities, each checked to be finite.
+#[derive(Default)]
+struct Collected {
+    stats: Vec<PointStats>,
+    curves: Vec<QuantityCurve>,
+}
+
+impl Collected {
+    fn push(&mut self, st: &QuantityMoments, x: Vec<f64>, p: Vec<f64>) -> Result<(), PointFailure> {
+        let m = &st.moments;
+        if [m.mean, st.std_dev(), m.kurtosis]
+            .iter()
+            .any(|v| !v.is_finite())
+        {
+            return Err(PointFailure::NotFinite {
+                quantity: st.name.clone(),
+                mean: m.mean,
+                std_dev: st.std_dev(),
+                kurtosis: m.kurtosis,
+            });
+        }
+        self.stats.push(PointStats {
+            name: st.name.clone(),
+            moments: st.moments,
+            tail: Vec::new(),
+        });
+        self.curves.push(QuantityCurve { x, p });
+        Ok(())
+    }
+
+    fn finish(self, solver: SolverFigures) -> PointCurves {
+        PointCurves {
+            solution: PointSolution {
+                solver,
+                stats: self.stats,
+            },
+            curves: self.curves,
+        }
+    }
+}
