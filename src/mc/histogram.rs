@@ -290,10 +290,15 @@ impl Accumulator {
             wc[i] += ok as u64;
             ws[i] += d;
             wq[i] += d2;
-            mn[i] = if ok { mn[i].min(q) } else { mn[i] };
-            mx[i] = if ok { mx[i].max(q) } else { mx[i] };
+            // Comparisons (q is finite when `ok`), which vectorise where `min`/`max` do not.
+            mn[i] = if ok && q < mn[i] { q } else { mn[i] };
+            mx[i] = if ok && q > mx[i] { q } else { mx[i] };
             // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
-            let slot = ((q - lo) * inv_w + 1.0).max(0.0).min(top) as u32;
+            // (Comparisons rather than `max`/`min`, and a signed conversion, so the loop
+            // vectorises; a NaN goes to slot 0 here and to `invalid` below.)
+            let t = (q - lo) * inv_w + 1.0;
+            let t = if t > 0.0 { t } else { 0.0 };
+            let slot = (if t < top { t } else { top }) as i32 as u32;
             // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
             let slot = if q < lo { 0 } else { slot };
             let slot = if finite { slot } else { invalid };

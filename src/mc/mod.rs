@@ -42,6 +42,7 @@ mod exact;
 mod histogram;
 mod impact;
 mod judge;
+mod lanes;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;
