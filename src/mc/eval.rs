@@ -51,6 +51,24 @@ impl Simd {
     }
 }
 
+#[cfg(test)]
+impl Simd {
+    /// Every extension this CPU has, the baseline first.
+    pub(crate) fn available() -> Vec<Simd> {
+        let mut all = vec![Simd::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                all.push(Simd::Avx2);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                all.push(Simd::Avx512);
+            }
+        }
+        all
+    }
+}
+
 /// A compiled kernel: the program and the extension its batch evaluation uses.
 struct Kernel {
     program: LaneProgram,
@@ -106,6 +124,7 @@ impl BatchKernel for Kernel {
 mod tests {
     use super::*;
     use crate::symbolic::{DeltaPolicy, Func};
+    use super::{Kernel, LaneProgram, Simd};
 
     fn z() -> Expr {
         Expr::sym("z")
@@ -153,6 +172,30 @@ mod tests {
             let mut one = vec![0.0; exprs.len()];
             k.eval_point(0.7, -0.1, &mut one);
             assert_eq!(one[1], 1.0 + 0.2 * 0.7);
+        }
+    }
+
+    #[test]
+    fn every_vector_extension_gives_the_same_bits() {
+        let e = vec![
+            -(Expr::num(0.1) * v()) - z() - Expr::num(0.1) * Expr::pow(z(), Expr::num(3.0)),
+            Expr::num(0.7) * (Expr::call(Func::Sgn, z()) + Expr::num(0.1) * z()),
+            Expr::call(Func::Abs, z()) / (Expr::num(1.0) + v() * v()),
+        ];
+        let xs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.37).sin() * 3.0).collect();
+        let vs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.71).cos() * 2.0).collect();
+        let program = LaneProgram::compile(&e, ["z", "v"]).unwrap();
+        let mut want = vec![0.0; e.len() * xs.len()];
+        program.eval_rows(&xs, &vs, &mut want, &mut Scratch::new());
+        for simd in Simd::available() {
+            let k = Kernel {
+                program: program.clone(),
+                simd,
+            };
+            let mut got = vec![0.0; want.len()];
+            k.eval_batch(&xs, &vs, &mut got, &mut Scratch::new());
+            let same = got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{simd:?}");
         }
     }
 

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::McError;
 use super::estimate::Estimate;
+use super::eval::Simd;
 use super::exact;
 use crate::moments::Moments;
 
@@ -185,6 +186,8 @@ pub(crate) struct Accumulator {
     max: Vec<f64>,
     /// The quarter of the recording the next samples fall in.
     window: usize,
+    /// The vector extension `add` runs with.
+    simd: Simd,
     /// Per lane, this quarter's finite recorded values, Σ (q − shift) and Σ (q − shift)².
     lane_window_counts: Vec<u64>,
     lane_window_sums: [Vec<f64>; 2],
@@ -208,6 +211,7 @@ impl Accumulator {
             min: vec![f64::INFINITY; lanes],
             max: vec![f64::NEG_INFINITY; lanes],
             window: 0,
+            simd: Simd::detect(),
             lane_window_counts: vec![0; lanes],
             lane_window_sums: std::array::from_fn(|_| vec![0.0; lanes]),
             window_counts: [0; 4],
@@ -244,19 +248,27 @@ impl Accumulator {
 
     /// Adds one sample value per lane, for the lanes with `record[i]`.
     pub(crate) fn add(&mut self, values: &[f64], record: &[bool]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above. The arithmetic is IEEE-exact
-            // whatever the vector width (no fused multiply-add), so results do not change.
-            unsafe { self.add_avx2(values, record) };
-            return;
+        match self.simd {
+            Simd::Baseline => self.add_body(values, record),
+            // SAFETY: `simd` was detected on this CPU. The arithmetic is IEEE-exact whatever
+            // the vector width (no fused multiply-add), so results do not change.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => unsafe { self.add_avx2(values, record) },
+            // SAFETY: as above.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => unsafe { self.add_avx512(values, record) },
         }
-        self.add_body(values, record);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn add_avx2(&mut self, values: &[f64], record: &[bool]) {
+        self.add_body(values, record);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn add_avx512(&mut self, values: &[f64], record: &[bool]) {
         self.add_body(values, record);
     }
 
