@@ -20,6 +20,8 @@ pub(crate) trait BatchKernel: Send + Sync {
     fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch);
     /// Evaluates every output at one point.
     fn eval_point(&self, x: f64, v: f64, out: &mut [f64]);
+    /// The compiled program, for loops that evaluate it chunk by chunk themselves.
+    fn program(&self) -> &LaneProgram;
 }
 
 /// The vector extension a kernel's batch evaluation is compiled for.
@@ -118,13 +120,17 @@ impl BatchKernel for Kernel {
     fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
         self.program.eval_point(x, v, out);
     }
+
+    fn program(&self) -> &LaneProgram {
+        &self.program
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::symbolic::{DeltaPolicy, Func};
     use super::{Kernel, LaneProgram, Simd};
+    use crate::symbolic::{DeltaPolicy, Func};
 
     fn z() -> Expr {
         Expr::sym("z")
@@ -194,7 +200,10 @@ mod tests {
             };
             let mut got = vec![0.0; want.len()];
             k.eval_batch(&xs, &vs, &mut got, &mut Scratch::new());
-            let same = got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits());
+            let same = got
+                .iter()
+                .zip(&want)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{simd:?}");
         }
     }

@@ -390,7 +390,6 @@ impl LaneProgram {
         self.outputs.len()
     }
 
-    #[cfg(test)]
     /// Slots (chunks of `W` values) the evaluation needs.
     pub(crate) fn n_slots(&self) -> usize {
         self.ops.len()

@@ -3,7 +3,8 @@
 //! events of an impact law resolved lane by lane.
 
 use super::eval::{BatchKernel, Scratch, Simd};
-use super::impact::{free_flight, meets, Barrier};
+use super::impact::{free_flight, impacts_in_flight, meets, Barrier};
+use super::lanes::{LaneProgram, CHUNK};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
 
@@ -141,10 +142,17 @@ impl BatchState {
             } => {
                 let bar = plan.barriers.as_slice();
                 self.flight(bar, 0.5 * h);
+                // f affine in v and at most one barrier: the velocity update and the flight
+                // in one pass over each chunk of lanes.
+                let fused = *affine && bar.len() <= 1;
                 for k in 0..steps {
-                    self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
                     let tau = if k + 1 == steps { 0.5 * h } else { h };
-                    self.flight(bar, tau);
+                    if fused {
+                        self.fused_step(step.program(), bar.first(), h, tau);
+                    } else {
+                        self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
+                        self.flight(bar, tau);
+                    }
                 }
             }
             Dynamics::General { .. } => {
@@ -166,6 +174,69 @@ impl BatchState {
             bar,
             &mut self.buf[5],
         );
+    }
+
+    /// [`BatchState::velocity_update`] (f affine in v) and then [`BatchState::flight`] over
+    /// `tau` with at most one barrier, the same arithmetic in one pass per chunk of lanes:
+    /// the step kernel evaluated on the chunk, the velocity updated and the free flight
+    /// taken while the chunk is in registers; the rare impacts resolved after.
+    #[inline(always)]
+    fn fused_step(&mut self, program: &LaneProgram, bar: Option<&Barrier>, h: f64, tau: f64) {
+        let n = self.x.len();
+        let z = &mut self.z[..n];
+        self.inc.next(&mut self.rng, z);
+        let z = &self.z[..n];
+        let sqrt_h = h.sqrt();
+        let at = bar.map(|b| b.at);
+        let mut xn = std::mem::take(&mut self.buf[5]);
+        xn.resize(n, 0.0);
+        let slots = &mut self.scratch[0];
+        slots.resize(program.n_slots(), [0.0; CHUNK]);
+        let mut any = false;
+        let mut start = 0;
+        let (x, v, side) = (&self.x[..n], &mut self.v[..n], &self.side[..n]);
+        let k = Kinematics { h, sqrt_h, tau, at };
+        while start + CHUNK <= n {
+            let r = start..start + CHUNK;
+            any |= fused_chunk::<CHUNK>(
+                program,
+                slots,
+                chunk(&x[r.clone()]),
+                chunk_mut(&mut v[r.clone()]),
+                chunk(&z[r.clone()]),
+                chunk(&side[r.clone()]),
+                chunk_mut(&mut xn[r]),
+                &k,
+            );
+            start += CHUNK;
+        }
+        if start < n {
+            let mut one = vec![[0.0; 1]; program.n_slots()];
+            for i in start..n {
+                any |= fused_chunk::<1>(
+                    program,
+                    &mut one,
+                    chunk(&x[i..=i]),
+                    chunk_mut(&mut v[i..=i]),
+                    chunk(&z[i..=i]),
+                    chunk(&side[i..=i]),
+                    chunk_mut(&mut xn[i..=i]),
+                    &k,
+                );
+            }
+        }
+        if let (Some(bar), true) = (bar, any) {
+            impacts_in_flight(
+                &self.x,
+                &mut xn,
+                &mut self.v,
+                &mut self.side,
+                &mut self.impacts,
+                tau,
+                bar,
+            );
+        }
+        self.buf[5] = std::mem::replace(&mut self.x, xn);
     }
 
     /// The `B` flow over `h`: `dv = f(x, v) dt + σ(x) dW` at frozen `x`, Heun for additive
@@ -510,6 +581,62 @@ impl BatchState {
         let u2 = ((b >> 11) as f64 + 0.5) / 9_007_199_254_740_992.0;
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }
+}
+
+/// The step sizes of a fused step and the barrier's position (if any).
+struct Kinematics {
+    h: f64,
+    sqrt_h: f64,
+    tau: f64,
+    at: Option<f64>,
+}
+
+#[inline(always)]
+fn chunk<const W: usize>(s: &[f64]) -> &[f64; W] {
+    s.try_into().expect("a chunk of W lanes")
+}
+
+#[inline(always)]
+fn chunk_mut<const W: usize>(s: &mut [f64]) -> &mut [f64; W] {
+    s.try_into().expect("a chunk of W lanes")
+}
+
+/// One fused step of `W` lanes (see [`BatchState::fused_step`]): the step kernel's outputs
+/// f, σ, ∂f/∂v, the Heun update of `v` and the flight `xn = x + v·τ`; whether a lane met
+/// the barrier.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn fused_chunk<const W: usize>(
+    program: &LaneProgram,
+    slots: &mut [[f64; W]],
+    x: &[f64; W],
+    v: &mut [f64; W],
+    z: &[f64; W],
+    side: &[f64; W],
+    xn: &mut [f64; W],
+    k: &Kinematics,
+) -> bool {
+    program.run(x, v, slots);
+    let (f0, sigma, slope) = (
+        &slots[program.output(0)],
+        &slots[program.output(1)],
+        &slots[program.output(2)],
+    );
+    let (h, sqrt_h, tau) = (k.h, k.sqrt_h, k.tau);
+    let mut any = false;
+    for i in 0..W {
+        let dw = z[i] * (sigma[i] * sqrt_h);
+        let f1 = f0[i] + slope[i] * (f0[i] * h + dw);
+        let vn = v[i] + (0.5 * (f0[i] + f1) * h + dw);
+        v[i] = vn;
+        xn[i] = x[i] + vn * tau;
+    }
+    if let Some(b) = k.at {
+        for i in 0..W {
+            any |= meets(b, side[i], x[i], xn[i]);
+        }
+    }
+    any
 }
 
 /// `s` folded into the strip [lo, hi] by reflections at its walls; a value that lands on a
