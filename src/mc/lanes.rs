@@ -17,6 +17,8 @@ use crate::symbolic::{powf, sgn, Expr, Func};
 /// Lanes evaluated together: operands of an instruction stay in L1 and each instruction is
 /// a loop of fixed length, unrolled over vector registers.
 pub(crate) const CHUNK: usize = 64;
+// The fused mechanical step reports a chunk's impacts as the bits of one u64.
+const _: () = assert!(CHUNK <= 64);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Unary {
@@ -475,10 +477,19 @@ impl LaneProgram {
         }
     }
 
-    /// Every output at one point.
+    /// Every output at one point (on the stack for programs of up to 32 instructions, such
+    /// as impact laws, evaluated at every impact).
     pub(crate) fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
-        let mut one = vec![[0.0; 1]; self.ops.len()];
-        self.run(&[x], &[v], &mut one);
+        const STACK: usize = 32;
+        let mut stack = [[0.0; 1]; STACK];
+        let mut heap = Vec::new();
+        let one: &mut [[f64; 1]] = if self.ops.len() <= STACK {
+            &mut stack[..self.ops.len()]
+        } else {
+            heap.resize(self.ops.len(), [0.0; 1]);
+            &mut heap
+        };
+        self.run(&[x], &[v], one);
         for (j, o) in out.iter_mut().enumerate().take(self.outputs.len()) {
             *o = one[self.output(j)][0];
         }

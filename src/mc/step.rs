@@ -3,7 +3,7 @@
 //! events of an impact law resolved lane by lane.
 
 use super::eval::{BatchKernel, Scratch, Simd};
-use super::impact::{free_flight, impacts_in_flight, meets, Barrier};
+use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
@@ -192,13 +192,24 @@ impl BatchState {
         xn.resize(n, 0.0);
         let slots = &mut self.scratch[0];
         slots.resize(program.n_slots(), [0.0; CHUNK]);
-        let mut any = false;
         let mut start = 0;
-        let (x, v, side) = (&self.x[..n], &mut self.v[..n], &self.side[..n]);
+        let (x, v, side) = (&self.x[..n], &mut self.v[..n], &mut self.side[..n]);
+        let impacts = &mut self.impacts[..n];
         let k = Kinematics { h, sqrt_h, tau, at };
+        // The lanes of a chunk that met the barrier get their impacts at once.
+        let mut impact =
+            |first: usize, mut met: u64, xn: &mut [f64], v: &mut [f64], side: &mut [f64]| {
+                while met != 0 {
+                    let i = first + met.trailing_zeros() as usize;
+                    met &= met - 1;
+                    let bar = bar.expect("only a barrier is met");
+                    impact_in_flight(x[i], &mut xn[i], &mut v[i], &mut side[i], tau, bar);
+                    impacts[i] += 1;
+                }
+            };
         while start + CHUNK <= n {
             let r = start..start + CHUNK;
-            any |= fused_chunk::<CHUNK>(
+            let met = fused_chunk::<CHUNK>(
                 program,
                 slots,
                 chunk(&x[r.clone()]),
@@ -208,12 +219,13 @@ impl BatchState {
                 chunk_mut(&mut xn[r]),
                 &k,
             );
+            impact(start, met, &mut xn, v, side);
             start += CHUNK;
         }
         if start < n {
             let mut one = vec![[0.0; 1]; program.n_slots()];
             for i in start..n {
-                any |= fused_chunk::<1>(
+                let met = fused_chunk::<1>(
                     program,
                     &mut one,
                     chunk(&x[i..=i]),
@@ -223,18 +235,8 @@ impl BatchState {
                     chunk_mut(&mut xn[i..=i]),
                     &k,
                 );
+                impact(i, met, &mut xn, v, side);
             }
-        }
-        if let (Some(bar), true) = (bar, any) {
-            impacts_in_flight(
-                &self.x,
-                &mut xn,
-                &mut self.v,
-                &mut self.side,
-                &mut self.impacts,
-                tau,
-                bar,
-            );
         }
         self.buf[5] = std::mem::replace(&mut self.x, xn);
     }
@@ -602,8 +604,8 @@ fn chunk_mut<const W: usize>(s: &mut [f64]) -> &mut [f64; W] {
 }
 
 /// One fused step of `W` lanes (see [`BatchState::fused_step`]): the step kernel's outputs
-/// f, σ, ∂f/∂v, the Heun update of `v` and the flight `xn = x + v·τ`; whether a lane met
-/// the barrier.
+/// f, σ, ∂f/∂v, the Heun update of `v` and the flight `xn = x + v·τ`; bit i set when lane
+/// i met the barrier (W ≤ 64).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn fused_chunk<const W: usize>(
@@ -615,7 +617,7 @@ fn fused_chunk<const W: usize>(
     side: &[f64; W],
     xn: &mut [f64; W],
     k: &Kinematics,
-) -> bool {
+) -> u64 {
     program.run(x, v, slots);
     let (f0, sigma, slope) = (
         &slots[program.output(0)],
@@ -623,7 +625,6 @@ fn fused_chunk<const W: usize>(
         &slots[program.output(2)],
     );
     let (h, sqrt_h, tau) = (k.h, k.sqrt_h, k.tau);
-    let mut any = false;
     for i in 0..W {
         let dw = z[i] * (sigma[i] * sqrt_h);
         let f1 = f0[i] + slope[i] * (f0[i] * h + dw);
@@ -631,12 +632,13 @@ fn fused_chunk<const W: usize>(
         v[i] = vn;
         xn[i] = x[i] + vn * tau;
     }
+    let mut met = 0u64;
     if let Some(b) = k.at {
         for i in 0..W {
-            any |= meets(b, side[i], x[i], xn[i]);
+            met |= (meets(b, side[i], x[i], xn[i]) as u64) << i;
         }
     }
-    any
+    met
 }
 
 /// `s` folded into the strip [lo, hi] by reflections at its walls; a value that lands on a
