@@ -285,6 +285,8 @@ impl BatchState {
     }
 
     /// One step of the general scheme for the whole batch, then the barrier events.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn general_step(&mut self, plan: &Plan, h: f64) {
         let Dynamics::General {
             kernel,
@@ -343,6 +345,8 @@ impl BatchState {
 
     /// Applies the barrier events of a step `(x, v) → (xp, vp)` taken with the increments
     /// `dw` (source k of lane i at `dw[k*n + i]`), then moves the batch to the new states.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn finish_step(
         &mut self,
         plan: &Plan,
@@ -385,6 +389,8 @@ impl BatchState {
     ///
     /// Ῡ = Y + aΔ + Σ_j b̃_j ΔŴ_j, R±_j = Y + aΔ ± b̃_j√Δ, U±_r = Y ± b̃_r√Δ, V_rj = −V_jr
     /// two-point ±Δ. State-independent columns need no supporting values.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn platen_step(
         &mut self,
         plan: &Plan,
@@ -775,7 +781,7 @@ fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]
 /// outputs `e0` (drift of x and v, then the m diffusion columns of x, then of v, lane-major
 /// blocks of n) and the increments `dw` (noise k of lane i at `dw[k*n + i]`): the one
 /// predictor of the general scheme and of Platen's.
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn euler_predictor(
     x: &[f64],
