@@ -201,6 +201,8 @@ const COUNT_COPIES: usize = 4;
 
 impl Accumulator {
     pub(crate) fn new(grid: Grid, lanes: usize) -> Accumulator {
+        // `add`'s unchecked bin conversion relies on it (runs check their grids).
+        assert!(grid.bins <= super::MAX_BINS, "a grid of {} bins", grid.bins);
         Accumulator {
             grid,
             inv_width: grid.bins as f64 / (grid.hi - grid.lo),
@@ -306,11 +308,17 @@ impl Accumulator {
             mn[i] = if ok && q < mn[i] { q } else { mn[i] };
             mx[i] = if ok && q > mx[i] { q } else { mx[i] };
             // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
-            // (Comparisons rather than `max`/`min`, and a signed conversion, so the loop
+            // (Comparisons rather than `max`/`min`, and an unchecked conversion, so the loop
             // vectorises; a NaN goes to slot 0 here and to `invalid` below.)
             let t = (q - lo) * inv_w + 1.0;
             let t = if t > 0.0 { t } else { 0.0 };
-            let slot = (if t < top { t } else { top }) as i32 as u32;
+            let t = if t < top { t } else { top };
+            // SAFETY: 0 ≤ t ≤ bins + 1 ≤ MAX_BINS + 1 < 2³¹ (a run's grids are checked against
+            // `MAX_BINS` = 10⁷, in `McConfig` and in shard files), and t is not
+            // NaN (the first comparison maps NaN to 0), so the truncation is in range. The
+            // checked `as` conversion, which handles NaN and saturates, was a scalar sequence
+            // per lane: a quarter of the recording's time (perf, vibro_duffing).
+            let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
             // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
             let slot = if q < lo { 0 } else { slot };
             let slot = if finite { slot } else { invalid };
