@@ -39,6 +39,7 @@ mod error;
 mod estimate;
 mod eval;
 mod exact;
+mod fused;
 mod histogram;
 mod impact;
 mod judge;
