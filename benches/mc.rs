@@ -1,9 +1,12 @@
-//! Monte Carlo throughput on the paper's vibro-impact model at dt = 0.01, in steps per second
-//! per core: the batched simulator against a straightforward scalar loop.
+//! Monte Carlo throughput at dt = 0.01 in steps per second (criterion's elements/s): each
+//! weak order-2 scheme on 1 and 2 threads (`mc_step_rate`), and on one thread the
+//! alternatives and a straightforward scalar loop (`mc_vibro_impact`).
+//! Run: `cargo bench --bench mc` (or `-- mc_step_rate` for the rates alone).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use fpsolve::mc::reference::{vibro_impact, VibroImpact};
 use fpsolve::mc::{BurnIn, Grid, Increments, McConfig, SchemeChoice, Simulation};
+use fpsolve::model::load_model;
 use rand::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -62,10 +65,9 @@ fn scalar_baseline() -> u64 {
     hist.iter().enumerate().map(|(i, c)| i as u64 * c).sum()
 }
 
-fn simulation(increments: Increments, scheme: SchemeChoice) -> Simulation {
-    let model = vibro_impact(P).bind(&[]).unwrap();
+fn config(increments: Increments, scheme: SchemeChoice, names: &[&str]) -> McConfig {
     let grid = Grid::new(-3.0, 3.0, 100).unwrap();
-    let config = McConfig {
+    McConfig {
         dt: DT,
         spacing: DT * STEPS_PER_SAMPLE as f64,
         trajectories: TRAJECTORIES,
@@ -75,57 +77,93 @@ fn simulation(increments: Increments, scheme: SchemeChoice) -> Simulation {
         scheme,
         // The throughput counts the main run's steps only.
         bias_fraction: 0.0,
-        grids: ["z", "v", "y", "ydot"]
-            .iter()
-            .map(|n| (n.to_string(), grid))
-            .collect(),
+        grids: names.iter().map(|n| (n.to_string(), grid)).collect(),
         ..McConfig::default()
-    };
+    }
+}
+
+fn simulation(increments: Increments, scheme: SchemeChoice) -> Simulation {
+    let model = vibro_impact(P).bind(&[]).unwrap();
+    let config = config(increments, scheme, &["z", "v", "y", "ydot"]);
     Simulation::new(&model, &config).unwrap()
 }
 
+/// `models/cubic_damping_two_noises.sde`: not of the mechanical form (the noise of v depends
+/// on v, two sources), so the general weak order-2 scheme (Platen's) is what runs.
+fn two_noises() -> Simulation {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/models/cubic_damping_two_noises.sde"
+    );
+    let model = load_model(path.as_ref()).unwrap().bind(&[]).unwrap();
+    let config = config(
+        Increments::ThreePoint,
+        SchemeChoice::Auto,
+        &["z", "v", "y", "ydot"],
+    );
+    Simulation::new(&model, &config).unwrap()
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
+/// Steps per second by scheme, one thread, with the alternatives (Gaussian increments,
+/// the weak order-1 general scheme) and the scalar loop for contrast.
 fn bench(c: &mut Criterion) {
     let steps = TRAJECTORIES * SAMPLES * STEPS_PER_SAMPLE;
     let mut g = c.benchmark_group("mc_vibro_impact");
     g.throughput(Throughput::Elements(steps));
     g.sample_size(10);
     g.bench_function("scalar_baseline", |b| b.iter(scalar_baseline));
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let one = pool(1);
     for (name, inc, scheme) in [
-        (
-            "batched_three_point",
-            Increments::ThreePoint,
-            SchemeChoice::Auto,
-        ),
         ("batched_gaussian", Increments::Gaussian, SchemeChoice::Auto),
         (
             "batched_general_heun",
             Increments::ThreePoint,
             SchemeChoice::GeneralOrder1,
         ),
-        (
-            "batched_general_platen",
-            Increments::ThreePoint,
-            SchemeChoice::General,
-        ),
     ] {
         let sim = simulation(inc, scheme);
         g.bench_function(name, |b| b.iter(|| one.install(|| sim.run().unwrap())));
     }
-    // Both cores: the throughput behind "1e9 samples at spacing 0.1 in under a minute".
-    let two = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
-    let sim = simulation(Increments::ThreePoint, SchemeChoice::Auto);
-    g.bench_function("batched_three_point_2_threads", |b| {
-        b.iter(|| two.install(|| sim.run().unwrap()))
-    });
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The step rate of each weak order-2 scheme on 1 and 2 threads (issue 12, item 1):
+/// `mechanical_impact` is the splitting with exact impact location on the paper's
+/// vibro-impact model, `general_weak2` Platen's scheme on the same model, and
+/// `general_weak2_two_noises` Platen's scheme on a model that needs it.
+fn step_rate(c: &mut Criterion) {
+    let steps = TRAJECTORIES * SAMPLES * STEPS_PER_SAMPLE;
+    let mut g = c.benchmark_group("mc_step_rate");
+    g.throughput(Throughput::Elements(steps));
+    g.sample_size(10);
+    let sims = [
+        (
+            "mechanical_impact",
+            simulation(Increments::ThreePoint, SchemeChoice::Auto),
+        ),
+        (
+            "general_weak2",
+            simulation(Increments::ThreePoint, SchemeChoice::General),
+        ),
+        ("general_weak2_two_noises", two_noises()),
+    ];
+    for threads in [1, 2] {
+        let pool = pool(threads);
+        for (name, sim) in &sims {
+            g.bench_function(format!("{name}/{threads}_threads"), |b| {
+                b.iter(|| pool.install(|| sim.run().unwrap()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, step_rate, bench);
 criterion_main!(benches);

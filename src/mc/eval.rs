@@ -1,14 +1,17 @@
 //! Model evaluation for the simulator: expressions of the two states, compiled once and
 //! evaluated over a whole batch of trajectories at a time (structure-of-arrays).
 //!
-//! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`], which
-//! uses the crate's compiled [`Tape`]; another evaluator needs only a new `compile`.
+//! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`]: the
+//! crate's [`Tape`] checks the expressions, and the simulator's [`LaneProgram`] (the same
+//! instructions, bit for bit) evaluates them in chunks of lanes inside one function compiled
+//! for the CPU's widest vector extension, detected once at compile time.
 
 use super::error::McError;
-use crate::symbolic::{DeltaPolicy, Expr, Tape, TapeScratch};
+use super::lanes::{LaneProgram, CHUNK};
+use crate::symbolic::{DeltaPolicy, Expr, Tape};
 
 /// Working memory of a kernel's batch evaluation.
-pub(crate) type Scratch = TapeScratch;
+pub(crate) type Scratch = Vec<[f64; CHUNK]>;
 
 /// Expressions of the states `(x, v)`, evaluated for many points at once.
 pub(crate) trait BatchKernel: Send + Sync {
@@ -17,44 +20,116 @@ pub(crate) trait BatchKernel: Send + Sync {
     fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch);
     /// Evaluates every output at one point.
     fn eval_point(&self, x: f64, v: f64, out: &mut [f64]);
+    /// The compiled program, for loops that evaluate it chunk by chunk themselves.
+    fn program(&self) -> &LaneProgram;
+}
+
+/// The vector extension a kernel's batch evaluation is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Simd {
+    /// The build's baseline (SSE2 on x86-64).
+    Baseline,
+    /// AVX2 (4 lanes of f64).
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    /// AVX-512F (8 lanes of f64).
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Simd {
+    /// The widest extension this CPU has.
+    pub(crate) fn detect() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Simd::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
+            }
+        }
+        Simd::Baseline
+    }
+}
+
+#[cfg(test)]
+impl Simd {
+    /// Every extension this CPU has, the baseline first.
+    pub(crate) fn available() -> Vec<Simd> {
+        let mut all = vec![Simd::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                all.push(Simd::Avx2);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                all.push(Simd::Avx512);
+            }
+        }
+        all
+    }
+}
+
+/// A compiled kernel: the program and the extension its batch evaluation uses.
+struct Kernel {
+    program: LaneProgram,
+    simd: Simd,
 }
 
 /// Compiles `exprs` (expressions of the states named `states`) with `delta(·) = 0`, as is
 /// right between impacts.
 pub(crate) fn compile(exprs: &[Expr], states: [&str; 2]) -> Result<Box<dyn BatchKernel>, McError> {
-    Ok(Box::new(Tape::compile(exprs, &states, DeltaPolicy::Zero)?))
+    // The tape reports what is wrong with an expression; the program is built only then.
+    Tape::compile(exprs, &states, DeltaPolicy::Zero)?;
+    let program = LaneProgram::compile(exprs, states)
+        .expect("the program accepts every expression the tape accepts");
+    Ok(Box::new(Kernel {
+        program,
+        simd: Simd::detect(),
+    }))
 }
 
-impl BatchKernel for Tape {
+impl Kernel {
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn eval_avx2(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch) {
+        self.program.eval_rows(x, v, out, scratch);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn eval_avx512(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch) {
+        self.program.eval_rows(x, v, out, scratch);
+    }
+}
+
+impl BatchKernel for Kernel {
     fn eval_batch(&self, x: &[f64], v: &[f64], out: &mut [f64], scratch: &mut Scratch) {
-        let n = x.len();
-        let out = &mut out[..n * self.n_outputs()];
-        // Output rows as slices of `out`, on the stack for the kernels the schemes use.
-        const STACK_ROWS: usize = 8;
-        let k = self.n_outputs();
-        if k == 0 || n == 0 {
-            return;
-        }
-        if k <= STACK_ROWS {
-            let mut chunks = out.chunks_mut(n);
-            let mut rows: [&mut [f64]; STACK_ROWS] =
-                std::array::from_fn(|_| chunks.next().unwrap_or(&mut []));
-            Tape::eval_batch(self, &[x, v], &mut rows[..k], scratch);
-        } else {
-            let mut rows: Vec<&mut [f64]> = out.chunks_mut(n).collect();
-            Tape::eval_batch(self, &[x, v], &mut rows, scratch);
+        match self.simd {
+            Simd::Baseline => self.program.eval_rows(x, v, out, scratch),
+            // SAFETY: `simd` was detected on this CPU (`Simd::detect`).
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => unsafe { self.eval_avx2(x, v, out, scratch) },
+            // SAFETY: as above.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => unsafe { self.eval_avx512(x, v, out, scratch) },
         }
     }
 
     fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
-        let mut scratch = Vec::new();
-        self.eval(&[x, v], &mut scratch, out);
+        self.program.eval_point(x, v, out);
+    }
+
+    fn program(&self) -> &LaneProgram {
+        &self.program
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use super::{Kernel, LaneProgram, Simd};
     use crate::symbolic::{DeltaPolicy, Func};
 
     fn z() -> Expr {
@@ -103,6 +178,33 @@ mod tests {
             let mut one = vec![0.0; exprs.len()];
             k.eval_point(0.7, -0.1, &mut one);
             assert_eq!(one[1], 1.0 + 0.2 * 0.7);
+        }
+    }
+
+    #[test]
+    fn every_vector_extension_gives_the_same_bits() {
+        let e = vec![
+            -(Expr::num(0.1) * v()) - z() - Expr::num(0.1) * Expr::pow(z(), Expr::num(3.0)),
+            Expr::num(0.7) * (Expr::call(Func::Sgn, z()) + Expr::num(0.1) * z()),
+            Expr::call(Func::Abs, z()) / (Expr::num(1.0) + v() * v()),
+        ];
+        let xs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.37).sin() * 3.0).collect();
+        let vs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.71).cos() * 2.0).collect();
+        let program = LaneProgram::compile(&e, ["z", "v"]).unwrap();
+        let mut want = vec![0.0; e.len() * xs.len()];
+        program.eval_rows(&xs, &vs, &mut want, &mut Scratch::new());
+        for simd in Simd::available() {
+            let k = Kernel {
+                program: program.clone(),
+                simd,
+            };
+            let mut got = vec![0.0; want.len()];
+            k.eval_batch(&xs, &vs, &mut got, &mut Scratch::new());
+            let same = got
+                .iter()
+                .zip(&want)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "{simd:?}");
         }
     }
 

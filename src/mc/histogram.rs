@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::McError;
 use super::estimate::Estimate;
+use super::eval::Simd;
 use super::exact;
 use crate::moments::Moments;
 
@@ -166,15 +167,18 @@ pub(crate) struct QuantityBatch {
     pub(crate) window_squares: [f64; 4],
 }
 
-/// Accumulates one quantity of one batch, lane-parallel: power sums and extremes per lane
-/// (vectorised), bin indices computed for all lanes and then counted. [`Accumulator::finish`]
-/// adds the lanes up in lane order.
+/// Accumulates one quantity of one batch, lane-parallel: power sums, extremes and the
+/// current quarter's sums per lane (vectorised), bin indices computed for all lanes and then
+/// counted into [`COUNT_COPIES`] interleaved copies of the bins (so that lanes landing in
+/// the same bin do not wait on each other's increments). [`Accumulator::finish`] adds the
+/// lanes up in lane order; a quarter's per-lane sums are added up in lane order when the
+/// quarter ends.
 pub(crate) struct Accumulator {
     grid: Grid,
     inv_width: f64,
     shift: f64,
-    /// Slots: 0 below the grid, 1..=bins the bins, bins+1 above, bins+2 lanes not recorded,
-    /// bins+3 non-finite values.
+    /// Slots of each copy: 0 below the grid, 1..=bins the bins, bins+1 above, bins+2 lanes
+    /// not recorded, bins+3 non-finite values; copy c at `c * (bins + 4)`.
     slots: Vec<u64>,
     index: Vec<u32>,
     sums: [Vec<f64>; 4],
@@ -182,23 +186,36 @@ pub(crate) struct Accumulator {
     max: Vec<f64>,
     /// The quarter of the recording the next samples fall in.
     window: usize,
+    /// The vector extension `add` runs with.
+    simd: Simd,
+    /// Per lane, this quarter's finite recorded values, Σ (q − shift) and Σ (q − shift)².
+    lane_window_counts: Vec<u64>,
+    lane_window_sums: [Vec<f64>; 2],
     window_counts: [u64; 4],
     window_sums: [f64; 4],
     window_squares: [f64; 4],
 }
 
+/// Copies of the bin counts (a power of two), lane i counting into copy i mod COUNT_COPIES.
+const COUNT_COPIES: usize = 4;
+
 impl Accumulator {
     pub(crate) fn new(grid: Grid, lanes: usize) -> Accumulator {
+        // `add`'s unchecked bin conversion relies on it (runs check their grids).
+        assert!(grid.bins <= super::MAX_BINS, "a grid of {} bins", grid.bins);
         Accumulator {
             grid,
             inv_width: grid.bins as f64 / (grid.hi - grid.lo),
             shift: 0.5 * (grid.lo + grid.hi),
-            slots: vec![0; grid.bins + 4],
+            slots: vec![0; COUNT_COPIES * (grid.bins + 4)],
             index: vec![0; lanes],
             sums: std::array::from_fn(|_| vec![0.0; lanes]),
             min: vec![f64::INFINITY; lanes],
             max: vec![f64::NEG_INFINITY; lanes],
             window: 0,
+            simd: Simd::detect(),
+            lane_window_counts: vec![0; lanes],
+            lane_window_sums: std::array::from_fn(|_| vec![0.0; lanes]),
             window_counts: [0; 4],
             window_sums: [0.0; 4],
             window_squares: [0.0; 4],
@@ -207,39 +224,53 @@ impl Accumulator {
 
     /// Sets the quarter of the recording (0..4) the following samples belong to.
     pub(crate) fn set_window(&mut self, window: usize) {
-        self.window = window.min(3);
+        let window = window.min(3);
+        if window != self.window {
+            self.flush_window();
+            self.window = window;
+        }
     }
 
-    /// Adds the recorded finite values to the current quarter's sums, lanes in order.
-    fn add_window(&mut self, values: &[f64], record: &[bool]) {
-        let shift = self.shift;
+    /// Adds the lanes' sums of the current quarter to its totals, lanes in order.
+    fn flush_window(&mut self) {
         let k = self.window;
-        for (&q, &r) in values.iter().zip(record) {
-            if r && q.is_finite() {
-                let d = q - shift;
-                self.window_counts[k] += 1;
-                self.window_sums[k] += d;
-                self.window_squares[k] += d * d;
-            }
+        let [ws, wq] = &mut self.lane_window_sums;
+        for ((c, s), q) in self
+            .lane_window_counts
+            .iter_mut()
+            .zip(ws.iter_mut())
+            .zip(wq.iter_mut())
+        {
+            self.window_counts[k] += *c;
+            self.window_sums[k] += *s;
+            self.window_squares[k] += *q;
+            (*c, *s, *q) = (0, 0.0, 0.0);
         }
     }
 
     /// Adds one sample value per lane, for the lanes with `record[i]`.
     pub(crate) fn add(&mut self, values: &[f64], record: &[bool]) {
-        self.add_window(values, record);
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above. The arithmetic is IEEE-exact
-            // whatever the vector width (no fused multiply-add), so results do not change.
-            unsafe { self.add_avx2(values, record) };
-            return;
+        match self.simd {
+            Simd::Baseline => self.add_body(values, record),
+            // SAFETY: `simd` was detected on this CPU. The arithmetic is IEEE-exact whatever
+            // the vector width (no fused multiply-add), so results do not change.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => unsafe { self.add_avx2(values, record) },
+            // SAFETY: as above.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => unsafe { self.add_avx512(values, record) },
         }
-        self.add_body(values, record);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn add_avx2(&mut self, values: &[f64], record: &[bool]) {
+        self.add_body(values, record);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn add_avx512(&mut self, values: &[f64], record: &[bool]) {
         self.add_body(values, record);
     }
 
@@ -250,9 +281,16 @@ impl Accumulator {
         let (lo, inv_w, shift) = (self.grid.lo, self.inv_width, self.shift);
         let top = (self.grid.bins + 1) as f64;
         let (skipped, invalid) = (self.grid.bins as u32 + 2, self.grid.bins as u32 + 3);
+        let stride = (self.grid.bins + 4) as u32;
         let [s1, s2, s3, s4] = &mut self.sums;
         let (s1, s2, s3, s4) = (&mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n]);
         let (mn, mx, idx) = (&mut self.min[..n], &mut self.max[..n], &mut self.index[..n]);
+        let [ws, wq] = &mut self.lane_window_sums;
+        let (wc, ws, wq) = (
+            &mut self.lane_window_counts[..n],
+            &mut ws[..n],
+            &mut wq[..n],
+        );
         for i in 0..n {
             let q = values[i];
             let finite = q.is_finite();
@@ -263,14 +301,29 @@ impl Accumulator {
             s2[i] += d2;
             s3[i] += d2 * d;
             s4[i] += d2 * d2;
-            mn[i] = if ok { mn[i].min(q) } else { mn[i] };
-            mx[i] = if ok { mx[i].max(q) } else { mx[i] };
+            wc[i] += ok as u64;
+            ws[i] += d;
+            wq[i] += d2;
+            // Comparisons (q is finite when `ok`), which vectorise where `min`/`max` do not.
+            mn[i] = if ok && q < mn[i] { q } else { mn[i] };
+            mx[i] = if ok && q > mx[i] { q } else { mx[i] };
             // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
-            let slot = ((q - lo) * inv_w + 1.0).max(0.0).min(top) as u32;
+            // (Comparisons rather than `max`/`min`, and an unchecked conversion, so the loop
+            // vectorises; a NaN goes to slot 0 here and to `invalid` below.)
+            let t = (q - lo) * inv_w + 1.0;
+            let t = if t > 0.0 { t } else { 0.0 };
+            let t = if t < top { t } else { top };
+            // SAFETY: 0 ≤ t ≤ bins + 1 ≤ MAX_BINS + 1 < 2³¹ (a run's grids are checked against
+            // `MAX_BINS` = 10⁷, in `McConfig` and in shard files), and t is not
+            // NaN (the first comparison maps NaN to 0), so the truncation is in range. The
+            // checked `as` conversion, which handles NaN and saturates, was a scalar sequence
+            // per lane: a quarter of the recording's time (perf, vibro_duffing).
+            let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
             // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
             let slot = if q < lo { 0 } else { slot };
             let slot = if finite { slot } else { invalid };
-            idx[i] = if record[i] { slot } else { skipped };
+            let slot = if record[i] { slot } else { skipped };
+            idx[i] = slot + (i % COUNT_COPIES) as u32 * stride;
         }
         for &k in idx.iter() {
             self.slots[k as usize] += 1;
@@ -278,17 +331,21 @@ impl Accumulator {
     }
 
     /// The batch's statistics, lanes added in order.
-    pub(crate) fn finish(self) -> QuantityBatch {
+    pub(crate) fn finish(mut self) -> QuantityBatch {
+        self.flush_window();
         let bins = self.grid.bins;
+        let stride = bins + 4;
+        let slot =
+            |k: usize| -> u64 { (0..COUNT_COPIES).map(|c| self.slots[c * stride + k]).sum() };
         let mut sums = [0.0; 4];
         for (total, lanes) in sums.iter_mut().zip(&self.sums) {
             *total = lanes.iter().sum();
         }
         QuantityBatch {
-            counts: self.slots[1..=bins].to_vec(),
-            under: self.slots[0],
-            over: self.slots[bins + 1],
-            invalid: self.slots[bins + 3],
+            counts: (1..=bins).map(slot).collect(),
+            under: slot(0),
+            over: slot(bins + 1),
+            invalid: slot(bins + 3),
             sums,
             min: self.min.iter().cloned().fold(f64::INFINITY, f64::min),
             max: self.max.iter().cloned().fold(f64::NEG_INFINITY, f64::max),

@@ -120,21 +120,50 @@ pub(crate) fn free_flight(
         any |= meets(b, side[i], x[i], xn[i]);
     }
     if any {
-        for i in 0..n {
-            if meets(b, side[i], x[i], xn[i]) {
-                // The flight is linear, so the crossing time is exact.
-                let t_hit = ((b - x[i]) / v[i]).clamp(0.0, tau);
-                let v_new = bar.jump(b, v[i]);
-                if v_new * side[i] < 0.0 {
-                    side[i] = -side[i];
-                }
-                v[i] = v_new;
-                xn[i] = b + v_new * (tau - t_hit);
-                impacts[i] += 1;
-            }
-        }
+        impacts_in_flight(x, xn, v, side, impacts, tau, bar);
     }
     std::mem::swap(x, scratch);
+}
+
+/// The impacts of a flight `x → xn = x + v·τ` at the one barrier `bar`: each lane that meets
+/// it gets the jump at the exactly located crossing and the rest of its flight from there.
+pub(crate) fn impacts_in_flight(
+    x: &[f64],
+    xn: &mut [f64],
+    v: &mut [f64],
+    side: &mut [f64],
+    impacts: &mut [u64],
+    tau: f64,
+    bar: &Barrier,
+) {
+    for i in 0..xn.len() {
+        if meets(bar.at, side[i], x[i], xn[i]) {
+            impact_in_flight(x[i], &mut xn[i], &mut v[i], &mut side[i], tau, bar);
+            impacts[i] += 1;
+        }
+    }
+}
+
+/// The impact of one lane whose flight `x → xn = x + v·τ` meets `bar`: the jump at the
+/// exactly located crossing (the flight is linear), the side after it, and the rest of the
+/// flight from the barrier.
+#[inline(never)]
+pub(crate) fn impact_in_flight(
+    x: f64,
+    xn: &mut f64,
+    v: &mut f64,
+    side: &mut f64,
+    tau: f64,
+    bar: &Barrier,
+) {
+    let b = bar.at;
+    let t_hit = ((b - x) / *v).clamp(0.0, tau);
+    let v_new = bar.jump(b, *v);
+    if v_new * *side < 0.0 {
+        *side = -*side;
+    }
+    *v = v_new;
+    *xn = b + v_new * (tau - t_hit);
 }
 
 /// Free flight between two reflecting walls `lo.at < hi.at`, the state inside: each lane's

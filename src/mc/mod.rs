@@ -39,9 +39,11 @@ mod error;
 mod estimate;
 mod eval;
 mod exact;
+mod fused;
 mod histogram;
 mod impact;
 mod judge;
+mod lanes;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;

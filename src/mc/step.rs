@@ -2,8 +2,10 @@
 //! for the schemes and why each is used): structure-of-arrays loops over the lanes, the
 //! events of an impact law resolved lane by lane.
 
-use super::eval::{BatchKernel, Scratch};
-use super::impact::{free_flight, meets, Barrier};
+use super::eval::{BatchKernel, Scratch, Simd};
+use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
+use super::impact::{free_flight, impact_in_flight, meets, Barrier};
+use super::lanes::{LaneProgram, CHUNK};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
 
@@ -26,6 +28,8 @@ pub(crate) struct BatchState {
     z: Vec<f64>,
     /// One working memory per kernel, so none is resized between calls.
     scratch: [Scratch; 2],
+    /// The vector extension the lane loops run with.
+    simd: Simd,
 }
 
 impl BatchState {
@@ -76,6 +80,7 @@ impl BatchState {
             bits: vec![0; lanes],
             z: vec![0.0; lanes * noises.max(1)],
             scratch: [Scratch::new(), Scratch::new()],
+            simd: Simd::detect(),
         };
         for i in 0..lanes {
             let (z0, z1) = (st.lane_normal(i), st.lane_normal(i));
@@ -98,22 +103,30 @@ impl BatchState {
 
     /// Advances every trajectory by `steps` steps of size `h`.
     ///
-    /// On x86-64 with AVX2 the lane loops are compiled a second time for 4-wide vectors. The
-    /// results are bit-identical to the baseline build: the loops use only IEEE-exact
-    /// operations (no fused multiply-add), whatever the vector width.
+    /// On x86-64 with AVX2 or AVX-512 the lane loops are compiled again for 4- or 8-wide
+    /// vectors (chosen at run time). The results are bit-identical to the baseline build:
+    /// the loops use only IEEE-exact operations (no fused multiply-add), whatever the width.
     pub(crate) fn advance(&mut self, plan: &Plan, steps: u64, h: f64) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            unsafe { self.advance_avx2(plan, steps, h) };
-            return;
+        match self.simd {
+            Simd::Baseline => self.advance_body(plan, steps, h),
+            // SAFETY: `simd` was detected on this CPU (`Simd::detect`).
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx2 => unsafe { self.advance_avx2(plan, steps, h) },
+            // SAFETY: as above.
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => unsafe { self.advance_avx512(plan, steps, h) },
         }
-        self.advance_body(plan, steps, h);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn advance_avx2(&mut self, plan: &Plan, steps: u64, h: f64) {
+        self.advance_body(plan, steps, h);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn advance_avx512(&mut self, plan: &Plan, steps: u64, h: f64) {
         self.advance_body(plan, steps, h);
     }
 
@@ -130,10 +143,17 @@ impl BatchState {
             } => {
                 let bar = plan.barriers.as_slice();
                 self.flight(bar, 0.5 * h);
+                // f affine in v and at most one barrier: the velocity update and the flight
+                // in one pass over each chunk of lanes.
+                let fused = *affine && bar.len() <= 1;
                 for k in 0..steps {
-                    self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
                     let tau = if k + 1 == steps { 0.5 * h } else { h };
-                    self.flight(bar, tau);
+                    if fused {
+                        self.fused_step(step.program(), bar.first(), h, tau);
+                    } else {
+                        self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
+                        self.flight(bar, tau);
+                    }
                 }
             }
             Dynamics::General { .. } => {
@@ -155,6 +175,71 @@ impl BatchState {
             bar,
             &mut self.buf[5],
         );
+    }
+
+    /// [`BatchState::velocity_update`] (f affine in v) and then [`BatchState::flight`] over
+    /// `tau` with at most one barrier, the same arithmetic in one pass per chunk of lanes:
+    /// the step kernel evaluated on the chunk, the velocity updated and the free flight
+    /// taken while the chunk is in registers; the rare impacts resolved after.
+    #[inline(always)]
+    fn fused_step(&mut self, program: &LaneProgram, bar: Option<&Barrier>, h: f64, tau: f64) {
+        let n = self.x.len();
+        let z = &mut self.z[..n];
+        self.inc.next(&mut self.rng, z);
+        let z = &self.z[..n];
+        let sqrt_h = h.sqrt();
+        let at = bar.map(|b| b.at);
+        let mut xn = std::mem::take(&mut self.buf[5]);
+        xn.resize(n, 0.0);
+        let slots = &mut self.scratch[0];
+        slots.resize(program.n_slots(), [0.0; CHUNK]);
+        let mut start = 0;
+        let (x, v, side) = (&self.x[..n], &mut self.v[..n], &mut self.side[..n]);
+        let impacts = &mut self.impacts[..n];
+        let k = Kinematics { h, sqrt_h, tau, at };
+        // The lanes of a chunk that met the barrier get their impacts at once.
+        let mut impact =
+            |first: usize, mut met: u64, xn: &mut [f64], v: &mut [f64], side: &mut [f64]| {
+                while met != 0 {
+                    let i = first + met.trailing_zeros() as usize;
+                    met &= met - 1;
+                    let bar = bar.expect("only a barrier is met");
+                    impact_in_flight(x[i], &mut xn[i], &mut v[i], &mut side[i], tau, bar);
+                    impacts[i] += 1;
+                }
+            };
+        while start + CHUNK <= n {
+            let r = start..start + CHUNK;
+            let met = fused_chunk::<CHUNK>(
+                program,
+                slots,
+                chunk(&x[r.clone()]),
+                chunk_mut(&mut v[r.clone()]),
+                chunk(&z[r.clone()]),
+                chunk(&side[r.clone()]),
+                chunk_mut(&mut xn[r]),
+                &k,
+            );
+            impact(start, met, &mut xn, v, side);
+            start += CHUNK;
+        }
+        if start < n {
+            let mut one = vec![[0.0; 1]; program.n_slots()];
+            for i in start..n {
+                let met = fused_chunk::<1>(
+                    program,
+                    &mut one,
+                    chunk(&x[i..=i]),
+                    chunk_mut(&mut v[i..=i]),
+                    chunk(&z[i..=i]),
+                    chunk(&side[i..=i]),
+                    chunk_mut(&mut xn[i..=i]),
+                    &k,
+                );
+                impact(i, met, &mut xn, v, side);
+            }
+        }
+        self.buf[5] = std::mem::replace(&mut self.x, xn);
     }
 
     /// The `B` flow over `h`: `dv = f(x, v) dt + σ(x) dW` at frozen `x`, Heun for additive
@@ -201,6 +286,8 @@ impl BatchState {
     }
 
     /// One step of the general scheme for the whole batch, then the barrier events.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn general_step(&mut self, plan: &Plan, h: f64) {
         let Dynamics::General {
             kernel,
@@ -259,6 +346,8 @@ impl BatchState {
 
     /// Applies the barrier events of a step `(x, v) → (xp, vp)` taken with the increments
     /// `dw` (source k of lane i at `dw[k*n + i]`), then moves the batch to the new states.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn finish_step(
         &mut self,
         plan: &Plan,
@@ -301,6 +390,8 @@ impl BatchState {
     ///
     /// Ῡ = Y + aΔ + Σ_j b̃_j ΔŴ_j, R±_j = Y + aΔ ± b̃_j√Δ, U±_r = Y ± b̃_r√Δ, V_rj = −V_jr
     /// two-point ±Δ. State-independent columns need no supporting values.
+    // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
+    #[inline(always)]
     fn platen_step(
         &mut self,
         plan: &Plan,
@@ -635,7 +726,7 @@ fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]
 /// outputs `e0` (drift of x and v, then the m diffusion columns of x, then of v, lane-major
 /// blocks of n) and the increments `dw` (noise k of lane i at `dw[k*n + i]`): the one
 /// predictor of the general scheme and of Platen's.
-#[inline]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn euler_predictor(
     x: &[f64],
@@ -680,16 +771,21 @@ mod tests {
             let specs = crate::mc::scheme::impact_specs(&model);
             let plan = Plan::with_impacts(&model, choice, specs).unwrap();
             let spread = plan.initial_spread();
-            let mut a = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
-            let mut b = BatchState::new(&plan, &spread, 5, 0, 37, Increments::ThreePoint);
-            a.advance(&plan, 500, 0.01);
+            // 150 lanes: two whole chunks of the kernels' evaluation and a partial one.
+            let lanes = 150;
+            let mut b = BatchState::new(&plan, &spread, 5, 0, lanes, Increments::ThreePoint);
             b.advance_body(&plan, 500, 0.01);
-            for i in 0..37 {
-                assert_eq!(a.x[i].to_bits(), b.x[i].to_bits());
-                assert_eq!(a.v[i].to_bits(), b.v[i].to_bits());
+            for simd in Simd::available() {
+                let mut a = BatchState::new(&plan, &spread, 5, 0, lanes, Increments::ThreePoint);
+                a.simd = simd;
+                a.advance(&plan, 500, 0.01);
+                for i in 0..lanes {
+                    assert_eq!(a.x[i].to_bits(), b.x[i].to_bits(), "{simd:?}");
+                    assert_eq!(a.v[i].to_bits(), b.v[i].to_bits(), "{simd:?}");
+                }
+                assert_eq!(a.impacts, b.impacts);
             }
-            assert_eq!(a.impacts, b.impacts);
-            assert!(a.impacts.iter().sum::<u64>() > 0);
+            assert!(b.impacts.iter().sum::<u64>() > 0);
         }
     }
 }
