@@ -191,7 +191,7 @@ enum Command {
         #[arg(long, value_name = "M,M,...", default_value = "epc")]
         method: MethodSet,
         /// Cells of the grid method, position and velocity: even, at least 8 (default
-        /// 140,280).
+        /// 200,400).
         #[arg(long, value_name = "NX,NV")]
         cells: Option<Cells>,
         /// Output directory (default: out/<model name>_sweep).
