@@ -24,6 +24,7 @@
 //! from a 1-D curve on a truncated grid.
 
 mod critical;
+mod fixed;
 mod level;
 mod moments;
 pub(crate) mod quadrature;
@@ -85,6 +86,30 @@ pub trait JointDensity: Sync {
             }
         }
     }
+    /// Whether p is analytic on the whole of [`JointDensity::extent`] (no cut-off, mask, wall
+    /// or kink), so that its integral along a half-line from an axis to the box's edge may be
+    /// taken by a fixed polynomial rule (checked by a doubling test, adaptive when that fails).
+    /// `false` (the default): adaptive quadrature only.
+    ///
+    /// ```
+    /// use fpsolve::observe::JointDensity;
+    /// struct Normal;
+    /// impl JointDensity for Normal {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-9.0, 9.0], [-9.0, 9.0]]
+    ///     }
+    ///     fn analytic(&self) -> bool {
+    ///         true
+    ///     }
+    /// }
+    /// assert!(Normal.analytic());
+    /// ```
+    fn analytic(&self) -> bool {
+        false
+    }
 }
 
 impl JointDensity for EpcSolution {
@@ -95,6 +120,11 @@ impl JointDensity for EpcSolution {
     /// Bit for bit `pdf` at each point, with the powers shared along rows and columns.
     fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
         EpcSolution::pdf_on_grid(self, x1, x2, out);
+    }
+
+    /// C·exp(Q) on the plane; inside a ridge the region's cut-off is not analytic.
+    fn analytic(&self) -> bool {
+        EpcSolution::on_plane(self)
     }
 
     /// The normalisation grid, which reaches e^−40 of the peak (or the ridge region).
@@ -370,7 +400,17 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
                     density.pdf_on_grid(t, &[xs], out);
                 }
             };
-            total += quadrature::integrate_adaptive_batch(&f, lo, hi, 1e-10);
+            // An analytic density: the nested fixed rules, checked by their doubling test;
+            // adaptive where that check fails.
+            let fixed = if density.analytic() {
+                fixed::integrate_nested(&f, lo, hi, 1e-10)
+            } else {
+                None
+            };
+            total += match fixed {
+                Some(v) => v,
+                None => quadrature::integrate_adaptive_batch(&f, lo, hi, 1e-10),
+            };
         }
     }
     total
@@ -434,6 +474,54 @@ mod tests {
         for (u, p) in u.iter().zip(&p) {
             let exact = phi(u - 0.5) + phi(-u - 0.5);
             assert!((p - exact).abs() <= 1e-9 * exact, "y={u}: {p} vs {exact}");
+        }
+    }
+
+    /// [`Normal`], declared analytic: its half-line integrals by the nested fixed rules.
+    struct AnalyticNormal(Normal);
+
+    impl JointDensity for AnalyticNormal {
+        fn pdf(&self, x: [f64; 2]) -> f64 {
+            self.0.pdf(x)
+        }
+        fn extent(&self) -> [[f64; 2]; 2] {
+            self.0.extent()
+        }
+        fn analytic(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn fixed_rules_agree_with_eqs_25_and_28() {
+        let d = AnalyticNormal(Normal {
+            m: [0.5, -0.3],
+            rho: 0.4,
+        });
+        let y = ObservableMap::classify(&Expr::call(Func::Abs, Expr::sym("z")), &states());
+        let u = [0.0, 0.3, 1.0, 2.5, 6.0];
+        let p = observable_pdf(&d, &y, &u);
+        for (u, p) in u.iter().zip(&p) {
+            let exact = phi(u - 0.5) + phi(-u - 0.5);
+            assert!((p - exact).abs() <= 1e-9 * exact, "y={u}: {p} vs {exact}");
+        }
+        // The same as the adaptive quadrature's values, to its tolerance.
+        let adaptive = observable_pdf(&d.0, &y, &u);
+        for (a, p) in adaptive.iter().zip(&p) {
+            assert!((a - p).abs() <= 1e-10 * a, "{p} vs adaptive {a}");
+        }
+        let rho: f64 = 0.6;
+        let d = AnalyticNormal(Normal { m: [0.0, 0.0], rho });
+        let ydot = Expr::sym("v") * Expr::call(Func::Sgn, Expr::sym("z"));
+        let map = ObservableMap::classify(&ydot, &states());
+        let u = [-3.0, -1.0, 0.0, 0.5, 2.0, 4.0];
+        let p = observable_pdf(&d, &map, &u);
+        for (u, p) in u.iter().zip(&p) {
+            let exact = 2.0 * phi(*u) * big_phi(rho * u / (1.0 - rho * rho).sqrt());
+            assert!(
+                (p - exact).abs() <= 1e-8 * exact,
+                "ydot={u}: {p} vs {exact}"
+            );
         }
     }
 
