@@ -53,6 +53,21 @@ fn clenshaw_curtis_weights(n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The nodes of the finest rule (FINEST intervals) mapped to [`lo`, `hi`], with their weights
+/// in that rule and in the rule of half as many intervals (0 at the nodes it lacks): a tensor
+/// product of these integrates a smooth function twice at the price of once.
+pub(crate) fn finest_pair(lo: f64, hi: f64) -> Vec<(f64, [f64; 2])> {
+    let r = rules();
+    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    let (fine, coarse) = (&r.weights[LEVELS.len() - 1], &r.weights[LEVELS.len() - 2]);
+    (0..=FINEST)
+        .map(|k| {
+            let wc = if k % 2 == 0 { coarse[k / 2] } else { 0.0 };
+            (c + h * r.nodes[k], [fine[k] * h, wc * h])
+        })
+        .collect()
+}
+
 /// ∫ f over [`lo`, `hi`] by the nested Clenshaw–Curtis rules, `f` evaluated a batch of nodes
 /// at a time (`f(t, out)` sets `out[k]` = f(`t[k]`)): the first rule I_2N whose difference
 /// from I_N is at most `rel`·|I_2N| (with an absolute floor of 1e−300, so an integrand that
