@@ -3,7 +3,9 @@
 //! An observable that is ± a state on each quadrant — `abs(z)`, `v*sgn(z)`, `-v`, `z` — gets the
 //! exact treatment: p_g(u) is a sum of line integrals of the joint density over half-lines
 //! (Eq. 25: p_Y(y) = p_Z(y) + p_Z(−y); Eq. 28: p_Ẏ(v) = ∫_0^∞ p(z, v) dz + ∫_−∞^0 p(z, −v) dz),
-//! each done by adaptive Gauss–Kronrod quadrature to a relative tolerance of 1e−10.
+//! each done by adaptive Gauss–Kronrod quadrature to a relative tolerance of 1e−10 — or, when
+//! the density is analytic ([`JointDensity::analytic`]: EPC on the plane), by nested
+//! Clenshaw–Curtis rules whose doubling test must pass at 1e−10 (adaptive where it does not).
 //!
 //! Any other observable gets the co-area (level-set) integral
 //! p_g(u) = ∫∫ p δ(g − u) dx = ∮_{g=u} p / |∇g| ds, with g and ∇g compiled to a [`Tape`](crate::symbolic::Tape)
@@ -21,7 +23,8 @@
 //! renormalised.
 //!
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
-//! from a 1-D curve on a truncated grid.
+//! from a 1-D curve on a truncated grid; those of ± a state under an analytic density by a
+//! tensor Clenshaw–Curtis rule on each quadrant checked against its half.
 
 mod critical;
 mod fixed;
