@@ -267,6 +267,12 @@ impl EpcSolution {
         }
     }
 
+    /// Whether the density is C·exp(Q) everywhere (normalised on the plane), not cut off to a
+    /// ridge's region.
+    pub(crate) fn on_plane(&self) -> bool {
+        self.grid.mask.is_none()
+    }
+
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original
     /// units), trimmed to where it is at least 1e−8 of its peak (plus one point).
     ///
