@@ -171,18 +171,8 @@ impl Simulation {
         &self,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) -> Result<McResult, McError> {
-        let st = &self.settings;
-        let total = st.batches + st.bias_batches;
-        let done = std::sync::atomic::AtomicU64::new(0);
-        let tick = || {
-            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            progress(k, total);
-        };
-        let summaries = run_batches_to_end(&self.plan, st, 0..st.batches, &tick);
-        let coarse = run_batches_to_end(&self.plan, &st.coarse(), 0..st.bias_batches, &tick);
-        let refs: Vec<_> = summaries.iter().collect();
-        let coarse_refs: Vec<_> = coarse.iter().collect();
-        finalize_run(st, &refs, &coarse_refs)
+        // A flag nobody else holds is never set: the run goes to its end.
+        self.run_cancellable(progress, &Cancel::new())
     }
 
     /// [`Simulation::run_with_progress`] that stops when `cancel` is set: checked before
