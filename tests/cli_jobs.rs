@@ -3,9 +3,31 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 use common::{fpsolve, fresh_path, json};
+
+/// Runs `fpsolve args…` and asserts that it succeeded, showing its stderr if not.
+fn succeeds(args: &[&str]) -> Output {
+    let out = fpsolve(args);
+    assert!(
+        out.status.success(),
+        "fpsolve {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Runs `fpsolve args… --out DIR` into a fresh directory named after `name`, asserts that it
+/// succeeded, and gives the directory and what the run printed.
+fn run_into(name: &str, args: &[&str]) -> (PathBuf, String) {
+    let dir = fresh_path(name);
+    let mut all = args.to_vec();
+    all.extend(["--out", dir.to_str().unwrap()]);
+    let out = succeeds(&all);
+    (dir, String::from_utf8(out.stdout).unwrap())
+}
 
 fn header(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap();
@@ -14,19 +36,7 @@ fn header(path: &Path) -> String {
 
 #[test]
 fn main_job_writes_observable_pdfs_summary_and_figures() {
-    let dir = fresh_path("main");
-    let out = fpsolve(&[
-        "models/vibro_duffing.sde",
-        "--quiet",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let table = String::from_utf8(out.stdout).unwrap();
+    let (dir, table) = run_into("main", &["models/vibro_duffing.sde", "--quiet"]);
     assert!(table.contains("inside ridge"), "{table}");
     // The grid solution beside the EPC degrees, by default.
     assert_eq!(header(&dir.join("pdf_y.csv")), "y,epc_n2,epc_n4,grid");
@@ -160,28 +170,18 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         args.extend_from_slice(&common);
         args.extend_from_slice(extra);
         args.extend_from_slice(&["--out", dir.to_str().unwrap()]);
-        let out = fpsolve(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        succeeds(&args);
     };
     run(&[], &whole);
     run(&["--shard", "1/3"], &parts);
     run(&["--shard", "2/3"], &parts);
     run(&["--shard", "3/3"], &parts);
-    let out = fpsolve(&[
+    succeeds(&[
         "merge",
         parts.to_str().unwrap(),
         "--out",
         merged.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     for f in [
         "mc_summary.json",
         "mc_z.csv",
@@ -197,21 +197,16 @@ fn shards_merge_to_exactly_the_unsplit_run() {
 
 #[test]
 fn main_job_with_monte_carlo_adds_columns_and_distances() {
-    let dir = fresh_path("mc");
-    let out = fpsolve(&[
-        "models/vibro_duffing.sde",
-        "--mc",
-        "100000",
-        "--trajectories",
-        "256",
-        "--quiet",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (dir, _) = run_into(
+        "mc",
+        &[
+            "models/vibro_duffing.sde",
+            "--mc",
+            "100000",
+            "--trajectories",
+            "256",
+            "--quiet",
+        ],
     );
     // The curves keep their own grid; the histogram sits beside every method's bin averages.
     assert_eq!(header(&dir.join("pdf_y.csv")), "y,epc_n2,epc_n4,grid");
@@ -238,21 +233,16 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
 
 #[test]
 fn sweep_writes_its_table_and_figures_and_refuses_unknown_parameters() {
-    let dir = fresh_path("sweep");
-    let out = fpsolve(&[
+    let (dir, _) = run_into(
         "sweep",
-        "models/linear.sde",
-        "--set",
-        "c=0.1:0.3:3",
-        "--set",
-        "k=1,2",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        &[
+            "sweep",
+            "models/linear.sde",
+            "--set",
+            "c=0.1:0.3:3",
+            "--set",
+            "k=1,2",
+        ],
     );
     let csv = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 6, "{csv}");
@@ -307,23 +297,11 @@ fn the_grid_column_meets_the_exact_density_of_the_elastic_case() {
 }
 
 fn exact_elastic_columns(file: &str, methods: &str) {
-    let dir = fresh_path("exact");
-    let out = fpsolve(&[
-        file,
-        "--set",
-        "r=1",
-        "--set",
-        "eps=0",
-        "--method",
-        methods,
-        "--quiet",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (dir, _) = run_into(
+        "exact",
+        &[
+            file, "--set", "r=1", "--set", "eps=0", "--method", methods, "--quiet",
+        ],
     );
     let (c, k, mu, pk) = (0.1, 1.0, 0.1, 0.5);
     let energy = |z: f64| k * z * z / 2.0 + mu * z.powi(4) / 4.0;
@@ -445,14 +423,9 @@ fn a_finished_monte_carlo_run_is_read_as_the_reference() {
         if let Some(set) = extra {
             args.extend(["--set", set]);
         }
-        let out = fpsolve(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        succeeds(&args);
     }
-    let out = fpsolve(&[
+    succeeds(&[
         "models/vibro_duffing.sde",
         "--mc-from",
         sim.to_str().unwrap(),
@@ -460,11 +433,6 @@ fn a_finished_monte_carlo_run_is_read_as_the_reference() {
         "--out",
         job.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     assert_eq!(
         header(&job.join("mc_y.csv")),
         "y,mc,mc_stderr,mc_bias,mc_bias_stderr,epc_n2_bin_mean,epc_n4_bin_mean,grid_bin_mean"
@@ -536,21 +504,10 @@ fn the_grid_is_skipped_with_its_reason_where_it_does_not_apply() {
          diffusion y: xi\n",
     )
     .unwrap();
-    let dir = root.join("out");
-    let out = fpsolve(&[
-        model.to_str().unwrap(),
-        "--degree",
-        "2",
-        "--quiet",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (dir, table) = run_into(
+        "skip-out",
+        &[model.to_str().unwrap(), "--degree", "2", "--quiet"],
     );
-    let table = String::from_utf8(out.stdout).unwrap();
     assert!(
         table.contains("grid: not run: the grid solver cannot solve"),
         "{table}"
@@ -565,4 +522,5 @@ fn the_grid_is_skipped_with_its_reason_where_it_does_not_apply() {
     assert_eq!(skipped["unsupported"]["kind"], "not_mechanical");
     assert_eq!(skipped["unsupported"]["position"], "x");
     let _ = std::fs::remove_dir_all(&root);
+    let _ = std::fs::remove_dir_all(&dir);
 }

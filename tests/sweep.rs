@@ -7,11 +7,14 @@
 use std::path::Path;
 
 use approx::assert_relative_eq;
+use fpsolve::grid::{Cells, CellsError};
 use fpsolve::model::{load_model, Model, SetError};
 use fpsolve::report::OutputDir;
-use fpsolve::solve::MethodName;
+use fpsolve::solve::{MethodName, MethodNameError, MethodSet};
+use fpsolve::study::NotApplicable;
 use fpsolve::sweep::{
-    PointFailure, PointOutcome, PointSolution, Sweep, SweepError, SweepPoint, SweepSpec,
+    MethodRefusal, PointFailure, PointOutcome, PointSolution, Sweep, SweepError, SweepPoint,
+    SweepSpec,
 };
 
 fn args(list: &[&str]) -> Vec<String> {
@@ -463,39 +466,16 @@ fn a_failure_is_recorded_per_method() {
     assert!(at("grid_z_std_dev").parse::<f64>().unwrap() > 0.0);
 }
 
-/// A method that does not apply is refused before any work by `check`, and recorded at every
-/// point by a `run` that skipped the check.
+/// A method that does not apply is recorded at every point by a `run` that skipped
+/// [`Sweep::check`] (which refuses it before any work: `refusals_are_typed_and_exit_2_…`).
 #[test]
-fn a_method_that_does_not_apply_is_refused() {
-    // Noise in the position's equation too: not the grid solver's mechanical form.
-    let model = fpsolve::model::parse_model(
-        "model m\nparam c = 1\nstate x, v\ndrift x: v\ndrift v: -c*v - x\n\
-         noise xi: intensity 1\ndiffusion x: xi\ndiffusion v: xi\n",
-        None,
-    )
-    .unwrap();
+fn a_run_that_skipped_the_check_records_the_refusal_at_every_point() {
+    let model = fpsolve::model::parse_model(NOT_MECHANICAL, None).unwrap();
     let spec = SweepSpec::parse(&args(&["c=0.5,1"])).unwrap();
-    let sweep = || {
-        Sweep::new(&model, &spec)
-            .methods("epc,grid".parse().unwrap())
-            .degree(2)
-    };
-    let err = sweep().check().unwrap_err();
-    assert!(
-        matches!(
-            &err,
-            SweepError::Method {
-                method: MethodName::Grid,
-                reason,
-                ..
-            } if matches!(
-                **reason,
-                fpsolve::sweep::MethodRefusal::NotApplicable(fpsolve::study::NotApplicable::Grid { .. })
-            )
-        ),
-        "{err}"
-    );
-    let result = sweep().run();
+    let result = Sweep::new(&model, &spec)
+        .methods("epc,grid".parse().unwrap())
+        .degree(2)
+        .run();
     assert_eq!(result.converged_by(MethodName::Epc), 2);
     for point in &result.points {
         let Some(PointOutcome::Failed(f)) = point.outcome(MethodName::Grid) else {
@@ -503,40 +483,6 @@ fn a_method_that_does_not_apply_is_refused() {
         };
         assert_eq!(f.stage(), "grid");
     }
-    // Cells the grid solver refuses, whatever the model.
-    let spec = SweepSpec::parse(&args(&["c=0.1,0.2"])).unwrap();
-    let bad = Sweep::new(&linear(), &spec)
-        .methods("grid".parse().unwrap())
-        .cells(fpsolve::grid::Cells([30, 7]))
-        .check()
-        .unwrap_err();
-    assert!(
-        matches!(
-            bad,
-            SweepError::Method {
-                method: MethodName::Grid,
-                ..
-            }
-        ),
-        "{bad}"
-    );
-    // `epc-impact` takes the impact law itself: the Zhuravlev form (δ terms) is refused.
-    let spec = SweepSpec::parse(&args(&["eps=0.1,0.2"])).unwrap();
-    let impact = Sweep::new(&vibro(), &spec)
-        .methods("epc-impact".parse().unwrap())
-        .check()
-        .unwrap_err();
-    assert!(matches!(
-        impact,
-        SweepError::Method {
-            method: MethodName::EpcImpact,
-            reason,
-            ..
-        } if matches!(
-            *reason,
-            fpsolve::sweep::MethodRefusal::NotApplicable(fpsolve::study::NotApplicable::EpcImpact { .. })
-        )
-    ));
 }
 
 /// The headline: the vibro-impact Duffing oscillator at μ = 0.1 (the paper's Table 1 model)
@@ -596,104 +542,198 @@ fn fpsolve_cli(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
-/// Bad `--method` and `--cells`, and a method the model does not suit, exit 2 before the
-/// output directory exists, naming the flag or the method.
+/// Noise in the position's equation too: not the grid solver's mechanical form.
+const NOT_MECHANICAL: &str = "model odd\nparam c = 1\nstate x, v\ndrift x: v\n\
+    drift v: -c*v - x\nnoise xi: intensity 1\ndiffusion x: xi\ndiffusion v: xi\n";
+
+/// What the library says of a sweep's `--method` and `--cells` texts, taken in the command
+/// line's order: the method set, the cells, then [`Sweep::check`] against the model.
+#[derive(Debug)]
+enum Verdict {
+    Methods(MethodNameError),
+    Cells(CellsError),
+    Check(SweepError),
+    Accepted,
+}
+
+fn verdict(model: &Model, spec: &SweepSpec, method: &str, cells: Option<&str>) -> Verdict {
+    let methods = match method.parse::<MethodSet>() {
+        Ok(m) => m,
+        Err(e) => return Verdict::Methods(e),
+    };
+    let mut sweep = Sweep::new(model, spec).methods(methods);
+    match cells.map(str::parse::<Cells>).transpose() {
+        Ok(Some(c)) => sweep = sweep.cells(c),
+        Ok(None) => {}
+        Err(e) => return Verdict::Cells(e),
+    }
+    match sweep.check() {
+        Err(e) => Verdict::Check(e),
+        Ok(()) => Verdict::Accepted,
+    }
+}
+
+/// A refused sweep: its model and flags, the library's typed verdict on them, and words the
+/// command line's message must hold (the flag or method it names).
+struct Refusal<'a> {
+    tag: &'a str,
+    model: &'a str,
+    set: &'a str,
+    method: &'a str,
+    cells: Option<&'a str>,
+    typed: fn(&Verdict) -> bool,
+    names: &'a [&'a str],
+}
+
+fn not_applicable(v: &Verdict, method: MethodName) -> Option<&NotApplicable> {
+    match v {
+        Verdict::Check(SweepError::Method {
+            method: m, reason, ..
+        }) if *m == method => match &**reason {
+            MethodRefusal::NotApplicable(why) => Some(why),
+            MethodRefusal::Cells(_) => None,
+        },
+        _ => None,
+    }
+}
+
+/// Every refusal before any work, one table: the library's typed error for the flags
+/// (`Accepted` where only the command line has the rule), and `fpsolve sweep` exiting 2
+/// without creating its output directory, its message naming the flag or the method.
 #[test]
-fn bad_methods_and_cells_exit_2_before_any_work() {
+fn refusals_are_typed_and_exit_2_before_any_work() {
     let root = std::env::temp_dir().join(format!("fpsolve-sweep-cli-{}", std::process::id()));
     std::fs::create_dir_all(&root).unwrap();
     let odd = root.join("odd.sde");
-    std::fs::write(
-        &odd,
-        "model odd\nparam c = 1\nstate x, v\ndrift x: v\ndrift v: -c*v - x\n\
-         noise xi: intensity 1\ndiffusion x: xi\ndiffusion v: xi\n",
-    )
-    .unwrap();
+    std::fs::write(&odd, NOT_MECHANICAL).unwrap();
     let odd = odd.to_str().unwrap();
-    let cases: [(&str, &[&str], &[&str]); 6] = [
-        (
-            "unknown",
-            &["--method", "epc,mc"],
-            &["--method", "`mc` is not a method"],
-        ),
-        ("empty", &["--method", ""], &["--method", "no method"]),
-        (
-            "repeated",
-            &["--method", "grid,grid"],
-            &["--method", "twice"],
-        ),
-        (
-            "odd-cells",
-            &["--method", "grid", "--cells", "41,40"],
-            &["--cells", "even"],
-        ),
-        (
-            "one-cell",
-            &["--method", "grid", "--cells", "140"],
-            &["--cells", "NX,NV"],
-        ),
-        (
-            "cells-no-grid",
-            &["--cells", "140,280"],
-            &["--cells", "grid"],
-        ),
+    let (linear_sde, vibro_sde) = ("models/linear.sde", "models/vibro_duffing.sde");
+    let cases = [
+        Refusal {
+            tag: "unknown",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "epc,mc",
+            cells: None,
+            typed: |v| matches!(v, Verdict::Methods(MethodNameError::Unknown { name }) if name == "mc"),
+            names: &["--method", "`mc` is not a method"],
+        },
+        Refusal {
+            tag: "empty",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "",
+            cells: None,
+            typed: |v| matches!(v, Verdict::Methods(MethodNameError::Empty)),
+            names: &["--method", "no method"],
+        },
+        Refusal {
+            tag: "repeated",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "grid,grid",
+            cells: None,
+            typed: |v| matches!(v, Verdict::Methods(MethodNameError::Repeated { name }) if name == "grid"),
+            names: &["--method", "twice"],
+        },
+        Refusal {
+            tag: "odd-cells",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "grid",
+            cells: Some("41,40"),
+            typed: |v| matches!(v, Verdict::Cells(CellsError::Invalid { nx: 41, nv: 40 })),
+            names: &["--cells", "even"],
+        },
+        Refusal {
+            tag: "one-cell",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "grid",
+            cells: Some("140"),
+            typed: |v| matches!(v, Verdict::Cells(CellsError::Syntax { text }) if text == "140"),
+            names: &["--cells", "NX,NV"],
+        },
+        Refusal {
+            // Cells without the grid method: a rule of the command line alone.
+            tag: "cells-no-grid",
+            model: linear_sde,
+            set: "c=0.1,0.2",
+            method: "epc",
+            cells: Some("140,280"),
+            typed: |v| matches!(v, Verdict::Accepted),
+            names: &["--cells", "grid"],
+        },
+        Refusal {
+            tag: "not-mechanical",
+            model: odd,
+            set: "c=0.5,1",
+            method: "epc,grid",
+            cells: None,
+            typed: |v| {
+                matches!(
+                    not_applicable(v, MethodName::Grid),
+                    Some(NotApplicable::Grid { .. })
+                )
+            },
+            names: &["--method grid", "noise `xi`"],
+        },
+        Refusal {
+            // EPC with the exact impact condition takes the impact law itself: the
+            // Zhuravlev form (δ terms, a pass-through law) is refused.
+            tag: "impact",
+            model: vibro_sde,
+            set: "eps=0.1,0.2",
+            method: "epc-impact",
+            cells: None,
+            typed: |v| {
+                matches!(
+                    not_applicable(v, MethodName::EpcImpact),
+                    Some(NotApplicable::EpcImpact { .. })
+                )
+            },
+            names: &["epc-impact", "original coordinates"],
+        },
     ];
-    for (tag, extra, expect) in cases {
+    for case in &cases {
+        let tag = case.tag;
+        let model = load_model(&Path::new(env!("CARGO_MANIFEST_DIR")).join(case.model)).unwrap();
+        let spec = SweepSpec::parse(&args(&[case.set])).unwrap();
+        let v = verdict(&model, &spec, case.method, case.cells);
+        assert!((case.typed)(&v), "{tag}: {v:?}");
         let out = root.join(tag);
-        let mut a = vec![
-            "sweep",
-            "models/linear.sde",
-            "--set",
-            "c=0.1,0.2",
-            "--quiet",
-        ];
-        a.extend_from_slice(extra);
+        let mut a = vec!["sweep", case.model, "--set", case.set, "--quiet"];
+        a.extend(["--method", case.method]);
+        if let Some(cells) = case.cells {
+            a.extend(["--cells", cells]);
+        }
         a.extend(["--out", out.to_str().unwrap()]);
         let o = fpsolve_cli(&a);
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{tag}: {stderr}");
         assert!(!out.exists(), "{tag}: the output directory was created");
-        for e in expect {
+        for e in case.names {
             assert!(stderr.contains(e), "{tag}: `{e}` not in {stderr}");
         }
     }
-    let out = root.join("not-mechanical");
-    let o = fpsolve_cli(&[
-        "sweep",
-        odd,
-        "--set",
-        "c=0.5,1",
-        "--method",
-        "epc,grid",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(!out.exists());
+    // Cells given to the library directly, past the text's own check, are refused by
+    // `check`, whatever the model.
+    let spec = SweepSpec::parse(&args(&["c=0.1,0.2"])).unwrap();
+    let bad = Sweep::new(&linear(), &spec)
+        .methods("grid".parse().unwrap())
+        .cells(Cells([30, 7]))
+        .check()
+        .unwrap_err();
     assert!(
-        stderr.contains("--method grid") && stderr.contains("noise `xi`"),
-        "{stderr}"
-    );
-    // EPC with the exact impact condition takes the impact law itself: the Zhuravlev form
-    // (δ terms, a pass-through law) is refused before any work.
-    let out = root.join("impact");
-    let o = fpsolve_cli(&[
-        "sweep",
-        "models/vibro_duffing.sde",
-        "--set",
-        "eps=0.1,0.2",
-        "--method",
-        "epc-impact",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(!out.exists());
-    assert!(
-        stderr.contains("epc-impact") && stderr.contains("original coordinates"),
-        "{stderr}"
+        matches!(
+            &bad,
+            SweepError::Method {
+                method: MethodName::Grid,
+                reason,
+                ..
+            } if matches!(**reason, MethodRefusal::Cells(_))
+        ),
+        "{bad}"
     );
     std::fs::remove_dir_all(&root).unwrap();
 }

@@ -10,6 +10,7 @@ use crate::solve::{
     SolveError,
 };
 
+use super::thresholds::{Frontier, ReferenceRms};
 use super::{EpcFigures, PointFailure, PointSolution, PointStats, SolverFigures, SweepSpec};
 
 /// A point's data before the tail thresholds are known.
@@ -24,10 +25,9 @@ pub(super) struct RawMethod {
     pub(super) method: MethodName,
     pub(super) wall_ms: f64,
     pub(super) outcome: Result<PointCurves, PointFailure>,
-    /// √E\[g²\] per quantity under this solution, for a method whose reference solution is
-    /// the one reported (not EPC: its reference is the degree-2 solution, which the point
-    /// does not keep; see [`super::thresholds`]).
-    pub(super) rms: Option<Vec<f64>>,
+    /// √E\[g²\] per quantity under this method's reference solution (the reported one, or
+    /// EPC's degree-2 solution), when the point computed it (see [`super::thresholds`]).
+    pub(super) reference: ReferenceRms,
 }
 
 /// A solved point's figures and, per quantity, its moments and PDF curve (the tails are
@@ -47,29 +47,45 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-/// The point `values` of `spec` solved by every method in `settled`.
+/// The point `values` (number `index` of the sweep's points) of `spec` solved by every
+/// method in `settled`. The first method's EPC reference values are computed when the point
+/// is at the `frontier`.
 pub(super) fn solve_point(
     model: &Model,
     spec: &SweepSpec,
+    index: usize,
     values: Vec<f64>,
     settled: &[(MethodName, Method)],
+    frontier: &Frontier,
 ) -> Raw {
     let start = Instant::now();
     let bound = model.bind(&spec.overrides_at(&values));
     let methods = settled
         .iter()
-        .map(|(name, method)| {
+        .enumerate()
+        .map(|(k, (name, method))| {
             let t = Instant::now();
-            let (outcome, rms) = match (&bound, method) {
-                (Err(e), _) => (Err(PointFailure::Bind(e.clone())), None),
-                (Ok(bound), Method::Epc { degree }) => (by_epc(bound, *degree), None),
-                (Ok(bound), method) => by_method(bound, *method),
+            let (outcome, reference) = match (&bound, method) {
+                (Err(e), _) => (
+                    Err(PointFailure::Bind(e.clone())),
+                    ReferenceRms::Known(None),
+                ),
+                (Ok(bound), Method::Epc { degree }) => {
+                    by_epc(bound, *degree, (k == 0).then_some((frontier, index)))
+                }
+                (Ok(bound), method) => {
+                    let (outcome, rms) = by_method(bound, *method);
+                    (outcome, ReferenceRms::Known(rms))
+                }
             };
+            if k == 0 && reference == ReferenceRms::Known(None) {
+                frontier.passed(index);
+            }
             RawMethod {
                 method: *name,
                 wall_ms: ms(t),
                 outcome,
-                rms,
+                reference,
             }
         })
         .collect();
@@ -124,13 +140,36 @@ pub(super) fn epc_reference_rms(bound: &BoundModel, degree: usize) -> Option<Vec
     rms_of(&first.all_moments(), problem.quantities().len())
 }
 
-/// EPC at `degree`, continued from degree 2. Reported: the target degree's moments, and its
-/// PDF curves on the grid common to both degrees (the union of the windows where each density
-/// is at least 1e−8 of its peak, as the main job's `pdf_*.csv` tabulates both): the curves and
-/// hence the tails are those of the study at the point, without the degree-2 curves and
-/// moments the study also computes and the sweep never reports.
-fn by_epc(bound: &BoundModel, degree: usize) -> Result<PointCurves, PointFailure> {
-    let (problem, solved) = epc_ladder(bound, degree)?;
+/// EPC at `degree`, continued from degree 2, and the reference values of the degree-2
+/// solution when `reference` (the frontier and this point's index) wants them.
+fn by_epc(
+    bound: &BoundModel,
+    degree: usize,
+    reference: Option<(&Frontier, usize)>,
+) -> (Result<PointCurves, PointFailure>, ReferenceRms) {
+    let (problem, solved) = match epc_ladder(bound, degree) {
+        Ok(ladder) => ladder,
+        Err(failure) => return (Err(failure), ReferenceRms::Known(None)),
+    };
+    let rms = match (solved.first(), reference) {
+        (Some(Ok(first)), Some((frontier, index))) if frontier.wants(index) => {
+            ReferenceRms::Known(rms_of(&first.all_moments(), problem.quantities().len()))
+        }
+        (Some(Ok(_)), _) => ReferenceRms::Unknown,
+        (_, _) => ReferenceRms::Known(None),
+    };
+    (epc_curves(&problem, solved), rms)
+}
+
+/// The target degree of a point's EPC ladder. Reported: its moments, and its PDF curves on
+/// the grid common to both degrees (the union of the windows where each density is at least
+/// 1e−8 of its peak, as the main job's `pdf_*.csv` tabulates both): the curves and hence the
+/// tails are those of the study at the point, without the degree-2 curves and moments the
+/// study also computes and the sweep never reports.
+fn epc_curves(
+    problem: &Problem<'_>,
+    solved: Vec<Result<Solution, PointFailure>>,
+) -> Result<PointCurves, PointFailure> {
     // A failure at degree 2 is the reason the target degree has no solution either.
     let mut solutions = Vec::with_capacity(solved.len());
     for r in solved {

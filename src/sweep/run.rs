@@ -13,7 +13,7 @@ use crate::solve::{quantities_of, reported, tail_probability, Method, MethodName
 
 use super::method::{applies, settle};
 use super::point::{solve_point, PointCurves, Raw};
-use super::thresholds::{self, Reference};
+use super::thresholds::{self, Frontier, Reference, ReferenceRms};
 use super::{
     MethodOutcome, MethodRefusal, PointFailure, PointOutcome, SweepError, SweepPoint, SweepResult,
     SweepSpec, TailThresholds, TAIL_MULTIPLES,
@@ -201,34 +201,38 @@ impl<'a> Sweep<'a> {
         let done = AtomicU64::new(0);
         let settled = self.settled();
         let all = spec.points();
+        let frontier = Frontier::at(&range);
         let solve = || {
-            all[range.clone()]
-                .par_iter()
-                .map(|values| {
+            range
+                .clone()
+                .into_par_iter()
+                .map(|i| {
                     if cancel.is_cancelled() {
                         return Err(Cancelled);
                     }
-                    let point = solve_point(model, spec, values.clone(), &settled);
+                    let point = solve_point(model, spec, i, all[i].clone(), &settled, &frontier);
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(k, total);
                     Ok(point)
                 })
                 .collect::<Result<Vec<Raw>, Cancelled>>()
         };
-        let reference_of = |raw: Option<(&[Raw], Range<usize>)>| {
-            thresholds::reference(model, spec, &all, settled[0].1, raw, cancel)
+        let method = settled[0].1;
+        let walk = |indices: Range<usize>, known: &dyn Fn(usize) -> ReferenceRms| {
+            thresholds::reference(model, spec, &all, indices, method, known, cancel)
         };
-        // EPC's reference is its degree-2 solution, which a point does not keep: found on one
-        // core while the others solve. Another method's is the reported solution: looked up
-        // in the points solved here first.
-        let (raw, reference) = if matches!(settled[0].1, Method::Epc { .. }) {
-            let (raw, reference) = rayon::join(solve, || reference_of(None));
-            (raw?, reference)
-        } else {
-            let raw = solve()?;
-            let reference = reference_of(Some((&raw, range.clone())));
-            (raw, reference)
-        };
+        // The points before this range (a shard's) are walked on one core while the others
+        // solve; then the range's own points, from what they computed (see
+        // [`super::thresholds`]), and any after it.
+        let (raw, before) = rayon::join(solve, || walk(0..range.start, &|_| ReferenceRms::Unknown));
+        let raw = raw?;
+        let reference = before.or_else(|| {
+            let known = |i: usize| match i.checked_sub(range.start).and_then(|k| raw.get(k)) {
+                Some(point) => point.methods[0].reference.clone(),
+                None => ReferenceRms::Unknown,
+            };
+            walk(range.start..all.len(), &known)
+        });
         if cancel.is_cancelled() {
             return Err(Cancelled);
         }

@@ -5,14 +5,25 @@
 //! Found by walking the sweep's points in order from the first, whatever part of the sweep
 //! this process solves: a shard finds the same point and the same values as the whole run,
 //! so that the tails of merged shards are those of one run.
+//!
+//! The walk solves no point twice where it can help it. A point this process solves reports
+//! its reference values ([`ReferenceRms`]) beside its results: always for a method whose
+//! reference is its reported solution, and for EPC (whose reference is the degree-2 solution
+//! of the point's own ladder) when the point is the first of its range not yet known to have
+//! no reference (the [`Frontier`]), so that √E\[g²\] under the degree-2 solution is computed
+//! at that point alone and not at every point. Only a point the walk needs and nobody
+//! computed — one before this process's range (a shard), or one that finished before the
+//! points ahead of it were known to have failed — is solved by the walk, exactly as the
+//! point's ladder solves it, so the values are bit for bit the same either way.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::cancel::Cancel;
 use crate::model::Model;
 use crate::solve::Method;
 
-use super::point::{by_method, epc_reference_rms, Raw};
+use super::point::{by_method, epc_reference_rms};
 use super::SweepSpec;
 
 /// The reference point of the tail thresholds and √E\[g²\] of each quantity there.
@@ -24,39 +35,158 @@ pub(super) struct Reference {
     pub(super) rms: Vec<f64>,
 }
 
-/// The first point of `points` whose reference solution by `method` has finite positive
-/// √E\[g²\] of every quantity. `solved`: points this process solved already (from the
-/// sweep's index `range.start`), whose values are reused when `method` is not EPC (EPC's
-/// reference, its degree-2 solution, is not kept by a point and is solved again here, as the
-/// point's own ladder solves it). `None` when no point qualifies or when cancelled.
+/// What a solved point knows of its own reference values.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum ReferenceRms {
+    /// Not computed (an EPC point behind the frontier when it finished).
+    Unknown,
+    /// Computed: √E\[g²\] per quantity, or `None` when the point cannot be the reference
+    /// (no reference solution, or a value not finite and positive).
+    Known(Option<Vec<f64>>),
+}
+
+/// The first point of a range not yet known to have no reference: the one point whose EPC
+/// reference values are worth computing while the points run in parallel.
+pub(super) struct Frontier(AtomicUsize);
+
+impl Frontier {
+    /// A frontier at the first point of `range`.
+    pub(super) fn at(range: &Range<usize>) -> Self {
+        Frontier(AtomicUsize::new(range.start))
+    }
+
+    /// Whether point `index` is the frontier (its reference values are wanted).
+    pub(super) fn wants(&self, index: usize) -> bool {
+        self.0.load(Ordering::Acquire) == index
+    }
+
+    /// Point `index`, the frontier, has no reference: the frontier moves to the next point
+    /// (which computes its values if it has not finished yet, and is solved by the walk
+    /// otherwise).
+    pub(super) fn passed(&self, index: usize) {
+        // Only the frontier itself moves it, so the exchange cannot fail for another reason.
+        let _ = self
+            .0
+            .compare_exchange(index, index + 1, Ordering::AcqRel, Ordering::Acquire);
+    }
+}
+
+/// The reference values of point `values` by `method`, solved here: as the point's own
+/// ladder (EPC) or the point's own solve (any other method) computes them.
+fn solved_rms(model: &Model, spec: &SweepSpec, values: &[f64], method: Method) -> Option<Vec<f64>> {
+    let bound = model.bind(&spec.overrides_at(values)).ok()?;
+    match method {
+        Method::Epc { degree } => epc_reference_rms(&bound, degree),
+        other => by_method(&bound, other).1,
+    }
+}
+
+/// The first point among `indices` of `points` whose reference solution by `method` has
+/// finite positive √E\[g²\] of every quantity. `known(i)`: the values point `i`'s own solve
+/// reported, when it computed them; any other point is solved here. `None` when no point of
+/// `indices` qualifies or when cancelled.
 pub(super) fn reference(
     model: &Model,
     spec: &SweepSpec,
     points: &[Vec<f64>],
+    indices: Range<usize>,
     method: Method,
-    solved: Option<(&[Raw], Range<usize>)>,
+    known: impl Fn(usize) -> ReferenceRms,
     cancel: &Cancel,
 ) -> Option<Reference> {
-    for (i, values) in points.iter().enumerate() {
+    for i in indices {
         if cancel.is_cancelled() {
             return None;
         }
-        let kept = match (&solved, method) {
-            (Some((raw, range)), m) if range.contains(&i) && !matches!(m, Method::Epc { .. }) => {
-                Some(raw[i - range.start].methods[0].rms.clone())
-            }
-            _ => None,
+        let rms = match known(i) {
+            ReferenceRms::Known(rms) => rms,
+            ReferenceRms::Unknown => solved_rms(model, spec, &points[i], method),
         };
-        let rms = kept.unwrap_or_else(|| {
-            let bound = model.bind(&spec.overrides_at(values)).ok()?;
-            match method {
-                Method::Epc { degree } => epc_reference_rms(&bound, degree),
-                other => by_method(&bound, other).1,
-            }
-        });
         if let Some(rms) = rms {
             return Some(Reference { point: i, rms });
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::parse_model;
+
+    /// A linear oscillator whose intensity S may be negative (a bind failure).
+    fn linear() -> Model {
+        parse_model(
+            "model linear\nparam c = 0.2, S = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+             noise xi: intensity S\ndiffusion v: xi\n",
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn the_walk_solves_exactly_the_points_nobody_computed() {
+        let model = linear();
+        let spec = SweepSpec::parse(&["S=-1,-2,1,2".to_string()]).unwrap();
+        let points = spec.points();
+        let method = Method::Epc { degree: 4 };
+        let solved = |i: usize| solved_rms(&model, &spec, &points[i], method);
+        // Points 0 and 1 do not bind; point 2 is the reference (var z = S/(2c) = 2.5).
+        let scratch = reference(
+            &model,
+            &spec,
+            &points,
+            0..4,
+            method,
+            |_| ReferenceRms::Unknown,
+            &Cancel::new(),
+        )
+        .unwrap();
+        assert_eq!(scratch.point, 2);
+        assert!((scratch.rms[0] / 2.5f64.sqrt() - 1.0).abs() < 1e-9);
+        // Told point 1 has none and point 2 is unknown: solves point 2, the same bits.
+        let told = |i: usize| match i {
+            0 | 1 => ReferenceRms::Known(None),
+            _ => ReferenceRms::Unknown,
+        };
+        let cancel = Cancel::new();
+        let walked = reference(&model, &spec, &points, 0..4, method, told, &cancel);
+        assert_eq!(walked, Some(scratch.clone()));
+        // Told values are taken as they are, never solved again.
+        let fake = vec![7.0; 2];
+        let told = |i: usize| match i {
+            0 => ReferenceRms::Known(None),
+            1 => ReferenceRms::Known(Some(fake.clone())),
+            _ => ReferenceRms::Known(solved(i)),
+        };
+        let walked = reference(&model, &spec, &points, 0..4, method, told, &cancel).unwrap();
+        assert_eq!((walked.point, walked.rms), (1, fake));
+        // A range that starts after the reference finds the next qualifying point.
+        let later = reference(
+            &model,
+            &spec,
+            &points,
+            3..4,
+            method,
+            |_| ReferenceRms::Unknown,
+            &cancel,
+        );
+        assert_eq!(later.map(|r| r.point), Some(3));
+        cancel.cancel();
+        let told = |_| ReferenceRms::Unknown;
+        assert_eq!(
+            reference(&model, &spec, &points, 0..4, method, told, &cancel),
+            None
+        );
+    }
+
+    #[test]
+    fn the_frontier_moves_only_from_itself() {
+        let frontier = Frontier::at(&(3..9));
+        assert!(frontier.wants(3) && !frontier.wants(4));
+        frontier.passed(5); // not the frontier: no move
+        assert!(frontier.wants(3));
+        frontier.passed(3);
+        assert!(frontier.wants(4) && !frontier.wants(3));
+    }
 }
