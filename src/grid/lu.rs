@@ -193,7 +193,7 @@ impl Factor {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::grid::assemble::{assemble, matrix};
     use crate::grid::mesh::{Domain, Mesh};
@@ -205,7 +205,11 @@ mod tests {
     /// The operator of `file` (r = 0.95) on `nx` × `nv` cells of the domain the solver sizes
     /// for the paper's case 1, pinned at v = 0 on the wall or at the centre (where the
     /// density is large: a pin in the tail scales the solution up by orders of magnitude).
-    fn system(file: &str, nx: usize, nv: usize) -> (Mesh, SparseColMat<usize, f64>, usize) {
+    pub(crate) fn system(
+        file: &str,
+        nx: usize,
+        nv: usize,
+    ) -> (Mesh, SparseColMat<usize, f64>, usize) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let b = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
         let problem = Mechanical::new(&b).unwrap();
