@@ -53,7 +53,6 @@ mod error;
 #[cfg(test)]
 mod lu;
 mod mesh;
-#[cfg(test)]
 mod nested;
 mod pattern_lu;
 mod problem;

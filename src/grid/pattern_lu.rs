@@ -26,7 +26,9 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
     SymmetricOrdering,
 };
-use faer::sparse::linalg::{amd, SupernodalThreshold};
+#[cfg(test)]
+use faer::sparse::linalg::amd;
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side, Spec};
 
@@ -65,6 +67,7 @@ impl std::fmt::Display for LuFailure {
 }
 
 /// The fill-reducing symmetric ordering: AMD on A + Aᵀ with cell `last` moved to the end.
+#[cfg(test)]
 fn ordering(a: SymbolicSparseColMatRef<'_, usize>, last: usize) -> Result<Vec<usize>, LuFailure> {
     let n = a.ncols();
     let nnz = a.compute_nnz();
@@ -136,12 +139,16 @@ fn permute(a: SparseColMatRef<'_, usize, f64>, inv: &[usize]) -> Permuted {
 }
 
 impl PatternLu {
-    /// Factorises the square matrix `a` whose row `last` is the unit row e_last.
+    /// Factorises the square matrix `a` whose row `last` is the unit row e_last, ordered by
+    /// AMD on A + Aᵀ (measured against nested dissection, docs/method.md section 8).
+    #[cfg(test)]
     pub(crate) fn new(
         a: SparseColMatRef<'_, usize, f64>,
         last: usize,
     ) -> Result<PatternLu, LuFailure> {
+        let t = std::time::Instant::now();
         let fwd = ordering(a.symbolic(), last)?;
+        if std::env::var("G3_DEBUG").is_ok() { eprintln!("order {:.1} ms", t.elapsed().as_secs_f64()*1e3); }
         PatternLu::ordered(a, fwd)
     }
 
@@ -174,9 +181,12 @@ impl PatternLu {
         let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
             return Err(LuFailure::Analysis("not supernodal".into()));
         };
+        if std::env::var("G3_DEBUG").is_ok() { eprintln!("symbolic: {} supernodes, len_val {}", sym.n_supernodes(), sym.len_val()); }
+        let t = std::time::Instant::now();
         let p = permute(a, &inv);
         let scale = p.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let (l, u, pivots) = numeric(sym, &p)?;
+        if std::env::var("G3_DEBUG").is_ok() { eprintln!("numeric {:.1} ms", t.elapsed().as_secs_f64()*1e3); }
         let top = l.iter().chain(&u).fold(0.0f64, |m, v| m.max(v.abs()));
         Ok(PatternLu {
             symbolic,
@@ -256,26 +266,26 @@ impl PatternLu {
                 MatMut::from_column_major_slice_mut(&mut y[s0..s1], ns, 1),
                 Par::Seq,
             );
-            for (k, &r) in pattern.iter().enumerate() {
-                let mut acc = 0.0;
-                for j in 0..ns {
-                    acc += bot[(k, j)] * y[s0 + j];
+            let nr = pattern.len();
+            let lcols = &self.l[cpv[s]..cpv[s + 1]];
+            for j in 0..ns {
+                let x = y[s0 + j];
+                let col = &lcols[j * (ns + nr) + ns..(j + 1) * (ns + nr)];
+                for (&r, &v) in pattern.iter().zip(col) {
+                    y[r] -= v * x;
                 }
-                y[r] -= acc;
             }
+            let _ = bot;
         }
         for s in (0..sym.n_supernodes()).rev() {
             let (s0, s1) = (begin[s], end[s]);
             let ns = s1 - s0;
             let pattern = &rows[cpr[s]..cpr[s + 1]];
             let nr = pattern.len();
-            let us = MatRef::from_column_major_slice(&self.u[cpv[s]..cpv[s + 1]], ns + nr, ns);
-            let ut = us.split_at_row(ns).1;
+            let ucols = &self.u[cpv[s]..cpv[s + 1]];
             for j in 0..ns {
-                let mut acc = 0.0;
-                for (k, &r) in pattern.iter().enumerate() {
-                    acc += ut[(k, j)] * y[r];
-                }
+                let col = &ucols[j * (ns + nr) + ns..(j + 1) * (ns + nr)];
+                let acc: f64 = pattern.iter().zip(col).map(|(&r, &v)| v * y[r]).sum();
                 y[s0 + j] -= acc;
             }
             let ls = MatRef::from_column_major_slice(&self.l[cpv[s]..cpv[s + 1]], ns + nr, ns);
@@ -344,7 +354,9 @@ fn numeric(sym: &SymbolicSupernodalCholesky<usize>, a: &Permuted) -> Result<Fact
     let mut pos = vec![0usize; nsup];
     let mut work: Vec<f64> = Vec::new();
     let mut rel: Vec<usize> = Vec::new();
-    let par = faer::get_global_parallelism();
+    // Sequential: the error estimate's solve runs on the other core, and the result does
+    // not depend on the thread count.
+    let par = Par::Seq;
     let mut lu_mem = MemBuffer::new(lu_in_place_scratch::<usize, f64>(
         n.min(1 << 16),
         n.min(1 << 16),
