@@ -21,13 +21,13 @@ use faer::linalg::triangular_solve::{
 };
 use faer::perm::PermRef;
 use faer::reborrow::*;
+#[cfg(test)]
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
     SymmetricOrdering,
 };
-#[cfg(test)]
-use faer::sparse::linalg::amd;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side, Spec};
@@ -44,7 +44,8 @@ pub(crate) struct PatternLu {
     u: Vec<f64>,
     /// Per supernode, its rows' order after pivoting in its diagonal block (local indices).
     pivots: Vec<usize>,
-    /// max |U| / max |A|, the pivot growth.
+    /// max |L|, |U| / max |A|, the pivot growth.
+    #[cfg(test)]
     pub(crate) growth: f64,
 }
 
@@ -146,9 +147,7 @@ impl PatternLu {
         a: SparseColMatRef<'_, usize, f64>,
         last: usize,
     ) -> Result<PatternLu, LuFailure> {
-        let t = std::time::Instant::now();
         let fwd = ordering(a.symbolic(), last)?;
-        if std::env::var("G3_DEBUG").is_ok() { eprintln!("order {:.1} ms", t.elapsed().as_secs_f64()*1e3); }
         PatternLu::ordered(a, fwd)
     }
 
@@ -181,20 +180,21 @@ impl PatternLu {
         let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
             return Err(LuFailure::Analysis("not supernodal".into()));
         };
-        if std::env::var("G3_DEBUG").is_ok() { eprintln!("symbolic: {} supernodes, len_val {}", sym.n_supernodes(), sym.len_val()); }
-        let t = std::time::Instant::now();
         let p = permute(a, &inv);
-        let scale = p.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let (l, u, pivots) = numeric(sym, &p)?;
-        if std::env::var("G3_DEBUG").is_ok() { eprintln!("numeric {:.1} ms", t.elapsed().as_secs_f64()*1e3); }
-        let top = l.iter().chain(&u).fold(0.0f64, |m, v| m.max(v.abs()));
+        #[cfg(test)]
+        let growth = {
+            let scale = p.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            l.iter().chain(&u).fold(0.0f64, |m, v| m.max(v.abs())) / scale
+        };
         Ok(PatternLu {
             symbolic,
             fwd,
             l,
             u,
             pivots,
-            growth: top / scale,
+            #[cfg(test)]
+            growth,
         })
     }
 
@@ -228,6 +228,7 @@ impl PatternLu {
     }
 
     /// Entries of L and U (the stored values, explicit zeros of the supernodes included).
+    #[cfg(test)]
     pub(crate) fn entries(&self) -> usize {
         2 * self.sym().len_val()
     }
@@ -555,45 +556,53 @@ mod tests {
         }
     }
 
+    /// The ordering table of docs/method.md section 8: stored entries of L and U,
+    /// multiply-adds and time of faer's LU (COLAMD, pattern of AᵀA) and of this LU (pattern
+    /// of A + Aᵀ) under AMD and nested dissection, by cell count. Run it with
+    /// `cargo test --release --lib grid::pattern_lu::tests::ordering_table -- --ignored --nocapture`.
     #[test]
-    #[ignore = "a measurement"]
-    fn timing() {
-        for n in [50usize, 100, 200, 400] {
-            let (mesh, a, pin) = system("models/vibro_impact_duffing.sde", n, 2 * n);
-            let t = std::time::Instant::now();
-            let f = Factor::new(a.as_ref(), &Ordering::Colamd).unwrap();
-            let tf = t.elapsed().as_secs_f64() * 1e3;
-            let t = std::time::Instant::now();
-            let lu = PatternLu::new(a.as_ref(), pin).unwrap();
-            let tp = t.elapsed().as_secs_f64() * 1e3;
-            let mut p = vec![0.0; mesh.cells()];
-            p[pin] = 1.0;
-            let mut q = p.clone();
-            f.solve(&mut p);
-            lu.solve(&mut q);
-            let top = p.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let worst = p
-                .iter()
-                .zip(&q)
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-            for (hops, fold) in [(1, false), (2, false), (1, true)] {
-                let mut nd = crate::grid::nested::nested_dissection(
-                    a.symbolic(),
-                    &crate::grid::nested::cell_coords(n, 2 * n, fold),
-                    hops,
-                );
-                nd.retain(|&c| c != pin);
-                nd.push(pin);
+    #[ignore = "a measurement, a minute long: prints the ordering table"]
+    fn ordering_table() {
+        use crate::grid::nested::{cell_coords, nested_dissection};
+        println!("| model | cells | LU, ordering | L+U entries | multiply-adds | factor ms |");
+        println!("|---|---|---|---|---|---|");
+        let ms = |t: std::time::Instant| t.elapsed().as_secs_f64() * 1e3;
+        for file in [
+            "models/vibro_impact_duffing.sde",
+            "models/vibro_duffing.sde",
+        ] {
+            let model = file.trim_start_matches("models/").trim_end_matches(".sde");
+            for n in [50usize, 100, 200, 400] {
+                let (_, a, pin) = system(file, n, 2 * n);
+                let row = |name: &str, entries: f64, flops: f64, t: f64| {
+                    println!(
+                        "| {model} | {n}x{} | {name} | {entries:.2e} | {flops:.2e} | {t:.0} |",
+                        2 * n
+                    );
+                };
                 let t = std::time::Instant::now();
-                let lu = PatternLu::ordered(a.as_ref(), nd).unwrap();
-                let tn = t.elapsed().as_secs_f64() * 1e3;
-                println!(
-                    "  ND hops {hops} fold {fold}: {tn:.0} ms, {:.2e} entries, flops {:.2e}",
-                    lu.entries() as f64,
-                    lu.flops()
+                let f = Factor::new(a.as_ref(), &Ordering::Colamd).unwrap();
+                // faer allocates L and U, each with the pattern of the Cholesky factor of AᵀA.
+                row(
+                    "faer, COLAMD on AᵀA",
+                    2.0 * f.size.entries,
+                    f.size.flops,
+                    ms(t),
                 );
+                let t = std::time::Instant::now();
+                let lu = PatternLu::new(a.as_ref(), pin).unwrap();
+                row("A + Aᵀ, AMD", lu.entries() as f64, lu.flops(), ms(t));
+                for hops in [1, 2] {
+                    let t = std::time::Instant::now();
+                    let coords = cell_coords(n, 2 * n, false);
+                    let mut order = nested_dissection(a.symbolic(), &coords, hops);
+                    order.retain(|&c| c != pin);
+                    order.push(pin);
+                    let lu = PatternLu::ordered(a.as_ref(), order).unwrap();
+                    let name = format!("A + Aᵀ, ND {hops}-step separators");
+                    row(&name, lu.entries() as f64, lu.flops(), ms(t));
+                }
             }
-            println!("{n}x{}: faer {tf:.0} ms ({:.2e} entries), pattern {tp:.0} ms ({:.2e} entries), growth {:.2e}, diff {:.2e}; flops faer {:.2e} ours {:.2e}", 2*n, f.size.entries, lu.entries() as f64, lu.growth, worst/top, f.size.flops, lu.flops());
         }
     }
 }
