@@ -202,7 +202,7 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
         p.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
         error = backward_error(&a, &p, pin);
     }
-    if !(error <= BACKWARD_ERROR_LIMIT) {
+    if error.is_nan() || error > BACKWARD_ERROR_LIMIT {
         return Err(singular(format!(
             "backward error {error:.1e} after refinement (limit {BACKWARD_ERROR_LIMIT:.0e})"
         )));
