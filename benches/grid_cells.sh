@@ -6,11 +6,13 @@
 # the measured peak there) refuses 400x800 under its 4 GiB cap.
 #
 # Usage: cargo build --release && benches/grid_cells.sh [RUNS]   (default 5 runs per size)
+#        FPSOLVE_BIN=/path/to/other/fpsolve benches/grid_cells.sh [RUNS]   (another build, e.g.
+#        a "before" binary; run both in the same minutes, interleaved, on a quiet machine)
 # Prints, per size: cells, median wall time (s), min and max wall time, max resident set
 # size (MB, the largest over the runs), and the solver's own timings (ms) from summary.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bin=target/release/fpsolve
+bin=${FPSOLVE_BIN:-target/release/fpsolve}
 runs=${1:-5}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT

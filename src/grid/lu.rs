@@ -1,10 +1,11 @@
-//! The sparse LU of the grid operator: faer's supernodal LU (partial pivoting) with the
-//! fill-reducing column ordering chosen by measurement (docs/method.md, section 8).
+//! faer's supernodal sparse LU (free row pivoting, the pattern of AᵀA) with a column ordering
+//! of our choice: the factorisation the solver used before [`super::pattern_lu`], kept in
+//! the tests as its reference and for the ordering table (docs/method.md, section 8).
 //!
-//! faer's `sp_lu` always orders by COLAMD. On these operators a geometric nested dissection
-//! needs fewer flops and less fill, so the symbolic analysis is done here with faer's public
-//! building blocks (column elimination tree, postorder, column counts of AᵀA, supernodal
-//! symbolic LU), the steps `sp_lu` takes, with our column permutation in place of COLAMD's.
+//! faer's `sp_lu` always orders by COLAMD, so the symbolic analysis is done here with faer's
+//! public building blocks (column elimination tree, postorder, column counts of AᵀA,
+//! supernodal symbolic LU), the steps `sp_lu` takes, with our column permutation in place of
+//! COLAMD's.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::perm::PermRef;
@@ -32,10 +33,6 @@ pub(crate) enum Ordering {
         coords: Vec<[u32; 2]>,
     },
 }
-
-/// The ordering the solver uses: on the paper's cases COLAMD needed 20 to 35 % fewer flops
-/// and less fill than geometric nested dissection (docs/method.md, section 8).
-pub(crate) const ORDERING: Ordering = Ordering::Colamd;
 
 /// The size of a factorisation from its symbolic analysis: entries and flops of the
 /// Cholesky factor of AᵀA, the pattern faer allocates for L and U.
@@ -193,7 +190,7 @@ impl Factor {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::grid::assemble::{assemble, matrix};
     use crate::grid::mesh::{Domain, Mesh};
@@ -205,7 +202,11 @@ mod tests {
     /// The operator of `file` (r = 0.95) on `nx` × `nv` cells of the domain the solver sizes
     /// for the paper's case 1, pinned at v = 0 on the wall or at the centre (where the
     /// density is large: a pin in the tail scales the solution up by orders of magnitude).
-    fn system(file: &str, nx: usize, nv: usize) -> (Mesh, SparseColMat<usize, f64>, usize) {
+    pub(crate) fn system(
+        file: &str,
+        nx: usize,
+        nv: usize,
+    ) -> (Mesh, SparseColMat<usize, f64>, usize) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let b = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
         let problem = Mechanical::new(&b).unwrap();

@@ -50,10 +50,11 @@ mod assemble;
 mod cells;
 mod domain;
 mod error;
+#[cfg(test)]
 mod lu;
 mod mesh;
-#[cfg(test)]
 mod nested;
+mod pattern_lu;
 mod problem;
 mod solution;
 #[cfg(test)]

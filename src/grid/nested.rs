@@ -1,13 +1,14 @@
-//! Geometric nested dissection of the cells, the fill-reducing column ordering of the LU.
+//! Geometric nested dissection of the cells, the fill-reducing ordering of the LU.
 //!
 //! The cells are split in two at the middle of their longer extent, a separator is taken
 //! from one half (its cells within `hops` steps of the other half in the matrix graph), the
 //! halves are ordered recursively and the separator last. The separator is built from the
 //! matrix graph, not the geometry, so an entry the stencil does not predict (a
 //! re-injection across the barrier) still cannot join the two halves: the ordering is
-//! valid for any pattern, the geometry only makes it good. Faer's supernodal LU allocates
-//! the pattern of the Cholesky factor of AᵀA, in which two cells are joined when a common
-//! row touches both, so the separator must be two hops wide to separate the halves there.
+//! valid for any pattern, the geometry only makes it good. The solver's LU
+//! ([`super::pattern_lu`]) works on the pattern of A + Aᵀ, which one hop separates; faer's
+//! LU allocates the pattern of the Cholesky factor of AᵀA, in which two cells are joined
+//! when a common row touches both, so it needs two hops (measured, docs/method.md §8).
 
 use faer::sparse::SymbolicSparseColMatRef;
 
