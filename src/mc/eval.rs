@@ -2,8 +2,8 @@
 //! evaluated over a whole batch of trajectories at a time (structure-of-arrays).
 //!
 //! Everything the simulator evaluates goes through [`BatchKernel`] and [`compile`]: the
-//! crate's [`Tape`] checks the expressions, and the simulator's [`LaneProgram`] (the same
-//! instructions, bit for bit) evaluates them in chunks of lanes inside one function compiled
+//! crate's [`Tape`] compiles and checks the expressions, and the simulator's [`LaneProgram`]
+//! (the tape's instructions) evaluates them in chunks of lanes inside one function compiled
 //! for the CPU's widest vector extension, detected once at compile time.
 
 use super::error::McError;
@@ -80,10 +80,10 @@ struct Kernel {
 /// Compiles `exprs` (expressions of the states named `states`) with `delta(·) = 0`, as is
 /// right between impacts.
 pub(crate) fn compile(exprs: &[Expr], states: [&str; 2]) -> Result<Box<dyn BatchKernel>, McError> {
-    // The tape reports what is wrong with an expression; the program is built only then.
-    Tape::compile(exprs, &states, DeltaPolicy::Zero)?;
-    let program = LaneProgram::compile(exprs, states)
-        .expect("the program accepts every expression the tape accepts");
+    // One compiler: the tape reports what is wrong with an expression, and the program
+    // runs the tape's instructions.
+    let tape = Tape::compile(exprs, &states, DeltaPolicy::Zero)?;
+    let program = LaneProgram::from_tape(&tape);
     Ok(Box::new(Kernel {
         program,
         simd: Simd::detect(),
@@ -190,7 +190,8 @@ mod tests {
         ];
         let xs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.37).sin() * 3.0).collect();
         let vs: Vec<f64> = (0..150).map(|i| (i as f64 * 0.71).cos() * 2.0).collect();
-        let program = LaneProgram::compile(&e, ["z", "v"]).unwrap();
+        let tape = Tape::compile(&e, &["z", "v"], DeltaPolicy::Zero).unwrap();
+        let program = LaneProgram::from_tape(&tape);
         let mut want = vec![0.0; e.len() * xs.len()];
         program.eval_rows(&xs, &vs, &mut want, &mut Scratch::new());
         for simd in Simd::available() {

@@ -44,6 +44,7 @@ mod histogram;
 mod impact;
 mod judge;
 mod lanes;
+mod platen;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;

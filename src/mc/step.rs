@@ -6,6 +6,7 @@ use super::eval::{BatchKernel, Scratch, Simd};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
+use super::platen::{platen_point_step, PlatenWork};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
 
@@ -19,10 +20,8 @@ pub(crate) struct BatchState {
     rng: LaneRng,
     inc: IncrementStream,
     buf: [Vec<f64>; 6],
-    /// Work buffers of Platen's scheme, sized once: the supporting values R±/U± (`bp`, `bm`,
-    /// all noise outputs per lane), the increments (`ax`, `av`), the pair signs (`vpair`) and
-    /// the drift predictor Y + aΔ shared by every column (`yx`, `yv`).
-    extra: [Vec<f64>; 7],
+    /// Working memory of Platen's scheme, sized once (when that scheme runs).
+    platen: Option<PlatenWork>,
     /// Random bits of the pair signs (one per lane).
     bits: Vec<u64>,
     z: Vec<f64>,
@@ -63,19 +62,13 @@ impl BatchState {
             rng: LaneRng::new(seed, first, lanes),
             inc: IncrementStream::new(increments, lanes),
             buf: std::array::from_fn(|_| vec![0.0; lanes * (2 + 2 * noises)]),
-            extra: match &plan.dynamics {
+            platen: match &plan.dynamics {
                 Dynamics::General {
-                    platen: Some(_), ..
-                } => std::array::from_fn(|k| {
-                    let pairs = noises * noises.saturating_sub(1) / 2;
-                    let per_lane = match k {
-                        0 | 1 => 2 + 2 * noises,
-                        4 => pairs.max(1),
-                        _ => 1,
-                    };
-                    vec![0.0; lanes * per_lane]
-                }),
-                _ => std::array::from_fn(|_| Vec::new()),
+                    kernel,
+                    platen: Some(pk),
+                    ..
+                } => Some(PlatenWork::new(kernel.as_ref(), pk, noises, lanes)),
+                _ => None,
             },
             bits: vec![0; lanes],
             z: vec![0.0; lanes * noises.max(1)],
@@ -402,107 +395,42 @@ impl BatchState {
     ) {
         let n = self.x.len();
         let mut buf = std::mem::take(&mut self.buf);
-        let mut ex = std::mem::take(&mut self.extra);
+        let mut work = self.platen.take().expect("Platen's working memory");
         {
-            let [e0, e1, dw, px, pv, _] = &mut buf;
-            let [bp, bm, ax, av, vpair, yx, yv] = &mut ex;
+            let [_, _, dw, px, pv, _] = &mut buf;
+            // The random numbers in the order they always had: the increments of every
+            // source, then the pair signs.
             for k in 0..m {
                 self.inc
                     .next(&mut self.rng, &mut self.z[k * n..(k + 1) * n]);
             }
+            let pairs = m * m.saturating_sub(1) / 2;
+            for p in 0..pairs {
+                self.rng.fill(&mut self.bits[..n]);
+                let vpair = &mut work.batch_vpair[p * n..(p + 1) * n];
+                for i in 0..n {
+                    vpair[i] = if self.bits[i] >> 63 == 0 { h } else { -h };
+                }
+            }
             let sq = h.sqrt();
-            let inv_sq = 1.0 / sq;
             for k in 0..m * n {
                 dw[k] = sq * self.z[k];
             }
-            let pairs = m * m.saturating_sub(1) / 2;
-            if pairs > 0 {
-                for p in 0..pairs {
-                    self.rng.fill(&mut self.bits[..n]);
-                    for i in 0..n {
-                        vpair[p * n + i] = if self.bits[i] >> 63 == 0 { h } else { -h };
-                    }
-                }
-            }
-            kernel.eval_batch(&self.x, &self.v, e0, &mut self.scratch[0]);
-            euler_predictor(&self.x, &self.v, e0, dw, h, m, px, pv);
-            pk.drift
-                .eval_batch(&px[..n], &pv[..n], e1, &mut self.scratch[1]);
-            for i in 0..n {
-                ax[i] = 0.5 * (e0[i] + e1[i]) * h;
-                av[i] = 0.5 * (e0[n + i] + e1[n + i]) * h;
-                // Y + aΔ, the same for every column's R± (computed once per step).
-                yx[i] = self.x[i] + e0[i] * h;
-                yv[i] = self.v[i] + e0[n + i] * h;
-            }
-            for j in 0..m {
-                let (cx, cv) = ((2 + j) * n, (2 + m + j) * n);
-                if pk.constant[j] {
-                    for i in 0..n {
-                        ax[i] += e0[cx + i] * dw[j * n + i];
-                        av[i] += e0[cv + i] * dw[j * n + i];
-                    }
-                    continue;
-                }
-                for (sign, out) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
-                    for i in 0..n {
-                        px[i] = yx[i] + sign * e0[cx + i] * sq;
-                        pv[i] = yv[i] + sign * e0[cv + i] * sq;
-                    }
-                    pk.column[j].eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
-                }
-                // Column j's kernel writes (b̃_0j, b̃_1j) as its outputs 0 and 1.
-                let (nx, nv) = (0, n);
-                for i in 0..n {
-                    let w = dw[j * n + i];
-                    let q = (w * w - h) * inv_sq;
-                    ax[i] += 0.25
-                        * ((bp[nx + i] + bm[nx + i] + 2.0 * e0[cx + i]) * w
-                            + (bp[nx + i] - bm[nx + i]) * q);
-                    av[i] += 0.25
-                        * ((bp[nv + i] + bm[nv + i] + 2.0 * e0[cv + i]) * w
-                            + (bp[nv + i] - bm[nv + i]) * q);
-                }
-            }
-            for r in 0..m {
-                if (0..m).all(|j| j == r || pk.constant[j]) {
-                    continue;
-                }
-                let (rx, rv) = ((2 + r) * n, (2 + m + r) * n);
-                for (sign, out) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
-                    for i in 0..n {
-                        px[i] = self.x[i] + sign * e0[rx + i] * sq;
-                        pv[i] = self.v[i] + sign * e0[rv + i] * sq;
-                    }
-                    pk.noise
-                        .eval_batch(&px[..n], &pv[..n], out, &mut self.scratch[1]);
-                }
-                for j in 0..m {
-                    if j == r || pk.constant[j] {
-                        continue;
-                    }
-                    let (cx, cv, nx, nv) = ((2 + j) * n, (2 + m + j) * n, j * n, (m + j) * n);
-                    let (pair, sign) = pair_slot(r, j, m);
-                    for i in 0..n {
-                        let w = dw[j * n + i];
-                        let q = (w * dw[r * n + i] + sign * vpair[pair * n + i]) * inv_sq;
-                        ax[i] += 0.25
-                            * ((bp[nx + i] + bm[nx + i] - 2.0 * e0[cx + i]) * w
-                                + (bp[nx + i] - bm[nx + i]) * q);
-                        av[i] += 0.25
-                            * ((bp[nv + i] + bm[nv + i] - 2.0 * e0[cv + i]) * w
-                                + (bp[nv + i] - bm[nv + i]) * q);
-                    }
-                }
-            }
-            for i in 0..n {
-                px[i] = self.x[i] + ax[i];
-                pv[i] = self.v[i] + av[i];
-            }
+            work.step(
+                kernel.program(),
+                pk,
+                m,
+                h,
+                &self.x,
+                &self.v,
+                &dw[..m * n],
+                &mut px[..n],
+                &mut pv[..n],
+            );
             self.finish_step(plan, &mut px[..n], &mut pv[..n], &dw[..m * n], m, h);
         }
         self.buf = buf;
-        self.extra = ex;
+        self.platen = Some(work);
     }
 
     /// Cuts lane `i`'s step `p0 → p1` (increment `w` over `h`) at the first barrier it
@@ -606,87 +534,6 @@ fn fold_into(s: f64, lo: f64, hi: f64) -> f64 {
     } else {
         s
     }
-}
-
-/// The slot of the pair {r, j} (r ≠ j) among the m(m−1)/2 two-point variables, and the sign
-/// making V antisymmetric.
-fn pair_slot(r: usize, j: usize, m: usize) -> (usize, f64) {
-    let (a, b) = if r < j { (r, j) } else { (j, r) };
-    (
-        a * (2 * m - a - 1) / 2 + (b - a - 1),
-        if r < j { 1.0 } else { -1.0 },
-    )
-}
-
-/// One step of Platen's scheme for a single trajectory (the remainder after an event).
-fn platen_point_step(
-    pk: &PlatenKernels,
-    kernel: &dyn BatchKernel,
-    m: usize,
-    p: [f64; 2],
-    h: f64,
-    w: &[f64],
-    vpair: &[f64],
-) -> [f64; 2] {
-    let sq = h.sqrt();
-    let mut e0 = vec![0.0; 2 + 2 * m];
-    kernel.eval_point(p[0], p[1], &mut e0);
-    let col = |e: &[f64], k: usize, j: usize| e[k * m + j];
-    let b0 = |k: usize, j: usize| e0[2 + k * m + j];
-    let mut bar = [p[0] + e0[0] * h, p[1] + e0[1] * h];
-    for j in 0..m {
-        bar[0] += b0(0, j) * w[j];
-        bar[1] += b0(1, j) * w[j];
-    }
-    let mut a1 = [0.0; 2];
-    pk.drift.eval_point(bar[0], bar[1], &mut a1);
-    let mut out = [
-        p[0] + 0.5 * (e0[0] + a1[0]) * h,
-        p[1] + 0.5 * (e0[1] + a1[1]) * h,
-    ];
-    let (mut bp, mut bm) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
-    for j in 0..m {
-        if pk.constant[j] {
-            out[0] += b0(0, j) * w[j];
-            out[1] += b0(1, j) * w[j];
-            continue;
-        }
-        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
-            pk.noise.eval_point(
-                p[0] + e0[0] * h + sign * b0(0, j) * sq,
-                p[1] + e0[1] * h + sign * b0(1, j) * sq,
-                b,
-            );
-        }
-        let q = (w[j] * w[j] - h) / sq;
-        for k in 0..2 {
-            out[k] += 0.25
-                * ((col(&bp, k, j) + col(&bm, k, j) + 2.0 * b0(k, j)) * w[j]
-                    + (col(&bp, k, j) - col(&bm, k, j)) * q);
-        }
-    }
-    for r in 0..m {
-        if (0..m).all(|j| j == r || pk.constant[j]) {
-            continue;
-        }
-        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
-            pk.noise
-                .eval_point(p[0] + sign * b0(0, r) * sq, p[1] + sign * b0(1, r) * sq, b);
-        }
-        for j in 0..m {
-            if j == r || pk.constant[j] {
-                continue;
-            }
-            let (pair, sign) = pair_slot(r, j, m);
-            let q = (w[j] * w[r] + sign * vpair[pair]) / sq;
-            for k in 0..2 {
-                out[k] += 0.25
-                    * ((col(&bp, k, j) + col(&bm, k, j) - 2.0 * b0(k, j)) * w[j]
-                        + (col(&bp, k, j) - col(&bm, k, j)) * q);
-            }
-        }
-    }
-    out
 }
 
 /// One general-scheme step of a single trajectory (used for the remainder after an event).

@@ -18,9 +18,10 @@ use std::collections::HashMap;
 use super::{sgn, DeltaPolicy, Expr, Func, SymbolicError};
 
 /// One tape instruction. The value of instruction `i` lives in slot `i`; operands are slots of
-/// earlier instructions.
+/// earlier instructions. Crate-visible so that other evaluators of a compiled tape (the
+/// simulator's lane programs) run the same instructions rather than compiling their own.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Op {
+pub(crate) enum Op {
     Const(f64),
     Var(u32),
     Add(u32, u32),
@@ -46,8 +47,9 @@ enum Op {
     },
 }
 
+/// The one-operand functions of [`Op::Unary`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Unary {
+pub(crate) enum Unary {
     Abs,
     Sgn,
     Exp,
@@ -60,7 +62,7 @@ enum Unary {
 
 impl Unary {
     #[inline(always)]
-    fn apply(self, u: f64) -> f64 {
+    pub(crate) fn apply(self, u: f64) -> f64 {
         match self {
             Unary::Abs => u.abs(),
             Unary::Sgn => sgn(u),
@@ -106,7 +108,7 @@ impl Op {
     }
 
     /// The operand slots of the instruction.
-    fn operands(self) -> ([u32; 2], usize) {
+    pub(crate) fn operands(self) -> ([u32; 2], usize) {
         match self {
             Op::Const(_) | Op::Var(_) => ([0, 0], 0),
             Op::Add(a, b)
@@ -159,7 +161,7 @@ impl Op {
     /// [`Tape::eval_batch`]), arm by arm with the variant known, so that it folds to the bare
     /// operation there.
     #[inline(always)]
-    fn apply(self, a: f64, b: f64) -> f64 {
+    pub(crate) fn apply(self, a: f64, b: f64) -> f64 {
         match self {
             Op::Const(c) => c,
             Op::Var(_) => a,
@@ -536,6 +538,17 @@ impl Tape {
             *o = new_index[*o as usize];
         }
         self.ops = ops;
+    }
+
+    /// The instructions, children before parents (for evaluators of the tape elsewhere in
+    /// the crate).
+    pub(crate) fn instructions(&self) -> &[Op] {
+        &self.ops
+    }
+
+    /// The slot of each output, in output order.
+    pub(crate) fn output_slots(&self) -> &[u32] {
+        &self.outputs
     }
 
     /// How many expressions the tape computes.

@@ -1,0 +1,293 @@
+//! Platen's weak order-2 step (see `scheme.rs`) of a batch, chunk by chunk of lanes: every
+//! kernel evaluated by its lane program on the chunk, the supporting values and the
+//! increments combined while the chunk is in L1, in fixed-length loops without bounds
+//! checks (so they vectorise). The arithmetic of each lane is that of the scalar scheme, in
+//! the same order, so the result does not depend on the chunking; the working memory is
+//! sized once per batch, so a step allocates nothing.
+
+use super::eval::BatchKernel;
+use super::lanes::{LaneProgram, CHUNK};
+use super::scheme::PlatenKernels;
+
+type Lanes = [f64; CHUNK];
+
+/// Working memory of Platen's step, sized for a batch once.
+pub(super) struct PlatenWork {
+    /// The kernel's slots (drift, then the columns b̃ of x, then of v), kept for the step.
+    e0: Vec<Lanes>,
+    /// Slots of the supporting evaluations at the + and − points.
+    plus: Vec<Lanes>,
+    minus: Vec<Lanes>,
+    /// The chunk's increments ΔŴ_j and pair signs ±Δ (one row each).
+    dw: Vec<Lanes>,
+    vpair: Vec<Lanes>,
+    /// The pair signs of the whole batch, pair p of lane i at `p*n + i`.
+    pub(super) batch_vpair: Vec<f64>,
+}
+
+impl PlatenWork {
+    /// Working memory for `lanes` lanes of `m` sources.
+    pub(super) fn new(
+        kernel: &dyn BatchKernel,
+        pk: &PlatenKernels,
+        m: usize,
+        lanes: usize,
+    ) -> Self {
+        let slots = pk
+            .column
+            .iter()
+            .map(|c| c.program().n_slots())
+            .chain([pk.drift.program().n_slots(), pk.noise.program().n_slots()])
+            .max()
+            .unwrap_or(0);
+        let pairs = m * m.saturating_sub(1) / 2;
+        PlatenWork {
+            e0: vec![[0.0; CHUNK]; kernel.program().n_slots()],
+            plus: vec![[0.0; CHUNK]; slots],
+            minus: vec![[0.0; CHUNK]; slots],
+            dw: vec![[0.0; CHUNK]; m],
+            vpair: vec![[0.0; CHUNK]; pairs],
+            batch_vpair: vec![0.0; pairs * lanes],
+        }
+    }
+
+    /// One step of every lane: `(x, v)` with the increments `dw` (source k of lane i at
+    /// `dw[k*n + i]`) and the pair signs in `batch_vpair`, the new states into `(px, pv)`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn step(
+        &mut self,
+        kernel: &LaneProgram,
+        pk: &PlatenKernels,
+        m: usize,
+        h: f64,
+        x: &[f64],
+        v: &[f64],
+        dw: &[f64],
+        px: &mut [f64],
+        pv: &mut [f64],
+    ) {
+        let n = x.len();
+        let pairs = self.vpair.len();
+        let mut start = 0;
+        while start < n {
+            // A partial last chunk is padded with zeros; its padding lanes are discarded.
+            let len = CHUNK.min(n - start);
+            let load = |src: &[f64], dst: &mut Lanes| {
+                dst[..len].copy_from_slice(&src[start..start + len]);
+                dst[len..].fill(0.0);
+            };
+            let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
+            load(x, &mut xc);
+            load(v, &mut vc);
+            for k in 0..m {
+                load(&dw[k * n..(k + 1) * n], &mut self.dw[k]);
+            }
+            for p in 0..pairs {
+                load(&self.batch_vpair[p * n..(p + 1) * n], &mut self.vpair[p]);
+            }
+            let (ox, ov) = self.chunk(kernel, pk, m, h, &xc, &vc);
+            px[start..start + len].copy_from_slice(&ox[..len]);
+            pv[start..start + len].copy_from_slice(&ov[..len]);
+            start += len;
+        }
+    }
+
+    /// Platen's step of one chunk (the arithmetic of [`platen_point_step`], lane-parallel).
+    #[inline(always)]
+    fn chunk(
+        &mut self,
+        kernel: &LaneProgram,
+        pk: &PlatenKernels,
+        m: usize,
+        h: f64,
+        x: &Lanes,
+        v: &Lanes,
+    ) -> (Lanes, Lanes) {
+        let sq = h.sqrt();
+        let inv_sq = 1.0 / sq;
+        let Self {
+            e0,
+            plus,
+            minus,
+            dw,
+            vpair,
+            ..
+        } = self;
+        kernel.run(x, v, e0);
+        let e = |o: usize| &e0[kernel.output(o)];
+        // The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k.
+        let (mut px, mut pv) = ([0.0; CHUNK], [0.0; CHUNK]);
+        let (mut dx, mut dv) = ([0.0; CHUNK], [0.0; CHUNK]);
+        for i in 0..CHUNK {
+            dx[i] = e(0)[i] * h;
+            dv[i] = e(1)[i] * h;
+        }
+        for k in 0..m {
+            let (bx, bv, w) = (e(2 + k), e(2 + m + k), &dw[k]);
+            for i in 0..CHUNK {
+                dx[i] += bx[i] * w[i];
+                dv[i] += bv[i] * w[i];
+            }
+        }
+        for i in 0..CHUNK {
+            px[i] = x[i] + dx[i];
+            pv[i] = v[i] + dv[i];
+        }
+        let drift = pk.drift.program();
+        drift.run(&px, &pv, plus);
+        let (a1x, a1v) = (&plus[drift.output(0)], &plus[drift.output(1)]);
+        let (mut ax, mut av) = ([0.0; CHUNK], [0.0; CHUNK]);
+        let (mut yx, mut yv) = ([0.0; CHUNK], [0.0; CHUNK]);
+        for i in 0..CHUNK {
+            ax[i] = 0.5 * (e(0)[i] + a1x[i]) * h;
+            av[i] = 0.5 * (e(1)[i] + a1v[i]) * h;
+            // Y + aΔ, the same for every column's R±.
+            yx[i] = x[i] + e(0)[i] * h;
+            yv[i] = v[i] + e(1)[i] * h;
+        }
+        for j in 0..m {
+            let (cx, cv, w) = (e(2 + j), e(2 + m + j), &dw[j]);
+            if pk.constant[j] {
+                for i in 0..CHUNK {
+                    ax[i] += cx[i] * w[i];
+                    av[i] += cv[i] * w[i];
+                }
+                continue;
+            }
+            let col = pk.column[j].program();
+            for (sign, out) in [(1.0, &mut *plus), (-1.0, &mut *minus)] {
+                for i in 0..CHUNK {
+                    px[i] = yx[i] + sign * cx[i] * sq;
+                    pv[i] = yv[i] + sign * cv[i] * sq;
+                }
+                col.run(&px, &pv, out);
+            }
+            // Column j's program gives (b̃_0j, b̃_1j) as its outputs 0 and 1.
+            let (bpx, bmx) = (&plus[col.output(0)], &minus[col.output(0)]);
+            let (bpv, bmv) = (&plus[col.output(1)], &minus[col.output(1)]);
+            for i in 0..CHUNK {
+                let w = w[i];
+                let q = (w * w - h) * inv_sq;
+                ax[i] += 0.25 * ((bpx[i] + bmx[i] + 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q);
+                av[i] += 0.25 * ((bpv[i] + bmv[i] + 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q);
+            }
+        }
+        let noise = pk.noise.program();
+        for r in 0..m {
+            if (0..m).all(|j| j == r || pk.constant[j]) {
+                continue;
+            }
+            let (rx, rv) = (e(2 + r), e(2 + m + r));
+            for (sign, out) in [(1.0, &mut *plus), (-1.0, &mut *minus)] {
+                for i in 0..CHUNK {
+                    px[i] = x[i] + sign * rx[i] * sq;
+                    pv[i] = v[i] + sign * rv[i] * sq;
+                }
+                noise.run(&px, &pv, out);
+            }
+            for j in 0..m {
+                if j == r || pk.constant[j] {
+                    continue;
+                }
+                let (cx, cv) = (e(2 + j), e(2 + m + j));
+                let (bpx, bmx) = (&plus[noise.output(j)], &minus[noise.output(j)]);
+                let (bpv, bmv) = (&plus[noise.output(m + j)], &minus[noise.output(m + j)]);
+                let (pair, sign) = pair_slot(r, j, m);
+                let (wj, wr, vp) = (&dw[j], &dw[r], &vpair[pair]);
+                for i in 0..CHUNK {
+                    let w = wj[i];
+                    let q = (w * wr[i] + sign * vp[i]) * inv_sq;
+                    ax[i] += 0.25 * ((bpx[i] + bmx[i] - 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q);
+                    av[i] += 0.25 * ((bpv[i] + bmv[i] - 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q);
+                }
+            }
+        }
+        for i in 0..CHUNK {
+            px[i] = x[i] + ax[i];
+            pv[i] = v[i] + av[i];
+        }
+        (px, pv)
+    }
+}
+
+/// The slot of the pair {r, j} (r ≠ j) among the m(m−1)/2 two-point variables, and the sign
+/// making V antisymmetric.
+pub(super) fn pair_slot(r: usize, j: usize, m: usize) -> (usize, f64) {
+    let (a, b) = if r < j { (r, j) } else { (j, r) };
+    (
+        a * (2 * m - a - 1) / 2 + (b - a - 1),
+        if r < j { 1.0 } else { -1.0 },
+    )
+}
+
+/// One step of Platen's scheme for a single trajectory (the remainder after an event).
+pub(super) fn platen_point_step(
+    pk: &PlatenKernels,
+    kernel: &dyn BatchKernel,
+    m: usize,
+    p: [f64; 2],
+    h: f64,
+    w: &[f64],
+    vpair: &[f64],
+) -> [f64; 2] {
+    let sq = h.sqrt();
+    let mut e0 = vec![0.0; 2 + 2 * m];
+    kernel.eval_point(p[0], p[1], &mut e0);
+    let col = |e: &[f64], k: usize, j: usize| e[k * m + j];
+    let b0 = |k: usize, j: usize| e0[2 + k * m + j];
+    let mut bar = [p[0] + e0[0] * h, p[1] + e0[1] * h];
+    for j in 0..m {
+        bar[0] += b0(0, j) * w[j];
+        bar[1] += b0(1, j) * w[j];
+    }
+    let mut a1 = [0.0; 2];
+    pk.drift.eval_point(bar[0], bar[1], &mut a1);
+    let mut out = [
+        p[0] + 0.5 * (e0[0] + a1[0]) * h,
+        p[1] + 0.5 * (e0[1] + a1[1]) * h,
+    ];
+    let (mut bp, mut bm) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+    for j in 0..m {
+        if pk.constant[j] {
+            out[0] += b0(0, j) * w[j];
+            out[1] += b0(1, j) * w[j];
+            continue;
+        }
+        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+            pk.noise.eval_point(
+                p[0] + e0[0] * h + sign * b0(0, j) * sq,
+                p[1] + e0[1] * h + sign * b0(1, j) * sq,
+                b,
+            );
+        }
+        let q = (w[j] * w[j] - h) / sq;
+        for k in 0..2 {
+            out[k] += 0.25
+                * ((col(&bp, k, j) + col(&bm, k, j) + 2.0 * b0(k, j)) * w[j]
+                    + (col(&bp, k, j) - col(&bm, k, j)) * q);
+        }
+    }
+    for r in 0..m {
+        if (0..m).all(|j| j == r || pk.constant[j]) {
+            continue;
+        }
+        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+            pk.noise
+                .eval_point(p[0] + sign * b0(0, r) * sq, p[1] + sign * b0(1, r) * sq, b);
+        }
+        for j in 0..m {
+            if j == r || pk.constant[j] {
+                continue;
+            }
+            let (pair, sign) = pair_slot(r, j, m);
+            let q = (w[j] * w[r] + sign * vpair[pair]) / sq;
+            for k in 0..2 {
+                out[k] += 0.25
+                    * ((col(&bp, k, j) + col(&bm, k, j) - 2.0 * b0(k, j)) * w[j]
+                        + (col(&bp, k, j) - col(&bm, k, j)) * q);
+            }
+        }
+    }
+    out
+}
