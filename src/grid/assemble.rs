@@ -187,26 +187,7 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
     let mut order = super::nested::nested_dissection(a.symbolic(), &coords, 1);
     order.retain(|&c| c != pin);
     order.push(pin);
-    let factor = super::pattern_lu::PatternLu::ordered(a.as_ref(), order)
-        .map_err(|e| singular(e.to_string()))?;
-    let mut p = vec![0.0; n];
-    p[pin] = 1.0;
-    factor.solve(&mut p);
-    // The LU pivots only inside its supernodes, so its backward error is checked rather
-    // than assumed (1e-17 to 1e-16 on these operators); above REFINE_ABOVE a step of
-    // iterative refinement is taken, and a solve still above the limit is refused.
-    let mut error = backward_error(&a, &p, pin);
-    if error > REFINE_ABOVE {
-        let mut r = residual(&a, &p, pin);
-        factor.solve(&mut r);
-        p.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
-        error = backward_error(&a, &p, pin);
-    }
-    if error.is_nan() || error > BACKWARD_ERROR_LIMIT {
-        return Err(singular(format!(
-            "backward error {error:.1e} after refinement (limit {BACKWARD_ERROR_LIMIT:.0e})"
-        )));
-    }
+    let mut p = solve_system(&a, order, pin).map_err(singular)?;
     let mass: f64 = p.iter().sum::<f64>() * mesh.hx * mesh.hv;
     if !(mass.is_finite() && mass > 0.0) {
         return Err(GridError::Degenerate {
@@ -223,6 +204,57 @@ const BACKWARD_ERROR_LIMIT: f64 = 1e-12;
 
 /// The backward error above which a step of iterative refinement is taken.
 const REFINE_ABOVE: f64 = 1e-14;
+
+/// Solves A p = e_pin, A's columns eliminated in `order`: by the pattern LU, which pivots
+/// only inside its supernodes, so its backward error is checked rather than assumed (1e-17 to
+/// 1e-16 on the grid operators). When it fails (a zero pivot, or a backward error above the
+/// limit after refinement), faer's LU with partial pivoting over whole columns solves the same
+/// system and must pass the same check; a system neither solves to that accuracy is refused
+/// (the error says why each failed).
+fn solve_system(
+    a: &SparseColMat<usize, f64>,
+    order: Vec<usize>,
+    pin: usize,
+) -> Result<Vec<f64>, String> {
+    let patterned = super::pattern_lu::PatternLu::ordered(a.as_ref(), order)
+        .map_err(|e| e.to_string())
+        .and_then(|factor| checked_solve(a, pin, |b| factor.solve(b)));
+    patterned
+        .or_else(|first| pivoting_solve(a, pin).map_err(|e| format!("{first}; faer's LU: {e}")))
+}
+
+/// Solves A p = e_pin by faer's LU with partial pivoting over whole columns (COLAMD order),
+/// checked as [`checked_solve`] checks.
+fn pivoting_solve(a: &SparseColMat<usize, f64>, pin: usize) -> Result<Vec<f64>, String> {
+    let factor = super::lu::Factor::new(a.as_ref(), &super::lu::Ordering::Colamd)?;
+    checked_solve(a, pin, |b| factor.solve(b))
+}
+
+/// Solves A p = e_pin with `solve` (a factorisation's solve, in place), takes one step of
+/// iterative refinement when the backward error exceeds [`REFINE_ABOVE`], and fails when it
+/// still exceeds [`BACKWARD_ERROR_LIMIT`] (or is NaN).
+fn checked_solve(
+    a: &SparseColMat<usize, f64>,
+    pin: usize,
+    solve: impl Fn(&mut [f64]),
+) -> Result<Vec<f64>, String> {
+    let mut p = vec![0.0; a.ncols()];
+    p[pin] = 1.0;
+    solve(&mut p);
+    let mut error = backward_error(a, &p, pin);
+    if error > REFINE_ABOVE {
+        let mut r = residual(a, &p, pin);
+        solve(&mut r);
+        p.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
+        error = backward_error(a, &p, pin);
+    }
+    if error.is_nan() || error > BACKWARD_ERROR_LIMIT {
+        return Err(format!(
+            "backward error {error:.1e} after refinement (limit {BACKWARD_ERROR_LIMIT:.0e})"
+        ));
+    }
+    Ok(p)
+}
 
 /// e_pin − A p.
 fn residual(a: &SparseColMat<usize, f64>, p: &[f64], pin: usize) -> Vec<f64> {
@@ -306,5 +338,26 @@ mod tests {
                 assert!((leaving + returning).abs() <= 1e-13 * leaving.abs());
             }
         }
+    }
+
+    #[test]
+    fn solves_are_checked_and_the_fallback_pivots_over_whole_columns() {
+        use faer::sparse::Triplet;
+        // A zero diagonal at column 0. Rows: p2 = 0; 2 p0 + p1 = 0; p0 + p2 = 1 (the pin).
+        let t = [
+            Triplet::new(0usize, 2usize, 1.0),
+            Triplet::new(1, 1, 1.0),
+            Triplet::new(1, 0, 2.0),
+            Triplet::new(2, 0, 1.0),
+            Triplet::new(2, 2, 1.0),
+        ];
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(3, 3, &t).unwrap();
+        let exact = [1.0, -2.0, 0.0];
+        let close = |p: &[f64]| p.iter().zip(exact).all(|(x, e)| (x - e).abs() < 1e-14);
+        assert!(close(&pivoting_solve(&a, 2).unwrap()));
+        assert!(close(&solve_system(&a, vec![0, 1, 2], 2).unwrap()));
+        // A solve that is wrong fails the check, refinement with the same wrong solve included.
+        let wrong = checked_solve(&a, 2, |b| b.iter_mut().for_each(|x| *x *= 3.0));
+        assert!(wrong.is_err());
     }
 }

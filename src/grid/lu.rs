@@ -1,6 +1,8 @@
 //! faer's supernodal sparse LU (free row pivoting, the pattern of AᵀA) with a column ordering
-//! of our choice: the factorisation the solver used before [`super::pattern_lu`], kept in
-//! the tests as its reference and for the ordering table (docs/method.md, section 8).
+//! of our choice: the factorisation the solver used before [`super::pattern_lu`]. It is the
+//! fallback when the pattern LU (pivoting only inside its supernodes) fails its backward-error
+//! check (`assemble::solve`), the tests' reference, and a row of the ordering table
+//! (docs/method.md, section 8).
 //!
 //! faer's `sp_lu` always orders by COLAMD, so the symbolic analysis is done here with faer's
 //! public building blocks (column elimination tree, postorder, column counts of AᵀA,

@@ -50,7 +50,6 @@ mod assemble;
 mod cells;
 mod domain;
 mod error;
-#[cfg(test)]
 mod lu;
 mod mesh;
 mod nested;
