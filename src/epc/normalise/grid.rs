@@ -74,7 +74,7 @@ impl DensityGrid {
     /// maximum; what rises above it lies beyond the ridge). Written as the negation of the
     /// test for "outside" so that a NaN Q is in the band, as it always was (and gives NaN).
     #[inline]
-    fn in_band(&self, q: f64) -> bool {
+    pub(super) fn in_band(&self, q: f64) -> bool {
         !(q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()))
     }
 

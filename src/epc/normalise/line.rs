@@ -26,12 +26,14 @@ pub(crate) enum Stretch {
     Transition,
 }
 
-/// The class of a point by its Q: `None` where the density is zero.
+/// The class of a point by its Q: `None` where the density is zero (Q out of the band
+/// [`DensityGrid::in_mask`] admits). The cutoff itself is not evaluated (two exponentials): a
+/// transition point where it underflows to 0 is classed a transition, of value 0.
+#[inline]
 fn class(grid: &DensityGrid, q: f64) -> Option<Stretch> {
-    let w = grid.in_mask(q);
-    if w == 0.0 {
+    if !grid.in_band(q) {
         None
-    } else if (q - grid.floor) / TAPER_E_FOLDS >= 1.0 && w == 1.0 {
+    } else if (q - grid.floor) / TAPER_E_FOLDS >= 1.0 {
         Some(Stretch::Core)
     } else {
         Some(Stretch::Transition)
