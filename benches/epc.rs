@@ -10,7 +10,11 @@
 //! - `epc_marginals/degree_N`: both states' marginals from the normalisation grid.
 //! - `epc_observables/degree_N`: PDFs of the observables y = |z| and ẏ = v·sgn(z) (Eqs. 25,
 //!   28) on their 401-point report grids and the moments of all four quantities: what a study
-//!   computes per degree after the solve.
+//!   computes per degree after the solve. Degrees 4 and 8 are normalised inside a ridge
+//!   (depths 16.2 and 37.7): their lines are split into the density's smooth pieces and taken
+//!   by fixed rules at a tenth of its stated accuracy (`observe/lines.rs`).
+//! - `epc_moments/degree_N`: the moments of the four quantities alone (degree 2: the tensor
+//!   rule of an analytic density; 4 and 8: line integrals under an outer rule).
 //!
 //! Issue 12's targets: assembly + Newton under 2 ms at degree 4 and 20 ms at degree 8; the
 //! whole `fpsolve solve MODEL --degree 4` under 10 ms as a process (`benches/job.rs`).
@@ -90,6 +94,14 @@ fn bench(c: &mut Criterion) {
                 )
             })
         });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("epc_moments");
+    g.sample_size(10);
+    for n in DEGREES.into_iter().filter(|&n| n != 6) {
+        let solution = fpsolve::solve(&bound, Method::Epc { degree: n }).unwrap();
+        g.bench_function(format!("degree_{n}"), |b| b.iter(|| solution.all_moments()));
     }
     g.finish();
 }

@@ -52,6 +52,7 @@ pub use closure::GaussianClosure;
 pub use continuation::{Branch, BranchEnd, BranchPoint};
 pub use degrees::{DegreeList, DegreeListError};
 pub use error::EpcError;
+pub(crate) use normalise::Stretch;
 pub use normalise::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 pub use outcome::{
     Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, NewtonStop,

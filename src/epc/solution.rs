@@ -3,7 +3,9 @@
 use serde::Serialize;
 
 use super::closure::GaussianClosure;
-use super::normalise::{powers, DensityGrid, NormalisationReport, Poly, MAX_POWER};
+use super::normalise::{
+    horner, powers, DensityGrid, NormalisationReport, Poly, Stretch, MAX_POWER,
+};
 use super::outcome::SolverMethod;
 use crate::moments::Moments;
 
@@ -271,6 +273,86 @@ impl EpcSolution {
     /// ridge's region.
     pub(crate) fn on_plane(&self) -> bool {
         self.grid.mask.is_none()
+    }
+
+    /// The pieces of the line x_axis = `at` within `range` of the other state (original
+    /// units) on which the density is smooth, zero between them, into `out`: `range` itself
+    /// on the plane (C·exp(Q), analytic); inside a ridge the runs of masked cells of the
+    /// normalisation grid on that line ([`DensityGrid::mask_runs`]), split where Q crosses
+    /// the cutoff's levels (see `normalise::line`) into core stretches, where the density is
+    /// C·exp(Q), and transitions, where the cutoff rises (C^∞, not analytic) and the density
+    /// is at most C·exp(floor + 1).
+    pub(crate) fn smooth_pieces(
+        &self,
+        axis: usize,
+        at: f64,
+        range: [f64; 2],
+        out: &mut Vec<([f64; 2], Stretch)>,
+    ) {
+        out.clear();
+        let s = self.sigma[1 - axis];
+        let scaled = [range[0] / s, range[1] / s];
+        let mut runs = Vec::new();
+        let xi = at / self.sigma[axis];
+        if !self.grid.mask_runs(axis, xi, scaled, &mut runs) {
+            out.push((range, Stretch::Core));
+            return;
+        }
+        let c = self.q.on_line(axis, xi);
+        self.grid.stretches(&c[..=self.q.degree], &runs, out);
+        for (piece, _) in out.iter_mut() {
+            // The range's own ends exactly (not rescaled), so that pieces tile it.
+            *piece = piece.map(|t| {
+                if t == scaled[0] {
+                    range[0]
+                } else if t == scaled[1] {
+                    range[1]
+                } else {
+                    t * s
+                }
+            });
+        }
+    }
+
+    /// The largest density on a transition piece of [`EpcSolution::smooth_pieces`]:
+    /// C·exp(floor + 1) (0 on the plane, which has none).
+    pub(crate) fn transition_max(&self) -> f64 {
+        if self.on_plane() {
+            0.0
+        } else {
+            (self.grid.transition_max_q() + self.log_c()).exp()
+        }
+    }
+
+    /// The density on one piece of [`EpcSolution::smooth_pieces`] of kind `kind` at the
+    /// points `t` of the other state (original units), into `out`: on the plane bit for bit
+    /// [`EpcSolution::pdf_on_grid`]; inside a ridge C·exp(Q) times the piece's cutoff (1 on a
+    /// core piece), with Q restricted to the line once (a polynomial in t by Horner's rule):
+    /// equal to [`EpcSolution::pdf`] in the piece's interior up to rounding, and at its ends
+    /// the limit from inside.
+    pub(crate) fn pdf_on_piece(
+        &self,
+        axis: usize,
+        at: f64,
+        kind: Stretch,
+        t: &[f64],
+        out: &mut [f64],
+    ) {
+        if self.on_plane() {
+            if axis == 0 {
+                self.pdf_on_grid(&[at], t, out);
+            } else {
+                self.pdf_on_grid(t, &[at], out);
+            }
+            return;
+        }
+        let c = self.q.on_line(axis, at / self.sigma[axis]);
+        let c = &c[..=self.q.degree];
+        let (s, log_c) = (self.sigma[1 - axis], self.log_c());
+        for (o, &t) in out.iter_mut().zip(t) {
+            let q = horner(c, t / s);
+            *o = (q + log_c).exp() * self.grid.on_stretch(kind, q);
+        }
     }
 
     /// The marginal density of state `axis` (0 or 1) on the normalisation grid (original

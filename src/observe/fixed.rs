@@ -68,16 +68,72 @@ pub(crate) fn finest_pair(lo: f64, hi: f64) -> Vec<(f64, [f64; 2])> {
         .collect()
 }
 
+/// The rule of twice [`FINEST`] intervals: its nodes on [−1, 1] and weights, for the outer
+/// integral of a function that the finest rule does not resolve to a check's tolerance.
+struct Doubled {
+    /// cos(kπ/(2·FINEST)), k = 0…2·FINEST: at even k bit for bit the finest rule's nodes.
+    nodes: Vec<f64>,
+    /// The weights of the 2·FINEST rule.
+    weights: Vec<f64>,
+}
+
+/// The doubled rule, computed once.
+fn doubled() -> &'static Doubled {
+    static DOUBLED: OnceLock<Doubled> = OnceLock::new();
+    DOUBLED.get_or_init(|| Doubled {
+        nodes: (0..=2 * FINEST)
+            .map(|k| (std::f64::consts::PI * k as f64 / (2 * FINEST) as f64).cos())
+            .collect(),
+        weights: clenshaw_curtis_weights(2 * FINEST),
+    })
+}
+
+/// The nodes of the Clenshaw–Curtis rule of `n` intervals on [`lo`, `hi`] (`n` = 128, as
+/// [`finest_pair`], or 256), with their weights in that rule and in the rule of half as many
+/// intervals (0 at its odd nodes). The nodes of the 128-interval rule are bit for bit the
+/// even nodes of the 256-interval one, so values taken at the first are reused by the second.
+///
+/// # Panics
+/// If `n` is neither.
+pub(crate) fn pair(lo: f64, hi: f64, n: usize) -> Vec<(f64, [f64; 2])> {
+    if n == FINEST {
+        return finest_pair(lo, hi);
+    }
+    assert_eq!(n, 2 * FINEST, "fixed::pair: {n} intervals");
+    let (d, coarse) = (doubled(), &rules().weights[LEVELS.len() - 1]);
+    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    (0..=n)
+        .map(|k| {
+            let wc = if k % 2 == 0 { coarse[k / 2] } else { 0.0 };
+            (c + h * d.nodes[k], [d.weights[k] * h, wc * h])
+        })
+        .collect()
+}
+
 /// ∫ f over [`lo`, `hi`] by the nested Clenshaw–Curtis rules, `f` evaluated a batch of nodes
 /// at a time (`f(t, out)` sets `out[k]` = f(`t[k]`)): the first rule I_2N whose difference
 /// from I_N is at most `rel`·|I_2N| (with an absolute floor of 1e−300, so an integrand that
 /// is zero gives zero), `None` if even the finest rule fails that test. `f` must be smooth
 /// (analytic) on the closed interval; the caller splits at any point where it is not.
+#[cfg(test)]
 pub(crate) fn integrate_nested(
     f: &dyn Fn(&[f64], &mut [f64]),
     lo: f64,
     hi: f64,
     rel: f64,
+) -> Option<f64> {
+    integrate_nested_within(f, lo, hi, rel, 1e-300)
+}
+
+/// [`integrate_nested`] with an absolute tolerance `abs` beside the relative one: the first
+/// I_2N with |I_2N − I_N| ≤ max(`rel`·|I_2N|, `abs`), for a part of a sum whose error
+/// matters only relative to the whole.
+pub(crate) fn integrate_nested_within(
+    f: &dyn Fn(&[f64], &mut [f64]),
+    lo: f64,
+    hi: f64,
+    rel: f64,
+    abs: f64,
 ) -> Option<f64> {
     let r = rules();
     let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
@@ -111,13 +167,34 @@ pub(crate) fn integrate_nested(
             .sum();
         let value = sum * h;
         if let Some(p) = previous {
-            if (value - p).abs() <= (rel * value.abs()).max(1e-300) {
+            if (value - p).abs() <= (rel * value.abs()).max(abs) {
                 return Some(value);
             }
         }
         previous = Some(value);
     }
     None
+}
+
+/// ∫ f over [`lo`, `hi`] by the coarsest of the rules (16 intervals, 17 nodes), unchecked:
+/// for an integrand known to lie between 0 and a bound M on the interval, whose integral
+/// matters only to within M·(hi − lo). The weights are positive, so the value lies in
+/// [0, M·(hi − lo)] as the integral does, and its error is at most that.
+pub(crate) fn coarsest(f: &dyn Fn(&[f64], &mut [f64]), lo: f64, hi: f64) -> f64 {
+    let r = rules();
+    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    let stride = FINEST / LEVELS[0];
+    let t: Vec<f64> = (0..=LEVELS[0])
+        .map(|k| c + h * r.nodes[k * stride])
+        .collect();
+    let mut out = vec![0.0; t.len()];
+    f(&t, &mut out);
+    r.weights[0]
+        .iter()
+        .zip(&out)
+        .map(|(w, v)| w * v)
+        .sum::<f64>()
+        * h
 }
 
 #[cfg(test)]
@@ -168,6 +245,26 @@ mod tests {
         let halves = integrate_nested(&pointwise(g), a, 0.0, 1e-10).unwrap()
             + integrate_nested(&pointwise(g), 0.0, b, 1e-10).unwrap();
         assert!((halves / exact - 1.0).abs() < 1e-12, "{halves} vs {exact}");
+    }
+
+    #[test]
+    fn the_doubled_rule_extends_the_finest() {
+        let (fine, doubled) = (pair(-1.3, 2.9, 128), pair(-1.3, 2.9, 256));
+        for (k, (x, w)) in doubled.iter().enumerate() {
+            if k % 2 == 0 {
+                // The same node bit for bit, and the finest rule's weight as the coarse one.
+                assert_eq!(x.to_bits(), fine[k / 2].0.to_bits());
+                assert_eq!(w[1], fine[k / 2].1[0]);
+            } else {
+                assert_eq!(w[1], 0.0);
+            }
+        }
+        // Exact for polynomials up to its degree: ∫ x^200 over [−1, 1] = 2/201.
+        let s: f64 = pair(-1.0, 1.0, 256)
+            .iter()
+            .map(|(x, w)| w[0] * x.powi(200))
+            .sum();
+        assert!((s - 2.0 / 201.0).abs() < 1e-14, "{s}");
     }
 
     #[test]

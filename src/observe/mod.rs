@@ -4,8 +4,12 @@
 //! exact treatment: p_g(u) is a sum of line integrals of the joint density over half-lines
 //! (Eq. 25: p_Y(y) = p_Z(y) + p_Z(−y); Eq. 28: p_Ẏ(v) = ∫_0^∞ p(z, v) dz + ∫_−∞^0 p(z, −v) dz),
 //! each done by adaptive Gauss–Kronrod quadrature to a relative tolerance of 1e−10 — or, when
-//! the density is analytic ([`JointDensity::analytic`]: EPC on the plane), by nested
-//! Clenshaw–Curtis rules whose doubling test must pass at 1e−10 (adaptive where it does not).
+//! the density tells where it is smooth along the line ([`JointDensity::smooth_pieces`]: EPC
+//! on the plane, one analytic piece; inside a ridge, the runs of the region's cells split at
+//! the cutoff's levels), piece by piece by nested Clenshaw–Curtis rules whose doubling test
+//! must pass at a tenth of the accuracy the density states ([`JointDensity::stated_accuracy`]:
+//! 1e−10 on the plane, 2.4e−8 inside vibro_duffing's degree-4 ridge), adaptive where it does
+//! not (see `lines.rs` for the transitions of a cutoff, which are not analytic).
 //!
 //! Any other observable gets the co-area (level-set) integral
 //! p_g(u) = ∫∫ p δ(g − u) dx = ∮_{g=u} p / |∇g| ds, with g and ∇g compiled to a [`Tape`](crate::symbolic::Tape)
@@ -24,19 +28,24 @@
 //!
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
 //! from a 1-D curve on a truncated grid; those of ± a state under an analytic density by a
-//! tensor Clenshaw–Curtis rule on each quadrant checked against its half.
+//! tensor Clenshaw–Curtis rule on each quadrant checked against its half, under a density
+//! smooth piecewise along lines by those line integrals under an outer Clenshaw–Curtis rule
+//! (`line_moments.rs`), checked the same way at the density's rule tolerance.
 
 mod critical;
+mod epc;
 mod fixed;
 mod level;
+mod line_moments;
+mod lines;
 mod moments;
 pub(crate) mod quadrature;
 
-use crate::epc::EpcSolution;
 use rayon::prelude::*;
 
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
+pub use lines::{LinePiece, PieceKind};
 pub use moments::{moments, moments_of_all, ObservableMoments};
 /// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
 #[cfg(feature = "test-support")]
@@ -113,29 +122,116 @@ pub trait JointDensity: Sync {
     fn analytic(&self) -> bool {
         false
     }
-}
-
-impl JointDensity for EpcSolution {
-    fn pdf(&self, x: [f64; 2]) -> f64 {
-        EpcSolution::pdf(self, x[0], x[1])
+    /// The pieces of the line x_axis = `at` within `range` (of the other state) on which p is
+    /// smooth (C^∞ on each closed piece, its values at a piece's ends taken as the limits from
+    /// inside) and outside which p is zero on the line, in order, into `out` (cleared first);
+    /// `false` when the density cannot tell (then the caller integrates
+    /// [`JointDensity::pdf_on_grid`] along the line by adaptive quadrature). The line
+    /// integrals of Eqs. 23–28 take an [`PieceKind::Analytic`] piece by a fixed rule checked
+    /// a posteriori ([`JointDensity::stated_accuracy`]) and bound a
+    /// [`PieceKind::Transition`] by its maximum where that is negligible. The default: the
+    /// whole range, analytic, when the density is [`analytic`](JointDensity::analytic);
+    /// `false` otherwise.
+    ///
+    /// ```
+    /// use fpsolve::observe::{JointDensity, LinePiece, PieceKind};
+    /// /// The uniform density on the unit square: analytic inside, zero outside.
+    /// struct Square;
+    /// impl JointDensity for Square {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         if (0.0..1.0).contains(&x[0]) && (0.0..1.0).contains(&x[1]) { 1.0 } else { 0.0 }
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[0.0, 1.0], [0.0, 1.0]]
+    ///     }
+    ///     fn smooth_pieces(&self, _: usize, at: f64, r: [f64; 2], out: &mut Vec<LinePiece>) -> bool {
+    ///         out.clear();
+    ///         let range = [r[0].max(0.0), r[1].min(1.0)];
+    ///         if (0.0..1.0).contains(&at) && range[0] < range[1] {
+    ///             out.push(LinePiece { range, kind: PieceKind::Analytic });
+    ///         }
+    ///         true
+    ///     }
+    ///     fn pdf_on_piece(&self, _: usize, _: f64, _: &LinePiece, _: &[f64], out: &mut [f64]) {
+    ///         out.fill(1.0); // the limit from inside, at the piece's ends too
+    ///     }
+    /// }
+    /// let mut pieces = Vec::new();
+    /// assert!(Square.smooth_pieces(0, 0.5, [-1.0, 0.5], &mut pieces));
+    /// assert_eq!(pieces, [LinePiece { range: [0.0, 0.5], kind: PieceKind::Analytic }]);
+    /// ```
+    fn smooth_pieces(
+        &self,
+        axis: usize,
+        at: f64,
+        range: [f64; 2],
+        out: &mut Vec<LinePiece>,
+    ) -> bool {
+        let _ = (axis, at);
+        out.clear();
+        let analytic = self.analytic();
+        if analytic {
+            out.push(LinePiece {
+                range,
+                kind: PieceKind::Analytic,
+            });
+        }
+        analytic
     }
-
-    /// Bit for bit `pdf` at each point, with the powers shared along rows and columns.
-    fn pdf_on_grid(&self, x1: &[f64], x2: &[f64], out: &mut [f64]) {
-        EpcSolution::pdf_on_grid(self, x1, x2, out);
+    /// p on the line x_axis = `at` at the points `t` of the other state, all in `piece` (one
+    /// of [`JointDensity::smooth_pieces`]), into `out`: the density's smooth form on that
+    /// piece, equal to [`JointDensity::pdf`] inside it (up to rounding) and its limit from
+    /// inside at the piece's ends. The default is [`JointDensity::pdf_on_grid`] on the line.
+    ///
+    /// # Panics
+    /// The default panics if `out.len()` differs from `t.len()`.
+    ///
+    /// ```
+    /// use fpsolve::observe::{JointDensity, LinePiece, PieceKind};
+    /// struct Normal;
+    /// impl JointDensity for Normal {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-9.0, 9.0], [-9.0, 9.0]]
+    ///     }
+    /// }
+    /// let piece = LinePiece { range: [-9.0, 9.0], kind: PieceKind::Analytic };
+    /// let mut out = [0.0; 2];
+    /// Normal.pdf_on_piece(1, 0.5, &piece, &[0.0, 1.0], &mut out);
+    /// assert_eq!(out[1], Normal.pdf([1.0, 0.5]));
+    /// ```
+    fn pdf_on_piece(&self, axis: usize, at: f64, piece: &LinePiece, t: &[f64], out: &mut [f64]) {
+        let _ = piece;
+        if axis == 0 {
+            self.pdf_on_grid(&[at], t, out);
+        } else {
+            self.pdf_on_grid(t, &[at], out);
+        }
     }
-
-    /// C·exp(Q) on the plane. Inside a ridge the region's C^∞ cut-off is not analytic, and
-    /// the fixed rules' doubling test is not to be trusted there: tried on vibro_duffing at
-    /// degree 4 (ridge 16 e-folds deep) it passed with errors up to 5e−9 relative, so the lines
-    /// of a ridge's density stay adaptive.
-    fn analytic(&self) -> bool {
-        EpcSolution::on_plane(self)
-    }
-
-    /// The normalisation grid, which reaches e^−40 of the peak (or the ridge region).
-    fn extent(&self) -> [[f64; 2]; 2] {
-        EpcSolution::extent(self)
+    /// The relative accuracy the density states for its own values (for a normalised
+    /// density, its normalising constant's): the fixed rules that integrate it along
+    /// [`JointDensity::smooth_pieces`] are accepted when their a-posteriori check is within a
+    /// tenth of this (never tighter than 1e−10), so that a marginal or moment is as accurate
+    /// as the density claims to be and no more is paid for. The default, 1e−9, gives the
+    /// 1e−10 of the adaptive quadrature.
+    ///
+    /// ```
+    /// use fpsolve::observe::JointDensity;
+    /// struct Normal;
+    /// impl JointDensity for Normal {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (-(x[0] * x[0] + x[1] * x[1]) / 2.0).exp() / (2.0 * std::f64::consts::PI)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-9.0, 9.0], [-9.0, 9.0]]
+    ///     }
+    /// }
+    /// assert_eq!(Normal.stated_accuracy(), 1e-9);
+    /// ```
+    fn stated_accuracy(&self) -> f64 {
+        1e-9
     }
 }
 
@@ -369,6 +465,7 @@ impl<'a> ObservableDensity<'a> {
 fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 2], u: f64) -> f64 {
     let other = 1 - state;
     let ext = density.extent();
+    let tolerance = lines::rule_tolerance(density);
     let mut total = 0.0;
     for (a, row) in sign.iter().enumerate() {
         for (b, &s) in row.iter().enumerate() {
@@ -394,29 +491,7 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
             if hi <= lo {
                 continue;
             }
-            if let Some(line) = density.line_integral(state, xs, [lo, hi]) {
-                total += line;
-                continue;
-            }
-            // A panel's nodes at once: one row (or column) of the density's tensor grid.
-            let f = |t: &[f64], out: &mut [f64]| {
-                if state == 0 {
-                    density.pdf_on_grid(&[xs], t, out);
-                } else {
-                    density.pdf_on_grid(t, &[xs], out);
-                }
-            };
-            // An analytic density: the nested fixed rules, checked by their doubling test;
-            // adaptive where that check fails.
-            let fixed = if density.analytic() {
-                fixed::integrate_nested(&f, lo, hi, 1e-10)
-            } else {
-                None
-            };
-            total += match fixed {
-                Some(v) => v,
-                None => quadrature::integrate_adaptive_batch(&f, lo, hi, 1e-10),
-            };
+            total += lines::half_line(density, state, xs, [lo, hi], tolerance);
         }
     }
     total

@@ -4,6 +4,7 @@ use serde::Serialize;
 
 use rayon::prelude::*;
 
+use super::line_moments::LineQuadrants;
 use super::{JointDensity, ObservableMap};
 use crate::moments::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
@@ -54,7 +55,11 @@ struct Rule {
 ///
 /// ± a state under an analytic density ([`JointDensity::analytic`]) takes instead a tensor
 /// Clenshaw–Curtis rule (129 nodes per half-axis) on each quadrant, accepted where it agrees
-/// with its half-rule to 1e−10 (on the scale of E[g⁴]^(k/4)), the composite rule otherwise.
+/// with its half-rule to 1e−10 (on the scale of E[g⁴]^(k/4)), the composite rule otherwise;
+/// under a density smooth piecewise along lines ([`JointDensity::smooth_pieces`], EPC inside a
+/// ridge) line integrals under an outer Clenshaw–Curtis rule (128 intervals per half-axis, 256
+/// when that fails its check), accepted at the density's rule tolerance (a tenth of
+/// [`JointDensity::stated_accuracy`]), the composite rule otherwise.
 ///
 /// Accuracy: where p and g are smooth the rule is exact to rounding (relative 1e−12 on the
 /// tests' Gaussian and double-well densities); a kink of g away from the axes costs O(h²) with
@@ -195,15 +200,34 @@ pub fn moments_of_all(
     maps: &[&ObservableMap],
 ) -> Vec<ObservableMoments> {
     // ± a state under an analytic density: a tensor Clenshaw–Curtis rule on each quadrant,
-    // checked against its half (see `fixed_signed`); the composite grid for the rest.
-    let quadrants = density.analytic().then(|| Quadrants::new(density));
-    let fixed: Vec<Option<ObservableMoments>> = maps
-        .iter()
-        .map(|map| match (map, &quadrants) {
-            (ObservableMap::SignedState { state, sign }, Some(q)) => q.signed(*state, sign),
-            _ => None,
-        })
-        .collect();
+    // checked against its half (see `Quadrants::signed`); under a density smooth piecewise
+    // along lines, line integrals under an outer rule (see `LineQuadrants`); the composite
+    // grid for the rest, and where a fixed rule's check fails.
+    let fixed: Vec<Option<ObservableMoments>> = if density.analytic() {
+        let quadrants = Quadrants::new(density);
+        maps.iter()
+            .map(|map| match map {
+                ObservableMap::SignedState { state, sign } => quadrants.signed(*state, sign),
+                ObservableMap::General { .. } => None,
+            })
+            .collect()
+    } else if by_pieces(density) {
+        let mut wanted = [false; 2];
+        for map in maps {
+            if let ObservableMap::SignedState { state, .. } = map {
+                wanted[*state] = true;
+            }
+        }
+        let mut lines = LineQuadrants::new(density, wanted);
+        maps.iter()
+            .map(|map| match map {
+                ObservableMap::SignedState { state, sign } => lines.signed(*state, sign),
+                ObservableMap::General { .. } => None,
+            })
+            .collect()
+    } else {
+        vec![None; maps.len()]
+    };
     if fixed.iter().all(Option::is_some) {
         return fixed.into_iter().flatten().collect();
     }
@@ -237,6 +261,13 @@ pub fn moments_of_all(
             f.moments(existing)
         })
         .collect()
+}
+
+/// Whether `density` tells the smooth pieces of its lines ([`JointDensity::smooth_pieces`]).
+fn by_pieces(density: &dyn JointDensity) -> bool {
+    let ext = density.extent();
+    let mut pieces = Vec::new();
+    density.smooth_pieces(0, 0.5 * (ext[0][0] + ext[0][1]), ext[1], &mut pieces)
 }
 
 /// Relative agreement of the moments by the tensor Clenshaw–Curtis rule and its half below
@@ -278,32 +309,43 @@ impl Quadrants {
     }
 
     /// The moments of g = s(q)·x_state, by the finer rule where the two rules agree to
-    /// [`FIXED_TOLERANCE`] (the odd moments and the mean on the scale of E[g⁴]^(k/4)), `None`
-    /// where they do not.
+    /// [`FIXED_TOLERANCE`] (see [`finer_if_agreeing`]), `None` where they do not.
     fn signed(&self, state: usize, sign: &[[f64; 2]; 2]) -> Option<ObservableMoments> {
-        let by = |rule: usize| {
-            moments_of_pairs(
-                || {
-                    self.nodes.iter().enumerate().flat_map(move |(q, nodes)| {
-                        let s = sign[q / 2][q % 2];
-                        nodes.iter().map(move |(x, w)| (s * x[state], w[rule]))
-                    })
-                },
-                4,
-            )
-        };
-        let (fine, coarse) = (by(0), by(1));
-        let (f, c) = (&fine.moments, &coarse.moments);
-        let scale = |k: i32| f.raw[3].abs().powf(f64::from(k) / 4.0);
-        let close = |a: f64, b: f64, scale: f64| {
-            a.is_finite() && b.is_finite() && (a - b).abs() <= FIXED_TOLERANCE * scale
-        };
-        let agree = (1..=4).all(|k| close(f.raw[k - 1], c.raw[k - 1], scale(k as i32)))
-            && close(f.mean, c.mean, scale(1))
-            && close(f.variance, c.variance, f.variance.abs())
-            && close(f.kurtosis, c.kurtosis, f.kurtosis.abs());
-        agree.then_some(fine)
+        finer_if_agreeing(
+            |rule| {
+                moments_of_pairs(
+                    || {
+                        self.nodes.iter().enumerate().flat_map(move |(q, nodes)| {
+                            let s = sign[q / 2][q % 2];
+                            nodes.iter().map(move |(x, w)| (s * x[state], w[rule]))
+                        })
+                    },
+                    4,
+                )
+            },
+            FIXED_TOLERANCE,
+        )
     }
+}
+
+/// The moments by a fixed rule (`by(0)`) where they agree with those by its half (`by(1)`)
+/// to `tolerance` (the raw moments and the mean on the scale of E[g⁴]^(k/4), the variance and
+/// kurtosis relative), `None` where they do not.
+pub(super) fn finer_if_agreeing(
+    by: impl Fn(usize) -> ObservableMoments,
+    tolerance: f64,
+) -> Option<ObservableMoments> {
+    let (fine, coarse) = (by(0), by(1));
+    let (f, c) = (&fine.moments, &coarse.moments);
+    let scale = |k: i32| f.raw[3].abs().powf(f64::from(k) / 4.0);
+    let close = |a: f64, b: f64, scale: f64| {
+        a.is_finite() && b.is_finite() && (a - b).abs() <= tolerance * scale
+    };
+    let agree = (1..=4).all(|k| close(f.raw[k - 1], c.raw[k - 1], scale(k as i32)))
+        && close(f.mean, c.mean, scale(1))
+        && close(f.variance, c.variance, f.variance.abs())
+        && close(f.kurtosis, c.kurtosis, f.kurtosis.abs());
+    agree.then_some(fine)
 }
 
 /// Rows of a rule evaluated together (one task of the parallel evaluation).
@@ -313,7 +355,7 @@ const ROWS_PER_BLOCK: usize = 32;
 /// established (the others NaN). `pairs` gives the same sequence each time it is called. Every
 /// sum is its own, taken in the order of the pairs: the four raw moments, the total and the
 /// defined mass in one pass, the two central moments in a second.
-fn moments_of_pairs<I: Iterator<Item = (f64, f64)>>(
+pub(super) fn moments_of_pairs<I: Iterator<Item = (f64, f64)>>(
     pairs: impl Fn() -> I,
     existing: usize,
 ) -> ObservableMoments {

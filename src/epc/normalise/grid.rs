@@ -61,17 +61,86 @@ impl DensityGrid {
         let Some(mask) = &self.mask else {
             return 1.0;
         };
-        // The same bound on Q as the flood fill that built the mask (the mode is the region's
-        // maximum; what rises above it lies beyond the ridge).
-        if q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()) {
+        if !self.in_band(q) {
             return 0.0;
         }
         match node() {
-            [Some(i), Some(j)] if mask[i * self.g2.len() + j] => {
-                taper((q - self.floor) / TAPER_E_FOLDS)
-            }
+            [Some(i), Some(j)] if mask[i * self.g2.len() + j] => self.in_mask(q),
             _ => 0.0,
         }
+    }
+
+    /// The same bound on Q as the flood fill that built the mask (the mode is the region's
+    /// maximum; what rises above it lies beyond the ridge). Written as the negation of the
+    /// test for "outside" so that a NaN Q is in the band, as it always was (and gives NaN).
+    #[inline]
+    pub(super) fn in_band(&self, q: f64) -> bool {
+        !(q <= self.floor || q > self.q_max + 1e-9 * (1.0 + self.q_max.abs()))
+    }
+
+    /// [`DensityGrid::weight`] at a point whose node lies in the mask (inside a ridge): the
+    /// cutoff of Q alone, so that along a run of masked cells ([`DensityGrid::mask_runs`]) the
+    /// weight is a smooth (C^∞) function of Q up to the run's ends, where it takes the limit
+    /// from inside the run.
+    #[inline]
+    pub(crate) fn in_mask(&self, q: f64) -> f64 {
+        if self.in_band(q) {
+            taper((q - self.floor) / TAPER_E_FOLDS)
+        } else {
+            0.0
+        }
+    }
+
+    /// Inside a ridge, the runs of masked cells on the line ξ_axis = `at` within `range` of
+    /// the other variable, in order, into `out` (cleared first): the intervals where
+    /// [`DensityGrid::weight`] looks up a masked node, so that the density is
+    /// exp(Q)·[`DensityGrid::in_mask`] on each and zero between them. A cell is the set of
+    /// points that round to its node, so a run's ends are half a spacing beyond its first
+    /// and last nodes. `false` on the plane (no mask: the whole line is one run).
+    pub(crate) fn mask_runs(
+        &self,
+        axis: usize,
+        at: f64,
+        range: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> bool {
+        out.clear();
+        let Some(mask) = &self.mask else {
+            return false;
+        };
+        let Some(i) = self.node(axis, at) else {
+            return true;
+        };
+        let (g, h) = if axis == 0 {
+            (&self.g2, self.h[1])
+        } else {
+            (&self.g1, self.h[0])
+        };
+        let n2 = self.g2.len();
+        let masked = |k: usize| {
+            if axis == 0 {
+                mask[i * n2 + k]
+            } else {
+                mask[k * n2 + i]
+            }
+        };
+        let mut k = 0;
+        while k < g.len() {
+            if !masked(k) {
+                k += 1;
+                continue;
+            }
+            let first = k;
+            while k < g.len() && masked(k) {
+                k += 1;
+            }
+            let lo = (g[0] + (first as f64 - 0.5) * h).max(range[0]);
+            let hi = (g[0] + (k as f64 - 0.5) * h).min(range[1]);
+            if lo < hi {
+                out.push([lo, hi]);
+            }
+        }
+        true
     }
 }
 

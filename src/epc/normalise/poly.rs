@@ -66,6 +66,19 @@ impl Poly {
         q
     }
 
+    /// Coefficients c_k of Q on the line ξ_axis = `at` as a polynomial in the other
+    /// variable t: Q = Σ_{k ≤ degree} c_k t^k (evaluate with [`horner`] on
+    /// `c[..=degree]`; the entries above the degree are 0).
+    pub(crate) fn on_line(&self, axis: usize, at: f64) -> [f64; MAX_POWER + 1] {
+        let mut c = [0.0; MAX_POWER + 1];
+        let p = powers(at);
+        for (&(i, j), a) in self.exps.iter().zip(&self.a) {
+            let (fixed, free) = if axis == 0 { (i, j) } else { (j, i) };
+            c[free] += a * p[fixed];
+        }
+        c
+    }
+
     /// Values on a tensor grid, row-major in ξ1 (index i·n2 + j).
     pub(crate) fn on_grid(&self, g1: &[f64], g2: &[f64]) -> Vec<f64> {
         let n = self.degree;
@@ -175,5 +188,10 @@ mod tests {
             - 0.01 * y.powi(4)
             - 0.02 * x.powi(4);
         assert!((q.eval([x, y]) - direct).abs() < 1e-12);
+        // Restricted to either coordinate line, by Horner in the free variable.
+        let c = q.on_line(0, x);
+        assert!((horner(&c[..=4], y) - direct).abs() < 1e-12);
+        let c = q.on_line(1, y);
+        assert!((horner(&c[..=4], x) - direct).abs() < 1e-12);
     }
 }

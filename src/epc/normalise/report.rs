@@ -69,6 +69,27 @@ pub struct NormalisationReport {
     pub error_estimate: f64,
 }
 
+impl NormalisationReport {
+    /// The relative accuracy this normalisation states for the density, and so for every
+    /// marginal and moment taken from it: the larger of the tolerance its grid was accepted
+    /// at (1e−9 on the plane; inside a ridge of depth d the larger of 1e−9 and e^−(d−1), the
+    /// order of the mass in the cutoff near the region's edge) and its
+    /// [`error_estimate`](NormalisationReport::error_estimate) (which exceeds the tolerance
+    /// only when refinement stopped at the largest grid).
+    ///
+    /// ```
+    /// # use fpsolve::{epc::*, fpk::FpkOperator, model::parse_model};
+    /// # let model = parse_model("model m\nparam c = 0.1\nstate z, v\ndrift z: v\n\
+    /// #     drift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
+    /// # let fpk = FpkOperator::derive(&model.bind(&[]).unwrap()).unwrap();
+    /// let n = Epc::new(&fpk).degree(2).solve().unwrap().normalisation;
+    /// assert_eq!(n.stated_accuracy(), 1e-9); // on the plane
+    /// ```
+    pub fn stated_accuracy(&self) -> f64 {
+        self.kind.tolerance().max(self.error_estimate)
+    }
+}
+
 /// How the region inside a ridge is bounded.
 ///
 /// ```
