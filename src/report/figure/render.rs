@@ -23,22 +23,7 @@ pub(super) fn render_png(
         BitMapBackend::with_buffer(&mut big, (size.0 * k, size.1 * k)).into_drawing_area(),
         k,
     )?;
-    let block = (k * k) as usize;
-    let mut rgb = vec![0u8; w * h * 3];
-    for (i, pixel) in rgb.chunks_exact_mut(3).enumerate() {
-        let (row, col) = (i / w, i % w);
-        for (c, out) in pixel.iter_mut().enumerate() {
-            let mut sum = 0usize;
-            for dy in 0..k as usize {
-                let line = (row * k as usize + dy) * big_w;
-                for dx in 0..k as usize {
-                    sum += usize::from(big[(line + col * k as usize + dx) * 3 + c]);
-                }
-            }
-            // Rounded mean of the block, which fits in a byte.
-            *out = ((sum + block / 2) / block) as u8;
-        }
-    }
+    let rgb = downsample(&big, w, h, k as usize);
     let mut png_bytes = Vec::new();
     let mut encoder = png::Encoder::new(&mut png_bytes, size.0, size.1);
     encoder.set_color(png::ColorType::Rgb);
@@ -48,6 +33,37 @@ pub(super) fn render_png(
     writer.write_image_data(&rgb).map_err(encode)?;
     writer.finish().map_err(encode)?;
     Ok(png_bytes)
+}
+
+/// The rounded mean of each `k`×`k` block of the supersampled RGB image `big` (`w·k` wide,
+/// `h·k` high): the `w`×`h` image. Each band of `k` lines is first summed byte by byte down
+/// its columns (a loop the compiler vectorises), then across each block: no division and no
+/// bounds check per byte (the per-byte indexed loop was a tenth of the main job's time).
+fn downsample(big: &[u8], w: usize, h: usize, k: usize) -> Vec<u8> {
+    let block = (k * k) as u32;
+    let big_row = w * k * 3;
+    debug_assert_eq!(big.len(), big_row * h * k);
+    let mut rgb = vec![0u8; w * h * 3];
+    let mut columns = vec![0u32; big_row];
+    for (out_row, band) in rgb
+        .chunks_exact_mut(w * 3)
+        .zip(big.chunks_exact(big_row * k))
+    {
+        columns.fill(0);
+        for line in band.chunks_exact(big_row) {
+            for (sum, &byte) in columns.iter_mut().zip(line) {
+                *sum += u32::from(byte);
+            }
+        }
+        for (out, sums) in out_row.chunks_exact_mut(3).zip(columns.chunks_exact(3 * k)) {
+            for (c, value) in out.iter_mut().enumerate() {
+                let sum: u32 = sums.iter().skip(c).step_by(3).sum();
+                // Rounded mean of the block, which fits in a byte.
+                *value = ((sum + block / 2) / block) as u8;
+            }
+        }
+    }
+    rgb
 }
 
 pub(super) fn render_svg(
@@ -99,4 +115,37 @@ pub(super) fn write_both(
         png: dir.write_atomic(&png_name, &png_bytes)?,
         svg: dir.write_atomic(&svg_name, svg_text.as_bytes())?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::downsample;
+
+    #[test]
+    fn downsampling_takes_the_rounded_mean_of_each_block() {
+        // A 3×2 image supersampled by 2 (6×4 RGB), every byte a different value.
+        let (w, h, k) = (3, 2, 2);
+        let big: Vec<u8> = (0..w * k * h * k * 3)
+            .map(|i| (i * 37 % 256) as u8)
+            .collect();
+        let rgb = downsample(&big, w, h, k);
+        assert_eq!(rgb.len(), w * h * 3);
+        for row in 0..h {
+            for col in 0..w {
+                for c in 0..3 {
+                    let mut sum = 0usize;
+                    for dy in 0..k {
+                        for dx in 0..k {
+                            let (y, x) = (row * k + dy, col * k + dx);
+                            sum += usize::from(big[(y * w * k + x) * 3 + c]);
+                        }
+                    }
+                    assert_eq!(rgb[(row * w + col) * 3 + c], ((sum + 2) / 4) as u8);
+                }
+            }
+        }
+        // A half-way mean rounds up: (0 + 0 + 1 + 1) / 4 = 0.5 → 1.
+        let big = [0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1];
+        assert_eq!(downsample(&big, 1, 1, 2), vec![1, 1, 1]);
+    }
 }
