@@ -8,6 +8,7 @@
 mod curves;
 mod methods;
 
+use rayon::prelude::*;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -270,7 +271,7 @@ impl<'a> StudyRunner<'a> {
         let problem = Problem::new(self.model)?;
         let quantities = problem.quantities().to_vec();
         let with_grid = self.methods.contains(&MethodName::Grid);
-        let (degrees, grid) = rayon::join(
+        let (mut degrees, grid) = rayon::join(
             || {
                 ladders
                     .iter()
@@ -287,11 +288,32 @@ impl<'a> StudyRunner<'a> {
             solved.push((GridRun::SOURCE, s));
         }
         let wanted = |q: &&Quantity| self.curves_of.as_ref().is_none_or(|n| n.contains(&q.name));
-        let curves = quantities
-            .iter()
-            .filter(wanted)
-            .map(|q| curves::curves(q, &solved, self.bins))
-            .collect();
+        // The degrees' moments and the quantities' curves are independent of each other and
+        // each computed by itself, in the same order: side by side they keep both cores busy
+        // (an EPC-only ladder is sequential) and give the same numbers as one after another.
+        let (stats, curves) = rayon::join(
+            || {
+                degrees
+                    .par_iter()
+                    .map(|r| {
+                        r.outcome
+                            .as_ref()
+                            .map_or_else(|_| Vec::new(), Solution::all_moments)
+                    })
+                    .collect::<Vec<_>>()
+            },
+            || {
+                let wanted: Vec<&Quantity> = quantities.iter().filter(wanted).collect();
+                wanted
+                    .par_iter()
+                    .map(|q| curves::curves(q, &solved, self.bins))
+                    .collect::<Vec<_>>()
+            },
+        );
+        drop(solved);
+        for (d, s) in degrees.iter_mut().zip(stats) {
+            d.stats = s;
+        }
         Ok(Study {
             model: self.model.clone(),
             degrees,
@@ -323,14 +345,12 @@ impl<'a> StudyRunner<'a> {
                             (None, Some(s)) => s.report.solve_ms,
                             (None, None) => 0.0,
                         });
-                let stats = outcome
-                    .as_ref()
-                    .map_or_else(|_| Vec::new(), Solution::all_moments);
                 DegreeResult {
                     method,
                     degree,
                     outcome,
-                    stats,
+                    // Filled in by `run`, beside the curves.
+                    stats: Vec::new(),
                     wall_ms,
                 }
             })
