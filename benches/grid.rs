@@ -1,7 +1,9 @@
 //! Grid FPK solve time against the number of cells, 5k to 320k, on the paper's case 1 with
 //! the wall in original coordinates (models/vibro_impact_duffing.sde): the solve alone (the
 //! error estimate off, throughput in cells per second), and the default job of
-//! `fpsolve solve MODEL --method grid` (200×400 cells and the error estimate's 100×200).
+//! `fpsolve solve MODEL --method grid` (200×400 cells and the error estimate's 100×200), on
+//! rayon's default pool and on one thread (the factorisation splits the subtrees of the
+//! elimination tree between threads, and the two solves run alongside; same bits either way).
 //! Peak memory by cell count: `benches/grid_cells.sh`.
 //!
 //! `cargo bench --bench grid`
@@ -36,6 +38,13 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("200x400_with_estimate", |b| {
         b.iter(|| GridSolver::new(&bound).solve().expect("solves"))
+    });
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a pool");
+    group.bench_function("200x400_with_estimate_1_thread", |b| {
+        b.iter(|| one.install(|| GridSolver::new(&bound).solve().expect("solves")))
     });
     group.finish();
 }

@@ -14,14 +14,12 @@
 //! pivoting among its own rows (which keeps the pattern). Since pivoting is restricted, the
 //! caller checks the backward error of each solve and refines (`assemble::solve`).
 
+mod numeric;
+
+#[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
-use faer::linalg::matmul::matmul;
-use faer::linalg::triangular_solve::{
-    solve_lower_triangular_in_place, solve_unit_lower_triangular_in_place,
-};
+use faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place;
 use faer::perm::PermRef;
-use faer::reborrow::*;
 #[cfg(test)]
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
@@ -31,7 +29,10 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Accum, Mat, MatMut, MatRef, Par, Side, Spec};
+use faer::{MatMut, MatRef, Par, Side};
+use numeric::numeric;
+#[cfg(test)]
+use numeric::plan;
 
 /// The LU factors of P A Pᵀ, ready to solve.
 pub(crate) struct PatternLu {
@@ -152,10 +153,19 @@ impl PatternLu {
         PatternLu::ordered(a, fwd)
     }
 
-    /// Factorises `a` in the symmetric order `fwd` (position → cell).
+    /// Factorises `a` in the symmetric order `fwd` (position → cell), disjoint subtrees of
+    /// the supernodal elimination tree in parallel (the same bits as one task).
     pub(crate) fn ordered(
         a: SparseColMatRef<'_, usize, f64>,
         fwd: Vec<usize>,
+    ) -> Result<PatternLu, LuFailure> {
+        PatternLu::ordered_with(a, fwd, true)
+    }
+
+    fn ordered_with(
+        a: SparseColMatRef<'_, usize, f64>,
+        fwd: Vec<usize>,
+        parallel: bool,
     ) -> Result<PatternLu, LuFailure> {
         let n = a.ncols();
         let analysis = |e: &dyn std::fmt::Debug| LuFailure::Analysis(format!("{e:?}"));
@@ -182,7 +192,7 @@ impl PatternLu {
             return Err(LuFailure::Analysis("not supernodal".into()));
         };
         let p = permute(a, &inv);
-        let (l, u, pivots) = numeric(sym, &p)?;
+        let (l, u, pivots) = numeric(sym, &p, parallel)?;
         #[cfg(test)]
         let growth = {
             let scale = p.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -325,198 +335,6 @@ fn symmetric_pattern(
     faer::sparse::SymbolicSparseColMat::new_checked(n, n, ptr, None, idx)
 }
 
-/// The numeric factorisation, left-looking by supernodes: each supernode gathers the
-/// updates of the earlier supernodes whose pattern reaches its columns (linked lists, as in
-/// George and Liu's supernodal Cholesky), then factorises its diagonal block with partial
-/// pivoting among its rows and solves for its L21 and U12.
-type Factors = (Vec<f64>, Vec<f64>, Vec<usize>);
-fn numeric(sym: &SymbolicSupernodalCholesky<usize>, a: &Permuted) -> Result<Factors, LuFailure> {
-    let n = sym.nrows();
-    let nsup = sym.n_supernodes();
-    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-    let (cpr, cpv, rows) = (
-        sym.col_ptr_for_row_idx(),
-        sym.col_ptr_for_val(),
-        sym.row_idx(),
-    );
-    let mut l = vec![0.0; sym.len_val()];
-    let mut u = vec![0.0; sym.len_val()];
-    let mut pivots = vec![0usize; n];
-    let mut of_col = vec![0usize; n];
-    for s in 0..nsup {
-        of_col[begin[s]..end[s]].fill(s);
-    }
-    let mut local = vec![usize::MAX; n];
-    // Linked lists of the supernodes waiting to update supernode s, and each one's next
-    // unconsumed position in its pattern.
-    let mut head = vec![usize::MAX; nsup];
-    let mut next = vec![usize::MAX; nsup];
-    let mut pos = vec![0usize; nsup];
-    let mut work: Vec<f64> = Vec::new();
-    let mut rel: Vec<usize> = Vec::new();
-    // Sequential: the error estimate's solve runs on the other core, and the result does
-    // not depend on the thread count.
-    let par = Par::Seq;
-    let mut lu_mem = MemBuffer::new(lu_in_place_scratch::<usize, f64>(
-        n.min(1 << 16),
-        n.min(1 << 16),
-        par,
-        Spec::default(),
-    ));
-    let mut perm_fwd = vec![0usize; 0];
-    let mut perm_inv = vec![0usize; 0];
-    for s in 0..nsup {
-        let (s0, s1) = (begin[s], end[s]);
-        let ns = s1 - s0;
-        let pattern = &rows[cpr[s]..cpr[s + 1]];
-        let nr = pattern.len();
-        for (k, &r) in pattern.iter().enumerate() {
-            local[r] = ns + k;
-        }
-        let (lhead, ltail) = l.split_at_mut(cpv[s]);
-        let (uhead, utail) = u.split_at_mut(cpv[s]);
-        let len = cpv[s + 1] - cpv[s];
-        let (lcols, ucols) = (&mut ltail[..len], &mut utail[..len]);
-        let lds = ns + nr;
-        // A's entries: columns J from the diagonal down into L, rows J right of the block
-        // into Uᵀ.
-        for j in s0..s1 {
-            let (lcol, ucol) = (
-                &mut lcols[(j - s0) * lds..(j - s0 + 1) * lds],
-                &mut ucols[(j - s0) * lds..(j - s0 + 1) * lds],
-            );
-            for k in a.col_ptr[j]..a.col_ptr[j + 1] {
-                let i = a.row_idx[k];
-                if i >= s0 {
-                    lcol[if i < s1 { i - s0 } else { local[i] }] += a.val[k];
-                }
-            }
-            for k in a.row_ptr[j]..a.row_ptr[j + 1] {
-                let i = a.col_idx[k];
-                if i >= s1 {
-                    ucol[local[i]] += a.tval[k];
-                }
-            }
-        }
-        // Updates from the supernodes in s's list.
-        let mut d = head[s];
-        while d != usize::MAX {
-            let after = next[d];
-            let (d0, d1) = (begin[d], end[d]);
-            let nd = d1 - d0;
-            let dpat = &rows[cpr[d]..cpr[d + 1]];
-            let p = pos[d];
-            let rest = &dpat[p..];
-            let mid = rest.partition_point(|&r| r < s1);
-            let m = rest.len();
-            let len = cpv[d + 1] - cpv[d];
-            let ld =
-                MatRef::from_column_major_slice(&lhead[cpv[d]..cpv[d] + len], nd + dpat.len(), nd);
-            let ud =
-                MatRef::from_column_major_slice(&uhead[cpv[d]..cpv[d] + len], nd + dpat.len(), nd);
-            let ld_rest = ld.subrows(nd + p, m);
-            let ud_rest = ud.subrows(nd + p, m);
-            // Where each remaining row of d lands in s's block.
-            rel.clear();
-            rel.extend(rest.iter().map(|&r| if r < s1 { r - s0 } else { local[r] }));
-            let lds = ns + nr;
-            let big = |flops: usize| if flops > 1 << 21 { par } else { Par::Seq };
-            // L(rest, mid) -= Ld(rest) · U12d(:, mid) = Ld(rest) · Udᵀ(mid)ᵀ.
-            if work.len() < m * mid {
-                work.resize(m * mid, 0.0);
-            }
-            matmul(
-                MatMut::from_column_major_slice_mut(&mut work[..m * mid], m, mid),
-                Accum::Replace,
-                ld_rest,
-                ud_rest.subrows(0, mid).transpose(),
-                1.0,
-                big(m * mid * nd),
-            );
-            for (jj, &c) in rest[..mid].iter().enumerate() {
-                let col = &mut lcols[(c - s0) * lds..(c - s0 + 1) * lds];
-                for (&at, &w) in rel.iter().zip(&work[jj * m..(jj + 1) * m]) {
-                    col[at] -= w;
-                }
-            }
-            // U12(mid, bot) -= Ld(mid) · U12d(:, bot): Uᵀ(bot, mid) -= Udᵀ(bot) · Ld(mid)ᵀ.
-            let bot = m - mid;
-            if bot > 0 {
-                matmul(
-                    MatMut::from_column_major_slice_mut(&mut work[..bot * mid], bot, mid),
-                    Accum::Replace,
-                    ud_rest.subrows(mid, bot),
-                    ld_rest.subrows(0, mid).transpose(),
-                    1.0,
-                    big(bot * mid * nd),
-                );
-                for (jj, &c) in rest[..mid].iter().enumerate() {
-                    let col = &mut ucols[(c - s0) * lds..(c - s0 + 1) * lds];
-                    for (&at, &w) in rel[mid..].iter().zip(&work[jj * bot..(jj + 1) * bot]) {
-                        col[at] -= w;
-                    }
-                }
-            }
-            pos[d] = p + mid;
-            if bot > 0 {
-                let t = of_col[rest[mid]];
-                next[d] = head[t];
-                head[t] = d;
-            }
-            d = after;
-        }
-        // The diagonal block, with partial pivoting among its rows.
-        let ls = MatMut::from_column_major_slice_mut(lcols, lds, ns);
-        let us = MatMut::from_column_major_slice_mut(ucols, lds, ns);
-        let par = if ns * ns * lds > 1 << 21 {
-            par
-        } else {
-            Par::Seq
-        };
-        let (mut top, mut lbot) = ls.split_at_row_mut(ns);
-        perm_fwd.resize(ns, 0);
-        perm_inv.resize(ns, 0);
-        let req = lu_in_place_scratch::<usize, f64>(ns, ns, par, Spec::default());
-        if req.size_bytes() > lu_mem.len() {
-            lu_mem = MemBuffer::new(req);
-        }
-        let (_, _) = lu_in_place(
-            top.rb_mut(),
-            &mut perm_fwd,
-            &mut perm_inv,
-            par,
-            MemStack::new(&mut lu_mem),
-            Spec::default(),
-        );
-        for k in 0..ns {
-            if top[(k, k)] == 0.0 || !top[(k, k)].is_finite() {
-                return Err(LuFailure::ZeroPivot { column: s0 + k });
-            }
-        }
-        pivots[s0..s1].copy_from_slice(&perm_fwd);
-        // L21 = F21 U11⁻¹: U11ᵀ L21ᵀ = F21ᵀ.
-        solve_lower_triangular_in_place(top.rb().transpose(), lbot.rb_mut().transpose_mut(), par);
-        // U12 = L11⁻¹ P F12, kept transposed: permute the columns of Uᵀ, then solve.
-        let mut ubot = us.split_at_row_mut(ns).1;
-        if nr > 0 {
-            let old = Mat::from_fn(nr, ns, |i, j| ubot[(i, j)]);
-            for (j, &from) in perm_fwd.iter().enumerate() {
-                for i in 0..nr {
-                    ubot[(i, j)] = old[(i, from)];
-                }
-            }
-            solve_unit_lower_triangular_in_place(top.rb(), ubot.rb_mut().transpose_mut(), par);
-            let t = of_col[pattern[0]];
-            next[s] = head[t];
-            head[t] = s;
-        }
-        for &r in pattern {
-            local[r] = usize::MAX;
-        }
-    }
-    Ok((l, u, pivots))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -557,6 +375,44 @@ mod tests {
                     .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
                 assert!(lu.growth.is_finite() && lu.growth >= 1.0);
                 assert!(worst <= 1e-12 * top, "{file}: {worst:e} of {top:e}");
+            }
+        }
+    }
+
+    /// The factors are the same bits in one task (supernodes in index order) and in parallel
+    /// on 1, 2 and 3 threads, on both coordinate systems, and the parallel schedule does
+    /// split the work (the supernodes are postordered and the root has two subtrees).
+    #[test]
+    fn factors_do_not_depend_on_the_thread_count() {
+        for file in [
+            "models/vibro_duffing.sde",
+            "models/vibro_impact_duffing.sde",
+        ] {
+            let (mesh, a, pin) = system(file, 40, 80);
+            let coords = crate::grid::nested::cell_coords(mesh.nx, mesh.nv, false);
+            let mut nd = crate::grid::nested::nested_dissection(a.symbolic(), &coords, 1);
+            nd.retain(|&c| c != pin);
+            nd.push(pin);
+            let one = PatternLu::ordered_with(a.as_ref(), nd.clone(), false).unwrap();
+            let p = plan(one.sym());
+            assert!(p.contiguous, "{file}: supernodes not postordered");
+            let total: f64 = p.roots.iter().map(|&r| p.cost[r]).sum();
+            let split = (0..p.cost.len())
+                .filter(|&s| p.cost[s] >= total / 64.0 && p.children[s].len() >= 2)
+                .count();
+            assert!(split >= 3, "{file}: {split} subtrees split");
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let lu = pool
+                    .install(|| PatternLu::ordered(a.as_ref(), nd.clone()))
+                    .unwrap();
+                assert_eq!(bits(&lu.l), bits(&one.l), "{file}: L on {threads} threads");
+                assert_eq!(bits(&lu.u), bits(&one.u), "{file}: U on {threads} threads");
+                assert_eq!(lu.pivots, one.pivots, "{file}: pivots on {threads} threads");
             }
         }
     }
