@@ -144,8 +144,11 @@ impl fmt::Display for Expr {
                         fmt_child(&den[0], f)?;
                         f.write_str(")")?;
                     } else {
+                        // One product below the line, flattened: a denominator factor that
+                        // is itself a product (`a/b/(c*d)`) prints as `a/(b*c*d)`, the text
+                        // the parser reads back as one flat product.
                         f.write_str("(")?;
-                        fmt_factors(&den, f)?;
+                        fmt_child(&Expr::product(den), f)?;
                         f.write_str(")")?;
                     }
                 }
@@ -189,4 +192,43 @@ fn unsplit(num: Vec<Expr>, den: Vec<Expr>) -> Vec<Expr> {
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn inverse(e: Expr) -> Expr {
+        Expr::pow(e, Expr::num(-1.0))
+    }
+
+    /// `a/b/(c*d)` built with a product below a product (as division builds it) prints as
+    /// the flat `a/(b*c*d)`, the same text as the flat tree the parser makes of that text:
+    /// printing then reparsing is a fixed point (the fuzz test's `0/(0.01*(2*pi))` case).
+    #[test]
+    fn a_product_in_a_denominator_prints_flat() {
+        let (a, b, c, d) = (
+            Expr::sym("a"),
+            Expr::sym("b"),
+            Expr::sym("c"),
+            Expr::sym("d"),
+        );
+        let nested = Expr::Mul(vec![
+            a.clone(),
+            inverse(b.clone()),
+            inverse(Expr::product(vec![c.clone(), d.clone()])),
+        ]);
+        let flat = Expr::Mul(vec![a, inverse(Expr::product(vec![b, c, d]))]);
+        assert_eq!(nested.to_string(), "a/(b*c*d)");
+        assert_eq!(flat.to_string(), "a/(b*c*d)");
+    }
+
+    /// A power of a product below the line keeps its parentheses.
+    #[test]
+    fn a_power_of_a_product_in_a_denominator_keeps_its_parentheses() {
+        let (a, b) = (Expr::sym("a"), Expr::sym("b"));
+        let two_pi = Expr::product(vec![Expr::num(2.0), Expr::sym("pi")]);
+        let e = Expr::Mul(vec![a, inverse(b), Expr::pow(two_pi, Expr::num(-2.0))]);
+        assert_eq!(e.to_string(), "a/(b*(2*pi)^2)");
+    }
 }
