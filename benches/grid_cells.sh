@@ -2,8 +2,9 @@
 # Time and peak memory of the grid solver by cell count, 5k to 320k cells, as whole
 # processes: `fpsolve solve models/vibro_impact_duffing.sde --method grid --cells NX,NV`
 # (the error estimate's half-cells solve included, as in the default job). The largest size
-# is 392x800 (313,600 cells): the CLI's memory guard (grid::Cells::memory_bytes, 1.9 times
-# the measured peak there) refuses 400x800 under its 4 GiB cap.
+# is 560x1120 (627,200 cells, ~2.9 GB): the CLI's memory guard (grid::Cells::memory_bytes,
+# 320 bytes per n·log2 n, 1.33 times the measured peak there) stops near 700k cells under
+# its 4 GiB cap.
 #
 # Usage: cargo build --release && benches/grid_cells.sh [RUNS]   (default 5 runs per size)
 #        FPSOLVE_BIN=/path/to/other/fpsolve benches/grid_cells.sh [RUNS]   (another build, e.g.
@@ -18,7 +19,7 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "load before: $(uptime)"
 printf '%-9s %-8s %-9s %-17s %-8s %s\n' cells n median_s min..max_s rss_MB "solver ms (assemble/solve/estimate/total)"
-for cells in 50,100 100,200 200,400 392,800; do
+for cells in 50,100 100,200 200,400 392,800 560,1120; do
     nx=${cells%,*}; nv=${cells#*,}
     times=(); rss=0
     for _ in $(seq "$runs"); do

@@ -495,6 +495,14 @@ fn plan(cli: Cli) -> Result<Planned> {
                 .check()
                 .map_err(at(&model))?;
             threads = check_threads(t, &mut notes)?;
+            if method.contains(MethodName::Grid) {
+                // The points solved at once each hold their own factorisation.
+                let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+                let at_once = threads.unwrap_or(cores).min(spec.len());
+                cells
+                    .within_at_once(fpsolve::grid::memory_limit_bytes(), at_once)
+                    .with_context(|| format!("--cells {cells} with {at_once} sweep points solved at once (--threads)"))?;
+            }
             let shard = shard.parse(spec.len())?;
             Plan::Sweep {
                 shard,

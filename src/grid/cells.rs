@@ -88,14 +88,14 @@ impl fmt::Display for Cells {
 
 impl Cells {
     /// The estimated peak memory of a solve, in bytes: the sparse LU factors of the
-    /// n = NX·NV unknowns, whose fill grows like n·√n on a two-dimensional grid, and the
-    /// solution's own arrays. Measured peak resident memory of `fpsolve solve` on
-    /// `models/linear.sde` above the 50 MB of a run without the grid: 125 MB at 140×280,
-    /// 340 MB at 200×400, 780 MB at 280×560 (12.6 to 16 bytes per n·√n); on
-    /// `models/vibro_impact_duffing.sde`, with the error estimate's solve alongside the main
-    /// one: 440 MB at 200×400, 990 MB at 280×560, 2.2 GB at 392×800 (17, 15, 12 bytes per
-    /// n·√n: the fill grows more slowly than n·√n). The estimate takes 24, 1.4 to 2 times
-    /// that.
+    /// n = NX·NV unknowns and the solution's own arrays. The nested-dissection order keeps the
+    /// factors' fill at n·log₂ n on a two-dimensional grid (not n·√n), and so does the
+    /// measured peak resident memory of the whole process `fpsolve solve
+    /// models/vibro_impact_duffing.sde --method grid` (the error estimate's half-cells solve
+    /// included, 2 threads), on 5c82887: 74 MB at 100×200, 314 MB at 200×400, 1378 MB at
+    /// 392×800, 2886 MB at 560×1120: 259, 241, 241 and 239 bytes per n·log₂ n
+    /// (`benches/grid_cells.sh`). The estimate
+    /// takes 320 bytes per n·log₂ n plus 15 MB: 1.3 to 1.6 times these.
     ///
     /// ```
     /// let c = fpsolve::grid::Cells([140, 280]);
@@ -103,7 +103,7 @@ impl Cells {
     /// ```
     pub fn memory_bytes(&self) -> f64 {
         let n = (self.0[0] * self.0[1]) as f64;
-        FILL_BYTES * n * n.sqrt() + 200.0 * n
+        FILL_BYTES * n * n.log2().max(1.0) + 15e6
     }
 
     /// Checks [`Cells::memory_bytes`] against `limit_bytes`.
@@ -117,7 +117,23 @@ impl Cells {
     /// assert!(matches!(Cells([20000, 20000]).within(4e9), Err(CellsError::TooMuchMemory { .. })));
     /// ```
     pub fn within(&self, limit_bytes: f64) -> Result<(), CellsError> {
-        let bytes = self.memory_bytes();
+        self.within_at_once(limit_bytes, 1)
+    }
+
+    /// Checks that `at_once` solves of these cells side by side (a sweep's points on
+    /// several threads, each with its own factorisation) fit in `limit_bytes`.
+    ///
+    /// # Errors
+    /// [`CellsError::TooMuchMemory`] with the estimate of all of them together.
+    ///
+    /// ```
+    /// use fpsolve::grid::Cells;
+    /// let one = Cells([200, 400]).memory_bytes();
+    /// assert!(Cells([200, 400]).within_at_once(2.5 * one, 2).is_ok());
+    /// assert!(Cells([200, 400]).within_at_once(2.5 * one, 3).is_err());
+    /// ```
+    pub fn within_at_once(&self, limit_bytes: f64, at_once: usize) -> Result<(), CellsError> {
+        let bytes = self.memory_bytes() * at_once.max(1) as f64;
         if bytes > limit_bytes {
             return Err(CellsError::TooMuchMemory {
                 nx: self.0[0],
@@ -130,8 +146,8 @@ impl Cells {
     }
 }
 
-/// Bytes of LU factor per n·√n (measured 12.6 to 16, with a margin).
-const FILL_BYTES: f64 = 24.0;
+/// Bytes of peak memory per n·log₂ n unknowns (measured 241 to 259, with a margin).
+const FILL_BYTES: f64 = 320.0;
 
 /// The memory a grid solve may use: the memory available on the machine (`MemAvailable` of
 /// `/proc/meminfo`), at most [`crate::mc::MEMORY_LIMIT_BYTES`]; that limit where the machine
@@ -147,4 +163,41 @@ pub fn memory_limit_bytes() -> f64 {
                 .and_then(|kb| kb.parse::<f64>().ok())
         })
         .map_or(cap, |kb| (kb * 1024.0).min(cap))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The estimate covers every measured peak (whole process, `benches/grid_cells.sh` on
+    /// 5c82887) and is at most 1.6 times it: the guard neither lets a solve run out of memory
+    /// nor refuses one that fits in much less.
+    #[test]
+    fn the_memory_estimate_covers_the_measured_peaks_closely() {
+        let measured_mb = [
+            ([100, 200], 74.0),
+            ([200, 400], 314.0),
+            ([392, 800], 1378.0),
+            ([560, 1120], 2886.0),
+        ];
+        for (cells, mb) in measured_mb {
+            let ratio = Cells(cells).memory_bytes() / (mb * 1e6);
+            assert!(
+                (1.0..1.6).contains(&ratio),
+                "{cells:?}: estimate / measured = {ratio}"
+            );
+        }
+    }
+
+    /// 560×1120 fits under the 4 GiB cap, alone; twice its cells, or two of it at once, do not.
+    #[test]
+    fn the_cap_admits_627k_cells_and_refuses_twice_that() {
+        let cap = crate::mc::MEMORY_LIMIT_BYTES;
+        assert!(Cells([560, 1120]).within(cap).is_ok());
+        assert!(Cells([560, 1120]).within_at_once(cap, 2).is_err());
+        assert!(matches!(
+            Cells([800, 1600]).within(cap),
+            Err(CellsError::TooMuchMemory { .. })
+        ));
+    }
 }
