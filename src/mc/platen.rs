@@ -383,3 +383,7 @@ pub(super) fn platen_point_step(
     }
     out
 }
+
+#[cfg(test)]
+#[path = "platen_order_tests.rs"]
+mod order_tests;
