@@ -6,6 +6,7 @@
 //! sized once per batch, so a step allocates nothing.
 
 use super::eval::BatchKernel;
+use super::fused::{chunk, chunk_mut};
 use super::lanes::{LaneProgram, CHUNK};
 use super::scheme::PlatenKernels;
 
@@ -21,8 +22,25 @@ pub(super) struct PlatenWork {
     /// The chunk's increments ΔŴ_j and pair signs ±Δ (one row each).
     dw: Vec<Lanes>,
     vpair: Vec<Lanes>,
-    /// The pair signs of the whole batch, pair p of lane i at `p*n + i`.
-    pub(super) batch_vpair: Vec<f64>,
+    /// The random bits of the pair signs of the whole batch, pair p of lane i at `p*n + i`
+    /// (the sign of V is the top bit).
+    pub(super) pair_bits: Vec<u64>,
+    /// The batch's new states, exchanged with the old ones after a step.
+    pub(super) nx: Vec<f64>,
+    pub(super) nv: Vec<f64>,
+    /// For each r, how the cross terms' b̃_j(U±_r) are evaluated.
+    cross: Vec<Cross>,
+}
+
+/// The evaluation at the supporting points U±_r of one source r.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Cross {
+    /// Every other column is state-independent: no cross terms.
+    None,
+    /// One other column j depends on the state: its own program.
+    Column(usize),
+    /// Several do: the program of all columns.
+    All,
 }
 
 impl PlatenWork {
@@ -41,18 +59,32 @@ impl PlatenWork {
             .max()
             .unwrap_or(0);
         let pairs = m * m.saturating_sub(1) / 2;
+        let cross = (0..m)
+            .map(|r| {
+                let mut varying = (0..m).filter(|&j| j != r && !pk.constant[j]);
+                match (varying.next(), varying.next()) {
+                    (None, _) => Cross::None,
+                    (Some(j), None) => Cross::Column(j),
+                    _ => Cross::All,
+                }
+            })
+            .collect();
         PlatenWork {
             e0: vec![[0.0; CHUNK]; kernel.program().n_slots()],
             plus: vec![[0.0; CHUNK]; slots],
             minus: vec![[0.0; CHUNK]; slots],
             dw: vec![[0.0; CHUNK]; m],
             vpair: vec![[0.0; CHUNK]; pairs],
-            batch_vpair: vec![0.0; pairs * lanes],
+            pair_bits: vec![0; pairs * lanes],
+            nx: vec![0.0; lanes],
+            nv: vec![0.0; lanes],
+            cross,
         }
     }
 
-    /// One step of every lane: `(x, v)` with the increments `dw` (source k of lane i at
-    /// `dw[k*n + i]`) and the pair signs in `batch_vpair`, the new states into `(px, pv)`.
+    /// One step of every lane from `(x, v)` into `(self.nx, self.nv)`: the increments are
+    /// ΔŴ = `sq`·`z` (source k of lane i at `z[k*n + i]`, `sq` = √h), the pair signs from
+    /// `self.pair_bits`, both formed chunk by chunk while the chunk is in L1.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
@@ -63,34 +95,50 @@ impl PlatenWork {
         h: f64,
         x: &[f64],
         v: &[f64],
-        dw: &[f64],
-        px: &mut [f64],
-        pv: &mut [f64],
+        z: &[f64],
     ) {
         let n = x.len();
         let pairs = self.vpair.len();
+        let sq = h.sqrt();
+        let mut nx = std::mem::take(&mut self.nx);
+        let mut nv = std::mem::take(&mut self.nv);
         let mut start = 0;
         while start < n {
             // A partial last chunk is padded with zeros; its padding lanes are discarded.
             let len = CHUNK.min(n - start);
-            let load = |src: &[f64], dst: &mut Lanes| {
-                dst[..len].copy_from_slice(&src[start..start + len]);
-                dst[len..].fill(0.0);
-            };
-            let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
-            load(x, &mut xc);
-            load(v, &mut vc);
             for k in 0..m {
-                load(&dw[k * n..(k + 1) * n], &mut self.dw[k]);
+                let (src, dst) = (&z[k * n + start..k * n + start + len], &mut self.dw[k]);
+                for i in 0..len {
+                    dst[i] = sq * src[i];
+                }
+                dst[len..].fill(0.0);
             }
             for p in 0..pairs {
-                load(&self.batch_vpair[p * n..(p + 1) * n], &mut self.vpair[p]);
+                let src = &self.pair_bits[p * n + start..p * n + start + len];
+                let dst = &mut self.vpair[p];
+                for i in 0..len {
+                    dst[i] = if src[i] >> 63 == 0 { h } else { -h };
+                }
+                dst[len..].fill(0.0);
             }
-            let (ox, ov) = self.chunk(kernel, pk, m, h, &xc, &vc);
-            px[start..start + len].copy_from_slice(&ox[..len]);
-            pv[start..start + len].copy_from_slice(&ov[..len]);
+            let r = start..start + len;
+            if len == CHUNK {
+                let (ox, ov) =
+                    self.chunk(kernel, pk, m, h, chunk(&x[r.clone()]), chunk(&v[r.clone()]));
+                *chunk_mut(&mut nx[r.clone()]) = ox;
+                *chunk_mut(&mut nv[r]) = ov;
+            } else {
+                let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
+                xc[..len].copy_from_slice(&x[r.clone()]);
+                vc[..len].copy_from_slice(&v[r.clone()]);
+                let (ox, ov) = self.chunk(kernel, pk, m, h, &xc, &vc);
+                nx[r.clone()].copy_from_slice(&ox[..len]);
+                nv[r].copy_from_slice(&ov[..len]);
+            }
             start += len;
         }
+        self.nx = nx;
+        self.nv = nv;
     }
 
     /// Platen's step of one chunk (the arithmetic of [`platen_point_step`], lane-parallel).
@@ -112,6 +160,7 @@ impl PlatenWork {
             minus,
             dw,
             vpair,
+            cross,
             ..
         } = self;
         kernel.run(x, v, e0);
@@ -173,26 +222,34 @@ impl PlatenWork {
                 av[i] += 0.25 * ((bpv[i] + bmv[i] + 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q);
             }
         }
-        let noise = pk.noise.program();
         for r in 0..m {
-            if (0..m).all(|j| j == r || pk.constant[j]) {
-                continue;
-            }
+            // b̃_j(U±_r) for the state-dependent columns j ≠ r: column j's own program when
+            // it is the only one (the same outputs, fewer instructions), else all columns.
+            let (program, only) = match cross[r] {
+                Cross::None => continue,
+                Cross::Column(j) => (pk.column[j].program(), Some(j)),
+                Cross::All => (pk.noise.program(), None),
+            };
             let (rx, rv) = (e(2 + r), e(2 + m + r));
             for (sign, out) in [(1.0, &mut *plus), (-1.0, &mut *minus)] {
                 for i in 0..CHUNK {
                     px[i] = x[i] + sign * rx[i] * sq;
                     pv[i] = v[i] + sign * rv[i] * sq;
                 }
-                noise.run(&px, &pv, out);
+                program.run(&px, &pv, out);
             }
             for j in 0..m {
                 if j == r || pk.constant[j] {
                     continue;
                 }
+                // The slots of (b̃_0j, b̃_1j) among the program's outputs.
+                let (ox, ov) = match only {
+                    Some(_) => (program.output(0), program.output(1)),
+                    None => (program.output(j), program.output(m + j)),
+                };
                 let (cx, cv) = (e(2 + j), e(2 + m + j));
-                let (bpx, bmx) = (&plus[noise.output(j)], &minus[noise.output(j)]);
-                let (bpv, bmv) = (&plus[noise.output(m + j)], &minus[noise.output(m + j)]);
+                let (bpx, bmx) = (&plus[ox], &minus[ox]);
+                let (bpv, bmv) = (&plus[ov], &minus[ov]);
                 let (pair, sign) = pair_slot(r, j, m);
                 let (wj, wr, vp) = (&dw[j], &dw[r], &vpair[pair]);
                 for i in 0..CHUNK {
@@ -221,7 +278,41 @@ pub(super) fn pair_slot(r: usize, j: usize, m: usize) -> (usize, f64) {
     )
 }
 
+/// Working memory of a single trajectory's step (the remainder after an event), sized once
+/// for `m` sources so that an event allocates nothing.
+pub(super) struct PointWork {
+    /// The kernel's outputs at the point (drift, then the columns of x, then of v), and a
+    /// second evaluation (the order-1 corrector).
+    pub(super) e0: Vec<f64>,
+    pub(super) e1: Vec<f64>,
+    /// The noise columns at the + and − supporting points.
+    bp: Vec<f64>,
+    bm: Vec<f64>,
+}
+
+impl PointWork {
+    /// No memory (a placeholder).
+    pub(super) fn empty() -> PointWork {
+        PointWork {
+            e0: Vec::new(),
+            e1: Vec::new(),
+            bp: Vec::new(),
+            bm: Vec::new(),
+        }
+    }
+
+    pub(super) fn new(m: usize) -> PointWork {
+        PointWork {
+            e0: vec![0.0; 2 + 2 * m],
+            e1: vec![0.0; 2 + 2 * m],
+            bp: vec![0.0; 2 * m],
+            bm: vec![0.0; 2 * m],
+        }
+    }
+}
+
 /// One step of Platen's scheme for a single trajectory (the remainder after an event).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn platen_point_step(
     pk: &PlatenKernels,
     kernel: &dyn BatchKernel,
@@ -230,10 +321,12 @@ pub(super) fn platen_point_step(
     h: f64,
     w: &[f64],
     vpair: &[f64],
+    work: &mut PointWork,
 ) -> [f64; 2] {
     let sq = h.sqrt();
-    let mut e0 = vec![0.0; 2 + 2 * m];
-    kernel.eval_point(p[0], p[1], &mut e0);
+    let PointWork { e0, bp, bm, .. } = work;
+    kernel.eval_point(p[0], p[1], e0);
+    let e0 = &*e0;
     let col = |e: &[f64], k: usize, j: usize| e[k * m + j];
     let b0 = |k: usize, j: usize| e0[2 + k * m + j];
     let mut bar = [p[0] + e0[0] * h, p[1] + e0[1] * h];
@@ -247,14 +340,13 @@ pub(super) fn platen_point_step(
         p[0] + 0.5 * (e0[0] + a1[0]) * h,
         p[1] + 0.5 * (e0[1] + a1[1]) * h,
     ];
-    let (mut bp, mut bm) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
     for j in 0..m {
         if pk.constant[j] {
             out[0] += b0(0, j) * w[j];
             out[1] += b0(1, j) * w[j];
             continue;
         }
-        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+        for (sign, b) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
             pk.noise.eval_point(
                 p[0] + e0[0] * h + sign * b0(0, j) * sq,
                 p[1] + e0[1] * h + sign * b0(1, j) * sq,
@@ -264,15 +356,15 @@ pub(super) fn platen_point_step(
         let q = (w[j] * w[j] - h) / sq;
         for k in 0..2 {
             out[k] += 0.25
-                * ((col(&bp, k, j) + col(&bm, k, j) + 2.0 * b0(k, j)) * w[j]
-                    + (col(&bp, k, j) - col(&bm, k, j)) * q);
+                * ((col(bp, k, j) + col(bm, k, j) + 2.0 * b0(k, j)) * w[j]
+                    + (col(bp, k, j) - col(bm, k, j)) * q);
         }
     }
     for r in 0..m {
         if (0..m).all(|j| j == r || pk.constant[j]) {
             continue;
         }
-        for (sign, b) in [(1.0, &mut bp), (-1.0, &mut bm)] {
+        for (sign, b) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
             pk.noise
                 .eval_point(p[0] + sign * b0(0, r) * sq, p[1] + sign * b0(1, r) * sq, b);
         }
@@ -284,10 +376,14 @@ pub(super) fn platen_point_step(
             let q = (w[j] * w[r] + sign * vpair[pair]) / sq;
             for k in 0..2 {
                 out[k] += 0.25
-                    * ((col(&bp, k, j) + col(&bm, k, j) - 2.0 * b0(k, j)) * w[j]
-                        + (col(&bp, k, j) - col(&bm, k, j)) * q);
+                    * ((col(bp, k, j) + col(bm, k, j) - 2.0 * b0(k, j)) * w[j]
+                        + (col(bp, k, j) - col(bm, k, j)) * q);
             }
         }
     }
     out
 }
+
+#[cfg(test)]
+#[path = "platen_order_tests.rs"]
+mod order_tests;

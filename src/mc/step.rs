@@ -6,7 +6,7 @@ use super::eval::{BatchKernel, Scratch, Simd};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
-use super::platen::{platen_point_step, PlatenWork};
+use super::platen::{platen_point_step, PlatenWork, PointWork};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
 
@@ -22,8 +22,9 @@ pub(crate) struct BatchState {
     buf: [Vec<f64>; 6],
     /// Working memory of Platen's scheme, sized once (when that scheme runs).
     platen: Option<PlatenWork>,
-    /// Random bits of the pair signs (one per lane).
-    bits: Vec<u64>,
+    /// Working memory of the general schemes' events, sized once (an event allocates
+    /// nothing).
+    events: EventWork,
     z: Vec<f64>,
     /// One working memory per kernel, so none is resized between calls.
     scratch: [Scratch; 2],
@@ -70,7 +71,7 @@ impl BatchState {
                 } => Some(PlatenWork::new(kernel.as_ref(), pk, noises, lanes)),
                 _ => None,
             },
-            bits: vec![0; lanes],
+            events: EventWork::new(noises),
             z: vec![0.0; lanes * noises.max(1)],
             scratch: [Scratch::new(), Scratch::new()],
             simd: Simd::detect(),
@@ -333,42 +334,55 @@ impl BatchState {
                 vp[i] = self.v[i] + dv;
             }
         }
-        self.finish_step(plan, &mut xp[..n], &mut vp[..n], &dw[..m * n], m, h);
+        self.step_events(plan, &mut xp[..n], &mut vp[..n], &dw[..m * n], 1.0, m, h);
+        self.x[..n].copy_from_slice(&xp[..n]);
+        self.v[..n].copy_from_slice(&vp[..n]);
         self.buf = buf;
     }
 
     /// Applies the barrier events of a step `(x, v) → (xp, vp)` taken with the increments
-    /// `dw` (source k of lane i at `dw[k*n + i]`), then moves the batch to the new states.
+    /// `scale`·`w` (source k of lane i at `w[k*n + i]`), in place in `(xp, vp)`.
     // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
     #[inline(always)]
-    fn finish_step(
+    #[allow(clippy::too_many_arguments)]
+    fn step_events(
         &mut self,
         plan: &Plan,
         xp: &mut [f64],
         vp: &mut [f64],
-        dw: &[f64],
+        w: &[f64],
+        scale: f64,
         m: usize,
         h: f64,
     ) {
         let n = self.x.len();
-        if !plan.barriers.is_empty() {
-            for i in 0..n {
-                let met = plan.barriers.iter().enumerate().any(|(k, bar)| {
-                    let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
-                    let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
-                    meets(bar.at, self.side[k * n + i], s0, s1)
-                });
-                if met {
-                    let w: Vec<f64> = (0..m).map(|k| dw[k * n + i]).collect();
-                    let (x1, v1) =
-                        self.resolve_events(plan, i, [self.x[i], self.v[i]], [xp[i], vp[i]], h, w);
-                    xp[i] = x1;
-                    vp[i] = v1;
+        if plan.barriers.is_empty() {
+            return;
+        }
+        let mut ev = std::mem::take(&mut self.events);
+        for i in 0..n {
+            let met = plan.barriers.iter().enumerate().any(|(k, bar)| {
+                let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
+                let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
+                meets(bar.at, self.side[k * n + i], s0, s1)
+            });
+            if met {
+                for k in 0..m {
+                    ev.w[k] = scale * w[k * n + i];
                 }
+                let (x1, v1) = self.resolve_events(
+                    plan,
+                    i,
+                    [self.x[i], self.v[i]],
+                    [xp[i], vp[i]],
+                    h,
+                    &mut ev,
+                );
+                xp[i] = x1;
+                vp[i] = v1;
             }
         }
-        self.x[..n].copy_from_slice(&xp[..n]);
-        self.v[..n].copy_from_slice(&vp[..n]);
+        self.events = ev;
     }
 
     /// One step of Platen's explicit weak order-2.0 scheme (Kloeden & Platen Eq. 15.1.5)
@@ -394,42 +408,34 @@ impl BatchState {
         h: f64,
     ) {
         let n = self.x.len();
-        let mut buf = std::mem::take(&mut self.buf);
         let mut work = self.platen.take().expect("Platen's working memory");
-        {
-            let [_, _, dw, px, pv, _] = &mut buf;
-            // The random numbers in the order they always had: the increments of every
-            // source, then the pair signs.
-            for k in 0..m {
-                self.inc
-                    .next(&mut self.rng, &mut self.z[k * n..(k + 1) * n]);
-            }
-            let pairs = m * m.saturating_sub(1) / 2;
-            for p in 0..pairs {
-                self.rng.fill(&mut self.bits[..n]);
-                let vpair = &mut work.batch_vpair[p * n..(p + 1) * n];
-                for i in 0..n {
-                    vpair[i] = if self.bits[i] >> 63 == 0 { h } else { -h };
-                }
-            }
-            let sq = h.sqrt();
-            for k in 0..m * n {
-                dw[k] = sq * self.z[k];
-            }
-            work.step(
-                kernel.program(),
-                pk,
-                m,
-                h,
-                &self.x,
-                &self.v,
-                &dw[..m * n],
-                &mut px[..n],
-                &mut pv[..n],
-            );
-            self.finish_step(plan, &mut px[..n], &mut pv[..n], &dw[..m * n], m, h);
+        // The random numbers in the order they always had: the increments of every source,
+        // then the bits of the pair signs; both become ΔŴ and V in the chunk pass.
+        for k in 0..m {
+            self.inc
+                .next(&mut self.rng, &mut self.z[k * n..(k + 1) * n]);
         }
-        self.buf = buf;
+        let pairs = m * m.saturating_sub(1) / 2;
+        for p in 0..pairs {
+            self.rng.fill(&mut work.pair_bits[p * n..(p + 1) * n]);
+        }
+        work.step(
+            kernel.program(),
+            pk,
+            m,
+            h,
+            &self.x,
+            &self.v,
+            &self.z[..m * n],
+        );
+        let (mut nx, mut nv) = (std::mem::take(&mut work.nx), std::mem::take(&mut work.nv));
+        let z = std::mem::take(&mut self.z);
+        self.step_events(plan, &mut nx, &mut nv, &z[..m * n], h.sqrt(), m, h);
+        self.z = z;
+        // The new states become the batch's; the old ones are the next step's output.
+        std::mem::swap(&mut self.x, &mut nx);
+        std::mem::swap(&mut self.v, &mut nv);
+        (work.nx, work.nv) = (nx, nv);
         self.platen = Some(work);
     }
 
@@ -443,7 +449,7 @@ impl BatchState {
         mut p0: [f64; 2],
         mut p1: [f64; 2],
         mut h: f64,
-        mut w: Vec<f64>,
+        ev: &mut EventWork,
     ) -> (f64, f64) {
         let Dynamics::General { sqrt_s, noises, .. } = &plan.dynamics else {
             unreachable!("general events on a mechanical plan")
@@ -483,29 +489,28 @@ impl BatchState {
             // Brownian bridge: given W(h) − W(0) = w, W(h) − W(θh) ~ N((1−θ)w, θ(1−θ)h·S).
             let rest = (1.0 - theta) * h;
             let spread = (theta * (1.0 - theta) * h).sqrt();
-            let z: Vec<f64> = (0..m).map(|_| self.lane_normal(i)).collect();
-            let mut w_rest = vec![0.0; m];
+            for z in &mut ev.z[..m] {
+                *z = self.lane_normal(i);
+            }
             for k in 0..m {
                 let mut acc = 0.0;
                 for l in 0..=k {
-                    acc += sqrt_s[k * m + l] * z[l];
+                    acc += sqrt_s[k * m + l] * ev.z[l];
                 }
-                w_rest[k] = (1.0 - theta) * w[k] + spread * acc;
+                ev.w_rest[k] = (1.0 - theta) * ev.w[k] + spread * acc;
             }
             let pairs = m * m.saturating_sub(1) / 2;
-            let vpair: Vec<f64> = (0..pairs)
-                .map(|_| {
-                    if self.rng.next_lane(i) >> 63 == 0 {
-                        rest
-                    } else {
-                        -rest
-                    }
-                })
-                .collect();
+            for p in 0..pairs {
+                ev.vpair[p] = if self.rng.next_lane(i) >> 63 == 0 {
+                    rest
+                } else {
+                    -rest
+                };
+            }
             p0 = c;
-            p1 = general_point_step(plan, c, rest, &w_rest, &vpair);
+            p1 = general_point_step(plan, c, rest, &ev.w_rest, &ev.vpair[..pairs], &mut ev.point);
             h = rest;
-            w = w_rest;
+            std::mem::swap(&mut ev.w, &mut ev.w_rest);
         }
         (p1[0], p1[1])
     }
@@ -537,7 +542,14 @@ fn fold_into(s: f64, lo: f64, hi: f64) -> f64 {
 }
 
 /// One general-scheme step of a single trajectory (used for the remainder after an event).
-fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]) -> [f64; 2] {
+pub(super) fn general_point_step(
+    plan: &Plan,
+    p: [f64; 2],
+    h: f64,
+    w: &[f64],
+    vpair: &[f64],
+    work: &mut PointWork,
+) -> [f64; 2] {
     let Dynamics::General {
         kernel,
         noises,
@@ -550,23 +562,58 @@ fn general_point_step(plan: &Plan, p: [f64; 2], h: f64, w: &[f64], vpair: &[f64]
     };
     let m = *noises;
     if let Some(pk) = platen {
-        return platen_point_step(pk, kernel.as_ref(), m, p, h, w, vpair);
+        return platen_point_step(pk, kernel.as_ref(), m, p, h, w, vpair, work);
     }
-    let mut e0 = vec![0.0; 2 + 2 * m];
-    kernel.eval_point(p[0], p[1], &mut e0);
+    let PointWork { e0, e1, .. } = work;
+    kernel.eval_point(p[0], p[1], e0);
     let incr = |e: &[f64], i: usize| -> f64 {
         e[i] * h + (0..m).map(|k| e[2 + i * m + k] * w[k]).sum::<f64>()
     };
-    let pred = [p[0] + incr(&e0, 0), p[1] + incr(&e0, 1)];
+    let pred = [p[0] + incr(e0, 0), p[1] + incr(e0, 1)];
     if !*stratonovich {
         return pred;
     }
-    let mut e1 = vec![0.0; 2 + 2 * m];
-    kernel.eval_point(pred[0], pred[1], &mut e1);
+    kernel.eval_point(pred[0], pred[1], e1);
     [
-        p[0] + 0.5 * (incr(&e0, 0) + incr(&e1, 0)),
-        p[1] + 0.5 * (incr(&e0, 1) + incr(&e1, 1)),
+        p[0] + 0.5 * (incr(e0, 0) + incr(e1, 0)),
+        p[1] + 0.5 * (incr(e0, 1) + incr(e1, 1)),
     ]
+}
+
+/// Working memory of the events of one lane's step (the general schemes).
+struct EventWork {
+    /// The increment of the step (or of its remainder) and the remainder's, one per source.
+    w: Vec<f64>,
+    w_rest: Vec<f64>,
+    /// Standard normals of the Brownian bridge and the remainder's pair signs.
+    z: Vec<f64>,
+    vpair: Vec<f64>,
+    point: PointWork,
+}
+
+impl EventWork {
+    fn new(m: usize) -> EventWork {
+        EventWork {
+            w: vec![0.0; m],
+            w_rest: vec![0.0; m],
+            z: vec![0.0; m],
+            vpair: vec![0.0; m * m.saturating_sub(1) / 2],
+            point: PointWork::new(m),
+        }
+    }
+}
+
+/// Empty (allocates nothing): the placeholder while the working memory is in use.
+impl Default for EventWork {
+    fn default() -> Self {
+        EventWork {
+            w: Vec::new(),
+            w_rest: Vec::new(),
+            z: Vec::new(),
+            vpair: Vec::new(),
+            point: PointWork::empty(),
+        }
+    }
 }
 
 /// The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k of every lane, from the kernel's

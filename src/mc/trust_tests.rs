@@ -118,7 +118,7 @@ fn weak_order(points: &[(f64, Estimate)], exact: f64) -> (f64, f64) {
 /// Whether a measured order `p ± se` is consistent with weak order 2: within 4 standard
 /// errors (a chance failure about once in 10⁴ runs) plus 0.35 for the higher-order terms at
 /// the step sizes used (Platen's biases of E[v²] below fall by 3.2, not 4, from dt = 0.25 to
-/// 0.125: a fitted slope of 1.6 ± 0.12 with seed 3). The Euler–Maruyama contrast, whose
+/// 0.125: a fitted slope of 1.6 ± 0.12 with seed 3; exactly 1.55 on a linear model, 2 below: `platen::order_tests`). The Euler–Maruyama contrast, whose
 /// se is 0.05, lies outside the band: the test fails for an order-1 scheme.
 fn consistent_with_order_two(p: f64, se: f64) -> bool {
     (p - 2.0).abs() < 4.0 * se + 0.35
