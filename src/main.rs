@@ -15,6 +15,8 @@ use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::solve::{MethodName, MethodSet};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
+#[path = "cli/allocator.rs"]
+mod allocator;
 #[path = "cli/job_plan.rs"]
 mod job_plan;
 #[path = "cli/mc_flags.rs"]
@@ -242,6 +244,7 @@ impl From<anyhow::Error> for Failure {
 }
 
 fn main() -> ExitCode {
+    allocator::keep_freed_memory();
     // An interrupted run removes its staging directory: the previous results stay as they
     // were and no partial file is left behind.
     let _ = ctrlc::set_handler(|| {
