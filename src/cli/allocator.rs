@@ -4,14 +4,16 @@
 //! more than 128 kB free (`M_TRIM_THRESHOLD`), and serves blocks from 128 kB up by `mmap`
 //! (a threshold it raises only after such a block is freed). A sweep or a study allocates and
 //! frees the same grid-sized buffers at every point, degree and quantity, so that memory goes
-//! back to the kernel and returns as fresh zeroed pages, over and over: on the 100-point EPC
-//! sweep this trimming and faulting measured about 3 % of its CPU (`GLIBC_TUNABLES` with the
-//! values below: 1.75 → 1.70 s user + system, medians of 5, interleaved). The process is short
-//! and its peak memory is set by its largest live buffers, not by what it keeps cached.
+//! back to the kernel and returns as fresh zeroed pages, over and over. Measured with
+//! `GLIBC_TUNABLES` on 1684aba (3 rounds interleaved, load 3): the 100-point EPC sweep's user +
+//! system CPU and the default grid solve's peak memory were 1.71-1.73 s and 322 MB with the
+//! defaults, 1.66-1.68 s and 330-335 MB with the values below, 1.63-1.66 s and 377 MB with an
+//! `mmap` threshold of 32 or 64 MB. The values below take most of the time for a few per cent
+//! of memory.
 
 /// Keeps freed memory in the process (trimmed only above 256 MB free) and serves blocks up to
-/// 64 MB from the heap, where freed blocks are reused, instead of by `mmap`. Larger blocks
-/// (the grid solver's factor) are still mapped and unmapped on their own.
+/// 4 MB from the heap, where freed blocks are reused, instead of by `mmap`. Larger blocks
+/// (the grid solver's factor blocks) are still mapped and unmapped on their own.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 pub(crate) fn keep_freed_memory() {
     use std::os::raw::c_int;
@@ -26,7 +28,7 @@ pub(crate) fn keep_freed_memory() {
     // accept is refused with 0 and leaves the default, which is only slower.
     unsafe {
         mallopt(M_TRIM_THRESHOLD, 256 << 20);
-        mallopt(M_MMAP_THRESHOLD, 64 << 20);
+        mallopt(M_MMAP_THRESHOLD, 4 << 20);
     }
 }
 
