@@ -20,7 +20,7 @@ const _: () = assert!(CHUNK <= 64);
 /// it ran the tape's instructions (running the tape's 24-byte ones directly measured 1–10 %
 /// slower on `vibro_duffing`, under a load of 4–7 that did not resolve it).
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum LaneOp {
+pub(crate) enum LaneOp {
     Const(f64),
     Var(u32),
     Add(u32, u32),
@@ -91,6 +91,16 @@ impl LaneProgram {
     /// How many outputs the program computes.
     pub(crate) fn n_outputs(&self) -> usize {
         self.outputs.len()
+    }
+
+    /// The instructions, in the tape's order (for recognisers of special forms).
+    pub(crate) fn ops(&self) -> &[LaneOp] {
+        &self.ops
+    }
+
+    /// The slots holding the outputs.
+    pub(crate) fn outputs(&self) -> &[u32] {
+        &self.outputs
     }
 
     /// Slots (chunks of `W` values) the evaluation needs.

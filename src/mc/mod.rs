@@ -44,6 +44,8 @@ mod histogram;
 mod impact;
 mod judge;
 mod lanes;
+mod mech_form;
+mod mech_kernel;
 mod platen;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]

@@ -78,6 +78,12 @@ impl LaneRng {
         out
     }
 
+    /// The four state words of every lane, for kernels that keep them in registers (they
+    /// must advance them exactly as [`LaneRng::fill`] does).
+    pub(crate) fn state_mut(&mut self) -> [&mut [u64]; 4] {
+        [&mut self.s0, &mut self.s1, &mut self.s2, &mut self.s3]
+    }
+
     /// One xoshiro256++ output per lane.
     #[inline(always)]
     pub(crate) fn fill(&mut self, out: &mut [u64]) {
@@ -124,7 +130,7 @@ pub enum Increments {
 
 /// P(−√3) = P(+√3) = T/2³², T = ⌊2³²/6⌋; the two values are scaled so the variance is
 /// exactly 1 despite the rounding of T.
-const THREE_POINT_T: u64 = 715_827_882;
+pub(crate) const THREE_POINT_T: u64 = 715_827_882;
 const TWO_POW_32: f64 = 4_294_967_296.0;
 
 /// Standardised increments for a batch, drawn in lane-parallel pairs: each 64-bit draw (or
@@ -148,6 +154,21 @@ impl IncrementStream {
             pending: vec![0.0; lanes],
             has_pending: false,
             three_point_value: (TWO_POW_32 / (2 * THREE_POINT_T) as f64).sqrt(),
+        }
+    }
+
+    /// For three-point increments: the lanes' pending second values, whether they are
+    /// pending (the next call returns them without a draw), and the value a = √3 (about);
+    /// `None` for Gaussian increments. Kernels that draw the increments themselves keep
+    /// these exactly as [`IncrementStream::next`] would.
+    pub(crate) fn three_point_mut(&mut self) -> Option<(&mut [f64], &mut bool, f64)> {
+        match self.kind {
+            Increments::ThreePoint => Some((
+                &mut self.pending,
+                &mut self.has_pending,
+                self.three_point_value,
+            )),
+            Increments::Gaussian => None,
         }
     }
 
@@ -185,7 +206,7 @@ impl IncrementStream {
 }
 
 #[inline(always)]
-fn three_point(h: u64, a: f64) -> f64 {
+pub(crate) fn three_point(h: u64, a: f64) -> f64 {
     let neg = if h < THREE_POINT_T { a } else { 0.0 };
     let pos = if (THREE_POINT_T..2 * THREE_POINT_T).contains(&h) {
         a

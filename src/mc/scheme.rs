@@ -25,6 +25,7 @@ use super::error::BarrierLayout;
 use super::error::McError;
 use super::eval::{compile, BatchKernel};
 use super::impact::{Barrier, ImpactSpec};
+use super::mech_form::MechForm;
 use crate::model::BarrierSide;
 use crate::model::{BoundModel, Interpretation};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
@@ -118,6 +119,9 @@ pub(crate) enum Dynamics {
         force: Box<dyn BatchKernel>,
         /// Whether f is affine in v (then f(x, v̄) = f(x, v) + ∂f/∂v·(v̄ − v), exactly).
         affine: bool,
+        /// `step` recognised as polynomials in z, sgn(z) and v: the fast kernel
+        /// (`mech_kernel.rs`) runs it; `None` keeps the lane evaluator.
+        form: Option<MechForm>,
     },
     General {
         /// Outputs: m_0, m_1, G_00..G_0(m−1), G_10..G_1(m−1).
@@ -347,12 +351,19 @@ impl Plan {
             let slope = affine_slope(&force, v);
             let mut outputs = vec![force.clone(), sigma];
             outputs.extend(slope.iter().cloned());
+            let step = compile(&outputs, states)?;
+            let form = if slope.is_some() {
+                MechForm::recognise(step.program())
+            } else {
+                None
+            };
             (
                 SchemeKind::MechanicalStrang,
                 Dynamics::Mechanical {
-                    step: compile(&outputs, states)?,
+                    step,
                     force: compile(&[force], states)?,
                     affine: slope.is_some(),
+                    form,
                 },
             )
         } else if choice == SchemeChoice::GeneralOrder1 {

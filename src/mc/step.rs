@@ -6,6 +6,8 @@ use super::eval::{BatchKernel, Scratch, Simd};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
+use super::mech_form::MechForm;
+use super::mech_kernel::{self, Columns};
 use super::platen::{platen_point_step, PlatenWork, PointWork};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
@@ -134,8 +136,14 @@ impl BatchState {
                 step,
                 force,
                 affine,
+                form,
             } => {
                 let bar = plan.barriers.as_slice();
+                if let (Some(form), [] | [_]) = (form, bar) {
+                    if self.mech_fast(form, bar.first(), steps, h) {
+                        return;
+                    }
+                }
                 self.flight(bar, 0.5 * h);
                 // f affine in v and at most one barrier: the velocity update and the flight
                 // in one pass over each chunk of lanes.
@@ -156,6 +164,25 @@ impl BatchState {
                 }
             }
         }
+    }
+
+    /// The fast mechanical path (`mech_kernel.rs`) for three-point increments; `false`
+    /// (nothing done) for Gaussian ones, which keep the lane evaluator.
+    #[inline(always)]
+    fn mech_fast(&mut self, form: &MechForm, bar: Option<&Barrier>, steps: u64, h: f64) -> bool {
+        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
+            return false;
+        };
+        let columns = Columns {
+            x: &mut self.x,
+            v: &mut self.v,
+            side: &mut self.side,
+            impacts: &mut self.impacts,
+            rng: self.rng.state_mut(),
+            pending,
+        };
+        mech_kernel::advance(form, bar, columns, has_pending, a, steps, h, self.simd);
+        true
     }
 
     #[inline(always)]
@@ -680,6 +707,77 @@ mod tests {
                 assert_eq!(a.impacts, b.impacts);
             }
             assert!(b.impacts.iter().sum::<u64>() > 0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod fast_path_tests {
+    use super::*;
+    use crate::mc::mech_form::tests::{plan, MECHANICAL};
+
+    /// The fast kernel against the lane evaluator, from the same random states and streams,
+    /// a few steps at a time (an odd count, so the pending increment is exercised): the
+    /// states agree to rounding. The kernel evaluates f, σ, ∂f/∂v by Horner's rule, the
+    /// lane evaluator in the tape's order, a few ulps of the terms' magnitudes apart
+    /// (`mech_form`'s test); over three steps of h = 0.01 that moves the states by far
+    /// less than 1e-13·(1 + |x| + |v|)³. Impacts agree exactly.
+    #[test]
+    fn the_fast_kernel_follows_the_lane_evaluator() {
+        for name in MECHANICAL.iter().filter(|n| **n != "vibro_impact_strip") {
+            let fast = plan(name).unwrap();
+            let mut slow = plan(name).unwrap();
+            if let Dynamics::Mechanical { form, .. } = &mut slow.dynamics {
+                *form = None;
+            }
+            let spread = fast.initial_spread();
+            let lanes = 150;
+            let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
+            let (mut a, mut b) = (new(&fast), new(&slow));
+            let mut seed = 0x2545_F491_4F6C_DD1Du64;
+            let mut uniform = move || {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for round in 0..20 {
+                // Random states (the same for both, each on its lane's side of the barrier:
+                // the sign of x kept), spread up to 5, then step both.
+                let scale = 1.0 + round as f64 * 0.2;
+                for i in 0..lanes {
+                    a.x[i] = a.x[i].signum() * uniform() * scale;
+                    a.v[i] = (2.0 * uniform() - 1.0) * scale;
+                    b.x[i] = a.x[i];
+                    b.v[i] = a.v[i];
+                }
+                a.advance(&fast, 3, 0.01);
+                b.advance(&slow, 3, 0.01);
+                for i in 0..lanes {
+                    let m = 1.0 + a.x[i].abs() + a.v[i].abs();
+                    let tol = 1e-13 * m * m * m;
+                    assert!(
+                        (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
+                        "{name} lane {i}: ({}, {}) vs ({}, {})",
+                        a.x[i],
+                        a.v[i],
+                        b.x[i],
+                        b.v[i]
+                    );
+                    // The rounding difference must not make one path see an impact the
+                    // other does not.
+                    a.x[i] = b.x[i];
+                    a.v[i] = b.v[i];
+                }
+                assert_eq!(a.impacts, b.impacts, "{name}");
+                assert_eq!(a.side, b.side, "{name}");
+            }
+            if !fast.barriers.is_empty() {
+                assert!(
+                    a.impacts.iter().sum::<u64>() > 0,
+                    "{name}: no impact tested"
+                );
+            }
         }
     }
 }
