@@ -70,7 +70,17 @@ def _threads():
     return len(os.listdir("/proc/self/task"))
 
 
-def test_ctrl_c_stops_a_long_simulation(vibro):
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler, as in an interactive session. A process started in the
+    background by a non-interactive shell (`cmd &`, nohup) inherits SIGINT ignored; Python then
+    installs no handler and Ctrl-C (or `interrupt_main`) raises nothing, whatever fpsolve does."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_stops_a_long_simulation(vibro, python_sigint):
     vibro.simulate(samples=20_000, seed=0, threads=2)  # warm-up: any lazily started threads
     before_py = threading.active_count()
     before_os = _threads()
@@ -96,7 +106,7 @@ def test_ctrl_c_stops_a_long_simulation(vibro):
     assert _threads() <= before_os
 
 
-def test_ctrl_c_stops_a_sweep(vibro):
+def test_ctrl_c_stops_a_sweep(vibro, python_sigint):
     fired = []
 
     def interrupt():
@@ -117,7 +127,10 @@ def test_ctrl_c_stops_a_sweep(vibro):
 def test_sigint_to_a_python_process(tmp_path):
     script = tmp_path / "long.py"
     script.write_text(
-        "import sys, fpsolve\n"
+        "import signal, sys, fpsolve\n"
+        # As in an interactive session, even when these tests run in the background (see
+        # `python_sigint`).
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         f"m = fpsolve.Model.load({str(MODELS / 'vibro_duffing.sde')!r})\n"
         "print('started', flush=True)\n"
         "try:\n"
