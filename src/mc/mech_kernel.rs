@@ -7,8 +7,9 @@
 //! Impacts (rare) are resolved lane by lane where they happen, with the same
 //! `impact_in_flight` as the lane-evaluator path.
 //!
-//! On AVX-512 groups of [`GROUP`] lanes run in vector registers; the remaining lanes, and
-//! every lane on other CPUs, run [`lane`] one at a time: the same IEEE operations in the
+//! On AVX-512 groups of [`GROUP`] lanes run in vector registers, on AVX2 groups of 32 lanes
+//! (`mech_avx2.rs`); the remaining lanes, and every lane on other CPUs, run [`lane`] one at
+//! a time: the same IEEE operations in the
 //! same order (no fused multiply-add), so the vector width does not change a bit (tested).
 
 use super::eval::Simd;
@@ -106,6 +107,28 @@ pub(crate) fn advance(
             start += GROUP;
         }
     }
+    #[cfg(target_arch = "x86_64")]
+    if simd == Simd::Avx2 {
+        while start + avx2::GROUP <= n {
+            let r = start..start + avx2::GROUP;
+            let g = Columns {
+                x: &mut x[r.clone()],
+                v: &mut v[r.clone()],
+                side: &mut side[r.clone()],
+                impacts: &mut impacts[r.clone()],
+                rng: [
+                    &mut s0[r.clone()],
+                    &mut s1[r.clone()],
+                    &mut s2[r.clone()],
+                    &mut s3[r.clone()],
+                ],
+                pending: &mut pending[r],
+            };
+            // SAFETY: `simd` is `Avx2` only when AVX2 was detected on this CPU.
+            unsafe { avx2::group(form, bar, g, &st) };
+            start += avx2::GROUP;
+        }
+    }
     let _ = simd;
     for i in start..n {
         let mut s = [s0[i], s1[i], s2[i], s3[i]];
@@ -192,6 +215,10 @@ fn lane(
         flight(bar, x, v, side, hits, tau);
     }
 }
+
+#[cfg(target_arch = "x86_64")]
+#[path = "mech_avx2.rs"]
+mod avx2;
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
