@@ -37,6 +37,27 @@ pub(crate) struct Columns<'a> {
     pub(crate) pending: &'a mut [f64],
 }
 
+impl Columns<'_> {
+    /// The lanes `r` of every column.
+    #[cfg(target_arch = "x86_64")]
+    fn slice(&mut self, r: std::ops::Range<usize>) -> Columns<'_> {
+        let [s0, s1, s2, s3] = &mut self.rng;
+        Columns {
+            x: &mut self.x[r.clone()],
+            v: &mut self.v[r.clone()],
+            side: &mut self.side[r.clone()],
+            impacts: &mut self.impacts[r.clone()],
+            rng: [
+                &mut s0[r.clone()],
+                &mut s1[r.clone()],
+                &mut s2[r.clone()],
+                &mut s3[r.clone()],
+            ],
+            pending: &mut self.pending[r],
+        }
+    }
+}
+
 /// The step sizes and the three-point value of a call.
 #[derive(Clone, Copy)]
 struct Steps {
@@ -75,6 +96,25 @@ pub(crate) fn advance(
         a,
         pending: *has_pending,
     };
+    let mut c = c;
+    #[allow(unused_mut)]
+    let mut start = 0;
+    #[cfg(target_arch = "x86_64")]
+    {
+        type Group = unsafe fn(&MechForm, Option<&Barrier>, Columns<'_>, &Steps);
+        let group: Option<(usize, Group)> = match simd {
+            Simd::Avx512 => Some((GROUP, avx512::group)),
+            Simd::Avx2 => Some((avx2::GROUP, avx2::group)),
+            _ => None,
+        };
+        if let Some((size, run)) = group {
+            while start + size <= n {
+                // SAFETY: `simd` names an extension only when it was detected on this CPU.
+                unsafe { run(form, bar, c.slice(start..start + size), &st) };
+                start += size;
+            }
+        }
+    }
     let Columns {
         x,
         v,
@@ -83,52 +123,6 @@ pub(crate) fn advance(
         rng: [s0, s1, s2, s3],
         pending,
     } = c;
-    #[allow(unused_mut)]
-    let mut start = 0;
-    #[cfg(target_arch = "x86_64")]
-    if simd == Simd::Avx512 {
-        while start + GROUP <= n {
-            let r = start..start + GROUP;
-            let g = Columns {
-                x: &mut x[r.clone()],
-                v: &mut v[r.clone()],
-                side: &mut side[r.clone()],
-                impacts: &mut impacts[r.clone()],
-                rng: [
-                    &mut s0[r.clone()],
-                    &mut s1[r.clone()],
-                    &mut s2[r.clone()],
-                    &mut s3[r.clone()],
-                ],
-                pending: &mut pending[r],
-            };
-            // SAFETY: `simd` is `Avx512` only when AVX-512F was detected on this CPU.
-            unsafe { avx512::group(form, bar, g, &st) };
-            start += GROUP;
-        }
-    }
-    #[cfg(target_arch = "x86_64")]
-    if simd == Simd::Avx2 {
-        while start + avx2::GROUP <= n {
-            let r = start..start + avx2::GROUP;
-            let g = Columns {
-                x: &mut x[r.clone()],
-                v: &mut v[r.clone()],
-                side: &mut side[r.clone()],
-                impacts: &mut impacts[r.clone()],
-                rng: [
-                    &mut s0[r.clone()],
-                    &mut s1[r.clone()],
-                    &mut s2[r.clone()],
-                    &mut s3[r.clone()],
-                ],
-                pending: &mut pending[r],
-            };
-            // SAFETY: `simd` is `Avx2` only when AVX2 was detected on this CPU.
-            unsafe { avx2::group(form, bar, g, &st) };
-            start += avx2::GROUP;
-        }
-    }
     let _ = simd;
     for i in start..n {
         let mut s = [s0[i], s1[i], s2[i], s3[i]];
