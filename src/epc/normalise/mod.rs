@@ -39,7 +39,8 @@ pub(crate) use poly::{horner, powers, Poly, MAX_POWER};
 pub use report::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 
 use grid::trapezoid_on_region;
-use region::{explore_ray, find_mode, saddle_near, RayEnd};
+use rayon::prelude::*;
+use region::{explore_ray, find_mode, saddle_near, RayEnd, RaySteps};
 
 /// Below this many e-folds from the mode the density is treated as zero when choosing the box.
 const TAIL_E_FOLDS: f64 = 40.0;
@@ -87,19 +88,34 @@ pub(crate) fn normalise(
             .collect(),
         degree: n,
     };
-    let top_max = (0..RAYS)
+    // Each ray's direction, computed once (the same expressions as before, so the same bits).
+    let dirs: Vec<[f64; 2]> = (0..RAYS)
         .map(|k| {
             let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
-            top.eval([th.cos(), th.sin()])
+            [th.cos(), th.sin()]
         })
+        .collect();
+    let top_max = dirs
+        .iter()
+        .map(|&u| top.eval(u))
         .fold(f64::NEG_INFINITY, f64::max);
     let mode = find_mode(q)?;
     let q_mode = q.eval(mode);
-    let mut ends = Vec::with_capacity(RAYS);
-    for k in 0..RAYS {
-        let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
-        ends.push(explore_ray(q, mode, th, q_mode)?);
-    }
+    let steps = RaySteps::get();
+    // Q along each ray (explored, then scanned for the region's reach), the rays on their own
+    // tasks: each ray's result is its own, and an error is the first in ray order, as in a
+    // loop over the rays.
+    let (rays, ends): (Vec<Vec<f64>>, Vec<Result<RayEnd, NotNormalisable>>) = dirs
+        .par_iter()
+        .enumerate()
+        .map(|(k, &u)| {
+            let c = q.along_ray(mode, u);
+            let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
+            let end = explore_ray(&c, steps, th, q_mode);
+            (c, end)
+        })
+        .unzip();
+    let ends: Vec<RayEnd> = ends.into_iter().collect::<Result<_, _>>()?;
     let plane = ends.iter().all(|e| matches!(e, RayEnd::Decays(_)));
     let mut cut = vec![0.0; RAYS];
     let kind;
@@ -161,17 +177,8 @@ pub(crate) fn normalise(
     };
     let mut lo = mode;
     let mut hi = mode;
-    for (k, &limit) in cut.iter().enumerate() {
-        let th = k as f64 / RAYS as f64 * std::f64::consts::TAU;
-        let u = [th.cos(), th.sin()];
-        let c = q.along_ray(mode, u);
-        let (mut r, mut reach) = (0.0_f64, 0.0);
-        while r < limit {
-            r = (r + 0.01 * (1.0 + r)).min(limit);
-            if horner(&c, r) >= floor {
-                reach = r;
-            }
-        }
+    for ((&limit, &u), c) in cut.iter().zip(&dirs).zip(&rays) {
+        let reach = steps.last_at_or_above(c, limit, floor);
         for a in 0..2 {
             let p = mode[a] + (reach + 0.01 * (1.0 + reach)) * u[a];
             lo[a] = lo[a].min(p);

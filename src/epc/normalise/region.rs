@@ -77,15 +77,70 @@ pub(super) enum RayEnd {
     },
 }
 
-/// Where the ray from `mode` at angle `th` stops mattering (see [`RayEnd`]).
+/// The radii every ray is sampled at, r_{k+1} = r_k + 0.01·(1 + r_k) from r_0 = 0 (steps of
+/// 1% of 1 + r), up to the first beyond [`MAX_RADIUS`]: the same for every ray, so computed
+/// once (each value bit for bit what the running sum gives).
+pub(super) struct RaySteps {
+    r: Vec<f64>,
+}
+
+/// The farthest a ray is explored.
+const MAX_RADIUS: f64 = 1e6;
+
+impl RaySteps {
+    /// The table, computed on first use.
+    pub(super) fn get() -> &'static RaySteps {
+        static STEPS: std::sync::OnceLock<RaySteps> = std::sync::OnceLock::new();
+        STEPS.get_or_init(|| {
+            let (mut r, mut all) = (0.0_f64, Vec::new());
+            loop {
+                r += 0.01 * (1.0 + r);
+                all.push(r);
+                if r > MAX_RADIUS {
+                    return RaySteps { r: all };
+                }
+            }
+        })
+    }
+
+    /// The largest radius at which Q (`c`, its coefficients along a ray) is at least `floor`
+    /// among the radii below `limit` and `limit` itself (0 if none, or if `limit` ≤ 0): what
+    /// a scan outwards in the steps of [`RaySteps`], clamped to `limit`, finds last, found by
+    /// scanning inwards from `limit` instead (it usually stops at once).
+    pub(super) fn last_at_or_above(&self, c: &[f64], limit: f64, floor: f64) -> f64 {
+        // A NaN limit scans nothing, as `while r < limit` did.
+        if limit.is_nan() || limit <= 0.0 {
+            return 0.0;
+        }
+        let below = self.r.partition_point(|&r| r < limit);
+        if below == self.r.len() {
+            // Beyond the table (not reached by a ray's cut, which is one of its radii): the
+            // outward scan itself.
+            let (mut r, mut reach) = (0.0_f64, 0.0);
+            while r < limit {
+                r = (r + 0.01 * (1.0 + r)).min(limit);
+                if horner(c, r) >= floor {
+                    reach = r;
+                }
+            }
+            return reach;
+        }
+        std::iter::once(limit)
+            .chain(self.r[..below].iter().rev().copied())
+            .find(|&r| horner(c, r) >= floor)
+            .unwrap_or(0.0)
+    }
+}
+
+/// Where the ray from the mode at angle `th`, along which Q has the coefficients `c` (a
+/// polynomial in the radius), stops mattering (see [`RayEnd`]).
 pub(super) fn explore_ray(
-    q: &Poly,
-    mode: [f64; 2],
+    c: &[f64],
+    steps: &RaySteps,
     th: f64,
     q_max: f64,
 ) -> Result<RayEnd, NotNormalisable> {
-    let u = [th.cos(), th.sin()];
-    let mut c = q.along_ray(mode, u);
+    let mut c = c.to_vec();
     // Leading coefficients that vanish to rounding (e.g. along a direction the top-degree
     // part does not involve) are dropped, so that the next term decides.
     let big = c.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
@@ -108,13 +163,12 @@ pub(super) fn explore_ray(
             .fold(1.0, f64::max)
     };
     let r_stop = r_dom.min(1e6) * 1.05 + 1.0;
-    let (mut r, mut last_above) = (0.0_f64, 0.0);
+    let mut last_above = 0.0;
     let (mut min_r, mut min_v) = (0.0, q_max);
-    loop {
-        r += 0.01 * (1.0 + r);
+    for &r in &steps.r {
         let v = horner(&c, r);
         // Past r_dom Q is monotone along the ray: stop once it has also fallen below the tail.
-        if r > 1e6 || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
+        if r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
             break;
         }
         if v > q_max + 1e-9 * (1.0 + q_max.abs()) {
