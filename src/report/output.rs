@@ -23,6 +23,10 @@ use super::ReportError;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OutputDir {
     path: PathBuf,
+    /// A run's staging directory ([`super::RunDir`]): nothing reads it before the run moves it
+    /// into place, and the run syncs it once before that move, so a file written here does
+    /// not sync the directory itself.
+    staged: bool,
 }
 
 /// Distinguishes concurrent writers of the same name within one process; the process id
@@ -41,7 +45,18 @@ impl OutputDir {
             path: path.clone(),
             source,
         })?;
-        Ok(Self { path })
+        Ok(Self {
+            path,
+            staged: false,
+        })
+    }
+
+    /// This directory as a run's staging directory (see the `staged` field).
+    pub(super) fn staged(self) -> Self {
+        Self {
+            staged: true,
+            ..self
+        }
     }
 
     /// The directory's path.
@@ -88,7 +103,11 @@ impl OutputDir {
             let _ = fs::remove_file(&temp);
             return Err(err);
         }
-        sync_dir(&self.path)?;
+        // The new entry made durable; in a staging directory by the run's commit, once for
+        // all files ([`super::RunDir::commit`]).
+        if !self.staged {
+            sync_dir(&self.path)?;
+        }
         Ok(target)
     }
 

@@ -97,6 +97,8 @@ pub struct RunDir {
     /// Held (locked) for the run's lifetime; the lock goes with the handle.
     _lock: File,
     committed: bool,
+    /// The marker file's flush to disk, running beside the run.
+    marker_sync: Option<std::thread::JoinHandle<Result<(), ReportError>>>,
 }
 
 impl RunDir {
@@ -154,17 +156,29 @@ impl RunDir {
         let _ = fs::remove_dir_all(&staging);
         fs::create_dir(&staging).map_err(io(&staging))?;
         register(&staging);
-        let staging = OutputDir::create(&staging)?;
+        let staging = OutputDir::create(&staging)?.staged();
         let marker = format!(
             "fpsolve {}\ncommand: {command}\n",
             env!("CARGO_PKG_VERSION")
         );
-        staging.write_atomic(MARKER, marker.as_bytes())?;
+        // Written now (so that the directory is marked as fpsolve's from the start) but
+        // flushed to disk beside the run's work: only the commit needs it on disk.
+        let marker_path = staging.file_path(MARKER)?;
+        fs::write(&marker_path, marker.as_bytes()).map_err(io(&marker_path))?;
+        let marker_sync = std::thread::spawn(move || {
+            File::open(&marker_path)
+                .and_then(|f| f.sync_all())
+                .map_err(|source| ReportError::Io {
+                    path: marker_path,
+                    source,
+                })
+        });
         Ok(RunDir {
             dest,
             staging,
             _lock: lock,
             committed: false,
+            marker_sync: Some(marker_sync),
         })
     }
 
@@ -180,6 +194,18 @@ impl RunDir {
     /// [`ReportError::Io`] if a rename fails; the previous run's directory is then restored
     /// when possible, and the staged files are removed.
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
+        // Every file is on disk (each was synced as it was written, the marker beside the
+        // run); the staging directory's entries are made durable once, here, before the
+        // directory is moved into place, so the moved directory never lacks a file.
+        if let Some(sync) = self.marker_sync.take() {
+            sync.join().unwrap_or_else(|_| {
+                Err(ReportError::Io {
+                    path: self.staging.path().join(MARKER),
+                    source: std::io::Error::other("the thread syncing the marker panicked"),
+                })
+            })?;
+        }
+        sync_dir(self.staging.path())?;
         let old = sibling(&self.dest, &format!("old-{}", std::process::id()));
         let had_old = self.dest.exists();
         if had_old {
