@@ -335,7 +335,12 @@ fn run(cli: Cli) -> Result<(), Failure> {
             .build()
             .context("setting up the worker threads")?
             .install(|| execute(planned.plan)),
-        None => execute(planned.plan),
+        None => {
+            // The global pool's threads started now, beside the rest of the start-up, rather
+            // than when the first parallel loop needs them.
+            rayon::spawn(|| ());
+            execute(planned.plan)
+        }
     }
 }
 

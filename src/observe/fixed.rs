@@ -35,6 +35,13 @@ fn rules() -> &'static Rules {
     })
 }
 
+/// Computes the rule tables now (a few tens of thousands of cosines, a millisecond), for a
+/// caller that can do it beside other work before the first line integral needs them.
+pub(crate) fn prepare() {
+    rules();
+    doubled();
+}
+
 /// The weights of the (n+1)-point Clenshaw–Curtis rule on [−1, 1] (n even), nodes
 /// cos(kπ/n): w_k = c_k/n·(1 − Σ_{j=1}^{n/2} b_j cos(2jkπ/n)/(4j² − 1)), c_0 = c_n = 1, other
 /// c_k = 2, b_{n/2} = 1, other b_j = 2 (Trefethen, Spectral Methods in MATLAB, `clencurt`).

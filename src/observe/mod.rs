@@ -52,6 +52,12 @@ pub use moments::{moments, moments_of_all, ObservableMoments};
 #[doc(hidden)]
 pub use quadrature::integrate_adaptive;
 
+/// Computes the quadrature tables the observables use (once per process), for a caller that
+/// can do it beside other work: a study while it solves.
+pub(crate) fn prepare() {
+    fixed::prepare();
+}
+
 /// A joint density of the two states that observables can be computed from.
 pub trait JointDensity: Sync {
     /// p(x1, x2); zero outside the density's support.

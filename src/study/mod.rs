@@ -268,6 +268,9 @@ impl<'a> StudyRunner<'a> {
             return Err(StudyError::NoDegree);
         }
         let start = Instant::now();
+        // The observables' quadrature tables, built on a worker while the ladder solves (an
+        // EPC ladder is sequential, so a core is free).
+        rayon::spawn(crate::observe::prepare);
         let problem = Problem::new(self.model)?;
         let quantities = problem.quantities().to_vec();
         let with_grid = self.methods.contains(&MethodName::Grid);
