@@ -336,9 +336,11 @@ fn run(cli: Cli) -> Result<(), Failure> {
             .context("setting up the worker threads")?
             .install(|| execute(planned.plan)),
         None => {
-            // The global pool's threads started now, beside the rest of the start-up, rather
-            // than when the first parallel loop needs them.
-            rayon::spawn(|| ());
+            // For the commands that solve, the global pool's threads are started now, beside
+            // the rest of the start-up, rather than when the first parallel loop needs them.
+            if matches!(planned.plan, Plan::Job { .. } | Plan::Sweep { .. }) {
+                rayon::spawn(|| ());
+            }
             execute(planned.plan)
         }
     }
