@@ -7,7 +7,9 @@
 //! is in one of three *classes* by its Q alone: zero, transition (the cutoff's rise) or core
 //! (w = 1, where the density is exp(Q), analytic). The class boundaries are found by
 //! sampling Q every quarter of the grid spacing and bisecting every change of class to
-//! rounding. Two changes that cancel between samples are missed only where Q touches a level
+//! rounding (where Q is proven monotone between the two samples, the float the bisection ends
+//! at is found by Newton's method and a walk over adjacent floats instead: see
+//! `DensityGrid::leave_by_root`). Two changes that cancel between samples are missed only where Q touches a level
 //! without a sign change wider than a sample step can hide: Q then strays past the level by
 //! far less than 1e−2 e-folds (Q'' is O(10) in scaled units across the region), where the
 //! cutoff differs from 0 or 1 by less than e^−100, so the stretch stays analytic to far below
