@@ -26,22 +26,24 @@ impl Poly {
 
     /// Gradient and Hessian.
     pub(crate) fn derivs(&self, x: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
-        let p = |v: f64, k: usize, d: usize| -> f64 {
+        // The powers from the table, bit for bit `powi`'s ([`powers`]).
+        let powers = [powers(x[0]), powers(x[1])];
+        let p = |axis: usize, k: usize, d: usize| -> f64 {
             if k < d {
                 0.0
             } else {
                 let c: f64 = ((k - d + 1)..=k).map(|t| t as f64).product();
-                c * v.powi((k - d) as i32)
+                c * powers[axis][k - d]
             }
         };
         let mut g = [0.0; 2];
         let mut h = [[0.0; 2]; 2];
         for (&(i, j), a) in self.exps.iter().zip(&self.a) {
-            g[0] += a * p(x[0], i, 1) * p(x[1], j, 0);
-            g[1] += a * p(x[0], i, 0) * p(x[1], j, 1);
-            h[0][0] += a * p(x[0], i, 2) * p(x[1], j, 0);
-            h[0][1] += a * p(x[0], i, 1) * p(x[1], j, 1);
-            h[1][1] += a * p(x[0], i, 0) * p(x[1], j, 2);
+            g[0] += a * p(0, i, 1) * p(1, j, 0);
+            g[1] += a * p(0, i, 0) * p(1, j, 1);
+            h[0][0] += a * p(0, i, 2) * p(1, j, 0);
+            h[0][1] += a * p(0, i, 1) * p(1, j, 1);
+            h[1][1] += a * p(0, i, 0) * p(1, j, 2);
         }
         h[1][0] = h[0][1];
         (g, h)
@@ -53,12 +55,14 @@ impl Poly {
         let binom = |n: usize, k: usize| -> f64 {
             (0..k).fold(1.0, |acc, t| acc * (n - t) as f64 / (t + 1) as f64)
         };
+        // The powers from the table, bit for bit `powi`'s ([`powers`]).
+        let (pm, pu) = (m.map(powers), u.map(powers));
         for (&(i, j), a) in self.exps.iter().zip(&self.a) {
             // (m0 + r u0)^i (m1 + r u1)^j
             for k in 0..=i {
-                let ck = binom(i, k) * m[0].powi((i - k) as i32) * u[0].powi(k as i32);
+                let ck = binom(i, k) * pm[0][i - k] * pu[0][k];
                 for l in 0..=j {
-                    let cl = binom(j, l) * m[1].powi((j - l) as i32) * u[1].powi(l as i32);
+                    let cl = binom(j, l) * pm[1][j - l] * pu[1][l];
                     q[k + l] += a * ck * cl;
                 }
             }
@@ -86,8 +90,9 @@ impl Poly {
         let mut cj = vec![0.0; n + 1];
         for &x1 in g1 {
             cj.iter_mut().for_each(|v| *v = 0.0);
+            let p1 = powers(x1);
             for (&(i, j), a) in self.exps.iter().zip(&self.a) {
-                cj[j] += a * x1.powi(i as i32);
+                cj[j] += a * p1[i];
             }
             for &x2 in g2 {
                 let mut v = 0.0;
