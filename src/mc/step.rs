@@ -387,13 +387,31 @@ impl BatchState {
             return;
         }
         let mut ev = std::mem::take(&mut self.events);
-        for i in 0..n {
-            let met = plan.barriers.iter().enumerate().any(|(k, bar)| {
-                let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
-                let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
-                meets(bar.at, self.side[k * n + i], s0, s1)
-            });
-            if met {
+        // Which lanes met a barrier, a chunk of lanes at a time in fixed-length loops (so
+        // the test vectorises); the rare events are then resolved lane by lane, each from
+        // its own generator, so the order of resolution changes no bit.
+        let mut start = 0;
+        while start < n {
+            let len = CHUNK.min(n - start);
+            let mut met = 0u64;
+            for (k, bar) in plan.barriers.iter().enumerate() {
+                let (s0, s1) = if bar.state == 0 {
+                    (&self.x[start..start + len], &xp[start..start + len])
+                } else {
+                    (&self.v[start..start + len], &vp[start..start + len])
+                };
+                let side = &self.side[k * n + start..k * n + start + len];
+                met |= if len == CHUNK {
+                    crossings::<CHUNK>(bar.at, chunk(side), chunk(s0), chunk(s1))
+                } else {
+                    (0..len).fold(0, |m, i| {
+                        m | (meets(bar.at, side[i], s0[i], s1[i]) as u64) << i
+                    })
+                };
+            }
+            while met != 0 {
+                let i = start + met.trailing_zeros() as usize;
+                met &= met - 1;
                 for k in 0..m {
                     ev.w[k] = scale * w[k * n + i];
                 }
@@ -408,6 +426,7 @@ impl BatchState {
                 xp[i] = x1;
                 vp[i] = v1;
             }
+            start += len;
         }
         self.events = ev;
     }
@@ -641,6 +660,17 @@ impl Default for EventWork {
             point: PointWork::empty(),
         }
     }
+}
+
+/// Bit i set when lane i's move `s0[i] → s1[i]` (on side `side[i]`) meets the barrier at
+/// `at` ([`meets`], lane-parallel).
+#[inline(always)]
+fn crossings<const W: usize>(at: f64, side: &[f64; W], s0: &[f64; W], s1: &[f64; W]) -> u64 {
+    let mut met = 0u64;
+    for i in 0..W {
+        met |= (meets(at, side[i], s0[i], s1[i]) as u64) << i;
+    }
+    met
 }
 
 /// The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k of every lane, from the kernel's
