@@ -3,6 +3,7 @@
 //! events of an impact law resolved lane by lane.
 
 use super::eval::{BatchKernel, Scratch, Simd};
+use super::events::{crossings, EventWork};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
@@ -624,53 +625,6 @@ pub(super) fn general_point_step(
         p[0] + 0.5 * (incr(e0, 0) + incr(e1, 0)),
         p[1] + 0.5 * (incr(e0, 1) + incr(e1, 1)),
     ]
-}
-
-/// Working memory of the events of one lane's step (the general schemes).
-struct EventWork {
-    /// The increment of the step (or of its remainder) and the remainder's, one per source.
-    w: Vec<f64>,
-    w_rest: Vec<f64>,
-    /// Standard normals of the Brownian bridge and the remainder's pair signs.
-    z: Vec<f64>,
-    vpair: Vec<f64>,
-    point: PointWork,
-}
-
-impl EventWork {
-    fn new(m: usize) -> EventWork {
-        EventWork {
-            w: vec![0.0; m],
-            w_rest: vec![0.0; m],
-            z: vec![0.0; m],
-            vpair: vec![0.0; m * m.saturating_sub(1) / 2],
-            point: PointWork::new(m),
-        }
-    }
-}
-
-/// Empty (allocates nothing): the placeholder while the working memory is in use.
-impl Default for EventWork {
-    fn default() -> Self {
-        EventWork {
-            w: Vec::new(),
-            w_rest: Vec::new(),
-            z: Vec::new(),
-            vpair: Vec::new(),
-            point: PointWork::empty(),
-        }
-    }
-}
-
-/// Bit i set when lane i's move `s0[i] → s1[i]` (on side `side[i]`) meets the barrier at
-/// `at` ([`meets`], lane-parallel).
-#[inline(always)]
-fn crossings<const W: usize>(at: f64, side: &[f64; W], s0: &[f64; W], s1: &[f64; W]) -> u64 {
-    let mut met = 0u64;
-    for i in 0..W {
-        met |= (meets(at, side[i], s0[i], s1[i]) as u64) << i;
-    }
-    met
 }
 
 /// The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k of every lane, from the kernel's
