@@ -43,7 +43,11 @@ pub(crate) enum LaneOp {
 /// A compiled tape's instructions, evaluated lane-parallel.
 #[derive(Clone, Debug)]
 pub(crate) struct LaneProgram {
+    /// The tape's instructions, one for one (what recognisers of special forms read).
     ops: Vec<LaneOp>,
+    /// What [`LaneProgram::run`] executes: the same instructions with the states read in
+    /// place and single-use products folded into their sums (see [`Step`]).
+    code: Vec<Step>,
     /// The tape's Gaussian delta instructions, by index.
     gauss: Vec<Op>,
     outputs: Vec<u32>,
@@ -55,7 +59,7 @@ impl LaneProgram {
     pub(crate) fn from_tape(tape: &Tape) -> LaneProgram {
         debug_assert!(tape.n_vars() <= 2, "a lane program takes the two states");
         let mut gauss = Vec::new();
-        let ops = tape
+        let ops: Vec<LaneOp> = tape
             .instructions()
             .iter()
             .map(|&op| match op {
@@ -80,10 +84,13 @@ impl LaneProgram {
                 }
             })
             .collect();
+        let outputs = tape.output_slots().to_vec();
+        let code = lane_code(&ops, &outputs);
         LaneProgram {
             ops,
+            code,
             gauss,
-            outputs: tape.output_slots().to_vec(),
+            outputs,
         }
     }
 
@@ -113,12 +120,45 @@ impl LaneProgram {
     /// so that it is compiled for the caller's target features.
     #[inline(always)]
     pub(crate) fn run<const W: usize>(&self, x: &[f64; W], v: &[f64; W], slots: &mut [[f64; W]]) {
-        for (i, &op) in self.ops.iter().enumerate() {
-            let (done, rest) = slots.split_at_mut(i);
+        for &Step { dst, op } in &self.code {
+            let (done, rest) = slots.split_at_mut(dst as usize);
             let dst = &mut rest[0];
-            let src = |a: u32| &done[a as usize];
+            // An operand is an earlier slot or one of the states, read where it is.
+            let src = |a: u32| match a {
+                STATE_X => x,
+                STATE_V => v,
+                _ => &done[a as usize],
+            };
             // Each arm applies the tape's arithmetic of a variant known in the arm (rebuilt,
             // so that `apply` folds to the bare operation and the loop vectorises).
+            let op = match op {
+                Code::Op(op) => op,
+                // The product rounded, then the sum rounded: the tape's two instructions.
+                Code::MulCAdd(a, c, b) => {
+                    zip2(dst, src(a), src(b), |p, q| {
+                        Op::Add(0, 0).apply(Op::MulC(0, c).apply(p, 0.0), q)
+                    });
+                    continue;
+                }
+                Code::AddMulC(a, b, c) => {
+                    zip2(dst, src(a), src(b), |p, q| {
+                        Op::Add(0, 0).apply(p, Op::MulC(0, c).apply(q, 0.0))
+                    });
+                    continue;
+                }
+                Code::MulCSub(a, c, b) => {
+                    zip2(dst, src(a), src(b), |p, q| {
+                        Op::Sub(0, 0).apply(Op::MulC(0, c).apply(p, 0.0), q)
+                    });
+                    continue;
+                }
+                Code::SubMulC(a, b, c) => {
+                    zip2(dst, src(a), src(b), |p, q| {
+                        Op::Sub(0, 0).apply(p, Op::MulC(0, c).apply(q, 0.0))
+                    });
+                    continue;
+                }
+            };
             match op {
                 LaneOp::Const(c) => *dst = [Op::Const(c).apply(0.0, 0.0); W],
                 LaneOp::Var(k) => *dst = if k == 0 { *x } else { *v },
@@ -210,6 +250,139 @@ impl LaneProgram {
         for (j, o) in out.iter_mut().enumerate().take(self.outputs.len()) {
             *o = one[self.output(j)][0];
         }
+    }
+}
+
+/// Operand codes of the lane code for the states themselves (no tape has this many slots).
+const STATE_X: u32 = u32::MAX;
+const STATE_V: u32 = u32::MAX - 1;
+
+/// One instruction of the lane code: what it computes and the slot it writes (the slot of
+/// the tape instruction whose value it is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Step {
+    dst: u32,
+    op: Code,
+}
+
+/// A lane-code instruction: a tape instruction, or a tape product by a constant fused with
+/// the sum or difference that is its only use (`MulCAdd(a, c, b)` is `(a·c) + b`, operands
+/// in the tape's order), each operation rounded as the tape rounds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Code {
+    Op(LaneOp),
+    MulCAdd(u32, f64, u32),
+    AddMulC(u32, u32, f64),
+    MulCSub(u32, f64, u32),
+    SubMulC(u32, u32, f64),
+}
+
+/// The lane code of a tape's instructions `ops` with outputs `outputs`: a state that is no
+/// output is read in place rather than copied into a slot, and a product by a constant used
+/// only by one sum or difference is computed inside it (one pass over the lanes, not two).
+/// Every value is computed by the same operations in the same order as in the tape.
+fn lane_code(ops: &[LaneOp], outputs: &[u32]) -> Vec<Step> {
+    let mut uses = vec![0usize; ops.len()];
+    for &o in outputs {
+        uses[o as usize] += 1;
+    }
+    for op in ops {
+        for a in operands(*op) {
+            uses[a as usize] += 1;
+        }
+    }
+    let is_output = |i: usize| outputs.contains(&(i as u32));
+    // Where each slot's value is read from: a state, or the slot itself.
+    let mut at: Vec<u32> = (0..ops.len() as u32).collect();
+    // Whether slot i is a product computed inside the sum that uses it.
+    let mut fused = vec![false; ops.len()];
+    let single_product = |a: u32| match ops[a as usize] {
+        LaneOp::MulC(p, c) if uses[a as usize] == 1 && !is_output(a as usize) => Some((p, c)),
+        _ => None,
+    };
+    let mut code = Vec::with_capacity(ops.len());
+    for (i, &op) in ops.iter().enumerate() {
+        if let LaneOp::Var(k) = op {
+            if !is_output(i) {
+                at[i] = if k == 0 { STATE_X } else { STATE_V };
+                continue;
+            }
+        }
+        let r = |a: u32| at[a as usize];
+        let step = match op {
+            LaneOp::Add(a, b) | LaneOp::Sub(a, b) if a != b => {
+                let add = matches!(op, LaneOp::Add(..));
+                match (single_product(a), single_product(b)) {
+                    (Some((p, c)), _) => {
+                        fused[a as usize] = true;
+                        if add {
+                            Code::MulCAdd(r(p), c, r(b))
+                        } else {
+                            Code::MulCSub(r(p), c, r(b))
+                        }
+                    }
+                    (None, Some((q, c))) => {
+                        fused[b as usize] = true;
+                        if add {
+                            Code::AddMulC(r(a), r(q), c)
+                        } else {
+                            Code::SubMulC(r(a), r(q), c)
+                        }
+                    }
+                    (None, None) => Code::Op(remap(op, &r)),
+                }
+            }
+            _ => Code::Op(remap(op, &r)),
+        };
+        code.push(Step {
+            dst: i as u32,
+            op: step,
+        });
+    }
+    // Products computed inside their sum write no slot of their own.
+    code.retain(|s| !fused[s.dst as usize]);
+    code
+}
+
+/// The slots an instruction reads.
+fn operands(op: LaneOp) -> Vec<u32> {
+    match op {
+        LaneOp::Const(_) | LaneOp::Var(_) => vec![],
+        LaneOp::Add(a, b)
+        | LaneOp::Sub(a, b)
+        | LaneOp::Mul(a, b)
+        | LaneOp::Div(a, b)
+        | LaneOp::Min(a, b)
+        | LaneOp::Max(a, b)
+        | LaneOp::Pow(a, b) => vec![a, b],
+        LaneOp::AddC(a, _)
+        | LaneOp::MulC(a, _)
+        | LaneOp::Neg(a)
+        | LaneOp::Recip(a)
+        | LaneOp::Unary(_, a)
+        | LaneOp::PowC(a, _)
+        | LaneOp::Gauss(a, _) => vec![a],
+    }
+}
+
+/// `op` with its operands read through `r`.
+fn remap(op: LaneOp, r: &impl Fn(u32) -> u32) -> LaneOp {
+    match op {
+        LaneOp::Const(_) | LaneOp::Var(_) => op,
+        LaneOp::Add(a, b) => LaneOp::Add(r(a), r(b)),
+        LaneOp::Sub(a, b) => LaneOp::Sub(r(a), r(b)),
+        LaneOp::Mul(a, b) => LaneOp::Mul(r(a), r(b)),
+        LaneOp::Div(a, b) => LaneOp::Div(r(a), r(b)),
+        LaneOp::Min(a, b) => LaneOp::Min(r(a), r(b)),
+        LaneOp::Max(a, b) => LaneOp::Max(r(a), r(b)),
+        LaneOp::Pow(a, b) => LaneOp::Pow(r(a), r(b)),
+        LaneOp::AddC(a, c) => LaneOp::AddC(r(a), c),
+        LaneOp::MulC(a, c) => LaneOp::MulC(r(a), c),
+        LaneOp::Neg(a) => LaneOp::Neg(r(a)),
+        LaneOp::Recip(a) => LaneOp::Recip(r(a)),
+        LaneOp::Unary(f, a) => LaneOp::Unary(f, r(a)),
+        LaneOp::PowC(a, c) => LaneOp::PowC(r(a), c),
+        LaneOp::Gauss(a, k) => LaneOp::Gauss(r(a), k),
     }
 }
 
@@ -324,6 +497,44 @@ mod tests {
                 assert!(one[j].to_bits() == g.to_bits() || (g.is_nan() && one[j].is_nan()));
             }
         }
+    }
+
+    /// The lane code reads the states in place and computes a single-use product by a
+    /// constant inside its sum; a product that is itself an output keeps its slot. (That the
+    /// values are the tape's bit for bit is `outputs_are_the_tapes_bit_for_bit`.)
+    #[test]
+    fn lane_code_reads_states_in_place_and_fuses_single_use_products() {
+        let n = |x: f64| Expr::num(x);
+        let force = -(n(0.1) * v()) - z() - n(0.5) * Expr::pow(z(), n(3.0));
+        let tape =
+            Tape::compile(std::slice::from_ref(&force), &["z", "v"], DeltaPolicy::Zero).unwrap();
+        let p = LaneProgram::from_tape(&tape);
+        let vars = p
+            .ops()
+            .iter()
+            .filter(|o| matches!(o, LaneOp::Var(_)))
+            .count();
+        let fused = |p: &LaneProgram| {
+            p.code
+                .iter()
+                .filter(|s| !matches!(s.op, Code::Op(_)))
+                .count()
+        };
+        assert_eq!(vars, 2);
+        assert!(p
+            .code
+            .iter()
+            .all(|s| !matches!(s.op, Code::Op(LaneOp::Var(_)))));
+        assert_eq!(fused(&p), 2, "{:?}", p.code);
+        assert_eq!(p.code.len(), p.ops().len() - vars - 2);
+        // The product −0.1·v as an output too: it keeps its slot and its own instruction.
+        let tape =
+            Tape::compile(&[force, -(n(0.1) * v())], &["z", "v"], DeltaPolicy::Zero).unwrap();
+        let q = LaneProgram::from_tape(&tape);
+        assert_eq!(fused(&q), 1, "{:?}", q.code);
+        let mut out = [0.0; 2];
+        q.eval_point(0.3, -2.0, &mut out);
+        assert_eq!(out[1], -0.1 * -2.0);
     }
 
     #[test]

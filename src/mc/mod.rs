@@ -38,6 +38,7 @@ mod config;
 mod error;
 mod estimate;
 mod eval;
+mod events;
 mod exact;
 mod fused;
 mod histogram;

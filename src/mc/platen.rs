@@ -7,7 +7,12 @@
 
 use super::eval::BatchKernel;
 use super::fused::{chunk, chunk_mut};
-use super::lanes::{LaneProgram, CHUNK};
+use super::lanes::LaneProgram;
+
+/// Lanes of a chunk of Platen's step: a batch's default 128 lanes in one chunk (each
+/// instruction of a lane program dispatched once per 128 lanes; measured faster than 64,
+/// and 32 slower, on the barrier model).
+const CHUNK: usize = 128;
 use super::scheme::PlatenKernels;
 
 type Lanes = [f64; CHUNK];
@@ -30,7 +35,15 @@ pub(super) struct PlatenWork {
     pub(super) nv: Vec<f64>,
     /// For each r, how the cross terms' b̃_j(U±_r) are evaluated.
     cross: Vec<Cross>,
+    /// A chunk's supporting points, accumulated increments and Y + aΔ (rows of x and v),
+    /// kept here so that a chunk neither zeroes nor moves them.
+    rows: Box<Rows>,
 }
+
+/// The rows of a chunk's step: a supporting point, the increment and Y + aΔ, each of x
+/// then of v; aligned to a cache line (a vector load never splits one).
+#[repr(C, align(64))]
+struct Rows([Lanes; 6]);
 
 /// The evaluation at the supporting points U±_r of one source r.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +92,7 @@ impl PlatenWork {
             nx: vec![0.0; lanes],
             nv: vec![0.0; lanes],
             cross,
+            rows: Box::new(Rows([[0.0; CHUNK]; 6])),
         }
     }
 
@@ -123,15 +137,14 @@ impl PlatenWork {
             }
             let r = start..start + len;
             if len == CHUNK {
-                let (ox, ov) =
-                    self.chunk(kernel, pk, m, h, chunk(&x[r.clone()]), chunk(&v[r.clone()]));
-                *chunk_mut(&mut nx[r.clone()]) = ox;
-                *chunk_mut(&mut nv[r]) = ov;
+                let (ox, ov) = (chunk_mut(&mut nx[r.clone()]), chunk_mut(&mut nv[r.clone()]));
+                self.chunk(kernel, pk, m, h, chunk(&x[r.clone()]), chunk(&v[r]), ox, ov);
             } else {
                 let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
                 xc[..len].copy_from_slice(&x[r.clone()]);
                 vc[..len].copy_from_slice(&v[r.clone()]);
-                let (ox, ov) = self.chunk(kernel, pk, m, h, &xc, &vc);
+                let (mut ox, mut ov) = ([0.0; CHUNK], [0.0; CHUNK]);
+                self.chunk(kernel, pk, m, h, &xc, &vc, &mut ox, &mut ov);
                 nx[r.clone()].copy_from_slice(&ox[..len]);
                 nv[r].copy_from_slice(&ov[..len]);
             }
@@ -141,8 +154,10 @@ impl PlatenWork {
         self.nv = nv;
     }
 
-    /// Platen's step of one chunk (the arithmetic of [`platen_point_step`], lane-parallel).
+    /// Platen's step of one chunk into `(out_x, out_v)` (the arithmetic of
+    /// [`platen_point_step`], lane-parallel).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn chunk(
         &mut self,
         kernel: &LaneProgram,
@@ -151,7 +166,9 @@ impl PlatenWork {
         h: f64,
         x: &Lanes,
         v: &Lanes,
-    ) -> (Lanes, Lanes) {
+        out_x: &mut Lanes,
+        out_v: &mut Lanes,
+    ) {
         let sq = h.sqrt();
         let inv_sq = 1.0 / sq;
         let Self {
@@ -161,16 +178,20 @@ impl PlatenWork {
             dw,
             vpair,
             cross,
+            rows,
             ..
         } = self;
+        // The increment (ax, av) first holds the predictor's, then the step's.
+        let [px, pv, ax, av, yx, yv] = &mut rows.0;
         kernel.run(x, v, e0);
         let e = |o: usize| &e0[kernel.output(o)];
+        // The drift's rows, looked up once (not in every lane's iteration).
+        let (e0x, e0v) = (e(0), e(1));
         // The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k.
-        let (mut px, mut pv) = ([0.0; CHUNK], [0.0; CHUNK]);
-        let (mut dx, mut dv) = ([0.0; CHUNK], [0.0; CHUNK]);
+        let (dx, dv) = (&mut *ax, &mut *av);
         for i in 0..CHUNK {
-            dx[i] = e(0)[i] * h;
-            dv[i] = e(1)[i] * h;
+            dx[i] = e0x[i] * h;
+            dv[i] = e0v[i] * h;
         }
         for k in 0..m {
             let (bx, bv, w) = (e(2 + k), e(2 + m + k), &dw[k]);
@@ -184,16 +205,14 @@ impl PlatenWork {
             pv[i] = v[i] + dv[i];
         }
         let drift = pk.drift.program();
-        drift.run(&px, &pv, plus);
+        drift.run(px, pv, plus);
         let (a1x, a1v) = (&plus[drift.output(0)], &plus[drift.output(1)]);
-        let (mut ax, mut av) = ([0.0; CHUNK], [0.0; CHUNK]);
-        let (mut yx, mut yv) = ([0.0; CHUNK], [0.0; CHUNK]);
         for i in 0..CHUNK {
-            ax[i] = 0.5 * (e(0)[i] + a1x[i]) * h;
-            av[i] = 0.5 * (e(1)[i] + a1v[i]) * h;
+            ax[i] = 0.5 * (e0x[i] + a1x[i]) * h;
+            av[i] = 0.5 * (e0v[i] + a1v[i]) * h;
             // Y + aΔ, the same for every column's R±.
-            yx[i] = x[i] + e(0)[i] * h;
-            yv[i] = v[i] + e(1)[i] * h;
+            yx[i] = x[i] + e0x[i] * h;
+            yv[i] = v[i] + e0v[i] * h;
         }
         for j in 0..m {
             let (cx, cv, w) = (e(2 + j), e(2 + m + j), &dw[j]);
@@ -210,7 +229,7 @@ impl PlatenWork {
                     px[i] = yx[i] + sign * cx[i] * sq;
                     pv[i] = yv[i] + sign * cv[i] * sq;
                 }
-                col.run(&px, &pv, out);
+                col.run(px, pv, out);
             }
             // Column j's program gives (b̃_0j, b̃_1j) as its outputs 0 and 1.
             let (bpx, bmx) = (&plus[col.output(0)], &minus[col.output(0)]);
@@ -236,7 +255,7 @@ impl PlatenWork {
                     px[i] = x[i] + sign * rx[i] * sq;
                     pv[i] = v[i] + sign * rv[i] * sq;
                 }
-                program.run(&px, &pv, out);
+                program.run(px, pv, out);
             }
             for j in 0..m {
                 if j == r || pk.constant[j] {
@@ -261,10 +280,9 @@ impl PlatenWork {
             }
         }
         for i in 0..CHUNK {
-            px[i] = x[i] + ax[i];
-            pv[i] = v[i] + av[i];
+            out_x[i] = x[i] + ax[i];
+            out_v[i] = v[i] + av[i];
         }
-        (px, pv)
     }
 }
 

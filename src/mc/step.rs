@@ -3,6 +3,7 @@
 //! events of an impact law resolved lane by lane.
 
 use super::eval::{BatchKernel, Scratch, Simd};
+use super::events::{crossings, EventWork};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
@@ -387,13 +388,31 @@ impl BatchState {
             return;
         }
         let mut ev = std::mem::take(&mut self.events);
-        for i in 0..n {
-            let met = plan.barriers.iter().enumerate().any(|(k, bar)| {
-                let s0 = if bar.state == 0 { self.x[i] } else { self.v[i] };
-                let s1 = if bar.state == 0 { xp[i] } else { vp[i] };
-                meets(bar.at, self.side[k * n + i], s0, s1)
-            });
-            if met {
+        // Which lanes met a barrier, a chunk of lanes at a time in fixed-length loops (so
+        // the test vectorises); the rare events are then resolved lane by lane, each from
+        // its own generator, so the order of resolution changes no bit.
+        let mut start = 0;
+        while start < n {
+            let len = CHUNK.min(n - start);
+            let mut met = 0u64;
+            for (k, bar) in plan.barriers.iter().enumerate() {
+                let (s0, s1) = if bar.state == 0 {
+                    (&self.x[start..start + len], &xp[start..start + len])
+                } else {
+                    (&self.v[start..start + len], &vp[start..start + len])
+                };
+                let side = &self.side[k * n + start..k * n + start + len];
+                met |= if len == CHUNK {
+                    crossings::<CHUNK>(bar.at, chunk(side), chunk(s0), chunk(s1))
+                } else {
+                    (0..len).fold(0, |m, i| {
+                        m | (meets(bar.at, side[i], s0[i], s1[i]) as u64) << i
+                    })
+                };
+            }
+            while met != 0 {
+                let i = start + met.trailing_zeros() as usize;
+                met &= met - 1;
                 for k in 0..m {
                     ev.w[k] = scale * w[k * n + i];
                 }
@@ -408,6 +427,7 @@ impl BatchState {
                 xp[i] = x1;
                 vp[i] = v1;
             }
+            start += len;
         }
         self.events = ev;
     }
@@ -605,42 +625,6 @@ pub(super) fn general_point_step(
         p[0] + 0.5 * (incr(e0, 0) + incr(e1, 0)),
         p[1] + 0.5 * (incr(e0, 1) + incr(e1, 1)),
     ]
-}
-
-/// Working memory of the events of one lane's step (the general schemes).
-struct EventWork {
-    /// The increment of the step (or of its remainder) and the remainder's, one per source.
-    w: Vec<f64>,
-    w_rest: Vec<f64>,
-    /// Standard normals of the Brownian bridge and the remainder's pair signs.
-    z: Vec<f64>,
-    vpair: Vec<f64>,
-    point: PointWork,
-}
-
-impl EventWork {
-    fn new(m: usize) -> EventWork {
-        EventWork {
-            w: vec![0.0; m],
-            w_rest: vec![0.0; m],
-            z: vec![0.0; m],
-            vpair: vec![0.0; m * m.saturating_sub(1) / 2],
-            point: PointWork::new(m),
-        }
-    }
-}
-
-/// Empty (allocates nothing): the placeholder while the working memory is in use.
-impl Default for EventWork {
-    fn default() -> Self {
-        EventWork {
-            w: Vec::new(),
-            w_rest: Vec::new(),
-            z: Vec::new(),
-            vpair: Vec::new(),
-            point: PointWork::empty(),
-        }
-    }
 }
 
 /// The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k of every lane, from the kernel's
