@@ -21,13 +21,7 @@ use crate::symbolic::{EvalError, SymbolicError};
 pub enum EpcError {
     /// The model's impact law is not one EPC's operator represents: a refusal before any work,
     /// not a numerical failure (Monte Carlo can still simulate the model).
-    #[error(
-        "EPC cannot use the impact law `{law}`: {reason}. EPC represents an impact only in \
-         Zhuravlev coordinates, as a pass-through jump `v -> r*v` (0 < r <= 1) together with \
-         the term `-(1 - r)*v*abs(v)*delta(z)` in the drift of `v` (see \
-         models/vibro_duffing.sde); Monte Carlo (`--mc`, `fpsolve simulate`) handles this law, \
-         and a later version will add an EPC method for it"
-    )]
+    #[error("EPC cannot use the impact law `{law}`: {reason}. {}", remedy(reason))]
     UnsupportedImpact {
         /// The law, printed (`impact x = 0: v -> -0.95*v`).
         law: String,
@@ -147,4 +141,20 @@ pub enum EpcError {
         /// Why.
         reason: NotNormalisable,
     },
+}
+
+/// What to do instead of the δ-term EPC, for each reason it cannot use an impact law.
+fn remedy(reason: &UnsupportedImpact) -> &'static str {
+    match reason {
+        UnsupportedImpact::NoiseInPosition { .. } => {
+            "No method represents an impact on a position driven by noise: Monte Carlo, the \
+             grid and `epc-impact` refuse it too"
+        }
+        _ => {
+            "EPC represents an impact only in Zhuravlev coordinates, as a pass-through jump \
+             `v -> r*v` (0 < r <= 1) together with the term `-(1 - r)*v*abs(v)*delta(z)` in \
+             the drift of `v` (see models/vibro_duffing.sde); Monte Carlo (`--mc`, `fpsolve \
+             simulate`) handles this law, and a later version will add an EPC method for it"
+        }
+    }
 }

@@ -28,6 +28,21 @@ pub enum BarrierLayout {
         /// The upper one's.
         upper: f64,
     },
+    /// Noise enters the equation of the barrier state. An impact law is an event at the
+    /// instant the state reaches the barrier; a state driven by noise meets the barrier
+    /// infinitely often in any time after it first does, so the law has no meaning there and
+    /// a time-stepping simulation would give an answer that depends on its step.
+    #[error(
+        "noise `{noise}` enters the equation of `{state}`, the barrier state: an impact law \
+         needs a barrier state that moves without noise (a diffusing state crosses its barrier \
+         infinitely often once it reaches it)"
+    )]
+    NoisyState {
+        /// The barrier state.
+        state: String,
+        /// The first noise source in its equation.
+        noise: String,
+    },
 }
 
 /// Errors of the Monte Carlo stage.

@@ -315,6 +315,18 @@ impl Plan {
         let g = &model.noise_matrix;
         let s = &model.intensity;
         let m = model.noise_names.len();
+        if let Some((b, k)) = specs.iter().find_map(|b| {
+            (0..m)
+                .find(|&k| !is_zero(&g[b.state][k]) && s[k][k] != 0.0)
+                .map(|k| (b, k))
+        }) {
+            return Err(McError::Barriers {
+                layout: BarrierLayout::NoisyState {
+                    state: states[b.state].to_string(),
+                    noise: model.noise_names[k].to_string(),
+                },
+            });
+        }
         let mechanical_barrier = specs.iter().all(|b| b.state == 0 && b.other == 1);
         let mechanical = choice == SchemeChoice::Auto
             && is_state(&model.drift[0], v)

@@ -178,6 +178,32 @@ fn a_delta_term_without_an_impact_law_is_an_error() {
     ));
 }
 
+#[test]
+fn an_impact_on_a_state_driven_by_noise_is_refused() {
+    let text = |zeta: &str| {
+        format!(
+            "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 1\n\
+             noise zeta: intensity {zeta}\ndiffusion z: 0.1*zeta\ndiffusion v: xi\n\
+             impact z = 0: v -> -0.9*v\ndomain z >= 0\n"
+        )
+    };
+    let sim = |zeta: &str| {
+        let model = crate::model::parse_model(&text(zeta), None).unwrap();
+        Simulation::new(&model.bind(&[]).unwrap(), &small(32)).map(|_| ())
+    };
+    assert_eq!(
+        sim("0.02"),
+        Err(McError::Barriers {
+            layout: BarrierLayout::NoisyState {
+                state: "z".into(),
+                noise: "zeta".into(),
+            }
+        })
+    );
+    // A source of no intensity moves nothing: the model is the noiseless-position one.
+    assert_eq!(sim("0"), Ok(()));
+}
+
 /// `v' = −c v − k z + ξ₀ + σ v ξ₁` (independent sources of intensities s₀, s₁): the
 /// stationary E[v²] is s₀/(2c − s₁σ²) read as Itô and s₀/(2c − 2s₁σ²) read as
 /// Stratonovich (Wong–Zakai adds ½s₁σ²·v to the drift).

@@ -66,6 +66,18 @@ pub enum UnsupportedImpact {
         /// The jumping state.
         velocity: String,
     },
+    /// Noise enters the equation of the barrier state: the position is not differentiable,
+    /// so `ż|ż|δ(z)` (the Zhuravlev form's impact term) stands for no impact.
+    #[error(
+        "noise `{noise}` enters the equation of `{position}`, the barrier state: the impact \
+         term stands for an impact only where `{position}` moves without noise"
+    )]
+    NoiseInPosition {
+        /// The barrier state.
+        position: String,
+        /// The first noise source in its equation.
+        noise: String,
+    },
     /// A pass-through jump `v -> r*v`, r < 1, without the impact term in the drift.
     #[error(
         "the drift of `{velocity}` has no impact term `-(1 - r)*{velocity}*abs({velocity})*\
@@ -256,6 +268,13 @@ fn one_barrier(model: &BoundModel, law: &BoundImpact) -> Option<ImpactForm> {
     }
     if !rate_is(&model.drift()[p], q, states, &probe_points()) {
         return unsupported(UnsupportedImpact::NotMechanical { position, velocity });
+    }
+    let (g, s) = (model.noise_matrix(), model.intensity());
+    if let Some(k) = (0..s.len()).find(|&k| g[p][k].as_num() != Some(0.0) && s[k][k] != 0.0) {
+        return unsupported(UnsupportedImpact::NoiseInPosition {
+            position,
+            noise: model.noise_names()[k].to_string(),
+        });
     }
     let Some(lines) = impact_terms(model, p, q, Some(law.at)) else {
         return unsupported(UnsupportedImpact::MismatchedImpactTerm {

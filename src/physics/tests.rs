@@ -317,3 +317,25 @@ fn monte_carlo_still_simulates_the_original_coordinates() {
     assert_eq!(x.underflow, 0);
     assert!(x.moments.mean.value > 0.8, "E[x] = {:?}", x.moments.mean);
 }
+
+#[test]
+fn an_impact_term_on_a_position_driven_by_noise_is_no_impact() {
+    let drift = "-c*v - k*z - (1 - 0.9)*v*abs(v)*delta(z)";
+    let jump = "impact z = 0: v -> 0.9*v";
+    let clean = text(drift, "xi", jump);
+    assert!(matches!(
+        impact_form(&clean.bind(&[]).unwrap()),
+        Some(ImpactForm::Zhuravlev { .. })
+    ));
+    let noisy = text(drift, "xi", &format!("diffusion z: 0.1*xi\n{jump}"));
+    assert_eq!(
+        impact_form(&noisy.bind(&[]).unwrap()).map(|f| match f {
+            ImpactForm::Unsupported { reason, .. } => Some(reason),
+            _ => None,
+        }),
+        Some(Some(UnsupportedImpact::NoiseInPosition {
+            position: "z".into(),
+            noise: "xi".into(),
+        }))
+    );
+}
