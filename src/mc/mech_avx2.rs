@@ -175,6 +175,7 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
         impacts,
         rng,
         pending: pend,
+        mut rows,
     } = c;
     // SAFETY (every load and store below): each column of the group holds GROUP =
     // 4·VECTORS values and vector k covers 4k..4k+4.
@@ -201,59 +202,72 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
         _mm256_set1_pd(1.0),
         _mm256_set1_pd(-1.0),
     );
-    fly(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
     let mut use_pending = st.pending;
-    for step in 0..st.steps {
-        let tau = if step + 1 == st.steps { 0.5 * h } else { h };
-        let z: V = if use_pending {
-            pending
-        } else {
-            // xoshiro256++, one output per lane (as `LaneRng::fill`).
-            let mut out = [_mm256_setzero_si256(); VECTORS];
+    for j in 0..st.samples {
+        fly(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
+        for step in 0..st.steps {
+            let tau = if step + 1 == st.steps { 0.5 * h } else { h };
+            let z: V = if use_pending {
+                pending
+            } else {
+                // xoshiro256++, one output per lane (as `LaneRng::fill`).
+                let mut out = [_mm256_setzero_si256(); VECTORS];
+                for k in 0..VECTORS {
+                    let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
+                    out[k] = _mm256_add_epi64(rotl::<23, 41>(_mm256_add_epi64(a0, d0)), a0);
+                    let t = _mm256_slli_epi64::<17>(b0);
+                    let c1 = _mm256_xor_si256(c0, a0);
+                    let d1 = _mm256_xor_si256(d0, b0);
+                    r1[k] = _mm256_xor_si256(b0, c1);
+                    r0[k] = _mm256_xor_si256(a0, d1);
+                    r2[k] = _mm256_xor_si256(c1, t);
+                    r3[k] = rotl::<45, 19>(d1);
+                }
+                let low = _mm256_set1_epi64x(0xFFFF_FFFF);
+                pending = each(|k| three_point(_mm256_srli_epi64::<32>(out[k]), a));
+                each(|k| three_point(_mm256_and_si256(out[k], low), a))
+            };
+            use_pending = !use_pending;
+            // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
+            let s = each(|k| {
+                let p = _mm256_blendv_pd(zero, one, _mm256_cmp_pd::<_CMP_GT_OQ>(x[k], zero));
+                _mm256_blendv_pd(p, neg_one, _mm256_cmp_pd::<_CMP_LT_OQ>(x[k], zero))
+            });
+            let f0 = sgn_poly(&form.force0, &x, &s);
+            let f0 = match &form.force1 {
+                None => f0,
+                Some(b) => {
+                    let b = sgn_poly(b, &x, &s);
+                    each(|k| _mm256_add_pd(f0[k], _mm256_mul_pd(v[k], b[k])))
+                }
+            };
+            let sigma = sgn_poly(&form.sigma, &x, &s);
+            let slope = sgn_poly(&form.slope, &x, &s);
             for k in 0..VECTORS {
-                let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
-                out[k] = _mm256_add_epi64(rotl::<23, 41>(_mm256_add_epi64(a0, d0)), a0);
-                let t = _mm256_slli_epi64::<17>(b0);
-                let c1 = _mm256_xor_si256(c0, a0);
-                let d1 = _mm256_xor_si256(d0, b0);
-                r1[k] = _mm256_xor_si256(b0, c1);
-                r0[k] = _mm256_xor_si256(a0, d1);
-                r2[k] = _mm256_xor_si256(c1, t);
-                r3[k] = rotl::<45, 19>(d1);
+                let dw = _mm256_mul_pd(z[k], _mm256_mul_pd(sigma[k], vsqrt_h));
+                let f1 = _mm256_add_pd(
+                    f0[k],
+                    _mm256_mul_pd(slope[k], _mm256_add_pd(_mm256_mul_pd(f0[k], vh), dw)),
+                );
+                let inc = _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_mul_pd(vhalf, _mm256_add_pd(f0[k], f1)), vh),
+                    dw,
+                );
+                v[k] = _mm256_add_pd(v[k], inc);
             }
-            let low = _mm256_set1_epi64x(0xFFFF_FFFF);
-            pending = each(|k| three_point(_mm256_srli_epi64::<32>(out[k]), a));
-            each(|k| three_point(_mm256_and_si256(out[k], low), a))
-        };
-        use_pending = !use_pending;
-        // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
-        let s = each(|k| {
-            let p = _mm256_blendv_pd(zero, one, _mm256_cmp_pd::<_CMP_GT_OQ>(x[k], zero));
-            _mm256_blendv_pd(p, neg_one, _mm256_cmp_pd::<_CMP_LT_OQ>(x[k], zero))
-        });
-        let f0 = sgn_poly(&form.force0, &x, &s);
-        let f0 = match &form.force1 {
-            None => f0,
-            Some(b) => {
-                let b = sgn_poly(b, &x, &s);
-                each(|k| _mm256_add_pd(f0[k], _mm256_mul_pd(v[k], b[k])))
-            }
-        };
-        let sigma = sgn_poly(&form.sigma, &x, &s);
-        let slope = sgn_poly(&form.slope, &x, &s);
-        for k in 0..VECTORS {
-            let dw = _mm256_mul_pd(z[k], _mm256_mul_pd(sigma[k], vsqrt_h));
-            let f1 = _mm256_add_pd(
-                f0[k],
-                _mm256_mul_pd(slope[k], _mm256_add_pd(_mm256_mul_pd(f0[k], vh), dw)),
-            );
-            let inc = _mm256_add_pd(
-                _mm256_mul_pd(_mm256_mul_pd(vhalf, _mm256_add_pd(f0[k], f1)), vh),
-                dw,
-            );
-            v[k] = _mm256_add_pd(v[k], inc);
+            fly(bar, &mut x, &mut v, &mut side, impacts, tau);
         }
-        fly(bar, &mut x, &mut v, &mut side, impacts, tau);
+        if let Some(rows) = rows.as_mut() {
+            let at = j as usize * rows.stride;
+            for k in 0..VECTORS {
+                let r = at + 4 * k..at + 4 * k + 4;
+                // SAFETY: stores of 4 values into slices of 4.
+                unsafe {
+                    _mm256_storeu_pd(rows.x[r.clone()].as_mut_ptr(), x[k]);
+                    _mm256_storeu_pd(rows.v[r].as_mut_ptr(), v[k]);
+                }
+            }
+        }
     }
     let store = |s: &mut [f64], w: &V| {
         for k in 0..VECTORS {
