@@ -386,8 +386,14 @@ impl Accumulator {
                 awc[l] += ok as u64;
                 aws[l] += d;
                 awq[l] += d2;
-                mn[l] = if ok && q < mn[l] { q } else { mn[l] };
-                mx[l] = if ok && q > mx[l] { q } else { mx[l] };
+                // `add_body`'s extremes, `ok && q < mn ? q : mn`, as a comparison of the
+                // value or ±∞ (the same result: ∞ < mn never holds), which compiles to
+                // min/max in registers (the conditional form became a masked store to the
+                // stack that the next sample's load waited for: half the recording's time).
+                let low = if ok { q } else { f64::INFINITY };
+                let high = if ok { q } else { f64::NEG_INFINITY };
+                mn[l] = if low < mn[l] { low } else { mn[l] };
+                mx[l] = if high > mx[l] { high } else { mx[l] };
                 let t = (q - lo) * inv_w + 1.0;
                 let t = if t > 0.0 { t } else { 0.0 };
                 let t = if t < top { t } else { top };

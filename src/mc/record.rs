@@ -140,10 +140,11 @@ pub(crate) fn record_batch(
         for j in 0..m {
             let r = j * n..(j + 1) * n;
             let (x, v, rec) = (&xs[r.clone()], &vs[r.clone()], &mut rec[r]);
+            // Bitwise, so the loop vectorises.
             let mut lost = false;
             for i in 0..n {
-                let ok = record[i] && x[i].is_finite() && v[i].is_finite();
-                lost |= ok != record[i];
+                let ok = record[i] & x[i].is_finite() & v[i].is_finite();
+                lost |= ok ^ record[i];
                 rec[i] = ok;
             }
             if lost {
