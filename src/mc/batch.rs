@@ -214,6 +214,39 @@ pub(crate) fn run_batches(
         .collect()
 }
 
+/// [`run_batches`] of `range` with the settings `st` and of `coarse_range` with `coarse`
+/// (the time-step bias run), as one parallel loop: the threads share the two runs' batches
+/// (run one after the other, 7 + 7 batches on 2 threads left a thread idle at the end of
+/// each). The summaries come back in batch order, each run's apart.
+pub(crate) fn run_batch_pair(
+    plan: &Plan,
+    (st, range): (&RunSettings, std::ops::Range<u64>),
+    (coarse, coarse_range): (&RunSettings, std::ops::Range<u64>),
+    done: &(dyn Fn() + Sync),
+    cancel: &Cancel,
+) -> Option<(Vec<BatchSummary>, Vec<BatchSummary>)> {
+    let fine = range.end - range.start;
+    let all: Vec<BatchSummary> = (range.start..range.end + (coarse_range.end - coarse_range.start))
+        .into_par_iter()
+        .map(|k| {
+            if cancel.is_cancelled() {
+                return None;
+            }
+            let (settings, index) = if k < range.end {
+                (st, k)
+            } else {
+                (coarse, coarse_range.start + (k - range.end))
+            };
+            let b = run_batch(plan, settings, index, cancel)?;
+            done();
+            Some(b)
+        })
+        .collect::<Option<_>>()?;
+    let mut all = all;
+    let coarse_part = all.split_off(fine as usize);
+    Some((all, coarse_part))
+}
+
 /// [`run_batches`] for a run nobody can cancel.
 pub(crate) fn run_batches_to_end(
     plan: &Plan,
