@@ -45,6 +45,8 @@ fn sgn_poly(p: &SgnPoly, z: &V, s: &V) -> V {
     let plain = horner(&p.plain, z);
     match &p.sgn {
         None => plain,
+        // s·1 is s (s is ±1 or 0): the product left out, the same bits.
+        Some(q) if q.coef == [1.0] => each(|k| _mm256_add_pd(plain[k], s[k])),
         Some(q) => {
             let q = horner(q, z);
             each(|k| _mm256_add_pd(plain[k], _mm256_mul_pd(s[k], q[k])))
@@ -75,37 +77,59 @@ fn rotl<const L: i32, const R: i32>(x: __m256i) -> __m256i {
     _mm256_or_si256(_mm256_slli_epi64::<L>(x), _mm256_srli_epi64::<R>(x))
 }
 
-/// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane.
+/// `(s − b)·side`, the signed distance `meets()` compares with zero: for a barrier at zero
+/// `s·side`, the same value but perhaps the sign of a zero, so the same comparisons.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn fly(bar: Option<&Barrier>, x: &mut V, v: &mut V, side: &mut V, impacts: &mut [u64], tau: f64) {
+fn dist(b: f64, s: __m256d, side: __m256d) -> __m256d {
+    if b == 0.0 {
+        _mm256_mul_pd(s, side)
+    } else {
+        _mm256_mul_pd(_mm256_sub_pd(s, _mm256_set1_pd(b)), side)
+    }
+}
+
+/// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane; `d`
+/// holds each lane's [`dist`] to the barrier before the flight and after it.
+#[inline]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn fly(
+    bar: Option<&Barrier>,
+    x: &mut V,
+    v: &mut V,
+    side: &mut V,
+    d: &mut V,
+    impacts: &mut [u64],
+    tau: f64,
+) {
     let zero = _mm256_setzero_pd();
     let vtau = _mm256_set1_pd(tau);
     let xn = each(|k| _mm256_add_pd(x[k], _mm256_mul_pd(v[k], vtau)));
     let mut met = [0i32; VECTORS];
     if let Some(bar) = bar {
-        let b = _mm256_set1_pd(bar.at);
         for k in 0..VECTORS {
-            // meets(): d1 < 0 or (d1 = 0 and d0 > 0), d = (s − b)·side.
-            let d0 = _mm256_mul_pd(_mm256_sub_pd(x[k], b), side[k]);
-            let d1 = _mm256_mul_pd(_mm256_sub_pd(xn[k], b), side[k]);
+            // meets(): d1 < 0 or (d1 = 0 and d0 > 0).
+            let d1 = dist(bar.at, xn[k], side[k]);
             let m = _mm256_or_pd(
                 _mm256_cmp_pd::<_CMP_LT_OQ>(d1, zero),
                 _mm256_and_pd(
                     _mm256_cmp_pd::<_CMP_EQ_OQ>(d1, zero),
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(d0, zero),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(d[k], zero),
                 ),
             );
             met[k] = _mm256_movemask_pd(m);
+            d[k] = d1;
         }
     }
     let x0 = *x;
     *x = xn;
     if met != [0; VECTORS] {
+        let bar = bar.expect("only a barrier is met");
         for k in 0..VECTORS {
             if met[k] != 0 {
                 impacts_of(
-                    bar,
+                    Some(bar),
                     met[k],
                     x0[k],
                     &mut x[k],
@@ -114,6 +138,7 @@ fn fly(bar: Option<&Barrier>, x: &mut V, v: &mut V, side: &mut V, impacts: &mut 
                     &mut impacts[4 * k..4 * k + 4],
                     tau,
                 );
+                d[k] = dist(bar.at, x[k], side[k]);
             }
         }
     }
@@ -202,9 +227,13 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
         _mm256_set1_pd(1.0),
         _mm256_set1_pd(-1.0),
     );
+    let mut d: V = match bar {
+        Some(bar) => each(|k| dist(bar.at, x[k], side[k])),
+        None => [zero; VECTORS],
+    };
     let mut use_pending = st.pending;
     for j in 0..st.samples {
-        fly(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
+        fly(bar, &mut x, &mut v, &mut side, &mut d, impacts, 0.5 * h);
         for step in 0..st.steps {
             let tau = if step + 1 == st.steps { 0.5 * h } else { h };
             let z: V = if use_pending {
@@ -255,7 +284,7 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
                 );
                 v[k] = _mm256_add_pd(v[k], inc);
             }
-            fly(bar, &mut x, &mut v, &mut side, impacts, tau);
+            fly(bar, &mut x, &mut v, &mut side, &mut d, impacts, tau);
         }
         if let Some(rows) = rows.as_mut() {
             let at = j as usize * rows.stride;

@@ -292,6 +292,8 @@ mod avx512 {
         let plain = horner(&p.plain, z);
         match &p.sgn {
             None => plain,
+            // s·1 is s (s is ±1 or 0): the product left out, the same bits.
+            Some(q) if q.coef == [1.0] => each(|k| _mm512_add_pd(plain[k], s[k])),
             Some(q) => {
                 let q = horner(q, z);
                 each(|k| _mm512_add_pd(plain[k], _mm512_mul_pd(s[k], q[k])))
@@ -316,38 +318,57 @@ mod avx512 {
     /// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane (a
     /// macro: as a function it was not inlined, and a target-feature function cannot be
     /// forced to be).
+    /// `(s − b)·side` of every lane, the signed distance `meets()` compares with zero: for
+    /// a barrier at zero `s·side`, the same value but perhaps the sign of a zero (s − 0 is
+    /// s; s + 0 for b = −0 turns −0 into +0), so the same comparisons.
+    macro_rules! dist {
+        ($b:expr, $s:expr, $side:expr) => {{
+            let (b, s, side): (f64, __m512d, __m512d) = ($b, $s, $side);
+            if b == 0.0 {
+                _mm512_mul_pd(s, side)
+            } else {
+                _mm512_mul_pd(_mm512_sub_pd(s, _mm512_set1_pd(b)), side)
+            }
+        }};
+    }
+
+    /// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane (a
+    /// macro: as a function it was not inlined, and a target-feature function cannot be
+    /// forced to be). `d` holds each lane's distance to the barrier ([`dist`]) before the
+    /// flight and after it: the end of one flight is the start of the next.
     macro_rules! fly {
-        ($bar:expr, $x:expr, $v:expr, $side:expr, $impacts:expr, $tau:expr) => {{
-            let (bar, x, v, side, impacts, tau): (
+        ($bar:expr, $x:expr, $v:expr, $side:expr, $d:expr, $impacts:expr, $tau:expr) => {{
+            let (bar, x, v, side, d, impacts, tau): (
                 Option<&Barrier>,
+                &mut V,
                 &mut V,
                 &mut V,
                 &mut V,
                 &mut [u64],
                 f64,
-            ) = ($bar, $x, $v, $side, $impacts, $tau);
+            ) = ($bar, $x, $v, $side, $d, $impacts, $tau);
             let zero = _mm512_setzero_pd();
             let vtau = _mm512_set1_pd(tau);
             let xn = each(|k| _mm512_add_pd(x[k], _mm512_mul_pd(v[k], vtau)));
             let mut met = [0u8; VECTORS];
             if let Some(bar) = bar {
-                let b = _mm512_set1_pd(bar.at);
                 for k in 0..VECTORS {
-                    // meets(): d1 < 0 or (d1 = 0 and d0 > 0), d = (s − b)·side.
-                    let d0 = _mm512_mul_pd(_mm512_sub_pd(x[k], b), side[k]);
-                    let d1 = _mm512_mul_pd(_mm512_sub_pd(xn[k], b), side[k]);
+                    // meets(): d1 < 0 or (d1 = 0 and d0 > 0).
+                    let d1 = dist!(bar.at, xn[k], side[k]);
                     met[k] = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(d1, zero)
                         | (_mm512_cmp_pd_mask::<_CMP_EQ_OQ>(d1, zero)
-                            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d0, zero));
+                            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d[k], zero));
+                    d[k] = d1;
                 }
             }
             let x0 = *x;
             *x = xn;
             if met != [0; VECTORS] {
+                let bar = bar.expect("only a barrier is met");
                 for k in 0..VECTORS {
                     if met[k] != 0 {
                         impacts_of(
-                            bar,
+                            Some(bar),
                             met[k],
                             x0[k],
                             &mut x[k],
@@ -356,6 +377,7 @@ mod avx512 {
                             &mut impacts[8 * k..8 * k + 8],
                             tau,
                         );
+                        d[k] = dist!(bar.at, x[k], side[k]);
                     }
                 }
             }
@@ -443,10 +465,14 @@ mod avx512 {
             _mm512_set1_pd(st.a),
         );
         let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
+        let mut d: V = match bar {
+            Some(bar) => each(|k| dist!(bar.at, x[k], side[k])),
+            None => [zero; VECTORS],
+        };
         let mut use_pending = st.pending;
         let neg_one = _mm512_set1_pd(-1.0);
         for j in 0..st.samples {
-            fly!(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
+            fly!(bar, &mut x, &mut v, &mut side, &mut d, impacts, 0.5 * h);
             for step in 0..st.steps {
                 let tau = if step + 1 == st.steps { 0.5 * h } else { h };
                 let z: V = if use_pending {
@@ -502,7 +528,7 @@ mod avx512 {
                     );
                     v[k] = _mm512_add_pd(v[k], inc);
                 }
-                fly!(bar, &mut x, &mut v, &mut side, impacts, tau);
+                fly!(bar, &mut x, &mut v, &mut side, &mut d, impacts, tau);
             }
             if let Some(rows) = rows.as_mut() {
                 let at = j as usize * rows.stride;
