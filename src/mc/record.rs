@@ -136,7 +136,8 @@ pub(crate) fn record_batch(
         let m = (end - s) as usize;
         let (xs, vs, rec) = (&mut xs[..m * n], &mut vs[..m * n], &mut rec[..m * n]);
         let done = b.advance_rows(plan, end - s, st.steps_per_sample, st.dt, xs, vs);
-        debug_assert!(done, "the fast path was checked");
+        // The rows are read next: a call that did not run must not pass unnoticed.
+        assert!(done, "the fast path was checked (has_fast_rows)");
         for j in 0..m {
             let r = j * n..(j + 1) * n;
             let (x, v, rec) = (&xs[r.clone()], &vs[r.clone()], &mut rec[r]);
