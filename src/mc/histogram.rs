@@ -330,6 +330,102 @@ impl Accumulator {
         }
     }
 
+    /// [`Accumulator::add`] for `samples` consecutive sample points of the `L` lanes
+    /// `first..first + L`, all in the current quarter: at sample j lane `first + l` has the
+    /// state `(x, v)` = `(xs[k], vs[k])`, `k = j * stride + first + l`, the value
+    /// `value(x, v)`, and is recorded when `record[k]`. The lanes' running sums are kept in
+    /// registers through the samples and updated by exactly `add_body`'s operations in
+    /// sample order, so the result is the same bits as `samples` calls of
+    /// [`Accumulator::add`] with the values (tested).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn add_lanes<const L: usize>(
+        &mut self,
+        first: usize,
+        samples: usize,
+        stride: usize,
+        xs: &[f64],
+        vs: &[f64],
+        record: &[bool],
+        value: impl Fn(f64, f64) -> f64,
+    ) {
+        let (lo, inv_w, shift) = (self.grid.lo, self.inv_width, self.shift);
+        let top = (self.grid.bins + 1) as f64;
+        let (skipped, invalid) = (self.grid.bins as u32 + 2, self.grid.bins as u32 + 3);
+        let stride_slots = self.grid.bins + 4;
+        let r = first..first + L;
+        let load = |s: &[f64]| -> [f64; L] { s[r.clone()].try_into().expect("L lanes") };
+        let [s1, s2, s3, s4] = &mut self.sums;
+        let (mut a1, mut a2, mut a3, mut a4) = (load(s1), load(s2), load(s3), load(s4));
+        let (mut mn, mut mx) = (load(&self.min), load(&self.max));
+        let [ws, wq] = &mut self.lane_window_sums;
+        let (mut aws, mut awq) = (load(ws), load(wq));
+        let mut awc: [u64; L] = self.lane_window_counts[r.clone()]
+            .try_into()
+            .expect("L lanes");
+        // Each lane's copy of the bins (lane i counts into copy i mod COUNT_COPIES).
+        let copy: [usize; L] = std::array::from_fn(|l| ((first + l) % COUNT_COPIES) * stride_slots);
+        for j in 0..samples {
+            let row = j * stride + first;
+            let x: [f64; L] = xs[row..row + L].try_into().expect("L lanes");
+            let v: [f64; L] = vs[row..row + L].try_into().expect("L lanes");
+            let q: [f64; L] = std::array::from_fn(|l| value(x[l], v[l]));
+            let rec: [bool; L] = record[row..row + L].try_into().expect("L lanes");
+            let mut slots = [0u32; L];
+            for l in 0..L {
+                // `add_body`'s lane body, operation for operation.
+                let q = q[l];
+                let finite = q.is_finite();
+                let ok = rec[l] && finite;
+                let d = if ok { q - shift } else { 0.0 };
+                let d2 = d * d;
+                a1[l] += d;
+                a2[l] += d2;
+                a3[l] += d2 * d;
+                a4[l] += d2 * d2;
+                awc[l] += ok as u64;
+                aws[l] += d;
+                awq[l] += d2;
+                // `add_body`'s extremes, `ok && q < mn ? q : mn`, as a comparison of the
+                // value or ±∞ (the same result: ∞ < mn never holds), which compiles to
+                // min/max in registers (the conditional form became a masked store to the
+                // stack that the next sample's load waited for: half the recording's time).
+                let low = if ok { q } else { f64::INFINITY };
+                let high = if ok { q } else { f64::NEG_INFINITY };
+                mn[l] = if low < mn[l] { low } else { mn[l] };
+                mx[l] = if high > mx[l] { high } else { mx[l] };
+                let t = (q - lo) * inv_w + 1.0;
+                let t = if t > 0.0 { t } else { 0.0 };
+                let t = if t < top { t } else { top };
+                // SAFETY: as in `add_body`: 0 ≤ t ≤ bins + 1 < 2³¹ and t is not NaN.
+                let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
+                let slot = if q < lo { 0 } else { slot };
+                let slot = if finite { slot } else { invalid };
+                slots[l] = if rec[l] { slot } else { skipped };
+            }
+            for l in 0..L {
+                let k = copy[l] + slots[l] as usize;
+                debug_assert!(k < self.slots.len());
+                // SAFETY: slot ≤ bins + 3 and copy ≤ (COUNT_COPIES − 1)·(bins + 4), so k is
+                // below COUNT_COPIES·(bins + 4), the length of `slots` (the bounds check per
+                // count was a third of the recording's time).
+                unsafe { *self.slots.get_unchecked_mut(k) += 1 };
+            }
+        }
+        let store = |s: &mut [f64], a: &[f64; L]| s[r.clone()].copy_from_slice(a);
+        let [s1, s2, s3, s4] = &mut self.sums;
+        store(s1, &a1);
+        store(s2, &a2);
+        store(s3, &a3);
+        store(s4, &a4);
+        store(&mut self.min, &mn);
+        store(&mut self.max, &mx);
+        let [ws, wq] = &mut self.lane_window_sums;
+        store(ws, &aws);
+        store(wq, &awq);
+        self.lane_window_counts[r].copy_from_slice(&awc);
+    }
+
     /// The batch's statistics, lanes added in order.
     pub(crate) fn finish(mut self) -> QuantityBatch {
         self.flush_window();

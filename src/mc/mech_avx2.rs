@@ -45,6 +45,8 @@ fn sgn_poly(p: &SgnPoly, z: &V, s: &V) -> V {
     let plain = horner(&p.plain, z);
     match &p.sgn {
         None => plain,
+        // s·1 is s (s is ±1 or 0): the product left out, the same bits.
+        Some(q) if q.coef == [1.0] => each(|k| _mm256_add_pd(plain[k], s[k])),
         Some(q) => {
             let q = horner(q, z);
             each(|k| _mm256_add_pd(plain[k], _mm256_mul_pd(s[k], q[k])))
@@ -75,37 +77,59 @@ fn rotl<const L: i32, const R: i32>(x: __m256i) -> __m256i {
     _mm256_or_si256(_mm256_slli_epi64::<L>(x), _mm256_srli_epi64::<R>(x))
 }
 
-/// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane.
+/// `(s − b)·side`, the signed distance `meets()` compares with zero: for a barrier at zero
+/// `s·side`, the same value but perhaps the sign of a zero, so the same comparisons.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn fly(bar: Option<&Barrier>, x: &mut V, v: &mut V, side: &mut V, impacts: &mut [u64], tau: f64) {
+fn dist(b: f64, s: __m256d, side: __m256d) -> __m256d {
+    if b == 0.0 {
+        _mm256_mul_pd(s, side)
+    } else {
+        _mm256_mul_pd(_mm256_sub_pd(s, _mm256_set1_pd(b)), side)
+    }
+}
+
+/// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane; `d`
+/// holds each lane's [`dist`] to the barrier before the flight and after it.
+#[inline]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn fly(
+    bar: Option<&Barrier>,
+    x: &mut V,
+    v: &mut V,
+    side: &mut V,
+    d: &mut V,
+    impacts: &mut [u64],
+    tau: f64,
+) {
     let zero = _mm256_setzero_pd();
     let vtau = _mm256_set1_pd(tau);
     let xn = each(|k| _mm256_add_pd(x[k], _mm256_mul_pd(v[k], vtau)));
     let mut met = [0i32; VECTORS];
     if let Some(bar) = bar {
-        let b = _mm256_set1_pd(bar.at);
         for k in 0..VECTORS {
-            // meets(): d1 < 0 or (d1 = 0 and d0 > 0), d = (s − b)·side.
-            let d0 = _mm256_mul_pd(_mm256_sub_pd(x[k], b), side[k]);
-            let d1 = _mm256_mul_pd(_mm256_sub_pd(xn[k], b), side[k]);
+            // meets(): d1 < 0 or (d1 = 0 and d0 > 0).
+            let d1 = dist(bar.at, xn[k], side[k]);
             let m = _mm256_or_pd(
                 _mm256_cmp_pd::<_CMP_LT_OQ>(d1, zero),
                 _mm256_and_pd(
                     _mm256_cmp_pd::<_CMP_EQ_OQ>(d1, zero),
-                    _mm256_cmp_pd::<_CMP_GT_OQ>(d0, zero),
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(d[k], zero),
                 ),
             );
             met[k] = _mm256_movemask_pd(m);
+            d[k] = d1;
         }
     }
     let x0 = *x;
     *x = xn;
     if met != [0; VECTORS] {
+        let bar = bar.expect("only a barrier is met");
         for k in 0..VECTORS {
             if met[k] != 0 {
                 impacts_of(
-                    bar,
+                    Some(bar),
                     met[k],
                     x0[k],
                     &mut x[k],
@@ -114,6 +138,7 @@ fn fly(bar: Option<&Barrier>, x: &mut V, v: &mut V, side: &mut V, impacts: &mut 
                     &mut impacts[4 * k..4 * k + 4],
                     tau,
                 );
+                d[k] = dist(bar.at, x[k], side[k]);
             }
         }
     }
@@ -175,6 +200,7 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
         impacts,
         rng,
         pending: pend,
+        mut rows,
     } = c;
     // SAFETY (every load and store below): each column of the group holds GROUP =
     // 4·VECTORS values and vector k covers 4k..4k+4.
@@ -201,59 +227,76 @@ pub(super) fn group(form: &MechForm, bar: Option<&Barrier>, c: Columns<'_>, st: 
         _mm256_set1_pd(1.0),
         _mm256_set1_pd(-1.0),
     );
-    fly(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
+    let mut d: V = match bar {
+        Some(bar) => each(|k| dist(bar.at, x[k], side[k])),
+        None => [zero; VECTORS],
+    };
     let mut use_pending = st.pending;
-    for step in 0..st.steps {
-        let tau = if step + 1 == st.steps { 0.5 * h } else { h };
-        let z: V = if use_pending {
-            pending
-        } else {
-            // xoshiro256++, one output per lane (as `LaneRng::fill`).
-            let mut out = [_mm256_setzero_si256(); VECTORS];
+    for j in 0..st.samples {
+        fly(bar, &mut x, &mut v, &mut side, &mut d, impacts, 0.5 * h);
+        for step in 0..st.steps {
+            let tau = if step + 1 == st.steps { 0.5 * h } else { h };
+            let z: V = if use_pending {
+                pending
+            } else {
+                // xoshiro256++, one output per lane (as `LaneRng::fill`).
+                let mut out = [_mm256_setzero_si256(); VECTORS];
+                for k in 0..VECTORS {
+                    let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
+                    out[k] = _mm256_add_epi64(rotl::<23, 41>(_mm256_add_epi64(a0, d0)), a0);
+                    let t = _mm256_slli_epi64::<17>(b0);
+                    let c1 = _mm256_xor_si256(c0, a0);
+                    let d1 = _mm256_xor_si256(d0, b0);
+                    r1[k] = _mm256_xor_si256(b0, c1);
+                    r0[k] = _mm256_xor_si256(a0, d1);
+                    r2[k] = _mm256_xor_si256(c1, t);
+                    r3[k] = rotl::<45, 19>(d1);
+                }
+                let low = _mm256_set1_epi64x(0xFFFF_FFFF);
+                pending = each(|k| three_point(_mm256_srli_epi64::<32>(out[k]), a));
+                each(|k| three_point(_mm256_and_si256(out[k], low), a))
+            };
+            use_pending = !use_pending;
+            // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
+            let s = each(|k| {
+                let p = _mm256_blendv_pd(zero, one, _mm256_cmp_pd::<_CMP_GT_OQ>(x[k], zero));
+                _mm256_blendv_pd(p, neg_one, _mm256_cmp_pd::<_CMP_LT_OQ>(x[k], zero))
+            });
+            let f0 = sgn_poly(&form.force0, &x, &s);
+            let f0 = match &form.force1 {
+                None => f0,
+                Some(b) => {
+                    let b = sgn_poly(b, &x, &s);
+                    each(|k| _mm256_add_pd(f0[k], _mm256_mul_pd(v[k], b[k])))
+                }
+            };
+            let sigma = sgn_poly(&form.sigma, &x, &s);
+            let slope = sgn_poly(&form.slope, &x, &s);
             for k in 0..VECTORS {
-                let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
-                out[k] = _mm256_add_epi64(rotl::<23, 41>(_mm256_add_epi64(a0, d0)), a0);
-                let t = _mm256_slli_epi64::<17>(b0);
-                let c1 = _mm256_xor_si256(c0, a0);
-                let d1 = _mm256_xor_si256(d0, b0);
-                r1[k] = _mm256_xor_si256(b0, c1);
-                r0[k] = _mm256_xor_si256(a0, d1);
-                r2[k] = _mm256_xor_si256(c1, t);
-                r3[k] = rotl::<45, 19>(d1);
+                let dw = _mm256_mul_pd(z[k], _mm256_mul_pd(sigma[k], vsqrt_h));
+                let f1 = _mm256_add_pd(
+                    f0[k],
+                    _mm256_mul_pd(slope[k], _mm256_add_pd(_mm256_mul_pd(f0[k], vh), dw)),
+                );
+                let inc = _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_mul_pd(vhalf, _mm256_add_pd(f0[k], f1)), vh),
+                    dw,
+                );
+                v[k] = _mm256_add_pd(v[k], inc);
             }
-            let low = _mm256_set1_epi64x(0xFFFF_FFFF);
-            pending = each(|k| three_point(_mm256_srli_epi64::<32>(out[k]), a));
-            each(|k| three_point(_mm256_and_si256(out[k], low), a))
-        };
-        use_pending = !use_pending;
-        // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
-        let s = each(|k| {
-            let p = _mm256_blendv_pd(zero, one, _mm256_cmp_pd::<_CMP_GT_OQ>(x[k], zero));
-            _mm256_blendv_pd(p, neg_one, _mm256_cmp_pd::<_CMP_LT_OQ>(x[k], zero))
-        });
-        let f0 = sgn_poly(&form.force0, &x, &s);
-        let f0 = match &form.force1 {
-            None => f0,
-            Some(b) => {
-                let b = sgn_poly(b, &x, &s);
-                each(|k| _mm256_add_pd(f0[k], _mm256_mul_pd(v[k], b[k])))
-            }
-        };
-        let sigma = sgn_poly(&form.sigma, &x, &s);
-        let slope = sgn_poly(&form.slope, &x, &s);
-        for k in 0..VECTORS {
-            let dw = _mm256_mul_pd(z[k], _mm256_mul_pd(sigma[k], vsqrt_h));
-            let f1 = _mm256_add_pd(
-                f0[k],
-                _mm256_mul_pd(slope[k], _mm256_add_pd(_mm256_mul_pd(f0[k], vh), dw)),
-            );
-            let inc = _mm256_add_pd(
-                _mm256_mul_pd(_mm256_mul_pd(vhalf, _mm256_add_pd(f0[k], f1)), vh),
-                dw,
-            );
-            v[k] = _mm256_add_pd(v[k], inc);
+            fly(bar, &mut x, &mut v, &mut side, &mut d, impacts, tau);
         }
-        fly(bar, &mut x, &mut v, &mut side, impacts, tau);
+        if let Some(rows) = rows.as_mut() {
+            let at = j as usize * rows.stride;
+            for k in 0..VECTORS {
+                let r = at + 4 * k..at + 4 * k + 4;
+                // SAFETY: stores of 4 values into slices of 4.
+                unsafe {
+                    _mm256_storeu_pd(rows.x[r.clone()].as_mut_ptr(), x[k]);
+                    _mm256_storeu_pd(rows.v[r].as_mut_ptr(), v[k]);
+                }
+            }
+        }
     }
     let store = |s: &mut [f64], w: &V| {
         for k in 0..VECTORS {

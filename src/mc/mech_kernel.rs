@@ -35,6 +35,26 @@ pub(crate) struct Columns<'a> {
     pub(crate) rng: [&'a mut [u64]; 4],
     /// Each lane's pending second three-point value.
     pub(crate) pending: &'a mut [f64],
+    /// Where the states at each sample point go, when the call records them.
+    pub(crate) rows: Option<Rows<'a>>,
+}
+
+/// The states of the lanes at each sample point of a call: lane i's state at sample j at
+/// `x[j * stride + i]`, `v[j * stride + i]`.
+pub(crate) struct Rows<'a> {
+    pub(crate) x: &'a mut [f64],
+    pub(crate) v: &'a mut [f64],
+    pub(crate) stride: usize,
+}
+
+impl Rows<'_> {
+    /// Stores lane `i`'s state as sample `j`'s.
+    #[inline(always)]
+    fn put(&mut self, j: u64, i: usize, x: f64, v: f64) {
+        let k = j as usize * self.stride + i;
+        self.x[k] = x;
+        self.v[k] = v;
+    }
 }
 
 impl Columns<'_> {
@@ -53,7 +73,12 @@ impl Columns<'_> {
                 &mut s2[r.clone()],
                 &mut s3[r.clone()],
             ],
-            pending: &mut self.pending[r],
+            pending: &mut self.pending[r.clone()],
+            rows: self.rows.as_mut().map(|w| Rows {
+                x: &mut w.x[r.start..],
+                v: &mut w.v[r.start..],
+                stride: w.stride,
+            }),
         }
     }
 }
@@ -61,7 +86,10 @@ impl Columns<'_> {
 /// The step sizes and the three-point value of a call.
 #[derive(Clone, Copy)]
 struct Steps {
+    /// Steps per sample point.
     steps: u64,
+    /// Sample points: the call advances `samples · steps` steps, by `steps` at a time.
+    samples: u64,
     h: f64,
     sqrt_h: f64,
     /// ±a are the three-point values.
@@ -70,9 +98,10 @@ struct Steps {
     pending: bool,
 }
 
-/// Advances every lane by `steps` steps of size `h` exactly as `BatchState::advance` does
-/// on the lane-evaluator path (half flight, then velocity update and flight per step, the
-/// last flight a half), with f, σ, ∂f/∂v from `form`. `has_pending` is the increment
+/// Advances every lane by `samples` times `steps` steps of size `h`, each `steps` exactly
+/// as one `BatchState::advance` on the lane-evaluator path (half flight, then velocity
+/// update and flight per step, the last flight a half), with f, σ, ∂f/∂v from `form`; the
+/// states after each `steps` go to `c.rows` when given. `has_pending` is the increment
 /// stream's flag, updated; `a` its three-point value.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn advance(
@@ -81,16 +110,18 @@ pub(crate) fn advance(
     c: Columns<'_>,
     has_pending: &mut bool,
     a: f64,
+    samples: u64,
     steps: u64,
     h: f64,
     simd: Simd,
 ) {
-    if steps == 0 {
+    if steps == 0 || samples == 0 {
         return;
     }
     let n = c.x.len();
     let st = Steps {
         steps,
+        samples,
         h,
         sqrt_h: h.sqrt(),
         a,
@@ -122,24 +153,32 @@ pub(crate) fn advance(
         impacts,
         rng: [s0, s1, s2, s3],
         pending,
+        mut rows,
     } = c;
     let _ = simd;
     for i in start..n {
         let mut s = [s0[i], s1[i], s2[i], s3[i]];
-        lane(
-            form,
-            bar,
-            &mut x[i],
-            &mut v[i],
-            &mut side[i],
-            &mut impacts[i],
-            &mut s,
-            &mut pending[i],
-            &st,
-        );
+        let mut use_pending = st.pending;
+        for j in 0..samples {
+            lane(
+                form,
+                bar,
+                &mut x[i],
+                &mut v[i],
+                &mut side[i],
+                &mut impacts[i],
+                &mut s,
+                &mut pending[i],
+                &mut use_pending,
+                &st,
+            );
+            if let Some(rows) = rows.as_mut() {
+                rows.put(j, i, x[i], v[i]);
+            }
+        }
         [s0[i], s1[i], s2[i], s3[i]] = s;
     }
-    if steps % 2 == 1 {
+    if (steps & samples) % 2 == 1 {
         *has_pending = !*has_pending;
     }
 }
@@ -176,7 +215,9 @@ fn flight(
     *x = xn;
 }
 
-/// One lane through all the steps of a call: the reference the vector groups agree with.
+/// One lane through the steps of one sample point (`use_pending` the increment stream's
+/// flag, carried from one sample point to the next): the reference the vector groups agree
+/// with.
 #[allow(clippy::too_many_arguments)]
 fn lane(
     form: &MechForm,
@@ -187,21 +228,21 @@ fn lane(
     hits: &mut u64,
     rng: &mut [u64; 4],
     pending: &mut f64,
+    use_pending: &mut bool,
     st: &Steps,
 ) {
     let h = st.h;
     flight(bar, x, v, side, hits, 0.5 * h);
-    let mut use_pending = st.pending;
     for k in 0..st.steps {
         let tau = if k + 1 == st.steps { 0.5 * h } else { h };
-        let z = if use_pending {
+        let z = if *use_pending {
             *pending
         } else {
             let bits = xoshiro(rng);
             *pending = three_point(bits >> 32, st.a);
             three_point(bits & 0xFFFF_FFFF, st.a)
         };
-        use_pending = !use_pending;
+        *use_pending = !*use_pending;
         let (f0, sigma, slope) = form.eval(*x, *v);
         let dw = z * (sigma * st.sqrt_h);
         let f1 = f0 + slope * (f0 * h + dw);
@@ -251,6 +292,8 @@ mod avx512 {
         let plain = horner(&p.plain, z);
         match &p.sgn {
             None => plain,
+            // s·1 is s (s is ±1 or 0): the product left out, the same bits.
+            Some(q) if q.coef == [1.0] => each(|k| _mm512_add_pd(plain[k], s[k])),
             Some(q) => {
                 let q = horner(q, z);
                 each(|k| _mm512_add_pd(plain[k], _mm512_mul_pd(s[k], q[k])))
@@ -275,38 +318,57 @@ mod avx512 {
     /// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane (a
     /// macro: as a function it was not inlined, and a target-feature function cannot be
     /// forced to be).
+    /// `(s − b)·side` of every lane, the signed distance `meets()` compares with zero: for
+    /// a barrier at zero `s·side`, the same value but perhaps the sign of a zero (s − 0 is
+    /// s; s + 0 for b = −0 turns −0 into +0), so the same comparisons.
+    macro_rules! dist {
+        ($b:expr, $s:expr, $side:expr) => {{
+            let (b, s, side): (f64, __m512d, __m512d) = ($b, $s, $side);
+            if b == 0.0 {
+                _mm512_mul_pd(s, side)
+            } else {
+                _mm512_mul_pd(_mm512_sub_pd(s, _mm512_set1_pd(b)), side)
+            }
+        }};
+    }
+
+    /// The flight x → x + v·τ of every lane of a group, impacts resolved lane by lane (a
+    /// macro: as a function it was not inlined, and a target-feature function cannot be
+    /// forced to be). `d` holds each lane's distance to the barrier ([`dist`]) before the
+    /// flight and after it: the end of one flight is the start of the next.
     macro_rules! fly {
-        ($bar:expr, $x:expr, $v:expr, $side:expr, $impacts:expr, $tau:expr) => {{
-            let (bar, x, v, side, impacts, tau): (
+        ($bar:expr, $x:expr, $v:expr, $side:expr, $d:expr, $impacts:expr, $tau:expr) => {{
+            let (bar, x, v, side, d, impacts, tau): (
                 Option<&Barrier>,
+                &mut V,
                 &mut V,
                 &mut V,
                 &mut V,
                 &mut [u64],
                 f64,
-            ) = ($bar, $x, $v, $side, $impacts, $tau);
+            ) = ($bar, $x, $v, $side, $d, $impacts, $tau);
             let zero = _mm512_setzero_pd();
             let vtau = _mm512_set1_pd(tau);
             let xn = each(|k| _mm512_add_pd(x[k], _mm512_mul_pd(v[k], vtau)));
             let mut met = [0u8; VECTORS];
             if let Some(bar) = bar {
-                let b = _mm512_set1_pd(bar.at);
                 for k in 0..VECTORS {
-                    // meets(): d1 < 0 or (d1 = 0 and d0 > 0), d = (s − b)·side.
-                    let d0 = _mm512_mul_pd(_mm512_sub_pd(x[k], b), side[k]);
-                    let d1 = _mm512_mul_pd(_mm512_sub_pd(xn[k], b), side[k]);
+                    // meets(): d1 < 0 or (d1 = 0 and d0 > 0).
+                    let d1 = dist!(bar.at, xn[k], side[k]);
                     met[k] = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(d1, zero)
                         | (_mm512_cmp_pd_mask::<_CMP_EQ_OQ>(d1, zero)
-                            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d0, zero));
+                            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d[k], zero));
+                    d[k] = d1;
                 }
             }
             let x0 = *x;
             *x = xn;
             if met != [0; VECTORS] {
+                let bar = bar.expect("only a barrier is met");
                 for k in 0..VECTORS {
                     if met[k] != 0 {
                         impacts_of(
-                            bar,
+                            Some(bar),
                             met[k],
                             x0[k],
                             &mut x[k],
@@ -315,6 +377,7 @@ mod avx512 {
                             &mut impacts[8 * k..8 * k + 8],
                             tau,
                         );
+                        d[k] = dist!(bar.at, x[k], side[k]);
                     }
                 }
             }
@@ -377,6 +440,7 @@ mod avx512 {
             impacts,
             rng,
             pending: pend,
+            mut rows,
         } = c;
         // SAFETY (every load and store below): each column of the group holds GROUP =
         // 8·VECTORS values and vector k covers 8k..8k+8.
@@ -401,61 +465,82 @@ mod avx512 {
             _mm512_set1_pd(st.a),
         );
         let (zero, one) = (_mm512_setzero_pd(), _mm512_set1_pd(1.0));
-        fly!(bar, &mut x, &mut v, &mut side, impacts, 0.5 * h);
+        let mut d: V = match bar {
+            Some(bar) => each(|k| dist!(bar.at, x[k], side[k])),
+            None => [zero; VECTORS],
+        };
         let mut use_pending = st.pending;
         let neg_one = _mm512_set1_pd(-1.0);
-        for step in 0..st.steps {
-            let tau = if step + 1 == st.steps { 0.5 * h } else { h };
-            let z: V = if use_pending {
-                pending
-            } else {
-                // xoshiro256++, one output per lane (as `LaneRng::fill`).
-                let mut out = [_mm512_setzero_si512(); VECTORS];
+        for j in 0..st.samples {
+            fly!(bar, &mut x, &mut v, &mut side, &mut d, impacts, 0.5 * h);
+            for step in 0..st.steps {
+                let tau = if step + 1 == st.steps { 0.5 * h } else { h };
+                let z: V = if use_pending {
+                    pending
+                } else {
+                    // xoshiro256++, one output per lane (as `LaneRng::fill`).
+                    let mut out = [_mm512_setzero_si512(); VECTORS];
+                    for k in 0..VECTORS {
+                        let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
+                        out[k] =
+                            _mm512_add_epi64(_mm512_rol_epi64::<23>(_mm512_add_epi64(a0, d0)), a0);
+                        let t = _mm512_slli_epi64::<17>(b0);
+                        let c1 = _mm512_xor_si512(c0, a0);
+                        let d1 = _mm512_xor_si512(d0, b0);
+                        r1[k] = _mm512_xor_si512(b0, c1);
+                        r0[k] = _mm512_xor_si512(a0, d1);
+                        r2[k] = _mm512_xor_si512(c1, t);
+                        r3[k] = _mm512_rol_epi64::<45>(d1);
+                    }
+                    let low = _mm512_set1_epi64(0xFFFF_FFFF);
+                    pending = each(|k| three_point(_mm512_srli_epi64::<32>(out[k]), a));
+                    each(|k| three_point(_mm512_and_si512(out[k], low), a))
+                };
+                use_pending = !use_pending;
+                // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
+                let s = each(|k| {
+                    let p = _mm512_mask_blend_pd(
+                        _mm512_cmp_pd_mask::<_CMP_GT_OQ>(x[k], zero),
+                        zero,
+                        one,
+                    );
+                    _mm512_mask_blend_pd(_mm512_cmp_pd_mask::<_CMP_LT_OQ>(x[k], zero), p, neg_one)
+                });
+                let f0 = sgn_poly(&form.force0, &x, &s);
+                let f0 = match &form.force1 {
+                    None => f0,
+                    Some(b) => {
+                        let b = sgn_poly(b, &x, &s);
+                        each(|k| _mm512_add_pd(f0[k], _mm512_mul_pd(v[k], b[k])))
+                    }
+                };
+                let sigma = sgn_poly(&form.sigma, &x, &s);
+                let slope = sgn_poly(&form.slope, &x, &s);
                 for k in 0..VECTORS {
-                    let (a0, b0, c0, d0) = (r0[k], r1[k], r2[k], r3[k]);
-                    out[k] = _mm512_add_epi64(_mm512_rol_epi64::<23>(_mm512_add_epi64(a0, d0)), a0);
-                    let t = _mm512_slli_epi64::<17>(b0);
-                    let c1 = _mm512_xor_si512(c0, a0);
-                    let d1 = _mm512_xor_si512(d0, b0);
-                    r1[k] = _mm512_xor_si512(b0, c1);
-                    r0[k] = _mm512_xor_si512(a0, d1);
-                    r2[k] = _mm512_xor_si512(c1, t);
-                    r3[k] = _mm512_rol_epi64::<45>(d1);
+                    let dw = _mm512_mul_pd(z[k], _mm512_mul_pd(sigma[k], vsqrt_h));
+                    let f1 = _mm512_add_pd(
+                        f0[k],
+                        _mm512_mul_pd(slope[k], _mm512_add_pd(_mm512_mul_pd(f0[k], vh), dw)),
+                    );
+                    let inc = _mm512_add_pd(
+                        _mm512_mul_pd(_mm512_mul_pd(vhalf, _mm512_add_pd(f0[k], f1)), vh),
+                        dw,
+                    );
+                    v[k] = _mm512_add_pd(v[k], inc);
                 }
-                let low = _mm512_set1_epi64(0xFFFF_FFFF);
-                pending = each(|k| three_point(_mm512_srli_epi64::<32>(out[k]), a));
-                each(|k| three_point(_mm512_and_si512(out[k], low), a))
-            };
-            use_pending = !use_pending;
-            // s = sgn(x): 1, −1, or 0 (at zero and for NaN).
-            let s = each(|k| {
-                let p =
-                    _mm512_mask_blend_pd(_mm512_cmp_pd_mask::<_CMP_GT_OQ>(x[k], zero), zero, one);
-                _mm512_mask_blend_pd(_mm512_cmp_pd_mask::<_CMP_LT_OQ>(x[k], zero), p, neg_one)
-            });
-            let f0 = sgn_poly(&form.force0, &x, &s);
-            let f0 = match &form.force1 {
-                None => f0,
-                Some(b) => {
-                    let b = sgn_poly(b, &x, &s);
-                    each(|k| _mm512_add_pd(f0[k], _mm512_mul_pd(v[k], b[k])))
-                }
-            };
-            let sigma = sgn_poly(&form.sigma, &x, &s);
-            let slope = sgn_poly(&form.slope, &x, &s);
-            for k in 0..VECTORS {
-                let dw = _mm512_mul_pd(z[k], _mm512_mul_pd(sigma[k], vsqrt_h));
-                let f1 = _mm512_add_pd(
-                    f0[k],
-                    _mm512_mul_pd(slope[k], _mm512_add_pd(_mm512_mul_pd(f0[k], vh), dw)),
-                );
-                let inc = _mm512_add_pd(
-                    _mm512_mul_pd(_mm512_mul_pd(vhalf, _mm512_add_pd(f0[k], f1)), vh),
-                    dw,
-                );
-                v[k] = _mm512_add_pd(v[k], inc);
+                fly!(bar, &mut x, &mut v, &mut side, &mut d, impacts, tau);
             }
-            fly!(bar, &mut x, &mut v, &mut side, impacts, tau);
+            if let Some(rows) = rows.as_mut() {
+                let at = j as usize * rows.stride;
+                for k in 0..VECTORS {
+                    let r = at + 8 * k..at + 8 * k + 8;
+                    // SAFETY: stores of 8 values into slices of 8.
+                    unsafe {
+                        _mm512_storeu_pd(rows.x[r.clone()].as_mut_ptr(), x[k]);
+                        _mm512_storeu_pd(rows.v[r].as_mut_ptr(), v[k]);
+                    }
+                }
+            }
         }
         let store = |s: &mut [f64], w: &V| {
             for k in 0..VECTORS {

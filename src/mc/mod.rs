@@ -48,6 +48,7 @@ mod lanes;
 mod mech_form;
 mod mech_kernel;
 mod platen;
+mod record;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;

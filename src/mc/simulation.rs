@@ -1,7 +1,7 @@
 //! The simulation driver: a model compiled with its settings resolved (the pilot run fixes
 //! the grids not given), run whole or in shards.
 
-use super::batch::{run_batches, run_batches_to_end};
+use super::batch::{run_batch_pair, run_batches_to_end};
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
 use super::histogram::{Grid, QuantityHistogram};
@@ -176,8 +176,9 @@ impl Simulation {
     }
 
     /// [`Simulation::run_with_progress`] that stops when `cancel` is set: checked before
-    /// every batch and at every sample point of a batch in flight, so a run stops within
-    /// one sample spacing's worth of steps per thread. A cancelled run returns
+    /// every batch and at every sample point of a batch in flight (every 16th where the
+    /// recording is fused with the fast mechanical kernel), so a run stops within at most
+    /// 16 sample spacings' worth of steps per thread. A cancelled run returns
     /// [`McError::Cancelled`] and nothing else (its batches are not a sample of the run).
     ///
     /// ```
@@ -205,10 +206,14 @@ impl Simulation {
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             progress(k, total);
         };
-        let summaries =
-            run_batches(&self.plan, st, 0..st.batches, &tick, cancel).ok_or(McError::Cancelled)?;
-        let coarse = run_batches(&self.plan, &st.coarse(), 0..st.bias_batches, &tick, cancel)
-            .ok_or(McError::Cancelled)?;
+        let (summaries, coarse) = run_batch_pair(
+            &self.plan,
+            (st, 0..st.batches),
+            (&st.coarse(), 0..st.bias_batches),
+            &tick,
+            cancel,
+        )
+        .ok_or(McError::Cancelled)?;
         let refs: Vec<_> = summaries.iter().collect();
         let coarse_refs: Vec<_> = coarse.iter().collect();
         finalize_run(st, &refs, &coarse_refs)
@@ -231,11 +236,19 @@ impl Simulation {
         }
         let range = shard.batch_range(st.batches);
         let coarse = range.start.min(st.bias_batches)..range.end.min(st.bias_batches);
+        let (batches, coarse) = run_batch_pair(
+            &self.plan,
+            (st, range),
+            (&st.coarse(), coarse),
+            &|| {},
+            &Cancel::new(),
+        )
+        .expect("a run whose flag nobody holds is never cancelled");
         Ok(ShardOutput {
             settings: st.clone(),
             shard,
-            batches: run_batches_to_end(&self.plan, st, range, &|| {}),
-            coarse: run_batches_to_end(&self.plan, &st.coarse(), coarse, &|| {}),
+            batches,
+            coarse,
         })
     }
 }

@@ -7,11 +7,12 @@ use super::events::{crossings, EventWork};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use super::impact::{free_flight, impact_in_flight, meets, Barrier};
 use super::lanes::{LaneProgram, CHUNK};
-use super::mech_form::MechForm;
-use super::mech_kernel::{self, Columns};
 use super::platen::{platen_point_step, PlatenWork, PointWork};
 use super::rng::{IncrementStream, Increments, LaneRng};
 use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
+
+#[path = "mech_step.rs"]
+mod mech_step;
 
 /// A batch of trajectories in flight: states, barrier sides, event counts and generators,
 /// all structure-of-arrays, plus the work buffers of the schemes.
@@ -165,25 +166,6 @@ impl BatchState {
                 }
             }
         }
-    }
-
-    /// The fast mechanical path (`mech_kernel.rs`) for three-point increments; `false`
-    /// (nothing done) for Gaussian ones, which keep the lane evaluator.
-    #[inline(always)]
-    fn mech_fast(&mut self, form: &MechForm, bar: Option<&Barrier>, steps: u64, h: f64) -> bool {
-        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
-            return false;
-        };
-        let columns = Columns {
-            x: &mut self.x,
-            v: &mut self.v,
-            side: &mut self.side,
-            impacts: &mut self.impacts,
-            rng: self.rng.state_mut(),
-            pending,
-        };
-        mech_kernel::advance(form, bar, columns, has_pending, a, steps, h, self.simd);
-        true
     }
 
     #[inline(always)]

@@ -1,0 +1,110 @@
+//! The fast mechanical path's part of [`BatchState`] (`mech_kernel.rs` runs it): a call
+//! by steps, a call by sample points that writes the states at each, and the vector
+//! extension the lane loops run with.
+
+use super::super::eval::Simd;
+use super::super::impact::Barrier;
+use super::super::mech_form::MechForm;
+use super::super::mech_kernel::{self, Columns, Rows};
+use super::super::scheme::{Dynamics, Plan};
+use super::BatchState;
+
+impl BatchState {
+    /// The fast mechanical path (`mech_kernel.rs`) for three-point increments; `false`
+    /// (nothing done) for Gaussian ones, which keep the lane evaluator.
+    #[inline(always)]
+    pub(super) fn mech_fast(
+        &mut self,
+        form: &MechForm,
+        bar: Option<&Barrier>,
+        steps: u64,
+        h: f64,
+    ) -> bool {
+        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
+            return false;
+        };
+        let columns = Columns {
+            x: &mut self.x,
+            v: &mut self.v,
+            side: &mut self.side,
+            impacts: &mut self.impacts,
+            rng: self.rng.state_mut(),
+            pending,
+            rows: None,
+        };
+        mech_kernel::advance(form, bar, columns, has_pending, a, 1, steps, h, self.simd);
+        true
+    }
+
+    /// `samples` times [`BatchState::advance`] by `steps` steps of size `h` on the fast
+    /// mechanical path, lane i's state after the j-th going to `rows_x[j * lanes + i]`,
+    /// `rows_v[j * lanes + i]`; `false` (nothing done) when the plan or the increments are
+    /// not the fast path's (the caller then advances and reads the states itself).
+    pub(crate) fn advance_rows(
+        &mut self,
+        plan: &Plan,
+        samples: u64,
+        steps: u64,
+        h: f64,
+        rows_x: &mut [f64],
+        rows_v: &mut [f64],
+    ) -> bool {
+        let Dynamics::Mechanical {
+            form: Some(form), ..
+        } = &plan.dynamics
+        else {
+            return false;
+        };
+        let bar = match plan.barriers.as_slice() {
+            [] => None,
+            [bar] => Some(bar),
+            _ => return false,
+        };
+        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
+            return false;
+        };
+        let lanes = self.x.len();
+        let columns = Columns {
+            x: &mut self.x,
+            v: &mut self.v,
+            side: &mut self.side,
+            impacts: &mut self.impacts,
+            rng: self.rng.state_mut(),
+            pending,
+            rows: Some(Rows {
+                x: rows_x,
+                v: rows_v,
+                stride: lanes,
+            }),
+        };
+        mech_kernel::advance(
+            form,
+            bar,
+            columns,
+            has_pending,
+            a,
+            samples,
+            steps,
+            h,
+            self.simd,
+        );
+        true
+    }
+
+    /// The vector extension the lane loops run with.
+    pub(crate) fn simd(&self) -> Simd {
+        self.simd
+    }
+
+    /// Runs the lane loops with `simd` (detected on this CPU) instead of the widest.
+    pub(crate) fn set_simd(&mut self, simd: Simd) {
+        self.simd = simd;
+    }
+
+    /// Whether [`BatchState::advance_rows`] runs on `plan` with these increments.
+    pub(crate) fn has_fast_rows(&mut self, plan: &Plan) -> bool {
+        matches!(&plan.dynamics, Dynamics::Mechanical { form: Some(_), .. })
+            && plan.barriers.len() <= 1
+            && self.inc.three_point_mut().is_some()
+    }
+}
