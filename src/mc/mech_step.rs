@@ -20,20 +20,7 @@ impl BatchState {
         steps: u64,
         h: f64,
     ) -> bool {
-        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
-            return false;
-        };
-        let columns = Columns {
-            x: &mut self.x,
-            v: &mut self.v,
-            side: &mut self.side,
-            impacts: &mut self.impacts,
-            rng: self.rng.state_mut(),
-            pending,
-            rows: None,
-        };
-        mech_kernel::advance(form, bar, columns, has_pending, a, 1, steps, h, self.simd);
-        true
+        self.run_fast(form, bar, 1, steps, h, None)
     }
 
     /// `samples` times [`BatchState::advance`] by `steps` steps of size `h` on the fast
@@ -60,10 +47,31 @@ impl BatchState {
             [bar] => Some(bar),
             _ => return false,
         };
+        let stride = self.x.len();
+        let rows = Rows {
+            x: rows_x,
+            v: rows_v,
+            stride,
+        };
+        self.run_fast(form, bar, samples, steps, h, Some(rows))
+    }
+
+    /// Runs the fast mechanical path on the batch's columns, `samples` times `steps`
+    /// steps, the states at each sample point going to `rows` when given; `false` (nothing
+    /// done) for Gaussian increments.
+    #[inline(always)]
+    fn run_fast(
+        &mut self,
+        form: &MechForm,
+        bar: Option<&Barrier>,
+        samples: u64,
+        steps: u64,
+        h: f64,
+        rows: Option<Rows<'_>>,
+    ) -> bool {
         let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
             return false;
         };
-        let lanes = self.x.len();
         let columns = Columns {
             x: &mut self.x,
             v: &mut self.v,
@@ -71,11 +79,7 @@ impl BatchState {
             impacts: &mut self.impacts,
             rng: self.rng.state_mut(),
             pending,
-            rows: Some(Rows {
-                x: rows_x,
-                v: rows_v,
-                stride: lanes,
-            }),
+            rows,
         };
         mech_kernel::advance(
             form,
