@@ -196,6 +196,88 @@ pub(crate) struct Accumulator {
     window_squares: [f64; 4],
 }
 
+/// The grid constants of one lane's update ([`SlotGrid::update`]).
+#[derive(Clone, Copy)]
+struct SlotGrid {
+    lo: f64,
+    /// Bins per unit of the quantity.
+    inv_width: f64,
+    /// The value the power sums are taken about (the grid's centre).
+    shift: f64,
+    /// The slot above the grid, `bins + 1`.
+    top: f64,
+    /// The slot of a lane not recorded, `bins + 2`.
+    skipped: u32,
+    /// The slot of a non-finite value, `bins + 3`.
+    invalid: u32,
+}
+
+/// One lane's running sums, updated in place by [`SlotGrid::update`]: elements of the
+/// accumulator's columns in `add_body`, of register arrays in `add_lanes`.
+struct LaneSums<'a> {
+    /// Σ d, Σ d², Σ d³, Σ d⁴ of d = q − shift.
+    powers: [&'a mut f64; 4],
+    min: &'a mut f64,
+    max: &'a mut f64,
+    /// This quarter's finite recorded values, Σ d and Σ d².
+    window_count: &'a mut u64,
+    window_sum: &'a mut f64,
+    window_square: &'a mut f64,
+}
+
+impl SlotGrid {
+    /// Adds the value `q` to `lane`'s sums when `record` and finite, and returns its slot
+    /// (before the lane's copy offset): 0 below the grid, 1..=bins the bins, bins + 1
+    /// above, `skipped` when not `record`, `invalid` when not finite. The one lane update
+    /// of both `add_body` (vectorised over the columns) and `add_lanes` (over register
+    /// arrays), so the two recordings give the same bits.
+    #[inline(always)]
+    fn update(self, q: f64, record: bool, lane: LaneSums<'_>) -> u32 {
+        let finite = q.is_finite();
+        let ok = record && finite;
+        let d = if ok { q - self.shift } else { 0.0 };
+        let d2 = d * d;
+        let [s1, s2, s3, s4] = lane.powers;
+        *s1 += d;
+        *s2 += d2;
+        *s3 += d2 * d;
+        *s4 += d2 * d2;
+        *lane.window_count += ok as u64;
+        *lane.window_sum += d;
+        *lane.window_square += d2;
+        // The extremes, `ok && q < min ? q : min`, as a comparison of the value or ±∞ (the
+        // same result: ∞ < min never holds), which compiles to min/max in registers in
+        // `add_lanes` (the conditional form became a masked store to the stack that the
+        // next sample's load waited for: half the fused recording's time) and vectorises in
+        // `add_body` (comparisons, where `f64::min`/`max` do not).
+        let low = if ok { q } else { f64::INFINITY };
+        let high = if ok { q } else { f64::NEG_INFINITY };
+        *lane.min = if low < *lane.min { low } else { *lane.min };
+        *lane.max = if high > *lane.max { high } else { *lane.max };
+        // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
+        // (Comparisons rather than `max`/`min`, and an unchecked conversion, so the loop
+        // vectorises; a NaN goes to slot 0 here and to `invalid` below.)
+        let t = (q - self.lo) * self.inv_width + 1.0;
+        let t = if t > 0.0 { t } else { 0.0 };
+        let t = if t < self.top { t } else { self.top };
+        // SAFETY: 0 ≤ t ≤ bins + 1 ≤ MAX_BINS + 1 < 2³¹ (a run's grids are checked against
+        // `MAX_BINS` = 10⁷, in `McConfig` and in shard files, and `Accumulator::new`
+        // asserts it), and t is not NaN (the first comparison maps NaN to 0), so the
+        // truncation is in range. The checked `as` conversion, which handles NaN and
+        // saturates, was a scalar sequence per lane: a quarter of the recording's time
+        // (perf, vibro_duffing).
+        let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
+        // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
+        let slot = if q < self.lo { 0 } else { slot };
+        let slot = if finite { slot } else { self.invalid };
+        if record {
+            slot
+        } else {
+            self.skipped
+        }
+    }
+}
+
 /// Copies of the bin counts (a power of two), lane i counting into copy i mod COUNT_COPIES.
 const COUNT_COPIES: usize = 4;
 
@@ -219,6 +301,20 @@ impl Accumulator {
             window_counts: [0; 4],
             window_sums: [0.0; 4],
             window_squares: [0.0; 4],
+        }
+    }
+
+    /// The constants of [`SlotGrid::update`] for this accumulator's grid.
+    #[inline(always)]
+    fn slot_grid(&self) -> SlotGrid {
+        let bins = self.grid.bins;
+        SlotGrid {
+            lo: self.grid.lo,
+            inv_width: self.inv_width,
+            shift: self.shift,
+            top: (bins + 1) as f64,
+            skipped: bins as u32 + 2,
+            invalid: bins as u32 + 3,
         }
     }
 
@@ -278,9 +374,7 @@ impl Accumulator {
     fn add_body(&mut self, values: &[f64], record: &[bool]) {
         let n = values.len();
         let (values, record) = (&values[..n], &record[..n]);
-        let (lo, inv_w, shift) = (self.grid.lo, self.inv_width, self.shift);
-        let top = (self.grid.bins + 1) as f64;
-        let (skipped, invalid) = (self.grid.bins as u32 + 2, self.grid.bins as u32 + 3);
+        let g = self.slot_grid();
         let stride = (self.grid.bins + 4) as u32;
         let [s1, s2, s3, s4] = &mut self.sums;
         let (s1, s2, s3, s4) = (&mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n]);
@@ -292,37 +386,15 @@ impl Accumulator {
             &mut wq[..n],
         );
         for i in 0..n {
-            let q = values[i];
-            let finite = q.is_finite();
-            let ok = record[i] && finite;
-            let d = if ok { q - shift } else { 0.0 };
-            let d2 = d * d;
-            s1[i] += d;
-            s2[i] += d2;
-            s3[i] += d2 * d;
-            s4[i] += d2 * d2;
-            wc[i] += ok as u64;
-            ws[i] += d;
-            wq[i] += d2;
-            // Comparisons (q is finite when `ok`), which vectorise where `min`/`max` do not.
-            mn[i] = if ok && q < mn[i] { q } else { mn[i] };
-            mx[i] = if ok && q > mx[i] { q } else { mx[i] };
-            // Slot 1 + ⌊(q − lo)/w⌋, clamped into [0, bins + 1] (below / above the grid).
-            // (Comparisons rather than `max`/`min`, and an unchecked conversion, so the loop
-            // vectorises; a NaN goes to slot 0 here and to `invalid` below.)
-            let t = (q - lo) * inv_w + 1.0;
-            let t = if t > 0.0 { t } else { 0.0 };
-            let t = if t < top { t } else { top };
-            // SAFETY: 0 ≤ t ≤ bins + 1 ≤ MAX_BINS + 1 < 2³¹ (a run's grids are checked against
-            // `MAX_BINS` = 10⁷, in `McConfig` and in shard files), and t is not
-            // NaN (the first comparison maps NaN to 0), so the truncation is in range. The
-            // checked `as` conversion, which handles NaN and saturates, was a scalar sequence
-            // per lane: a quarter of the recording's time (perf, vibro_duffing).
-            let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
-            // Rounding in `+ 1.0` must not lift a value just below the grid into bin 0.
-            let slot = if q < lo { 0 } else { slot };
-            let slot = if finite { slot } else { invalid };
-            let slot = if record[i] { slot } else { skipped };
+            let lane = LaneSums {
+                powers: [&mut s1[i], &mut s2[i], &mut s3[i], &mut s4[i]],
+                min: &mut mn[i],
+                max: &mut mx[i],
+                window_count: &mut wc[i],
+                window_sum: &mut ws[i],
+                window_square: &mut wq[i],
+            };
+            let slot = g.update(values[i], record[i], lane);
             idx[i] = slot + (i % COUNT_COPIES) as u32 * stride;
         }
         for &k in idx.iter() {
@@ -334,8 +406,8 @@ impl Accumulator {
     /// `first..first + L`, all in the current quarter: at sample j lane `first + l` has the
     /// state `(x, v)` = `(xs[k], vs[k])`, `k = j * stride + first + l`, the value
     /// `value(x, v)`, and is recorded when `record[k]`. The lanes' running sums are kept in
-    /// registers through the samples and updated by exactly `add_body`'s operations in
-    /// sample order, so the result is the same bits as `samples` calls of
+    /// registers through the samples and updated by `add_body`'s lane update
+    /// ([`SlotGrid::update`]) in sample order, so the result is the same bits as `samples` calls of
     /// [`Accumulator::add`] with the values (tested).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -349,9 +421,7 @@ impl Accumulator {
         record: &[bool],
         value: impl Fn(f64, f64) -> f64,
     ) {
-        let (lo, inv_w, shift) = (self.grid.lo, self.inv_width, self.shift);
-        let top = (self.grid.bins + 1) as f64;
-        let (skipped, invalid) = (self.grid.bins as u32 + 2, self.grid.bins as u32 + 3);
+        let g = self.slot_grid();
         let stride_slots = self.grid.bins + 4;
         let r = first..first + L;
         let load = |s: &[f64]| -> [f64; L] { s[r.clone()].try_into().expect("L lanes") };
@@ -373,35 +443,15 @@ impl Accumulator {
             let rec: [bool; L] = record[row..row + L].try_into().expect("L lanes");
             let mut slots = [0u32; L];
             for l in 0..L {
-                // `add_body`'s lane body, operation for operation.
-                let q = q[l];
-                let finite = q.is_finite();
-                let ok = rec[l] && finite;
-                let d = if ok { q - shift } else { 0.0 };
-                let d2 = d * d;
-                a1[l] += d;
-                a2[l] += d2;
-                a3[l] += d2 * d;
-                a4[l] += d2 * d2;
-                awc[l] += ok as u64;
-                aws[l] += d;
-                awq[l] += d2;
-                // `add_body`'s extremes, `ok && q < mn ? q : mn`, as a comparison of the
-                // value or ±∞ (the same result: ∞ < mn never holds), which compiles to
-                // min/max in registers (the conditional form became a masked store to the
-                // stack that the next sample's load waited for: half the recording's time).
-                let low = if ok { q } else { f64::INFINITY };
-                let high = if ok { q } else { f64::NEG_INFINITY };
-                mn[l] = if low < mn[l] { low } else { mn[l] };
-                mx[l] = if high > mx[l] { high } else { mx[l] };
-                let t = (q - lo) * inv_w + 1.0;
-                let t = if t > 0.0 { t } else { 0.0 };
-                let t = if t < top { t } else { top };
-                // SAFETY: as in `add_body`: 0 ≤ t ≤ bins + 1 < 2³¹ and t is not NaN.
-                let slot = unsafe { t.to_int_unchecked::<i32>() } as u32;
-                let slot = if q < lo { 0 } else { slot };
-                let slot = if finite { slot } else { invalid };
-                slots[l] = if rec[l] { slot } else { skipped };
+                let lane = LaneSums {
+                    powers: [&mut a1[l], &mut a2[l], &mut a3[l], &mut a4[l]],
+                    min: &mut mn[l],
+                    max: &mut mx[l],
+                    window_count: &mut awc[l],
+                    window_sum: &mut aws[l],
+                    window_square: &mut awq[l],
+                };
+                slots[l] = g.update(q[l], rec[l], lane);
             }
             for l in 0..L {
                 let k = copy[l] + slots[l] as usize;
