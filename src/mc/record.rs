@@ -168,7 +168,15 @@ pub(crate) fn record_batch(
                 }
             }
         }
-        accumulate(acc, kinds, m, n, xs, vs, rec, simd);
+        let chunk = Chunk {
+            kinds,
+            m,
+            n,
+            xs,
+            vs,
+            rec,
+        };
+        accumulate(acc, chunk, simd);
         prev_x.copy_from_slice(&xs[(m - 1) * n..]);
         prev_v.copy_from_slice(&vs[(m - 1) * n..]);
         s = end;
@@ -181,95 +189,72 @@ fn quarter(s: u64, samples: u64) -> u64 {
     ((s as u128 * 4) / samples as u128) as u64
 }
 
-/// Records `m` rows of `n` lanes into the states' and the observables' accumulators, with
-/// the widest vector extension (the same bits at every width: no fused multiply-add).
-#[allow(clippy::too_many_arguments)]
-fn accumulate(
-    acc: &mut [Accumulator],
-    kinds: &[Observed],
+/// A chunk of the recording: `m` rows of `n` lanes, lane i's state at row j
+/// `(xs[j * n + i], vs[j * n + i])`, recorded when `rec[j * n + i]`, with the observables
+/// `kinds` (after the states).
+#[derive(Clone, Copy)]
+struct Chunk<'a> {
+    kinds: &'a [Observed],
     m: usize,
     n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
-    simd: Simd,
-) {
+    xs: &'a [f64],
+    vs: &'a [f64],
+    rec: &'a [bool],
+}
+
+/// Records `chunk` into the states' and the observables' accumulators, with the widest
+/// vector extension (the same bits at every width: no fused multiply-add).
+fn accumulate(acc: &mut [Accumulator], chunk: Chunk<'_>, simd: Simd) {
     match simd {
-        Simd::Baseline => accumulate_body(acc, kinds, m, n, xs, vs, rec),
+        Simd::Baseline => accumulate_body(acc, chunk),
         // SAFETY: `simd` was detected on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { accumulate_avx2(acc, kinds, m, n, xs, vs, rec) },
+        Simd::Avx2 => unsafe { accumulate_avx2(acc, chunk) },
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { accumulate_avx512(acc, kinds, m, n, xs, vs, rec) },
+        Simd::Avx512 => unsafe { accumulate_avx512(acc, chunk) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn accumulate_avx2(
-    acc: &mut [Accumulator],
-    kinds: &[Observed],
-    m: usize,
-    n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
-) {
-    accumulate_body(acc, kinds, m, n, xs, vs, rec);
+fn accumulate_avx2(acc: &mut [Accumulator], chunk: Chunk<'_>) {
+    accumulate_body(acc, chunk);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn accumulate_avx512(
-    acc: &mut [Accumulator],
-    kinds: &[Observed],
-    m: usize,
-    n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
-) {
-    accumulate_body(acc, kinds, m, n, xs, vs, rec);
+fn accumulate_avx512(acc: &mut [Accumulator], chunk: Chunk<'_>) {
+    accumulate_body(acc, chunk);
 }
 
 /// Lanes a block of the recording keeps in registers.
 const BLOCK: usize = 8;
 
 #[inline(always)]
-fn accumulate_body(
-    acc: &mut [Accumulator],
-    kinds: &[Observed],
-    m: usize,
-    n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
-) {
+fn accumulate_body(acc: &mut [Accumulator], chunk: Chunk<'_>) {
     // Block by block, every quantity of a block while its rows are in the cache.
     let mut first = 0;
-    while first + BLOCK <= n {
-        block::<BLOCK>(acc, kinds, first, m, n, xs, vs, rec);
+    while first + BLOCK <= chunk.n {
+        block::<BLOCK>(acc, chunk, first);
         first += BLOCK;
     }
-    for i in first..n {
-        block::<1>(acc, kinds, i, m, n, xs, vs, rec);
+    for i in first..chunk.n {
+        block::<1>(acc, chunk, i);
     }
 }
 
 /// The lanes `first..first + L` of every quantity.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn block<const L: usize>(
-    acc: &mut [Accumulator],
-    kinds: &[Observed],
-    first: usize,
-    m: usize,
-    n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
-) {
+fn block<const L: usize>(acc: &mut [Accumulator], chunk: Chunk<'_>, first: usize) {
+    let Chunk {
+        kinds,
+        m,
+        n,
+        xs,
+        vs,
+        rec,
+    } = chunk;
     let all = [Observed::Z, Observed::V].iter().chain(kinds).copied();
     for (a, kind) in acc.iter_mut().zip(all) {
         // One monomorphised loop per kind, so the value is computed inline.
