@@ -5,7 +5,7 @@
 //! lanes used by `blendv`, rotates are two shifts, and the three-point thresholds are
 //! compared signed (both sides are below 2³³).
 
-use super::{flight, Columns, Steps};
+use super::{refly_met, Columns, Steps};
 use crate::mc::impact::Barrier;
 use crate::mc::mech_form::{MechForm, SgnPoly, ZPoly};
 use crate::mc::rng::THREE_POINT_T;
@@ -129,7 +129,7 @@ fn fly(
         for k in 0..VECTORS {
             if met[k] != 0 {
                 impacts_of(
-                    Some(bar),
+                    bar,
                     met[k],
                     x0[k],
                     &mut x[k],
@@ -145,13 +145,13 @@ fn fly(
 }
 
 /// The lanes of one vector whose flight met the barrier (bits of `met`): each flown again
-/// by the scalar [`flight`] (the same arithmetic), which resolves the impact.
+/// by the scalar `flight` in [`refly_met`] (the same arithmetic), which resolves the impact.
 #[cold]
 #[inline(never)]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
 fn impacts_of(
-    bar: Option<&Barrier>,
+    bar: &Barrier,
     met: i32,
     x0: __m256d,
     x: &mut __m256d,
@@ -168,19 +168,9 @@ fn impacts_of(
         _mm256_storeu_pd(sa.as_mut_ptr(), *side);
         _mm256_storeu_pd(xna.as_mut_ptr(), *x);
     }
-    for i in 0..4 {
-        if met >> i & 1 == 1 {
-            flight(
-                bar,
-                &mut xa[i],
-                &mut va[i],
-                &mut sa[i],
-                &mut impacts[i],
-                tau,
-            );
-            xna[i] = xa[i];
-        }
-    }
+    refly_met(
+        bar, met as u32, &xa, &mut xna, &mut va, &mut sa, impacts, tau,
+    );
     // SAFETY: loads of 4 values from arrays of 4.
     unsafe {
         *x = _mm256_loadu_pd(xna.as_ptr());

@@ -215,6 +215,38 @@ fn flight(
     *x = xn;
 }
 
+/// The lanes of one vector (`L` of them, spilled to arrays) whose flight from `x0` met the
+/// barrier (bits of `met`): each flown again from `x0` by the scalar [`flight`] (the same
+/// arithmetic), which resolves the impact; the other lanes keep their `x`. The one lane
+/// loop of every vector width's `impacts_of`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn refly_met<const L: usize>(
+    bar: &Barrier,
+    met: u32,
+    x0: &[f64; L],
+    x: &mut [f64; L],
+    v: &mut [f64; L],
+    side: &mut [f64; L],
+    impacts: &mut [u64],
+    tau: f64,
+) {
+    for i in 0..L {
+        if met >> i & 1 == 1 {
+            let mut xi = x0[i];
+            flight(
+                Some(bar),
+                &mut xi,
+                &mut v[i],
+                &mut side[i],
+                &mut impacts[i],
+                tau,
+            );
+            x[i] = xi;
+        }
+    }
+}
+
 /// One lane through the steps of one sample point (`use_pending` the increment stream's
 /// flag, carried from one sample point to the next): the reference the vector groups agree
 /// with.
@@ -257,7 +289,7 @@ mod avx2;
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::{flight, Columns, Steps, VECTORS};
+    use super::{refly_met, Columns, Steps, VECTORS};
     use crate::mc::impact::Barrier;
     use crate::mc::mech_form::{MechForm, SgnPoly, ZPoly};
     use crate::mc::rng::THREE_POINT_T;
@@ -368,7 +400,7 @@ mod avx512 {
                 for k in 0..VECTORS {
                     if met[k] != 0 {
                         impacts_of(
-                            Some(bar),
+                            bar,
                             met[k],
                             x0[k],
                             &mut x[k],
@@ -385,13 +417,14 @@ mod avx512 {
     }
 
     /// The lanes of one vector whose flight to `xn` met the barrier (bits of `met`): each
-    /// flown again by the scalar [`flight`] (the same arithmetic), which resolves the impact.
+    /// flown again by the scalar `flight` in [`refly_met`] (the same arithmetic), which
+    /// resolves the impact.
     #[cold]
     #[inline(never)]
     #[target_feature(enable = "avx512f")]
     #[allow(clippy::too_many_arguments)]
     fn impacts_of(
-        bar: Option<&Barrier>,
+        bar: &Barrier,
         met: u8,
         x0: __m512d,
         x: &mut __m512d,
@@ -408,19 +441,16 @@ mod avx512 {
             _mm512_storeu_pd(sa.as_mut_ptr(), *side);
             _mm512_storeu_pd(xna.as_mut_ptr(), *x);
         }
-        for i in 0..8 {
-            if met >> i & 1 == 1 {
-                flight(
-                    bar,
-                    &mut xa[i],
-                    &mut va[i],
-                    &mut sa[i],
-                    &mut impacts[i],
-                    tau,
-                );
-                xna[i] = xa[i];
-            }
-        }
+        refly_met(
+            bar,
+            u32::from(met),
+            &xa,
+            &mut xna,
+            &mut va,
+            &mut sa,
+            impacts,
+            tau,
+        );
         // SAFETY: loads of 8 values from arrays of 8.
         unsafe {
             *x = _mm512_loadu_pd(xna.as_ptr());
