@@ -138,36 +138,6 @@ pub(crate) fn record_batch(
         let done = b.advance_rows(plan, end - s, st.steps_per_sample, st.dt, xs, vs);
         // The rows are read next: a call that did not run must not pass unnoticed.
         assert!(done, "the fast path was checked (has_fast_rows)");
-        for j in 0..m {
-            let r = j * n..(j + 1) * n;
-            let (x, v, rec) = (&xs[r.clone()], &vs[r.clone()], &mut rec[r]);
-            // Bitwise, so the loop vectorises.
-            let mut lost = false;
-            for i in 0..n {
-                let ok = record[i] & x[i].is_finite() & v[i].is_finite();
-                lost |= ok ^ record[i];
-                rec[i] = ok;
-            }
-            if lost {
-                let g = s + j as u64;
-                let step = st.burn_in_steps + (g + 1) * st.steps_per_sample;
-                for i in 0..n {
-                    if record[i] && !rec[i] {
-                        record[i] = false;
-                        let state = if j == 0 {
-                            [prev_x[i], prev_v[i]]
-                        } else {
-                            [xs[(j - 1) * n + i], vs[(j - 1) * n + i]]
-                        };
-                        let last = (g > 0).then(|| LastState {
-                            step: step - st.steps_per_sample,
-                            state,
-                        });
-                        blown.push((i, step, last));
-                    }
-                }
-            }
-        }
         let chunk = Chunk {
             kinds,
             m,
@@ -176,7 +146,32 @@ pub(crate) fn record_batch(
             vs,
             rec,
         };
-        accumulate(acc, chunk, simd);
+        let lost = record_chunk(acc, chunk, record, simd);
+        // The lanes lost in the chunk, row by row and in lane order in a row (as `batch.rs`).
+        for j in (0..m).filter(|&j| lost >> j & 1 == 1) {
+            let g = s + j as u64;
+            let step = st.burn_in_steps + (g + 1) * st.steps_per_sample;
+            for i in 0..n {
+                let before = if j == 0 {
+                    record[i]
+                } else {
+                    rec[(j - 1) * n + i]
+                };
+                if before && !rec[j * n + i] {
+                    let state = if j == 0 {
+                        [prev_x[i], prev_v[i]]
+                    } else {
+                        [xs[(j - 1) * n + i], vs[(j - 1) * n + i]]
+                    };
+                    let last = (g > 0).then(|| LastState {
+                        step: step - st.steps_per_sample,
+                        state,
+                    });
+                    blown.push((i, step, last));
+                }
+            }
+        }
+        record.copy_from_slice(&rec[(m - 1) * n..]);
         prev_x.copy_from_slice(&xs[(m - 1) * n..]);
         prev_v.copy_from_slice(&vs[(m - 1) * n..]);
         s = end;
@@ -189,64 +184,52 @@ fn quarter(s: u64, samples: u64) -> u64 {
     ((s as u128 * 4) / samples as u128) as u64
 }
 
-/// A chunk of the recording: `m` rows of `n` lanes, lane i's state at row j
-/// `(xs[j * n + i], vs[j * n + i])`, recorded when `rec[j * n + i]`, with the observables
-/// `kinds` (after the states).
-#[derive(Clone, Copy)]
+/// A chunk of the recording: `m` (≤ 32) rows of `n` lanes, lane i's state at row j
+/// `(xs[j * n + i], vs[j * n + i])`, with the observables `kinds` (after the states);
+/// `rec` written by the scan (`scan_block`): lane i recorded at row j when
+/// `rec[j * n + i]`.
 struct Chunk<'a> {
     kinds: &'a [Observed],
     m: usize,
     n: usize,
     xs: &'a [f64],
     vs: &'a [f64],
-    rec: &'a [bool],
+    rec: &'a mut [bool],
 }
 
-/// Records `chunk` into the states' and the observables' accumulators, with the widest
-/// vector extension (the same bits at every width: no fused multiply-add).
-fn accumulate(acc: &mut [Accumulator], chunk: Chunk<'_>, simd: Simd) {
+/// Scans `chunk`'s states for the lanes still recorded (`record`, as at its start) and
+/// records them into the states' and the observables' accumulators, with the widest vector
+/// extension (the same bits at every width: no fused multiply-add); returns the rows at
+/// which a lane was lost (bit j for row j).
+fn record_chunk(acc: &mut [Accumulator], chunk: Chunk<'_>, record: &[bool], simd: Simd) -> u32 {
     match simd {
-        Simd::Baseline => accumulate_body(acc, chunk),
+        Simd::Baseline => record_body(acc, chunk, record),
         // SAFETY: `simd` was detected on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { accumulate_avx2(acc, chunk) },
+        Simd::Avx2 => unsafe { record_avx2(acc, chunk, record) },
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { accumulate_avx512(acc, chunk) },
+        Simd::Avx512 => unsafe { record_avx512(acc, chunk, record) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn accumulate_avx2(acc: &mut [Accumulator], chunk: Chunk<'_>) {
-    accumulate_body(acc, chunk);
+fn record_avx2(acc: &mut [Accumulator], chunk: Chunk<'_>, record: &[bool]) -> u32 {
+    record_body(acc, chunk, record)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn accumulate_avx512(acc: &mut [Accumulator], chunk: Chunk<'_>) {
-    accumulate_body(acc, chunk);
+fn record_avx512(acc: &mut [Accumulator], chunk: Chunk<'_>, record: &[bool]) -> u32 {
+    record_body(acc, chunk, record)
 }
 
 /// Lanes a block of the recording keeps in registers.
 const BLOCK: usize = 8;
 
 #[inline(always)]
-fn accumulate_body(acc: &mut [Accumulator], chunk: Chunk<'_>) {
-    // Block by block, every quantity of a block while its rows are in the cache.
-    let mut first = 0;
-    while first + BLOCK <= chunk.n {
-        block::<BLOCK>(acc, chunk, first);
-        first += BLOCK;
-    }
-    for i in first..chunk.n {
-        block::<1>(acc, chunk, i);
-    }
-}
-
-/// The lanes `first..first + L` of every quantity.
-#[inline(always)]
-fn block<const L: usize>(acc: &mut [Accumulator], chunk: Chunk<'_>, first: usize) {
+fn record_body(acc: &mut [Accumulator], chunk: Chunk<'_>, record: &[bool]) -> u32 {
     let Chunk {
         kinds,
         m,
@@ -255,19 +238,163 @@ fn block<const L: usize>(acc: &mut [Accumulator], chunk: Chunk<'_>, first: usize
         vs,
         rec,
     } = chunk;
+    assert!(m <= 32 && xs.len() >= m * n && vs.len() >= m * n && rec.len() >= m * n);
+    // Block by block, the scan and then every quantity while the block's rows are in the
+    // cache.
+    let mut lost = 0;
+    let mut first = 0;
+    while first < n {
+        let block = Rows {
+            m,
+            n,
+            first,
+            xs,
+            vs,
+        };
+        if first + BLOCK <= n {
+            // The fast form where every lane of the block is recorded through the chunk
+            // (the common case), the general one where a lane is skipped or lost.
+            let (fine, l) = scan_block::<BLOCK>(block, record, rec);
+            lost |= l;
+            if fine {
+                add_block::<BLOCK, true>(acc, kinds, block, rec);
+            } else {
+                add_block::<BLOCK, false>(acc, kinds, block, rec);
+            }
+        } else {
+            for i in first..n {
+                let one = Rows { first: i, ..block };
+                lost |= scan_block::<1>(one, record, rec).1;
+                add_block::<1, false>(acc, kinds, one, rec);
+            }
+        }
+        first += BLOCK;
+    }
+    lost
+}
+
+/// The rows of a chunk's lanes `first..`.
+#[derive(Clone, Copy)]
+struct Rows<'a> {
+    m: usize,
+    n: usize,
+    first: usize,
+    xs: &'a [f64],
+    vs: &'a [f64],
+}
+
+/// Scans the lanes `first..first + L` of `rows`: lane i is recorded at row j when it was at
+/// the chunk's start (`record[i]`) and its states are finite at every row up to j (once
+/// lost, a lane stays lost: as the row-by-row scan with `record` cleared at a loss).
+/// Returns whether every lane is recorded at every row, and the rows at which one was lost.
+#[inline(always)]
+fn scan_block<const L: usize>(rows: Rows<'_>, record: &[bool], rec: &mut [bool]) -> (bool, u32) {
+    let Rows {
+        m,
+        n,
+        first,
+        xs,
+        vs,
+    } = rows;
+    let all = u32::MAX >> (32 - L);
+    // Lane l of the block is bit l.
+    let start = record[first..first + L]
+        .iter()
+        .enumerate()
+        .fold(0u32, |m, (l, &r)| m | (r as u32) << l);
+    if start == all {
+        // The common case first: every lane recorded, and x·0 + v·0 summed over the rows is
+        // ±0 when every state is finite, NaN when one is not (∞·0 and NaN·0 are NaN): four
+        // vector operations a row.
+        let mut zero = [0.0f64; L];
+        for j in 0..m {
+            let row = j * n + first;
+            let x: &[f64; L] = xs[row..row + L].try_into().expect("L lanes");
+            let v: &[f64; L] = vs[row..row + L].try_into().expect("L lanes");
+            for l in 0..L {
+                zero[l] += x[l] * 0.0 + v[l] * 0.0;
+            }
+        }
+        if zero.iter().all(|&z| z == 0.0) {
+            for j in 0..m {
+                let row = j * n + first;
+                rec[row..row + L].fill(true);
+            }
+            return (true, 0);
+        }
+    }
+    // Else row by row, a row's finite lanes as a mask.
+    let mut alive = [0u32; 32];
+    let mut now = start;
+    let mut lost = 0u32;
+    for (j, alive) in alive.iter_mut().enumerate().take(m) {
+        let row = j * n + first;
+        let x: &[f64; L] = xs[row..row + L].try_into().expect("L lanes");
+        let v: &[f64; L] = vs[row..row + L].try_into().expect("L lanes");
+        let mut finite = 0u32;
+        for l in 0..L {
+            finite |= ((x[l].is_finite() & v[l].is_finite()) as u32) << l;
+        }
+        let next = now & finite;
+        lost |= ((next != now) as u32) << j;
+        now = next;
+        *alive = now;
+    }
+    for (j, &alive) in alive.iter().enumerate().take(m) {
+        let row = j * n + first;
+        let rec: &mut [bool; L] = (&mut rec[row..row + L]).try_into().expect("L lanes");
+        if now == all {
+            *rec = [true; L];
+        } else {
+            for (l, r) in rec.iter_mut().enumerate() {
+                *r = alive >> l & 1 == 1;
+            }
+        }
+    }
+    (now == all, lost)
+}
+
+/// Records the lanes `first..first + L` of `rows` into every quantity's accumulator:
+/// with `add_finite_lanes` when `FINE` (every lane recorded at every row: the values of
+/// every [`Observed`] are finite at finite states), else with `add_lanes` and `rec`.
+#[inline(always)]
+fn add_block<const L: usize, const FINE: bool>(
+    acc: &mut [Accumulator],
+    kinds: &[Observed],
+    rows: Rows<'_>,
+    rec: &[bool],
+) {
     let all = [Observed::Z, Observed::V].iter().chain(kinds).copied();
     for (a, kind) in acc.iter_mut().zip(all) {
         // One monomorphised loop per kind, so the value is computed inline.
         match kind {
-            Observed::Z => a.add_lanes::<L>(first, m, n, xs, vs, rec, |z, _| z),
-            Observed::V => a.add_lanes::<L>(first, m, n, xs, vs, rec, |_, v| v),
-            Observed::AbsZ => {
-                a.add_lanes::<L>(first, m, n, xs, vs, rec, |z, v| Observed::AbsZ.at(z, v))
-            }
-            Observed::VSgnZ => {
-                a.add_lanes::<L>(first, m, n, xs, vs, rec, |z, v| Observed::VSgnZ.at(z, v))
-            }
+            Observed::Z => add_kind::<L, FINE>(a, rows, rec, |z, _| z),
+            Observed::V => add_kind::<L, FINE>(a, rows, rec, |_, v| v),
+            Observed::AbsZ => add_kind::<L, FINE>(a, rows, rec, |z, v| Observed::AbsZ.at(z, v)),
+            Observed::VSgnZ => add_kind::<L, FINE>(a, rows, rec, |z, v| Observed::VSgnZ.at(z, v)),
         }
+    }
+}
+
+/// One quantity of [`add_block`], its value `value(z, v)`.
+#[inline(always)]
+fn add_kind<const L: usize, const FINE: bool>(
+    a: &mut Accumulator,
+    rows: Rows<'_>,
+    rec: &[bool],
+    value: impl Fn(f64, f64) -> f64,
+) {
+    let Rows {
+        m,
+        n,
+        first,
+        xs,
+        vs,
+    } = rows;
+    if FINE {
+        a.add_finite_lanes::<L>(first, m, n, xs, vs, value)
+    } else {
+        a.add_lanes::<L>(first, m, n, xs, vs, rec, value)
     }
 }
 
@@ -309,6 +436,97 @@ mod tests {
                         "{k:?} at ({z}, {v}): {got} vs {want}"
                     );
                 }
+            }
+        }
+    }
+    /// A chunk whose blocks take each form of the recording: block 0 every lane recorded
+    /// and finite (the fast form), block 1 a lane lost to a NaN at row 6, block 2 a lane
+    /// not recorded, block 3 a lane lost to an infinite velocity at row 0, and three lanes
+    /// alone, one lost at the last row. Its sums, counts and lost rows are the general
+    /// recording's (`Accumulator::add` row by row, `record` cleared at a loss) bit for bit
+    /// at every vector width, for a whole chunk and a short one.
+    #[test]
+    fn each_block_form_records_as_the_general_recording() {
+        use crate::mc::histogram::Grid;
+        let n = 4 * BLOCK + 3;
+        let kinds = [Observed::AbsZ, Observed::VSgnZ, Observed::Z];
+        let grids = [
+            (-2.0, 1.5, 37),
+            (-3.0, 2.0, 41),
+            (0.0, 1.2, 13),
+            (-2.5, 2.5, 9),
+            (-1.0, 1.0, 5),
+        ];
+        for m in [16, 5] {
+            // Values on and off the grids, signed zeros.
+            let value = |k: usize| ((k * 7919 % 1013) as f64 / 1013.0 - 0.5) * 5.0;
+            let mut xs: Vec<f64> = (0..m * n).map(value).collect();
+            let mut vs: Vec<f64> = (0..m * n).map(|k| value(k + 5000)).collect();
+            xs[3] = 0.0;
+            vs[4] = -0.0;
+            xs[6.min(m - 1) * n + BLOCK + 3] = f64::NAN;
+            vs[3 * BLOCK + 1] = f64::INFINITY;
+            xs[(m - 1) * n + 4 * BLOCK + 1] = f64::NAN;
+            let mut record = vec![true; n];
+            record[2 * BLOCK + 5] = false;
+            let new = || -> Vec<Accumulator> {
+                grids
+                    .iter()
+                    .map(|&(lo, hi, bins)| Accumulator::new(Grid::new(lo, hi, bins).unwrap(), n))
+                    .collect()
+            };
+            // The general recording.
+            let mut want = new();
+            let mut want_record = record.clone();
+            let mut want_lost = 0u32;
+            for j in 0..m {
+                let (x, v) = (&xs[j * n..(j + 1) * n], &vs[j * n..(j + 1) * n]);
+                for i in 0..n {
+                    let ok = want_record[i] && x[i].is_finite() && v[i].is_finite();
+                    want_lost |= ((ok != want_record[i]) as u32) << j;
+                    want_record[i] = ok;
+                }
+                want[0].add(x, &want_record);
+                want[1].add(v, &want_record);
+                for (a, k) in want[2..].iter_mut().zip(kinds) {
+                    let q: Vec<f64> = (0..n).map(|i| k.at(x[i], v[i])).collect();
+                    a.add(&q, &want_record);
+                }
+            }
+            let text = |acc: Vec<Accumulator>| -> Vec<String> {
+                acc.into_iter()
+                    .map(|a| format!("{:?}", a.finish()))
+                    .collect()
+            };
+            let want = text(want);
+            // The blocks' forms.
+            let mut rec = vec![false; m * n];
+            let rows = |first| Rows {
+                m,
+                n,
+                first,
+                xs: &xs,
+                vs: &vs,
+            };
+            let fine: Vec<bool> = (0..4)
+                .map(|b| scan_block::<BLOCK>(rows(b * BLOCK), &record, &mut rec).0)
+                .collect();
+            assert_eq!(fine, [true, false, false, false]);
+            for simd in Simd::available() {
+                let mut acc = new();
+                let mut rec = vec![false; m * n];
+                let chunk = Chunk {
+                    kinds: &kinds,
+                    m,
+                    n,
+                    xs: &xs,
+                    vs: &vs,
+                    rec: &mut rec,
+                };
+                let lost = record_chunk(&mut acc, chunk, &record, simd);
+                assert_eq!(lost, want_lost, "m = {m}, {simd:?}");
+                assert_eq!(&rec[(m - 1) * n..], &want_record[..], "m = {m}, {simd:?}");
+                assert_eq!(text(acc), want, "m = {m}, {simd:?}");
             }
         }
     }
