@@ -6,7 +6,10 @@
 //! recognised functions of the states ([`Observed`]); the result is the same bits as the
 //! general recording (`batch.rs`): each lane's sums take its samples in the same order by the
 //! same operations, a quarter's lane sums are added up in lane order when it ends, and the
-//! blow-ups are found in the same order.
+//! blow-ups are found in the same order. A block whose lanes are all recorded and finite
+//! through the chunk (`scan_block`, run first while the block's rows are in the cache)
+//! takes the fast form of the update (`Accumulator::add_finite_lanes`): the same operations
+//! on the same values without the blends for skipped and non-finite lanes.
 
 use super::batch::LastState;
 use super::eval::Simd;
