@@ -7,6 +7,10 @@
 //!   (`fpsolve MODEL --method epc`: degrees 2 and 4, the observables' PDFs and moments, the
 //!   files and the figures, PNG and SVG).
 //! - `job/study_epc`: the same study without any file (what a sweep point costs).
+//! - `job/solve_degree_4_run_dir_fresh` and `…_replacing`: `solve_degree_4` as the command
+//!   runs it, through a staged, locked output directory put in place by its commit (the
+//!   files' and directories' flushes to disk included): into a new directory each time, and
+//!   replacing the previous iteration's directory (the commit then also removes it).
 //!
 //! Issue 12's targets: `fpsolve solve MODEL --degree 4` under 10 ms and `--method epc` under
 //! 50 ms, as processes. The whole-process times (start, model, files) are measured with
@@ -20,7 +24,7 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, Criterion};
 use fpsolve::job::{Job, JobSpec, Target};
 use fpsolve::model::load_model;
-use fpsolve::report::OutputDir;
+use fpsolve::report::{OutputDir, RunDir};
 use fpsolve::study::StudyRunner;
 
 fn bench(c: &mut Criterion) {
@@ -46,6 +50,27 @@ fn bench(c: &mut Criterion) {
     };
     g.bench_function("main_epc", |b| {
         b.iter(|| Job::new(&model, &spec).run(&out).unwrap())
+    });
+    let spec = JobSpec {
+        degrees: vec![4],
+        target: Target::States,
+        ..JobSpec::default()
+    };
+    let solve_into = |dest: &Path| {
+        let run = RunDir::begin(dest, "bench").unwrap();
+        Job::new(&model, &spec).run(run.out()).unwrap();
+        run.commit().unwrap()
+    };
+    let mut fresh = 0_u64;
+    g.bench_function("solve_degree_4_run_dir_fresh", |b| {
+        b.iter(|| {
+            fresh += 1;
+            solve_into(&tmp.join(format!("fresh-{fresh}")))
+        })
+    });
+    let replaced = tmp.join("replaced");
+    g.bench_function("solve_degree_4_run_dir_replacing", |b| {
+        b.iter(|| solve_into(&replaced))
     });
     let bound = model.bind(&[]).unwrap();
     g.bench_function("study_epc", |b| {

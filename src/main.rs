@@ -244,6 +244,7 @@ impl From<anyhow::Error> for Failure {
 }
 
 fn main() -> ExitCode {
+    fpsolve::study::timeline::mark("main");
     allocator::keep_freed_memory();
     // An interrupted run removes its staging directory: the previous results stay as they
     // were and no partial file is left behind.
@@ -255,7 +256,10 @@ fn main() -> ExitCode {
         std::process::exit(INTERRUPTED);
     });
     let cli = Cli::parse();
-    match run(cli) {
+    let status = run(cli);
+    fpsolve::study::timeline::mark("end");
+    fpsolve::study::timeline::print();
+    match status {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::Flagged(message)) => {
             eprintln!("{message}");
@@ -324,6 +328,7 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 
 fn run(cli: Cli) -> Result<(), Failure> {
     let planned = plan(cli)?;
+    fpsolve::study::timeline::mark("planned");
     for n in &planned.notes {
         eprintln!("note: {n}");
     }
@@ -651,6 +656,7 @@ fn main_job(
     quiet: bool,
 ) -> Result<(), Failure> {
     let run = begin_output(out)?;
+    fpsolve::study::timeline::mark("output begun");
     let bar = Bar::new(quiet);
     let report = job::Job::new(model, spec).progress(&bar).run(run.out());
     bar.finish();
@@ -658,6 +664,7 @@ fn main_job(
     let mut stdout = std::io::stdout().lock();
     write!(stdout, "{}", report).context("writing to stdout")?;
     drop(stdout);
+    fpsolve::study::timeline::mark("report printed");
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);
     if flagged.is_empty() {

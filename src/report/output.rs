@@ -4,6 +4,8 @@ use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
 
 use super::ReportError;
 
@@ -20,14 +22,27 @@ use super::ReportError;
 /// # std::fs::remove_dir_all(&tmp).unwrap();
 /// # Ok::<(), fpsolve::report::ReportError>(())
 /// ```
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct OutputDir {
     path: PathBuf,
-    /// A run's staging directory ([`super::RunDir`]): nothing reads it before the run moves it
-    /// into place, and the run syncs it once before that move, so a file written here does
-    /// not sync the directory itself.
-    staged: bool,
+    /// In a run's staging directory ([`super::RunDir`]), the flushes to disk of the files
+    /// written so far, each running on its own thread; `None` elsewhere. Nothing reads a
+    /// staging directory before the run moves it into place, and the run waits for these
+    /// flushes and syncs the directory once before that move (see [`OutputDir::write_atomic`]).
+    staged: Option<Arc<PendingSyncs>>,
 }
+
+/// The flushes to disk of a staging directory's files, not yet waited for.
+type PendingSyncs = Mutex<Vec<JoinHandle<Result<(), ReportError>>>>;
+
+/// Two handles are equal when they name the same directory in the same role.
+impl PartialEq for OutputDir {
+    fn eq(&self, other: &Self) -> bool {
+        self.path == other.path && self.staged.is_some() == other.staged.is_some()
+    }
+}
+
+impl Eq for OutputDir {}
 
 /// Distinguishes concurrent writers of the same name within one process; the process id
 /// distinguishes processes.
@@ -45,18 +60,46 @@ impl OutputDir {
             path: path.clone(),
             source,
         })?;
-        Ok(Self {
-            path,
-            staged: false,
-        })
+        Ok(Self { path, staged: None })
     }
 
     /// This directory as a run's staging directory (see the `staged` field).
     pub(super) fn staged(self) -> Self {
         Self {
-            staged: true,
+            staged: Some(Arc::default()),
             ..self
         }
+    }
+
+    /// Records a flush to wait for, as [`write_staged`] does: for tests that stand in for a
+    /// slow or failing disk.
+    #[cfg(test)]
+    pub(super) fn push_pending(&self, sync: JoinHandle<Result<(), ReportError>>) {
+        if let Some(pending) = &self.staged {
+            pending.lock().unwrap().push(sync);
+        }
+    }
+
+    /// Waits for the flushes to disk of every file written into this staging directory so
+    /// far, all of them even when one fails; the first failure is returned.
+    pub(super) fn wait_for_syncs(&self) -> Result<(), ReportError> {
+        let Some(pending) = &self.staged else {
+            return Ok(());
+        };
+        let handles = std::mem::take(&mut *pending.lock().unwrap_or_else(|p| p.into_inner()));
+        let mut first = Ok(());
+        for handle in handles {
+            let done = handle.join().unwrap_or_else(|_| {
+                Err(ReportError::Io {
+                    path: self.path.clone(),
+                    source: std::io::Error::other("the thread flushing a file panicked"),
+                })
+            });
+            if first.is_ok() {
+                first = done;
+            }
+        }
+        first
     }
 
     /// The directory's path.
@@ -69,6 +112,11 @@ impl OutputDir {
     /// is then renamed over `name`. Readers (and a later run after a crash) see either the old
     /// file or the complete new one. Returns the final path.
     ///
+    /// In a run's staging directory ([`super::RunDir::out`]), which nobody reads before the
+    /// run's commit puts it in place as a whole, the bytes go straight to `name` and are
+    /// flushed to disk on a thread of their own, beside the rest of the run; the commit waits
+    /// for every such flush before it moves the directory ([`super::RunDir::commit`]).
+    ///
     /// # Errors
     /// [`ReportError::BadFileName`] if `name` is not a plain file name (so nothing can be written
     /// outside the directory), [`ReportError::Io`] if any step fails; the temporary file is
@@ -76,6 +124,9 @@ impl OutputDir {
     pub fn write_atomic(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, ReportError> {
         self.check_name(name)?;
         let target = self.path.join(name);
+        if let Some(pending) = &self.staged {
+            return write_staged(pending, target, bytes);
+        }
         let temp = self.path.join(format!(
             ".{name}.{}.{}.tmp",
             std::process::id(),
@@ -103,11 +154,8 @@ impl OutputDir {
             let _ = fs::remove_file(&temp);
             return Err(err);
         }
-        // The new entry made durable; in a staging directory by the run's commit, once for
-        // all files ([`super::RunDir::commit`]).
-        if !self.staged {
-            sync_dir(&self.path)?;
-        }
+        // The new entry made durable.
+        sync_dir(&self.path)?;
         Ok(target)
     }
 
@@ -132,6 +180,47 @@ impl OutputDir {
         self.check_name(name)?;
         Ok(self.path.join(name))
     }
+}
+
+/// Writes `bytes` to `target` in a staging directory and starts its flush to disk on a thread
+/// of its own, recorded in `pending`. A file that cannot be written is removed, so that the
+/// directory never holds a partial file under its final name.
+fn write_staged(
+    pending: &PendingSyncs,
+    target: PathBuf,
+    bytes: &[u8],
+) -> Result<PathBuf, ReportError> {
+    let written = OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(&target)
+        .and_then(|mut file| file.write_all(bytes).map(|()| file));
+    let file = match written {
+        Ok(file) => file,
+        Err(source) => {
+            // Best effort: the file may not exist if creating it was what failed.
+            let _ = fs::remove_file(&target);
+            return Err(ReportError::Io {
+                path: target,
+                source,
+            });
+        }
+    };
+    let path = target.clone();
+    // A flush waits on the disk, not on a core: on a thread of its own it overlaps the
+    // run's remaining work and the other files' flushes (which a journaling file system
+    // commits together).
+    let sync = std::thread::spawn(move || {
+        crate::study::timeline::mark("file: fsync start");
+        let synced = file
+            .sync_all()
+            .map_err(|source| ReportError::Io { path, source });
+        crate::study::timeline::mark("file: fsync end");
+        synced
+    });
+    pending.lock().unwrap_or_else(|p| p.into_inner()).push(sync);
+    Ok(target)
 }
 
 /// Makes the rename itself durable: the new directory entry is only on disk once the directory

@@ -7,6 +7,7 @@
 
 mod curves;
 mod methods;
+pub mod timeline;
 
 use rayon::prelude::*;
 use std::time::Instant;
@@ -268,9 +269,13 @@ impl<'a> StudyRunner<'a> {
             return Err(StudyError::NoDegree);
         }
         let start = Instant::now();
+        timeline::mark("study: start");
         // The observables' quadrature tables, built on a worker while the ladder solves (an
         // EPC ladder is sequential, so a core is free).
-        rayon::spawn(crate::observe::prepare);
+        rayon::spawn(|| {
+            crate::observe::prepare();
+            timeline::mark("study: tables ready");
+        });
         let problem = Problem::new(self.model)?;
         let quantities = problem.quantities().to_vec();
         let with_grid = self.methods.contains(&MethodName::Grid);
@@ -283,6 +288,7 @@ impl<'a> StudyRunner<'a> {
             },
             || with_grid.then(|| self.grid(&problem)),
         );
+        timeline::mark("study: ladder solved");
         let mut solved: Vec<(Source, &Solution)> = degrees
             .iter()
             .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.source(), s)))
@@ -296,24 +302,29 @@ impl<'a> StudyRunner<'a> {
         // (an EPC-only ladder is sequential) and give the same numbers as one after another.
         let (stats, curves) = rayon::join(
             || {
-                degrees
+                let stats = degrees
                     .par_iter()
                     .map(|r| {
                         r.outcome
                             .as_ref()
                             .map_or_else(|_| Vec::new(), Solution::all_moments)
                     })
-                    .collect::<Vec<_>>()
+                    .collect::<Vec<_>>();
+                timeline::mark("study: moments done");
+                stats
             },
             || {
                 let wanted: Vec<&Quantity> = quantities.iter().filter(wanted).collect();
-                wanted
+                let curves = wanted
                     .par_iter()
                     .map(|q| curves::curves(q, &solved, self.bins))
-                    .collect::<Vec<_>>()
+                    .collect::<Vec<_>>();
+                timeline::mark("study: curves done");
+                curves
             },
         );
         drop(solved);
+        timeline::mark("study: done");
         for (d, s) in degrees.iter_mut().zip(stats) {
             d.stats = s;
         }
