@@ -272,6 +272,11 @@ fn refusals_are_typed() {
         "{base}drift x: v\ndrift v: -0.2*v - x\nimpact x = 0: v -> 0.9*v\n"
     ));
     assert!(matches!(r, Unsupported::PassThrough { .. }), "{r:?}");
+    // `v -> 0` keeps no sign: it stops the motion, and is refused as a plastic impact.
+    let r = refuse(&format!(
+        "{base}drift x: v\ndrift v: -0.2*v - x\nimpact x = 0: v -> 0\n"
+    ));
+    assert!(matches!(r, Unsupported::Plastic { .. }), "{r:?}");
     let r = refuse(&format!("{base}drift x: v - 0.1*x\ndrift v: -0.2*v - x\n"));
     assert!(matches!(r, Unsupported::NotMechanical { .. }), "{r:?}");
     let r = refuse("model m\nstate x, v\nnoise xi: intensity 1\ndrift x: v\ndrift v: -0.2*v - x\ndiffusion x: xi\ndiffusion v: xi\n");

@@ -143,18 +143,38 @@ pub enum EpcError {
     },
 }
 
-/// What to do instead of the δ-term EPC, for each reason it cannot use an impact law.
+/// What to do instead of the δ-term EPC, for each reason it cannot use an impact law: the
+/// methods that do take the law (each checked against the methods' own refusals).
 fn remedy(reason: &UnsupportedImpact) -> &'static str {
     match reason {
         UnsupportedImpact::NoiseInPosition { .. } => {
             "No method represents an impact on a position driven by noise: Monte Carlo, the \
              grid and `epc-impact` refuse it too"
         }
-        _ => {
-            "EPC represents an impact only in Zhuravlev coordinates, as a pass-through jump \
-             `v -> r*v` (0 < r <= 1) together with the term `-(1 - r)*v*abs(v)*delta(z)` in \
-             the drift of `v` (see models/vibro_duffing.sde); Monte Carlo (`--mc`, `fpsolve \
-             simulate`) handles this law, and a later version will add an EPC method for it"
+        UnsupportedImpact::Reflecting { .. } | UnsupportedImpact::TwoBarriers { .. } => {
+            "`--method epc-impact` and `--method grid` solve this law with the exact impact \
+             condition, and Monte Carlo (`--mc`, `fpsolve simulate`) simulates it"
+        }
+        UnsupportedImpact::Plastic => {
+            "Neither EPC method nor the grid solves a plastic impact; Monte Carlo (`--mc`, \
+             `fpsolve simulate`) simulates it"
+        }
+        UnsupportedImpact::NotLinear { .. } => {
+            "`--method epc-impact` takes a law that reflects the velocity without adding speed \
+             (the model in its original coordinates, with a `domain` line), `--method grid` \
+             one that is also monotone, and Monte Carlo (`--mc`, `fpsolve simulate`) \
+             simulates any law"
+        }
+        UnsupportedImpact::NotMechanical { .. } => {
+            "Only Monte Carlo (`--mc`, `fpsolve simulate`) simulates an impact on a state \
+             whose rate is not the jumping state: `epc-impact` and the grid refuse it too"
+        }
+        UnsupportedImpact::MissingImpactTerm { .. }
+        | UnsupportedImpact::MismatchedImpactTerm { .. } => {
+            "Add the term `-(1 - r)*v*abs(v)*delta(z)` with the jump's r to the drift of `v` \
+             (see models/vibro_duffing.sde), or solve the law as written with `--method grid` \
+             (impacts exact, pass-through laws included); Monte Carlo (`--mc`, `fpsolve \
+             simulate`) simulates it"
         }
     }
 }

@@ -61,6 +61,17 @@ pub enum Unsupported {
         /// The law, printed.
         law: String,
     },
+    /// The law sends every velocity to zero (`v -> 0`): the motion stops at the barrier, and
+    /// the method needs a law that sends the velocity back into the domain.
+    #[error(
+        "the impact law `{law}` stops the motion at the barrier (a plastic impact, r = 0): \
+         epc-impact needs a reflecting law that sends the velocity back into the domain \
+         (`v -> -r*v` with 0 < r <= 1); Monte Carlo (`fpsolve simulate`) handles a plastic impact"
+    )]
+    Plastic {
+        /// The law, printed.
+        law: String,
+    },
     /// The barrier is on the velocity, or the jump changes the position.
     #[error("the impact law must put the barrier on `{position}` and change `{velocity}`")]
     ImpactNotOnPosition {

@@ -138,22 +138,26 @@ impl Mechanics {
 fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImpactError> {
     let mut out = Vec::new();
     for law in model.impacts() {
-        // The model gives every reflecting law its side; a law without one passes through
-        // (the Zhuravlev form), which this method does not solve.
-        let Some(side) = law.side else {
-            return Err(EpcImpactError::Unsupported {
-                model: model.name().to_string(),
-                reason: Unsupported::PassThrough {
-                    law: format!("impact at {}: v -> {:#}", law.at, law.map),
-                },
-            });
-        };
         let map = crate::physics::Jump::compile(&law.map, vars).map_err(|source| {
             EpcImpactError::Symbolic {
                 what: "the jump map".into(),
                 source,
             }
         })?;
+        // The model gives every reflecting law its side; a law without one either stops the
+        // motion (`v -> 0`) or passes through (the Zhuravlev form): this method solves neither.
+        let Some(side) = law.side else {
+            let printed = format!("impact at {}: v -> {:#}", law.at, law.map);
+            let reason = if stops(&map, law.at) {
+                Unsupported::Plastic { law: printed }
+            } else {
+                Unsupported::PassThrough { law: printed }
+            };
+            return Err(EpcImpactError::Unsupported {
+                model: model.name().to_string(),
+                reason,
+            });
+        };
         let barrier = Barrier {
             at: law.at,
             side,
@@ -169,6 +173,15 @@ fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImp
     }
     out.sort_by(|a, b| a.at.total_cmp(&b.at));
     Ok(out)
+}
+
+/// Whether the jump sends every probe velocity (±1e-3 to ±1e3) to zero: a plastic impact.
+fn stops(map: &crate::physics::Jump, at: f64) -> bool {
+    (-3..=3).all(|e| {
+        [1.0, -1.0, 2.0, -2.0, 5.0, -5.0]
+            .iter()
+            .all(|f| map.map(at, f * 10f64.powi(e)) == 0.0)
+    })
 }
 
 /// A barrier pair must bound a strip: the lower one `Above`, the upper one `Below`.

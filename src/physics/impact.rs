@@ -36,7 +36,7 @@ pub enum UnsupportedImpact {
     /// Two reflecting barriers bounding a strip: the δ-term EPC has no form for them.
     #[error(
         "two barriers bound a strip of `{position}` (at {} and {}): the δ-term EPC has no form \
-         for a two-sided impact; use the `grid` or `epc-impact` method",
+         for a two-sided impact",
         number(*lower),
         number(*upper)
     )]
