@@ -55,6 +55,23 @@ pub enum ReportError {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// The run's files were put in place, complete, but flushing one of them (or a
+    /// directory) to disk failed: a crash before the system writes them back may lose them.
+    /// The result is not discarded for it; the run reports it as this error.
+    #[error(
+        "the results were written to {}, but flushing {} to disk failed ({source}): a crash \
+         before the system writes them back may lose them",
+        dest.display(),
+        path.display()
+    )]
+    NotFlushed {
+        /// The run's output directory, in place.
+        dest: PathBuf,
+        /// The file or directory whose flush failed.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
     /// A file name that is not a plain name inside the output directory (empty, `.`/`..`,
     /// or containing a path separator).
     #[error("{}: `{name}` is not a plain file name", path.display())]

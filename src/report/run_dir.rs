@@ -188,15 +188,17 @@ impl RunDir {
     /// Puts the run's files in place as a whole, replacing the previous run's directory, and
     /// returns the destination.
     ///
-    /// Nothing is moved before every file and the staging directory's entries are on disk
-    /// (so a crash never leaves a directory with a missing or partial file in place), and
-    /// the destination's new entry is on disk before this returns (so a result reported as
-    /// written is not lost); the previous run's directory is removed last.
+    /// Nothing is moved before every file's and the staging directory's flush to disk has
+    /// ended (so a crash never leaves a directory with a missing or partial file in place),
+    /// and the destination's new entry is on disk before this returns (so a result reported
+    /// as written is not lost); the previous run's directory is removed last.
     ///
     /// # Errors
-    /// [`ReportError::Io`] if a file or directory cannot be flushed to disk, or a rename
-    /// fails; the previous run's directory is then restored when possible, and the staged
-    /// files are removed.
+    /// [`ReportError::NotFlushed`] if a file or directory could not be flushed to disk: the
+    /// files are complete and are put in place all the same (a finished result is never
+    /// discarded), the error says which flush failed. [`ReportError::Io`] if a rename fails;
+    /// the previous run's directory is then restored when possible, and the staged files are
+    /// removed.
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
         // The files' flushes (started as each was written) and the directory's, side by
         // side: a journaling file system commits concurrent flushes together. The directory
@@ -205,8 +207,9 @@ impl RunDir {
         self.wait_for_leftovers();
         let dir = sync_dir(self.staging.path());
         crate::study::timeline::mark("commit: staging synced");
-        self.staging.wait_for_syncs()?;
-        dir?;
+        // A failed flush does not discard the finished result: the files are complete (the
+        // run wrote them all), so they are put in place and the failure reported after.
+        let flushed = self.staging.wait_for_syncs().and(dir);
         crate::study::timeline::mark("commit: files synced");
         let old = sibling(&self.dest, &format!("old-{}", std::process::id()));
         let had_old = self.dest.exists();
@@ -239,7 +242,15 @@ impl RunDir {
             let _ = removal.join();
         }
         crate::study::timeline::mark("commit: old removed");
-        Ok(self.dest.clone())
+        match flushed {
+            Ok(()) => Ok(self.dest.clone()),
+            Err(ReportError::Io { path, source }) => Err(ReportError::NotFlushed {
+                dest: self.dest.clone(),
+                path,
+                source,
+            }),
+            Err(e) => Err(e),
+        }
     }
 }
 
@@ -522,7 +533,7 @@ mod tests {
     }
 
     #[test]
-    fn a_failed_flush_fails_the_commit_and_keeps_the_old_results() {
+    fn a_failed_flush_keeps_the_new_results_and_says_so() {
         let root = scratch("flush-fail");
         let dest = root.join("out");
         let run = RunDir::begin(&dest, "t").unwrap();
@@ -530,8 +541,8 @@ mod tests {
         run.commit().unwrap();
         let run = RunDir::begin(&dest, "t").unwrap();
         run.out().write_atomic("pdf_y.csv", b"new").unwrap();
-        // The disk refuses one file's flush: that file may be lost in a crash, so the run's
-        // directory must not be put in place.
+        // The disk refuses one file's flush: the run's files are complete, so they are put in
+        // place (a finished result is never discarded) and the failure is reported.
         let failing = run.out().path().join("pdf_v.csv");
         let reported = failing.clone();
         run.out().push_pending(std::thread::spawn(move || {
@@ -541,10 +552,13 @@ mod tests {
             })
         }));
         match run.commit() {
-            Err(ReportError::Io { path, .. }) => assert_eq!(path, reported),
+            Err(ReportError::NotFlushed { dest: d, path, .. }) => {
+                assert_eq!(d, dest);
+                assert_eq!(path, reported);
+            }
             other => panic!("expected the flush's error, got {other:?}"),
         }
-        assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"old");
+        assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"new");
         assert_eq!(
             names(&root),
             vec![".out.fpsolve-lock".to_string(), "out".into()]
