@@ -19,6 +19,7 @@
 //! reach: the strip's width crossed that many times in one sub-step).
 
 use super::eval::BatchKernel;
+use super::lanes::LaneOp;
 use crate::model::BarrierSide;
 use crate::symbolic::Expr;
 
@@ -64,6 +65,50 @@ impl Barrier {
         let mut out = [0.0];
         self.map.eval_point(x, v, &mut out);
         out[0]
+    }
+
+    /// `r` when the compiled map is the law `v → r·v` of the jumping state, a product the
+    /// tape rounds once (`r·v`, `v·r`, a negation of either, or `v` itself): `r·v` is then
+    /// the map's value bit for bit, which lets the mechanical kernel resolve impacts in
+    /// vector form. `None` for any other map.
+    pub(crate) fn gain(&self) -> Option<f64> {
+        let program = self.map.program();
+        let ops = program.ops();
+        let other = u32::try_from(self.other).ok()?;
+        // ±1 when op `i` is ±v.
+        let unit = |i: u32| -> Option<f64> {
+            match ops.get(i as usize)? {
+                LaneOp::Var(j) if *j == other => Some(1.0),
+                LaneOp::Neg(a) => match ops.get(*a as usize)? {
+                    LaneOp::Var(j) if *j == other => Some(-1.0),
+                    _ => None,
+                },
+                _ => None,
+            }
+        };
+        let constant = |i: u32| match ops.get(i as usize)? {
+            LaneOp::Const(c) => Some(*c),
+            _ => None,
+        };
+        // (±v)·c = ±(v·c) = (±c)·v exactly: rounding to nearest is symmetric.
+        let gain = |i: u32| -> Option<f64> {
+            match *ops.get(i as usize)? {
+                LaneOp::MulC(a, c) => Some(unit(a)? * c),
+                LaneOp::Mul(a, b) => match (unit(a), unit(b)) {
+                    (Some(s), None) => Some(s * constant(b)?),
+                    (None, Some(s)) => Some(s * constant(a)?),
+                    _ => None,
+                },
+                _ => unit(i),
+            }
+        };
+        let &[out] = program.outputs() else {
+            return None;
+        };
+        match ops.get(out as usize)? {
+            LaneOp::Neg(a) => gain(*a).map(|r| -r),
+            _ => gain(out),
+        }
     }
 
     /// The side (±1) of a barrier at `at` holding the value `s` (+1 on the barrier).

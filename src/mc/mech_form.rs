@@ -10,8 +10,9 @@
 //! The recogniser runs the tape's instructions over this algebra (`abs(z)` is `s·z`); a
 //! program outside it (any other function, a division, `sgn(z)²`, a second power of `v`)
 //! is not recognised and keeps the lane evaluator. The kernel evaluates each polynomial by
-//! Horner's rule, not in the tape's order, so its outputs agree with the tape's to rounding
-//! (a bound in the tests), not to the bit.
+//! Horner's rule on coefficients prescaled by the step sizes (`mech_coef.rs`), not in the
+//! tape's order, so its outputs agree with the tape's to rounding (a bound in the tests),
+//! not to the bit.
 
 use super::lanes::{LaneOp, LaneProgram};
 use crate::symbolic::TapeUnary as Unary;
@@ -124,7 +125,7 @@ pub(crate) struct ZPoly {
 
 impl ZPoly {
     /// Horner's rule, from the highest power down.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn eval(&self, z: f64) -> f64 {
         let mut it = self.coef.iter().rev();
         let Some(&top) = it.next() else {
@@ -149,7 +150,7 @@ impl SgnPoly {
         }
     }
 
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn eval(&self, z: f64, s: f64) -> f64 {
         match &self.sgn {
             None => self.plain.eval(z),
@@ -263,8 +264,8 @@ impl MechForm {
         })
     }
 
-    /// f, σ and ∂f/∂v at `(z, v)`, in the kernel's order of operations.
-    #[inline(always)]
+    /// f, σ and ∂f/∂v at `(z, v)` by Horner's rule (the reference of the tests).
+    #[cfg(test)]
     pub(crate) fn eval(&self, z: f64, v: f64) -> (f64, f64, f64) {
         let s = sgn(z);
         let f = match &self.force1 {
