@@ -8,7 +8,7 @@
 //! same operations, a quarter's lane sums are added up in lane order when it ends, and the
 //! blow-ups are found in the same order. A block whose lanes are all recorded and finite
 //! through the chunk (`scan_block`, run first while the block's rows are in the cache)
-//! takes the fast form of the update (`Accumulator::add_finite_lanes`): the same operations
+//! takes the fast form of the update (`Accumulator::add_lanes` with `FINE`): the same operations
 //! on the same values without the blends for skipped and non-finite lanes.
 
 use super::batch::LastState;
@@ -358,7 +358,7 @@ fn scan_block<const L: usize>(rows: Rows<'_>, record: &[bool], rec: &mut [bool])
 }
 
 /// Records the lanes `first..first + L` of `rows` into every quantity's accumulator:
-/// with `add_finite_lanes` when `FINE` (every lane recorded at every row: the values of
+/// with `add_lanes`'s fast form when `FINE` (every lane recorded at every row: the values of
 /// every [`Observed`] are finite at finite states), else with `add_lanes` and `rec`.
 #[inline(always)]
 fn add_block<const L: usize, const FINE: bool>(
@@ -394,11 +394,7 @@ fn add_kind<const L: usize, const FINE: bool>(
         xs,
         vs,
     } = rows;
-    if FINE {
-        a.add_finite_lanes::<L>(first, m, n, xs, vs, value)
-    } else {
-        a.add_lanes::<L>(first, m, n, xs, vs, rec, value)
-    }
+    a.add_lanes::<L, FINE>(first, m, n, xs, vs, rec, value)
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! sample point of every lane) and the fused one (`add_lanes`, a block of lanes through a
 //! chunk of sample points, its sums in registers), with the fused recording's fast form for
 //! blocks every lane of which is recorded with finite values ([`SlotGrid::update_finite`],
-//! `add_finite_lanes`).
+//! `add_lanes` with `FINE`).
 
 use super::super::eval::Simd;
 use super::{Grid, QuantityBatch};
@@ -322,9 +322,15 @@ impl Accumulator {
     /// registers through the samples and updated by `add_body`'s lane update
     /// ([`SlotGrid::update`]) in sample order, so the result is the same bits as `samples`
     /// calls of [`Accumulator::add`] with the values (tested).
+    ///
+    /// With `FINE` the caller knows that every lane is recorded at every sample point and
+    /// every value is finite (`value` is finite at finite states, and it checked the states;
+    /// `record` is not read): [`SlotGrid::update_finite`] in sample order, and the window
+    /// count raised by `samples` at the end (an integer: the same as by 1 per sample), so the
+    /// same bits as without `FINE` with `record` all set.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn add_lanes<const L: usize>(
+    pub(crate) fn add_lanes<const L: usize, const FINE: bool>(
         &mut self,
         first: usize,
         samples: usize,
@@ -332,41 +338,6 @@ impl Accumulator {
         xs: &[f64],
         vs: &[f64],
         record: &[bool],
-        value: impl Fn(f64, f64) -> f64,
-    ) {
-        let g = self.slot_grid();
-        let b = &mut self.load_block::<L>(first);
-        let copy = self.copies::<L>(first);
-        let counts = &mut self.slots[..];
-        for j in 0..samples {
-            let row = j * stride + first;
-            let x: &[f64; L] = xs[row..row + L].try_into().expect("L lanes");
-            let v: &[f64; L] = vs[row..row + L].try_into().expect("L lanes");
-            let rec: &[bool; L] = record[row..row + L].try_into().expect("L lanes");
-            let mut slots = [0u32; L];
-            for l in 0..L {
-                let q = value(x[l], v[l]);
-                let (lane, count) = b.lane(l);
-                slots[l] = g.update(q, rec[l], lane, count);
-            }
-            count(counts, &copy, &slots);
-        }
-        self.store_block(first, b);
-    }
-
-    /// [`Accumulator::add_lanes`] when every lane of the block is recorded at every one of
-    /// the `samples` sample points and every value is finite (the caller knows: `value` is
-    /// finite at finite states, and it checked the states): [`SlotGrid::update_finite`] in
-    /// sample order, and the window count raised by `samples` at the end (an integer: the
-    /// same as by 1 per sample), so the same bits as `add_lanes` with `record` all set.
-    #[inline(always)]
-    pub(crate) fn add_finite_lanes<const L: usize>(
-        &mut self,
-        first: usize,
-        samples: usize,
-        stride: usize,
-        xs: &[f64],
-        vs: &[f64],
         value: impl Fn(f64, f64) -> f64,
     ) {
         let g = self.slot_grid();
@@ -381,15 +352,25 @@ impl Accumulator {
             let x: &[f64; L] = xs[row..row + L].try_into().expect("L lanes");
             let v: &[f64; L] = vs[row..row + L].try_into().expect("L lanes");
             let mut slots = [0u32; L];
-            for l in 0..L {
-                let q = value(x[l], v[l]);
-                let (lane, _) = b.lane(l);
-                slots[l] = g.update_finite(q, lane);
+            if FINE {
+                for l in 0..L {
+                    let q = value(x[l], v[l]);
+                    slots[l] = g.update_finite(q, b.lane(l).0);
+                }
+            } else {
+                let rec: &[bool; L] = record[row..row + L].try_into().expect("L lanes");
+                for l in 0..L {
+                    let q = value(x[l], v[l]);
+                    let (lane, count) = b.lane(l);
+                    slots[l] = g.update(q, rec[l], lane, count);
+                }
             }
             count(counts, &copy, &slots);
         }
-        for c in &mut b.window_count {
-            *c += samples as u64;
+        if FINE {
+            for c in &mut b.window_count {
+                *c += samples as u64;
+            }
         }
         self.store_block(first, b);
     }
