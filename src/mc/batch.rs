@@ -217,7 +217,11 @@ pub(crate) fn run_batches(
 /// [`run_batches`] of `range` with the settings `st` and of `coarse_range` with `coarse`
 /// (the time-step bias run), as one parallel loop: the threads share the two runs' batches
 /// (run one after the other, 7 + 7 batches on 2 threads left a thread idle at the end of
-/// each). The summaries come back in batch order, each run's apart.
+/// each), taken alternately while both runs have some (a coarse batch costs more than a
+/// fine one when the step count per sample point is odd and stays the same at 2·dt, and its
+/// longer flights meet the barrier more often: with all the fine batches in one half of the
+/// loop and all the coarse ones in the other, one thread waited 8 % of the run for the
+/// other). The summaries come back in batch order, each run's apart.
 pub(crate) fn run_batch_pair(
     plan: &Plan,
     (st, range): (&RunSettings, std::ops::Range<u64>),
@@ -225,26 +229,49 @@ pub(crate) fn run_batch_pair(
     done: &(dyn Fn() + Sync),
     cancel: &Cancel,
 ) -> Option<(Vec<BatchSummary>, Vec<BatchSummary>)> {
-    let fine = range.end - range.start;
-    let all: Vec<BatchSummary> = (range.start..range.end + (coarse_range.end - coarse_range.start))
-        .into_par_iter()
-        .map(|k| {
+    let jobs = alternate(range, coarse_range);
+    let all: Vec<BatchSummary> = jobs
+        .par_iter()
+        .map(|&(is_coarse, index)| {
             if cancel.is_cancelled() {
                 return None;
             }
-            let (settings, index) = if k < range.end {
-                (st, k)
+            let (settings, phase) = if is_coarse {
+                (coarse, ["mc: 2dt batch start", "mc: 2dt batch end"])
             } else {
-                (coarse, coarse_range.start + (k - range.end))
+                (st, ["mc: batch start", "mc: batch end"])
             };
+            crate::study::timeline::mark(phase[0]);
             let b = run_batch(plan, settings, index, cancel)?;
+            crate::study::timeline::mark(phase[1]);
             done();
             Some(b)
         })
         .collect::<Option<_>>()?;
-    let mut all = all;
-    let coarse_part = all.split_off(fine as usize);
-    Some((all, coarse_part))
+    let (mut fine, mut coarse_part) = (Vec::new(), Vec::new());
+    for (&(is_coarse, _), b) in jobs.iter().zip(all) {
+        if is_coarse {
+            coarse_part.push(b);
+        } else {
+            fine.push(b);
+        }
+    }
+    Some((fine, coarse_part))
+}
+
+/// The batches of two runs as `(coarse, index)` jobs, a fine one and a coarse one in turn
+/// while both runs have some, then the rest; each run's in batch order.
+fn alternate(
+    fine: std::ops::Range<u64>,
+    coarse: std::ops::Range<u64>,
+) -> Vec<(bool, u64)> {
+    let (mut f, mut c) = (fine.peekable(), coarse.peekable());
+    let mut jobs = Vec::new();
+    while f.peek().is_some() || c.peek().is_some() {
+        jobs.extend(f.next().map(|k| (false, k)));
+        jobs.extend(c.next().map(|k| (true, k)));
+    }
+    jobs
 }
 
 /// [`run_batches`] for a run nobody can cancel.
@@ -266,6 +293,19 @@ mod tests {
     use crate::mc::settings::QuantitySpec;
     use crate::mc::{BurnIn, McConfig};
     use crate::model::load_model;
+
+    /// Fine and coarse batches in turn, then the longer run's rest, each run's in order and
+    /// every batch once.
+    #[test]
+    fn alternate_takes_the_runs_in_turn() {
+        assert_eq!(
+            alternate(0..3, 0..2),
+            [(false, 0), (true, 0), (false, 1), (true, 1), (false, 2)]
+        );
+        assert_eq!(alternate(2..3, 0..3), [(false, 2), (true, 0), (true, 1), (true, 2)]);
+        assert_eq!(alternate(0..2, 0..0), [(false, 0), (false, 1)]);
+        assert!(alternate(0..0, 0..0).is_empty());
+    }
 
     /// The plan and settings of a run of the model at `path` with `lanes` lanes per batch,
     /// grids fixed (no pilot), narrow enough that some values fall outside.

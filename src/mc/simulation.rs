@@ -103,7 +103,9 @@ impl Simulation {
                 bias_batches: 0,
                 ..settings.clone()
             };
+            crate::study::timeline::mark("mc: pilot start");
             let summaries = run_batches_to_end(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
+            crate::study::timeline::mark("mc: pilot end");
             let refs: Vec<_> = summaries.iter().collect();
             let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
                 name: settings.quantities[0].name.clone(),
