@@ -261,10 +261,7 @@ pub(crate) fn run_batch_pair(
 
 /// The batches of two runs as `(coarse, index)` jobs, a fine one and a coarse one in turn
 /// while both runs have some, then the rest; each run's in batch order.
-fn alternate(
-    fine: std::ops::Range<u64>,
-    coarse: std::ops::Range<u64>,
-) -> Vec<(bool, u64)> {
+fn alternate(fine: std::ops::Range<u64>, coarse: std::ops::Range<u64>) -> Vec<(bool, u64)> {
     let (mut f, mut c) = (fine.peekable(), coarse.peekable());
     let mut jobs = Vec::new();
     while f.peek().is_some() || c.peek().is_some() {
@@ -302,7 +299,10 @@ mod tests {
             alternate(0..3, 0..2),
             [(false, 0), (true, 0), (false, 1), (true, 1), (false, 2)]
         );
-        assert_eq!(alternate(2..3, 0..3), [(false, 2), (true, 0), (true, 1), (true, 2)]);
+        assert_eq!(
+            alternate(2..3, 0..3),
+            [(false, 2), (true, 0), (true, 1), (true, 2)]
+        );
         assert_eq!(alternate(0..2, 0..0), [(false, 0), (false, 1)]);
         assert!(alternate(0..0, 0..0).is_empty());
     }
