@@ -159,8 +159,12 @@ impl DensityGrid {
         let mut d = [0.0; MAX_COEFS];
         d[..=n].copy_from_slice(c);
         for i in 0..n {
-            for j in (i..n).rev() {
-                d[j] += m * d[j + 1];
+            // d[j] += m·d[j + 1] from the top, the new d[j + 1] carried in a register (through
+            // memory, each step waited for the last one's store).
+            let mut carry = d[n];
+            for dj in d[i..n].iter_mut().rev() {
+                carry = *dj + m * carry;
+                *dj = carry;
             }
         }
         // Σ_{k≥1} d_k u^k over |u| ≤ r: an odd power's term is within ±|d_k| r^k, an even
