@@ -34,6 +34,7 @@ mod coefficients;
 mod continuation;
 mod degrees;
 mod error;
+mod exp;
 pub(crate) mod galerkin;
 mod gaussian;
 mod normalise;

@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use super::closure::GaussianClosure;
+use super::exp::{exp, exp_in_place};
 use super::normalise::{
     horner, powers, DensityGrid, NormalisationReport, Poly, Stretch, MAX_POWER,
 };
@@ -197,7 +198,9 @@ impl EpcSolution {
         if w == 0.0 {
             return 0.0;
         }
-        (q + self.log_c()).exp() * w
+        // The exp of the vectorised evaluations (`pdf_on_grid`, `pdf_on_piece`), for the same
+        // bits.
+        exp(q + self.log_c()) * w
     }
 
     /// [`EpcSolution::pdf`] on the tensor grid `x1` × `x2` into `out` (row-major in x1), each
@@ -227,6 +230,7 @@ impl EpcSolution {
             let width = BLOCK.min(n2 - b0);
             // power_of[j][c] = ξ2^j at column b0 + c, contiguous across columns.
             let mut xi2 = [0.0; BLOCK];
+            let mut weights = [0.0; BLOCK];
             let mut power_of = [[0.0; BLOCK]; MAX_POWER + 1];
             for c in 0..width {
                 xi2[c] = x2[b0 + c] / self.sigma[1];
@@ -256,14 +260,21 @@ impl EpcSolution {
                     }
                     for (l, &q) in q.iter().enumerate().take(width - l0) {
                         let c = l0 + l;
-                        let w = g.weight_with(q, || {
+                        weights[c] = g.weight_with(q, || {
                             [
                                 *node1.get_or_insert_with(|| g.node(0, t)),
                                 g.node(1, xi2[c]),
                             ]
                         });
-                        out[i * n2 + b0 + c] = if w == 0.0 { 0.0 } else { (q + log_c).exp() * w };
+                        out[i * n2 + b0 + c] = q + log_c;
                     }
+                }
+                // exp(Q + ln C) along the block's row at once (vectorised), then the weights
+                // (0 where the density is cut off, whatever exp gave).
+                let block = &mut out[i * n2 + b0..i * n2 + b0 + width];
+                exp_in_place(block);
+                for (o, &w) in block.iter_mut().zip(&weights) {
+                    *o = if w == 0.0 { 0.0 } else { *o * w };
                 }
             }
         }
@@ -350,8 +361,14 @@ impl EpcSolution {
         let c = &c[..=self.q.degree];
         let (s, log_c) = (self.sigma[1 - axis], self.log_c());
         for (o, &t) in out.iter_mut().zip(t) {
-            let q = horner(c, t / s);
-            *o = (q + log_c).exp() * self.grid.on_stretch(kind, q);
+            *o = horner(c, t / s) + log_c;
+        }
+        exp_in_place(out);
+        // The cutoff is 1 on a core piece.
+        if kind == Stretch::Transition {
+            for (o, &t) in out.iter_mut().zip(t) {
+                *o *= self.grid.on_stretch(kind, horner(c, t / s));
+            }
         }
     }
 

@@ -4,6 +4,7 @@
 
 use super::report::{NormalisationKind, NotNormalisable};
 use super::Poly;
+use crate::epc::exp::exp_in_place;
 
 /// The normalised density on a grid in scaled variables.
 #[derive(Clone, Debug)]
@@ -286,27 +287,34 @@ pub(super) fn trapezoid_on_region(
     } else {
         q_mode
     };
-    let mut p = vec![0.0; qv.len()];
+    // The points `contains` admits: on the plane all, inside a ridge the component.
+    let inside = |idx: usize| {
+        grid.mask.as_ref().is_none_or(|m| {
+            m[idx] && qv[idx] >= floor && qv[idx] <= q_mode + 1e-9 * (1.0 + q_mode.abs())
+        })
+    };
+    // exp(Q − Q_ref) over the whole grid at once (vectorised), then the cutoff and the sums
+    // point by point in order.
+    let mut p: Vec<f64> = qv.iter().map(|q| q - q_ref).collect();
+    exp_in_place(&mut p);
     let (mut z, mut z2) = (0.0, 0.0);
     for i in 0..grid.g1.len() {
         for j in 0..n2 {
             let idx = i * n2 + j;
-            // The points `contains` admits: on the plane all, inside a ridge the component.
-            let inside = grid.mask.as_ref().is_none_or(|m| {
-                m[idx] && qv[idx] >= floor && qv[idx] <= q_mode + 1e-9 * (1.0 + q_mode.abs())
-            });
-            if inside {
+            if inside(idx) {
                 let w = if plane {
                     1.0
                 } else {
                     taper((qv[idx] - floor) / TAPER_E_FOLDS)
                 };
-                let v = (qv[idx] - q_ref).exp() * w;
+                let v = p[idx] * w;
                 p[idx] = v;
                 z += v;
                 if i % 2 == 0 && j % 2 == 0 {
                     z2 += v;
                 }
+            } else {
+                p[idx] = 0.0;
             }
         }
     }
