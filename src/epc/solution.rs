@@ -366,9 +366,8 @@ impl EpcSolution {
         exp_in_place(out);
         // The cutoff is 1 on a core piece.
         if kind == Stretch::Transition {
-            for (o, &t) in out.iter_mut().zip(t) {
-                *o *= self.grid.on_stretch(kind, horner(c, t / s));
-            }
+            let q: Vec<f64> = t.iter().map(|&t| horner(c, t / s)).collect();
+            self.grid.times_transition(&q, out);
         }
     }
 

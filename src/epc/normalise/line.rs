@@ -18,8 +18,9 @@
 //! cutoff differs from 0 or 1 by less than e^−100, so the stretch stays analytic to far below
 //! rounding.
 
-use super::grid::{taper, DensityGrid, TAPER_E_FOLDS};
+use super::grid::{DensityGrid, TAPER_E_FOLDS};
 use super::poly::horner;
+use crate::epc::exp::exp_in_place;
 
 /// What the density is on a stretch of a line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -344,13 +345,32 @@ impl DensityGrid {
         clean.then_some(s)
     }
 
-    /// The density (relative to C, i.e. exp(Q)·cutoff) at Q = `q` on a stretch of `kind`:
-    /// the stretch's own formula, so that at its ends it is the limit from inside.
-    #[inline]
-    pub(crate) fn on_stretch(&self, kind: Stretch, q: f64) -> f64 {
-        match kind {
-            Stretch::Core => 1.0,
-            Stretch::Transition => taper((q - self.floor) / TAPER_E_FOLDS),
+    /// Multiplies each `out[i]` by the density's cutoff at Q = `q[i]` on a transition stretch
+    /// (the stretch's own formula, so that at its ends it is the limit from inside; on a core
+    /// stretch the cutoff is 1): [`taper`](super::grid::taper)'s formula to rounding, its two
+    /// exponentials taken over the slice at once ([`exp_in_place`]).
+    pub(crate) fn times_transition(&self, q: &[f64], out: &mut [f64]) {
+        let u: Vec<f64> = q.iter().map(|q| (q - self.floor) / TAPER_E_FOLDS).collect();
+        // Outside (0, 1) the exponentials are not used; a NaN stays NaN, as in `taper`.
+        let outside = |u: f64| u <= 0.0 || u >= 1.0;
+        let mut a: Vec<f64> = u
+            .iter()
+            .map(|&u| if outside(u) { 0.0 } else { -1.0 / u })
+            .collect();
+        let mut b: Vec<f64> = u
+            .iter()
+            .map(|&u| if outside(u) { 0.0 } else { -1.0 / (1.0 - u) })
+            .collect();
+        exp_in_place(&mut a);
+        exp_in_place(&mut b);
+        for (((o, &u), &a), &b) in out.iter_mut().zip(&u).zip(&a).zip(&b) {
+            *o *= if u <= 0.0 {
+                0.0
+            } else if u >= 1.0 {
+                1.0
+            } else {
+                a / (a + b)
+            };
         }
     }
 
@@ -364,6 +384,7 @@ impl DensityGrid {
 
 #[cfg(test)]
 mod tests {
+    use super::super::grid::taper;
     use super::*;
 
     /// A ridge grid with the given levels (only `floor`, `q_max` and the spacing matter here).
@@ -521,6 +542,29 @@ mod tests {
             stretches += out.len();
         }
         assert!(stretches > lines, "{stretches} stretches on {lines} lines");
+    }
+
+    /// The batch cutoff is `taper`'s to rounding, 0 and 1 outside (0, 1), NaN at NaN.
+    #[test]
+    fn times_transition_is_the_taper() {
+        let grid = levels(-15.0, 0.0);
+        let q: Vec<f64> = (-20..=100)
+            .map(|k| grid.floor - 0.2 + 1.4 * k as f64 / 100.0)
+            .chain([f64::NAN])
+            .collect();
+        let mut out = vec![2.0; q.len()];
+        grid.times_transition(&q, &mut out);
+        for (&q, &o) in q.iter().zip(&out) {
+            let want = 2.0 * taper((q - grid.floor) / TAPER_E_FOLDS);
+            if q.is_nan() {
+                assert!(o.is_nan());
+            } else {
+                assert!(
+                    (o - want).abs() <= 4e-15 * want.abs(),
+                    "Q = {q}: {o} vs {want}"
+                );
+            }
+        }
     }
 
     /// An enclosure proves a class only where every point of it has that class, and it
