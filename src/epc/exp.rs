@@ -135,13 +135,8 @@ mod tests {
     /// bits at every vector width.
     #[test]
     fn within_two_ulps_of_exp_at_every_width() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut stream = crate::epc::uniform::Uniform::new(0x2545_f491_4f6c_dd1d);
+        let mut uniform = || stream.next();
         let mut x: Vec<f64> = (0..1_000_000)
             .map(|i| match i % 4 {
                 0 => -745.0 + 1454.7 * uniform(),

@@ -44,6 +44,7 @@ pub(crate) mod quadrature;
 mod residual;
 mod solution;
 pub(crate) mod solver;
+mod uniform;
 
 use std::time::Instant;
 

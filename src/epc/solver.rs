@@ -378,13 +378,8 @@ pub(crate) fn solve(
     // Multistart: deterministic perturbations of the best point, relative to its size.
     let (centre, _, _) = best.clone().expect("at least one start");
     let scale = centre.amax().max(1e-3);
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut uniform = super::uniform::Uniform::new(0x9E37_79B9_7F4A_7C15);
+    let mut next = || uniform.next() * 2.0 - 1.0;
     let perturbed = if clearly_nonzero { 0 } else { PERTURBED_STARTS };
     for trial in 0..perturbed {
         let method = SolverMethod::PerturbedLevenbergMarquardt { start: trial + 1 };

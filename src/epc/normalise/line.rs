@@ -406,13 +406,8 @@ mod tests {
     #[test]
     fn root_finds_what_bisection_finds() {
         let grid = levels(-15.0, 0.0);
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut stream = crate::epc::uniform::Uniform::new(0x2545_f491_4f6c_dd1d);
+        let mut uniform = || stream.next();
         let (mut changes, mut by_root) = (0, 0);
         for _ in 0..400 {
             // −a t² + b t³ − d t⁴ + e t + f: a peak near the origin falling through the levels.
@@ -488,13 +483,8 @@ mod tests {
     /// blocks.
     #[test]
     fn proven_blocks_give_the_stretches_of_every_sample() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut stream = crate::epc::uniform::Uniform::new(0x9e37_79b9_7f4a_7c15);
+        let mut uniform = || stream.next();
         let mut out = Vec::new();
         let (mut lines, mut stretches) = (0, 0);
         for case in 0..600 {
