@@ -71,10 +71,27 @@ fn exp1(x: f64) -> f64 {
     y * pow2(k1) * pow2(k2)
 }
 
+/// Elements taken together: a whole AVX-512 vector (two AVX2 ones, four SSE2 ones).
+const CHUNK: usize = 8;
+
+/// The slice by whole chunks, the last one padded (the observables' calls are of 15 or so
+/// elements: element by element, the remainder was most of the work).
 #[inline(always)]
 fn exp_body(x: &mut [f64]) {
-    for v in x.iter_mut() {
-        *v = exp1(*v);
+    let mut chunks = x.chunks_exact_mut(CHUNK);
+    for chunk in &mut chunks {
+        for v in chunk.iter_mut() {
+            *v = exp1(*v);
+        }
+    }
+    let rest = chunks.into_remainder();
+    if !rest.is_empty() {
+        let mut padded = [0.0; CHUNK];
+        padded[..rest.len()].copy_from_slice(rest);
+        for v in padded.iter_mut() {
+            *v = exp1(*v);
+        }
+        rest.copy_from_slice(&padded[..rest.len()]);
     }
 }
 
