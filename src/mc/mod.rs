@@ -38,7 +38,6 @@ mod config;
 mod error;
 mod estimate;
 mod eval;
-pub(crate) use eval::Simd;
 mod events;
 mod exact;
 mod fused;
