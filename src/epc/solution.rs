@@ -361,12 +361,15 @@ impl EpcSolution {
         let c = &c[..=self.q.degree];
         let (s, log_c) = (self.sigma[1 - axis], self.log_c());
         for (o, &t) in out.iter_mut().zip(t) {
-            *o = horner(c, t / s) + log_c;
+            *o = horner(c, t / s);
+        }
+        // Q itself is kept for a transition's cutoff (on a core piece the cutoff is 1).
+        let q = (kind == Stretch::Transition).then(|| out.to_vec());
+        for o in out.iter_mut() {
+            *o += log_c;
         }
         exp_in_place(out);
-        // The cutoff is 1 on a core piece.
-        if kind == Stretch::Transition {
-            let q: Vec<f64> = t.iter().map(|&t| horner(c, t / s)).collect();
+        if let Some(q) = q {
             self.grid.times_transition(&q, out);
         }
     }
