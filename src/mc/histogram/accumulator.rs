@@ -177,17 +177,26 @@ impl SlotGrid {
 /// Copies of the bin counts (a power of two), lane i counting into copy i mod COUNT_COPIES.
 const COUNT_COPIES: usize = 4;
 
-/// Counts a block's slots (as [`SlotGrid::update`] returns them) into `counts`, lane l into
-/// its copy of the bins at `copy[l]` (`Accumulator::copies`).
+/// Rows of a block's counter indices [`Accumulator::add_lanes`] keeps before it counts
+/// them ([`count`]).
+const COUNT_ROWS: usize = 32;
+
+/// Counts the counter indices `rows` (a lane's copy offset plus its slot, as
+/// [`SlotGrid::update`] returns it) into `counts`. The indices were stored as vectors and
+/// are read back one by one here, apart from the arithmetic: moving each lane's index out
+/// of its vector register (the extraction the compiler made when the count followed each
+/// row's update) took as many vector instructions as the update itself.
 #[inline(always)]
-fn count<const L: usize>(counts: &mut [u64], copy: &[u32; L], slots: &[u32; L]) {
-    for l in 0..L {
-        let k = (copy[l] + slots[l]) as usize;
-        debug_assert!(k < counts.len());
-        // SAFETY: slot ≤ bins + 3 and the copy's offset ≤ (COUNT_COPIES − 1)·(bins + 4),
-        // so k is below COUNT_COPIES·(bins + 4), the length of `slots` (the bounds check
-        // per count was a third of the recording's time).
-        unsafe { *counts.get_unchecked_mut(k) += 1 };
+fn count<const L: usize>(counts: &mut [u64], rows: &[[u32; L]]) {
+    for row in rows {
+        for &k in row {
+            let k = k as usize;
+            debug_assert!(k < counts.len());
+            // SAFETY: slot ≤ bins + 3 and the copy's offset ≤ (COUNT_COPIES − 1)·(bins + 4),
+            // so k is below COUNT_COPIES·(bins + 4), the length of `slots` (the bounds check
+            // per count was a third of the recording's time).
+            unsafe { *counts.get_unchecked_mut(k) += 1 };
+        }
     }
 }
 
@@ -347,6 +356,8 @@ impl Accumulator {
         // One bounds check for the block's rows, not one per row.
         let last = (samples.max(1) - 1) * stride + first + L;
         let (xs, vs) = (&xs[..last], &vs[..last]);
+        let mut index = [[0u32; L]; COUNT_ROWS];
+        let mut rows = 0;
         for j in 0..samples {
             let row = j * stride + first;
             let x: &[f64; L] = xs[row..row + L].try_into().expect("L lanes");
@@ -365,8 +376,14 @@ impl Accumulator {
                     slots[l] = g.update(q, rec[l], lane, count);
                 }
             }
-            count(counts, &copy, &slots);
+            index[rows] = std::array::from_fn(|l| copy[l] + slots[l]);
+            rows += 1;
+            if rows == COUNT_ROWS {
+                count(counts, &index);
+                rows = 0;
+            }
         }
+        count(counts, &index[..rows]);
         if FINE {
             for c in &mut b.window_count {
                 *c += samples as u64;
