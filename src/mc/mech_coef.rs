@@ -93,58 +93,81 @@ impl Part {
     /// The part at `z`.
     #[inline(always)]
     pub(crate) fn eval<V: Vector, const N: usize>(&self, z: &[V; N]) -> [V; N] {
+        let p = self.plain.eval(z);
         let Some(q) = &self.sgn else {
-            return self.plain.eval(z);
+            return p;
         };
-        // sgn(z)·q as q, −q or 0 (at zero and for NaN), picked by the comparisons of z with
-        // zero (no product; the masks stay in each vector's closure, never in an array).
-        #[inline(always)]
-        fn pick<V: Vector>(z: V, q: V, minus_q: V) -> V {
-            let zero = V::splat(0.0);
-            V::select(z.gt(zero), q, V::select(z.lt(zero), minus_q, zero))
-        }
-        let sq: [V; N] = match q.constant() {
+        // sgn(z)·q as q added where z > 0 and subtracted where z < 0 (at zero and for NaN
+        // neither): no product, and on AVX-512 two masked operations.
+        let zero = V::splat(0.0);
+        match q.constant() {
             Some(c) => {
-                let (pos, neg) = (V::splat(c), V::splat(-c));
-                each(|k| pick(z[k], pos, neg))
+                let c = V::splat(c);
+                each(|k| p[k].add_where(z[k].gt(zero), c).sub_where(z[k].lt(zero), c))
             }
             None => {
                 let q = q.eval(z);
-                let flip = V::splat(-0.0);
-                each(|k| pick(z[k], q[k], q[k].xor(flip)))
+                each(|k| {
+                    p[k].add_where(z[k].gt(zero), q[k])
+                        .sub_where(z[k].lt(zero), q[k])
+                })
             }
-        };
-        if self.plain.n == 0 {
-            return sq;
         }
-        let p = self.plain.eval(z);
-        each(|k| p[k].add(sq[k]))
     }
 }
 
 /// The parts of one kernel call with steps of size h and three-point value a.
+///
+/// The step's velocity update is `v ← v + (h·f + dw)·F` with f affine in v,
+/// `h·f = force0(z) + v·h·f₁(z)` and F the Heun factor `1 + (h/2)·∂f/∂v`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Coefs {
-    /// h times the part of f free of v.
+    /// The part of h·f free of v, times F when F is folded in ([`Velocity::Folded`]).
     pub(crate) force0: Part,
-    /// h times the coefficient of v in f (absent when f does not depend on v).
-    pub(crate) force1: Option<Part>,
-    /// √h·a·σ: the velocity increment of a three-point variable −a, 0 or a is its
-    /// negative, zero or itself.
+    /// √h·a·σ (times F when folded): the velocity increment of a three-point variable
+    /// −a, 0 or a is its negative, zero or itself.
     pub(crate) sigma: Part,
-    /// The Heun factor 1 + (h/2)·∂f/∂v (absent when it is 1).
-    pub(crate) factor: Option<Part>,
+    /// How v enters the update.
+    pub(crate) velocity: Velocity,
+}
+
+/// How the velocity enters the step's update (see [`Coefs`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Velocity {
+    /// F is a constant (∂f/∂v does not depend on z, as for linear damping), multiplied
+    /// into the coefficients once per call: `v ← (force0(z) + v·keep(z)) + dw` with
+    /// `keep = 1 + F·h·f₁`, absent when it is 1. Two operations a step fewer than
+    /// [`Velocity::Heun`], the same update to rounding.
+    Folded { keep: Option<Part> },
+    /// `v ← v + ((force0(z) + v·force1(z)) + dw)·factor(z)`: `force1 = h·f₁` (absent when f
+    /// does not depend on v) and `factor` = F, a function of z.
+    Heun { force1: Option<Part>, factor: Part },
 }
 
 impl Coefs {
     pub(crate) fn new(form: &MechForm, h: f64, a: f64) -> Coefs {
-        let force1 = form.force1.as_ref().map(|b| Part::scaled(b, h, 0.0));
         let factor = Part::scaled(&form.slope, 0.5 * h, 1.0);
-        Coefs {
-            force0: Part::scaled(&form.force0, h, 0.0),
-            force1,
-            sigma: Part::scaled(&form.sigma, h.sqrt() * a, 0.0),
-            factor: (factor.constant() != Some(1.0)).then_some(factor),
+        let scale = |p: &SgnPoly, k: f64, add: f64| Part::scaled(p, k, add);
+        match factor.constant() {
+            Some(f) => {
+                // keep = 1 when f does not depend on v.
+                let keep = form.force1.as_ref().map(|b| scale(b, h * f, 1.0));
+                Coefs {
+                    force0: scale(&form.force0, h * f, 0.0),
+                    sigma: scale(&form.sigma, h.sqrt() * a * f, 0.0),
+                    velocity: Velocity::Folded {
+                        keep: keep.filter(|k| k.constant() != Some(1.0)),
+                    },
+                }
+            }
+            None => Coefs {
+                force0: scale(&form.force0, h, 0.0),
+                sigma: scale(&form.sigma, h.sqrt() * a, 0.0),
+                velocity: Velocity::Heun {
+                    force1: form.force1.as_ref().map(|b| scale(b, h, 0.0)),
+                    factor,
+                },
+            },
         }
     }
 }

@@ -9,8 +9,10 @@
 //! One step, written with few operations (the same scheme as the lane-evaluator path, to
 //! rounding):
 //! - the Heun velocity update at frozen z with f affine in v, collapsed:
-//!   `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, the factor one number when ∂f/∂v is constant;
-//! - `dw = ±√h·a·σ(z)` or 0, picked by the three-point bits (no product by the variable);
+//!   `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`; when ∂f/∂v is constant the factor is folded
+//!   into the coefficients, `v ← (h·F·f₀(z) + v·(1 + h·F·f₁)) + F·dw` ([`Velocity`]);
+//! - `dw = ±√h·a·σ(z)` or 0, picked by the three-point bits (no product by the variable):
+//!   its sign flipped and its sum taken where the bits say (masked operations on AVX-512);
 //! - the barrier distance `(x − b)·side` as a flip of the sign bit, and the meets test as
 //!   one comparison `d ≤ 0` per flight, the exact test (`impact::meets`) only when some
 //!   lane is on or beyond the barrier.
@@ -34,7 +36,7 @@ mod coef;
 #[path = "mech_vector.rs"]
 mod vector;
 
-use coef::Coefs;
+use coef::{Coefs, Velocity};
 use vector::Vector;
 
 /// `[f(0), …, f(N − 1)]`, inlined with `f` into the caller (`std::array::from_fn` was left
@@ -325,30 +327,33 @@ fn fly<V: Vector, const N: usize>(
 }
 
 /// The velocity update of one step at frozen z = `x`, the step's three-point variables in
-/// the high halves of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`.
+/// the high halves of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, as [`Coefs`]
+/// arranges it ([`Velocity`]).
 #[inline(always)]
 fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words: &[V::Bits; N]) {
-    let zero = V::splat(0.0);
-    let hf = c.force0.eval(x);
-    let hf = match &c.force1 {
-        None => hf,
-        Some(b) => {
-            let b = b.eval(x);
-            each(|k| hf[k].add(v[k].mul(b[k])))
-        }
-    };
+    let f0 = c.force0.eval(x);
     let s = c.sigma.eval(x);
-    let flip = V::splat(-0.0);
-    let g: [V; N] = each(|k| {
+    // g + dw: dw = ±s or 0 as the three-point bits say, added where it is not zero.
+    let noise = |g: V, k: usize| {
         let (neg, nonzero) = V::three_point_high(words[k]);
-        let dw = V::select(neg, s[k].xor(flip), V::select(nonzero, s[k], zero));
-        hf[k].add(dw)
-    });
-    match &c.factor {
-        None => *v = each(|k| v[k].add(g[k])),
-        Some(f) => {
-            let f = f.eval(x);
-            *v = each(|k| v[k].add(g[k].mul(f[k])));
+        g.add_where(nonzero, s[k].neg_where(neg))
+    };
+    match &c.velocity {
+        Velocity::Folded { keep: None } => *v = each(|k| noise(f0[k].add(v[k]), k)),
+        Velocity::Folded { keep: Some(b) } => {
+            let b = b.eval(x);
+            *v = each(|k| noise(f0[k].add(v[k].mul(b[k])), k));
+        }
+        Velocity::Heun { force1, factor } => {
+            let hf = match force1 {
+                None => f0,
+                Some(b) => {
+                    let b = b.eval(x);
+                    each(|k| f0[k].add(v[k].mul(b[k])))
+                }
+            };
+            let f = factor.eval(x);
+            *v = each(|k| v[k].add(noise(hf[k], k).mul(f[k])));
         }
     }
 }

@@ -54,6 +54,21 @@ pub(crate) trait Vector: Copy {
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     fn mask_or(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     fn mask_and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `m ? self + o : self` lane by lane (one masked addition on AVX-512).
+    #[inline(always)]
+    fn add_where(self, m: Self::Mask, o: Self) -> Self {
+        Self::select(m, self.add(o), self)
+    }
+    /// `m ? self − o : self` lane by lane.
+    #[inline(always)]
+    fn sub_where(self, m: Self::Mask, o: Self) -> Self {
+        Self::select(m, self.sub(o), self)
+    }
+    /// `m ? −self : self` lane by lane (the sign bit flipped).
+    #[inline(always)]
+    fn neg_where(self, m: Self::Mask) -> Self {
+        Self::select(m, self.xor(Self::splat(-0.0)), self)
+    }
     /// Bit i set when lane i is.
     fn mask_bits(m: Self::Mask) -> u32;
     /// The next xoshiro256++ output of every lane (as `LaneRng::fill`), the state advanced.
@@ -306,6 +321,22 @@ impl Vector for Avx512 {
     #[inline(always)]
     fn mask_or(a: __mmask8, b: __mmask8) -> __mmask8 {
         a | b
+    }
+    #[inline(always)]
+    fn add_where(self, m: __mmask8, o: Self) -> Self {
+        simd!(Avx512(_mm512_mask_add_pd(self.0, m, self.0, o.0)))
+    }
+    #[inline(always)]
+    fn sub_where(self, m: __mmask8, o: Self) -> Self {
+        simd!(Avx512(_mm512_mask_sub_pd(self.0, m, self.0, o.0)))
+    }
+    #[inline(always)]
+    fn neg_where(self, m: __mmask8) -> Self {
+        simd!({
+            let x = _mm512_castpd_si512(self.0);
+            let sign = _mm512_set1_epi64(i64::MIN);
+            Avx512(_mm512_castsi512_pd(_mm512_mask_xor_epi64(x, m, x, sign)))
+        })
     }
     #[inline(always)]
     fn mask_and(a: __mmask8, b: __mmask8) -> __mmask8 {
