@@ -133,7 +133,7 @@ pub mod moments;
 pub mod observe;
 pub mod physics;
 pub mod report;
-mod simd;
+pub mod simd;
 pub mod solve;
 pub mod study;
 pub mod sweep;

@@ -327,6 +327,7 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
+    fpsolve::simd::check_env().map_err(|e| Failure::Usage(anyhow::anyhow!(e)))?;
     let planned = plan(cli)?;
     fpsolve::study::timeline::mark("planned");
     for n in &planned.notes {

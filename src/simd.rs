@@ -15,18 +15,57 @@ pub(crate) enum Simd {
     Avx512,
 }
 
+/// The environment variable that caps the vector extension the kernels run with:
+/// `baseline`, `avx2` or `avx512` (the widest this CPU has when unset). The results are the
+/// same bits at every extension; the cap is for measuring the narrower kernels on a wide
+/// machine (`FPSOLVE_SIMD=avx2 cargo bench --bench mc`) and for checking that claim.
+///
+/// ```
+/// assert_eq!(fpsolve::simd::SIMD_VAR, "FPSOLVE_SIMD");
+/// ```
+pub const SIMD_VAR: &str = "FPSOLVE_SIMD";
+
+/// The values [`SIMD_VAR`] takes, narrowest first.
+const NAMES: [&str; 3] = ["baseline", "avx2", "avx512"];
+
+/// Checks [`SIMD_VAR`]: `Ok` when it is unset or names an extension, else the message to
+/// refuse the run with (the kernels themselves ignore a value they do not know).
+///
+/// ```
+/// // Unset here, so accepted.
+/// assert!(fpsolve::simd::check_env().is_ok());
+/// ```
+pub fn check_env() -> Result<(), String> {
+    match std::env::var_os(SIMD_VAR) {
+        None => Ok(()),
+        Some(v) if NAMES.iter().any(|n| v == *n) => Ok(()),
+        Some(v) => Err(format!(
+            "{SIMD_VAR}={}: expected one of {}",
+            v.to_string_lossy(),
+            NAMES.join(", ")
+        )),
+    }
+}
+
 impl Simd {
-    /// The widest extension this CPU has.
+    /// The widest extension this CPU has, at most the one [`SIMD_VAR`] names.
     pub(crate) fn detect() -> Simd {
+        // How many of [avx2, avx512] the cap allows.
+        let cap = match std::env::var_os(SIMD_VAR) {
+            Some(v) if v == "baseline" => 0,
+            Some(v) if v == "avx2" => 1,
+            _ => 2,
+        };
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") {
+            if cap >= 2 && std::arch::is_x86_feature_detected!("avx512f") {
                 return Simd::Avx512;
             }
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if cap >= 1 && std::arch::is_x86_feature_detected!("avx2") {
                 return Simd::Avx2;
             }
         }
+        let _ = cap;
         Simd::Baseline
     }
 }

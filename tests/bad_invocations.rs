@@ -11,6 +11,11 @@ use common::{names, scratch};
 /// Runs `fpsolve args… --out <scratch>/out` (unless the case sets its own) and checks the
 /// refusal: exit 2, every `expected` fragment in stderr, no panic, nothing written.
 fn refused(tag: &str, args: &[&str], expected: &[&str]) {
+    refused_with_env(tag, &[], args, expected)
+}
+
+/// [`refused`] with environment variables `env` set for the run.
+fn refused_with_env(tag: &str, env: &[(&str, &str)], args: &[&str], expected: &[&str]) {
     let root = scratch(tag);
     let out = root.join("out");
     let mut full: Vec<String> = args.iter().map(|s| s.to_string()).collect();
@@ -26,6 +31,7 @@ fn refused(tag: &str, args: &[&str], expected: &[&str]) {
     let before = names(&root);
     let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
         .args(&full)
+        .envs(env.iter().copied())
         .output()
         .expect("run fpsolve");
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -334,4 +340,21 @@ fn methods_cells_and_monte_carlo_references() {
     );
     let _ = std::fs::remove_dir_all(garbage);
     let _ = std::fs::remove_dir_all(models);
+}
+
+/// A vector-extension cap (`FPSOLVE_SIMD`) that names no extension is refused before any
+/// work, whatever the command.
+#[test]
+fn vector_extension_cap() {
+    for (tag, args) in [
+        ("simd-main", vec![MODEL, "--method", "epc"]),
+        ("simd-simulate", vec!["simulate", MODEL, "--samples", "1e4"]),
+    ] {
+        refused_with_env(
+            tag,
+            &[("FPSOLVE_SIMD", "avx3")],
+            &args,
+            &["FPSOLVE_SIMD=avx3", "baseline, avx2, avx512"],
+        );
+    }
 }

@@ -304,7 +304,10 @@ fn fly<V: Vector, const N: usize>(
 ) {
     let t = V::splat(tau);
     let x0 = *x;
-    *x = each(|k| x0[k].add(v[k].mul(t)));
+    *x = each(
+        #[inline(always)]
+        |k| x0[k].add(v[k].mul(t)),
+    );
     let Some(jump) = jump else { return };
     let zero = V::splat(0.0);
     // meets() needs d1 < 0 or d1 = 0: one comparison d1 ≤ 0 rules both out for most flights.
@@ -334,26 +337,41 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
     let f0 = c.force0.eval(x);
     let s = c.sigma.eval(x);
     // g + dw: dw = ±s or 0 as the three-point bits say, added where it is not zero.
-    let noise = |g: V, k: usize| {
-        let (neg, nonzero) = V::three_point_high(words[k]);
-        g.add_where(nonzero, s[k].neg_where(neg))
-    };
+    #[inline(always)]
+    fn noise<V: Vector>(g: V, s: V, word: V::Bits) -> V {
+        let (neg, nonzero) = V::three_point_high(word);
+        g.add_where(nonzero, s.neg_where(neg))
+    }
     match &c.velocity {
-        Velocity::Folded { keep: None } => *v = each(|k| noise(f0[k].add(v[k]), k)),
+        Velocity::Folded { keep: None } => {
+            *v = each(
+                #[inline(always)]
+                |k| noise(f0[k].add(v[k]), s[k], words[k]),
+            )
+        }
         Velocity::Folded { keep: Some(b) } => {
             let b = b.eval(x);
-            *v = each(|k| noise(f0[k].add(v[k].mul(b[k])), k));
+            *v = each(
+                #[inline(always)]
+                |k| noise(f0[k].add(v[k].mul(b[k])), s[k], words[k]),
+            );
         }
         Velocity::Heun { force1, factor } => {
             let hf = match force1 {
                 None => f0,
                 Some(b) => {
                     let b = b.eval(x);
-                    each(|k| f0[k].add(v[k].mul(b[k])))
+                    each(
+                        #[inline(always)]
+                        |k| f0[k].add(v[k].mul(b[k])),
+                    )
                 }
             };
             let f = factor.eval(x);
-            *v = each(|k| v[k].add(noise(hf[k], k).mul(f[k])));
+            *v = each(
+                #[inline(always)]
+                |k| v[k].add(noise(hf[k], s[k], words[k]).mul(f[k])),
+            );
         }
     }
 }
@@ -374,18 +392,38 @@ fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
         pending: pend,
         mut rows,
     } = c;
-    let load = |s: &[f64]| -> [V; N] { each(|k| V::load(&s[k * w..])) };
     let (zero, sign) = (V::splat(0.0), V::splat(-0.0));
-    let (mut x, mut v) = (load(xs), load(vs));
-    let mut side: [V; N] = each(|k| V::load(&sides[k * w..]).and(sign));
-    let mut r: [[V::Bits; 4]; N] = each(|k| each(|j| V::load_bits(&rng[j][k * w..])));
+    let mut x: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&xs[k * w..]),
+    );
+    let mut v: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&vs[k * w..]),
+    );
+    let mut side: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&sides[k * w..]).and(sign),
+    );
+    let mut r: [[V::Bits; 4]; N] = each(
+        #[inline(always)]
+        |k| {
+            each(
+                #[inline(always)]
+                |j| V::load_bits(&rng[j][k * w..]),
+            )
+        },
+    );
     // The last draw, whose high half is the pending increment: at the start, one with the
     // stored pending value's three-point masks.
-    let mut draw: [V::Bits; N] = each(|k| {
-        let p = V::load(&pend[k * w..]);
-        let neg = p.lt(zero);
-        V::three_point_bits(neg, V::mask_or(neg, p.gt(zero)))
-    });
+    let mut draw: [V::Bits; N] = each(
+        #[inline(always)]
+        |k| {
+            let p = V::load(&pend[k * w..]);
+            let neg = p.lt(zero);
+            V::three_point_bits(neg, V::mask_or(neg, p.gt(zero)))
+        },
+    );
     let mut use_pending = st.pending;
     let jump = st.jump.as_ref();
     let (h, half) = (st.h, 0.5 * st.h);
@@ -396,8 +434,14 @@ fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
             let words: [V::Bits; N] = if use_pending {
                 draw
             } else {
-                draw = each(|k| V::xoshiro(&mut r[k]));
-                each(|k| V::low_up(draw[k]))
+                draw = each(
+                    #[inline(always)]
+                    |k| V::xoshiro(&mut r[k]),
+                );
+                each(
+                    #[inline(always)]
+                    |k| V::low_up(draw[k]),
+                )
             };
             use_pending = !use_pending;
             kick(&st.coefs, &x, &mut v, &words);
