@@ -22,6 +22,8 @@ pub(crate) struct Accumulator {
     /// not recorded, bins+3 non-finite values; copy c at `c * (bins + 4)`.
     slots: Vec<u64>,
     index: Vec<u32>,
+    /// Per lane, Σ d, Σ d², Σ d³, Σ d⁴ of d = q − shift: the first two the quarters' sums
+    /// added up as each quarter ends, the others sample by sample.
     sums: [Vec<f64>; 4],
     min: Vec<f64>,
     max: Vec<f64>,
@@ -56,8 +58,9 @@ struct SlotGrid {
 /// One lane's running sums, updated in place by [`SlotGrid::update`]: elements of the
 /// accumulator's columns in `add_body`, of register arrays in `add_lanes`.
 struct LaneSums<'a> {
-    /// Σ d, Σ d², Σ d³, Σ d⁴ of d = q − shift.
-    powers: [&'a mut f64; 4],
+    /// Σ d³ and Σ d⁴ of d = q − shift (Σ d and Σ d² are the quarters', added up when
+    /// each ends).
+    powers: [&'a mut f64; 2],
     min: &'a mut f64,
     max: &'a mut f64,
     /// This quarter's Σ d and Σ d² (its count of finite recorded values is kept apart: the
@@ -69,7 +72,8 @@ struct LaneSums<'a> {
 /// The running sums of a block of `L` lanes, kept in registers through a chunk of the
 /// fused recording (`Accumulator::load_block` / `store_block`).
 struct Block<const L: usize> {
-    powers: [[f64; L]; 4],
+    /// Σ d³ and Σ d⁴.
+    powers: [[f64; L]; 2],
     min: [f64; L],
     max: [f64; L],
     window_sum: [f64; L],
@@ -81,9 +85,9 @@ impl<const L: usize> Block<L> {
     /// Lane `l`'s sums, and its window count.
     #[inline(always)]
     fn lane(&mut self, l: usize) -> (LaneSums<'_>, &mut u64) {
-        let [s1, s2, s3, s4] = &mut self.powers;
+        let [s3, s4] = &mut self.powers;
         let lane = LaneSums {
-            powers: [&mut s1[l], &mut s2[l], &mut s3[l], &mut s4[l]],
+            powers: [&mut s3[l], &mut s4[l]],
             min: &mut self.min[l],
             max: &mut self.max[l],
             window_sum: &mut self.window_sum[l],
@@ -133,14 +137,14 @@ impl SlotGrid {
         self.slot(q)
     }
 
-    /// The sums' part of the update: `d` into the powers and the quarter's sums, `low` and
-    /// `high` into the extremes.
+    /// The sums' part of the update: `d` into the quarter's sums and the third and fourth
+    /// powers, `low` and `high` into the extremes. (Σ d and Σ d² over the run are the
+    /// quarters' sums added up when each quarter ends, [`Accumulator::flush_window`]: kept
+    /// per sample as well, they were two of the update's operations.)
     #[inline(always)]
     fn add(d: f64, low: f64, high: f64, lane: LaneSums<'_>) {
         let d2 = d * d;
-        let [s1, s2, s3, s4] = lane.powers;
-        *s1 += d;
-        *s2 += d2;
+        let [s3, s4] = lane.powers;
         *s3 += d2 * d;
         *s4 += d2 * d2;
         *lane.window_sum += d;
@@ -250,19 +254,25 @@ impl Accumulator {
         }
     }
 
-    /// Adds the lanes' sums of the current quarter to its totals, lanes in order.
+    /// Adds the lanes' sums of the current quarter to its totals, lanes in order, and each
+    /// lane's to its Σ d and Σ d².
     fn flush_window(&mut self) {
         let k = self.window;
         let [ws, wq] = &mut self.lane_window_sums;
-        for ((c, s), q) in self
+        let [s1, s2, _, _] = &mut self.sums;
+        for ((((c, s), q), s1), s2) in self
             .lane_window_counts
             .iter_mut()
             .zip(ws.iter_mut())
             .zip(wq.iter_mut())
+            .zip(s1.iter_mut())
+            .zip(s2.iter_mut())
         {
             self.window_counts[k] += *c;
             self.window_sums[k] += *s;
             self.window_squares[k] += *q;
+            *s1 += *s;
+            *s2 += *q;
             (*c, *s, *q) = (0, 0.0, 0.0);
         }
     }
@@ -299,8 +309,8 @@ impl Accumulator {
         let (values, record) = (&values[..n], &record[..n]);
         let g = self.slot_grid();
         let stride = (self.grid.bins + 4) as u32;
-        let [s1, s2, s3, s4] = &mut self.sums;
-        let (s1, s2, s3, s4) = (&mut s1[..n], &mut s2[..n], &mut s3[..n], &mut s4[..n]);
+        let [_, _, s3, s4] = &mut self.sums;
+        let (s3, s4) = (&mut s3[..n], &mut s4[..n]);
         let (mn, mx, idx) = (&mut self.min[..n], &mut self.max[..n], &mut self.index[..n]);
         let [ws, wq] = &mut self.lane_window_sums;
         let (wc, ws, wq) = (
@@ -310,7 +320,7 @@ impl Accumulator {
         );
         for i in 0..n {
             let lane = LaneSums {
-                powers: [&mut s1[i], &mut s2[i], &mut s3[i], &mut s4[i]],
+                powers: [&mut s3[i], &mut s4[i]],
                 min: &mut mn[i],
                 max: &mut mx[i],
                 window_sum: &mut ws[i],
@@ -397,10 +407,10 @@ impl Accumulator {
     fn load_block<const L: usize>(&self, first: usize) -> Block<L> {
         let r = first..first + L;
         let load = |s: &[f64]| -> [f64; L] { s[r.clone()].try_into().expect("L lanes") };
-        let [s1, s2, s3, s4] = &self.sums;
+        let [_, _, s3, s4] = &self.sums;
         let [ws, wq] = &self.lane_window_sums;
         Block {
-            powers: [load(s1), load(s2), load(s3), load(s4)],
+            powers: [load(s3), load(s4)],
             min: load(&self.min),
             max: load(&self.max),
             window_sum: load(ws),
@@ -414,7 +424,7 @@ impl Accumulator {
     fn store_block<const L: usize>(&mut self, first: usize, b: &Block<L>) {
         let r = first..first + L;
         let store = |s: &mut [f64], a: &[f64; L]| s[r.clone()].copy_from_slice(a);
-        for (s, a) in self.sums.iter_mut().zip(&b.powers) {
+        for (s, a) in self.sums[2..].iter_mut().zip(&b.powers) {
             store(s, a);
         }
         store(&mut self.min, &b.min);
