@@ -55,7 +55,7 @@ struct Rule {
 ///
 /// ± a state under an analytic density ([`JointDensity::analytic`]) takes instead a tensor
 /// Clenshaw–Curtis rule (129 nodes per half-axis) on each quadrant, accepted where it agrees
-/// with its half-rule to 1e−10 (on the scale of E[g⁴]^(k/4)), the composite rule otherwise;
+/// with its half-rule to 1e−10 (on the scale of E\[g⁴\]^(k/4)), the composite rule otherwise;
 /// under a density smooth piecewise along lines ([`JointDensity::smooth_pieces`], EPC inside a
 /// ridge) line integrals under an outer Clenshaw–Curtis rule (128 intervals per half-axis, 256
 /// when that fails its check), accepted at the density's rule tolerance (a tenth of

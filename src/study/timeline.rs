@@ -1,7 +1,7 @@
 //! A wall-clock timeline of one run, for finding where a process's time goes (which phase
 //! runs while a core idles, how long a flush to disk waits): off unless the environment
 //! variable `FPSOLVE_TIMELINE` is set, then each [`mark`] records the time since the first
-//! mark and the thread, and [`print`] writes them to stderr.
+//! mark and the thread, and [`print()`] writes them to stderr.
 //!
 //! A mark costs one relaxed atomic load when the timeline is off.
 

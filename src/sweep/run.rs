@@ -159,7 +159,7 @@ impl<'a> Sweep<'a> {
     /// thresholds of |z| those of z. The probabilities are integrals of the quantity's PDF
     /// curve (Eqs. 23–28) beyond ±a, normalised by the curve's mass.
     ///
-    /// Every point's EPC result is the same as a [`Study::run`] at its values, and its
+    /// Every point's EPC result is the same as a [`Study::run`](crate::study::Study::run) at its values, and its
     /// other methods' results the same as [`crate::solve()`] at its values, whatever the
     /// number of threads.
     pub fn run(&self) -> SweepResult {
