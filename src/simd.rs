@@ -50,12 +50,10 @@ pub fn check_env() -> Result<(), String> {
 impl Simd {
     /// The widest extension this CPU has, at most the one [`SIMD_VAR`] names.
     pub(crate) fn detect() -> Simd {
-        // How many of [avx2, avx512] the cap allows.
-        let cap = match std::env::var_os(SIMD_VAR) {
-            Some(v) if v == "baseline" => 0,
-            Some(v) if v == "avx2" => 1,
-            _ => 2,
-        };
+        // The cap's place in NAMES (the widest when unset or unknown).
+        let cap = std::env::var_os(SIMD_VAR)
+            .and_then(|v| NAMES.iter().position(|n| v == *n))
+            .unwrap_or(NAMES.len() - 1);
         #[cfg(target_arch = "x86_64")]
         {
             if cap >= 2 && std::arch::is_x86_feature_detected!("avx512f") {
@@ -65,6 +63,7 @@ impl Simd {
                 return Simd::Avx2;
             }
         }
+        #[cfg(not(target_arch = "x86_64"))]
         let _ = cap;
         Simd::Baseline
     }

@@ -100,19 +100,14 @@ impl Part {
         // sgn(z)·q as q added where z > 0 and subtracted where z < 0 (at zero and for NaN
         // neither): no product, and on AVX-512 two masked operations.
         let zero = V::splat(0.0);
-        match q.constant() {
-            Some(c) => {
-                let c = V::splat(c);
-                each(|k| p[k].add_where(z[k].gt(zero), c).sub_where(z[k].lt(zero), c))
-            }
-            None => {
-                let q = q.eval(z);
-                each(|k| {
-                    p[k].add_where(z[k].gt(zero), q[k])
-                        .sub_where(z[k].lt(zero), q[k])
-                })
-            }
-        }
+        let q: [V; N] = match q.constant() {
+            Some(c) => [V::splat(c); N],
+            None => q.eval(z),
+        };
+        each(|k| {
+            p[k].add_where(z[k].gt(zero), q[k])
+                .sub_where(z[k].lt(zero), q[k])
+        })
     }
 }
 
@@ -147,24 +142,23 @@ pub(crate) enum Velocity {
 impl Coefs {
     pub(crate) fn new(form: &MechForm, h: f64, a: f64) -> Coefs {
         let factor = Part::scaled(&form.slope, 0.5 * h, 1.0);
-        let scale = |p: &SgnPoly, k: f64, add: f64| Part::scaled(p, k, add);
         match factor.constant() {
             Some(f) => {
                 // keep = 1 when f does not depend on v.
-                let keep = form.force1.as_ref().map(|b| scale(b, h * f, 1.0));
+                let keep = form.force1.as_ref().map(|b| Part::scaled(b, h * f, 1.0));
                 Coefs {
-                    force0: scale(&form.force0, h * f, 0.0),
-                    sigma: scale(&form.sigma, h.sqrt() * a * f, 0.0),
+                    force0: Part::scaled(&form.force0, h * f, 0.0),
+                    sigma: Part::scaled(&form.sigma, h.sqrt() * a * f, 0.0),
                     velocity: Velocity::Folded {
                         keep: keep.filter(|k| k.constant() != Some(1.0)),
                     },
                 }
             }
             None => Coefs {
-                force0: scale(&form.force0, h, 0.0),
-                sigma: scale(&form.sigma, h.sqrt() * a, 0.0),
+                force0: Part::scaled(&form.force0, h, 0.0),
+                sigma: Part::scaled(&form.sigma, h.sqrt() * a, 0.0),
                 velocity: Velocity::Heun {
-                    force1: form.force1.as_ref().map(|b| scale(b, h, 0.0)),
+                    force1: form.force1.as_ref().map(|b| Part::scaled(b, h, 0.0)),
                     factor,
                 },
             },

@@ -343,17 +343,21 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
         g.add_where(nonzero, s.neg_where(neg))
     }
     match &c.velocity {
-        Velocity::Folded { keep: None } => {
+        Velocity::Folded { keep } => {
+            // v·keep, or v itself when keep is 1.
+            let vk = match keep {
+                None => *v,
+                Some(b) => {
+                    let b = b.eval(x);
+                    each(
+                        #[inline(always)]
+                        |k| v[k].mul(b[k]),
+                    )
+                }
+            };
             *v = each(
                 #[inline(always)]
-                |k| noise(f0[k].add(v[k]), s[k], words[k]),
-            )
-        }
-        Velocity::Folded { keep: Some(b) } => {
-            let b = b.eval(x);
-            *v = each(
-                #[inline(always)]
-                |k| noise(f0[k].add(v[k].mul(b[k])), s[k], words[k]),
+                |k| noise(f0[k].add(vk[k]), s[k], words[k]),
             );
         }
         Velocity::Heun { force1, factor } => {
