@@ -336,11 +336,11 @@ impl EpcSolution {
     }
 
     /// The density on one piece of [`EpcSolution::smooth_pieces`] of kind `kind` at the
-    /// points `t` of the other state (original units), into `out`: on the plane bit for bit
-    /// [`EpcSolution::pdf_on_grid`]; inside a ridge C·exp(Q) times the piece's cutoff (1 on a
-    /// core piece), with Q restricted to the line once (a polynomial in t by Horner's rule):
-    /// equal to [`EpcSolution::pdf`] in the piece's interior up to rounding, and at its ends
-    /// the limit from inside.
+    /// points `t` of the other state (original units), into `out`: C·exp(Q) times the
+    /// piece's cutoff (1 on the plane and on a core piece), with Q restricted to the line
+    /// once (a polynomial in t by Horner's rule, n multiply-adds a point where the whole Q
+    /// takes a product and a sum per monomial): equal to [`EpcSolution::pdf`] in the piece's
+    /// interior up to rounding, and at its ends the limit from inside.
     pub(crate) fn pdf_on_piece(
         &self,
         axis: usize,
@@ -349,14 +349,6 @@ impl EpcSolution {
         t: &[f64],
         out: &mut [f64],
     ) {
-        if self.on_plane() {
-            if axis == 0 {
-                self.pdf_on_grid(&[at], t, out);
-            } else {
-                self.pdf_on_grid(t, &[at], out);
-            }
-            return;
-        }
         let c = self.q.on_line(axis, at / self.sigma[axis]);
         let c = &c[..=self.q.degree];
         let (s, log_c) = (self.sigma[1 - axis], self.log_c());

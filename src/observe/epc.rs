@@ -45,8 +45,7 @@ impl JointDensity for EpcSolution {
         true
     }
 
-    /// On the plane bit for bit `pdf_on_grid`; inside a ridge C·exp(Q) times the piece's
-    /// cutoff, Q restricted to the line once.
+    /// C·exp(Q) times the piece's cutoff (1 on the plane), Q restricted to the line once.
     fn pdf_on_piece(&self, axis: usize, at: f64, piece: &LinePiece, t: &[f64], out: &mut [f64]) {
         let kind = match piece.kind {
             PieceKind::Analytic => Stretch::Core,
