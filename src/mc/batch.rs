@@ -2,6 +2,8 @@
 //! streaming their samples into histograms and power sums; batches run in parallel and come
 //! back in batch order.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -50,32 +52,40 @@ pub(crate) struct BatchSummary {
     pub(crate) blowups: Vec<BlowUp>,
 }
 
-/// Runs statistics batch `index` (all its trajectories from their start), leaving out the
-/// lanes in `excluded`; returns its summary and the lanes that blew up, or `None` when
-/// `cancel` was set (checked at every sample point).
-fn run_batch_once(
+/// Runs the lanes `part` of statistics batch `index` (their trajectories from their start),
+/// leaving out the lanes in `excluded` (indexed from the part's first); returns the part's
+/// summary and the lanes that blew up, or `None` when `cancel` was set (checked at every
+/// sample point).
+fn run_part_once(
     plan: &Plan,
     st: &RunSettings,
-    index: u64,
+    (index, part): (u64, Range<usize>),
     excluded: &[bool],
     cancel: &Cancel,
 ) -> Option<(BatchSummary, Vec<usize>)> {
-    run_batch_with(plan, st, index, excluded, cancel, Some(Simd::detect()))
+    run_part_with(
+        plan,
+        st,
+        (index, part),
+        excluded,
+        cancel,
+        Some(Simd::detect()),
+    )
 }
 
-/// [`run_batch_once`] with the recording fused with the fast mechanical kernel where it
+/// [`run_part_once`] with the recording fused with the fast mechanical kernel where it
 /// applies, both run with the vector extension `fused` (detected on this CPU), or
 /// (`None`) the general recording: the same bits either way (tested).
-fn run_batch_with(
+fn run_part_with(
     plan: &Plan,
     st: &RunSettings,
-    index: u64,
+    (index, part): (u64, Range<usize>),
     excluded: &[bool],
     cancel: &Cancel,
     fused: Option<Simd>,
 ) -> Option<(BatchSummary, Vec<usize>)> {
-    let lanes = st.lanes;
-    let first = index * lanes as u64;
+    let lanes = part.len();
+    let first = index * st.lanes as u64 + part.start as u64;
     let spread = plan.initial_spread();
     let mut b = BatchState::new(plan, &spread, st.seed, first, lanes, st.increments);
     if let Some(simd) = fused {
@@ -168,17 +178,33 @@ fn run_batch_with(
     Some((summary, blown))
 }
 
-/// Runs statistics batch `index`; if trajectories blow up, runs it again without them (their
-/// streams are their own, so the others repeat exactly) so that none of their samples count.
-/// `None` when `cancel` was set before the batch finished.
-pub(crate) fn run_batch(
+/// Lanes of a part of a statistics batch: the unit of work the threads share. A batch's
+/// lanes are independent (each trajectory its own stream), so a batch is run as parts of at
+/// most this many lanes (one group of the AVX-512 kernel) and their summaries merged in lane
+/// order: 4 parts of a batch of 128, so that 2 threads finish within a part of each other
+/// (with whole batches, 7 + 7 on 2 threads, one waited up to a batch, 12 % of the run) and
+/// a workstation's cores have work beyond the batch count. The parts are fixed by the batch
+/// size alone: the numbers do not depend on the threads, the shards or the driver.
+const PART_LANES: usize = 32;
+
+/// The lane ranges of the parts of a batch of `lanes` lanes, in lane order.
+fn parts(lanes: usize) -> impl Iterator<Item = Range<usize>> {
+    (0..lanes)
+        .step_by(PART_LANES)
+        .map(move |a| a..(a + PART_LANES).min(lanes))
+}
+
+/// Runs the lanes `part` of statistics batch `index`; if trajectories blow up, runs the part
+/// again without them (their streams are their own, so the others repeat exactly) so that
+/// none of their samples count. `None` when `cancel` was set before the part finished.
+fn run_part(
     plan: &Plan,
     st: &RunSettings,
-    index: u64,
+    (index, part): (u64, Range<usize>),
     cancel: &Cancel,
 ) -> Option<BatchSummary> {
-    let mut excluded = vec![false; st.lanes];
-    let (summary, blown) = run_batch_once(plan, st, index, &excluded, cancel)?;
+    let mut excluded = vec![false; part.len()];
+    let (summary, blown) = run_part_once(plan, st, (index, part.clone()), &excluded, cancel)?;
     if blown.is_empty() {
         return Some(summary);
     }
@@ -186,14 +212,100 @@ pub(crate) fn run_batch(
     for &i in &blown {
         excluded[i] = true;
     }
-    let (mut again, _) = run_batch_once(plan, st, index, &excluded, cancel)?;
+    let (mut again, _) = run_part_once(plan, st, (index, part), &excluded, cancel)?;
     again.blowups = blowups;
     Some(again)
 }
 
-/// Runs the batches in `range` in parallel; the summaries come back in batch order.
-/// `done` hears about every finished batch. `None` when `cancel` was set before every batch
-/// finished (batches not yet started are not started).
+/// Runs statistics batch `index`: its parts one after the other, merged in lane order (the
+/// same bits as the parallel drivers). `None` when `cancel` was set before it finished.
+#[cfg(test)]
+pub(crate) fn run_batch(
+    plan: &Plan,
+    st: &RunSettings,
+    index: u64,
+    cancel: &Cancel,
+) -> Option<BatchSummary> {
+    let parts: Option<Vec<BatchSummary>> = parts(st.lanes)
+        .map(|p| run_part(plan, st, (index, p), cancel))
+        .collect();
+    Some(BatchSummary::merge(parts?))
+}
+
+impl BatchSummary {
+    /// The summary of a batch from those of its parts, in lane order: counts and power sums
+    /// added part by part, extremes taken, blow-ups in lane order.
+    fn merge(parts: Vec<BatchSummary>) -> BatchSummary {
+        let mut parts = parts.into_iter();
+        let mut all = parts.next().expect("a batch has at least one part");
+        for p in parts {
+            debug_assert_eq!(p.index, all.index, "parts of one batch");
+            all.recorded += p.recorded;
+            all.impacts += p.impacts;
+            for (q, pq) in all.quantities.iter_mut().zip(p.quantities) {
+                q.merge(pq);
+            }
+            all.blowups.extend(p.blowups);
+        }
+        all
+    }
+}
+
+/// The parts of the batches `jobs` (each `(run, batch)`), run in parallel and merged per
+/// batch; `done` hears about each batch when its last part ends. The summaries come back in
+/// the order of `jobs`. `None` when `cancel` was set before every part finished (parts not
+/// yet started are not started).
+fn run_jobs<'a, R: Copy + Sync>(
+    plan: &Plan,
+    jobs: &[(R, u64)],
+    settings: &(dyn Fn(R) -> (&'a RunSettings, [&'static str; 2]) + Sync),
+    done: &(dyn Fn() + Sync),
+    cancel: &Cancel,
+) -> Option<Vec<BatchSummary>> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let split: Vec<(usize, Range<usize>)> = jobs
+        .iter()
+        .enumerate()
+        .flat_map(|(j, &(run, _))| parts(settings(run).0.lanes).map(move |p| (j, p)))
+        .collect();
+    let left: Vec<AtomicUsize> = jobs
+        .iter()
+        .map(|&(run, _)| AtomicUsize::new(parts(settings(run).0.lanes).count()))
+        .collect();
+    // One task per part: rayon would otherwise run runs of adjacent parts as one task that
+    // no idle thread can take a part from (seen: one thread done 120 ms before the other).
+    let summaries: Vec<BatchSummary> = split
+        .par_iter()
+        .with_max_len(1)
+        .map(|(j, part)| {
+            if cancel.is_cancelled() {
+                return None;
+            }
+            let (run, index) = jobs[*j];
+            let (st, phase) = settings(run);
+            crate::study::timeline::mark(phase[0]);
+            let b = run_part(plan, st, (index, part.clone()), cancel)?;
+            crate::study::timeline::mark(phase[1]);
+            if left[*j].fetch_sub(1, Ordering::AcqRel) == 1 {
+                done();
+            }
+            Some(b)
+        })
+        .collect::<Option<_>>()?;
+    let mut summaries = summaries.into_iter();
+    let merged = jobs
+        .iter()
+        .map(|&(run, _)| {
+            let n = parts(settings(run).0.lanes).count();
+            BatchSummary::merge(summaries.by_ref().take(n).collect())
+        })
+        .collect();
+    Some(merged)
+}
+
+/// Runs the batches in `range` in parallel (their parts, see [`PART_LANES`]); the summaries
+/// come back in batch order. `done` hears about every finished batch. `None` when `cancel`
+/// was set before every batch finished (parts not yet started are not started).
 pub(crate) fn run_batches(
     plan: &Plan,
     st: &RunSettings,
@@ -201,27 +313,19 @@ pub(crate) fn run_batches(
     done: &(dyn Fn() + Sync),
     cancel: &Cancel,
 ) -> Option<Vec<BatchSummary>> {
-    range
-        .into_par_iter()
-        .map(|k| {
-            if cancel.is_cancelled() {
-                return None;
-            }
-            let b = run_batch(plan, st, k, cancel)?;
-            done();
-            Some(b)
-        })
-        .collect()
+    let jobs: Vec<((), u64)> = range.map(|k| ((), k)).collect();
+    let settings = |()| (st, ["mc: part start", "mc: part end"]);
+    run_jobs(plan, &jobs, &settings, done, cancel)
 }
 
 /// [`run_batches`] of `range` with the settings `st` and of `coarse_range` with `coarse`
-/// (the time-step bias run), as one parallel loop: the threads share the two runs' batches
+/// (the time-step bias run), as one parallel loop: the threads share the two runs' parts
 /// (run one after the other, 7 + 7 batches on 2 threads left a thread idle at the end of
-/// each), taken alternately while both runs have some (a coarse batch costs more than a
-/// fine one when the step count per sample point is odd and stays the same at 2·dt, and its
-/// longer flights meet the barrier more often: with all the fine batches in one half of the
-/// loop and all the coarse ones in the other, one thread waited 8 % of the run for the
-/// other). The summaries come back in batch order, each run's apart.
+/// each), the batches taken alternately while both runs have some (a coarse batch costs more
+/// than a fine one when the step count per sample point is odd and stays the same at 2·dt,
+/// and its longer flights meet the barrier more often: with all the fine batches in one half
+/// of the loop and all the coarse ones in the other, one thread waited 8 % of the run for
+/// the other). The summaries come back in batch order, each run's apart.
 pub(crate) fn run_batch_pair(
     plan: &Plan,
     (st, range): (&RunSettings, std::ops::Range<u64>),
@@ -230,24 +334,14 @@ pub(crate) fn run_batch_pair(
     cancel: &Cancel,
 ) -> Option<(Vec<BatchSummary>, Vec<BatchSummary>)> {
     let jobs = alternate(range, coarse_range);
-    let all: Vec<BatchSummary> = jobs
-        .par_iter()
-        .map(|&(is_coarse, index)| {
-            if cancel.is_cancelled() {
-                return None;
-            }
-            let (settings, phase) = if is_coarse {
-                (coarse, ["mc: 2dt batch start", "mc: 2dt batch end"])
-            } else {
-                (st, ["mc: batch start", "mc: batch end"])
-            };
-            crate::study::timeline::mark(phase[0]);
-            let b = run_batch(plan, settings, index, cancel)?;
-            crate::study::timeline::mark(phase[1]);
-            done();
-            Some(b)
-        })
-        .collect::<Option<_>>()?;
+    let settings = |is_coarse: bool| {
+        if is_coarse {
+            (coarse, ["mc: 2dt part start", "mc: 2dt part end"])
+        } else {
+            (st, ["mc: part start", "mc: part end"])
+        }
+    };
+    let all = run_jobs(plan, &jobs, &settings, done, cancel)?;
     let (mut fine, mut coarse_part) = (Vec::new(), Vec::new());
     for (&(is_coarse, _), b) in jobs.iter().zip(all) {
         if is_coarse {
@@ -393,20 +487,21 @@ mod tests {
             let none = vec![false; lanes];
             for index in 0..2 {
                 let (general, blown) =
-                    run_batch_with(&plan, &st, index, &none, &cancel, None).unwrap();
+                    run_part_with(&plan, &st, (index, 0..lanes), &none, &cancel, None).unwrap();
                 blowups += blown.len();
                 let mut excluded = vec![false; lanes];
                 for &i in &blown {
                     excluded[i] = true;
                 }
                 let (again, _) =
-                    run_batch_with(&plan, &st, index, &excluded, &cancel, None).unwrap();
+                    run_part_with(&plan, &st, (index, 0..lanes), &excluded, &cancel, None).unwrap();
                 // Debug's shortest round-trip text: equal strings are equal bits (NaN
                 // included, which `==` would not call equal).
                 let text = |b: &BatchSummary| format!("{b:?}");
                 for simd in Simd::available() {
                     let run = |ex: &[bool]| {
-                        run_batch_with(&plan, &st, index, ex, &cancel, Some(simd)).unwrap()
+                        run_part_with(&plan, &st, (index, 0..lanes), ex, &cancel, Some(simd))
+                            .unwrap()
                     };
                     let (fused, fused_blown) = run(&none);
                     assert_eq!(fused_blown, blown, "{path} {simd:?}");

@@ -169,6 +169,27 @@ pub(crate) struct QuantityBatch {
     pub(crate) window_squares: [f64; 4],
 }
 
+impl QuantityBatch {
+    /// Adds the statistics of `other`, taken over other lanes of the same batch and grid:
+    /// counts and sums added, extremes taken.
+    pub(crate) fn merge(&mut self, other: QuantityBatch) {
+        for (c, o) in self.counts.iter_mut().zip(&other.counts) {
+            *c += o;
+        }
+        self.under += other.under;
+        self.over += other.over;
+        self.invalid += other.invalid;
+        for k in 0..4 {
+            self.sums[k] += other.sums[k];
+            self.window_counts[k] += other.window_counts[k];
+            self.window_sums[k] += other.window_sums[k];
+            self.window_squares[k] += other.window_squares[k];
+        }
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+    }
+}
+
 /// One quantity's histogram over a run, with its moments: what Monte Carlo knows about a
 /// state or an observable.
 ///

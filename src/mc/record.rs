@@ -22,9 +22,9 @@ use super::step::BatchState;
 use crate::cancel::Cancel;
 use crate::symbolic::TapeUnary as Unary;
 
-/// Sample points the kernel advances between two recordings (rows of states kept: 16 of
-/// 128 lanes are 32 kB).
-const CHUNK_SAMPLES: u64 = 16;
+/// Sample points the kernel advances between two recordings (rows of states kept: 32 of
+/// the 32 lanes of a batch's part are 16 kB; at most 32, the rows of `record_chunk`'s mask).
+const CHUNK_SAMPLES: u64 = 32;
 
 /// An observable the fused recording computes itself: exactly the tape's operation on the
 /// states `(z, v)`.
@@ -116,7 +116,8 @@ pub(crate) fn record_batch(
     if st.steps_per_sample == 0 || !b.has_fast_rows(plan) {
         return Some(false);
     }
-    let n = st.lanes;
+    // The part's lanes (a part of the batch, see `batch::PART_LANES`).
+    let n = record.len();
     let samples = st.samples_per_trajectory;
     let rows = (CHUNK_SAMPLES.min(samples) as usize) * n;
     let (mut xs, mut vs, mut rec) = (vec![0.0; rows], vec![0.0; rows], vec![false; rows]);

@@ -178,9 +178,9 @@ impl Simulation {
     }
 
     /// [`Simulation::run_with_progress`] that stops when `cancel` is set: checked before
-    /// every batch and at every sample point of a batch in flight (every 16th where the
+    /// every part of a batch and at every sample point of a part in flight (every 32nd where the
     /// recording is fused with the fast mechanical kernel), so a run stops within at most
-    /// 16 sample spacings' worth of steps per thread. A cancelled run returns
+    /// 32 sample spacings' worth of steps per thread. A cancelled run returns
     /// [`McError::Cancelled`] and nothing else (its batches are not a sample of the run).
     ///
     /// ```
