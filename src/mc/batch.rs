@@ -452,6 +452,51 @@ mod tests {
         (plan, st)
     }
 
+    /// A batch run part by part in parallel (three parts of 80 lanes: 32, 32 and 16), by
+    /// either driver, is the batch run part after part on one thread, bit for bit, blow-ups
+    /// and their reruns included; and the progress hears about each batch once.
+    #[test]
+    fn parallel_parts_give_the_sequential_batch() {
+        let dir = env!("CARGO_MANIFEST_DIR");
+        let mut blowups = 0;
+        for (path, samples) in [
+            ("models/vibro_duffing.sde", 60),
+            ("tests/models/softening_duffing.sde", 200),
+        ] {
+            let (plan, st) = settings(&format!("{dir}/{path}"), 80, samples, 0.05);
+            assert_eq!(parts(st.lanes).count(), 3);
+            let cancel = Cancel::new();
+            let text = |b: &BatchSummary| format!("{b:?}");
+            let one: Vec<String> = (0..3)
+                .map(|k| {
+                    let b = run_batch(&plan, &st, k, &cancel).unwrap();
+                    blowups += b.blowups.len();
+                    text(&b)
+                })
+                .collect();
+            let ticks = std::sync::atomic::AtomicU64::new(0);
+            let tick = || {
+                ticks.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            };
+            let all = run_batches(&plan, &st, 0..3, &tick, &cancel).unwrap();
+            assert_eq!(all.iter().map(text).collect::<Vec<_>>(), one, "{path}");
+            let (fine, coarse) =
+                run_batch_pair(&plan, (&st, 1..3), (&st, 0..2), &tick, &cancel).unwrap();
+            assert_eq!(
+                fine.iter().map(text).collect::<Vec<_>>(),
+                one[1..],
+                "{path}"
+            );
+            assert_eq!(
+                coarse.iter().map(text).collect::<Vec<_>>(),
+                one[..2],
+                "{path}"
+            );
+            assert_eq!(ticks.into_inner(), 3 + 4, "{path}");
+        }
+        assert!(blowups > 0, "no blow-up tested");
+    }
+
     /// The recording fused with the fast kernel gives the batch's summary bit for bit as the
     /// general recording does, at every vector width: lanes in whole groups and blocks and
     /// not (50 = one group of 32, two blocks of 8, two lanes alone), sample counts across
