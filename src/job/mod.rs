@@ -256,11 +256,8 @@ fn run(
     if let Some(from) = &spec.mc_from {
         from.check(&bound)?;
     }
-    let plan = MethodPlan::new(
-        &Problem::new(&bound).map_err(StudyError::from)?,
-        &spec.methods,
-        spec.methods_named,
-    )?;
+    let problem = Problem::new(&bound).map_err(StudyError::from)?;
+    let plan = MethodPlan::new(&problem, &spec.methods, spec.methods_named)?;
     // Each curve is also averaged over the bins the comparisons use, from the same prepared
     // density: the Monte Carlo histogram's (the user's `--grid`, the run read, or the
     // curve's range in `mc_bins` bins); without Monte Carlo, the curve's range when there is
@@ -297,7 +294,7 @@ fn run(
     } else {
         names.clone()
     };
-    let study = StudyRunner::new(&bound)
+    let study = StudyRunner::of(&problem)
         .curves_of(&curves_of)
         .degrees(&spec.degrees)
         .methods(&plan.run)
