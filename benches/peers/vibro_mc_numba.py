@@ -7,7 +7,8 @@ impact at z = 0: v -> r v, located exactly within the free flight. The drift's d
 paper's approximation of that impact) is not simulated, as in fpsolve's Monte Carlo.
 Scheme as fpsolve's mechanical one: Strang splitting A(h/2) B(h) A(h/2), A the exact free
 flight with the impact, B the Heun velocity update at frozen z (f affine in v), three-point
-increments (two per 64-bit xoshiro256++ draw, seeded per trajectory like src/mc/rng.rs).
+increments (three per 64-bit xoshiro256++ draw, 21-bit fields, seeded per trajectory like
+src/mc/rng.rs).
 Each thread steps `--lanes` trajectories side by side (independent dependency chains the
 compiler can interleave and vectorise); a trajectory's numbers depend only on (seed, index),
 so the results do not depend on --lanes or --threads.
@@ -21,9 +22,8 @@ from numba import njit, prange
 U = np.uint64
 M1, M2 = U(0xBF58476D1CE4E5B9), U(0x94D049BB133111EB)
 GG, K0 = U(0x9E3779B97F4A7C15), U(0xD1B54A32D192ED03)
-T3 = U(715827882)  # P(-a) = P(+a) = T3 / 2^32, as fpsolve
-A3 = math.sqrt(4294967296.0 / (2 * 715827882))  # the variance exactly 1
-LO32 = U(0xFFFFFFFF)
+T3 = U(349525)  # P(-a) = P(+a) = T3 / 2^21, as fpsolve
+A3 = math.sqrt(2097152.0 / (2 * 349525))  # the variance exactly 1
 GRIDS = np.array([[-10.0, 10.0], [-15.0, 15.0], [0.0, 7.5], [-15.0, 15.0]])  # z, v, y, ydot
 
 
@@ -95,7 +95,8 @@ def run(ntraj, nchunks, lanes, seed, burn, nsamp, sps, h, c, k, mu, eps, r, s_no
     sd_v = math.sqrt(s_noise / (2.0 * c))  # linearised stationary spread (fpsolve's start)
     sd_z = sd_v / math.sqrt(k)
     for ch in prange(nchunks):
-        Z, V, S, P = np.empty(lanes), np.empty(lanes), np.empty(lanes), np.empty(lanes)
+        Z, V, S = np.empty(lanes), np.empty(lanes), np.empty(lanes)
+        W = np.zeros(lanes, np.uint64)  # each lane's last draw
         R = np.empty((4, lanes), np.uint64)
         N = np.zeros(lanes, np.int64)
         j1 = (ch + 1) * ntraj // nchunks
@@ -114,7 +115,7 @@ def run(ntraj, nchunks, lanes, seed, burn, nsamp, sps, h, c, k, mu, eps, r, s_no
                 Z[i], V[i], S[i] = abs(sd_z * normal(o1, o2)), sd_v * normal(o3, o4), 1.0
                 R[0, i], R[1, i], R[2, i], R[3, i] = a, b, cc, d
                 N[i] = 0
-            has = False  # the second increment of the last 64-bit draw is pending
+            field = 0  # the field of the last draws the next step takes (0: a new draw)
             for s in range(nsamp + 1):  # s = 0: the burn-in; then one advance per sample
                 nsteps = burn if s == 0 else sps
                 for i in range(nl):
@@ -122,21 +123,23 @@ def run(ntraj, nchunks, lanes, seed, burn, nsamp, sps, h, c, k, mu, eps, r, s_no
                     N[i] += e
                 for n in range(nsteps):
                     hn = h if n + 1 < nsteps else 0.5 * h
-                    if has:
-                        for i in range(nl):
-                            Z[i], V[i], S[i], e = bstep(Z[i], V[i], S[i], P[i], h, hn, sq,
-                                                        c, k, mu, eps, r)
-                            N[i] += e
-                    else:
+                    if field == 0:
                         for i in range(nl):
                             bits, R[0, i], R[1, i], R[2, i], R[3, i] = xoshiro(
                                 R[0, i], R[1, i], R[2, i], R[3, i])
-                            P[i] = three_point(bits >> U(32))
+                            W[i] = bits
                             Z[i], V[i], S[i], e = bstep(Z[i], V[i], S[i],
-                                                        three_point(bits & LO32), h, hn, sq,
+                                                        three_point(bits >> U(43)), h, hn, sq,
                                                         c, k, mu, eps, r)
                             N[i] += e
-                    has = not has
+                    else:
+                        sh = U(21 * field)
+                        for i in range(nl):
+                            Z[i], V[i], S[i], e = bstep(Z[i], V[i], S[i],
+                                                        three_point((W[i] << sh) >> U(43)), h,
+                                                        hn, sq, c, k, mu, eps, r)
+                            N[i] += e
+                    field = (field + 1) % 3
                 if s == 0:
                     N[:] = 0
                     continue

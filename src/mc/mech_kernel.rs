@@ -30,6 +30,7 @@
 use super::eval::Simd;
 use super::impact::{impact_in_flight, Barrier};
 use super::mech_form::MechForm;
+use super::rng::THREE_POINT_FIELDS;
 
 #[path = "mech_coef.rs"]
 mod coef;
@@ -66,8 +67,9 @@ pub(crate) struct Columns<'a> {
     pub(crate) impacts: &'a mut [u64],
     /// The xoshiro256++ state words of each lane.
     pub(crate) rng: [&'a mut [u64]; 4],
-    /// Each lane's pending second three-point value.
-    pub(crate) pending: &'a mut [f64],
+    /// Each lane's last draw, whose fields from [`Steps::field`] on are the next steps'
+    /// three-point variables (`rng::IncrementStream`).
+    pub(crate) draws: &'a mut [u64],
     /// Where the states at each sample point go, when the call records them.
     pub(crate) rows: Option<Rows<'a>>,
 }
@@ -95,7 +97,7 @@ impl Columns<'_> {
                 &mut s2[r.clone()],
                 &mut s3[r.clone()],
             ],
-            pending: &mut self.pending[r.clone()],
+            draws: &mut self.draws[r.clone()],
             rows: self.rows.as_mut().map(|w| Rows {
                 x: &mut w.x[r.start..],
                 v: &mut w.v[r.start..],
@@ -119,10 +121,8 @@ struct Steps<'a> {
     /// Sample points: the call advances `samples · steps` steps, by `steps` at a time.
     samples: u64,
     h: f64,
-    /// ±a are the three-point values.
-    a: f64,
-    /// Whether the first step takes the pending increment (no draw).
-    pending: bool,
+    /// The field of the lanes' last draws the first step takes (0: a new draw first).
+    field: u8,
     coefs: Coefs,
     jump: Option<Jump<'a>>,
 }
@@ -130,14 +130,14 @@ struct Steps<'a> {
 /// Advances every lane by `samples` times `steps` steps of size `h`, each `steps` as one
 /// `BatchState::advance` on the lane-evaluator path (half flight, then velocity update and
 /// flight per step, the last flight a half), with f, σ, ∂f/∂v from `form`; the states after
-/// each `steps` go to `c.rows` when given. `has_pending` is the increment stream's flag,
+/// each `steps` go to `c.rows` when given. `field` is the increment stream's next field,
 /// updated; `a` its three-point value.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn advance(
     form: &MechForm,
     bar: Option<&Barrier>,
     c: Columns<'_>,
-    has_pending: &mut bool,
+    field: &mut u8,
     a: f64,
     samples: u64,
     steps: u64,
@@ -151,8 +151,7 @@ pub(crate) fn advance(
         steps,
         samples,
         h,
-        a,
-        pending: *has_pending,
+        field: *field,
         coefs: Coefs::new(form, h, a),
         jump: bar.map(|bar| Jump {
             bar,
@@ -173,9 +172,8 @@ pub(crate) fn advance(
     for i in done..n {
         group::<f64, 1>(&st, c.slice(i..i + 1));
     }
-    if (steps & samples) % 2 == 1 {
-        *has_pending = !*has_pending;
-    }
+    let fields = u64::from(THREE_POINT_FIELDS);
+    *field = ((u64::from(*field) + steps % fields * (samples % fields)) % fields) as u8;
 }
 
 /// The kernel compiled for AVX-512: groups of [`VECTORS_512`] vectors, then single vectors;
@@ -330,7 +328,7 @@ fn fly<V: Vector, const N: usize>(
 }
 
 /// The velocity update of one step at frozen z = `x`, the step's three-point variables in
-/// the high halves of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, as [`Coefs`]
+/// the top fields of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, as [`Coefs`]
 /// arranges it ([`Velocity`]).
 #[inline(always)]
 fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words: &[V::Bits; N]) {
@@ -393,10 +391,10 @@ fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
         side: sides,
         impacts,
         mut rng,
-        pending: pend,
+        draws,
         mut rows,
     } = c;
-    let (zero, sign) = (V::splat(0.0), V::splat(-0.0));
+    let sign = V::splat(-0.0);
     let mut x: [V; N] = each(
         #[inline(always)]
         |k| V::load(&xs[k * w..]),
@@ -418,36 +416,41 @@ fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
             )
         },
     );
-    // The last draw, whose high half is the pending increment: at the start, one with the
-    // stored pending value's three-point masks.
+    // The last draw, whose fields from `field` on are the next steps' variables.
     let mut draw: [V::Bits; N] = each(
         #[inline(always)]
-        |k| {
-            let p = V::load(&pend[k * w..]);
-            let neg = p.lt(zero);
-            V::three_point_bits(neg, V::mask_or(neg, p.gt(zero)))
-        },
+        |k| V::load_bits(&draws[k * w..]),
     );
-    let mut use_pending = st.pending;
+    let mut field = st.field;
     let jump = st.jump.as_ref();
     let (h, half) = (st.h, 0.5 * st.h);
     for j in 0..st.samples {
         fly(jump, &mut x, &mut v, &mut side, impacts, half);
         for step in 0..st.steps {
             let tau = if step + 1 == st.steps { half } else { h };
-            let words: [V::Bits; N] = if use_pending {
-                draw
-            } else {
-                draw = each(
+            // Three variables a draw: its fields in turn, moved to the top bits.
+            let words: [V::Bits; N] = match field {
+                0 => {
+                    draw = each(
+                        #[inline(always)]
+                        |k| V::xoshiro(&mut r[k]),
+                    );
+                    draw
+                }
+                1 => each(
                     #[inline(always)]
-                    |k| V::xoshiro(&mut r[k]),
-                );
-                each(
+                    |k| V::field_up(draw[k], 1),
+                ),
+                _ => each(
                     #[inline(always)]
-                    |k| V::low_up(draw[k]),
-                )
+                    |k| V::field_up(draw[k], 2),
+                ),
             };
-            use_pending = !use_pending;
+            field = if field + 1 == THREE_POINT_FIELDS {
+                0
+            } else {
+                field + 1
+            };
             kick(&st.coefs, &x, &mut v, &words);
             fly(jump, &mut x, &mut v, &mut side, impacts, tau);
         }
@@ -459,14 +462,11 @@ fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
             }
         }
     }
-    let (a, minus_a) = (V::splat(st.a), V::splat(-st.a));
     for k in 0..N {
         x[k].store(&mut xs[k * w..]);
         v[k].store(&mut vs[k * w..]);
         side[k].or(V::splat(1.0)).store(&mut sides[k * w..]);
-        // The pending value as `rng::three_point` gives it: −a, a or +0.
-        let (neg, nonzero) = V::three_point_high(draw[k]);
-        V::select(neg, minus_a, V::select(nonzero, a, zero)).store(&mut pend[k * w..]);
+        V::store_bits(draw[k], &mut draws[k * w..]);
         for (j, col) in rng.iter_mut().enumerate() {
             V::store_bits(r[k][j], &mut col[k * w..]);
         }

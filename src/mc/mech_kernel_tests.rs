@@ -16,8 +16,8 @@ struct Batch {
     side: Vec<u64>,
     impacts: Vec<u64>,
     rng: [Vec<u64>; 4],
-    pending: Vec<u64>,
-    has_pending: bool,
+    draws: Vec<u64>,
+    field: u8,
     rows: [Vec<u64>; 2],
 }
 
@@ -40,10 +40,10 @@ fn bits_of(s: f64) -> u64 {
 }
 
 /// `lanes` lanes from states spread over [−2, 2] (each on its side of the barrier), run
-/// with `simd` through `calls` calls of `samples` × `steps` steps (odd, so the pending
-/// increment is taken at every parity), every state as bits.
+/// with `simd` through 7 calls of `samples` × `steps` steps (10, not a multiple of 3, so
+/// that calls start at every field of a draw), every state as bits.
 fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
-    let (samples, steps, h) = (3, 5, 0.02);
+    let (samples, steps, h) = (2, 5, 0.02);
     let mut seed = 0x9E37_79B9_7F4A_7C15u64;
     let mut uniform = move || {
         seed ^= seed << 13;
@@ -70,7 +70,7 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
         }
     }
     let mut inc = IncrementStream::new(Increments::ThreePoint, lanes);
-    let (pending, has_pending, a) = inc.three_point_mut().unwrap();
+    let tp = inc.three_point_mut().unwrap();
     let mut rows = [
         vec![0.0; lanes * samples as usize],
         vec![0.0; lanes * samples as usize],
@@ -85,7 +85,7 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
             side: &mut side,
             impacts: &mut impacts,
             rng: [r0, r1, r2, r3],
-            pending,
+            draws: &mut *tp.draws,
             rows: Some(Rows {
                 x: rx,
                 v: rv,
@@ -96,8 +96,8 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
             form_of(plan),
             bar,
             c,
-            has_pending,
-            a,
+            &mut *tp.field,
+            tp.a,
             samples,
             steps,
             h,
@@ -114,8 +114,8 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
         side: bits(&side),
         impacts,
         rng: words,
-        pending: bits(pending),
-        has_pending: *has_pending,
+        draws: tp.draws.to_vec(),
+        field: *tp.field,
         rows: out_rows,
     }
 }

@@ -69,7 +69,7 @@ impl BatchState {
         h: f64,
         rows: Option<Rows<'_>>,
     ) -> bool {
-        let Some((pending, has_pending, a)) = self.inc.three_point_mut() else {
+        let Some(tp) = self.inc.three_point_mut() else {
             return false;
         };
         let columns = Columns {
@@ -78,19 +78,11 @@ impl BatchState {
             side: &mut self.side,
             impacts: &mut self.impacts,
             rng: self.rng.state_mut(),
-            pending,
+            draws: tp.draws,
             rows,
         };
         mech_kernel::advance(
-            form,
-            bar,
-            columns,
-            has_pending,
-            a,
-            samples,
-            steps,
-            h,
-            self.simd,
+            form, bar, columns, tp.field, tp.a, samples, steps, h, self.simd,
         );
         true
     }

@@ -10,14 +10,15 @@
 //! safety argument of every `unsafe` block below (the `simd!` macro).
 
 use super::Flight;
-use crate::mc::rng::THREE_POINT_T;
+use crate::mc::rng::{THREE_POINT_BITS, THREE_POINT_T};
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
-/// The three-point thresholds in the high half of a 64-bit draw: the high 32 bits `u` of
-/// `w` satisfy `u < T` exactly when `w < T·2³²`.
-const T_HIGH: u64 = THREE_POINT_T << 32;
-const T2_HIGH: u64 = (2 * THREE_POINT_T) << 32;
+/// The three-point thresholds of the field at the top of a 64-bit draw
+/// (`rng::three_point_field` k = 0): its top 21 bits `u` satisfy `u < T` exactly when
+/// `w < T·2⁴³`.
+const T_HIGH: u64 = THREE_POINT_T << (64 - THREE_POINT_BITS);
+const T2_HIGH: u64 = (2 * THREE_POINT_T) << (64 - THREE_POINT_BITS);
 
 /// Lanes of f64 with the operations the kernel needs.
 pub(crate) trait Vector: Copy {
@@ -73,13 +74,12 @@ pub(crate) trait Vector: Copy {
     fn mask_bits(m: Self::Mask) -> u32;
     /// The next xoshiro256++ output of every lane (as `LaneRng::fill`), the state advanced.
     fn xoshiro(s: &mut [Self::Bits; 4]) -> Self::Bits;
-    /// `w` with its low 32 bits moved to the high half (`w << 32`).
-    fn low_up(w: Self::Bits) -> Self::Bits;
-    /// The three-point variable of the high 32 bits `u` of `w` (as `rng::three_point`):
+    /// `w` with its field `k` (1 or 2, `rng::three_point_field`) moved to the top bits
+    /// (`w << 21k`); `w` itself for k = 0.
+    fn field_up(w: Self::Bits, k: u8) -> Self::Bits;
+    /// The three-point variable of the top field `u` of `w` (as `rng::three_point`):
     /// (u < T: the value −a, u < 2T: a value other than 0).
     fn three_point_high(w: Self::Bits) -> (Self::Mask, Self::Mask);
-    /// A draw whose high half is the three-point variable with these masks.
-    fn three_point_bits(neg: Self::Mask, nonzero: Self::Mask) -> Self::Bits;
     /// The impacts of a flight ([`super::impacts`]), out of line and compiled for this
     /// vector's extension.
     fn impacts<const N: usize>(f: &mut Flight<'_, Self, N>);
@@ -185,22 +185,12 @@ impl Vector for f64 {
         out
     }
     #[inline(always)]
-    fn low_up(w: u64) -> u64 {
-        w << 32
+    fn field_up(w: u64, k: u8) -> u64 {
+        w << (THREE_POINT_BITS * k as u32)
     }
     #[inline(always)]
     fn three_point_high(w: u64) -> (bool, bool) {
         (w < T_HIGH, w < T2_HIGH)
-    }
-    #[inline(always)]
-    fn three_point_bits(neg: bool, nonzero: bool) -> u64 {
-        if neg {
-            0
-        } else if nonzero {
-            T_HIGH
-        } else {
-            T2_HIGH
-        }
     }
     fn impacts<const N: usize>(f: &mut Flight<'_, f64, N>) {
         #[cold]
@@ -364,8 +354,12 @@ impl Vector for Avx512 {
         })
     }
     #[inline(always)]
-    fn low_up(w: __m512i) -> __m512i {
-        simd!(_mm512_slli_epi64::<32>(w))
+    fn field_up(w: __m512i, k: u8) -> __m512i {
+        match k {
+            0 => w,
+            1 => simd!(_mm512_slli_epi64::<THREE_POINT_BITS>(w)),
+            _ => simd!(_mm512_slli_epi64::<{ 2 * THREE_POINT_BITS }>(w)),
+        }
     }
     #[inline(always)]
     fn three_point_high(w: __m512i) -> (__mmask8, __mmask8) {
@@ -373,17 +367,6 @@ impl Vector for Avx512 {
             _mm512_cmplt_epu64_mask(w, _mm512_set1_epi64(T_HIGH as i64)),
             _mm512_cmplt_epu64_mask(w, _mm512_set1_epi64(T2_HIGH as i64)),
         ))
-    }
-    #[inline(always)]
-    fn three_point_bits(neg: __mmask8, nonzero: __mmask8) -> __m512i {
-        simd!({
-            let w = _mm512_mask_blend_epi64(
-                nonzero,
-                _mm512_set1_epi64(T2_HIGH as i64),
-                _mm512_set1_epi64(T_HIGH as i64),
-            );
-            _mm512_mask_blend_epi64(neg, w, _mm512_setzero_si512())
-        })
     }
     fn impacts<const N: usize>(f: &mut Flight<'_, Avx512, N>) {
         #[cold]
@@ -414,8 +397,8 @@ impl Avx2 {
         ))
     }
 
-    /// The masks of a 32-bit number `u` (in a 64-bit lane): u < T as T > u, signed, which
-    /// is exact because u < 2³² and T, 2T < 2³³.
+    /// The masks of a 21-bit number `u` (in a 64-bit lane): u < T as T > u, signed, which
+    /// is exact because u < 2²¹ and T, 2T < 2²².
     #[inline(always)]
     fn three_point(u: __m256i) -> (__m256d, __m256d) {
         simd!((
@@ -539,23 +522,19 @@ impl Vector for Avx2 {
         })
     }
     #[inline(always)]
-    fn low_up(w: __m256i) -> __m256i {
-        simd!(_mm256_slli_epi64::<32>(w))
+    fn field_up(w: __m256i, k: u8) -> __m256i {
+        const B: i32 = THREE_POINT_BITS as i32;
+        match k {
+            0 => w,
+            1 => simd!(_mm256_slli_epi64::<B>(w)),
+            _ => simd!(_mm256_slli_epi64::<{ 2 * B }>(w)),
+        }
     }
     #[inline(always)]
     fn three_point_high(w: __m256i) -> (__m256d, __m256d) {
-        simd!(Self::three_point(_mm256_srli_epi64::<32>(w)))
-    }
-    #[inline(always)]
-    fn three_point_bits(neg: __m256d, nonzero: __m256d) -> __m256i {
-        simd!({
-            let w = _mm256_blendv_pd(
-                _mm256_castsi256_pd(_mm256_set1_epi64x(T2_HIGH as i64)),
-                _mm256_castsi256_pd(_mm256_set1_epi64x(T_HIGH as i64)),
-                nonzero,
-            );
-            _mm256_castpd_si256(_mm256_blendv_pd(w, _mm256_setzero_pd(), neg))
-        })
+        simd!(Self::three_point(_mm256_srli_epi64::<
+            { 64 - THREE_POINT_BITS as i32 },
+        >(w)))
     }
     fn impacts<const N: usize>(f: &mut Flight<'_, Avx2, N>) {
         #[cold]
@@ -571,10 +550,10 @@ impl Vector for Avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mc::rng::three_point;
+    use crate::mc::rng::{three_point, three_point_field};
 
-    /// The masks of every width pick the value `rng::three_point` gives, at and around the
-    /// thresholds of both halves of a draw.
+    /// The masks pick the value `rng::three_point` gives for each field of a draw, at and
+    /// around the thresholds, whatever the other fields hold.
     #[test]
     fn three_point_masks_are_rng_three_point() {
         let a = 1.7;
@@ -587,28 +566,18 @@ mod tests {
                 0.0
             }
         };
-        let t = THREE_POINT_T;
-        for u in [
-            0,
-            1,
-            t - 1,
-            t,
-            t + 1,
-            2 * t - 1,
-            2 * t,
-            2 * t + 1,
-            u32::MAX as u64,
-        ] {
-            for other in [0, 1, t, 2 * t, u32::MAX as u64] {
-                let low = other << 32 | u;
-                let high = u << 32 | other;
-                assert_eq!(
-                    value(f64::three_point_high(f64::low_up(low))),
-                    three_point(u, a)
-                );
-                assert_eq!(value(f64::three_point_high(high)), three_point(u, a), "{u}");
-                let (n, z) = f64::three_point_high(high);
-                assert_eq!(f64::three_point_high(f64::three_point_bits(n, z)), (n, z));
+        let (t, top) = (THREE_POINT_T, (1u64 << THREE_POINT_BITS) - 1);
+        for u in [0, 1, t - 1, t, t + 1, 2 * t - 1, 2 * t, 2 * t + 1, top] {
+            for other in [0, 1, t, 2 * t, top] {
+                for k in 0..3u8 {
+                    let w = (0..3u8).fold(1, |w, j| {
+                        let f = if j == k { u } else { other };
+                        w | f << (64 - THREE_POINT_BITS * (j as u32 + 1))
+                    });
+                    assert_eq!(three_point_field(w, k), u, "{u} {k}");
+                    let masks = f64::three_point_high(f64::field_up(w, k));
+                    assert_eq!(value(masks), three_point(u, a), "{u} {other} {k}");
+                }
             }
         }
     }
