@@ -109,7 +109,12 @@ fn a_healthy_run_prints_its_table_and_exits_0() {
     ] {
         assert!(stdout.contains(needed), "{needed}: {stdout}");
     }
+    assert!(
+        stdout.contains("per unit time, time-step bias "),
+        "the impact rate's bias: {stdout}"
+    );
     let summary = json(&dir.join("mc_summary.json"));
+    assert!(summary["impacts"]["time_step_bias"]["stderr"].is_number());
     let bias = &summary["quantities"][0]["time_step_bias"];
     assert_eq!(bias["order"], 2);
     assert_eq!(bias["pairs"], 8);

@@ -5,6 +5,7 @@
 use super::batch::BatchSummary;
 use super::estimate::Estimate;
 use super::histogram::{batch_density, batch_moments, QuantityHistogram, TimeStepBias};
+use super::result::ImpactStats;
 use super::settings::RunSettings;
 use super::verdict::{
     t_critical, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
@@ -173,34 +174,94 @@ pub(crate) fn time_step_bias(
     })
 }
 
+/// The Richardson estimate of the impact rate's time-step bias, as [`time_step_bias`] for a
+/// moment: per pair of batches, (r_2dt − r_dt)/(2ᵖ − 1), each batch's rate its impacts over
+/// its recorded trajectories' recording time (twice as long at 2·dt when the step count per
+/// sample point stays the same, [`RunSettings::coarse`]), with the number of pairs; `None`
+/// without a 2·dt run.
+pub(crate) fn impact_rate_bias(
+    st: &RunSettings,
+    fine: &[&BatchSummary],
+    coarse: &[&BatchSummary],
+) -> Option<(Estimate, u64)> {
+    if coarse.is_empty() {
+        return None;
+    }
+    let factor = 1.0 / (2f64.powi(st.scheme.weak_order() as i32) - 1.0);
+    let c_st = st.coarse();
+    let time = |s: &RunSettings| s.samples_per_trajectory as f64 * s.spacing();
+    let (tf, tc) = (time(st), time(&c_st));
+    let rate = |b: &BatchSummary, t: f64| b.impacts as f64 / (b.recorded as f64 * t);
+    let d: Vec<f64> = coarse
+        .iter()
+        .filter_map(|c| {
+            let f = fine
+                .get(c.index as usize)
+                .filter(|f| f.index == c.index)
+                .or_else(|| fine.iter().find(|f| f.index == c.index))?;
+            (f.recorded > 0 && c.recorded > 0).then(|| (rate(c, tc) - rate(f, tf)) * factor)
+        })
+        .collect();
+    Some((mean_se(&d), d.len() as u64))
+}
+
+/// The warning the impact rate's bias estimate (from `pairs` pairs of batches) raises: by
+/// the rule of [`bias_warnings`].
+pub(crate) fn impact_warnings(impacts: &ImpactStats, pairs: u64, out: &mut Vec<McWarning>) {
+    let (Some(bias), Some(k)) = (impacts.time_step_bias, resolved_beyond(pairs)) else {
+        return;
+    };
+    out.extend(bias_exceeds(
+        "impacts",
+        Statistic::Rate,
+        bias,
+        impacts.rate,
+        k,
+    ));
+}
+
+/// How many of its own standard errors a bias estimated from `pairs` pairs of batches must
+/// exceed to count as resolved: from Student's t with the pairs' degrees of freedom (about
+/// p = 1e-4 per statistic or bin, so that the dozen statistics and hundreds of bins of a
+/// healthy run raise no spurious warning), at least 4; `None` below 3 pairs.
+fn resolved_beyond(pairs: u64) -> Option<f64> {
+    (pairs >= 3).then(|| (0.5 * t_critical(pairs - 1)).max(4.0))
+}
+
+/// A [`McWarning::BiasExceedsError`] when the bias of `statistic` is resolved (beyond `k`
+/// of its own standard errors) and larger than the statistic's own error.
+fn bias_exceeds(
+    quantity: &str,
+    statistic: Statistic,
+    bias: Estimate,
+    stat: Estimate,
+    k: f64,
+) -> Option<McWarning> {
+    (bias.stderr.is_finite()
+        && bias.value.abs() > k * bias.stderr
+        && bias.value.abs() > stat.stderr)
+        .then(|| McWarning::BiasExceedsError {
+            quantity: quantity.to_string(),
+            statistic,
+            bias,
+            stderr: stat.stderr,
+        })
+}
+
 /// The warnings a quantity's bias estimate raises.
 pub(crate) fn bias_warnings(q: &QuantityHistogram, out: &mut Vec<McWarning>) {
     let Some(b) = &q.time_step_bias else {
         return;
     };
-    // A bias counts as resolved beyond `k` of its own standard errors, k from Student's t
-    // with the pairs' degrees of freedom (about p = 1e-4 per statistic or bin, so that the
-    // dozen statistics and hundreds of bins of a healthy run raise no spurious warning).
-    if b.pairs < 3 {
+    let Some(k) = resolved_beyond(b.pairs) else {
         return;
-    }
-    let k = (0.5 * t_critical(b.pairs - 1)).max(4.0);
+    };
     for (statistic, bias, stat) in [
         (Statistic::Mean, b.moments.mean, q.moments.mean),
         (Statistic::Variance, b.moments.variance, q.moments.variance),
         (Statistic::Kurtosis, b.moments.kurtosis, q.moments.kurtosis),
     ] {
-        if bias.stderr.is_finite()
-            && bias.value.abs() > k * bias.stderr
-            && bias.value.abs() > stat.stderr
-        {
-            out.push(McWarning::BiasExceedsError {
-                quantity: q.name.clone(),
-                statistic,
-                bias,
-                stderr: stat.stderr,
-            });
-        }
+        out.extend(bias_exceeds(&q.name, statistic, bias, stat, k));
     }
     let flagged: Vec<usize> = (0..q.grid.bins)
         .filter(|&j| {

@@ -9,7 +9,9 @@ use super::batch::{BatchSummary, BlowUp};
 use super::error::McError;
 use super::estimate::Estimate;
 use super::histogram::{finalize, QuantityBatch, QuantityHistogram};
-use super::judge::{bias_warnings, render_bias, stationarity, time_step_bias};
+use super::judge::{
+    bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
+};
 use super::settings::RunSettings;
 use super::verdict::{BlowUps, McWarning, Stationarity};
 
@@ -20,6 +22,11 @@ pub struct ImpactStats {
     pub count: u64,
     /// Impacts per unit time per trajectory.
     pub rate: Estimate,
+    /// The rate's time-step bias r_dt − r, by the moments' Richardson estimate from the
+    /// batches paired with the 2·dt run ([`TimeStepBias`](super::TimeStepBias)); `None`
+    /// when the run estimated no bias.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_step_bias: Option<Estimate>,
 }
 
 /// The result of a Monte Carlo run: the statistics, and whether they can be trusted
@@ -117,6 +124,10 @@ pub(crate) fn finalize_run(
     for q in &quantities {
         bias_warnings(q, &mut warnings);
     }
+    let bias = st
+        .has_barrier
+        .then(|| impact_rate_bias(st, batches, coarse))
+        .flatten();
     let impacts = st.has_barrier.then(|| {
         let t = st.samples_per_trajectory as f64 * st.spacing();
         // Saturating: a merged file may claim absurd counts (validation bounds each batch).
@@ -135,8 +146,12 @@ pub(crate) fn finalize_run(
                 value: rate,
                 stderr: (nb / (nb - 1.0) * ss).sqrt() / (trajectories as f64 * t),
             },
+            time_step_bias: bias.map(|(b, _)| b),
         }
     });
+    if let (Some(impacts), Some((_, pairs))) = (&impacts, bias) {
+        impact_warnings(impacts, pairs, &mut warnings);
+    }
     Ok(McResult {
         settings: st.clone(),
         stationarity: stationarity(st, batches),
@@ -220,8 +235,11 @@ impl fmt::Display for McResult {
         if let Some(impacts) = &self.impacts {
             writeln!(
                 f,
-                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time",
-                impacts.count, impacts.rate.value, impacts.rate.stderr
+                "impacts: {} in all, rate {:.5} ± {:.1e} per unit time, time-step bias {}",
+                impacts.count,
+                impacts.rate.value,
+                impacts.rate.stderr,
+                render_bias(impacts.time_step_bias)
             )?;
         }
         writeln!(f, "blow-ups: {}", self.blowup_verdict)?;

@@ -231,6 +231,8 @@ pub enum Statistic {
     Variance,
     /// The kurtosis.
     Kurtosis,
+    /// A rate (of impacts).
+    Rate,
 }
 
 impl fmt::Display for Statistic {
@@ -239,6 +241,7 @@ impl fmt::Display for Statistic {
             Statistic::Mean => "mean",
             Statistic::Variance => "variance",
             Statistic::Kurtosis => "kurtosis",
+            Statistic::Rate => "rate",
         })
     }
 }
