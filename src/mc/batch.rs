@@ -12,9 +12,9 @@ use super::exact;
 use super::histogram::{Accumulator, QuantityBatch};
 use super::record::{record_batch, Observed};
 use super::rng::Increments;
-use super::scheme::{Dynamics, Plan};
+use super::scheme::Plan;
 use super::settings::{ParamValue, RunSettings};
-use super::step::BatchState;
+use super::step::{fast_rows, BatchState};
 use crate::cancel::Cancel;
 
 /// A trajectory whose state stopped being finite: it is left out of every statistic.
@@ -195,9 +195,7 @@ const PART_LANES: usize = 32;
 /// the plan and the settings alone: the numbers do not depend on the threads, the shards or
 /// the driver.
 fn part_lanes(plan: &Plan, st: &RunSettings) -> usize {
-    let fused = matches!(&plan.dynamics, Dynamics::Mechanical { form: Some(_), .. })
-        && plan.barriers.len() <= 1
-        && st.increments == Increments::ThreePoint
+    let fused = fast_rows(plan, st.increments == Increments::ThreePoint)
         && Observed::recognise(plan.observables.program()).is_some();
     if fused {
         PART_LANES.min(st.lanes).max(1)
@@ -288,10 +286,12 @@ fn run_jobs<'a, R: Copy + Sync>(
         .enumerate()
         .flat_map(|(j, &(run, _))| parts(plan, settings(run).0).map(move |p| (j, p)))
         .collect();
-    let left: Vec<AtomicUsize> = jobs
-        .iter()
-        .map(|&(run, _)| AtomicUsize::new(parts(plan, settings(run).0).count()))
-        .collect();
+    // Each job's part count, from the split itself (its parts are adjacent).
+    let mut counts = vec![0; jobs.len()];
+    for (j, _) in &split {
+        counts[*j] += 1;
+    }
+    let left: Vec<AtomicUsize> = counts.iter().map(|&n| AtomicUsize::new(n)).collect();
     // One task per part: rayon would otherwise run runs of adjacent parts as one task that
     // no idle thread can take a part from (seen: one thread done 120 ms before the other).
     let summaries: Vec<BatchSummary> = split
@@ -313,12 +313,9 @@ fn run_jobs<'a, R: Copy + Sync>(
         })
         .collect::<Option<_>>()?;
     let mut summaries = summaries.into_iter();
-    let merged = jobs
+    let merged = counts
         .iter()
-        .map(|&(run, _)| {
-            let n = parts(plan, settings(run).0).count();
-            BatchSummary::merge(summaries.by_ref().take(n).collect())
-        })
+        .map(|&n| BatchSummary::merge(summaries.by_ref().take(n).collect()))
         .collect();
     Some(merged)
 }

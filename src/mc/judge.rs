@@ -110,6 +110,16 @@ fn mean_se(values: &[f64]) -> Estimate {
     Estimate { value: m, stderr }
 }
 
+/// The fine batch with the index of the coarse batch `c`. Fine batches are normally in index
+/// order from 0 (a run, or shards merged in order): direct lookup, the search only if that
+/// ever does not hold.
+fn paired<'a>(fine: &[&'a BatchSummary], c: &BatchSummary) -> Option<&'a BatchSummary> {
+    fine.get(c.index as usize)
+        .filter(|f| f.index == c.index)
+        .or_else(|| fine.iter().find(|f| f.index == c.index))
+        .copied()
+}
+
 /// The Richardson estimate of a quantity's time-step bias from fine batches (dt) and the
 /// coarse batches (2·dt) with the same indices.
 pub(crate) fn time_step_bias(
@@ -129,13 +139,7 @@ pub(crate) fn time_step_bias(
     let mut draw: [Vec<f64>; 4] = Default::default();
     let mut dd: Vec<Vec<f64>> = Vec::new();
     for c in coarse {
-        // Fine batches are normally in index order from 0 (a run, or shards merged in order):
-        // direct lookup, the search only if that ever does not hold.
-        let Some(f) = fine
-            .get(c.index as usize)
-            .filter(|f| f.index == c.index)
-            .or_else(|| fine.iter().find(|f| f.index == c.index))
-        else {
+        let Some(f) = paired(fine, c) else {
             continue;
         };
         let (fq, cq) = (&f.quantities[q], &c.quantities[q]);
@@ -195,10 +199,7 @@ pub(crate) fn impact_rate_bias(
     let d: Vec<f64> = coarse
         .iter()
         .filter_map(|c| {
-            let f = fine
-                .get(c.index as usize)
-                .filter(|f| f.index == c.index)
-                .or_else(|| fine.iter().find(|f| f.index == c.index))?;
+            let f = paired(fine, c)?;
             (f.recorded > 0 && c.recorded > 0).then(|| (rate(c, tc) - rate(f, tf)) * factor)
         })
         .collect();

@@ -99,8 +99,14 @@ impl BatchState {
 
     /// Whether [`BatchState::advance_rows`] runs on `plan` with these increments.
     pub(crate) fn has_fast_rows(&mut self, plan: &Plan) -> bool {
-        matches!(&plan.dynamics, Dynamics::Mechanical { form: Some(_), .. })
-            && plan.barriers.len() <= 1
-            && self.inc.three_point_mut().is_some()
+        fast_rows(plan, self.inc.three_point_mut().is_some())
     }
+}
+
+/// Whether [`BatchState::advance_rows`] runs on `plan`: the mechanical form, at most one
+/// barrier, and three-point increments (`three_point`).
+pub(crate) fn fast_rows(plan: &Plan, three_point: bool) -> bool {
+    matches!(&plan.dynamics, Dynamics::Mechanical { form: Some(_), .. })
+        && plan.barriers.len() <= 1
+        && three_point
 }

@@ -13,6 +13,7 @@ use super::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
 
 #[path = "mech_step.rs"]
 mod mech_step;
+pub(crate) use mech_step::fast_rows;
 
 /// A batch of trajectories in flight: states, barrier sides, event counts and generators,
 /// all structure-of-arrays, plus the work buffers of the schemes.
