@@ -303,14 +303,20 @@ impl EpcSolution {
         out.clear();
         let s = self.sigma[1 - axis];
         let scaled = [range[0] / s, range[1] / s];
-        let mut runs = Vec::new();
+        thread_local! {
+            // The runs of a line, kept between calls (a line integral allocates nothing).
+            static RUNS: std::cell::Cell<Vec<[f64; 2]>> = const { std::cell::Cell::new(Vec::new()) };
+        }
+        let mut runs = RUNS.take();
         let xi = at / self.sigma[axis];
         if !self.grid.mask_runs(axis, xi, scaled, &mut runs) {
+            RUNS.set(runs);
             out.push((range, Stretch::Core));
             return;
         }
         let c = self.q.on_line(axis, xi);
         self.grid.stretches(&c[..=self.q.degree], &runs, out);
+        RUNS.set(runs);
         for (piece, _) in out.iter_mut() {
             // The range's own ends exactly (not rescaled), so that pieces tile it.
             *piece = piece.map(|t| {
@@ -355,14 +361,25 @@ impl EpcSolution {
         for (o, &t) in out.iter_mut().zip(t) {
             *o = horner(c, t / s);
         }
-        // Q itself is kept for a transition's cutoff (on a core piece the cutoff is 1).
-        let q = (kind == Stretch::Transition).then(|| out.to_vec());
-        for o in out.iter_mut() {
-            *o += log_c;
+        if kind == Stretch::Core {
+            for o in out.iter_mut() {
+                *o += log_c;
+            }
+            exp_in_place(out);
+            return;
         }
-        exp_in_place(out);
-        if let Some(q) = q {
-            self.grid.times_transition(&q, out);
+        // Q itself is kept for a transition's cutoff (on a core piece the cutoff is 1), a
+        // chunk at a time on the stack.
+        const CHUNK: usize = 64;
+        let mut q = [0.0; CHUNK];
+        for out in out.chunks_mut(CHUNK) {
+            let q = &mut q[..out.len()];
+            q.copy_from_slice(out);
+            for o in out.iter_mut() {
+                *o += log_c;
+            }
+            exp_in_place(out);
+            self.grid.times_transition(q, out);
         }
     }
 

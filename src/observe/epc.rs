@@ -1,6 +1,8 @@
 //! An EPC solution as a joint density: its tensor-grid evaluation, and the smooth pieces of
 //! its lines inside a ridge.
 
+use std::cell::Cell;
+
 use super::{JointDensity, LinePiece, PieceKind};
 use crate::epc::{EpcSolution, Stretch};
 
@@ -31,17 +33,22 @@ impl JointDensity for EpcSolution {
         range: [f64; 2],
         out: &mut Vec<LinePiece>,
     ) -> bool {
-        let mut stretches = Vec::new();
+        thread_local! {
+            // A line's stretches, kept between calls (a line integral allocates nothing).
+            static STRETCHES: Cell<Vec<([f64; 2], Stretch)>> = const { Cell::new(Vec::new()) };
+        }
+        let mut stretches = STRETCHES.take();
         EpcSolution::smooth_pieces(self, axis, at, range, &mut stretches);
         let max = self.transition_max();
         out.clear();
-        out.extend(stretches.into_iter().map(|(range, kind)| LinePiece {
+        out.extend(stretches.iter().map(|&(range, kind)| LinePiece {
             range,
             kind: match kind {
                 Stretch::Core => PieceKind::Analytic,
                 Stretch::Transition => PieceKind::Transition { max },
             },
         }));
+        STRETCHES.set(stretches);
         true
     }
 

@@ -146,25 +146,23 @@ pub(crate) fn integrate_nested_within(
     let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
     // Values at the finest rule's nodes, filled level by level.
     let mut values = [0.0; FINEST + 1];
-    let mut index = Vec::with_capacity(FINEST / 2 + 1);
-    let mut t = Vec::with_capacity(FINEST / 2 + 1);
-    let mut out = Vec::with_capacity(FINEST / 2 + 1);
+    // A level's new nodes (at most FINEST/2 + 1: the first level's 17 or the odd half of
+    // another's), on the stack: a line integral allocates nothing.
+    const NEW: usize = FINEST / 2 + 1;
+    let (mut index, mut t, mut out) = ([0; NEW], [0.0; NEW], [0.0; NEW]);
     let mut previous: Option<f64> = None;
     for (level, &n) in LEVELS.iter().enumerate() {
         let stride = FINEST / n;
         // The nodes new at this level: all of the first, the odd ones of every other.
-        index.clear();
-        index.extend(
-            (0..=n)
-                .filter(|&k| level == 0 || k % 2 == 1)
-                .map(|k| k * stride),
-        );
-        t.clear();
-        t.extend(index.iter().map(|&i| c + h * r.nodes[i]));
-        out.clear();
-        out.resize(t.len(), 0.0);
-        f(&t, &mut out);
-        for (&i, &v) in index.iter().zip(&out) {
+        let mut new = 0;
+        for k in (0..=n).filter(|&k| level == 0 || k % 2 == 1) {
+            index[new] = k * stride;
+            t[new] = c + h * r.nodes[k * stride];
+            new += 1;
+        }
+        out[..new].fill(0.0);
+        f(&t[..new], &mut out[..new]);
+        for (&i, &v) in index[..new].iter().zip(&out[..new]) {
             values[i] = v;
         }
         let sum: f64 = r.weights[level]
@@ -191,10 +189,8 @@ pub(crate) fn coarsest(f: &dyn Fn(&[f64], &mut [f64]), lo: f64, hi: f64) -> f64 
     let r = rules();
     let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
     let stride = FINEST / LEVELS[0];
-    let t: Vec<f64> = (0..=LEVELS[0])
-        .map(|k| c + h * r.nodes[k * stride])
-        .collect();
-    let mut out = vec![0.0; t.len()];
+    let t: [f64; LEVELS[0] + 1] = std::array::from_fn(|k| c + h * r.nodes[k * stride]);
+    let mut out = [0.0; LEVELS[0] + 1];
     f(&t, &mut out);
     r.weights[0]
         .iter()

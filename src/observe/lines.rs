@@ -17,6 +17,8 @@
 //! error is within the tolerance in all. A density that cannot tell where it is smooth gets
 //! adaptive quadrature of the whole segment.
 
+use std::cell::Cell;
+
 use super::{fixed, quadrature, JointDensity};
 
 /// A piece of a coordinate line on which a joint density is smooth
@@ -94,8 +96,26 @@ pub(crate) fn half_line(
     if let Some(line) = density.line_integral(axis, at, range) {
         return line;
     }
-    let mut pieces = Vec::new();
-    if !density.smooth_pieces(axis, at, range, &mut pieces) {
+    thread_local! {
+        // A line's pieces, kept between calls (a line integral allocates nothing).
+        static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
+    }
+    let mut pieces = PIECES.take();
+    let line = pieces_integral(density, axis, at, range, tolerance, &mut pieces);
+    PIECES.set(pieces);
+    line
+}
+
+/// [`half_line`] with `pieces` for the line's smooth pieces.
+fn pieces_integral(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    range: [f64; 2],
+    tolerance: f64,
+    pieces: &mut Vec<LinePiece>,
+) -> f64 {
+    if !density.smooth_pieces(axis, at, range, pieces) {
         let f = |t: &[f64], out: &mut [f64]| line_values(density, axis, at, t, out);
         return quadrature::integrate_adaptive_batch(&f, range[0], range[1], ADAPTIVE_TOLERANCE);
     }

@@ -350,20 +350,31 @@ impl DensityGrid {
     /// stretch the cutoff is 1): [`taper`](super::grid::taper)'s formula to rounding, its two
     /// exponentials taken over the slice at once ([`exp_in_place`]).
     pub(crate) fn times_transition(&self, q: &[f64], out: &mut [f64]) {
-        let u: Vec<f64> = q.iter().map(|q| (q - self.floor) / TAPER_E_FOLDS).collect();
+        // A chunk at a time on the stack (the exponentials are elementwise, the same bits in
+        // any chunking).
+        const CHUNK: usize = 64;
+        if q.len() > CHUNK {
+            for (q, out) in q.chunks(CHUNK).zip(out.chunks_mut(CHUNK)) {
+                self.times_transition(q, out);
+            }
+            return;
+        }
+        let n = q.len().min(out.len());
+        let (mut u, mut a, mut b) = ([0.0; CHUNK], [0.0; CHUNK], [0.0; CHUNK]);
+        let (u, a, b) = (&mut u[..n], &mut a[..n], &mut b[..n]);
         // Outside (0, 1) the exponentials are not used; a NaN stays NaN, as in `taper`.
         let outside = |u: f64| u <= 0.0 || u >= 1.0;
-        let mut a: Vec<f64> = u
-            .iter()
-            .map(|&u| if outside(u) { 0.0 } else { -1.0 / u })
-            .collect();
-        let mut b: Vec<f64> = u
-            .iter()
-            .map(|&u| if outside(u) { 0.0 } else { -1.0 / (1.0 - u) })
-            .collect();
-        exp_in_place(&mut a);
-        exp_in_place(&mut b);
-        for (((o, &u), &a), &b) in out.iter_mut().zip(&u).zip(&a).zip(&b) {
+        for (((u, a), b), q) in u.iter_mut().zip(a.iter_mut()).zip(b.iter_mut()).zip(q) {
+            *u = (q - self.floor) / TAPER_E_FOLDS;
+            (*a, *b) = if outside(*u) {
+                (0.0, 0.0)
+            } else {
+                (-1.0 / *u, -1.0 / (1.0 - *u))
+            };
+        }
+        exp_in_place(a);
+        exp_in_place(b);
+        for (((o, &u), &a), &b) in out.iter_mut().zip(&*u).zip(&*a).zip(&*b) {
             *o *= if u <= 0.0 {
                 0.0
             } else if u >= 1.0 {
