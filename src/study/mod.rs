@@ -292,12 +292,6 @@ impl<'a> StudyRunner<'a> {
         }
         let start = Instant::now();
         timeline::mark("study: start");
-        // The observables' quadrature tables, built on a worker while the ladder solves (an
-        // EPC ladder is sequential, so a core is free).
-        rayon::spawn(|| {
-            crate::observe::prepare();
-            timeline::mark("study: tables ready");
-        });
         let derived;
         let problem = match self.problem {
             Some(p) => p,
@@ -308,15 +302,26 @@ impl<'a> StudyRunner<'a> {
         };
         let quantities = problem.quantities().to_vec();
         let with_grid = self.methods.contains(&MethodName::Grid);
-        let (mut degrees, grid) = rayon::join(
-            || {
-                ladders
-                    .iter()
-                    .flat_map(|&(method, solve)| self.ladder(problem, method, solve))
-                    .collect::<Vec<DegreeResult>>()
-            },
-            || with_grid.then(|| self.grid(problem)),
-        );
+        // The observables' quadrature tables, built on a worker while the ladder solves (an
+        // EPC ladder is mostly sequential, so a core is free).
+        rayon::spawn(|| {
+            crate::observe::prepare();
+            timeline::mark("study: tables ready");
+        });
+        let ladders = || {
+            ladders
+                .iter()
+                .flat_map(|&(method, solve)| self.ladder(problem, method, solve))
+                .collect::<Vec<DegreeResult>>()
+        };
+        // The ladders on this thread, which is running now: handed to the pool (as the
+        // grid's partner in a join) they could wait for a worker to wake, or for the one
+        // awake to build the tables first, a millisecond or more of a job that takes ten.
+        let (mut degrees, grid) = if with_grid {
+            rayon::join(ladders, || Some(self.grid(problem)))
+        } else {
+            (ladders(), None)
+        };
         timeline::mark("study: ladder solved");
         let mut solved: Vec<(Source, &Solution)> = degrees
             .iter()
