@@ -39,7 +39,7 @@ fn rules() -> &'static Rules {
 /// caller that can do it beside other work before the first line integral needs them.
 pub(crate) fn prepare() {
     rules();
-    doubled();
+    doubled_nodes();
 }
 
 /// The weights of the (n+1)-point Clenshaw–Curtis rule on [−1, 1] (n even), nodes
@@ -75,24 +75,41 @@ pub(crate) fn finest_pair(lo: f64, hi: f64) -> Vec<(f64, [f64; 2])> {
         .collect()
 }
 
-/// The rule of twice [`FINEST`] intervals: its nodes on [−1, 1] and weights, for the outer
-/// integral of a function that the finest rule does not resolve to a check's tolerance.
-struct Doubled {
-    /// cos(kπ/(2·FINEST)), k = 0…2·FINEST: at even k bit for bit the finest rule's nodes.
-    nodes: Vec<f64>,
-    /// The weights of the 2·FINEST rule.
-    weights: Vec<f64>,
+/// The nodes on [−1, 1] of the rule of twice [`FINEST`] intervals, for the outer integral of
+/// a function that the finest rule does not resolve to a check's tolerance:
+/// cos(kπ/(2·FINEST)), k = 0…2·FINEST, at even k bit for bit the finest rule's nodes. Computed
+/// once.
+fn doubled_nodes() -> &'static [f64] {
+    static NODES: OnceLock<Vec<f64>> = OnceLock::new();
+    NODES.get_or_init(|| {
+        (0..=2 * FINEST)
+            .map(|k| (std::f64::consts::PI * k as f64 / (2 * FINEST) as f64).cos())
+            .collect()
+    })
 }
 
-/// The doubled rule, computed once.
-fn doubled() -> &'static Doubled {
-    static DOUBLED: OnceLock<Doubled> = OnceLock::new();
-    DOUBLED.get_or_init(|| Doubled {
-        nodes: (0..=2 * FINEST)
-            .map(|k| (std::f64::consts::PI * k as f64 / (2 * FINEST) as f64).cos())
-            .collect(),
-        weights: clenshaw_curtis_weights(2 * FINEST),
-    })
+/// The weights of the rule of twice [`FINEST`] intervals, computed when first needed (when a
+/// check of the finest rule fails): 2·FINEST + 1 weights of FINEST cosines each, the most
+/// expensive table here by far.
+fn doubled_weights() -> &'static [f64] {
+    static WEIGHTS: OnceLock<Vec<f64>> = OnceLock::new();
+    WEIGHTS.get_or_init(|| clenshaw_curtis_weights(2 * FINEST))
+}
+
+/// The nodes of the Clenshaw–Curtis rule of `n` intervals (`n` = 128 or 256) on [`lo`, `hi`],
+/// bit for bit those of [`pair`], without its weights.
+///
+/// # Panics
+/// If `n` is neither.
+pub(crate) fn nodes(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let on_unit: &[f64] = if n == FINEST {
+        &rules().nodes
+    } else {
+        assert_eq!(n, 2 * FINEST, "fixed::nodes: {n} intervals");
+        doubled_nodes()
+    };
+    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    on_unit.iter().map(|x| c + h * x).collect()
 }
 
 /// The nodes of the Clenshaw–Curtis rule of `n` intervals on [`lo`, `hi`] (`n` = 128, as
@@ -107,12 +124,13 @@ pub(crate) fn pair(lo: f64, hi: f64, n: usize) -> Vec<(f64, [f64; 2])> {
         return finest_pair(lo, hi);
     }
     assert_eq!(n, 2 * FINEST, "fixed::pair: {n} intervals");
-    let (d, coarse) = (doubled(), &rules().weights[LEVELS.len() - 1]);
+    let (nodes, weights) = (doubled_nodes(), doubled_weights());
+    let coarse = &rules().weights[LEVELS.len() - 1];
     let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
     (0..=n)
         .map(|k| {
             let wc = if k % 2 == 0 { coarse[k / 2] } else { 0.0 };
-            (c + h * d.nodes[k], [d.weights[k] * h, wc * h])
+            (c + h * nodes[k], [weights[k] * h, wc * h])
         })
         .collect()
 }
@@ -260,6 +278,14 @@ mod tests {
                 assert_eq!(w[1], fine[k / 2].1[0]);
             } else {
                 assert_eq!(w[1], 0.0);
+            }
+        }
+        // `nodes` gives the same nodes, bit for bit, at both sizes.
+        for (n, rule) in [(128, &fine), (256, &doubled)] {
+            let bare = nodes(-1.3, 2.9, n);
+            assert_eq!(bare.len(), rule.len());
+            for (x, (y, _)) in bare.iter().zip(rule.iter()) {
+                assert_eq!(x.to_bits(), y.to_bits());
             }
         }
         // Exact for polynomials up to its degree: ∫ x^200 over [−1, 1] = 2/201.

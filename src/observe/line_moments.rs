@@ -16,7 +16,7 @@
 
 use rayon::prelude::*;
 
-use super::fixed::pair;
+use super::fixed::{nodes, pair};
 use super::lines::{half_line, rule_tolerance};
 use super::moments::{finer_if_agreeing, moments_of_pairs, ObservableMoments};
 use super::JointDensity;
@@ -55,9 +55,11 @@ impl<'a> LineQuadrants<'a> {
                 for ha in 0..2 {
                     let [lo, hi] = lines.half(a, ha);
                     if hi > lo {
-                        lines.states[a][ha] = pair(lo, hi, LEVELS[1])
-                            .iter()
-                            .map(|&(u, _)| (u, None))
+                        // The nodes alone: the 256-interval rule's weights are computed
+                        // only where its check is needed.
+                        lines.states[a][ha] = nodes(lo, hi, LEVELS[1])
+                            .into_iter()
+                            .map(|u| (u, None))
                             .collect();
                     }
                 }

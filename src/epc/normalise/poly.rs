@@ -151,9 +151,35 @@ pub(crate) fn horner(q: &[f64], r: f64) -> f64 {
     q.iter().rev().fold(0.0, |acc, c| acc * r + c)
 }
 
+/// Points evaluated at once by [`horner_block`].
+pub(crate) const BLOCK: usize = 32;
+
+/// [`horner`]`(q, t)` at each of the points `t`, bit for bit: the same operations in the same
+/// order for each point, the points side by side (independent chains, which vectorise, where
+/// one evaluation waits on each multiply-add of its chain).
+pub(crate) fn horner_block(q: &[f64], t: &[f64; BLOCK]) -> [f64; BLOCK] {
+    let mut acc = [0.0; BLOCK];
+    for &c in q.iter().rev() {
+        for (a, &t) in acc.iter_mut().zip(t) {
+            *a = *a * t + c;
+        }
+    }
+    acc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A block's values are `horner`'s, bit for bit.
+    #[test]
+    fn horner_block_is_horner() {
+        let c = [0.3, -1.7, 0.25, 1e-3, -2.5e-2, 7e-5];
+        let t: [f64; BLOCK] = std::array::from_fn(|k| 0.37 * k as f64 - 4.1);
+        for (&t, &v) in t.iter().zip(&horner_block(&c, &t)) {
+            assert_eq!(v.to_bits(), horner(&c, t).to_bits(), "t = {t}");
+        }
+    }
 
     #[test]
     fn powers_are_powi_bit_for_bit() {

@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::horner;
+use super::poly::{horner, horner_block, BLOCK};
 use super::report::NotNormalisable;
 use super::{Poly, TAIL_E_FOLDS};
 
@@ -167,9 +167,10 @@ pub(super) fn explore_ray(
     let (mut min_r, mut min_v) = (0.0, q_max);
     // Q at a block of radii at once (independent evaluations, which vectorise: each is
     // `horner`'s, bit for bit), then the block's radii in order.
-    let mut v = [0.0; RAY_BLOCK];
-    'scan: for radii in steps.r.chunks(RAY_BLOCK) {
-        horner_block(&c, radii, &mut v);
+    let mut r = [0.0; BLOCK];
+    'scan: for radii in steps.r.chunks(BLOCK) {
+        r[..radii.len()].copy_from_slice(radii);
+        let v = horner_block(&c, &r);
         for (&r, &v) in radii.iter().zip(&v) {
             // Past r_dom Q is monotone along the ray: stop once it has also fallen below
             // the tail.
@@ -205,23 +206,6 @@ pub(super) fn explore_ray(
     }
 }
 
-/// Radii of a ray evaluated at once by [`explore_ray`].
-const RAY_BLOCK: usize = 32;
-
-/// [`horner`]`(c, r)` at each of `radii` (at most [`RAY_BLOCK`]) into `out`, the same
-/// operations in the same order for each, the radii side by side.
-fn horner_block(c: &[f64], radii: &[f64], out: &mut [f64; RAY_BLOCK]) {
-    let mut r = [0.0; RAY_BLOCK];
-    r[..radii.len()].copy_from_slice(radii);
-    let mut acc = [0.0; RAY_BLOCK];
-    for &ck in c.iter().rev() {
-        for (a, &r) in acc.iter_mut().zip(&r) {
-            *a = *a * r + ck;
-        }
-    }
-    *out = acc;
-}
-
 /// Newton on ∇Q = 0 from `x`; returns a saddle (indefinite Hessian) if it converges to one.
 pub(super) fn saddle_near(q: &Poly, mut x: [f64; 2]) -> Option<([f64; 2], f64)> {
     for _ in 0..60 {
@@ -246,21 +230,4 @@ fn gradient_and_hessian(q: &Poly, x: [f64; 2]) -> (Vector2<f64>, Matrix2<f64>) {
         Vector2::from(g),
         Matrix2::new(h[0][0], h[0][1], h[1][0], h[1][1]),
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A block's values are `horner`'s, bit for bit, for a partial block too.
-    #[test]
-    fn horner_block_is_horner() {
-        let c = [0.3, -1.7, 0.25, 1e-3, -2.5e-2, 7e-5];
-        let radii: Vec<f64> = (0..RAY_BLOCK - 3).map(|k| 0.37 * k as f64 + 1e-3).collect();
-        let mut out = [f64::NAN; RAY_BLOCK];
-        horner_block(&c, &radii, &mut out);
-        for (&r, &v) in radii.iter().zip(&out) {
-            assert_eq!(v.to_bits(), horner(&c, r).to_bits(), "r = {r}");
-        }
-    }
 }
