@@ -163,35 +163,14 @@ pub(super) fn explore_ray(
             .fold(1.0, f64::max)
     };
     let r_stop = r_dom.min(1e6) * 1.05 + 1.0;
-    let mut last_above = 0.0;
-    let (mut min_r, mut min_v) = (0.0, q_max);
-    // Q at a block of radii at once (independent evaluations, which vectorise: each is
-    // `horner`'s, bit for bit), then the block's radii in order.
-    let mut r = [0.0; BLOCK];
-    'scan: for radii in steps.r.chunks(BLOCK) {
-        r[..radii.len()].copy_from_slice(radii);
-        let v = horner_block(&c, &r);
-        for (&r, &v) in radii.iter().zip(&v) {
-            // Past r_dom Q is monotone along the ray: stop once it has also fallen below
-            // the tail.
-            if r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
-                break 'scan;
-            }
-            if v > q_max + 1e-9 * (1.0 + q_max.abs()) {
-                return Ok(RayEnd::Pass {
-                    r: min_r,
-                    value: min_v,
-                });
-            }
-            if v < min_v {
-                min_v = v;
-                min_r = r;
-            }
-            if v >= q_max - TAIL_E_FOLDS {
-                last_above = r;
-            }
-        }
-    }
+    let (last_above, min_r, min_v) = match scan(&c, steps, r_stop, lead, q_max) {
+        Scan::Rises { r, value } => return Ok(RayEnd::Pass { r, value }),
+        Scan::Ends {
+            last_above,
+            min_r,
+            min_v,
+        } => (last_above, min_r, min_v),
+    };
     if lead < 0.0 {
         Ok(RayEnd::Decays(last_above))
     } else if lead > 0.0 {
@@ -203,6 +182,119 @@ pub(super) fn explore_ray(
         })
     } else {
         Err(NotNormalisable::FlatDirection { theta: th })
+    }
+}
+
+/// What the scan of a ray's radii finds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scan {
+    /// Q rises above the mode's value at a radius; the lowest point before it is at `r`.
+    Rises { r: f64, value: f64 },
+    /// The scan ended without such a rise: the last radius where Q stood within the tail
+    /// of the mode's value (0 if none), and the lowest point seen (the mode's value at 0
+    /// if none was lower).
+    Ends {
+        last_above: f64,
+        min_r: f64,
+        min_v: f64,
+    },
+}
+
+/// The scan of a ray's radii in the steps of [`RaySteps`] until the first at or beyond
+/// `r_stop` where Q (coefficients `c`, leading coefficient `lead`) is monotone and past the
+/// tail (or beyond [`MAX_RADIUS`]), or until Q rises above `q_max`: the same, bit for bit, as
+/// taking the radii one by one ([`scan_in_order`], tested), with Q evaluated a block of radii
+/// at once ([`horner_block`]) and each block's rise, lowest point and last radius within the
+/// tail found over the block.
+fn scan(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -> Scan {
+    let top = q_max + 1e-9 * (1.0 + q_max.abs());
+    let tail = q_max - TAIL_E_FOLDS;
+    let mut last_above = 0.0;
+    let (mut min_r, mut min_v) = (0.0, q_max);
+    let mut r = [0.0; BLOCK];
+    for radii in steps.r.chunks(BLOCK) {
+        let n = radii.len();
+        r[..n].copy_from_slice(radii);
+        let v = horner_block(c, &r);
+        // Past r_dom Q is monotone along the ray: the scan stops at the first radius at or
+        // beyond r_stop where it has also fallen below the tail. The radii increase, so only
+        // a block reaching r_stop (or MAX_RADIUS) can hold that radius.
+        let ends =
+            |k: usize| radii[k] > MAX_RADIUS || (radii[k] >= r_stop && (lead > 0.0 || v[k] < tail));
+        let stop = if radii[n - 1] > MAX_RADIUS || radii[n - 1] >= r_stop {
+            (0..n).find(|&k| ends(k)).unwrap_or(n)
+        } else {
+            n
+        };
+        let (radii, v) = (&radii[..stop], &v[..stop]);
+        if v.iter().fold(false, |any, &v| any | (v > top)) {
+            // A rise in this block: its lowest point before the rise, in order.
+            for (&r, &v) in radii.iter().zip(v) {
+                if v > top {
+                    return Scan::Rises {
+                        r: min_r,
+                        value: min_v,
+                    };
+                }
+                if v < min_v {
+                    min_v = v;
+                    min_r = r;
+                }
+            }
+        }
+        // The block's lowest value at its first occurrence, which is where the scan in order
+        // keeps it (a NaN is never lower).
+        let low = v
+            .iter()
+            .fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
+        if low < min_v {
+            if let Some(k) = v.iter().position(|&v| v == low) {
+                min_v = v[k];
+                min_r = radii[k];
+            }
+        }
+        if let Some(k) = v.iter().rposition(|&v| v >= tail) {
+            last_above = radii[k];
+        }
+        if stop < n {
+            break;
+        }
+    }
+    Scan::Ends {
+        last_above,
+        min_r,
+        min_v,
+    }
+}
+
+/// [`scan`] one radius at a time: the definition it is tested against.
+#[cfg(test)]
+fn scan_in_order(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -> Scan {
+    let mut last_above = 0.0;
+    let (mut min_r, mut min_v) = (0.0, q_max);
+    for &r in &steps.r {
+        let v = horner(c, r);
+        if r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || v < q_max - TAIL_E_FOLDS)) {
+            break;
+        }
+        if v > q_max + 1e-9 * (1.0 + q_max.abs()) {
+            return Scan::Rises {
+                r: min_r,
+                value: min_v,
+            };
+        }
+        if v < min_v {
+            min_v = v;
+            min_r = r;
+        }
+        if v >= q_max - TAIL_E_FOLDS {
+            last_above = r;
+        }
+    }
+    Scan::Ends {
+        last_above,
+        min_r,
+        min_v,
     }
 }
 
@@ -230,4 +322,81 @@ fn gradient_and_hessian(q: &Poly, x: [f64; 2]) -> (Vector2<f64>, Matrix2<f64>) {
         Vector2::from(g),
         Matrix2::new(h[0][0], h[0][1], h[1][0], h[1][1]),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The block scan is the scan in order, bit for bit (radii and values compared by their
+    /// bits), on rays that decay, rise above the mode near it or far out, rise eventually
+    /// (positive leading coefficient), hover at the tail or the mode's value, or have NaN
+    /// coefficients; with r_stop anywhere in a block.
+    #[test]
+    fn the_block_scan_is_the_scan_in_order() {
+        let steps = RaySteps::get();
+        let mut stream = crate::epc::uniform::Uniform::new(0x51_7c_c1_b7_27_22_0a_95);
+        let mut uniform = || stream.next();
+        let bits = |s: Scan| match s {
+            Scan::Rises { r, value } => (0, r.to_bits(), value.to_bits(), 0),
+            Scan::Ends {
+                last_above,
+                min_r,
+                min_v,
+            } => (1, last_above.to_bits(), min_r.to_bits(), min_v.to_bits()),
+        };
+        let (mut rises, mut ends) = (0, 0);
+        for case in 0..3000 {
+            let degree = 2 + case % 7;
+            let mut c: Vec<f64> = (0..=degree)
+                .map(|k| (uniform() - 0.5) * 4.0 / (1 + k * k) as f64)
+                .collect();
+            c[0] = 0.0;
+            match case % 5 {
+                // A peak at the mode falling for good.
+                0 => c[degree] = -uniform().abs() - 1e-3,
+                // A quadratic well with a hump beyond: a pass.
+                1 => {
+                    c.resize(4, 0.0);
+                    c[2] = -0.5;
+                    c[3] = 0.05 * uniform();
+                    c.truncate(4);
+                }
+                // Rising eventually.
+                2 => c[degree] = uniform() * 1e-4 + 1e-6,
+                // Flat at the mode's value, then falling: ties at the minimum and at 0.
+                3 => {
+                    c.iter_mut().for_each(|v| *v = 0.0);
+                    c[degree] = -1e-6;
+                }
+                _ => {
+                    if case % 50 == 4 {
+                        c[1] = f64::NAN;
+                    }
+                }
+            }
+            let lead = *c.last().unwrap();
+            let q_max = if case % 3 == 0 { 0.0 } else { 0.5 * uniform() };
+            let r_stop = 0.01 + 40.0 * uniform() * uniform();
+            let got = scan(&c, steps, r_stop, lead, q_max);
+            let want = scan_in_order(&c, steps, r_stop, lead, q_max);
+            assert_eq!(bits(got), bits(want), "case {case}: {c:?}, r_stop {r_stop}");
+            match want {
+                Scan::Rises { .. } => rises += 1,
+                Scan::Ends { .. } => ends += 1,
+            }
+        }
+        assert!(rises > 300 && ends > 300, "{rises} rises, {ends} ends");
+        // Q constant along the ray: every radius ties at the lowest value, which the scan in
+        // order keeps at its first.
+        for (c0, r_stop) in [(-50.0, 3.0), (-1.0, 0.5), (-0.0, 7.0)] {
+            let c = [c0, 0.0];
+            let got = scan(&c, steps, r_stop, 0.0, 0.0);
+            let want = scan_in_order(&c, steps, r_stop, 0.0, 0.0);
+            assert_eq!(bits(got), bits(want), "Q = {c0}");
+            if c0 < 0.0 {
+                assert!(matches!(want, Scan::Ends { min_r, .. } if min_r == steps.r[0]));
+            }
+        }
+    }
 }
