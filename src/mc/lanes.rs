@@ -50,7 +50,7 @@ pub(crate) struct LaneProgram {
     code: Vec<Step>,
     /// What [`LaneProgram::run_lean`] executes: `code` without an instruction for a constant
     /// (its slot filled once by [`LaneProgram::fill_constants`]) or for a state that is an
-    /// output (read in place, [`LaneProgram::lean_output`]).
+    /// output (read in place, [`LaneProgram::lean_source`]).
     lean: Vec<Step>,
     /// The constants' slots and values.
     constants: Vec<(u32, f64)>,
@@ -152,9 +152,9 @@ impl LaneProgram {
     }
 
     /// As [`LaneProgram::run`], for slots whose constants [`LaneProgram::fill_constants`]
-    /// wrote (no instruction rewrites them); output `j` is then
-    /// [`LaneProgram::lean_output`], which may be a state itself (no instruction copies
-    /// it). Every value is that of [`LaneProgram::run`], bit for bit.
+    /// wrote (no instruction rewrites them); output `j` is then where
+    /// [`LaneProgram::lean_source`] says, which may be a state itself (no instruction
+    /// copies it). Every value is that of [`LaneProgram::run`], bit for bit.
     #[inline(always)]
     pub(crate) fn run_lean<const W: usize>(
         &self,
