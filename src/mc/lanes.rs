@@ -48,6 +48,14 @@ pub(crate) struct LaneProgram {
     /// What [`LaneProgram::run`] executes: the same instructions with the states read in
     /// place and single-use products folded into their sums (see [`Step`]).
     code: Vec<Step>,
+    /// What [`LaneProgram::run_lean`] executes: `code` without an instruction for a constant
+    /// (its slot filled once by [`LaneProgram::fill_constants`]) or for a state that is an
+    /// output (read in place, [`LaneProgram::lean_source`]).
+    lean: Vec<Step>,
+    /// The constants' slots and values.
+    constants: Vec<(u32, f64)>,
+    /// Where output j is after [`LaneProgram::run_lean`]: a slot, or a state's code.
+    lean_outputs: Vec<u32>,
     /// The tape's Gaussian delta instructions, by index.
     gauss: Vec<Op>,
     outputs: Vec<u32>,
@@ -85,10 +93,22 @@ impl LaneProgram {
             })
             .collect();
         let outputs = tape.output_slots().to_vec();
-        let code = lane_code(&ops, &outputs);
+        let (code, _) = lane_code(&ops, &outputs, false);
+        let (lean, lean_outputs) = lane_code(&ops, &outputs, true);
+        let constants = ops
+            .iter()
+            .enumerate()
+            .filter_map(|(i, op)| match *op {
+                LaneOp::Const(c) => Some((i as u32, Op::Const(c).apply(0.0, 0.0))),
+                _ => None,
+            })
+            .collect();
         LaneProgram {
             ops,
             code,
+            lean,
+            constants,
+            lean_outputs,
             gauss,
             outputs,
         }
@@ -120,7 +140,66 @@ impl LaneProgram {
     /// so that it is compiled for the caller's target features.
     #[inline(always)]
     pub(crate) fn run<const W: usize>(&self, x: &[f64; W], v: &[f64; W], slots: &mut [[f64; W]]) {
-        for &Step { dst, op } in &self.code {
+        self.exec(&self.code, x, v, slots);
+    }
+
+    /// Writes the program's constants into their slots, once for slots that only
+    /// [`LaneProgram::run_lean`] uses afterwards.
+    pub(crate) fn fill_constants<const W: usize>(&self, slots: &mut [[f64; W]]) {
+        for &(slot, c) in &self.constants {
+            slots[slot as usize] = [c; W];
+        }
+    }
+
+    /// As [`LaneProgram::run`], for slots whose constants [`LaneProgram::fill_constants`]
+    /// wrote (no instruction rewrites them); output `j` is then where
+    /// [`LaneProgram::lean_source`] says, which may be a state itself (no instruction
+    /// copies it). Every value is that of [`LaneProgram::run`], bit for bit.
+    #[inline(always)]
+    pub(crate) fn run_lean<const W: usize>(
+        &self,
+        x: &[f64; W],
+        v: &[f64; W],
+        slots: &mut [[f64; W]],
+    ) {
+        self.exec(&self.lean, x, v, slots);
+    }
+
+    /// Output `j` after [`LaneProgram::run_lean`] at the points `(x, v)` into `slots`.
+    #[cfg(test)]
+    pub(crate) fn lean_output<'a, const W: usize>(
+        &self,
+        j: usize,
+        x: &'a [f64; W],
+        v: &'a [f64; W],
+        slots: &'a [[f64; W]],
+    ) -> &'a [f64; W] {
+        match self.lean_source(j) {
+            LeanOutput::Slot(s) => &slots[s],
+            LeanOutput::State(0) => x,
+            LeanOutput::State(_) => v,
+        }
+    }
+
+    /// Where output `j` is after [`LaneProgram::run_lean`].
+    pub(crate) fn lean_source(&self, j: usize) -> LeanOutput {
+        match self.lean_outputs[j] {
+            STATE_X => LeanOutput::State(0),
+            STATE_V => LeanOutput::State(1),
+            s => LeanOutput::Slot(s as usize),
+        }
+    }
+
+    /// Runs `code` (this program's [`LaneProgram::run`] or [`LaneProgram::run_lean`] code).
+    #[inline(always)]
+    fn exec<const W: usize>(
+        &self,
+        code: &[Step],
+        x: &[f64; W],
+        v: &[f64; W],
+        slots: &mut [[f64; W]],
+    ) {
+        for &Step { dst, op } in code {
             let (done, rest) = slots.split_at_mut(dst as usize);
             let dst = &mut rest[0];
             // An operand is an earlier slot or one of the states, read where it is.
@@ -253,6 +332,15 @@ impl LaneProgram {
     }
 }
 
+/// Where an output of [`LaneProgram::run_lean`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum LeanOutput {
+    /// A slot of the program's.
+    Slot(usize),
+    /// The state x (0) or v (1) it was run at.
+    State(u8),
+}
+
 /// Operand codes of the lane code for the states themselves (no tape has this many slots).
 const STATE_X: u32 = u32::MAX;
 const STATE_V: u32 = u32::MAX - 1;
@@ -277,11 +365,13 @@ enum Code {
     SubMulC(u32, u32, f64),
 }
 
-/// The lane code of a tape's instructions `ops` with outputs `outputs`: a state that is no
-/// output is read in place rather than copied into a slot, and a product by a constant used
-/// only by one sum or difference is computed inside it (one pass over the lanes, not two).
-/// Every value is computed by the same operations in the same order as in the tape.
-fn lane_code(ops: &[LaneOp], outputs: &[u32]) -> Vec<Step> {
+/// The lane code of a tape's instructions `ops` with outputs `outputs`, and where each
+/// output is then read: a state that is no output is read in place rather than copied into a
+/// slot, and a product by a constant used only by one sum or difference is computed inside
+/// it (one pass over the lanes, not two). `lean` code has no instruction for a constant (its
+/// slot is filled once) nor for a state (read in place even when it is an output). Every
+/// value is computed by the same operations in the same order as in the tape.
+fn lane_code(ops: &[LaneOp], outputs: &[u32], lean: bool) -> (Vec<Step>, Vec<u32>) {
     let mut uses = vec![0usize; ops.len()];
     for &o in outputs {
         uses[o as usize] += 1;
@@ -302,11 +392,13 @@ fn lane_code(ops: &[LaneOp], outputs: &[u32]) -> Vec<Step> {
     };
     let mut code = Vec::with_capacity(ops.len());
     for (i, &op) in ops.iter().enumerate() {
-        if let LaneOp::Var(k) = op {
-            if !is_output(i) {
+        match op {
+            LaneOp::Var(k) if lean || !is_output(i) => {
                 at[i] = if k == 0 { STATE_X } else { STATE_V };
                 continue;
             }
+            LaneOp::Const(_) if lean => continue,
+            _ => {}
         }
         let r = |a: u32| at[a as usize];
         let step = match op {
@@ -341,7 +433,8 @@ fn lane_code(ops: &[LaneOp], outputs: &[u32]) -> Vec<Step> {
     }
     // Products computed inside their sum write no slot of their own.
     code.retain(|s| !fused[s.dst as usize]);
-    code
+    let read_at = outputs.iter().map(|&o| at[o as usize]).collect();
+    (code, read_at)
 }
 
 /// The slots an instruction reads.
@@ -481,10 +574,18 @@ mod tests {
         let mut want = vec![0.0; exprs.len()];
         let mut scratch = Vec::new();
         let mut one = vec![0.0; exprs.len()];
+        // The lean code on slots that only its constants were written into, reused from
+        // point to point as the simulator reuses them from step to step.
+        let mut lean = vec![[f64::NAN; 1]; prog.n_slots()];
+        prog.fill_constants(&mut lean);
         for i in 0..np {
             tape.eval(&[xs[i], vs[i]], &mut scratch, &mut want);
             prog.eval_point(xs[i], vs[i], &mut one);
+            let (x, v) = ([xs[i]], [vs[i]]);
+            prog.run_lean(&x, &v, &mut lean);
             for j in 0..exprs.len() {
+                let l = prog.lean_output(j, &x, &v, &lean)[0];
+                assert!(l.to_bits() == want[j].to_bits() || (l.is_nan() && want[j].is_nan()));
                 let g = got[j * np + i];
                 assert!(
                     g.to_bits() == want[j].to_bits() || (g.is_nan() && want[j].is_nan()),

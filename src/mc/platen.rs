@@ -1,60 +1,112 @@
 //! Platen's weak order-2 step (see `scheme.rs`) of a batch, chunk by chunk of lanes: every
-//! kernel evaluated by its lane program on the chunk, the supporting values and the
-//! increments combined while the chunk is in L1, in fixed-length loops without bounds
-//! checks (so they vectorise). The arithmetic of each lane is that of the scalar scheme, in
-//! the same order, so the result does not depend on the chunking; the working memory is
-//! sized once per batch, so a step allocates nothing.
+//! kernel evaluated by its lane program on the chunk, the predictor, the supporting points
+//! and the sums of the step formed in few passes over the chunk while it is in L1 (the
+//! increments and pair signs formed where they are used, from the standardised draws), in
+//! fixed-length loops without bounds checks (so they vectorise). The arithmetic of each lane
+//! is that of the scalar scheme, in the same order, so the result does not depend on the
+//! chunking; the working memory is sized once per batch, so a step allocates nothing.
 
 use super::eval::BatchKernel;
 use super::fused::{chunk, chunk_mut};
-use super::lanes::LaneProgram;
+use super::lanes::{LaneProgram, LeanOutput};
+use super::scheme::PlatenKernels;
 
 /// Lanes of a chunk of Platen's step: a batch's default 128 lanes in one chunk (each
 /// instruction of a lane program dispatched once per 128 lanes; measured faster than 64,
-/// and 32 slower, on the barrier model).
+/// and 32 slower, on the barrier model; with every evaluation in its own rows, 64 and 256
+/// measured 5 % and 75 % slower than 128 on `cubic_damping_two_noises`: 256 leaves L1).
 const CHUNK: usize = 128;
-use super::scheme::PlatenKernels;
 
 type Lanes = [f64; CHUNK];
 
+/// A row of a chunk's working memory: an index into [`PlatenWork::rows`], or one of the
+/// chunk's states ([`ROW_X`], [`ROW_V`]: a kernel output that is a state itself).
+type Row = u32;
+const ROW_X: Row = u32::MAX;
+const ROW_V: Row = u32::MAX - 1;
+
 /// Working memory of Platen's step, sized for a batch once.
 pub(super) struct PlatenWork {
-    /// The kernel's slots (drift, then the columns b̃ of x, then of v), kept for the step.
-    e0: Vec<Lanes>,
-    /// Slots of the supporting evaluations at the + and − points.
-    plus: Vec<Lanes>,
-    minus: Vec<Lanes>,
-    /// The chunk's increments ΔŴ_j and pair signs ±Δ (one row each).
-    dw: Vec<Lanes>,
-    vpair: Vec<Lanes>,
+    /// A chunk's rows: the predictor's x and v, each supporting point's x and v, then the
+    /// slots of the kernel at the states, of the drift at the predictor and of each
+    /// supporting evaluation (their constants written once, as no step rewrites them).
+    rows: Vec<Lanes>,
+    /// Where the kernel's slots start among the rows, and its outputs (the drift, then the
+    /// columns b̃ of x, then of v).
+    e0_at: usize,
+    e0_out: Vec<Row>,
+    /// Where the drift's slots start, and its outputs.
+    a1_at: usize,
+    a1_out: [Row; 2],
+    /// The supporting evaluations.
+    support: Vec<Support>,
+    /// For each column j, its R⁺_j evaluation in `support` (R⁻_j the next); `None` for a
+    /// state-independent column.
+    at_r: Vec<Option<usize>>,
+    /// For each source r, its U⁺_r evaluation in `support` (U⁻_r the next); `None` when
+    /// every other column is state-independent (no cross terms).
+    at_u: Vec<Option<usize>>,
     /// The random bits of the pair signs of the whole batch, pair p of lane i at `p*n + i`
     /// (the sign of V is the top bit).
     pub(super) pair_bits: Vec<u64>,
     /// The batch's new states, exchanged with the old ones after a step.
     pub(super) nx: Vec<f64>,
     pub(super) nv: Vec<f64>,
-    /// For each r, how the cross terms' b̃_j(U±_r) are evaluated.
-    cross: Vec<Cross>,
-    /// A chunk's supporting points, accumulated increments and Y + aΔ (rows of x and v),
-    /// kept here so that a chunk neither zeroes nor moves them.
-    rows: Box<Rows>,
+    /// A partial last chunk's draws and pair bits, padded to a whole chunk.
+    pad_z: Vec<f64>,
+    pad_bits: Vec<u64>,
+    /// A chunk's sums of the step's terms.
+    sums: Box<Sums>,
 }
 
-/// The rows of a chunk's step: a supporting point, the increment and Y + aΔ, each of x
-/// then of v; aligned to a cache line (a vector load never splits one).
+/// One evaluation of noise columns at a supporting point, the s-th: its point is rows
+/// `2 + 2s` (x) and `3 + 2s` (v).
+struct Support {
+    /// Column j's own program (outputs b̃_0j, b̃_1j), or `None`: every column's.
+    column: Option<usize>,
+    /// The point is (Y + aΔ, for R±) or (Y, for U±) `± b̃_shift·√Δ` (+ for the first
+    /// of a pair, − for the second).
+    drifted: bool,
+    shift: usize,
+    /// Where its slots start among the rows, and its outputs.
+    at: usize,
+    out: Vec<Row>,
+}
+
+impl Support {
+    fn program<'a>(&self, pk: &'a PlatenKernels) -> &'a LaneProgram {
+        match self.column {
+            Some(j) => pk.column[j].program(),
+            None => pk.noise.program(),
+        }
+    }
+}
+
+/// The rows of a program's outputs after [`LaneProgram::run_lean`] into slots starting at
+/// row `at`, at the point in rows `(x, v)`.
+fn output_rows(program: &LaneProgram, at: usize, x: Row, v: Row) -> Vec<Row> {
+    (0..program.outputs().len())
+        .map(|j| match program.lean_source(j) {
+            LeanOutput::Slot(s) => (at + s) as Row,
+            LeanOutput::State(0) => x,
+            LeanOutput::State(_) => v,
+        })
+        .collect()
+}
+
+/// Row `r` of a chunk with states `(x, v)` and working rows `rows`.
+#[inline(always)]
+fn row<'a>(rows: &'a [Lanes], x: &'a Lanes, v: &'a Lanes, r: Row) -> &'a Lanes {
+    match r {
+        ROW_X => x,
+        ROW_V => v,
+        _ => &rows[r as usize],
+    }
+}
+
+/// A chunk's sums of the step's terms, of x and of v.
 #[repr(C, align(64))]
-struct Rows([Lanes; 6]);
-
-/// The evaluation at the supporting points U±_r of one source r.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Cross {
-    /// Every other column is state-independent: no cross terms.
-    None,
-    /// One other column j depends on the state: its own program.
-    Column(usize),
-    /// Several do: the program of all columns.
-    All,
-}
+struct Sums([Lanes; 2]);
 
 impl PlatenWork {
     /// Working memory for `lanes` lanes of `m` sources.
@@ -64,41 +116,79 @@ impl PlatenWork {
         m: usize,
         lanes: usize,
     ) -> Self {
-        let slots = pk
-            .column
-            .iter()
-            .map(|c| c.program().n_slots())
-            .chain([pk.drift.program().n_slots(), pk.noise.program().n_slots()])
-            .max()
-            .unwrap_or(0);
-        let pairs = m * m.saturating_sub(1) / 2;
-        let cross = (0..m)
-            .map(|r| {
-                let mut varying = (0..m).filter(|&j| j != r && !pk.constant[j]);
-                match (varying.next(), varying.next()) {
-                    (None, _) => Cross::None,
-                    (Some(j), None) => Cross::Column(j),
-                    _ => Cross::All,
-                }
+        let mut plan = Vec::new();
+        let mut at_r = vec![None; m];
+        for j in 0..m {
+            if pk.constant[j] {
+                continue;
+            }
+            at_r[j] = Some(plan.len());
+            // R⁺_j, then R⁻_j.
+            plan.extend([(Some(j), true, j); 2]);
+        }
+        let mut at_u = vec![None; m];
+        for r in 0..m {
+            // b̃_j(U±_r) for the state-dependent columns j ≠ r: column j's own program when
+            // it is the only one (the same outputs, fewer instructions), else all columns.
+            let mut varying = (0..m).filter(|&j| j != r && !pk.constant[j]);
+            let column = match (varying.next(), varying.next()) {
+                (None, _) => continue,
+                (Some(j), None) => Some(j),
+                _ => None,
+            };
+            at_u[r] = Some(plan.len());
+            plan.extend([(column, false, r); 2]);
+        }
+        let (kernel, drift) = (kernel.program(), pk.drift.program());
+        let e0_at = 2 + 2 * plan.len();
+        let a1_at = e0_at + kernel.n_slots();
+        let mut at = a1_at + drift.n_slots();
+        let a1_out = output_rows(drift, a1_at, 0, 1);
+        let support: Vec<Support> = plan
+            .into_iter()
+            .enumerate()
+            .map(|(s, (column, drifted, shift))| {
+                let mut sup = Support {
+                    column,
+                    drifted,
+                    shift,
+                    at,
+                    out: Vec::new(),
+                };
+                let program = sup.program(pk);
+                sup.out = output_rows(program, at, (2 + 2 * s) as Row, (3 + 2 * s) as Row);
+                at += program.n_slots();
+                sup
             })
             .collect();
+        let mut rows = vec![[0.0; CHUNK]; at];
+        kernel.fill_constants(&mut rows[e0_at..a1_at]);
+        drift.fill_constants(&mut rows[a1_at..]);
+        for s in &support {
+            s.program(pk).fill_constants(&mut rows[s.at..]);
+        }
+        let pairs = m * m.saturating_sub(1) / 2;
         PlatenWork {
-            e0: vec![[0.0; CHUNK]; kernel.program().n_slots()],
-            plus: vec![[0.0; CHUNK]; slots],
-            minus: vec![[0.0; CHUNK]; slots],
-            dw: vec![[0.0; CHUNK]; m],
-            vpair: vec![[0.0; CHUNK]; pairs],
+            rows,
+            e0_at,
+            e0_out: output_rows(kernel, e0_at, ROW_X, ROW_V),
+            a1_at,
+            a1_out: [a1_out[0], a1_out[1]],
+            support,
+            at_r,
+            at_u,
             pair_bits: vec![0; pairs * lanes],
             nx: vec![0.0; lanes],
             nv: vec![0.0; lanes],
-            cross,
-            rows: Box::new(Rows([[0.0; CHUNK]; 6])),
+            pad_z: vec![0.0; m * CHUNK],
+            pad_bits: vec![0; pairs * CHUNK],
+            sums: Box::new(Sums([[0.0; CHUNK]; 2])),
         }
     }
 
     /// One step of every lane from `(x, v)` into `(self.nx, self.nv)`: the increments are
-    /// ΔŴ = `sq`·`z` (source k of lane i at `z[k*n + i]`, `sq` = √h), the pair signs from
-    /// `self.pair_bits`, both formed chunk by chunk while the chunk is in L1.
+    /// ΔŴ = √h·`z` (source k of lane i at `z[k*n + i]`), the pair signs from
+    /// `self.pair_bits`, both formed where the chunk's passes use them.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
@@ -112,46 +202,65 @@ impl PlatenWork {
         z: &[f64],
     ) {
         let n = x.len();
-        let pairs = self.vpair.len();
-        let sq = h.sqrt();
         let mut nx = std::mem::take(&mut self.nx);
         let mut nv = std::mem::take(&mut self.nv);
+        let bits = std::mem::take(&mut self.pair_bits);
         let mut start = 0;
-        while start < n {
+        while start + CHUNK <= n {
+            let r = start..start + CHUNK;
+            let (ox, ov) = (chunk_mut(&mut nx[r.clone()]), chunk_mut(&mut nv[r.clone()]));
+            let draws = Draws {
+                z,
+                bits: &bits,
+                stride: n,
+                start,
+            };
+            self.chunk(
+                kernel,
+                pk,
+                m,
+                h,
+                chunk(&x[r.clone()]),
+                chunk(&v[r]),
+                &draws,
+                ox,
+                ov,
+            );
+            start += CHUNK;
+        }
+        if start < n {
             // A partial last chunk is padded with zeros; its padding lanes are discarded.
-            let len = CHUNK.min(n - start);
-            for k in 0..m {
-                let (src, dst) = (&z[k * n + start..k * n + start + len], &mut self.dw[k]);
-                for i in 0..len {
-                    dst[i] = sq * src[i];
-                }
-                dst[len..].fill(0.0);
+            let len = n - start;
+            let (mut pad_z, mut pad_bits) = (
+                std::mem::take(&mut self.pad_z),
+                std::mem::take(&mut self.pad_bits),
+            );
+            for (k, row) in pad_z.chunks_exact_mut(CHUNK).enumerate() {
+                row[..len].copy_from_slice(&z[k * n + start..k * n + n]);
+                row[len..].fill(0.0);
             }
-            for p in 0..pairs {
-                let src = &self.pair_bits[p * n + start..p * n + start + len];
-                let dst = &mut self.vpair[p];
-                for i in 0..len {
-                    dst[i] = if src[i] >> 63 == 0 { h } else { -h };
-                }
-                dst[len..].fill(0.0);
+            for (p, row) in pad_bits.chunks_exact_mut(CHUNK).enumerate() {
+                row[..len].copy_from_slice(&bits[p * n + start..p * n + n]);
+                row[len..].fill(0);
             }
-            let r = start..start + len;
-            if len == CHUNK {
-                let (ox, ov) = (chunk_mut(&mut nx[r.clone()]), chunk_mut(&mut nv[r.clone()]));
-                self.chunk(kernel, pk, m, h, chunk(&x[r.clone()]), chunk(&v[r]), ox, ov);
-            } else {
-                let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
-                xc[..len].copy_from_slice(&x[r.clone()]);
-                vc[..len].copy_from_slice(&v[r.clone()]);
-                let (mut ox, mut ov) = ([0.0; CHUNK], [0.0; CHUNK]);
-                self.chunk(kernel, pk, m, h, &xc, &vc, &mut ox, &mut ov);
-                nx[r.clone()].copy_from_slice(&ox[..len]);
-                nv[r].copy_from_slice(&ov[..len]);
-            }
-            start += len;
+            let (mut xc, mut vc) = ([0.0; CHUNK], [0.0; CHUNK]);
+            xc[..len].copy_from_slice(&x[start..]);
+            vc[..len].copy_from_slice(&v[start..]);
+            let (mut ox, mut ov) = ([0.0; CHUNK], [0.0; CHUNK]);
+            let draws = Draws {
+                z: &pad_z,
+                bits: &pad_bits,
+                stride: CHUNK,
+                start: 0,
+            };
+            self.chunk(kernel, pk, m, h, &xc, &vc, &draws, &mut ox, &mut ov);
+            nx[start..].copy_from_slice(&ox[..len]);
+            nv[start..].copy_from_slice(&ov[..len]);
+            (self.pad_z, self.pad_bits) = (pad_z, pad_bits);
         }
         self.nx = nx;
         self.nv = nv;
+        self.pair_bits = bits;
     }
 
     /// Platen's step of one chunk into `(out_x, out_v)` (the arithmetic of
@@ -166,123 +275,301 @@ impl PlatenWork {
         h: f64,
         x: &Lanes,
         v: &Lanes,
+        draws: &Draws,
         out_x: &mut Lanes,
         out_v: &mut Lanes,
     ) {
         let sq = h.sqrt();
         let inv_sq = 1.0 / sq;
         let Self {
-            e0,
-            plus,
-            minus,
-            dw,
-            vpair,
-            cross,
             rows,
+            e0_at,
+            e0_out,
+            a1_at,
+            a1_out,
+            support,
+            at_r,
+            at_u,
+            sums,
             ..
         } = self;
-        // The increment (ax, av) first holds the predictor's, then the step's.
-        let [px, pv, ax, av, yx, yv] = &mut rows.0;
-        kernel.run(x, v, e0);
-        let e = |o: usize| &e0[kernel.output(o)];
-        // The drift's rows, looked up once (not in every lane's iteration).
-        let (e0x, e0v) = (e(0), e(1));
-        // The Euler–Maruyama predictor Y + aΔ + Σ_k b_k ΔW_k.
-        let (dx, dv) = (&mut *ax, &mut *av);
-        for i in 0..CHUNK {
-            dx[i] = e0x[i] * h;
-            dv[i] = e0v[i] * h;
-        }
-        for k in 0..m {
-            let (bx, bv, w) = (e(2 + k), e(2 + m + k), &dw[k]);
-            for i in 0..CHUNK {
-                dx[i] += bx[i] * w[i];
-                dv[i] += bv[i] * w[i];
-            }
-        }
-        for i in 0..CHUNK {
-            px[i] = x[i] + dx[i];
-            pv[i] = v[i] + dv[i];
-        }
-        let drift = pk.drift.program();
-        drift.run(px, pv, plus);
-        let (a1x, a1v) = (&plus[drift.output(0)], &plus[drift.output(1)]);
-        for i in 0..CHUNK {
-            ax[i] = 0.5 * (e0x[i] + a1x[i]) * h;
-            av[i] = 0.5 * (e0v[i] + a1v[i]) * h;
-            // Y + aΔ, the same for every column's R±.
-            yx[i] = x[i] + e0x[i] * h;
-            yv[i] = v[i] + e0v[i] * h;
-        }
-        for j in 0..m {
-            let (cx, cv, w) = (e(2 + j), e(2 + m + j), &dw[j]);
-            if pk.constant[j] {
-                for i in 0..CHUNK {
-                    ax[i] += cx[i] * w[i];
-                    av[i] += cv[i] * w[i];
-                }
-                continue;
-            }
-            let col = pk.column[j].program();
-            for (sign, out) in [(1.0, &mut *plus), (-1.0, &mut *minus)] {
-                for i in 0..CHUNK {
-                    px[i] = yx[i] + sign * cx[i] * sq;
-                    pv[i] = yv[i] + sign * cv[i] * sq;
-                }
-                col.run(px, pv, out);
-            }
-            // Column j's program gives (b̃_0j, b̃_1j) as its outputs 0 and 1.
-            let (bpx, bmx) = (&plus[col.output(0)], &minus[col.output(0)]);
-            let (bpv, bmv) = (&plus[col.output(1)], &minus[col.output(1)]);
-            for i in 0..CHUNK {
-                let w = w[i];
-                let q = (w * w - h) * inv_sq;
-                ax[i] += 0.25 * ((bpx[i] + bmx[i] + 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q);
-                av[i] += 0.25 * ((bpv[i] + bmv[i] + 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q);
-            }
-        }
-        for r in 0..m {
-            // b̃_j(U±_r) for the state-dependent columns j ≠ r: column j's own program when
-            // it is the only one (the same outputs, fewer instructions), else all columns.
-            let (program, only) = match cross[r] {
-                Cross::None => continue,
-                Cross::Column(j) => (pk.column[j].program(), Some(j)),
-                Cross::All => (pk.noise.program(), None),
+        let (e0_at, a1_at) = (*e0_at, *a1_at);
+        kernel.run_lean(x, v, &mut rows[e0_at..a1_at]);
+        {
+            // The predictor Ῡ = Y + aΔ + Σ_k b̃_k ΔŴ_k and the supporting points, written
+            // to the rows before the kernel's, which they read.
+            let (points, after) = rows.split_at_mut(e0_at);
+            let e = |o: usize| match e0_out[o] {
+                ROW_X => x,
+                ROW_V => v,
+                r => &after[r as usize - e0_at],
             };
-            let (rx, rv) = (e(2 + r), e(2 + m + r));
-            for (sign, out) in [(1.0, &mut *plus), (-1.0, &mut *minus)] {
-                for i in 0..CHUNK {
-                    px[i] = x[i] + sign * rx[i] * sq;
-                    pv[i] = v[i] + sign * rv[i] * sq;
+            let (fx, fv) = (e(0), e(1));
+            let [px, pv, points @ ..] = points else {
+                unreachable!("the predictor's rows")
+            };
+            for k in 0..m {
+                let (b, z) = ([e(2 + k), e(2 + m + k)], draws.z(k));
+                let d = [&mut *px, &mut *pv];
+                match (k == 0, k + 1 == m) {
+                    (true, true) => predictor::<true, true>(d, [fx, fv], b, z, [x, v], h, sq),
+                    (true, false) => predictor::<true, false>(d, [fx, fv], b, z, [x, v], h, sq),
+                    (false, true) => predictor::<false, true>(d, [fx, fv], b, z, [x, v], h, sq),
+                    (false, false) => predictor::<false, false>(d, [fx, fv], b, z, [x, v], h, sq),
                 }
-                program.run(px, pv, out);
             }
+            for (pair, p) in support.chunks_exact(2).zip(points.chunks_exact_mut(4)) {
+                let [p0, p1, p2, p3] = p else {
+                    unreachable!("two points of two rows")
+                };
+                let c = [e(2 + pair[0].shift), e(2 + m + pair[0].shift)];
+                let p = [p0, p1, p2, p3];
+                if pair[0].drifted {
+                    supporting_points::<true>(p, [x, v], [fx, fv], c, h, sq);
+                } else {
+                    supporting_points::<false>(p, [x, v], [fx, fv], c, h, sq);
+                }
+            }
+        }
+        {
+            let (points, slots) = rows.split_at_mut(a1_at);
+            let drift = pk.drift.program();
+            drift.run_lean(&points[0], &points[1], &mut slots[..drift.n_slots()]);
+        }
+        for (s, sup) in support.iter().enumerate() {
+            let (points, slots) = rows.split_at_mut(sup.at);
+            let program = sup.program(pk);
+            program.run_lean(
+                &points[2 + 2 * s],
+                &points[3 + 2 * s],
+                &mut slots[..program.n_slots()],
+            );
+        }
+        // The sums of the step, a term per pass: the first starts them from
+        // ½(a(Ῡ) + a)Δ, the last writes Y plus them to the output.
+        let rows = &*rows;
+        let r = |i: Row| row(rows, x, v, i);
+        let start = Start {
+            x,
+            v,
+            f: [r(e0_out[0]), r(e0_out[1])],
+            g: [r(a1_out[0]), r(a1_out[1])],
+        };
+        let cross = (0..m)
+            .filter(|&rr| at_u[rr].is_some())
+            .map(|rr| (0..m).filter(|&j| j != rr && at_r[j].is_some()).count())
+            .sum::<usize>();
+        let terms = m + cross;
+        let Sums([sx, sv]) = &mut **sums;
+        let mut out = Out {
+            sums: [sx, sv],
+            new: [out_x, out_v],
+        };
+        if terms == 0 {
+            add_term::<true, true>(&mut out, &start, h, |_| (0.0, 0.0));
+            return;
+        }
+        let mut t = 0;
+        for j in 0..m {
+            let (cx, cv, zj) = (r(e0_out[2 + j]), r(e0_out[2 + m + j]), draws.z(j));
+            let (first, last) = (t == 0, t + 1 == terms);
+            t += 1;
+            let Some(s) = at_r[j] else {
+                let term = |i: usize| {
+                    let w = sq * zj[i];
+                    (cx[i] * w, cv[i] * w)
+                };
+                add(first, last, &mut out, &start, h, term);
+                continue;
+            };
+            // Column j's program gives (b̃_0j, b̃_1j) as its outputs 0 and 1.
+            let (p, n) = (&support[s].out, &support[s + 1].out);
+            let (bpx, bmx, bpv, bmv) = (r(p[0]), r(n[0]), r(p[1]), r(n[1]));
+            let term = |i: usize| {
+                let w = sq * zj[i];
+                let q = (w * w - h) * inv_sq;
+                (
+                    0.25 * ((bpx[i] + bmx[i] + 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q),
+                    0.25 * ((bpv[i] + bmv[i] + 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q),
+                )
+            };
+            add(first, last, &mut out, &start, h, term);
+        }
+        for rr in 0..m {
+            let Some(s) = at_u[rr] else { continue };
+            let zr = draws.z(rr);
             for j in 0..m {
-                if j == r || pk.constant[j] {
+                if j == rr || at_r[j].is_none() {
                     continue;
                 }
                 // The slots of (b̃_0j, b̃_1j) among the program's outputs.
-                let (ox, ov) = match only {
-                    Some(_) => (program.output(0), program.output(1)),
-                    None => (program.output(j), program.output(m + j)),
+                let (ox, ov) = match support[s].column {
+                    Some(_) => (0, 1),
+                    None => (j, m + j),
                 };
-                let (cx, cv) = (e(2 + j), e(2 + m + j));
-                let (bpx, bmx) = (&plus[ox], &minus[ox]);
-                let (bpv, bmv) = (&plus[ov], &minus[ov]);
-                let (pair, sign) = pair_slot(r, j, m);
-                let (wj, wr, vp) = (&dw[j], &dw[r], &vpair[pair]);
-                for i in 0..CHUNK {
-                    let w = wj[i];
-                    let q = (w * wr[i] + sign * vp[i]) * inv_sq;
-                    ax[i] += 0.25 * ((bpx[i] + bmx[i] - 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q);
-                    av[i] += 0.25 * ((bpv[i] + bmv[i] - 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q);
-                }
+                let (cx, cv, zj) = (r(e0_out[2 + j]), r(e0_out[2 + m + j]), draws.z(j));
+                let (p, n) = (&support[s].out, &support[s + 1].out);
+                let (bpx, bmx, bpv, bmv) = (r(p[ox]), r(n[ox]), r(p[ov]), r(n[ov]));
+                let (pair, sign) = pair_slot(rr, j, m);
+                let bits = draws.bits(pair);
+                let last = t + 1 == terms;
+                t += 1;
+                let term = |i: usize| {
+                    let w = sq * zj[i];
+                    let vp = if bits[i] >> 63 == 0 { h } else { -h };
+                    let q = (w * (sq * zr[i]) + sign * vp) * inv_sq;
+                    (
+                        0.25 * ((bpx[i] + bmx[i] - 2.0 * cx[i]) * w + (bpx[i] - bmx[i]) * q),
+                        0.25 * ((bpv[i] + bmv[i] - 2.0 * cv[i]) * w + (bpv[i] - bmv[i]) * q),
+                    )
+                };
+                add(false, last, &mut out, &start, h, term);
             }
         }
-        for i in 0..CHUNK {
-            out_x[i] = x[i] + ax[i];
-            out_v[i] = v[i] + av[i];
+    }
+}
+
+/// One source's share of the predictor's increment d = aΔ + Σ_k b̃_k ΔŴ_k into `d` (rows
+/// of x and v): the first source's starts from aΔ (`f`·h), the last's adds the state `y`
+/// (d becomes Ῡ).
+#[inline(always)]
+fn predictor<const FIRST: bool, const LAST: bool>(
+    d: [&mut Lanes; 2],
+    f: [&Lanes; 2],
+    b: [&Lanes; 2],
+    z: &Lanes,
+    y: [&Lanes; 2],
+    h: f64,
+    sq: f64,
+) {
+    let [dx, dv] = d;
+    for i in 0..CHUNK {
+        let w = sq * z[i];
+        let (ax, av) = if FIRST {
+            (f[0][i] * h, f[1][i] * h)
+        } else {
+            (dx[i], dv[i])
+        };
+        let (nx, nv) = (ax + b[0][i] * w, av + b[1][i] * w);
+        (dx[i], dv[i]) = if LAST {
+            (y[0][i] + nx, y[1][i] + nv)
+        } else {
+            (nx, nv)
+        };
+    }
+}
+
+/// The points (Y + aΔ or Y) ± b̃√Δ (`DRIFTED` or not) of a column `c`, into `p`: x and v
+/// of the + point, then of the − point.
+#[inline(always)]
+fn supporting_points<const DRIFTED: bool>(
+    p: [&mut Lanes; 4],
+    y: [&Lanes; 2],
+    f: [&Lanes; 2],
+    c: [&Lanes; 2],
+    h: f64,
+    sq: f64,
+) {
+    let [px, pv, mx, mv] = p;
+    let (plus, minus) = (1.0, -1.0);
+    for i in 0..CHUNK {
+        let (ux, uv) = if DRIFTED {
+            (y[0][i] + f[0][i] * h, y[1][i] + f[1][i] * h)
+        } else {
+            (y[0][i], y[1][i])
+        };
+        px[i] = ux + plus * c[0][i] * sq;
+        pv[i] = uv + plus * c[1][i] * sq;
+        mx[i] = ux + minus * c[0][i] * sq;
+        mv[i] = uv + minus * c[1][i] * sq;
+    }
+}
+
+/// What the first term of the step's sums starts from, and the state the last adds them to.
+struct Start<'a> {
+    x: &'a Lanes,
+    v: &'a Lanes,
+    /// The drift at Y and at Ῡ (x, v).
+    f: [&'a Lanes; 2],
+    g: [&'a Lanes; 2],
+}
+
+/// Where the terms of the step go: the sums, then the new state.
+struct Out<'a> {
+    sums: [&'a mut Lanes; 2],
+    new: [&'a mut Lanes; 2],
+}
+
+/// [`add_term`] for a term known to be first or last at run time.
+#[inline(always)]
+fn add(
+    first: bool,
+    last: bool,
+    out: &mut Out,
+    start: &Start,
+    h: f64,
+    term: impl Fn(usize) -> (f64, f64) + Copy,
+) {
+    match (first, last) {
+        (true, true) => add_term::<true, true>(out, start, h, term),
+        (true, false) => add_term::<true, false>(out, start, h, term),
+        (false, true) => add_term::<false, true>(out, start, h, term),
+        (false, false) => add_term::<false, false>(out, start, h, term),
+    }
+}
+
+/// Adds a term (x and v of lane i: `term(i)`) to the step's sums: the first term starts
+/// them from ½(a(Ῡ) + a)Δ, the last writes Y plus them to the new state.
+#[inline(always)]
+fn add_term<const FIRST: bool, const LAST: bool>(
+    out: &mut Out,
+    start: &Start,
+    h: f64,
+    term: impl Fn(usize) -> (f64, f64),
+) {
+    let [sx, sv] = &mut out.sums;
+    let [nx, nv] = &mut out.new;
+    let ([fx, fv], [gx, gv]) = (start.f, start.g);
+    for i in 0..CHUNK {
+        let (tx, tv) = term(i);
+        let (ax, av) = if FIRST {
+            (0.5 * (fx[i] + gx[i]) * h, 0.5 * (fv[i] + gv[i]) * h)
+        } else {
+            (sx[i], sv[i])
+        };
+        let (ax, av) = (ax + tx, av + tv);
+        if LAST {
+            nx[i] = start.x[i] + ax;
+            nv[i] = start.v[i] + av;
+        } else {
+            sx[i] = ax;
+            sv[i] = av;
         }
+    }
+}
+
+/// A chunk's standardised draws and pair bits: source k's (pair p's) lanes of the chunk at
+/// `stride·k + start` onwards.
+struct Draws<'a> {
+    z: &'a [f64],
+    bits: &'a [u64],
+    stride: usize,
+    start: usize,
+}
+
+impl Draws<'_> {
+    /// Source k's draws.
+    #[inline(always)]
+    fn z(&self, k: usize) -> &Lanes {
+        chunk(&self.z[self.stride * k + self.start..][..CHUNK])
+    }
+
+    /// Pair p's bits.
+    #[inline(always)]
+    fn bits(&self, p: usize) -> &[u64; CHUNK] {
+        self.bits[self.stride * p + self.start..][..CHUNK]
+            .try_into()
+            .expect("a chunk")
     }
 }
 
