@@ -5,7 +5,7 @@ use serde::Serialize;
 use super::closure::GaussianClosure;
 use super::exp::{exp, exp_in_place};
 use super::normalise::{
-    horner, powers, DensityGrid, NormalisationReport, Poly, Stretch, MAX_POWER,
+    horner, powers, DensityGrid, NormalisationReport, Poly, Stretch, MAX_POWER, TRANSITION_CHUNK,
 };
 use super::outcome::SolverMethod;
 use crate::moments::Moments;
@@ -370,9 +370,8 @@ impl EpcSolution {
         }
         // Q itself is kept for a transition's cutoff (on a core piece the cutoff is 1), a
         // chunk at a time on the stack.
-        const CHUNK: usize = 64;
-        let mut q = [0.0; CHUNK];
-        for out in out.chunks_mut(CHUNK) {
+        let mut q = [0.0; TRANSITION_CHUNK];
+        for out in out.chunks_mut(TRANSITION_CHUNK) {
             let q = &mut q[..out.len()];
             q.copy_from_slice(out);
             for o in out.iter_mut() {

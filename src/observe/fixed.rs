@@ -65,12 +65,23 @@ fn clenshaw_curtis_weights(n: usize) -> Vec<f64> {
 /// product of these integrates a smooth function twice at the price of once.
 pub(crate) fn finest_pair(lo: f64, hi: f64) -> Vec<(f64, [f64; 2])> {
     let r = rules();
-    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-    let (fine, coarse) = (&r.weights[LEVELS.len() - 1], &r.weights[LEVELS.len() - 2]);
-    (0..=FINEST)
-        .map(|k| {
+    with_half(
+        nodes(lo, hi, FINEST),
+        &r.weights[LEVELS.len() - 1],
+        &r.weights[LEVELS.len() - 2],
+        hi - lo,
+    )
+}
+
+/// The nodes `x` of a rule on an interval of length `length`, with the rule's weights `fine`
+/// (on [−1, 1]) and those of its half `coarse` (0 at the nodes it lacks), scaled to it.
+fn with_half(x: Vec<f64>, fine: &[f64], coarse: &[f64], length: f64) -> Vec<(f64, [f64; 2])> {
+    let h = 0.5 * length;
+    x.into_iter()
+        .enumerate()
+        .map(|(k, x)| {
             let wc = if k % 2 == 0 { coarse[k / 2] } else { 0.0 };
-            (c + h * r.nodes[k], [fine[k] * h, wc * h])
+            (x, [fine[k] * h, wc * h])
         })
         .collect()
 }
@@ -124,15 +135,12 @@ pub(crate) fn pair(lo: f64, hi: f64, n: usize) -> Vec<(f64, [f64; 2])> {
         return finest_pair(lo, hi);
     }
     assert_eq!(n, 2 * FINEST, "fixed::pair: {n} intervals");
-    let (nodes, weights) = (doubled_nodes(), doubled_weights());
-    let coarse = &rules().weights[LEVELS.len() - 1];
-    let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-    (0..=n)
-        .map(|k| {
-            let wc = if k % 2 == 0 { coarse[k / 2] } else { 0.0 };
-            (c + h * nodes[k], [weights[k] * h, wc * h])
-        })
-        .collect()
+    with_half(
+        nodes(lo, hi, n),
+        doubled_weights(),
+        &rules().weights[LEVELS.len() - 1],
+        hi - lo,
+    )
 }
 
 /// ∫ f over [`lo`, `hi`] by the nested Clenshaw–Curtis rules, `f` evaluated a batch of nodes

@@ -22,6 +22,10 @@ use super::grid::{DensityGrid, TAPER_E_FOLDS};
 use super::poly::horner;
 use crate::epc::exp::exp_in_place;
 
+/// Points [`DensityGrid::times_transition`] takes at once, on the stack (more are taken a
+/// chunk at a time).
+pub(crate) const TRANSITION_CHUNK: usize = 64;
+
 /// What the density is on a stretch of a line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Stretch {
@@ -352,7 +356,7 @@ impl DensityGrid {
     pub(crate) fn times_transition(&self, q: &[f64], out: &mut [f64]) {
         // A chunk at a time on the stack (the exponentials are elementwise, the same bits in
         // any chunking).
-        const CHUNK: usize = 64;
+        const CHUNK: usize = TRANSITION_CHUNK;
         if q.len() > CHUNK {
             for (q, out) in q.chunks(CHUNK).zip(out.chunks_mut(CHUNK)) {
                 self.times_transition(q, out);

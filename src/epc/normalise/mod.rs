@@ -34,7 +34,7 @@ mod region;
 mod report;
 
 pub(crate) use grid::DensityGrid;
-pub(crate) use line::Stretch;
+pub(crate) use line::{Stretch, TRANSITION_CHUNK};
 pub(crate) use poly::{horner, powers, Poly, MAX_POWER};
 pub use report::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 
