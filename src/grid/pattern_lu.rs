@@ -15,6 +15,7 @@
 //! caller checks the backward error of each solve and refines (`assemble::solve`).
 
 mod numeric;
+mod pages;
 
 #[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -316,22 +317,45 @@ fn symmetric_pattern(
     a: SymbolicSparseColMatRef<'_, usize>,
 ) -> faer::sparse::SymbolicSparseColMat<usize> {
     let n = a.ncols();
-    let mut cols: Vec<Vec<usize>> = vec![Vec::new(); n];
+    // Column c of A + Aᵀ gathers the rows of A's column c and the columns of A's row c:
+    // counted, placed, then each column sorted and its repeats dropped in place.
+    let mut ptr = vec![0usize; n + 1];
     for c in 0..n {
         for &r in a.row_idx_of_col_raw(c) {
-            cols[c].push(r);
-            cols[r].push(c);
+            ptr[c + 1] += 1;
+            ptr[r + 1] += 1;
         }
     }
-    let mut ptr = Vec::with_capacity(n + 1);
-    let mut idx = Vec::new();
-    ptr.push(0);
-    for mut col in cols {
-        col.sort_unstable();
-        col.dedup();
-        idx.extend(col);
-        ptr.push(idx.len());
+    for k in 0..n {
+        ptr[k + 1] += ptr[k];
     }
+    let mut fill = ptr[..n].to_vec();
+    let mut idx = vec![0usize; ptr[n]];
+    for c in 0..n {
+        for &r in a.row_idx_of_col_raw(c) {
+            idx[fill[c]] = r;
+            fill[c] += 1;
+            idx[fill[r]] = c;
+            fill[r] += 1;
+        }
+    }
+    // Compacting never overtakes the reading: a column starts at or after its output.
+    let mut write = 0;
+    for c in 0..n {
+        let (start, end) = (ptr[c], ptr[c + 1]);
+        idx[start..end].sort_unstable();
+        let first = write;
+        for k in start..end {
+            let r = idx[k];
+            if write == first || idx[write - 1] != r {
+                idx[write] = r;
+                write += 1;
+            }
+        }
+        ptr[c] = first;
+    }
+    ptr[n] = write;
+    idx.truncate(write);
     faer::sparse::SymbolicSparseColMat::new_checked(n, n, ptr, None, idx)
 }
 
@@ -340,6 +364,65 @@ mod tests {
     use super::*;
     use crate::grid::lu::tests::system;
     use crate::grid::lu::{Factor, Ordering};
+
+    /// The pattern of A + Aᵀ by its definition: each column's set of rows, from A's column
+    /// and A's row.
+    fn symmetric_pattern_by_sets(a: SymbolicSparseColMatRef<'_, usize>) -> Vec<Vec<usize>> {
+        let mut cols = vec![std::collections::BTreeSet::new(); a.ncols()];
+        for c in 0..a.ncols() {
+            for &r in a.row_idx_of_col_raw(c) {
+                cols[c].insert(r);
+                cols[r].insert(c);
+            }
+        }
+        cols.into_iter().map(|s| s.into_iter().collect()).collect()
+    }
+
+    /// The counted pattern of A + Aᵀ is the definition's, column by column, on the grid
+    /// operators of both coordinate systems and on random patterns with repeats, empty
+    /// columns and a dense row.
+    #[test]
+    fn symmetric_pattern_is_the_union_of_a_and_its_transpose() {
+        let check = |a: SymbolicSparseColMatRef<'_, usize>| {
+            let sum = symmetric_pattern(a);
+            let sum = sum.as_ref();
+            let expected = symmetric_pattern_by_sets(a);
+            assert_eq!(sum.ncols(), a.ncols());
+            for (c, rows) in expected.iter().enumerate() {
+                assert_eq!(sum.row_idx_of_col_raw(c), rows.as_slice(), "column {c}");
+            }
+        };
+        for file in [
+            "models/vibro_duffing.sde",
+            "models/vibro_impact_duffing.sde",
+        ] {
+            let (_, a, _) = system(file, 20, 40);
+            check(a.symbolic());
+        }
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = |m: usize| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m as u64) as usize
+        };
+        for n in [1, 2, 7, 50, 300] {
+            let mut ptr = vec![0usize];
+            let mut idx = Vec::new();
+            for c in 0..n {
+                // Unsorted rows with repeats; every fifth column empty; row 0 everywhere.
+                if c % 5 != 4 {
+                    idx.push(0);
+                    for _ in 0..next(6) {
+                        idx.push(next(n));
+                    }
+                }
+                ptr.push(idx.len());
+            }
+            let a = faer::sparse::SymbolicSparseColMat::new_unsorted_checked(n, n, ptr, None, idx);
+            check(a.as_ref());
+        }
+    }
 
     /// The LU on the pattern of A + Aᵀ, ordered by AMD and by nested dissection (the
     /// solver's), solves the grid system as faer's LU does, to rounding (3e-15 and 6e-15 of

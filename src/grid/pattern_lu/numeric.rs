@@ -2,7 +2,7 @@
 //! sequential sweep's order, the supernodal elimination tree) and the factorisation of
 //! disjoint subtrees in parallel, bit-identical to one task.
 
-use super::{LuFailure, Permuted};
+use super::{pages, LuFailure, Permuted};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
 use faer::linalg::matmul::matmul;
@@ -251,8 +251,8 @@ pub(super) fn numeric(
 ) -> Result<Factors, LuFailure> {
     let n = sym.nrows();
     let plan = plan(sym);
-    let mut l = vec![0.0; sym.len_val()];
-    let mut u = vec![0.0; sym.len_val()];
+    let mut l = pages::zeroed(sym.len_val());
+    let mut u = pages::zeroed(sym.len_val());
     let mut pivots = vec![0usize; n];
     let total: f64 = plan.roots.iter().map(|&r| plan.cost[r]).sum();
     let ctx = Ctx {
