@@ -317,28 +317,9 @@ fn symmetric_pattern(
     a: SymbolicSparseColMatRef<'_, usize>,
 ) -> faer::sparse::SymbolicSparseColMat<usize> {
     let n = a.ncols();
-    // Column c of A + Aᵀ gathers the rows of A's column c and the columns of A's row c:
-    // counted, placed, then each column sorted and its repeats dropped in place.
-    let mut ptr = vec![0usize; n + 1];
-    for c in 0..n {
-        for &r in a.row_idx_of_col_raw(c) {
-            ptr[c + 1] += 1;
-            ptr[r + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        ptr[k + 1] += ptr[k];
-    }
-    let mut fill = ptr[..n].to_vec();
-    let mut idx = vec![0usize; ptr[n]];
-    for c in 0..n {
-        for &r in a.row_idx_of_col_raw(c) {
-            idx[fill[c]] = r;
-            fill[c] += 1;
-            idx[fill[r]] = c;
-            fill[r] += 1;
-        }
-    }
+    // Column c of A + Aᵀ: the rows of A's column c and the columns of A's row c, each column
+    // then sorted and its repeats dropped in place.
+    let (mut ptr, mut idx) = super::nested::union_with_transpose(a, true);
     // Compacting never overtakes the reading: a column starts at or after its output.
     let mut write = 0;
     for c in 0..n {

@@ -437,9 +437,9 @@ impl RawSums {
         [1, 2, 3, 4].map(|k| upto(existing, k, self.s[k - 1] / self.defined))
     }
 
-    /// The mean, NaN unless it is established.
+    /// The mean, NaN unless it is established: `raw(existing)[0]`.
     fn mean(&self, existing: usize) -> f64 {
-        self.raw(existing)[0]
+        upto(existing, 1, self.s[0] / self.defined)
     }
 
     /// The moments from these sums and the second pass's `central`.
