@@ -13,6 +13,7 @@ use nalgebra::{DMatrix, DVector, Matrix2};
 use serde::Serialize;
 
 use super::coefficients::{Coefficients, Point};
+use super::exp::exp_in_place;
 use super::EpcError;
 use crate::model::DeltaTreatment;
 
@@ -78,49 +79,79 @@ fn decode(u: &[f64; 5], c: [f64; 2], s: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
     (mean, [[sd[0] * sd[0], p12], [p12, sd[1] * sd[1]]])
 }
 
-/// The five scaled moment equations and their scale.
-fn equations(
-    pts: &[Point],
-    c: [f64; 2],
-    s: [f64; 2],
-    mean: [f64; 2],
-    p: [[f64; 2]; 2],
-) -> (DVector<f64>, f64) {
-    let cov = matrix(p);
-    let det = cov.determinant();
-    let lam = precision(p);
-    let sd = [p[0][0].sqrt(), p[1][1].sqrt()];
-    let log_norm = -0.5 * det.ln() + (s[0] * s[1]).ln();
-    let mut g = DVector::zeros(5);
-    let mut scale = 0.0;
-    for pt in pts {
-        let y = [pt.x[0] - mean[0], pt.x[1] - mean[1]];
-        let xi = [(pt.x[0] - c[0]) / s[0], (pt.x[1] - c[1]) / s[1]];
-        let quad = y[0] * (lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1])
-            + y[1] * (lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]);
-        let r = (-0.5 * quad + 0.5 * (xi[0] * xi[0] + xi[1] * xi[1]) + log_norm).exp();
-        let dq = [
-            -(lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1]),
-            -(lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]),
-        ];
-        let terms = [
-            pt.g[0],
-            pt.g[1] * dq[0],
-            pt.g[2] * dq[1],
-            pt.g[3] * (dq[0] * dq[0] - lam[(0, 0)]),
-            2.0 * pt.g[4] * (dq[0] * dq[1] - lam[(0, 1)]),
-            pt.g[5] * (dq[1] * dq[1] - lam[(1, 1)]),
-        ];
-        let f: f64 = terms.iter().sum();
-        let wr = pt.w * r;
-        scale += wr * terms.iter().map(|t| t.abs()).sum::<f64>();
-        let yh = [y[0] / sd[0], y[1] / sd[1]];
-        let tests = [yh[0], yh[1], yh[0] * yh[0], yh[0] * yh[1], yh[1] * yh[1]];
-        for (gk, t) in g.iter_mut().zip(tests) {
-            *gk += wr * f * t;
+/// A frame's quadrature points with what the equations need of them beyond the point: the
+/// frame's log-weight ½|ξ|² + ln(s1·s2) (the Gauss rule's normal weight, divided out), and a
+/// buffer for the exponents of one evaluation (exponentiated together, vectorised).
+struct Frame<'p> {
+    pts: &'p [Point],
+    /// ½|ξ|² + ln(s1·s2) at each point.
+    base: Vec<f64>,
+    /// The log of N(x; μ, P)/φ(ξ) at each point, then its exponential.
+    ratio: Vec<f64>,
+}
+
+impl<'p> Frame<'p> {
+    fn new(pts: &'p [Point], c: [f64; 2], s: [f64; 2]) -> Frame<'p> {
+        let log_s = (s[0] * s[1]).ln();
+        let base = pts
+            .iter()
+            .map(|pt| {
+                let xi = [(pt.x[0] - c[0]) / s[0], (pt.x[1] - c[1]) / s[1]];
+                0.5 * (xi[0] * xi[0] + xi[1] * xi[1]) + log_s
+            })
+            .collect();
+        Frame {
+            pts,
+            base,
+            ratio: vec![0.0; pts.len()],
         }
     }
-    (g, scale)
+
+    /// The five scaled moment equations and their scale under N(`mean`, `p`).
+    fn equations(&mut self, mean: [f64; 2], p: [[f64; 2]; 2]) -> (DVector<f64>, f64) {
+        let cov = matrix(p);
+        let det = cov.determinant();
+        let lam = precision(p);
+        let sd = [p[0][0].sqrt(), p[1][1].sqrt()];
+        let log_det = -0.5 * det.ln();
+        let centred = |x: [f64; 2]| [x[0] - mean[0], x[1] - mean[1]];
+        // −∇ of ½ yᵀΛy, which is also Λy.
+        let slope = |y: [f64; 2]| {
+            [
+                -(lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1]),
+                -(lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]),
+            ]
+        };
+        for ((r, pt), base) in self.ratio.iter_mut().zip(self.pts).zip(&self.base) {
+            let y = centred(pt.x);
+            let dq = slope(y);
+            *r = 0.5 * (y[0] * dq[0] + y[1] * dq[1]) + base + log_det;
+        }
+        exp_in_place(&mut self.ratio);
+        let mut g = DVector::zeros(5);
+        let mut scale = 0.0;
+        for (pt, r) in self.pts.iter().zip(&self.ratio) {
+            let y = centred(pt.x);
+            let dq = slope(y);
+            let terms = [
+                pt.g[0],
+                pt.g[1] * dq[0],
+                pt.g[2] * dq[1],
+                pt.g[3] * (dq[0] * dq[0] - lam[(0, 0)]),
+                2.0 * pt.g[4] * (dq[0] * dq[1] - lam[(0, 1)]),
+                pt.g[5] * (dq[1] * dq[1] - lam[(1, 1)]),
+            ];
+            let f: f64 = terms.iter().sum();
+            let wr = pt.w * r;
+            scale += wr * terms.iter().map(|t| t.abs()).sum::<f64>();
+            let yh = [y[0] / sd[0], y[1] / sd[1]];
+            let tests = [yh[0], yh[1], yh[0] * yh[0], yh[0] * yh[1], yh[1] * yh[1]];
+            for (gk, t) in g.iter_mut().zip(tests) {
+                *gk += wr * f * t;
+            }
+        }
+        (g, scale)
+    }
 }
 
 /// Solves the Gaussian closure.
@@ -139,9 +170,10 @@ pub(crate) fn gaussian_closure(
     let mut best = f64::INFINITY;
     for frame in 1..=MAX_FRAMES {
         let pts = coefs.points(c, s, kinks, order, treatment)?;
-        let eval = |u: &[f64; 5]| {
+        let mut frame_eqs = Frame::new(&pts, c, s);
+        let mut eval = |u: &[f64; 5]| {
             let (m, p) = decode(u, c, s);
-            equations(&pts, c, s, m, p)
+            frame_eqs.equations(m, p)
         };
         let mut u = [0.0, 0.0, 0.0, 0.0, rho_u];
         let (mut g, mut scale) = eval(&u);
@@ -160,14 +192,14 @@ pub(crate) fn gaussian_closure(
                 converged = true;
                 break;
             }
+            // Forward differences from g: an error of order h in the Jacobian only slows the
+            // last Newton step, whose residual the test above judges, not the root.
             let mut jac = DMatrix::zeros(5, 5);
             for j in 0..5 {
-                let h = 1e-7;
+                let h = 1e-8 * u[j].abs().max(1.0);
                 let mut up = u;
                 up[j] += h;
-                let mut um = u;
-                um[j] -= h;
-                let col = (eval(&up).0 - eval(&um).0) / (2.0 * h);
+                let col = (eval(&up).0 - &g) / (up[j] - u[j]);
                 jac.set_column(j, &col);
             }
             let Some(step) = jac.lu().solve(&(-&g)) else {
@@ -200,9 +232,14 @@ pub(crate) fn gaussian_closure(
                     clamped = true;
                 }
             }
+            let rho_clamped = u[4].abs() > 3.0;
             u[4] = u[4].clamp(-3.0, 3.0);
             if clamped {
                 break;
+            }
+            if rho_clamped {
+                // g is the residual at the unclamped point: taken again at the clamped one.
+                (g, scale) = eval(&u);
             }
         }
         let (mean, p) = decode(&u, c, s);

@@ -9,7 +9,7 @@
 
 use std::cell::RefCell;
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use nalgebra::DMatrix;
 
@@ -70,14 +70,17 @@ pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 fn discretise(a: f64, b: f64) -> (Vec<f64>, Vec<f64>) {
     let lo = a.max((-CLIP).min(b - 12.0));
     let hi = b.min(CLIP.max(a + 12.0));
-    let (gx, gw) = gauss_legendre(20);
+    // The panels' 20-point Gauss–Legendre rule, computed once (each frame of the Gaussian
+    // closure discretises afresh).
+    static PANEL_RULE: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
+    let (gx, gw) = PANEL_RULE.get_or_init(|| gauss_legendre(20));
     let panels = ((hi - lo) / 0.5).ceil().max(1.0) as usize;
     let h = (hi - lo) / panels as f64;
     let mut t = Vec::with_capacity(panels * 20);
     let mut w = Vec::with_capacity(panels * 20);
     for p in 0..panels {
         let mid = lo + (p as f64 + 0.5) * h;
-        for (x, wx) in gx.iter().zip(&gw) {
+        for (x, wx) in gx.iter().zip(gw) {
             let ti = mid + 0.5 * h * x;
             t.push(ti);
             w.push(0.5 * h * wx * normal_pdf(ti));
