@@ -17,7 +17,7 @@
 use rayon::prelude::*;
 
 use super::fixed::{nodes, pair};
-use super::lines::{half_line, rule_tolerance};
+use super::lines::{half_lines, rule_tolerance};
 use super::moments::{finer_if_agreeing, moments_of_pairs, ObservableMoments};
 use super::JointDensity;
 
@@ -94,13 +94,7 @@ impl<'a> LineQuadrants<'a> {
                 .filter(|(k, node)| k % stride == 0 && node.1.is_none())
                 .for_each(|(_, node)| {
                     let u = node.0;
-                    node.1 = Some(ranges.map(|range| {
-                        if range[1] <= range[0] {
-                            0.0
-                        } else {
-                            half_line(density, a, u, range, tolerance)
-                        }
-                    }));
+                    node.1 = Some(half_lines(density, a, u, ranges, tolerance));
                 });
         }
         self.level[a] = n;

@@ -101,13 +101,72 @@ pub(crate) fn half_line(
         static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
     }
     let mut pieces = PIECES.take();
-    let line = pieces_integral(density, axis, at, range, tolerance, &mut pieces);
+    let line = smooth_line(density, axis, at, range, tolerance, &mut pieces);
     PIECES.set(pieces);
     line
 }
 
+/// [`half_line`] over the two halves `ranges` of the other state's axis on one line at once
+/// (`ranges[0]` ends where `ranges[1]` starts, at 0 for the quadrants' halves; either may be
+/// empty, and gives 0): the same two integrals, with the line's smooth pieces found once over
+/// the whole segment and split where the halves meet, instead of once for each half.
+pub(crate) fn half_lines(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    ranges: [[f64; 2]; 2],
+    tolerance: f64,
+) -> [f64; 2] {
+    let empty = ranges.map(|r| r[1] <= r[0]);
+    if empty[0] || empty[1] || ranges[0][1] != ranges[1][0] {
+        return [0, 1].map(|h| {
+            if empty[h] {
+                0.0
+            } else {
+                half_line(density, axis, at, ranges[h], tolerance)
+            }
+        });
+    }
+    let whole = [ranges[0][0], ranges[1][1]];
+    if density.line_integral(axis, at, whole).is_some() {
+        return ranges.map(|r| half_line(density, axis, at, r, tolerance));
+    }
+    thread_local! {
+        // The line's pieces, kept between calls (a line integral allocates nothing).
+        static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
+    }
+    let mut pieces = PIECES.take();
+    let lines = if density.smooth_pieces(axis, at, whole, &mut pieces) {
+        // The first piece that reaches past the meeting point, split there when it starts
+        // before it: the pieces of each half are then those the half alone has.
+        let meet = ranges[0][1];
+        let k = pieces
+            .iter()
+            .position(|p| p.range[1] > meet)
+            .unwrap_or(pieces.len());
+        if let Some(&piece) = pieces.get(k) {
+            if piece.range[0] < meet {
+                pieces[k].range[1] = meet;
+                pieces.insert(
+                    k + 1,
+                    LinePiece {
+                        range: [meet, piece.range[1]],
+                        ..piece
+                    },
+                );
+            }
+        }
+        let (low, high) = pieces.split_at(pieces.iter().take_while(|p| p.range[1] <= meet).count());
+        [low, high].map(|part| pieces_integral(density, axis, at, part, tolerance))
+    } else {
+        ranges.map(|r| adaptive_line(density, axis, at, r))
+    };
+    PIECES.set(pieces);
+    lines
+}
+
 /// [`half_line`] with `pieces` for the line's smooth pieces.
-fn pieces_integral(
+fn smooth_line(
     density: &dyn JointDensity,
     axis: usize,
     at: f64,
@@ -116,9 +175,27 @@ fn pieces_integral(
     pieces: &mut Vec<LinePiece>,
 ) -> f64 {
     if !density.smooth_pieces(axis, at, range, pieces) {
-        let f = |t: &[f64], out: &mut [f64]| line_values(density, axis, at, t, out);
-        return quadrature::integrate_adaptive_batch(&f, range[0], range[1], ADAPTIVE_TOLERANCE);
+        return adaptive_line(density, axis, at, range);
     }
+    pieces_integral(density, axis, at, pieces, tolerance)
+}
+
+/// The line's integral over `range` by adaptive quadrature of the density as defined, for a
+/// density that cannot tell where it is smooth.
+fn adaptive_line(density: &dyn JointDensity, axis: usize, at: f64, range: [f64; 2]) -> f64 {
+    let f = |t: &[f64], out: &mut [f64]| line_values(density, axis, at, t, out);
+    quadrature::integrate_adaptive_batch(&f, range[0], range[1], ADAPTIVE_TOLERANCE)
+}
+
+/// The integral over a segment tiled by the density's smooth `pieces` (see the module
+/// documentation), within `tolerance` relative.
+fn pieces_integral(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    pieces: &[LinePiece],
+    tolerance: f64,
+) -> f64 {
     let transitions: f64 = pieces.iter().filter_map(|p| p.kind.bound(p.range)).sum();
     let share = if transitions > 0.0 { 0.5 } else { 1.0 };
     let integrate = |piece: &LinePiece, rule: Rule| {
@@ -233,6 +310,61 @@ mod tests {
         // The ridge's lines do have transitions (the cutoff's rise), kept out of the
         // analytic pieces.
         assert!(transitions > 40, "{transitions}");
+    }
+
+    /// Both halves of a line at once are each half alone: the pieces found once over the
+    /// whole segment and split at 0 are the halves' own (to the last bits of a stretch's end
+    /// found by bisection near t = 0), on the ridge (pieces split at the meeting point) and
+    /// on a density without pieces; an empty half gives 0, and halves that do not meet are
+    /// taken one by one.
+    #[test]
+    fn both_halves_at_once_are_each_half_alone() {
+        let sol = ridge();
+        let d = sol.joint();
+        let tolerance = rule_tolerance(d);
+        let ext = d.extent();
+        for axis in 0..2 {
+            let other = 1 - axis;
+            let ranges = [[ext[other][0], 0.0], [0.0, ext[other][1]]];
+            for k in 0..=60 {
+                let at = ext[axis][0] + (ext[axis][1] - ext[axis][0]) * k as f64 / 60.0;
+                let both = half_lines(d, axis, at, ranges, tolerance);
+                for h in 0..2 {
+                    let alone = half_line(d, axis, at, ranges[h], tolerance);
+                    assert!(
+                        (both[h] - alone).abs() <= 1e-13 * alone.abs(),
+                        "axis {axis} at {at} half {h}: {:e} vs {alone:e}",
+                        both[h]
+                    );
+                }
+            }
+        }
+        let at = 0.3 * ext[0][1];
+        let one = half_line(d, 0, at, [0.0, ext[1][1]], tolerance);
+        assert_eq!(
+            half_lines(d, 0, at, [[0.0, 0.0], [0.0, ext[1][1]]], tolerance),
+            [0.0, one]
+        );
+        let apart = [[ext[1][0], -0.5], [0.5, ext[1][1]]];
+        assert_eq!(
+            half_lines(d, 0, at, apart, tolerance),
+            apart.map(|r| half_line(d, 0, at, r, tolerance))
+        );
+        // A density with neither pieces nor an exact line integral: adaptive on each half.
+        struct Normal;
+        impl JointDensity for Normal {
+            fn pdf(&self, x: [f64; 2]) -> f64 {
+                (-0.5 * (x[0] * x[0] + x[1] * x[1])).exp() / (2.0 * std::f64::consts::PI)
+            }
+            fn extent(&self) -> [[f64; 2]; 2] {
+                [[-9.0, 9.0], [-9.0, 9.0]]
+            }
+        }
+        let both = half_lines(&Normal, 1, 0.5, [[-9.0, 0.0], [0.0, 9.0]], 1e-10);
+        let expected = 0.5 * (-0.125_f64).exp() / (2.0 * std::f64::consts::PI).sqrt();
+        for v in both {
+            assert!((v / expected - 1.0).abs() < 1e-9, "{v:e}");
+        }
     }
 
     #[test]

@@ -472,7 +472,10 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
     let other = 1 - state;
     let ext = density.extent();
     let tolerance = lines::rule_tolerance(density);
-    let mut total = 0.0;
+    let halves = [[ext[other][0].min(0.0), 0.0], [0.0, ext[other][1].max(0.0)]];
+    // The quadrants that admit x_state = s·u, as (x_state, the half of x_other), in order.
+    let mut lines = [(0.0, 0); 4];
+    let mut count = 0;
     for (a, row) in sign.iter().enumerate() {
         for (b, &s) in row.iter().enumerate() {
             let xs = s * u;
@@ -486,19 +489,38 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
             } else {
                 side < 0.0
             };
-            if !inside {
-                continue;
+            let [lo, hi] = halves[quadrant[other]];
+            if inside && hi > lo {
+                lines[count] = (xs, quadrant[other]);
+                count += 1;
             }
-            let (lo, hi) = if quadrant[other] == 1 {
-                (0.0, ext[other][1].max(0.0))
-            } else {
-                (ext[other][0].min(0.0), 0.0)
-            };
-            if hi <= lo {
-                continue;
-            }
-            total += lines::half_line(density, state, xs, [lo, hi], tolerance);
         }
+    }
+    let lines = &lines[..count];
+    // Each line's integral, the two halves of one line (the same x_state) taken together.
+    let mut values = [0.0; 4];
+    let mut done = [false; 4];
+    for i in 0..lines.len() {
+        if done[i] {
+            continue;
+        }
+        let (xs, half) = lines[i];
+        let partner = (i + 1..lines.len())
+            .find(|&j| !done[j] && lines[j].0.to_bits() == xs.to_bits() && lines[j].1 != half);
+        match partner {
+            Some(j) => {
+                let both = lines::half_lines(density, state, xs, halves, tolerance);
+                (values[i], values[j]) = (both[half], both[1 - half]);
+                done[j] = true;
+            }
+            None => values[i] = lines::half_line(density, state, xs, halves[half], tolerance),
+        }
+        done[i] = true;
+    }
+    // Summed in the quadrants' order.
+    let mut total = 0.0;
+    for v in &values[..lines.len()] {
+        total += v;
     }
     total
 }
