@@ -12,7 +12,7 @@ use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
 use fpsolve::report::{write_json, OutputDir, RunDir};
-use fpsolve::solve::{MethodName, MethodSet};
+use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
 #[path = "cli/allocator.rs"]
@@ -375,6 +375,8 @@ enum Plan {
     Job {
         path: PathBuf,
         model: Model,
+        /// The model bound and its problem derived, as checked.
+        problem: Box<Problem<'static>>,
         spec: JobSpec,
         out: PathBuf,
         quiet: bool,
@@ -578,10 +580,11 @@ fn execute(plan: Plan) -> Result<(), Failure> {
         Plan::Job {
             path,
             model,
+            problem,
             spec,
             out,
             quiet,
-        } => main_job(&path, &model, &spec, &out, quiet),
+        } => main_job(&path, &model, &problem, &spec, &out, quiet),
         Plan::Simulate {
             path,
             bound,
@@ -663,6 +666,7 @@ fn commit_output(run: RunDir, files: usize) -> Result<()> {
 fn main_job(
     path: &Path,
     model: &Model,
+    problem: &Problem,
     spec: &JobSpec,
     out: &Path,
     quiet: bool,
@@ -670,7 +674,10 @@ fn main_job(
     let run = begin_output(out)?;
     fpsolve::study::timeline::mark("output begun");
     let bar = Bar::new(quiet);
-    let report = job::Job::new(model, spec).progress(&bar).run(run.out());
+    let report = job::Job::new(model, spec)
+        .problem(problem)
+        .progress(&bar)
+        .run(run.out());
     bar.finish();
     let report = report.map_err(at_error(path))?;
     let mut stdout = std::io::stdout().lock();

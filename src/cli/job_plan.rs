@@ -33,7 +33,9 @@ pub(crate) fn plan_job(
     let (model, overrides, bound) = load(&path, &args.set.set)?;
     // A model without a stationary density, or with methods that do not apply to it, is
     // refused here, before any work.
-    let problem = Problem::new(&bound).map_err(at_error(&path))?;
+    // Kept for the run, which would otherwise derive it again.
+    let problem = Problem::owning(bound).map_err(at_error(&path))?;
+    let bound = problem.model();
     let (methods, named) = match &args.method {
         Some(m) => (m.clone(), true),
         None => (default_methods(target), false),
@@ -54,16 +56,17 @@ pub(crate) fn plan_job(
             .map_err(flag("--cells"))?;
     }
     if let Some(config) = &mc {
-        config.preflight(&bound).map_err(lib)?;
+        config.preflight(bound).map_err(lib)?;
     }
     let mc_from = match mc_from {
         Some(dir) => Some(Box::new(
-            McFrom::read(dir, &bound).map_err(flag("--mc-from"))?,
+            McFrom::read(dir, bound).map_err(flag("--mc-from"))?,
         )),
         None => None,
     };
     Ok(Plan::Job {
         out: default_out(args.out.clone(), &model),
+        problem: Box::new(problem),
         spec: JobSpec {
             degrees: args.degree.as_slice().to_vec(),
             overrides,

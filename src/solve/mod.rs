@@ -26,6 +26,7 @@ mod quantity;
 mod solution;
 mod tail;
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use crate::epc::{Epc, EpcError};
@@ -127,7 +128,8 @@ pub enum SolveError {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub struct Problem<'a> {
-    model: &'a BoundModel,
+    /// Borrowed ([`Problem::new`]) or owned ([`Problem::owning`]).
+    model: Cow<'a, BoundModel>,
     /// The operator EPC solves: of the Zhuravlev transform when there is one.
     fpk: FpkOperator,
     /// The quantities of EPC's solutions (maps of the transformed states when transformed).
@@ -136,6 +138,26 @@ pub struct Problem<'a> {
     own_quantities: Arc<[Quantity]>,
     /// The transform EPC solves, or why a reflecting barrier has none.
     zhuravlev: Option<Result<Zhuravlev<BoundModel>, ZhuravlevError>>,
+}
+
+impl Problem<'static> {
+    /// [`Problem::new`] of a model it keeps: for a caller that derives the problem where it
+    /// checks its input and uses it later (the command line checks a job before it touches
+    /// the output directory and hands the same problem to [`Job::problem`](crate::job::Job::problem)).
+    ///
+    /// # Errors
+    /// As [`Problem::new`].
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let problem = fpsolve::solve::Problem::owning(bound.clone())?;
+    /// assert_eq!(problem.model(), &bound);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn owning(model: BoundModel) -> Result<Problem<'static>, SolveError> {
+        Problem::derive(Cow::Owned(model))
+    }
 }
 
 impl<'a> Problem<'a> {
@@ -157,6 +179,11 @@ impl<'a> Problem<'a> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn new(model: &'a BoundModel) -> Result<Problem<'a>, SolveError> {
+        Problem::derive(Cow::Borrowed(model))
+    }
+
+    fn derive(bound: Cow<'a, BoundModel>) -> Result<Problem<'a>, SolveError> {
+        let model = bound.as_ref();
         let own: Arc<[Quantity]> = quantities(model).into();
         let reflecting = matches!(model.impacts(), [law] if law.side.is_some());
         let zhuravlev = reflecting.then(|| zhuravlev_bound(model));
@@ -168,7 +195,7 @@ impl<'a> Problem<'a> {
             _ => (FpkOperator::derive(model)?, own.clone()),
         };
         Ok(Problem {
-            model,
+            model: bound,
             fpk,
             quantities,
             own_quantities: own,
@@ -178,7 +205,7 @@ impl<'a> Problem<'a> {
 
     /// The bound model.
     pub fn model(&self) -> &BoundModel {
-        self.model
+        &self.model
     }
 
     /// The FPK operator EPC solves: the model's, or its Zhuravlev transform's (see
@@ -214,7 +241,7 @@ impl<'a> Problem<'a> {
                 Ok(self.solution(self.epc().degree(degree).solve()?))
             }
             Method::Grid { cells } => {
-                let grid = GridSolver::new(self.model)
+                let grid = GridSolver::new(&self.model)
                     .cells(cells[0], cells[1])
                     .solve()?;
                 Ok(Solution::new(
@@ -223,7 +250,7 @@ impl<'a> Problem<'a> {
                 ))
             }
             Method::EpcImpact { degree } => {
-                let sol = crate::epc_impact::EpcImpact::new(self.model).solve(degree)?;
+                let sol = crate::epc_impact::EpcImpact::new(&self.model).solve(degree)?;
                 Ok(Solution::new(
                     Density::EpcImpact(Box::new(sol)),
                     self.own_quantities.clone(),
@@ -247,7 +274,7 @@ impl<'a> Problem<'a> {
     /// [`crate::epc_impact::EpcImpact::solve_degrees`]). The model is solved as written, in
     /// its own coordinates.
     pub fn solve_epc_impact_degrees(&self, degrees: &[usize]) -> Vec<Result<Solution, SolveError>> {
-        crate::epc_impact::EpcImpact::new(self.model)
+        crate::epc_impact::EpcImpact::new(&self.model)
             .solve_degrees(degrees)
             .into_iter()
             .map(|r| {
