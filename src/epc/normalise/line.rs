@@ -19,7 +19,7 @@
 //! rounding.
 
 use super::grid::{DensityGrid, TAPER_E_FOLDS};
-use super::poly::horner;
+use super::poly::{enclosure, horner};
 use crate::epc::exp::exp_in_place;
 
 /// Points [`DensityGrid::times_transition`] takes at once, on the stack (more are taken a
@@ -62,9 +62,6 @@ const BISECTIONS: usize = 60;
 const FIRST_BLOCK: usize = 16;
 /// The block at which samples are evaluated one by one.
 const FEWEST: usize = 8;
-
-/// The coefficients a line polynomial has at most (degree 12, the largest EPC solves).
-const MAX_COEFS: usize = 13;
 
 /// Where Q = `q` falls among the levels that bound the classes: 0 at or below the floor, 1 in
 /// the transition, 2 in the core, 3 above the band's top (0 and 3 are the zero class). A
@@ -143,58 +140,11 @@ impl DensityGrid {
     }
 
     /// The class that Q, as `horner(c, t)` computes it, has at every t in [`lo`, `hi`], when
-    /// an enclosure proves it to be one; `None` otherwise (or for more than [`MAX_COEFS`]
-    /// coefficients).
-    ///
-    /// Q on the interval is its Taylor polynomial at the middle m, Σ d_k u^k with |u| ≤ r, so
-    /// it lies within Σ_{k odd} |d_k| r^k of d_0 plus the even terms, each between 0 and
-    /// d_k r^k (near a maximum of Q the enclosure stays below it). Rounding (of the d_k, of every computed
-    /// `horner(c, t)`, of m and of the sample points) moves a value by a small multiple of
-    /// ε·Σ |c_k| (|m| + r)^k: the enclosure is widened by 10⁻¹⁰ of that sum and r by 10⁻¹² of
-    /// the ends, far more than any of it. When both ends of the enclosure are in one
+    /// its [`enclosure`] proves it to be one: when both ends of the enclosure are in one
     /// [`region`] of the levels, so is every computed value, and the class is that region's.
+    /// `None` otherwise (or where there is no enclosure).
     fn one_class(&self, c: &[f64], lo: f64, hi: f64) -> Option<Option<Stretch>> {
-        if c.len() > MAX_COEFS {
-            return None;
-        }
-        let n = c.len() - 1;
-        let m = 0.5 * (lo + hi);
-        let r = 0.5 * (hi - lo) + 1e-12 * (lo.abs() + hi.abs()) + f64::MIN_POSITIVE;
-        // The Taylor coefficients at m by repeated synthetic division.
-        let mut d = [0.0; MAX_COEFS];
-        d[..=n].copy_from_slice(c);
-        for i in 0..n {
-            // d[j] += m·d[j + 1] from the top, the new d[j + 1] carried in a register (through
-            // memory, each step waited for the last one's store).
-            let mut carry = d[n];
-            for dj in d[i..n].iter_mut().rev() {
-                carry = *dj + m * carry;
-                *dj = carry;
-            }
-        }
-        // Σ_{k≥1} d_k u^k over |u| ≤ r: an odd power's term is within ±|d_k| r^k, an even
-        // power's between 0 and d_k r^k.
-        let (mut below, mut above, mut rk) = (0.0, 0.0, 1.0);
-        for (k, &dk) in d.iter().enumerate().take(n + 1).skip(1) {
-            rk *= r;
-            let term = dk * rk;
-            if k % 2 == 1 {
-                below -= term.abs();
-                above += term.abs();
-            } else if term < 0.0 {
-                below += term;
-            } else {
-                above += term;
-            }
-        }
-        let reach = m.abs() + r;
-        let size = c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs());
-        let margin = 1e-10 * size;
-        let (q_lo, q_hi) = (d[0] + below - margin, d[0] + above + margin);
-        // Written so that a NaN or an overflow refuses.
-        if !(q_lo.is_finite() && q_hi.is_finite()) {
-            return None;
-        }
+        let [q_lo, q_hi] = enclosure(c, lo, hi)?;
         (region(self, q_lo) == region(self, q_hi)).then(|| class(self, q_lo))
     }
 

@@ -52,18 +52,19 @@ impl Poly {
     /// Coefficients q_d of Q(m + r u) as a polynomial in r.
     pub(crate) fn along_ray(&self, m: [f64; 2], u: [f64; 2]) -> Vec<f64> {
         let mut q = vec![0.0; self.degree + 1];
-        let binom = |n: usize, k: usize| -> f64 {
-            (0..k).fold(1.0, |acc, t| acc * (n - t) as f64 / (t + 1) as f64)
-        };
+        let binom = binomials();
         // The powers from the table, bit for bit `powi`'s ([`powers`]).
         let (pm, pu) = (m.map(powers), u.map(powers));
+        let mut cl = [0.0; MAX_POWER + 1];
         for (&(i, j), a) in self.exps.iter().zip(&self.a) {
-            // (m0 + r u0)^i (m1 + r u1)^j
+            // (m0 + r u0)^i (m1 + r u1)^j, the second factor's terms taken once.
+            for (l, c) in cl.iter_mut().enumerate().take(j + 1) {
+                *c = binom[j][l] * pm[1][j - l] * pu[1][l];
+            }
             for k in 0..=i {
-                let ck = binom(i, k) * pm[0][i - k] * pu[0][k];
-                for l in 0..=j {
-                    let cl = binom(j, l) * pm[1][j - l] * pu[1][l];
-                    q[k + l] += a * ck * cl;
+                let ck = binom[i][k] * pm[0][i - k] * pu[0][k];
+                for (l, c) in cl.iter().enumerate().take(j + 1) {
+                    q[k + l] += a * ck * c;
                 }
             }
         }
@@ -104,6 +105,23 @@ impl Poly {
         }
         out
     }
+}
+
+/// The binomial coefficients C(n, k) for n ≤ [`MAX_POWER`], each as the product
+/// Π_{t<k} (n − t)/(t + 1) taken in that order (exact: every partial product is an integer
+/// below 2^53), computed once.
+fn binomials() -> &'static [[f64; MAX_POWER + 1]; MAX_POWER + 1] {
+    static TABLE: std::sync::OnceLock<[[f64; MAX_POWER + 1]; MAX_POWER + 1]> =
+        std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut table = [[0.0; MAX_POWER + 1]; MAX_POWER + 1];
+        for (n, row) in table.iter_mut().enumerate() {
+            for (k, b) in row.iter_mut().enumerate().take(n + 1) {
+                *b = (0..k).fold(1.0, |acc, t| acc * (n - t) as f64 / (t + 1) as f64);
+            }
+        }
+        table
+    })
 }
 
 /// The highest power [`powers`] tabulates: the largest degree of Q (12) and then some.
@@ -149,6 +167,62 @@ pub(crate) fn powers(x: f64) -> [f64; MAX_POWER + 1] {
 /// q(r) = Σ_d q_d r^d by Horner's rule.
 pub(crate) fn horner(q: &[f64], r: f64) -> f64 {
     q.iter().rev().fold(0.0, |acc, c| acc * r + c)
+}
+
+/// The coefficients a line or ray polynomial has at most (degree 12, the largest EPC solves)
+/// for an [`enclosure`].
+const MAX_COEFS: usize = 13;
+
+/// An interval holding every value `horner(c, t)` computes for t in [`lo`, `hi`]: `None` for
+/// more than [`MAX_COEFS`] coefficients, or where a coefficient is NaN or the bounds
+/// overflow.
+///
+/// The polynomial on the interval is its Taylor polynomial at the middle m, Σ d_k u^k with
+/// |u| ≤ r, so it lies within Σ_{k odd} |d_k| r^k of d_0 plus the even terms, each between 0
+/// and d_k r^k (near a maximum the enclosure stays below it). Rounding (of the d_k, of every
+/// computed `horner(c, t)`, of m and of the points) moves a value by a small multiple of
+/// ε·Σ |c_k| (|m| + r)^k: the enclosure is widened by 10⁻¹⁰ of that sum and r by 10⁻¹² of
+/// the ends, far more than any of it.
+pub(crate) fn enclosure(c: &[f64], lo: f64, hi: f64) -> Option<[f64; 2]> {
+    if c.is_empty() || c.len() > MAX_COEFS {
+        return None;
+    }
+    let n = c.len() - 1;
+    let m = 0.5 * (lo + hi);
+    let r = 0.5 * (hi - lo) + 1e-12 * (lo.abs() + hi.abs()) + f64::MIN_POSITIVE;
+    // The Taylor coefficients at m by repeated synthetic division.
+    let mut d = [0.0; MAX_COEFS];
+    d[..=n].copy_from_slice(c);
+    for i in 0..n {
+        // d[j] += m·d[j + 1] from the top, the new d[j + 1] carried in a register (through
+        // memory, each step waited for the last one's store).
+        let mut carry = d[n];
+        for dj in d[i..n].iter_mut().rev() {
+            carry = *dj + m * carry;
+            *dj = carry;
+        }
+    }
+    // Σ_{k≥1} d_k u^k over |u| ≤ r: an odd power's term is within ±|d_k| r^k, an even
+    // power's between 0 and d_k r^k.
+    let (mut below, mut above, mut rk) = (0.0, 0.0, 1.0);
+    for (k, &dk) in d.iter().enumerate().take(n + 1).skip(1) {
+        rk *= r;
+        let term = dk * rk;
+        if k % 2 == 1 {
+            below -= term.abs();
+            above += term.abs();
+        } else if term < 0.0 {
+            below += term;
+        } else {
+            above += term;
+        }
+    }
+    let reach = m.abs() + r;
+    let size = c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs());
+    let margin = 1e-10 * size;
+    let (q_lo, q_hi) = (d[0] + below - margin, d[0] + above + margin);
+    // Written so that a NaN or an overflow refuses.
+    (q_lo.is_finite() && q_hi.is_finite()).then_some([q_lo, q_hi])
 }
 
 /// Points evaluated at once by [`horner_block`].
@@ -224,5 +298,35 @@ mod tests {
         assert!((horner(&c[..=4], y) - direct).abs() < 1e-12);
         let c = q.on_line(1, y);
         assert!((horner(&c[..=4], x) - direct).abs() < 1e-12);
+    }
+
+    /// Q along a ray is Q at the ray's points (to rounding), at degrees 2 to 12; and the
+    /// binomial table is C(n, k) exactly.
+    #[test]
+    fn along_ray_is_q_on_the_ray() {
+        assert_eq!(binomials()[12][5], 792.0);
+        assert_eq!(binomials()[15][7], 6435.0);
+        for degree in [2, 4, 7, 12] {
+            let exps: Vec<(usize, usize)> = (1..=degree)
+                .flat_map(|d| (0..=d).map(move |j| (d - j, j)))
+                .collect();
+            let a: Vec<f64> = (0..exps.len())
+                .map(|k| ((k * 37 % 11) as f64 - 5.0) * 0.1 / (1 + k) as f64)
+                .collect();
+            let q = Poly { exps, a, degree };
+            let m = [0.4, -0.3];
+            for th in [0.1_f64, 1.3, 2.9, 4.4] {
+                let u = [th.cos(), th.sin()];
+                let c = q.along_ray(m, u);
+                for r in [0.0, 0.5, 1.0, 1.7] {
+                    let x = [m[0] + r * u[0], m[1] + r * u[1]];
+                    let (got, want) = (horner(&c, r), q.eval(x));
+                    assert!(
+                        (got - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                        "degree {degree}, θ {th}, r {r}: {got} vs {want}"
+                    );
+                }
+            }
+        }
     }
 }

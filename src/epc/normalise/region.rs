@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::{horner, horner_block, BLOCK};
+use super::poly::{enclosure, horner, horner_block, BLOCK};
 use super::report::NotNormalisable;
 use super::{Poly, TAIL_E_FOLDS};
 
@@ -163,25 +163,19 @@ pub(super) fn explore_ray(
             .fold(1.0, f64::max)
     };
     let r_stop = r_dom.min(1e6) * 1.05 + 1.0;
-    let (last_above, min_r, min_v) = match scan(&c, steps, r_stop, lead, q_max) {
-        Scan::Rises { r, value } => return Ok(RayEnd::Pass { r, value }),
-        Scan::Ends {
-            last_above,
-            min_r,
-            min_v,
-        } => (last_above, min_r, min_v),
-    };
-    if lead < 0.0 {
-        Ok(RayEnd::Decays(last_above))
-    } else if lead > 0.0 {
+    if lead > 0.0 {
         // Rises eventually (beyond the scan only if it is enormously far): the lowest point
         // seen bounds the pass along this ray.
-        Ok(RayEnd::Pass {
-            r: min_r,
-            value: min_v,
-        })
-    } else {
-        Err(NotNormalisable::FlatDirection { theta: th })
+        let (r, value) = match scan(&c, steps, r_stop, lead, q_max) {
+            Scan::Rises { r, value } => (r, value),
+            Scan::Ends { min_r, min_v, .. } => (min_r, min_v),
+        };
+        return Ok(RayEnd::Pass { r, value });
+    }
+    match scan_reach(&c, steps, r_stop, lead, q_max) {
+        Reach::Rises { r, value } => Ok(RayEnd::Pass { r, value }),
+        Reach::Ends { last_above } if lead < 0.0 => Ok(RayEnd::Decays(last_above)),
+        Reach::Ends { .. } => Err(NotNormalisable::FlatDirection { theta: th }),
     }
 }
 
@@ -203,17 +197,76 @@ enum Scan {
 /// The scan of a ray's radii in the steps of [`RaySteps`] until the first at or beyond
 /// `r_stop` where Q (coefficients `c`, leading coefficient `lead`) is monotone and past the
 /// tail (or beyond [`MAX_RADIUS`]), or until Q rises above `q_max`: the same, bit for bit, as
-/// taking the radii one by one ([`scan_in_order`], tested), with Q evaluated a block of radii
-/// at once ([`horner_block`]) and each block's rise, lowest point and last radius within the
-/// tail found over the block.
+/// taking the radii one by one ([`scan_in_order`], tested). See [`blocks`].
 fn scan(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -> Scan {
+    blocks(c, steps, r_stop, lead, q_max, true)
+}
+
+/// What the scan of a ray finds where its lowest point is not asked for (a ray whose leading
+/// coefficient is not positive ends in a pass only where it rises within the scan).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Reach {
+    /// As [`Scan::Rises`].
+    Rises { r: f64, value: f64 },
+    /// As [`Scan::Ends`], without the lowest point.
+    Ends { last_above: f64 },
+}
+
+/// [`scan`] without the lowest point unless Q rises: the scan's blocks are then proven
+/// unchanging by their enclosure alone wherever Q stays on one side of the tail, falling or
+/// not (what [`scan`] cannot skip while Q falls, each block lowering the lowest point). A
+/// rise is scanned again in full, for the lowest point before it.
+fn scan_reach(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -> Reach {
+    match blocks(c, steps, r_stop, lead, q_max, false) {
+        Scan::Rises { .. } => match scan(c, steps, r_stop, lead, q_max) {
+            Scan::Rises { r, value } => Reach::Rises { r, value },
+            // Not reached: the same radii and values rise in both.
+            Scan::Ends { last_above, .. } => Reach::Ends { last_above },
+        },
+        Scan::Ends { last_above, .. } => Reach::Ends { last_above },
+    }
+}
+
+/// The scan of [`scan`] a block of radii at a time, the lowest point kept where `lowest`
+/// (otherwise what `Ends` says of it is meaningless). A block is not evaluated where an
+/// [`enclosure`] of Q over its radii proves that it changes nothing the scan keeps: no rise
+/// above the mode's value, no new lowest point (where kept), Q above the tail at every radius
+/// (the last of them before the stop is then the last within the tail) or below it at every
+/// one, and the stop, if in the block, known from the radii alone. Otherwise Q is evaluated
+/// at the block's radii at once ([`horner_block`]), and the block's rise, lowest point and
+/// last radius within the tail found over it.
+fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowest: bool) -> Scan {
     let top = q_max + 1e-9 * (1.0 + q_max.abs());
     let tail = q_max - TAIL_E_FOLDS;
     let mut last_above = 0.0;
     let (mut min_r, mut min_v) = (0.0, q_max);
     let mut r = [0.0; BLOCK];
+    // Whether the next block may be proven unchanging: not while the lowest point is kept
+    // and the last block's lowest was its last radius (Q still falling).
+    let mut try_enclosure = true;
     for radii in steps.r.chunks(BLOCK) {
         let n = radii.len();
+        if try_enclosure {
+            if let Some([lo, hi]) = enclosure(c, radii[0], radii[n - 1]) {
+                let unchanging = hi <= top && (!lowest || lo >= min_v) && (lo >= tail || hi < tail);
+                if unchanging {
+                    let below_tail = hi < tail;
+                    let stop = radii
+                        .iter()
+                        .position(|&r| {
+                            r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || below_tail))
+                        })
+                        .unwrap_or(n);
+                    if lo >= tail && stop > 0 {
+                        last_above = radii[stop - 1];
+                    }
+                    if stop < n {
+                        break;
+                    }
+                    continue;
+                }
+            }
+        }
         r[..n].copy_from_slice(radii);
         let v = horner_block(c, &r);
         // Past r_dom Q is monotone along the ray: the scan stops at the first radius at or
@@ -256,6 +309,9 @@ fn scan(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -> Scan
         if let Some(k) = v.iter().rposition(|&v| v >= tail) {
             last_above = radii[k];
         }
+        // Q still falling at the block's end (its lowest at its last radius): the next
+        // block will lower the lowest point again, which no enclosure can rule out.
+        try_enclosure = !(lowest && radii.last() == Some(&min_r));
         if stop < n {
             break;
         }
@@ -381,6 +437,19 @@ mod tests {
             let got = scan(&c, steps, r_stop, lead, q_max);
             let want = scan_in_order(&c, steps, r_stop, lead, q_max);
             assert_eq!(bits(got), bits(want), "case {case}: {c:?}, r_stop {r_stop}");
+            // Without the lowest point unless it rises: the rest bit for bit.
+            let reach = match scan_reach(&c, steps, r_stop, lead, q_max) {
+                Reach::Rises { r, value } => bits(Scan::Rises { r, value }),
+                Reach::Ends { last_above } => (1, last_above.to_bits(), 0, 0),
+            };
+            let want_reach = match bits(want) {
+                (1, last_above, _, _) => (1, last_above, 0, 0),
+                rises => rises,
+            };
+            assert_eq!(
+                reach, want_reach,
+                "case {case} (reach): {c:?}, r_stop {r_stop}"
+            );
             match want {
                 Scan::Rises { .. } => rises += 1,
                 Scan::Ends { .. } => ends += 1,
