@@ -28,11 +28,16 @@ impl Poly {
     pub(crate) fn derivs(&self, x: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
         // The powers from the table, bit for bit `powi`'s ([`powers`]).
         let powers = [powers(x[0]), powers(x[1])];
+        // d-th derivative of x^k: k(k−1)…(k−d+1)·x^(k−d), the factor an exact integer.
         let p = |axis: usize, k: usize, d: usize| -> f64 {
             if k < d {
                 0.0
             } else {
-                let c: f64 = ((k - d + 1)..=k).map(|t| t as f64).product();
+                let c = match d {
+                    0 => 1.0,
+                    1 => k as f64,
+                    _ => ((k - 1) * k) as f64,
+                };
                 c * powers[axis][k - d]
             }
         };
