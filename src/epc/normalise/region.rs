@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::{enclosure, horner, horner_block, BLOCK};
+use super::poly::{enclosure, horner, horner_block, BLOCK, MAX_POWER};
 use super::report::NotNormalisable;
 use super::{Poly, TAIL_E_FOLDS};
 
@@ -229,42 +229,50 @@ fn scan_reach(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64) -
 
 /// The scan of [`scan`] a block of radii at a time, the lowest point kept where `lowest`
 /// (otherwise what `Ends` says of it is meaningless). A block is not evaluated where an
-/// [`enclosure`] of Q over its radii proves that it changes nothing the scan keeps: no rise
-/// above the mode's value, no new lowest point (where kept), Q above the tail at every radius
+/// [`enclosure`] of Q over its radii proves that it changes nothing the scan keeps but what
+/// its last radius says: no rise above the mode's value, Q above the tail at every radius
 /// (the last of them before the stop is then the last within the tail) or below it at every
-/// one, and the stop, if in the block, known from the radii alone. Otherwise Q is evaluated
-/// at the block's radii at once ([`horner_block`]), and the block's rise, lowest point and
-/// last radius within the tail found over it.
+/// one, the stop, if in the block, known from the radii alone, and either no new lowest
+/// point (where kept) or Q falling strictly from radius to radius as computed
+/// ([`falls_strictly`]: the lowest is then the last radius's value, the one evaluation).
+/// Otherwise Q is evaluated at the block's radii at once ([`horner_block`]), and the block's
+/// rise, lowest point and last radius within the tail found over it.
 fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowest: bool) -> Scan {
     let top = q_max + 1e-9 * (1.0 + q_max.abs());
     let tail = q_max - TAIL_E_FOLDS;
     let mut last_above = 0.0;
     let (mut min_r, mut min_v) = (0.0, q_max);
     let mut r = [0.0; BLOCK];
-    // Whether the next block may be proven unchanging: not while the lowest point is kept
-    // and the last block's lowest was its last radius (Q still falling).
-    let mut try_enclosure = true;
     for radii in steps.r.chunks(BLOCK) {
         let n = radii.len();
-        if try_enclosure {
-            if let Some([lo, hi]) = enclosure(c, radii[0], radii[n - 1]) {
-                let unchanging = hi <= top && (!lowest || lo >= min_v) && (lo >= tail || hi < tail);
-                if unchanging {
-                    let below_tail = hi < tail;
-                    let stop = radii
-                        .iter()
-                        .position(|&r| {
-                            r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || below_tail))
-                        })
-                        .unwrap_or(n);
-                    if lo >= tail && stop > 0 {
-                        last_above = radii[stop - 1];
+        if let Some([lo, hi]) = enclosure(c, radii[0], radii[n - 1]) {
+            let settled = hi <= top && (lo >= tail || hi < tail);
+            let unchanging = settled && (!lowest || lo >= min_v);
+            let falling = settled && !unchanging && falls_strictly(c, radii);
+            if unchanging || falling {
+                let below_tail = hi < tail;
+                let stop = radii
+                    .iter()
+                    .position(|&r| r > MAX_RADIUS || (r >= r_stop && (lead > 0.0 || below_tail)))
+                    .unwrap_or(n);
+                if stop > 0 {
+                    let last = radii[stop - 1];
+                    if lo >= tail {
+                        last_above = last;
                     }
-                    if stop < n {
-                        break;
+                    if falling {
+                        // Each radius lower than the one before: the scan in order ends
+                        // with the last as the lowest, if it is lower than the lowest yet.
+                        let v = horner(c, last);
+                        if v < min_v {
+                            (min_r, min_v) = (last, v);
+                        }
                     }
-                    continue;
                 }
+                if stop < n {
+                    break;
+                }
+                continue;
             }
         }
         r[..n].copy_from_slice(radii);
@@ -309,9 +317,6 @@ fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowes
         if let Some(k) = v.iter().rposition(|&v| v >= tail) {
             last_above = radii[k];
         }
-        // Q still falling at the block's end (its lowest at its last radius): the next
-        // block will lower the lowest point again, which no enclosure can rule out.
-        try_enclosure = !(lowest && radii.last() == Some(&min_r));
         if stop < n {
             break;
         }
@@ -321,6 +326,35 @@ fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowes
         min_r,
         min_v,
     }
+}
+
+/// Whether `horner(c, r)` as computed falls strictly from each of the increasing `radii` to
+/// the next: an [`enclosure`] of Q' over them is negative, and the least fall it allows
+/// between neighbours (|Q'| times the smallest spacing) exceeds twice the rounding of
+/// a computed value (bounded as in the enclosure, by 10⁻¹⁰ of Σ |c_k| r^k; here four times
+/// that).
+fn falls_strictly(c: &[f64], radii: &[f64]) -> bool {
+    let (Some(&first), Some(&last)) = (radii.first(), radii.last()) else {
+        return false;
+    };
+    if radii.len() < 2 || c.len() < 2 || c.len() > MAX_POWER + 1 {
+        return false;
+    }
+    let mut slope = [0.0; MAX_POWER];
+    for (k, s) in slope.iter_mut().enumerate().take(c.len() - 1) {
+        *s = (k + 1) as f64 * c[k + 1];
+    }
+    let Some([_, steepest]) = enclosure(&slope[..c.len() - 1], first, last) else {
+        return false;
+    };
+    let reach = first.abs().max(last.abs());
+    let size = c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs());
+    let gap = radii
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    // Written so that a NaN refuses.
+    -steepest * gap > 4e-10 * size
 }
 
 /// [`scan`] one radius at a time: the definition it is tested against.
@@ -456,6 +490,22 @@ mod tests {
             }
         }
         assert!(rises > 300 && ends > 300, "{rises} rises, {ends} ends");
+        // Q falling by less than a rounding step between radii (computed values that tie,
+        // then drop): the lowest point is where the scan in order first meets the lowest
+        // computed value, which no proof of a strict fall may claim is the block's last.
+        // (A positive leading coefficient stops the scan at r_stop itself, in the ties.)
+        for (c, r_stop) in [
+            (vec![1e3, -1e-14, 1e-30], 3.0),
+            (vec![1e3, -1e-14, 1e-30], 6.5),
+            (vec![1e3, -1e-14, 1e-30], 9.0),
+            (vec![1e3, -1e-14, 1e-30], 25.0),
+            (vec![1e3, -3e-13], 900.0),
+            (vec![1e3, -2e-12, 1e-16], 300.0),
+        ] {
+            let got = scan(&c, steps, r_stop, c[c.len() - 1], 1e3);
+            let want = scan_in_order(&c, steps, r_stop, c[c.len() - 1], 1e3);
+            assert_eq!(bits(got), bits(want), "Q = {c:?}");
+        }
         // Q constant along the ray: every radius ties at the lowest value, which the scan in
         // order keeps at its first.
         for (c0, r_stop) in [(-50.0, 3.0), (-1.0, 0.5), (-0.0, 7.0)] {
