@@ -88,6 +88,8 @@ struct Frame<'p> {
     base: Vec<f64>,
     /// The log of N(x; μ, P)/φ(ξ) at each point, then its exponential.
     ratio: Vec<f64>,
+    /// y = x − μ and −Λy at each point, for the evaluation under way.
+    centred: Vec<([f64; 2], [f64; 2])>,
 }
 
 impl<'p> Frame<'p> {
@@ -104,6 +106,7 @@ impl<'p> Frame<'p> {
             pts,
             base,
             ratio: vec![0.0; pts.len()],
+            centred: vec![([0.0; 2], [0.0; 2]); pts.len()],
         }
     }
 
@@ -114,25 +117,26 @@ impl<'p> Frame<'p> {
         let lam = precision(p);
         let sd = [p[0][0].sqrt(), p[1][1].sqrt()];
         let log_det = -0.5 * det.ln();
-        let centred = |x: [f64; 2]| [x[0] - mean[0], x[1] - mean[1]];
-        // −∇ of ½ yᵀΛy, which is also Λy.
-        let slope = |y: [f64; 2]| {
-            [
+        for (((r, yd), pt), base) in self
+            .ratio
+            .iter_mut()
+            .zip(&mut self.centred)
+            .zip(self.pts)
+            .zip(&self.base)
+        {
+            let y = [pt.x[0] - mean[0], pt.x[1] - mean[1]];
+            // −∇ of ½ yᵀΛy.
+            let dq = [
                 -(lam[(0, 0)] * y[0] + lam[(0, 1)] * y[1]),
                 -(lam[(1, 0)] * y[0] + lam[(1, 1)] * y[1]),
-            ]
-        };
-        for ((r, pt), base) in self.ratio.iter_mut().zip(self.pts).zip(&self.base) {
-            let y = centred(pt.x);
-            let dq = slope(y);
+            ];
             *r = 0.5 * (y[0] * dq[0] + y[1] * dq[1]) + base + log_det;
+            *yd = (y, dq);
         }
         exp_in_place(&mut self.ratio);
         let mut g = DVector::zeros(5);
         let mut scale = 0.0;
-        for (pt, r) in self.pts.iter().zip(&self.ratio) {
-            let y = centred(pt.x);
-            let dq = slope(y);
+        for ((pt, r), &(y, dq)) in self.pts.iter().zip(&self.ratio).zip(&self.centred) {
             let terms = [
                 pt.g[0],
                 pt.g[1] * dq[0],

@@ -96,14 +96,15 @@ pub(crate) fn half_line(
     if let Some(line) = density.line_integral(axis, at, range) {
         return line;
     }
-    thread_local! {
-        // A line's pieces, kept between calls (a line integral allocates nothing).
-        static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
-    }
     let mut pieces = PIECES.take();
     let line = smooth_line(density, axis, at, range, tolerance, &mut pieces);
     PIECES.set(pieces);
     line
+}
+
+thread_local! {
+    // A line's pieces, kept between calls (a line integral allocates nothing).
+    static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
 }
 
 /// [`half_line`] over the two halves `ranges` of the other state's axis on one line at once
@@ -127,36 +128,31 @@ pub(crate) fn half_lines(
             }
         });
     }
+    if let Some(low) = density.line_integral(axis, at, ranges[0]) {
+        return [low, half_line(density, axis, at, ranges[1], tolerance)];
+    }
     let whole = [ranges[0][0], ranges[1][1]];
-    if density.line_integral(axis, at, whole).is_some() {
-        return ranges.map(|r| half_line(density, axis, at, r, tolerance));
-    }
-    thread_local! {
-        // The line's pieces, kept between calls (a line integral allocates nothing).
-        static PIECES: Cell<Vec<LinePiece>> = const { Cell::new(Vec::new()) };
-    }
     let mut pieces = PIECES.take();
     let lines = if density.smooth_pieces(axis, at, whole, &mut pieces) {
         // The first piece that reaches past the meeting point, split there when it starts
         // before it: the pieces of each half are then those the half alone has.
         let meet = ranges[0][1];
-        let k = pieces
+        let mut k = pieces
             .iter()
             .position(|p| p.range[1] > meet)
             .unwrap_or(pieces.len());
-        if let Some(&piece) = pieces.get(k) {
-            if piece.range[0] < meet {
-                pieces[k].range[1] = meet;
-                pieces.insert(
-                    k + 1,
-                    LinePiece {
-                        range: [meet, piece.range[1]],
-                        ..piece
-                    },
-                );
-            }
+        if let Some(&piece) = pieces.get(k).filter(|p| p.range[0] < meet) {
+            pieces[k].range[1] = meet;
+            pieces.insert(
+                k + 1,
+                LinePiece {
+                    range: [meet, piece.range[1]],
+                    ..piece
+                },
+            );
+            k += 1;
         }
-        let (low, high) = pieces.split_at(pieces.iter().take_while(|p| p.range[1] <= meet).count());
+        let (low, high) = pieces.split_at(k);
         [low, high].map(|part| pieces_integral(density, axis, at, part, tolerance))
     } else {
         ranges.map(|r| adaptive_line(density, axis, at, r))

@@ -473,56 +473,46 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
     let ext = density.extent();
     let tolerance = lines::rule_tolerance(density);
     let halves = [[ext[other][0].min(0.0), 0.0], [0.0, ext[other][1].max(0.0)]];
-    // The quadrants that admit x_state = s·u, as (x_state, the half of x_other), in order.
-    let mut lines = [(0.0, 0); 4];
-    let mut count = 0;
-    for (a, row) in sign.iter().enumerate() {
-        for (b, &s) in row.iter().enumerate() {
+    // Each quadrant's half-line integral (0 where the quadrant does not admit x_state = s·u),
+    // the two quadrants of one half of the state's axis taken together where they meet the
+    // same line.
+    let mut values = [[0.0; 2]; 2];
+    for own in 0..2 {
+        let quadrant = |half: usize| if state == 0 { [own, half] } else { [half, own] };
+        let admitted = [0, 1].map(|half| {
+            let [a, b] = quadrant(half);
+            let s = sign[a][b];
             let xs = s * u;
-            let quadrant = [a, b];
             // x_state = s·u must lie in the quadrant's half-line. At u = 0 the density is
-            // taken as its limit u → 0+ (so p_Y(0) = 2 p_Z(0), as Eq. 25 defines it): the side
-            // is then the sign of s.
+            // taken as its limit u → 0+ (so p_Y(0) = 2 p_Z(0), as Eq. 25 defines it): the
+            // side is then the sign of s.
             let side = if u != 0.0 { xs } else { s };
-            let inside = if quadrant[state] == 1 {
-                side > 0.0
-            } else {
-                side < 0.0
-            };
-            let [lo, hi] = halves[quadrant[other]];
-            if inside && hi > lo {
-                lines[count] = (xs, quadrant[other]);
-                count += 1;
+            let inside = if own == 1 { side > 0.0 } else { side < 0.0 };
+            let [lo, hi] = halves[half];
+            (inside && hi > lo).then_some(xs)
+        });
+        match admitted {
+            [Some(x0), Some(x1)] if x0.to_bits() == x1.to_bits() => {
+                let both = lines::half_lines(density, state, x0, halves, tolerance);
+                for (half, v) in both.into_iter().enumerate() {
+                    let [a, b] = quadrant(half);
+                    values[a][b] = v;
+                }
+            }
+            _ => {
+                for (half, xs) in admitted.into_iter().enumerate() {
+                    if let Some(xs) = xs {
+                        let [a, b] = quadrant(half);
+                        values[a][b] =
+                            lines::half_line(density, state, xs, halves[half], tolerance);
+                    }
+                }
             }
         }
     }
-    let lines = &lines[..count];
-    // Each line's integral, the two halves of one line (the same x_state) taken together.
-    let mut values = [0.0; 4];
-    let mut done = [false; 4];
-    for i in 0..lines.len() {
-        if done[i] {
-            continue;
-        }
-        let (xs, half) = lines[i];
-        let partner = (i + 1..lines.len())
-            .find(|&j| !done[j] && lines[j].0.to_bits() == xs.to_bits() && lines[j].1 != half);
-        match partner {
-            Some(j) => {
-                let both = lines::half_lines(density, state, xs, halves, tolerance);
-                (values[i], values[j]) = (both[half], both[1 - half]);
-                done[j] = true;
-            }
-            None => values[i] = lines::half_line(density, state, xs, halves[half], tolerance),
-        }
-        done[i] = true;
-    }
-    // Summed in the quadrants' order.
-    let mut total = 0.0;
-    for v in &values[..lines.len()] {
-        total += v;
-    }
-    total
+    // Summed in the quadrants' order (a quadrant not admitted adds +0, which changes no sum
+    // that starts at +0).
+    values.iter().flatten().fold(0.0, |total, v| total + v)
 }
 
 #[cfg(test)]

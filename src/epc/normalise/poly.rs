@@ -222,12 +222,16 @@ pub(crate) fn enclosure(c: &[f64], lo: f64, hi: f64) -> Option<[f64; 2]> {
             above += term;
         }
     }
-    let reach = m.abs() + r;
-    let size = c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs());
-    let margin = 1e-10 * size;
+    let margin = rounding(c, m.abs() + r);
     let (q_lo, q_hi) = (d[0] + below - margin, d[0] + above + margin);
     // Written so that a NaN or an overflow refuses.
     (q_lo.is_finite() && q_hi.is_finite()).then_some([q_lo, q_hi])
+}
+
+/// A bound on the rounding of `horner(c, t)` as computed, far above it, for |t| ≤ `reach`:
+/// 10⁻¹⁰ of Σ |c_k| reach^k (a small multiple of ε times that sum is the actual bound).
+pub(crate) fn rounding(c: &[f64], reach: f64) -> f64 {
+    1e-10 * c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs())
 }
 
 /// Points evaluated at once by [`horner_block`].

@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::{enclosure, horner, horner_block, BLOCK, MAX_POWER};
+use super::poly::{enclosure, horner, horner_block, rounding, BLOCK, MAX_POWER};
 use super::report::NotNormalisable;
 use super::{Poly, TAIL_E_FOLDS};
 
@@ -331,7 +331,7 @@ fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowes
 /// Whether `horner(c, r)` as computed falls strictly from each of the increasing `radii` to
 /// the next: an [`enclosure`] of Q' over them is negative, and the least fall it allows
 /// between neighbours (|Q'| times the smallest spacing) exceeds twice the rounding of
-/// a computed value (bounded as in the enclosure, by 10⁻¹⁰ of Σ |c_k| r^k; here four times
+/// a computed value ([`rounding`]; here four times
 /// that).
 fn falls_strictly(c: &[f64], radii: &[f64]) -> bool {
     let (Some(&first), Some(&last)) = (radii.first(), radii.last()) else {
@@ -348,13 +348,12 @@ fn falls_strictly(c: &[f64], radii: &[f64]) -> bool {
         return false;
     };
     let reach = first.abs().max(last.abs());
-    let size = c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs());
     let gap = radii
         .windows(2)
         .map(|w| w[1] - w[0])
         .fold(f64::INFINITY, f64::min);
     // Written so that a NaN refuses.
-    -steepest * gap > 4e-10 * size
+    -steepest * gap > 4.0 * rounding(c, reach)
 }
 
 /// [`scan`] one radius at a time: the definition it is tested against.
