@@ -97,7 +97,7 @@ pub(crate) fn half_line(
         return line;
     }
     let mut pieces = PIECES.take();
-    let line = smooth_line(density, axis, at, range, tolerance, &mut pieces);
+    let [line] = smooth_line(density, axis, at, range, tolerance, &mut pieces);
     PIECES.set(pieces);
     line
 }
@@ -131,9 +131,34 @@ pub(crate) fn half_lines(
     if let Some(low) = density.line_integral(axis, at, ranges[0]) {
         return [low, half_line(density, axis, at, ranges[1], tolerance)];
     }
-    let whole = [ranges[0][0], ranges[1][1]];
+    half_line_moments::<1>(density, axis, at, ranges, tolerance).map(|[v]| v)
+}
+
+/// The moments ∫ t^j p(x_axis = `at`, t) dt, j = 0…K−1, of the other state t over each of
+/// the two halves `ranges` of its axis (as in [`half_lines`], each half on one side of
+/// t = 0), each within `tolerance` relative: the line's smooth pieces found once and
+/// integrated by the nested rules on one set of density values for all K moments, each
+/// moment held to the tests [`half_line`] holds the integral to (the transitions' bound
+/// taken as max·∫|t|^j). For K = 1, [`half_lines`] of a density without exact line
+/// integrals, bit for bit.
+pub(crate) fn half_line_moments<const K: usize>(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    ranges: [[f64; 2]; 2],
+    tolerance: f64,
+) -> [[f64; K]; 2] {
+    let empty = ranges.map(|r| r[1] <= r[0]);
     let mut pieces = PIECES.take();
-    let lines = if density.smooth_pieces(axis, at, whole, &mut pieces) {
+    let lines = if empty[0] || empty[1] || ranges[0][1] != ranges[1][0] {
+        [0, 1].map(|h| {
+            if empty[h] {
+                [0.0; K]
+            } else {
+                smooth_line(density, axis, at, ranges[h], tolerance, &mut pieces)
+            }
+        })
+    } else if density.smooth_pieces(axis, at, [ranges[0][0], ranges[1][1]], &mut pieces) {
         // The first piece that reaches past the meeting point, split there when it starts
         // before it: the pieces of each half are then those the half alone has.
         let meet = ranges[0][1];
@@ -161,89 +186,144 @@ pub(crate) fn half_lines(
     lines
 }
 
-/// [`half_line`] with `pieces` for the line's smooth pieces.
-fn smooth_line(
+/// The moments of [`half_line_moments`] over one `range`, with `pieces` for the line's smooth
+/// pieces.
+fn smooth_line<const K: usize>(
     density: &dyn JointDensity,
     axis: usize,
     at: f64,
     range: [f64; 2],
     tolerance: f64,
     pieces: &mut Vec<LinePiece>,
-) -> f64 {
+) -> [f64; K] {
     if !density.smooth_pieces(axis, at, range, pieces) {
         return adaptive_line(density, axis, at, range);
     }
     pieces_integral(density, axis, at, pieces, tolerance)
 }
 
-/// The line's integral over `range` by adaptive quadrature of the density as defined, for a
-/// density that cannot tell where it is smooth.
-fn adaptive_line(density: &dyn JointDensity, axis: usize, at: f64, range: [f64; 2]) -> f64 {
+/// The line's moments over `range` by adaptive quadrature of t^j times the density as
+/// defined, for a density that cannot tell where it is smooth.
+fn adaptive_line<const K: usize>(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    range: [f64; 2],
+) -> [f64; K] {
     let f = |t: &[f64], out: &mut [f64]| line_values(density, axis, at, t, out);
-    quadrature::integrate_adaptive_batch(&f, range[0], range[1], ADAPTIVE_TOLERANCE)
+    adaptive_moments(&f, range[0], range[1])
 }
 
-/// The integral over a segment tiled by the density's smooth `pieces` (see the module
-/// documentation), within `tolerance` relative.
-fn pieces_integral(
+/// ∫ t^j f(t) dt, j = 0…K−1, over [`lo`, `hi`], each by adaptive quadrature to
+/// [`ADAPTIVE_TOLERANCE`] (moment 0 of f itself).
+fn adaptive_moments<const K: usize>(f: &dyn Fn(&[f64], &mut [f64]), lo: f64, hi: f64) -> [f64; K] {
+    std::array::from_fn(|j| {
+        if j == 0 {
+            quadrature::integrate_adaptive_batch(f, lo, hi, ADAPTIVE_TOLERANCE)
+        } else {
+            let weighted = |t: &[f64], out: &mut [f64]| {
+                f(t, out);
+                for (o, &t) in out.iter_mut().zip(t) {
+                    *o *= t.powi(j as i32);
+                }
+            };
+            quadrature::integrate_adaptive_batch(&weighted, lo, hi, ADAPTIVE_TOLERANCE)
+        }
+    })
+}
+
+/// max·∫|t|^j dt over `range`, j = 0…K−1: the bound on a transition's moments (its density
+/// lies between 0 and `max`).
+fn transition_bounds<const K: usize>(max: f64, [a, b]: [f64; 2]) -> [f64; K] {
+    std::array::from_fn(|j| {
+        let e = j as i32 + 1;
+        let integral = if j == 0 {
+            b - a
+        } else if a < 0.0 && b > 0.0 {
+            ((-a).powi(e) + b.powi(e)) / f64::from(e)
+        } else {
+            (b.powi(e) - a.powi(e)).abs() / f64::from(e)
+        };
+        max * integral
+    })
+}
+
+/// The moments over a segment tiled by the density's smooth `pieces` (see the module
+/// documentation), each within `tolerance` relative.
+fn pieces_integral<const K: usize>(
     density: &dyn JointDensity,
     axis: usize,
     at: f64,
     pieces: &[LinePiece],
     tolerance: f64,
-) -> f64 {
-    let transitions: f64 = pieces.iter().filter_map(|p| p.kind.bound(p.range)).sum();
-    let share = if transitions > 0.0 { 0.5 } else { 1.0 };
-    let integrate = |piece: &LinePiece, rule: Rule| {
+) -> [f64; K] {
+    let bounds = |piece: &LinePiece| match piece.kind {
+        PieceKind::Analytic => None,
+        PieceKind::Transition { max } => Some(transition_bounds::<K>(max, piece.range)),
+    };
+    let mut transitions = [0.0; K];
+    for b in pieces.iter().filter_map(bounds) {
+        for (t, b) in transitions.iter_mut().zip(b) {
+            *t += b;
+        }
+    }
+    let share = if transitions[0] > 0.0 { 0.5 } else { 1.0 };
+    let integrate = |piece: &LinePiece, rule: Rule<K>| {
         // A piece's nodes at once: one row (or column) of the density.
         let f = |t: &[f64], out: &mut [f64]| density.pdf_on_piece(axis, at, piece, t, out);
         let [lo, hi] = piece.range;
         let fixed = match rule {
-            Rule::Checked { abs } => {
-                fixed::integrate_nested_within(&f, lo, hi, share * tolerance, abs)
-            }
-            Rule::Coarsest => Some(fixed::coarsest(&f, lo, hi)),
+            Rule::Checked { abs } => fixed::nested_moments(&f, lo, hi, share * tolerance, abs),
+            Rule::Coarsest => Some(fixed::coarsest_moments(&f, lo, hi)),
         };
-        fixed
-            .unwrap_or_else(|| quadrature::integrate_adaptive_batch(&f, lo, hi, ADAPTIVE_TOLERANCE))
+        fixed.unwrap_or_else(|| adaptive_moments(&f, lo, hi))
     };
-    let mut analytic = -0.0;
+    let mut analytic = [-0.0; K];
     for piece in pieces.iter().filter(|p| p.kind == PieceKind::Analytic) {
-        analytic += integrate(piece, Rule::Checked { abs: 1e-300 });
+        let m = integrate(piece, Rule::Checked { abs: [1e-300; K] });
+        for (a, m) in analytic.iter_mut().zip(m) {
+            *a += m;
+        }
     }
-    if transitions == 0.0 {
+    if transitions[0] == 0.0 {
         return analytic;
     }
     // The transitions' share of the error: half the tolerance of the analytic pieces' total,
-    // spread over them in proportion to their bounds.
-    let budget = share * tolerance * analytic.abs();
-    let mut rest = 0.0;
+    // spread over them in proportion to their bounds, moment by moment.
+    let budget = analytic.map(|a| share * tolerance * a.abs());
+    let negligible = (0..K).all(|j| transitions[j] <= budget[j]);
+    let mut rest = [0.0; K];
     for piece in pieces.iter() {
-        let Some(bound) = piece.kind.bound(piece.range) else {
+        let Some(bound) = bounds(piece) else {
             continue;
         };
-        rest += if transitions <= budget {
+        let m = if negligible {
             integrate(piece, Rule::Coarsest)
         } else {
             integrate(
                 piece,
                 Rule::Checked {
-                    abs: (budget * bound / transitions).max(1e-300),
+                    abs: std::array::from_fn(|j| {
+                        (budget[j] * bound[j] / transitions[j]).max(1e-300)
+                    }),
                 },
             )
         };
+        for (r, m) in rest.iter_mut().zip(m) {
+            *r += m;
+        }
     }
-    analytic + rest
+    std::array::from_fn(|j| analytic[j] + rest[j])
 }
 
-/// How a piece is integrated.
+/// How a piece is integrated (its K moments).
 #[derive(Clone, Copy)]
-enum Rule {
+enum Rule<const K: usize> {
     /// The nested fixed rules, accepted when their doubling check is within the relative
-    /// tolerance or `abs`; adaptive quadrature to 1e−10 when it is not.
+    /// tolerance or `abs` for every moment; adaptive quadrature to 1e−10 when it is not.
     Checked {
-        /// The absolute tolerance.
-        abs: f64,
+        /// The absolute tolerance of each moment.
+        abs: [f64; K],
     },
     /// The coarsest fixed rule, unchecked (a transition whose bound is negligible).
     Coarsest,
@@ -300,12 +380,48 @@ mod tests {
                         (fast - exact).abs() <= tolerance * exact.abs() + 1e-300,
                         "axis {axis} at {at}: {fast:e} vs {exact:e}"
                     );
+                    // The line's moments t^j p, j = 0…4, on one set of values: each within
+                    // the tolerance of its own adaptive value.
+                    let h = usize::from(range[0] >= 0.0);
+                    let mut halves = [[ext[other][0], 0.0], [0.0, ext[other][1]]];
+                    halves[1 - h] = [0.0, 0.0];
+                    let moments = half_line_moments::<5>(d, axis, at, halves, tolerance)[h];
+                    for (j, &m) in moments.iter().enumerate() {
+                        let weighted = |t: &[f64], out: &mut [f64]| {
+                            f(t, out);
+                            for (o, t) in out.iter_mut().zip(t) {
+                                *o *= t.powi(j as i32);
+                            }
+                        };
+                        let exact = quadrature::integrate_adaptive_batch(
+                            &weighted, range[0], range[1], 1e-13,
+                        );
+                        assert!(
+                            (m - exact).abs() <= tolerance * exact.abs() + 1e-300,
+                            "axis {axis} at {at} moment {j}: {m:e} vs {exact:e}"
+                        );
+                    }
                 }
             }
         }
         // The ridge's lines do have transitions (the cutoff's rise), kept out of the
         // analytic pieces.
         assert!(transitions > 40, "{transitions}");
+    }
+
+    /// A transition's bound on its moments is max·∫|t|^j over the piece, on one side of 0 or
+    /// across it.
+    #[test]
+    fn transition_bounds_are_max_times_the_moments_of_abs_t() {
+        assert_eq!(
+            transition_bounds::<3>(2.0, [1.0, 3.0]),
+            [4.0, 8.0, 2.0 * 26.0 / 3.0]
+        );
+        assert_eq!(
+            transition_bounds::<3>(2.0, [-3.0, -1.0]),
+            [4.0, 8.0, 2.0 * 26.0 / 3.0]
+        );
+        assert_eq!(transition_bounds::<3>(2.0, [-1.0, 2.0]), [6.0, 5.0, 6.0]);
     }
 
     /// Both halves of a line at once are each half alone: the pieces found once over the
@@ -363,34 +479,87 @@ mod tests {
         }
     }
 
+    /// The moments of ± each state inside the ridge (z and v by the pairs of the outer
+    /// state or the line moments of the inner one, |z| and sgn(z)·v with their quadrants'
+    /// signs) against nested adaptive quadrature to 1e−12 in x1-then-x2 order: raw moments,
+    /// variance and kurtosis within the rule tolerance (|z|'s central moments, formed from raw
+    /// ones with |mean|/sd = 1.4, included).
     #[test]
     fn ridge_moments_by_lines_agree_with_nested_adaptive_quadrature() {
         let sol = ridge();
         let d = sol.joint();
-        let z = &sol.quantity("z").unwrap().map;
-        let m = &moments_of_all(d, &[z])[0].moments;
-        // E z⁴ = ∫ u⁴ ∫ p(u, v) dv du / ∫∫ p, each integral adaptive to 1e−12 (inner: the
-        // density as defined, whole half-lines).
+        let names = ["z", "y", "v", "ydot"];
+        let maps: Vec<_> = names
+            .iter()
+            .map(|n| &sol.quantity(n).unwrap().map)
+            .collect();
+        let all = moments_of_all(d, &maps);
         let ext = d.extent();
-        let line = |u: f64| {
-            let f = |t: &[f64], out: &mut [f64]| line_values(d, 0, u, t, out);
-            quadrature::integrate_adaptive_batch(&f, ext[1][0], 0.0, 1e-12)
-                + quadrature::integrate_adaptive_batch(&f, 0.0, ext[1][1], 1e-12)
-        };
-        let moment = |k: i32| {
-            let g = |u: f64| u.powi(k) * line(u);
-            quadrature::integrate_adaptive(&g, ext[0][0], 0.0, 1e-12)
-                + quadrature::integrate_adaptive(&g, 0.0, ext[0][1], 1e-12)
-        };
-        let (mass, z2, z4) = (moment(0), moment(2), moment(4));
         let tolerance = rule_tolerance(d);
-        assert!(
-            (m.raw[1] - z2 / mass).abs() <= tolerance * m.raw[1],
-            "{m:?}"
-        );
-        assert!(
-            (m.raw[3] - z4 / mass).abs() <= tolerance * m.raw[3],
-            "{m:?}"
-        );
+        // ∫∫ over the quadrant (h1, h2) of x1^a·x2^b·p, inner integral over x2 on each x1-line.
+        let half = |axis: usize, h: usize| {
+            if h == 0 {
+                [ext[axis][0], 0.0]
+            } else {
+                [0.0, ext[axis][1]]
+            }
+        };
+        let quadrant = |h: [usize; 2], a: i32, b: i32| {
+            let line = |u: f64| {
+                let f = |t: &[f64], out: &mut [f64]| {
+                    line_values(d, 0, u, t, out);
+                    for (o, t) in out.iter_mut().zip(t) {
+                        *o *= t.powi(b);
+                    }
+                };
+                let [lo, hi] = half(1, h[1]);
+                quadrature::integrate_adaptive_batch(&f, lo, hi, 1e-12)
+            };
+            let [lo, hi] = half(0, h[0]);
+            quadrature::integrate_adaptive(&|u: f64| u.powi(a) * line(u), lo, hi, 1e-12)
+        };
+        let quadrants = [[0, 0], [0, 1], [1, 0], [1, 1]];
+        let mass: f64 = quadrants.iter().map(|&h| quadrant(h, 0, 0)).sum();
+        // [state, sign of the quadrants with x1 < 0] for z, |z|, v, sgn(z)·v.
+        for (k, (state, negative)) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let raw: [f64; 4] = std::array::from_fn(|j| {
+                let p = j as i32 + 1;
+                quadrants
+                    .iter()
+                    .map(|&h| {
+                        let s: f64 = if h[0] == 0 { negative } else { 1.0 };
+                        let (a, b) = if state == 0 { (p, 0) } else { (0, p) };
+                        s.powi(p) * quadrant(h, a, b)
+                    })
+                    .sum::<f64>()
+                    / mass
+            });
+            let exact = crate::moments::Moments::from_raw(raw);
+            let got = &all[k].moments;
+            for j in 0..4 {
+                let scale = raw[3].powf((j as f64 + 1.0) / 4.0);
+                assert!(
+                    (got.raw[j] - raw[j]).abs() <= tolerance * scale,
+                    "{} raw {}: {:e} vs {:e}",
+                    names[k],
+                    j + 1,
+                    got.raw[j],
+                    raw[j]
+                );
+            }
+            for (what, g, e) in [
+                ("variance", got.variance, exact.variance),
+                ("kurtosis", got.kurtosis, exact.kurtosis),
+            ] {
+                assert!(
+                    (g - e).abs() <= tolerance * e.abs(),
+                    "{} {what}: {g} vs {e}",
+                    names[k]
+                );
+            }
+        }
     }
 }

@@ -29,7 +29,8 @@
 //! Moments are taken from the joint density directly, E[g^k] = ∬ g^k p ([`moments`]), never
 //! from a 1-D curve on a truncated grid; those of ± a state under an analytic density by a
 //! tensor Clenshaw–Curtis rule on each quadrant checked against its half, under a density
-//! smooth piecewise along lines by those line integrals under an outer Clenshaw–Curtis rule
+//! smooth piecewise along lines by one family of those line integrals (with the line's
+//! moments of the other state on the same values) under an outer Clenshaw–Curtis rule
 //! (`line_moments.rs`), checked the same way at the density's rule tolerance.
 
 mod critical;

@@ -89,8 +89,10 @@ struct Rule {
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ObservableMoments {
-    /// E\[g\], …, E\[g⁴\] (given g defined), mean, variance (a second pass about the mean)
-    /// and kurtosis; a moment beyond [`ObservableMoments::existing`] is NaN.
+    /// E\[g\], …, E\[g⁴\] (given g defined), mean, variance and kurtosis (by a second pass
+    /// about the mean, or from the raw moments where the quadrature gives those alone: ± the
+    /// state integrated along the lines under a density smooth piecewise along them); a
+    /// moment beyond [`ObservableMoments::existing`] is NaN.
     pub moments: Moments,
     /// P(g has no finite value): 0 for an observable defined everywhere.
     pub undefined_mass: f64,
