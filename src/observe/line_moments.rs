@@ -7,8 +7,10 @@
 //!   about the mean (as for any (g, weight) pairs);
 //! - E[(s·x_i)^k] = Σ_quadrants s^k ∫ M_k(u) du, with the variance and kurtosis formed from
 //!   these raw moments ([`Moments::from_raw`]): exact where the mean is small against the
-//!   standard deviation (the velocity of an oscillator), a digit of the rule tolerance lost
-//!   where it is not (|mean|/sd = 1.4 for |z| of vibro_duffing; measured below 1e−9).
+//!   standard deviation (the velocity of an oscillator), up to a digit of the rule tolerance
+//!   lost where it is not (|mean|/sd = 1.4 for |z| of vibro_duffing at degree 4, whose
+//!   variance and kurtosis are within 7e−13 of nested adaptive quadrature at 1e−12, the
+//!   tolerance being 2.4e−8).
 //!
 //! One family instead of one per state halves the lines a study's moments take. The outer
 //! integral takes the nested Clenshaw–Curtis rule of 128 intervals on each half of the outer
