@@ -189,7 +189,9 @@ impl<'a> LineQuadrants<'a> {
                         4,
                     )
                 } else {
-                    inner_moments((0..4).flat_map(move |q| quadrant(q, rule)))
+                    inner_moments(
+                        (0..4).flat_map(move |q| quadrant(q, rule).map(|(s, _, w, m)| (s, w, m))),
+                    )
                 }
             },
             self.tolerance,
@@ -197,14 +199,12 @@ impl<'a> LineQuadrants<'a> {
     }
 }
 
-/// The moments of g = s·x_inner from (s, u, outer weight, line moments) at the outer nodes of
+/// The moments of g = s·x_inner from (s, outer weight, line moments) at the outer nodes of
 /// every quadrant: E[g^k] = Σ w·s^k·M_k / Σ w·M_0, each sum in the order given, and the
 /// central moments from these ([`Moments::from_raw`]).
-fn inner_moments(
-    nodes: impl Iterator<Item = (f64, f64, f64, [f64; MOMENTS])>,
-) -> ObservableMoments {
+fn inner_moments(nodes: impl Iterator<Item = (f64, f64, [f64; MOMENTS])>) -> ObservableMoments {
     let (mut mass, mut sums) = (-0.0, [-0.0; 4]);
-    for (s, _, w, m) in nodes {
+    for (s, w, m) in nodes {
         mass += w * m[0];
         let mut sk = 1.0;
         for (k, sum) in sums.iter_mut().enumerate() {

@@ -118,10 +118,9 @@ pub(crate) fn half_lines(
     ranges: [[f64; 2]; 2],
     tolerance: f64,
 ) -> [f64; 2] {
-    let empty = ranges.map(|r| r[1] <= r[0]);
-    if empty[0] || empty[1] || ranges[0][1] != ranges[1][0] {
+    if !meet(&ranges) {
         return [0, 1].map(|h| {
-            if empty[h] {
+            if empty(ranges[h]) {
                 0.0
             } else {
                 half_line(density, axis, at, ranges[h], tolerance)
@@ -148,11 +147,10 @@ pub(crate) fn half_line_moments<const K: usize>(
     ranges: [[f64; 2]; 2],
     tolerance: f64,
 ) -> [[f64; K]; 2] {
-    let empty = ranges.map(|r| r[1] <= r[0]);
     let mut pieces = PIECES.take();
-    let lines = if empty[0] || empty[1] || ranges[0][1] != ranges[1][0] {
+    let lines = if !meet(&ranges) {
         [0, 1].map(|h| {
-            if empty[h] {
+            if empty(ranges[h]) {
                 [0.0; K]
             } else {
                 smooth_line(density, axis, at, ranges[h], tolerance, &mut pieces)
@@ -184,6 +182,17 @@ pub(crate) fn half_line_moments<const K: usize>(
     };
     PIECES.set(pieces);
     lines
+}
+
+/// Whether a range is empty (gives 0).
+fn empty(range: [f64; 2]) -> bool {
+    range[1] <= range[0]
+}
+
+/// Whether two halves of a line are both non-empty and meet (the first ends where the second
+/// starts), so that the line's pieces can be found once over both.
+fn meet(ranges: &[[f64; 2]; 2]) -> bool {
+    !(empty(ranges[0]) || empty(ranges[1]) || ranges[0][1] != ranges[1][0])
 }
 
 /// The moments of [`half_line_moments`] over one `range`, with `pieces` for the line's smooth
@@ -218,17 +227,14 @@ fn adaptive_line<const K: usize>(
 /// [`ADAPTIVE_TOLERANCE`] (moment 0 of f itself).
 fn adaptive_moments<const K: usize>(f: &dyn Fn(&[f64], &mut [f64]), lo: f64, hi: f64) -> [f64; K] {
     std::array::from_fn(|j| {
-        if j == 0 {
-            quadrature::integrate_adaptive_batch(f, lo, hi, ADAPTIVE_TOLERANCE)
-        } else {
-            let weighted = |t: &[f64], out: &mut [f64]| {
-                f(t, out);
-                for (o, &t) in out.iter_mut().zip(t) {
-                    *o *= t.powi(j as i32);
-                }
-            };
-            quadrature::integrate_adaptive_batch(&weighted, lo, hi, ADAPTIVE_TOLERANCE)
-        }
+        // t^0 = 1 exactly: moment 0 is the integral of f itself, bit for bit.
+        let weighted = |t: &[f64], out: &mut [f64]| {
+            f(t, out);
+            for (o, &t) in out.iter_mut().zip(t) {
+                *o *= t.powi(j as i32);
+            }
+        };
+        quadrature::integrate_adaptive_batch(&weighted, lo, hi, ADAPTIVE_TOLERANCE)
     })
 }
 
@@ -237,9 +243,7 @@ fn adaptive_moments<const K: usize>(f: &dyn Fn(&[f64], &mut [f64]), lo: f64, hi:
 fn transition_bounds<const K: usize>(max: f64, [a, b]: [f64; 2]) -> [f64; K] {
     std::array::from_fn(|j| {
         let e = j as i32 + 1;
-        let integral = if j == 0 {
-            b - a
-        } else if a < 0.0 && b > 0.0 {
+        let integral = if a < 0.0 && b > 0.0 {
             ((-a).powi(e) + b.powi(e)) / f64::from(e)
         } else {
             (b.powi(e) - a.powi(e)).abs() / f64::from(e)

@@ -234,6 +234,14 @@ pub(crate) fn rounding(c: &[f64], reach: f64) -> f64 {
     1e-10 * c.iter().rev().fold(0.0, |acc, ck| acc * reach + ck.abs())
 }
 
+/// The coefficients of the derivative of the polynomial `c` (Σ c_k t^k), (k + 1)·c_{k+1},
+/// into `out[k]` for k = 0…`c.len()` − 2 (`out` has that length).
+pub(crate) fn derivative(c: &[f64], out: &mut [f64]) {
+    for (k, d) in out.iter_mut().enumerate() {
+        *d = (k + 1) as f64 * c[k + 1];
+    }
+}
+
 /// Points evaluated at once by [`horner_block`].
 pub(crate) const BLOCK: usize = 32;
 

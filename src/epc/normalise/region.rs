@@ -3,7 +3,7 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::{enclosure, horner, horner_block, rounding, BLOCK, MAX_POWER};
+use super::poly::{derivative, enclosure, horner, horner_block, rounding, BLOCK, MAX_POWER};
 use super::report::NotNormalisable;
 use super::{Poly, TAIL_E_FOLDS};
 
@@ -150,7 +150,8 @@ pub(super) fn explore_ray(
     let n = c.len() - 1;
     let lead = c[n];
     // Beyond r_dom (Fujiwara's bound on the roots of dQ/dr) dQ/dr has the leading sign.
-    let b: Vec<f64> = (1..=n).map(|d| d as f64 * c[d]).collect();
+    let mut b = vec![0.0; n];
+    derivative(&c, &mut b);
     let m = b.len() - 1;
     let r_dom = if m == 0 {
         1.0
@@ -330,9 +331,8 @@ fn blocks(c: &[f64], steps: &RaySteps, r_stop: f64, lead: f64, q_max: f64, lowes
 
 /// Whether `horner(c, r)` as computed falls strictly from each of the increasing `radii` to
 /// the next: an [`enclosure`] of Q' over them is negative, and the least fall it allows
-/// between neighbours (|Q'| times the smallest spacing) exceeds twice the rounding of
-/// a computed value ([`rounding`]; here four times
-/// that).
+/// between neighbours (|Q'| times the smallest spacing) exceeds twice the rounding of a
+/// computed value ([`rounding`]; here four times that).
 fn falls_strictly(c: &[f64], radii: &[f64]) -> bool {
     let (Some(&first), Some(&last)) = (radii.first(), radii.last()) else {
         return false;
@@ -341,10 +341,9 @@ fn falls_strictly(c: &[f64], radii: &[f64]) -> bool {
         return false;
     }
     let mut slope = [0.0; MAX_POWER];
-    for (k, s) in slope.iter_mut().enumerate().take(c.len() - 1) {
-        *s = (k + 1) as f64 * c[k + 1];
-    }
-    let Some([_, steepest]) = enclosure(&slope[..c.len() - 1], first, last) else {
+    let slope = &mut slope[..c.len() - 1];
+    derivative(c, slope);
+    let Some([_, steepest]) = enclosure(slope, first, last) else {
         return false;
     };
     let reach = first.abs().max(last.abs());
