@@ -573,4 +573,30 @@ mod tests {
             "expected `stratonovich` or `ito`"
         );
     }
+
+    #[test]
+    fn a_comment_takes_every_character_to_the_end_of_its_line() {
+        let model = |src: &str| crate::model::parse_model(src, None).map(|m| m.to_string());
+        let lines = [
+            "model m",
+            "state z, v",
+            "drift z: v",
+            "drift v: -v - z",
+            "noise xi: intensity 2",
+        ];
+        let plain = model(&(lines.join("\n") + "\ndiffusion v: xi\n")).unwrap();
+        // Every character but a line break: `\u{b}` and `\u{c}` between `\n` and `\r`, the
+        // last char, quotes and `#`; `\r`, `\r\n` and `\n` each end a comment.
+        let odd = "\u{0}\u{1}\t\u{b}\u{c}\u{e}\u{7f}é中\u{10ffff}#\"";
+        for end in ["\n", "\r\n", "\r"] {
+            let src = format!(
+                "# {odd}{end}{} # {odd}{end}diffusion v: xi #",
+                lines.join(&format!(" #{odd}{end}"))
+            );
+            assert_eq!(model(&src).unwrap(), plain, "{end:?}");
+        }
+        // What follows a line break is not the comment's.
+        let err = parse_file("state z # a\rdrift z -z\n").unwrap_err();
+        assert_eq!(err.message, "expected `:`");
+    }
 }
