@@ -20,6 +20,17 @@ const INV_SQRT_2PI: f64 = 0.398_942_280_401_432_7;
 /// (or a further 12 beyond a finite end that lies outside it).
 const CLIP: f64 = 16.0;
 
+/// The widest panel of the discretised measure, and its Gauss–Legendre points. The moments
+/// t^k·φ(t), k ≤ 23 (the exactness of the largest rule here, 12 nodes), of the discretised
+/// measure agree with those of panels a quarter as wide with 24 points to rounding (tested:
+/// within 8e−16 of Σ w|t|^k on intervals that reach within 6 of 0, 6e−15 on [25, ∞), where
+/// φ's own values carry a rounding of order t²ε), as with the 20 points per half unit used
+/// before, at 40 % of the points: a rule's cost is its Stieltjes sweeps over them, and a solve
+/// builds some fourteen rules (the Gaussian closure's frames, the Galerkin tables).
+const PANEL_WIDTH: f64 = 1.0;
+/// See [`PANEL_WIDTH`].
+const PANEL_POINTS: usize = 16;
+
 /// A Gauss rule: `∫ g(t) φ(t) dt ≈ Σ weights[i]·g(nodes[i])` over the rule's interval.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct QuadratureRule {
@@ -66,18 +77,33 @@ pub(crate) fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (x, w)
 }
 
-/// A discretisation of φ on [a, b]: panels of width ≤ 0.5 with 20 Gauss–Legendre points each.
+/// A discretisation of φ on [a, b]: panels of width ≤ [`PANEL_WIDTH`] with [`PANEL_POINTS`]
+/// Gauss–Legendre points each.
 fn discretise(a: f64, b: f64) -> (Vec<f64>, Vec<f64>) {
+    // The panels' Gauss–Legendre rule, computed once (each frame of the Gaussian closure
+    // discretises afresh).
+    static PANEL_RULE: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
+    let rule = PANEL_RULE.get_or_init(|| gauss_legendre(PANEL_POINTS));
+    discretise_with(a, b, PANEL_WIDTH, rule)
+}
+
+/// A discretisation of φ on [a, b] by panels of width ≤ `width`, each with the Gauss–Legendre
+/// rule `(nodes, weights)` on [−1, 1]. On an interval at a distance d > 6 from 0, where φ
+/// falls by e^−d per unit (its mass at the near end), the panels are narrowed to 6/d.
+fn discretise_with(
+    a: f64,
+    b: f64,
+    width: f64,
+    (gx, gw): &(Vec<f64>, Vec<f64>),
+) -> (Vec<f64>, Vec<f64>) {
     let lo = a.max((-CLIP).min(b - 12.0));
     let hi = b.min(CLIP.max(a + 12.0));
-    // The panels' 20-point Gauss–Legendre rule, computed once (each frame of the Gaussian
-    // closure discretises afresh).
-    static PANEL_RULE: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
-    let (gx, gw) = PANEL_RULE.get_or_init(|| gauss_legendre(20));
-    let panels = ((hi - lo) / 0.5).ceil().max(1.0) as usize;
+    let distance = lo.max(-hi).max(0.0);
+    let width = width.min(6.0 / distance);
+    let panels = ((hi - lo) / width).ceil().max(1.0) as usize;
     let h = (hi - lo) / panels as f64;
-    let mut t = Vec::with_capacity(panels * 20);
-    let mut w = Vec::with_capacity(panels * 20);
+    let mut t = Vec::with_capacity(panels * gx.len());
+    let mut w = Vec::with_capacity(panels * gx.len());
     for p in 0..panels {
         let mid = lo + (p as f64 + 0.5) * h;
         for (x, wx) in gx.iter().zip(gw) {
@@ -87,6 +113,20 @@ fn discretise(a: f64, b: f64) -> (Vec<f64>, Vec<f64>) {
         }
     }
     (t, w)
+}
+
+/// Σ f(i), i = 0…n−1, in four interleaved partial sums (four independent chains of
+/// additions, where one sum waits on each addition before the next).
+fn split_sum(n: usize, f: impl Fn(usize) -> f64) -> f64 {
+    let mut acc = [0.0; 4];
+    let whole = n - n % 4;
+    for i in (0..whole).step_by(4) {
+        for (l, a) in acc.iter_mut().enumerate() {
+            *a += f(i + l);
+        }
+    }
+    let rest: f64 = (whole..n).map(&f).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + rest
 }
 
 /// Builds the `n`-point Gauss rule for φ on [a, b] (either end may be infinite).
@@ -107,25 +147,21 @@ fn build_rule(a: f64, b: f64, n: usize) -> QuadratureRule {
     let mut beta: Vec<f64> = vec![0.0; n];
     let mut p_prev = vec![0.0; t.len()];
     let mut p = vec![1.0 / mass.sqrt(); t.len()];
+    let mut next = vec![0.0; t.len()];
     for k in 0..n {
-        let a_k: f64 = (0..t.len()).map(|i| w[i] * u[i] * p[i] * p[i]).sum();
+        let a_k = split_sum(t.len(), |i| w[i] * u[i] * p[i] * p[i]);
         alpha[k] = a_k;
-        let mut next: Vec<f64> = (0..t.len())
-            .map(|i| {
-                (u[i] - a_k) * p[i]
-                    - if k > 0 {
-                        beta[k].sqrt() * p_prev[i]
-                    } else {
-                        0.0
-                    }
-            })
-            .collect();
-        let norm2: f64 = (0..t.len()).map(|i| w[i] * next[i] * next[i]).sum();
+        let b_k = beta[k].sqrt();
+        for (((o, &u), &p), &q) in next.iter_mut().zip(&u).zip(&p).zip(&p_prev) {
+            *o = (u - a_k) * p - b_k * q;
+        }
         if k + 1 < n {
+            let norm2 = split_sum(t.len(), |i| w[i] * next[i] * next[i]);
             beta[k + 1] = norm2;
             let s = 1.0 / norm2.sqrt();
             next.iter_mut().for_each(|v| *v *= s);
-            p_prev = std::mem::replace(&mut p, next);
+            std::mem::swap(&mut p_prev, &mut p);
+            std::mem::swap(&mut p, &mut next);
         }
     }
     let mut jac = DMatrix::<f64>::zeros(n, n);
@@ -312,5 +348,36 @@ mod tests {
             last = err;
         }
         assert!(last < 1e-6);
+    }
+
+    #[test]
+    fn the_discretised_measure_has_the_moments_of_a_four_times_finer_one() {
+        // Moments up to t^23 (a 12-node rule's exactness) of φ on the intervals the rules
+        // are built on, against panels a quarter as wide with 24 points: the same to within
+        // rounding (measured: 8e−16 of Σ w|t|^k, 6e−15 on [25, ∞)). Uniform panels of width 1
+        // fail on [25, ∞) (4e−14 in the mass).
+        let fine_rule = gauss_legendre(24);
+        for (a, b) in [
+            (f64::NEG_INFINITY, 0.0),
+            (0.0, f64::INFINITY),
+            (-1.3, 2.5),
+            (2.5, f64::INFINITY),
+            (f64::NEG_INFINITY, -7.0),
+            (25.0, f64::INFINITY),
+        ] {
+            let coarse = discretise(a, b);
+            let fine = discretise_with(a, b, PANEL_WIDTH / 4.0, &fine_rule);
+            for k in 0..=23 {
+                let moment = |(t, w): &(Vec<f64>, Vec<f64>)| -> [f64; 2] {
+                    let terms = t.iter().zip(w).map(|(t, w)| w * t.powi(k));
+                    [terms.clone().sum(), terms.map(f64::abs).sum()]
+                };
+                let ([c, scale], [f, _]) = (moment(&coarse), moment(&fine));
+                assert!(
+                    (c - f).abs() <= 1e-14 * scale,
+                    "[{a}, {b}] t^{k}: {c:e} against {f:e} (scale {scale:e})"
+                );
+            }
+        }
     }
 }
