@@ -185,25 +185,36 @@ pub(crate) fn nested_moments<const K: usize>(
     let (c, h) = (0.5 * (lo + hi), 0.5 * (hi - lo));
     // Values and nodes at the finest rule's nodes, filled level by level.
     let (mut values, mut nodes) = ([0.0; FINEST + 1], [0.0; FINEST + 1]);
-    // A level's new nodes (at most FINEST/2 + 1: the first level's 17 or the odd half of
-    // another's), on the stack: a line integral allocates nothing.
+    // A batch of new nodes (at most FINEST/2 + 1: the two coarsest levels' 33 or the odd
+    // half of a finer one's), on the stack: a line integral allocates nothing.
     const NEW: usize = FINEST / 2 + 1;
     let (mut index, mut t, mut out) = ([0; NEW], [0.0; NEW], [0.0; NEW]);
     let mut previous: Option<[f64; K]> = None;
     for (level, &n) in LEVELS.iter().enumerate() {
         let stride = FINEST / n;
-        // The nodes new at this level: all of the first, the odd ones of every other.
+        // The nodes new at this level: at the first, those of the second level too (the
+        // first test compares the two, so both are always needed: one call of `f` for
+        // both); at the second none; the odd ones at every finer level.
+        let (from, step) = match level {
+            0 => (0, FINEST / LEVELS[1]),
+            1 => (0, 0),
+            _ => (stride, 2 * stride),
+        };
         let mut new = 0;
-        for k in (0..=n).filter(|&k| level == 0 || k % 2 == 1) {
-            index[new] = k * stride;
-            t[new] = c + h * r.nodes[k * stride];
-            new += 1;
+        if step > 0 {
+            for i in (from..=FINEST).step_by(step) {
+                index[new] = i;
+                t[new] = c + h * r.nodes[i];
+                new += 1;
+            }
         }
-        out[..new].fill(0.0);
-        f(&t[..new], &mut out[..new]);
-        for ((&i, &v), &x) in index[..new].iter().zip(&out[..new]).zip(&t[..new]) {
-            values[i] = v;
-            nodes[i] = x;
+        if new > 0 {
+            out[..new].fill(0.0);
+            f(&t[..new], &mut out[..new]);
+            for ((&i, &v), &x) in index[..new].iter().zip(&out[..new]).zip(&t[..new]) {
+                values[i] = v;
+                nodes[i] = x;
+            }
         }
         let value = weighted_sums(&r.weights[level], stride, &values, &nodes).map(|s| s * h);
         if let Some(p) = previous {
