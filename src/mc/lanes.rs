@@ -181,6 +181,20 @@ impl LaneProgram {
         }
     }
 
+    /// Whether [`LaneProgram::run_lean`] reads state `k` (0: x, 1: v) or gives it as an
+    /// output: a caller need not write a state the program never looks at.
+    pub(crate) fn lean_reads_state(&self, k: u8) -> bool {
+        let state = if k == 0 { STATE_X } else { STATE_V };
+        self.lean_outputs.contains(&state)
+            || self.lean.iter().any(|s| match s.op {
+                Code::Op(op) => operands(op).contains(&state),
+                Code::MulCAdd(a, _, b)
+                | Code::AddMulC(a, b, _)
+                | Code::MulCSub(a, _, b)
+                | Code::SubMulC(a, b, _) => a == state || b == state,
+            })
+    }
+
     /// Where output `j` is after [`LaneProgram::run_lean`].
     pub(crate) fn lean_source(&self, j: usize) -> LeanOutput {
         match self.lean_outputs[j] {

@@ -68,6 +68,9 @@ struct Support {
     /// of a pair, − for the second).
     drifted: bool,
     shift: usize,
+    /// Whether its program reads the point's x, v (a coordinate it does not read is not
+    /// written).
+    reads: [bool; 2],
     /// Where its slots start among the rows, and its outputs.
     at: usize,
     out: Vec<Row>,
@@ -152,10 +155,12 @@ impl PlatenWork {
                     column,
                     drifted,
                     shift,
+                    reads: [false; 2],
                     at,
                     out: Vec::new(),
                 };
                 let program = sup.program(pk);
+                sup.reads = [program.lean_reads_state(0), program.lean_reads_state(1)];
                 sup.out = output_rows(program, at, (2 + 2 * s) as Row, (3 + 2 * s) as Row);
                 at += program.n_slots();
                 sup
@@ -308,15 +313,23 @@ impl PlatenWork {
             let [px, pv, points @ ..] = points else {
                 unreachable!("the predictor's rows")
             };
-            for k in 0..m {
-                let (b, z) = ([e(2 + k), e(2 + m + k)], draws.z(k));
-                let d = [&mut *px, &mut *pv];
-                match (k == 0, k + 1 == m) {
-                    (true, true) => predictor::<true, true>(d, [fx, fv], b, z, [x, v], h, sq),
-                    (true, false) => predictor::<true, false>(d, [fx, fv], b, z, [x, v], h, sq),
-                    (false, true) => predictor::<false, true>(d, [fx, fv], b, z, [x, v], h, sq),
-                    (false, false) => predictor::<false, false>(d, [fx, fv], b, z, [x, v], h, sq),
-                }
+            // Two sources a pass (one pass for the common m ≤ 2), each lane's sum in the
+            // sources' order.
+            let mut k = 0;
+            while k < m {
+                let two = k + 1 < m;
+                let k1 = if two { k + 1 } else { k };
+                let pass = Predictor {
+                    f: [fx, fv],
+                    b: [[e(2 + k), e(2 + m + k)], [e(2 + k1), e(2 + m + k1)]],
+                    z: [draws.z(k), draws.z(k1)],
+                    y: [x, v],
+                    h,
+                    sq,
+                };
+                let (first, last) = (k == 0, k1 + 1 == m);
+                pass.run(first, last, two, [&mut *px, &mut *pv]);
+                k = k1 + 1;
             }
             for (pair, p) in support.chunks_exact(2).zip(points.chunks_exact_mut(4)) {
                 let [p0, p1, p2, p3] = p else {
@@ -324,10 +337,28 @@ impl PlatenWork {
                 };
                 let c = [e(2 + pair[0].shift), e(2 + m + pair[0].shift)];
                 let p = [p0, p1, p2, p3];
-                if pair[0].drifted {
-                    supporting_points::<true>(p, [x, v], [fx, fv], c, h, sq);
-                } else {
-                    supporting_points::<false>(p, [x, v], [fx, fv], c, h, sq);
+                // Both points of a pair are evaluated by one program.
+                let (y, f) = ([x, v], [fx, fv]);
+                match (pair[0].drifted, pair[0].reads) {
+                    (_, [false, false]) => {}
+                    (true, [true, true]) => {
+                        supporting_points::<true, true, true>(p, y, f, c, h, sq)
+                    }
+                    (true, [true, false]) => {
+                        supporting_points::<true, true, false>(p, y, f, c, h, sq)
+                    }
+                    (true, [false, true]) => {
+                        supporting_points::<true, false, true>(p, y, f, c, h, sq)
+                    }
+                    (false, [true, true]) => {
+                        supporting_points::<false, true, true>(p, y, f, c, h, sq)
+                    }
+                    (false, [true, false]) => {
+                        supporting_points::<false, true, false>(p, y, f, c, h, sq)
+                    }
+                    (false, [false, true]) => {
+                        supporting_points::<false, false, true>(p, y, f, c, h, sq)
+                    }
                 }
             }
         }
@@ -429,40 +460,67 @@ impl PlatenWork {
     }
 }
 
-/// One source's share of the predictor's increment d = aΔ + Σ_k b̃_k ΔŴ_k into `d` (rows
-/// of x and v): the first source's starts from aΔ (`f`·h), the last's adds the state `y`
-/// (d becomes Ῡ).
-#[inline(always)]
-fn predictor<const FIRST: bool, const LAST: bool>(
-    d: [&mut Lanes; 2],
-    f: [&Lanes; 2],
-    b: [&Lanes; 2],
-    z: &Lanes,
-    y: [&Lanes; 2],
+/// The predictor's increment d = aΔ + Σ_k b̃_k ΔŴ_k of one or two sources (`b`, `z`: the
+/// second's the first's again when there is one only).
+struct Predictor<'a> {
+    /// The drift at the state, x and v.
+    f: [&'a Lanes; 2],
+    /// Each source's column (x, v) and standardised draws.
+    b: [[&'a Lanes; 2]; 2],
+    z: [&'a Lanes; 2],
+    /// The state.
+    y: [&'a Lanes; 2],
     h: f64,
     sq: f64,
-) {
-    let [dx, dv] = d;
-    for i in 0..CHUNK {
-        let w = sq * z[i];
-        let (ax, av) = if FIRST {
-            (f[0][i] * h, f[1][i] * h)
-        } else {
-            (dx[i], dv[i])
-        };
-        let (nx, nv) = (ax + b[0][i] * w, av + b[1][i] * w);
-        (dx[i], dv[i]) = if LAST {
-            (y[0][i] + nx, y[1][i] + nv)
-        } else {
-            (nx, nv)
-        };
+}
+
+impl Predictor<'_> {
+    /// Adds the sources' shares to `d` (rows of x and v): the first pass starts from aΔ,
+    /// the last adds the state (d becomes Ῡ); `two`: both sources, else the first only.
+    #[inline(always)]
+    fn run(&self, first: bool, last: bool, two: bool, d: [&mut Lanes; 2]) {
+        match (first, last, two) {
+            (true, true, true) => self.pass::<true, true, true>(d),
+            (true, true, false) => self.pass::<true, true, false>(d),
+            (true, false, true) => self.pass::<true, false, true>(d),
+            (true, false, false) => self.pass::<true, false, false>(d),
+            (false, true, true) => self.pass::<false, true, true>(d),
+            (false, true, false) => self.pass::<false, true, false>(d),
+            (false, false, true) => self.pass::<false, false, true>(d),
+            (false, false, false) => self.pass::<false, false, false>(d),
+        }
+    }
+
+    #[inline(always)]
+    fn pass<const FIRST: bool, const LAST: bool, const TWO: bool>(&self, d: [&mut Lanes; 2]) {
+        let [dx, dv] = d;
+        let Predictor { f, b, z, y, h, sq } = *self;
+        for i in 0..CHUNK {
+            let (ax, av) = if FIRST {
+                (f[0][i] * h, f[1][i] * h)
+            } else {
+                (dx[i], dv[i])
+            };
+            let w = sq * z[0][i];
+            let (mut nx, mut nv) = (ax + b[0][0][i] * w, av + b[0][1][i] * w);
+            if TWO {
+                let w = sq * z[1][i];
+                (nx, nv) = (nx + b[1][0][i] * w, nv + b[1][1][i] * w);
+            }
+            (dx[i], dv[i]) = if LAST {
+                (y[0][i] + nx, y[1][i] + nv)
+            } else {
+                (nx, nv)
+            };
+        }
     }
 }
 
 /// The points (Y + aΔ or Y) ± b̃√Δ (`DRIFTED` or not) of a column `c`, into `p`: x and v
-/// of the + point, then of the − point.
+/// of the + point, then of the − point; only x if `X`, only v if `V` (the coordinates
+/// their program reads).
 #[inline(always)]
-fn supporting_points<const DRIFTED: bool>(
+fn supporting_points<const DRIFTED: bool, const X: bool, const V: bool>(
     p: [&mut Lanes; 4],
     y: [&Lanes; 2],
     f: [&Lanes; 2],
@@ -473,15 +531,24 @@ fn supporting_points<const DRIFTED: bool>(
     let [px, pv, mx, mv] = p;
     let (plus, minus) = (1.0, -1.0);
     for i in 0..CHUNK {
-        let (ux, uv) = if DRIFTED {
-            (y[0][i] + f[0][i] * h, y[1][i] + f[1][i] * h)
-        } else {
-            (y[0][i], y[1][i])
-        };
-        px[i] = ux + plus * c[0][i] * sq;
-        pv[i] = uv + plus * c[1][i] * sq;
-        mx[i] = ux + minus * c[0][i] * sq;
-        mv[i] = uv + minus * c[1][i] * sq;
+        if X {
+            let ux = if DRIFTED {
+                y[0][i] + f[0][i] * h
+            } else {
+                y[0][i]
+            };
+            px[i] = ux + plus * c[0][i] * sq;
+            mx[i] = ux + minus * c[0][i] * sq;
+        }
+        if V {
+            let uv = if DRIFTED {
+                y[1][i] + f[1][i] * h
+            } else {
+                y[1][i]
+            };
+            pv[i] = uv + plus * c[1][i] * sq;
+            mv[i] = uv + minus * c[1][i] * sq;
+        }
     }
 }
 
