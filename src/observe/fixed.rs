@@ -194,21 +194,20 @@ pub(crate) fn nested_moments<const K: usize>(
         let stride = FINEST / n;
         // The nodes new at this level: at the first, those of the second level too (the
         // first test compares the two, so both are always needed: one call of `f` for
-        // both); at the second none; the odd ones at every finer level.
-        let (from, step) = match level {
-            0 => (0, FINEST / LEVELS[1]),
-            1 => (0, 0),
-            _ => (stride, 2 * stride),
+        // both); at the second none; the odd ones at every finer level. As (first index,
+        // step) among the finest rule's nodes.
+        let fresh = match level {
+            0 => Some((0, FINEST / LEVELS[1])),
+            1 => None,
+            _ => Some((stride, 2 * stride)),
         };
-        let mut new = 0;
-        if step > 0 {
+        if let Some((from, step)) = fresh {
+            let mut new = 0;
             for i in (from..=FINEST).step_by(step) {
                 index[new] = i;
                 t[new] = c + h * r.nodes[i];
                 new += 1;
             }
-        }
-        if new > 0 {
             out[..new].fill(0.0);
             f(&t[..new], &mut out[..new]);
             for ((&i, &v), &x) in index[..new].iter().zip(&out[..new]).zip(&t[..new]) {
