@@ -335,29 +335,20 @@ impl PlatenWork {
                 let [p0, p1, p2, p3] = p else {
                     unreachable!("two points of two rows")
                 };
-                let c = [e(2 + pair[0].shift), e(2 + m + pair[0].shift)];
-                let p = [p0, p1, p2, p3];
-                // Both points of a pair are evaluated by one program.
-                let (y, f) = ([x, v], [fx, fv]);
-                match (pair[0].drifted, pair[0].reads) {
-                    (_, [false, false]) => {}
-                    (true, [true, true]) => {
-                        supporting_points::<true, true, true>(p, y, f, c, h, sq)
-                    }
-                    (true, [true, false]) => {
-                        supporting_points::<true, true, false>(p, y, f, c, h, sq)
-                    }
-                    (true, [false, true]) => {
-                        supporting_points::<true, false, true>(p, y, f, c, h, sq)
-                    }
-                    (false, [true, true]) => {
-                        supporting_points::<false, true, true>(p, y, f, c, h, sq)
-                    }
-                    (false, [true, false]) => {
-                        supporting_points::<false, true, false>(p, y, f, c, h, sq)
-                    }
-                    (false, [false, true]) => {
-                        supporting_points::<false, false, true>(p, y, f, c, h, sq)
+                // Both points of a pair are evaluated by one program: of each coordinate
+                // (x: rows p0 and p2, v: p1 and p3) only those it reads are written.
+                let (sup, shift) = (&pair[0], pair[0].shift);
+                let coordinates = [
+                    (p0, p2, x, fx, e(2 + shift)),
+                    (p1, p3, v, fv, e(2 + m + shift)),
+                ];
+                for ((plus, minus, y, f, c), reads) in coordinates.into_iter().zip(sup.reads) {
+                    match (reads, sup.drifted) {
+                        (false, _) => {}
+                        (true, true) => supporting_coordinate::<true>(plus, minus, y, f, c, h, sq),
+                        (true, false) => {
+                            supporting_coordinate::<false>(plus, minus, y, f, c, h, sq)
+                        }
                     }
                 }
             }
@@ -516,39 +507,24 @@ impl Predictor<'_> {
     }
 }
 
-/// The points (Y + aΔ or Y) ± b̃√Δ (`DRIFTED` or not) of a column `c`, into `p`: x and v
-/// of the + point, then of the − point; only x if `X`, only v if `V` (the coordinates
-/// their program reads).
+/// One coordinate of the points (Y + aΔ or Y) ± b̃√Δ (`DRIFTED` or not) of a column: into
+/// `plus` and `minus`, from that coordinate's state `y`, drift `f` and column `c`.
 #[inline(always)]
-fn supporting_points<const DRIFTED: bool, const X: bool, const V: bool>(
-    p: [&mut Lanes; 4],
-    y: [&Lanes; 2],
-    f: [&Lanes; 2],
-    c: [&Lanes; 2],
+fn supporting_coordinate<const DRIFTED: bool>(
+    plus: &mut Lanes,
+    minus: &mut Lanes,
+    y: &Lanes,
+    f: &Lanes,
+    c: &Lanes,
     h: f64,
     sq: f64,
 ) {
-    let [px, pv, mx, mv] = p;
-    let (plus, minus) = (1.0, -1.0);
     for i in 0..CHUNK {
-        if X {
-            let ux = if DRIFTED {
-                y[0][i] + f[0][i] * h
-            } else {
-                y[0][i]
-            };
-            px[i] = ux + plus * c[0][i] * sq;
-            mx[i] = ux + minus * c[0][i] * sq;
-        }
-        if V {
-            let uv = if DRIFTED {
-                y[1][i] + f[1][i] * h
-            } else {
-                y[1][i]
-            };
-            pv[i] = uv + plus * c[1][i] * sq;
-            mv[i] = uv + minus * c[1][i] * sq;
-        }
+        let u = if DRIFTED { y[i] + f[i] * h } else { y[i] };
+        // u ± b̃√Δ: u + (−b̃)√Δ is u − b̃√Δ exactly.
+        let w = c[i] * sq;
+        plus[i] = u + w;
+        minus[i] = u - w;
     }
 }
 

@@ -124,16 +124,15 @@ impl DensityGrid {
                 let q = horner_block(c, &t);
                 for (&t, &q) in t[..n].iter().zip(&q[..n]) {
                     // `q` is `horner(c, t)`, bit for bit, so this is `class_at(t)`.
-                    if class(self, q) != current {
-                        while class_at(t) != current {
-                            // Where the class first leaves `current` in (known, t]: hi is
-                            // the first point found of another class, the stretch's end.
-                            let hi = self.leave(c, known, t, current);
-                            if let Some(kind) = current {
-                                out.push(([start, hi], kind));
-                            }
-                            (start, current, known) = (hi, class_at(hi), hi);
+                    let here = class(self, q);
+                    while here != current {
+                        // Where the class first leaves `current` in (known, t]: hi is the
+                        // first point found of another class, the stretch's end.
+                        let hi = self.leave(c, known, t, current);
+                        if let Some(kind) = current {
+                            out.push(([start, hi], kind));
                         }
+                        (start, current, known) = (hi, class_at(hi), hi);
                     }
                     known = t;
                 }
