@@ -444,7 +444,8 @@ mod tests {
     /// not recorded, block 3 a lane lost to an infinite velocity at row 0, and three lanes
     /// alone, one lost at the last row. Its sums, counts and lost rows are the general
     /// recording's (`Accumulator::add` row by row, `record` cleared at a loss) bit for bit
-    /// at every vector width, for a whole chunk and a short one.
+    /// at every vector width, for a whole chunk (32 rows: the counts' ring of indices wraps),
+    /// half a chunk and a short one.
     #[test]
     fn each_block_form_records_as_the_general_recording() {
         use crate::mc::histogram::Grid;
@@ -457,7 +458,7 @@ mod tests {
             (-2.5, 2.5, 9),
             (-1.0, 1.0, 5),
         ];
-        for m in [16, 5] {
+        for m in [32, 16, 5] {
             // Values on and off the grids, signed zeros.
             let value = |k: usize| ((k * 7919 % 1013) as f64 / 1013.0 - 0.5) * 5.0;
             let mut xs: Vec<f64> = (0..m * n).map(value).collect();
