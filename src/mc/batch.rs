@@ -49,6 +49,10 @@ pub(crate) struct BatchSummary {
     pub(crate) recorded: u64,
     /// Impacts of the recorded trajectories after the burn-in.
     pub(crate) impacts: u64,
+    /// Steps of the recorded trajectories after the burn-in whose impacts at a wall could not
+    /// all be resolved, the overshoot reflected back into the domain.
+    #[serde(default)]
+    pub(crate) folded: u64,
     pub(crate) quantities: Vec<QuantityBatch>,
     pub(crate) blowups: Vec<BlowUp>,
 }
@@ -94,6 +98,7 @@ fn run_part_with(
     }
     b.advance(plan, st.burn_in_steps, st.dt);
     b.impacts.fill(0);
+    b.folded.fill(0);
     let mut record: Vec<bool> = excluded.iter().map(|e| !e).collect();
     let mut acc: Vec<Accumulator> = st
         .quantities
@@ -158,6 +163,7 @@ fn run_part_with(
         .filter(|&i| record[i])
         .map(|i| b.impacts[i])
         .sum();
+    let folded = (0..lanes).filter(|&i| record[i]).map(|i| b.folded[i]).sum();
     let recorded = record.iter().filter(|&&r| r).count() as u64;
     let blowups = blown
         .iter()
@@ -173,6 +179,7 @@ fn run_part_with(
         index,
         recorded,
         impacts,
+        folded,
         quantities: acc.into_iter().map(Accumulator::finish).collect(),
         blowups,
     };
@@ -260,6 +267,7 @@ impl BatchSummary {
             debug_assert_eq!(p.index, all.index, "parts of one batch");
             all.recorded += p.recorded;
             all.impacts += p.impacts;
+            all.folded += p.folded;
             for (q, pq) in all.quantities.iter_mut().zip(p.quantities) {
                 q.merge(pq);
             }

@@ -57,6 +57,18 @@ pub(crate) struct Barrier {
     pub(crate) expr: Expr,
     /// The side (±1) trajectories start on.
     pub(crate) side: f64,
+    /// Whether the law keeps the state on its side (a wall) or lets it pass through.
+    pub(crate) crossing: Crossing,
+}
+
+/// What an impact does to the side of the barrier a trajectory is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Crossing {
+    /// A reflecting wall (a law with a `domain`): the state lives on one side, always.
+    Reflects,
+    /// A pass-through law (the Zhuravlev form, Eq. 6): after the jump the trajectory moves on
+    /// to whichever side the barrier state's motion takes it.
+    PassesThrough,
 }
 
 impl Barrier {
@@ -266,6 +278,7 @@ mod tests {
             map: compile(std::slice::from_ref(&map), ["z", "v"]).unwrap(),
             expr: map,
             side: 1.0,
+            crossing: Crossing::PassesThrough,
         }
     }
 
@@ -273,6 +286,7 @@ mod tests {
         Barrier {
             at,
             side,
+            crossing: Crossing::Reflects,
             ..barrier(Expr::num(-r) * Expr::sym("v"))
         }
     }

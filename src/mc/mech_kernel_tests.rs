@@ -130,6 +130,7 @@ fn with_map(plan: &Plan, map: Expr) -> Barrier {
         map: compile(std::slice::from_ref(&map), ["z", "v"]).unwrap(),
         expr: map,
         side: b.side,
+        crossing: b.crossing,
     }
 }
 

@@ -24,7 +24,7 @@
 use super::error::BarrierLayout;
 use super::error::McError;
 use super::eval::{compile, BatchKernel};
-use super::impact::{Barrier, ImpactSpec};
+use super::impact::{Barrier, Crossing, ImpactSpec};
 use super::mech_form::MechForm;
 use crate::model::BarrierSide;
 use crate::model::{BoundModel, Interpretation};
@@ -443,6 +443,10 @@ impl Plan {
                         Some(BarrierSide::Above) => 1.0,
                         Some(BarrierSide::Below) => -1.0,
                         None => Barrier::side_of(b.at, 0.0),
+                    },
+                    crossing: match b.side {
+                        Some(_) => Crossing::Reflects,
+                        None => Crossing::PassesThrough,
                     },
                 })
             })

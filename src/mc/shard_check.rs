@@ -158,6 +158,16 @@ pub(super) fn check_batch(st: &RunSettings, b: &BatchSummary) -> Result<(), Shar
             ),
         ));
     }
+    // A folded step follows the most events a step resolves, each an impact.
+    if b.folded > b.impacts {
+        return Err(bad(
+            None,
+            format!(
+                "{} unresolved steps are more than its {} impacts",
+                b.folded, b.impacts
+            ),
+        ));
+    }
     if !st.has_barrier && b.impacts != 0 {
         return Err(bad(
             None,

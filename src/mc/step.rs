@@ -5,7 +5,7 @@
 use super::eval::{BatchKernel, Scratch, Simd};
 use super::events::{crossings, EventWork};
 use super::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
-use super::impact::{free_flight, impact_in_flight, meets, Barrier};
+use super::impact::{free_flight, impact_in_flight, meets, Barrier, Crossing};
 use super::lanes::{LaneProgram, CHUNK};
 use super::platen::{platen_point_step, PlatenWork, PointWork};
 use super::rng::{IncrementStream, Increments, LaneRng};
@@ -22,6 +22,9 @@ pub(crate) struct BatchState {
     pub(crate) v: Vec<f64>,
     pub(crate) side: Vec<f64>,
     pub(crate) impacts: Vec<u64>,
+    /// Steps whose events ran out beyond a wall, the overshoot reflected back into the
+    /// domain (general schemes; see [`BatchState::resolve_events`]).
+    pub(crate) folded: Vec<u64>,
     rng: LaneRng,
     inc: IncrementStream,
     buf: [Vec<f64>; 6],
@@ -65,6 +68,7 @@ impl BatchState {
                 vec![side0; lanes]
             },
             impacts: vec![0; lanes],
+            folded: vec![0; lanes],
             rng: LaneRng::new(seed, first, lanes),
             inc: IncrementStream::new(increments, lanes),
             buf: std::array::from_fn(|_| vec![0.0; lanes * (2 + 2 * noises)]),
@@ -510,11 +514,15 @@ impl BatchState {
             c[s] = bar.at;
             c[o] = bar.jump(c[0], c[1]);
             self.impacts[i] += 1;
-            // The side after the event follows the barrier state's drift there.
-            let mut drift = [0.0; 2];
-            plan.drift.eval_point(c[0], c[1], &mut drift);
-            if drift[s] * self.side[k * n + i] < 0.0 {
-                self.side[k * n + i] = -self.side[k * n + i];
+            // Past a pass-through law the side follows the barrier state's drift there; a
+            // wall keeps its side whatever the step did to the other state (a velocity that
+            // changed sign within the step is no reason to live beyond the wall).
+            if bar.crossing == Crossing::PassesThrough {
+                let mut drift = [0.0; 2];
+                plan.drift.eval_point(c[0], c[1], &mut drift);
+                if drift[s] * self.side[k * n + i] < 0.0 {
+                    self.side[k * n + i] = -self.side[k * n + i];
+                }
             }
             // Brownian bridge: given W(h) − W(0) = w, W(h) − W(θh) ~ N((1−θ)w, θ(1−θ)h·S).
             let rest = (1.0 - theta) * h;
@@ -542,6 +550,34 @@ impl BatchState {
             h = rest;
             std::mem::swap(&mut ev.w, &mut ev.w_rest);
         }
+        // A step still beyond a wall after the last event it may resolve (a trajectory
+        // chattering against the wall) has its overshoot reflected back into the domain,
+        // counted: no state is ever recorded outside it.
+        match plan.barriers.as_slice() {
+            [lo, hi] if lo.crossing == Crossing::Reflects && hi.crossing == Crossing::Reflects => {
+                let s = lo.state;
+                if !(lo.at <= p1[s] && p1[s] <= hi.at) {
+                    p1[s] = reflect_into(p1[s], lo.at, hi.at);
+                    self.folded[i] += 1;
+                }
+            }
+            [bar] if bar.crossing == Crossing::Reflects => {
+                let s = bar.state;
+                if (p1[s] - bar.at) * self.side[i] < 0.0 {
+                    p1[s] = 2.0 * bar.at - p1[s];
+                    self.folded[i] += 1;
+                }
+            }
+            _ => {}
+        }
+        debug_assert!(
+            plan.barriers
+                .iter()
+                .enumerate()
+                .all(|(k, b)| b.crossing == Crossing::PassesThrough
+                    || (p1[b.state] - b.at) * self.side[k * n + i] >= 0.0),
+            "a trajectory beyond a wall: {p1:?}"
+        );
         (p1[0], p1[1])
     }
 
@@ -558,17 +594,22 @@ impl BatchState {
 /// `s` folded into the strip [lo, hi] by reflections at its walls; a value that lands on a
 /// wall goes to the middle (a trajectory starts inside, never on a wall).
 fn fold_into(s: f64, lo: f64, hi: f64) -> f64 {
-    let w = hi - lo;
-    let mut y = (s - lo).rem_euclid(2.0 * w);
-    if y > w {
-        y = 2.0 * w - y;
-    }
-    let s = lo + y;
+    let s = reflect_into(s, lo, hi);
     if s <= lo || s >= hi || !s.is_finite() {
         0.5 * (lo + hi)
     } else {
         s
     }
+}
+
+/// `s` reflected into the strip [lo, hi] at its walls, as often as it takes.
+fn reflect_into(s: f64, lo: f64, hi: f64) -> f64 {
+    let w = hi - lo;
+    let mut y = (s - lo).rem_euclid(2.0 * w);
+    if y > w {
+        y = 2.0 * w - y;
+    }
+    lo + y
 }
 
 /// One general-scheme step of a single trajectory (used for the remainder after an event).

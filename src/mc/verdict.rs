@@ -286,6 +286,15 @@ pub enum McWarning {
         /// Its statistical error.
         stderr: f64,
     },
+    /// More than 1e-4 of the recorded steps met a wall more often than one step may resolve
+    /// (a trajectory chattering against it), their overshoot reflected back into the domain:
+    /// the motion near the wall is not resolved there.
+    UnresolvedImpacts {
+        /// Steps folded back.
+        folded: u64,
+        /// Steps recorded.
+        steps: u64,
+    },
 }
 
 impl fmt::Display for McWarning {
@@ -322,6 +331,12 @@ impl fmt::Display for McWarning {
                  statistical error (worst at {at:.4e}: density {density:.4e}, bias {:.2e} ± \
                  {:.1e}, error {stderr:.1e}): reduce dt",
                 bias.value, bias.stderr
+            ),
+            McWarning::UnresolvedImpacts { folded, steps } => write!(
+                f,
+                "{folded} of {steps} steps met a wall more often than a step resolves, their \
+                 overshoot reflected back (more than 1e-4 of them): the motion at the wall is \
+                 not resolved; reduce dt"
             ),
         }
     }
