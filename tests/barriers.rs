@@ -255,7 +255,9 @@ fn the_bundled_strip_model_against_exact_and_monte_carlo() {
         .expect("the default solve estimates its error");
     // Per bin, the grid's share of the error: its estimated L1 error spread evenly (relative).
     let estimate = e.x.max(e.v);
-    assert!(estimate < 2e-3, "grid error estimate {estimate:.1e}");
+    // The estimate of the written curves (their reconstruction from cell averages included,
+    // with Roache's safety factor): 2.8e-3 at these cells.
+    assert!(estimate < 4e-3, "grid error estimate {estimate:.1e}");
     let yg = Grid::new(-1.0, 1.0, 20).unwrap();
     let vg = Grid::new(-6.0, 6.0, 24).unwrap();
     let config = McConfig {
