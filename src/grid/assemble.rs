@@ -216,13 +216,16 @@ fn solve_system(
     order: Vec<usize>,
     pin: usize,
 ) -> Result<Vec<f64>, String> {
-    let patterned = super::pattern_lu::PatternLu::ordered(a.as_ref(), order)
-        .map_err(|e| e.to_string())
-        .and_then(|factor| {
-            let solved = checked_solve(a, pin, |b| factor.solve(b));
-            drop_beside(factor);
-            solved
-        });
+    let patterned = match super::pattern_lu::PatternLu::ordered(a.as_ref(), order) {
+        // faer's LU needs more still (the pattern of AᵀA): no fallback.
+        Err(e @ super::pattern_lu::LuFailure::TooLarge { .. }) => return Err(e.to_string()),
+        other => other,
+    };
+    let patterned = patterned.map_err(|e| e.to_string()).and_then(|factor| {
+        let solved = checked_solve(a, pin, |b| factor.solve(b));
+        drop_beside(factor);
+        solved
+    });
     patterned
         .or_else(|first| pivoting_solve(a, pin).map_err(|e| format!("{first}; faer's LU: {e}")))
 }

@@ -34,8 +34,8 @@ pub enum CellsError {
         /// The text given.
         text: String,
     },
-    /// A count that is odd or below 8.
-    #[error("{nx},{nv}: each count must be even and at least 8")]
+    /// A count that is odd or below 8, or one more than 64 times the other.
+    #[error("{nx},{nv}: each count must be even, at least 8, and within 64 times the other")]
     Invalid {
         /// Cells along the position.
         nx: usize,

@@ -17,6 +17,7 @@
 mod numeric;
 mod pages;
 
+use super::cells::memory_limit_bytes;
 #[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place;
@@ -32,6 +33,8 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, MatRef, Par, Side};
 use numeric::numeric;
+
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
 #[cfg(test)]
 use numeric::plan;
 
@@ -59,6 +62,9 @@ pub(crate) enum LuFailure {
     Analysis(String),
     /// A zero pivot at column `column` of the permuted matrix.
     ZeroPivot { column: usize },
+    /// The factors would take `bytes`, more than the `limit` the machine leaves (found by the
+    /// symbolic analysis, before any value is allocated).
+    TooLarge { bytes: f64, limit: f64 },
 }
 
 impl std::fmt::Display for LuFailure {
@@ -66,6 +72,12 @@ impl std::fmt::Display for LuFailure {
         match self {
             LuFailure::Analysis(e) => write!(f, "symbolic analysis failed: {e}"),
             LuFailure::ZeroPivot { column } => write!(f, "zero pivot at column {column}"),
+            LuFailure::TooLarge { bytes, limit } => write!(
+                f,
+                "the factors need {:.1} GiB, more than the {:.1} GiB this solve may use",
+                bytes / GIB,
+                limit / GIB
+            ),
         }
     }
 }
@@ -160,13 +172,16 @@ impl PatternLu {
         a: SparseColMatRef<'_, usize, f64>,
         fwd: Vec<usize>,
     ) -> Result<PatternLu, LuFailure> {
-        PatternLu::ordered_with(a, fwd, true)
+        PatternLu::ordered_with(a, fwd, true, memory_limit_bytes())
     }
 
+    /// [`PatternLu::ordered`] on one task or in parallel, refusing factors of more than
+    /// `limit` bytes.
     fn ordered_with(
         a: SparseColMatRef<'_, usize, f64>,
         fwd: Vec<usize>,
         parallel: bool,
+        limit: f64,
     ) -> Result<PatternLu, LuFailure> {
         let n = a.ncols();
         let analysis = |e: &dyn std::fmt::Debug| LuFailure::Analysis(format!("{e:?}"));
@@ -192,6 +207,11 @@ impl PatternLu {
         let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
             return Err(LuFailure::Analysis("not supernodal".into()));
         };
+        // L and U, one value each per entry of the pattern: refused before allocation.
+        let bytes = 16.0 * sym.len_val() as f64;
+        if bytes > limit {
+            return Err(LuFailure::TooLarge { bytes, limit });
+        }
         let p = permute(a, &inv);
         let (l, u, pivots) = numeric(sym, &p, parallel)?;
         #[cfg(test)]
@@ -443,6 +463,23 @@ mod tests {
         }
     }
 
+    /// Factors larger than the memory a solve may use are refused by the symbolic analysis,
+    /// before any value is allocated, with their size.
+    #[test]
+    fn factors_beyond_the_limit_are_refused_before_allocation() {
+        let (_, a, pin) = system("models/vibro_duffing.sde", 40, 80);
+        let fwd = ordering(a.symbolic(), pin).unwrap();
+        let lu = PatternLu::ordered_with(a.as_ref(), fwd.clone(), false, f64::INFINITY).unwrap();
+        let bytes = 8.0 * lu.entries() as f64;
+        let refused = PatternLu::ordered_with(a.as_ref(), fwd.clone(), false, 0.99 * bytes);
+        assert!(
+            matches!(refused, Err(LuFailure::TooLarge { bytes: b, .. }) if b == bytes),
+            "{:?}",
+            refused.err()
+        );
+        assert!(PatternLu::ordered_with(a.as_ref(), fwd, false, bytes).is_ok());
+    }
+
     /// The factors are the same bits in one task (supernodes in index order) and in parallel
     /// on 1, 2 and 3 threads, on both coordinate systems, and the parallel schedule does
     /// split the work (the supernodes are postordered and the root has two subtrees).
@@ -457,7 +494,8 @@ mod tests {
             let mut nd = crate::grid::nested::nested_dissection(a.symbolic(), &coords, 1);
             nd.retain(|&c| c != pin);
             nd.push(pin);
-            let one = PatternLu::ordered_with(a.as_ref(), nd.clone(), false).unwrap();
+            let one =
+                PatternLu::ordered_with(a.as_ref(), nd.clone(), false, f64::INFINITY).unwrap();
             let p = plan(one.sym());
             assert!(p.contiguous, "{file}: supernodes not postordered");
             let total: f64 = p.roots.iter().map(|&r| p.cost[r]).sum();
