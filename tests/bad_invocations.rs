@@ -585,7 +585,7 @@ fn arguments_that_are_not_utf8() {
             "--set".as_ref(),
             std::ffi::OsStr::from_bytes(b"c=\xff"),
         ],
-        &["--set"],
+        &["invalid UTF-8"],
     );
     let out = root.join(std::ffi::OsStr::from_bytes(b"o\xff"));
     for args in [
