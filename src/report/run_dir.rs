@@ -386,7 +386,7 @@ impl RunDir {
         let old = if !had_old {
             fs::rename(&staging, &self.dest).map_err(io)?;
             None
-        } else if exchange(&staging, &self.dest).map_err(io)? {
+        } else if !two_renames_forced() && exchange(&staging, &self.dest).map_err(io)? {
             // The previous run's directory is now at the staging path.
             Some(staging.clone())
         } else {
@@ -424,6 +424,20 @@ impl Drop for RunDir {
             reg.staging.retain(|d| d != staging);
         }
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by tests of the commit where the exchange is not supported.
+    static TWO_RENAMES: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether the commit skips the exchange (only ever in this module's tests).
+fn two_renames_forced() -> bool {
+    #[cfg(test)]
+    return TWO_RENAMES.with(|t| t.get());
+    #[cfg(not(test))]
+    false
 }
 
 /// Swaps the directories `a` and `b` in one step; `Ok(false)` where the system or the file
@@ -759,6 +773,25 @@ mod tests {
         assert_eq!(names(&dest), vec![MARKER.to_string(), "pdf_y.csv".into()]);
         assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"new");
         // Only the lock file is left beside the destination.
+        assert_eq!(
+            names(&root),
+            vec![".out.fpsolve-lock".to_string(), "out".into()]
+        );
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn without_the_exchange_two_renames_replace_the_run_and_leave_nothing_beside() {
+        TWO_RENAMES.with(|t| t.set(true));
+        let root = scratch("two-renames");
+        let dest = root.join("out");
+        for content in [b"old", b"new"] {
+            let run = RunDir::begin(&dest, "t").unwrap();
+            run.out().write_atomic("pdf_y.csv", content).unwrap();
+            run.commit().unwrap();
+        }
+        TWO_RENAMES.with(|t| t.set(false));
+        assert_eq!(fs::read(dest.join("pdf_y.csv")).unwrap(), b"new");
         assert_eq!(
             names(&root),
             vec![".out.fpsolve-lock".to_string(), "out".into()]
