@@ -17,6 +17,8 @@ use fpsolve::sweep::{Sweep, SweepSpec};
 
 #[path = "cli/allocator.rs"]
 mod allocator;
+#[path = "cli/console.rs"]
+mod console;
 #[path = "cli/job_plan.rs"]
 mod job_plan;
 #[path = "cli/mc_flags.rs"]
@@ -25,6 +27,7 @@ mod mc_flags;
 mod progress;
 #[path = "cli/sweep_flags.rs"]
 mod sweep_flags;
+use console::{say, sayln, Console};
 use job_plan::plan_job;
 #[cfg(test)]
 use mc_flags::parse_count;
@@ -248,11 +251,11 @@ fn main() -> ExitCode {
     allocator::keep_freed_memory();
     // An interrupted run removes its staging directory: the previous results stay as they
     // were and no partial file is left behind.
+    // The handler says what it did: it and a commit take one lock, so the sentence is true
+    // whether the signal came before, during or after the commit.
     let _ = ctrlc::set_handler(|| {
-        fpsolve::report::abandon_unfinished();
-        eprintln!(
-            "\ninterrupted: the unfinished output was removed (earlier results are untouched)"
-        );
+        let abandoned = fpsolve::report::abandon_unfinished();
+        let _ = writeln!(std::io::stderr(), "\ninterrupted: {abandoned}");
         std::process::exit(INTERRUPTED);
     });
     let cli = Cli::parse();
@@ -260,6 +263,8 @@ fn main() -> ExitCode {
     fpsolve::study::timeline::mark("end");
     fpsolve::study::timeline::print();
     match status {
+        // Reported once when it happened; the files are written.
+        Ok(()) if Console::state() == Console::Failed => ExitCode::from(FLAGGED),
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::Flagged(message)) => {
             eprintln!("{message}");
@@ -475,6 +480,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             }
         }
         Some(Command::Merge { dirs, out, .. }) => {
+            dirs.iter().for_each(|d| read_input(d));
             if let Some(shards) = sweep_flags::read_sweep_shards(&dirs)? {
                 let merged = sweep_flags::merge(&shards)?;
                 return Ok(Planned {
@@ -513,6 +519,7 @@ fn plan(cli: Cli) -> Result<Planned> {
                 );
             }
             let cells = cells.unwrap_or_default();
+            read_input(&model);
             let m = load_model(&model).map_err(lib)?;
             let spec = SweepSpec::parse(&set.set).map_err(at(&model))?;
             spec.validate(&m).map_err(at(&model))?;
@@ -627,6 +634,7 @@ fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel
         .iter()
         .map(|s| s.parse::<Override>().map_err(lib))
         .collect::<Result<Vec<_>>>()?;
+    read_input(path);
     let model = load_model(path).map_err(lib)?;
     let bound = model.bind(&overrides).map_err(at_error(path))?;
     Ok((model, overrides, bound))
@@ -634,10 +642,7 @@ fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel
 
 fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     let text = fpsolve::check::render(model, bound).map_err(at_error(path))?;
-    let mut out = std::io::stdout().lock();
-    out.write_all(text.as_bytes())
-        .context("writing to stdout")?;
-    out.flush().context("writing to stdout")?;
+    say!("{text}");
     Ok(())
 }
 
@@ -645,21 +650,40 @@ fn default_out(out: Option<PathBuf>, model: &Model) -> PathBuf {
     out.unwrap_or_else(|| Path::new("out").join(model.name()))
 }
 
-/// The command line as run, recorded in the output directory's marker file.
+/// The command line as run, recorded in the output directory's marker file (an argument
+/// that is not UTF-8 is recorded with U+FFFD in place of its bad bytes).
 fn command_line() -> String {
-    std::env::args().collect::<Vec<_>>().join(" ")
+    std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The files and directories this command reads, noted as they are read: an output
+/// directory that is or holds one of them is refused.
+static INPUTS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Notes `path` as an input of this command (see [`INPUTS`]).
+fn read_input(path: &Path) {
+    INPUTS
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push(path.to_path_buf());
 }
 
 /// Locks and stages the output directory: a usage error (before any computation) when it is
-/// taken by another run, holds other files, or cannot be created.
+/// taken by another run, holds other files or an input of this command, or cannot be
+/// created.
 fn begin_output(dir: &Path) -> Result<RunDir> {
-    RunDir::begin(dir, &command_line()).map_err(flag("--out"))
+    let inputs = INPUTS.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    RunDir::begin_reading(dir, &command_line(), &inputs).map_err(flag("--out"))
 }
 
 /// Puts a finished run's files in place and says where.
 fn commit_output(run: RunDir, files: usize) -> Result<()> {
     let dest = run.commit().map_err(lib)?;
-    println!("wrote {files} files to {}", dest.display());
+    sayln!("wrote {files} files to {}", dest.display());
     Ok(())
 }
 
@@ -680,9 +704,7 @@ fn main_job(
         .run(run.out());
     bar.finish();
     let report = report.map_err(at_error(path))?;
-    let mut stdout = std::io::stdout().lock();
-    write!(stdout, "{}", report).context("writing to stdout")?;
-    drop(stdout);
+    say!("{report}");
     fpsolve::study::timeline::mark("report printed");
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);
@@ -712,7 +734,7 @@ fn simulate(
             let part = sim.run_shard(shard).map_err(lib)?;
             let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
             let file = write_json(&out, &name, &part).map_err(lib)?;
-            println!("wrote {}", file.display());
+            sayln!("wrote {}", file.display());
             Ok(())
         }
         None => {
@@ -727,7 +749,7 @@ fn simulate(
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
             let files = job::write_mc(&result, run.out()).map_err(lib)?;
-            print!("{result}");
+            say!("{result}");
             commit_output(run, files.len())?;
             verdict(&result)
         }
@@ -785,8 +807,8 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
 fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
     let files = job::write_mc(result, run.out()).map_err(lib)?;
-    print!("{result}");
-    println!("merged {shards} shards");
+    say!("{result}");
+    sayln!("merged {shards} shards");
     commit_output(run, files.len())?;
     verdict(result)
 }

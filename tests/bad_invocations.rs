@@ -236,7 +236,11 @@ fn output_directories() {
     refused(
         "out-foreign",
         &[MODEL, "--out", foreign.to_str().unwrap()],
-        &["--out", "thesis.tex", "fpsolve did not write"],
+        &[
+            "--out",
+            "thesis.tex",
+            "not a file of one earlier fpsolve run",
+        ],
     );
     assert_eq!(std::fs::read(foreign.join("thesis.tex")).unwrap(), b"keep");
     assert_eq!(names(&root), vec!["home".to_string(), "plain".into()]);
@@ -357,4 +361,247 @@ fn vector_extension_cap() {
             &["FPSOLVE_SIMD=avx3", "baseline, avx2, avx512"],
         );
     }
+}
+
+/// The entries of `dir` with their contents, to compare before and after a refusal.
+fn snapshot(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    names(dir)
+        .into_iter()
+        .map(|n| {
+            let bytes = std::fs::read(dir.join(&n)).unwrap_or_default();
+            (n, bytes)
+        })
+        .collect()
+}
+
+/// Runs `fpsolve args…` (OS strings, so not necessarily UTF-8) to completion and checks the
+/// refusal: exit 2 within a second, no panic, `expected` in stderr.
+fn refused_os(args: &[&std::ffi::OsStr], expected: &[&str]) -> String {
+    let t = std::time::Instant::now();
+    let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .output()
+        .expect("run fpsolve");
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(
+        t.elapsed() < std::time::Duration::from_secs(1),
+        "{args:?}: slow refusal"
+    );
+    assert!(!stderr.contains("panicked"), "{args:?}: panic\n{stderr}");
+    for e in expected {
+        assert!(stderr.contains(e), "{args:?}: stderr lacks {e:?}\n{stderr}");
+    }
+    stderr
+}
+
+/// `--out` never replaces what is not exactly one earlier run of fpsolve's: the shard files
+/// of `simulate --shard`, the inputs of `merge` and `--mc-from`, a run beside a note or a
+/// repository. Each is refused (exit 2) and left as it was.
+#[test]
+fn output_directories_that_hold_more_than_one_earlier_run() {
+    let root = scratch("out-inputs");
+    let shards = root.join("S");
+    let s = shards.as_os_str();
+    for k in 1..=3 {
+        let part = format!("{k}/3");
+        let o = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+            .args([
+                "simulate",
+                LINEAR,
+                "--samples",
+                "1e5",
+                "--quiet",
+                "--shard",
+                &part,
+            ])
+            .arg("--out")
+            .arg(s)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let before = snapshot(&shards);
+    let os = |v: &[&str]| -> Vec<std::ffi::OsString> { v.iter().map(Into::into).collect() };
+    for args in [
+        os(&["solve", LINEAR, "--degree", "2", "--out"]),
+        os(&[LINEAR, "--method", "epc", "--out"]),
+        os(&["simulate", LINEAR, "--samples", "1e5", "--out"]),
+    ] {
+        let mut args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        args.push(s);
+        refused_os(&args, &["--out", "shard_1_of_3.json"]);
+        assert_eq!(snapshot(&shards), before, "{args:?}: the shards changed");
+    }
+    refused_os(
+        &["merge".as_ref(), s, "--out".as_ref(), s],
+        &["--out", "an input of this command"],
+    );
+    assert_eq!(
+        snapshot(&shards),
+        before,
+        "merge S --out S changed the shards"
+    );
+    // A finished Monte Carlo run, read by --mc-from.
+    let mc = root.join("M");
+    let o = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(["merge", shards.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&mc)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let before_mc = snapshot(&mc);
+    let m = mc.as_os_str();
+    refused_os(
+        &[
+            LINEAR.as_ref(),
+            "--method".as_ref(),
+            "epc".as_ref(),
+            "--mc-from".as_ref(),
+            m,
+            "--out".as_ref(),
+            m,
+        ],
+        &["--out", "an input of this command"],
+    );
+    assert_eq!(snapshot(&mc), before_mc, "--mc-from M --out M changed M");
+    // One run's files beside a note, or beside a repository.
+    for extra in ["notes.txt", ".git"] {
+        let path = mc.join(extra);
+        std::fs::write(&path, b"keep").unwrap();
+        refused_os(
+            &["solve".as_ref(), LINEAR.as_ref(), "--out".as_ref(), m],
+            &["--out", extra],
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), b"keep");
+        std::fs::remove_file(&path).unwrap();
+    }
+    assert_eq!(
+        names(&root),
+        vec![".M.fpsolve-lock".to_string(), "M".into(), "S".into()]
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Standard output closed by its reader (`fpsolve … | head -1`): every command that prints
+/// ends quietly (exit 0, the pipe convention), its files committed.
+#[test]
+#[cfg(unix)]
+fn a_closed_stdout_ends_quietly_with_the_files_written() {
+    let root = scratch("closed-stdout");
+    let shards = root.join("shards");
+    let shards_arg = shards.to_str().unwrap();
+    std::fs::create_dir(&shards).unwrap();
+    let cases: [(&str, Vec<&str>); 6] = [
+        ("solve", vec!["solve", LINEAR, "--degree", "2"]),
+        ("main", vec![LINEAR, "--method", "epc", "--degree", "2"]),
+        ("simulate", vec!["simulate", LINEAR, "--samples", "1e5"]),
+        (
+            "shard",
+            vec!["simulate", LINEAR, "--samples", "1e5", "--shard", "1/1"],
+        ),
+        ("sweep", vec!["sweep", LINEAR, "--set", "c=0.1,0.2"]),
+        ("merge", vec!["merge", shards_arg]),
+    ];
+    for (tag, args) in cases {
+        let out = if tag == "shard" {
+            shards.clone()
+        } else {
+            root.join(tag)
+        };
+        // A pipe whose reading end is closed before the run starts: every write fails.
+        let mut fds = [0; 2];
+        // SAFETY: pipe(2) fills two descriptors, which are ours to close or own.
+        assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+        unsafe { libc::close(fds[0]) };
+        let write_end =
+            unsafe { <std::os::fd::OwnedFd as std::os::fd::FromRawFd>::from_raw_fd(fds[1]) };
+        let t = std::time::Instant::now();
+        let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+            .args(&args)
+            .args(["--quiet", "--out"])
+            .arg(&out)
+            .stdout(std::process::Stdio::from(write_end))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            matches!(output.status.code(), Some(0) | Some(141)),
+            "{tag}: exit {:?}\n{stderr}",
+            output.status.code()
+        );
+        assert!(!stderr.contains("panicked"), "{tag}: {stderr}");
+        assert!(
+            !stderr.contains("stdout"),
+            "{tag}: a closed pipe reported\n{stderr}"
+        );
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(30),
+            "{tag}: slow"
+        );
+        assert!(!names(&out).is_empty(), "{tag}: nothing written");
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Standard output on a full disk: the failed write is reported once, the run's files are
+/// written, and the exit status says something went wrong (1).
+#[test]
+#[cfg(unix)]
+fn a_failing_stdout_is_reported_once() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return;
+    };
+    let root = scratch("full-stdout");
+    let out = root.join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(["simulate", LINEAR, "--samples", "1e5", "--quiet", "--out"])
+        .arg(&out)
+        .stdout(full)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(stderr.matches("writing to stdout").count(), 1, "{stderr}");
+    assert!(names(&out).contains(&"mc_summary.json".to_string()));
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Arguments that are not UTF-8: a model path is refused with exit 2 (it does not exist),
+/// an output path is used as given, a `--set` is refused; none panics.
+#[test]
+#[cfg(unix)]
+fn arguments_that_are_not_utf8() {
+    use std::os::unix::ffi::OsStrExt;
+    let root = scratch("not-utf8");
+    let bad_model = std::ffi::OsStr::from_bytes(b"m\xff.sde");
+    refused_os(&["solve".as_ref(), bad_model], &["m\u{fffd}.sde"]);
+    refused_os(&[bad_model], &["m\u{fffd}.sde"]);
+    refused_os(
+        &[
+            "solve".as_ref(),
+            LINEAR.as_ref(),
+            "--set".as_ref(),
+            std::ffi::OsStr::from_bytes(b"c=\xff"),
+        ],
+        &["invalid UTF-8"],
+    );
+    let out = root.join(std::ffi::OsStr::from_bytes(b"o\xff"));
+    for args in [
+        vec!["solve", LINEAR, "--degree", "2"],
+        vec!["simulate", LINEAR, "--samples", "1e5"],
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+            .args(&args)
+            .args(["--quiet", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(out.join(fpsolve::report::MARKER).is_file());
+    }
+    let _ = std::fs::remove_dir_all(&root);
 }

@@ -11,7 +11,7 @@ use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::study::MethodPlan;
 
-use super::{at_error, default_out, flag, lib, load, Plan, SolveArgs};
+use super::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
 /// The methods when `--method` is not given: EPC and the grid for the main job (the grid
 /// only where it applies), EPC for `solve`.
@@ -59,9 +59,12 @@ pub(crate) fn plan_job(
         config.preflight(bound).map_err(lib)?;
     }
     let mc_from = match mc_from {
-        Some(dir) => Some(Box::new(
-            McFrom::read(dir, bound).map_err(flag("--mc-from"))?,
-        )),
+        Some(dir) => {
+            read_input(dir);
+            Some(Box::new(
+                McFrom::read(dir, bound).map_err(flag("--mc-from"))?,
+            ))
+        }
         None => None,
     };
     Ok(Plan::Job {

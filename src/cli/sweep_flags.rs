@@ -13,7 +13,7 @@ use fpsolve::report::OutputDir;
 use fpsolve::solve::MethodName;
 use fpsolve::sweep::{merge_sweep_shards, MergedSweep, Sweep, SweepShard, SweepSpec};
 
-use super::{begin_output, commit_output, flag, lib, Bar, Failure};
+use super::{begin_output, commit_output, flag, lib, sayln, Bar, Failure};
 
 /// `--shard K/N` of `fpsolve sweep`.
 #[derive(Args, Debug)]
@@ -61,7 +61,7 @@ pub(crate) fn run_shard(
     bar.finish();
     let file = part.write(&out).map_err(lib)?;
     let points = part.points();
-    println!(
+    sayln!(
         "shard {} of {}: points {}..{} of {} in {:.1} s",
         shard.index + 1,
         shard.count,
@@ -70,7 +70,7 @@ pub(crate) fn run_shard(
         part.identity.points.len(),
         part.wall_ms / 1e3
     );
-    println!("wrote {}", file.display());
+    sayln!("wrote {}", file.display());
     Ok(())
 }
 
@@ -115,20 +115,20 @@ pub(crate) fn run_whole(
         .map(|&m| spec.len() - result.converged_by(m))
         .sum();
     if result.methods.names() == [MethodName::Epc] {
-        println!(
+        sayln!(
             "{} of {} points converged at degree {degree} in {seconds:.1} s",
             result.converged(),
             spec.len(),
         );
     } else {
         for &m in result.methods.names() {
-            println!(
+            sayln!(
                 "{m}: {} of {} points solved",
                 result.converged_by(m),
                 spec.len()
             );
         }
-        println!("in {seconds:.1} s");
+        sayln!("in {seconds:.1} s");
     }
     commit_output(run, files.len())?;
     if failed > 0 {
@@ -185,10 +185,10 @@ pub(crate) fn write_merged(merged: &MergedSweep, out: &Path) -> Result<(), Failu
     let points = merged.points();
     let mut failed = 0;
     for (method, solved) in merged.solved_by() {
-        println!("{method}: {solved} of {points} points solved");
+        sayln!("{method}: {solved} of {points} points solved");
         failed += points - solved;
     }
-    println!(
+    sayln!(
         "merged {} sweep shards (sweep.csv and sweep.json; figures are drawn by a single run)",
         merged.shards()
     );

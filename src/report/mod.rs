@@ -41,7 +41,7 @@ pub use figure::{Curve, FigureError, FigureFiles, LineFigure, PdfFigure, Points}
 pub(crate) use json::check_finite;
 pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;
-pub use run_dir::{abandon_unfinished, RunDir, RunDirError, MARKER};
+pub use run_dir::{abandon_unfinished, Abandoned, RunDir, RunDirError, MARKER};
 
 /// Why writing or reading a report file failed. Every variant names the file (or directory)
 /// concerned, so a message is actionable on its own.

@@ -63,6 +63,16 @@ impl OutputDir {
         Ok(Self { path, staged: None })
     }
 
+    /// A handle to the directory `path`, which the caller has created: unlike
+    /// [`OutputDir::create`] it never creates it again (a staging directory removed by an
+    /// interrupt must stay removed).
+    pub(super) fn existing(path: &Path) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            staged: None,
+        }
+    }
+
     /// This directory as a run's staging directory (see the `staged` field).
     pub(super) fn staged(self) -> Self {
         Self {
