@@ -88,6 +88,9 @@ fn table(report: &JobReport) -> String {
         distances(&mut s, study, report, Reference::Mc);
     }
     distances(&mut s, study, report, Reference::Grid);
+    for d in &report.disagreements {
+        let _ = writeln!(s, "error: {d}");
+    }
     s
 }
 
