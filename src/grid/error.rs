@@ -157,14 +157,13 @@ pub enum GridError {
         /// Cells along the velocity.
         nv: usize,
     },
-    /// The discrete solution has negative cell values holding more than
-    /// [`NEGATIVE_MASS_TOLERANCE`](super::NEGATIVE_MASS_TOLERANCE) of its mass: clipping them
-    /// would change the density by more than the solver's accuracy, so the cells do not
-    /// resolve it.
+    /// The discrete solution has negative cell values holding more of its mass than
+    /// [`negative_mass_tolerance`](super::negative_mass_tolerance) allows: clipping them would
+    /// change the density by more than its stated error, so the cells do not resolve it.
     #[error(
         "the discrete solution on {nx}x{nv} cells has negative values holding {negative_mass:.1e} \
-         of its mass (more than the {tolerance:.0e} clipping may hide): the cells do not resolve \
-         the density; use more cells (--cells)"
+         of its mass (more than the {tolerance:.1e} its stated error covers): the cells do not \
+         resolve the density; use more cells (--cells)"
     )]
     NegativeMass {
         /// Cells along the position.
@@ -173,7 +172,8 @@ pub enum GridError {
         nv: usize,
         /// The negative values' mass relative to the total absolute mass.
         negative_mass: f64,
-        /// The largest relative negative mass accepted.
+        /// The largest relative negative mass accepted
+        /// ([`negative_mass_tolerance`](super::negative_mass_tolerance)).
         tolerance: f64,
     },
     /// The automatic domain kept growing: the density does not decay within `width` of the

@@ -328,11 +328,9 @@ mod tests {
                  noise xi: intensity 0.5\ndiffusion v: xi\n{impact}\n{domain}\n"
             );
             let bound = parse_model(&text, None).unwrap().bind(&[]).unwrap();
-            let sol = GridSolver::new(&bound)
-                .cells(24, 30)
-                .estimate(false)
-                .solve()
-                .unwrap();
+            // With its error estimate: at 24×30 cells it clips 1.1e−2 of the mass, which
+            // only a stated error covers.
+            let sol = GridSolver::new(&bound).cells(24, 30).solve().unwrap();
             let ext = JointDensity::extent(&sol);
             for axis in 0..2 {
                 let other = 1 - axis;

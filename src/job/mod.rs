@@ -418,7 +418,8 @@ fn run(
 }
 
 /// What a finished job flags, one line each: degrees that did not converge, methods that
-/// disagree beyond their errors and numbers that have no finite value. Empty when everything asked for was computed and is defined.
+/// disagree beyond their errors and numbers that have no finite value. Empty when everything
+/// asked for was computed and is defined.
 pub fn flags(report: &JobReport) -> Vec<String> {
     let mut out: Vec<String> = report
         .study
