@@ -152,7 +152,7 @@ impl<'a> GridSolver<'a> {
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
     /// use fpsolve::grid::{Domain, GridSolver};
     /// let d = Domain { x: [-12.0, 12.0], v: [-10.0, 12.0] };
-    /// let sol = GridSolver::new(&bound).cells(16, 16).domain(d).estimate(false).solve().unwrap();
+    /// let sol = GridSolver::new(&bound).cells(80, 80).domain(d).estimate(false).solve().unwrap();
     /// assert_eq!(sol.domain().v, [-12.0, 12.0]);
     /// ```
     pub fn domain(mut self, domain: Domain) -> Self {
@@ -174,7 +174,7 @@ impl<'a> GridSolver<'a> {
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
-    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(16, 16).estimate(false).solve().unwrap();
+    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 80).estimate(false).solve().unwrap();
     /// assert!(sol.report.discretisation_estimate.is_none());
     /// ```
     pub fn estimate(mut self, on: bool) -> Self {

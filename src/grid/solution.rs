@@ -103,8 +103,8 @@ impl GridSolution {
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
-    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(24, 24).estimate(false).solve().unwrap();
-    /// assert!(sol.cell(12, 12) > 0.0);
+    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 80).estimate(false).solve().unwrap();
+    /// assert!(sol.cell(40, 40) > 0.0);
     /// ```
     pub fn cell(&self, i: usize, j: usize) -> f64 {
         self.density[self.mesh.index(i, j)]
@@ -115,7 +115,7 @@ impl GridSolution {
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
-    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(24, 24).estimate(false).solve().unwrap();
+    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 80).estimate(false).solve().unwrap();
     /// assert!(sol.domain().x[0] < 0.0 && sol.domain().v[1] > 0.0);
     /// ```
     pub fn domain(&self) -> Domain {
@@ -130,7 +130,7 @@ impl GridSolution {
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
-    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(24, 24).estimate(false).solve().unwrap();
+    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 80).estimate(false).solve().unwrap();
     /// let px = sol.marginal(0);
     /// let mass: f64 = px.density.iter().sum::<f64>() * px.width;
     /// assert!((mass - 1.0).abs() < 1e-12);
@@ -170,7 +170,7 @@ impl GridSolution {
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
-    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(24, 24).estimate(false).solve().unwrap();
+    /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 80).estimate(false).solve().unwrap();
     /// assert!(sol.pdf(0.0, 0.0) > sol.pdf(1.0, 1.0));
     /// assert_eq!(sol.pdf(1e3, 0.0), 0.0);
     /// ```
