@@ -748,10 +748,10 @@ fn simulate(
             let result = result.map_err(|e| {
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
-            let files = job::write_mc(&result, run.out()).map_err(lib)?;
+            let written = job::write_mc(&result, run.out()).map_err(lib)?;
             say!("{result}");
-            commit_output(run, files.len())?;
-            verdict(&result)
+            commit_output(run, written.files.len())?;
+            verdict(&result, &written)
         }
     }
 }
@@ -806,21 +806,24 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
 
 fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let files = job::write_mc(result, run.out()).map_err(lib)?;
+    let written = job::write_mc(result, run.out()).map_err(lib)?;
     say!("{result}");
     sayln!("merged {shards} shards");
-    commit_output(run, files.len())?;
-    verdict(result)
+    commit_output(run, written.files.len())?;
+    verdict(result, &written)
 }
 
-/// A finished Monte Carlo result whose verdict failed (blow-ups, not stationary) was written,
-/// flagged: exit 1 with the reason.
-fn verdict(result: &McResult) -> Result<(), Failure> {
-    result.verdict().map_err(|e| {
-        Failure::Flagged(format!(
-            "error: the Monte Carlo run finished and its files were written, flagged in mc_summary.json, but: {e}"
-        ))
-    })
+/// A finished Monte Carlo result whose verdict failed (blow-ups, not stationary) or with
+/// numbers that have no finite value was written, flagged: exit 1 with the reasons.
+fn verdict(result: &McResult, written: &job::McFiles) -> Result<(), Failure> {
+    let flagged = written.flags(result);
+    if flagged.is_empty() {
+        return Ok(());
+    }
+    Err(Failure::Flagged(format!(
+        "error: the Monte Carlo run finished and its files were written, flagged in mc_summary.json, but:\n  {}",
+        flagged.join("\n  ")
+    )))
 }
 
 #[cfg(test)]

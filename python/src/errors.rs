@@ -314,6 +314,20 @@ fn grid_error(py: Python<'_>, e: &GridError, text: String, base: &Base<'_, '_>) 
             ]);
             raise::<GridSolveError>(py, text, "domain_not_found", &attrs)
         }
+        GridError::NegativeMass {
+            nx,
+            nv,
+            negative_mass,
+            tolerance,
+        } => {
+            let attrs = base(vec![
+                ("nx", obj(py, *nx)),
+                ("nv", obj(py, *nv)),
+                ("negative_mass", obj(py, *negative_mass)),
+                ("tolerance", obj(py, *tolerance)),
+            ]);
+            raise::<GridSolveError>(py, text, "negative_mass", &attrs)
+        }
         GridError::Setting { .. } => raise::<SolveError>(py, text, "setting", &base(vec![])),
         _ => raise::<GridSolveError>(py, text, "grid", &base(vec![])),
     }

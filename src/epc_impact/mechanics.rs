@@ -4,7 +4,7 @@
 use super::error::{EpcImpactError, Unsupported};
 use crate::fpk::FpkOperator;
 use crate::model::BoundModel;
-use crate::symbolic::{simplify, DeltaPolicy, Expr, Tape, TapeScratch};
+use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Tape, TapeScratch};
 
 pub use crate::model::BarrierSide;
 
@@ -39,6 +39,9 @@ impl Barrier {
 pub(crate) struct Mechanics {
     /// Outputs m and b over (x, v).
     coefficients: Tape,
+    /// Outputs ∂v m, ∂v b and ∂²v b over (x, v), for the FPK residual; `None` when they
+    /// have δ terms (a drift with sgn(v), say), which the residual does not integrate.
+    derivatives: Option<Tape>,
     /// 0, 1 or 2 barriers (two bound a strip, the lower one first).
     pub(crate) barriers: Vec<Barrier>,
 }
@@ -102,9 +105,16 @@ impl Mechanics {
                 source,
             }
         })?;
+        let derivatives = (|| {
+            let dm = simplify(&diff(&exprs[0], &v).ok()?);
+            let db = simplify(&diff(&exprs[1], &v).ok()?);
+            let ddb = simplify(&diff(&db, &v).ok()?);
+            Tape::compile(&[dm, db, ddb], &vars, DeltaPolicy::Reject).ok()
+        })();
         let barriers = barriers(model, &vars)?;
         Ok(Mechanics {
             coefficients,
+            derivatives,
             barriers,
         })
     }
@@ -128,6 +138,19 @@ impl Mechanics {
             }
         }
         Ok(out)
+    }
+}
+
+impl Mechanics {
+    /// ∂v m, ∂v b and ∂²v b at the points (x[k], v[k]); `None` when they have δ terms or a
+    /// value that is not finite.
+    pub(crate) fn derivatives_batch(&self, x: &[f64], v: &[f64]) -> Option<[Vec<f64>; 3]> {
+        let tape = self.derivatives.as_ref()?;
+        let mut out = [vec![0.0; x.len()], vec![0.0; x.len()], vec![0.0; x.len()]];
+        tape.eval_batch(&[x, v], &mut out, &mut TapeScratch::new());
+        out.iter()
+            .all(|c| c.iter().all(|d| d.is_finite()))
+            .then_some(out)
     }
 }
 

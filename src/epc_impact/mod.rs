@@ -72,6 +72,7 @@ mod decay;
 mod error;
 mod mechanics;
 mod newton;
+mod residual;
 mod rule;
 mod solution;
 #[cfg(test)]
@@ -540,6 +541,7 @@ impl<'a> EpcImpact<'a> {
             }));
         }
         let residual = sys.residual(&a).norm();
+        let fpk = sys.fpk_residual(mech, &a);
         let report = EpcImpactReport {
             degree: n,
             method: converged.method,
@@ -548,6 +550,8 @@ impl<'a> EpcImpact<'a> {
             residual_threshold: threshold,
             panels: sys.panels,
             quadrature_change,
+            fpk_residual: fpk.map(|r| r.interior + r.boundary),
+            fpk_boundary_residual: fpk.map(|r| r.boundary),
             refits,
             normalisation,
             edge_e_folds,

@@ -83,7 +83,7 @@ pub(crate) struct System {
     pub(crate) exps: Vec<(usize, usize)>,
     pub(crate) window: Window,
     pub(crate) panels: [usize; 2],
-    sigma: [f64; 2],
+    pub(crate) sigma: [f64; 2],
     /// Basis monomials at the nodes (interior nodes first, then barrier nodes).
     phi: DMatrix<f64>,
     /// Test-function rows G_q.
@@ -91,7 +91,27 @@ pub(crate) struct System {
     /// Weights of Z (0 on barrier nodes).
     wz: DVector<f64>,
     /// Interior nodes (original units), for moments.
-    nodes: Vec<[f64; 2]>,
+    pub(crate) nodes: Vec<[f64; 2]>,
+    /// Weights of the interior nodes (original units, dx dv).
+    pub(crate) node_weights: Vec<f64>,
+    /// The barrier nodes: arriving velocities and their images, for the boundary residual.
+    pub(crate) boundary: Vec<BoundaryNode>,
+}
+
+/// An arriving velocity at a barrier, its weight in the barrier integral, and where the
+/// impact law sends it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoundaryNode {
+    /// The barrier's position.
+    pub(crate) at: f64,
+    /// The arriving velocity.
+    pub(crate) v: f64,
+    /// Its quadrature weight (dv).
+    pub(crate) weight: f64,
+    /// map(v).
+    pub(crate) image: f64,
+    /// |d map / dv| at v (central difference).
+    pub(crate) slope: f64,
 }
 
 impl System {
@@ -154,10 +174,19 @@ impl System {
                 g[(q, s)] = w * lh;
             }
         }
+        let mut boundary = Vec::with_capacity(arriving.len());
         for (r, (bar, k)) in arriving.iter().enumerate() {
             let q = px.len() + r;
             let v = vs[*k];
             let image = bar.map(v);
+            let h = 1e-6 * v.abs().max(sv);
+            boundary.push(BoundaryNode {
+                at: bar.at,
+                v,
+                weight: wv[*k],
+                image,
+                slope: ((bar.map(v + h) - bar.map(v - h)) / (2.0 * h)).abs(),
+            });
             if !image.is_finite() {
                 return Err(EpcImpactError::NotFinite {
                     what: "the jump map",
@@ -183,6 +212,10 @@ impl System {
             g,
             wz,
             nodes: px.iter().zip(&pv).map(|(x, v)| [*x, *v]).collect(),
+            node_weights: (0..px.len())
+                .map(|q| wx[q / vs.len()] * wv[q % vs.len()])
+                .collect(),
+            boundary,
         })
     }
 

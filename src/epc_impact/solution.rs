@@ -94,6 +94,15 @@ pub struct EpcImpactReport {
     /// ‖R‖ at the solution on a rule with twice the panels per axis: the quadrature error
     /// of the equations, below `residual_threshold` or 1e−7 of their scale.
     pub quadrature_change: f64,
+    /// How far the density is from solving the FPK equation: ∫∫_D |F|·p dx dv, F = (L*p)/p
+    /// with L* the FPK operator (as the δ-term EPC reports it), plus the boundary residual
+    /// [`fpk_boundary_residual`](Self::fpk_boundary_residual). `None` when the drift's or
+    /// diffusion's velocity derivatives have δ terms (sgn(v) in the drift, say).
+    pub fpk_residual: Option<f64>,
+    /// The impact condition's part of `fpk_residual`: Σ_barriers ∫_{arriving v}
+    /// | |v|·p(x_b, v) − |map v|·p(x_b, map v)·|map′(v)| | dv, the mismatch between the flux
+    /// arriving at each velocity and the flux the law sends back.
+    pub fpk_boundary_residual: Option<f64>,
     /// Times the root was followed by Newton onto a refitted box or a finer rule.
     pub refits: usize,
     /// Whether exp(Q) decays along every ray of the domain, or is a density only inside a

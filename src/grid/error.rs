@@ -157,6 +157,25 @@ pub enum GridError {
         /// Cells along the velocity.
         nv: usize,
     },
+    /// The discrete solution has negative cell values holding more of its mass than
+    /// [`negative_mass_tolerance`](super::negative_mass_tolerance) allows: clipping them would
+    /// change the density by more than its stated error, so the cells do not resolve it.
+    #[error(
+        "the discrete solution on {nx}x{nv} cells has negative values holding {negative_mass:.1e} \
+         of its mass (more than the {tolerance:.1e} its stated error covers): the cells do not \
+         resolve the density; use more cells (--cells)"
+    )]
+    NegativeMass {
+        /// Cells along the position.
+        nx: usize,
+        /// Cells along the velocity.
+        nv: usize,
+        /// The negative values' mass relative to the total absolute mass.
+        negative_mass: f64,
+        /// The largest relative negative mass accepted
+        /// ([`negative_mass_tolerance`](super::negative_mass_tolerance)).
+        tolerance: f64,
+    },
     /// The automatic domain kept growing: the density does not decay within `width` of the
     /// origin (no stationary density, or one too wide for the grid).
     #[error(

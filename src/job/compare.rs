@@ -126,6 +126,78 @@ pub(crate) fn compare(
     }
 }
 
+/// The L1 distance two methods that both claim success may be apart beyond their stated
+/// errors. L1 = 1 means that the two densities share only half their probability mass
+/// (∫ min(p, q) = 1 − L1/2): no approximation that converged explains that. At the default
+/// settings the converged EPC degrees of the bundled models are at most 0.68 from the grid
+/// (degree 2, a Gaussian, against the two wells of `bistable_duffing`; degree 4 there: 3.4e−3);
+/// the δ-term EPC with a barrier far from the bulk is 1.96 from it.
+pub const DISAGREEMENT_L1: f64 = 1.0;
+
+/// Two methods that both claim success and whose densities of one quantity are further apart
+/// than [`DISAGREEMENT_L1`] plus the reference's own estimated error: at least one of them is
+/// wrong, and the run is flagged.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Disagreement {
+    /// The quantity.
+    pub quantity: String,
+    /// The method and its degree.
+    #[serde(flatten)]
+    pub source: Source,
+    /// What it was compared with.
+    pub reference: Reference,
+    /// Their L1 distance on the comparison's bins.
+    pub l1: f64,
+    /// The reference's own estimated L1 error: the grid's discretisation estimate (the larger
+    /// of its position and velocity marginals'), Monte Carlo's Σ stderr·width over the bins.
+    pub reference_error: f64,
+    /// The largest distance their errors allow: [`DISAGREEMENT_L1`] + `reference_error`.
+    pub allowed: f64,
+}
+
+impl std::fmt::Display for Disagreement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} and {} disagree on {}: L1 = {:.4}, more than the {:.4} their errors allow \
+             ({DISAGREEMENT_L1} + the {}'s estimated error {:.1e}); both claim success, so one \
+             of them is wrong",
+            self.source,
+            self.reference,
+            self.quantity,
+            self.l1,
+            self.allowed,
+            self.reference,
+            self.reference_error
+        )
+    }
+}
+
+/// The comparisons that are disagreements. `reference_error` gives the reference's own
+/// estimated L1 error on a comparison's bins, `None` when the reference does not claim
+/// success (a Monte Carlo run whose verdict failed): then nothing is judged against it. A
+/// distance that is not a number is a disagreement too.
+pub(crate) fn disagreements(
+    comparisons: &[Comparison],
+    reference_error: impl Fn(&Comparison) -> Option<f64>,
+) -> Vec<Disagreement> {
+    comparisons
+        .iter()
+        .filter_map(|c| {
+            let error = reference_error(c)?;
+            let allowed = DISAGREEMENT_L1 + error;
+            (c.l1.is_nan() || c.l1 > allowed).then(|| Disagreement {
+                quantity: c.quantity.clone(),
+                source: c.source,
+                reference: c.reference,
+                l1: c.l1,
+                reference_error: error,
+                allowed,
+            })
+        })
+        .collect()
+}
+
 /// Every method of a curve against the grid's column on the curve's bins (none without bins
 /// or without a grid column).
 pub(crate) fn against_grid(curve: &PdfCurves) -> Vec<Comparison> {
@@ -179,5 +251,57 @@ mod tests {
         let r = c.ratio_1e3;
         assert_eq!((r.bins, r.bins_epc_zero), (4, 1));
         assert!((r.max_abs_log10.unwrap() - 2f64.log10()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_distance_beyond_the_tolerance_and_the_references_error_disagrees() {
+        let grid = Grid::new(0.0, 4.0, 4).unwrap();
+        let source = Source {
+            method: MethodName::Epc,
+            degree: Some(4),
+        };
+        // Disjoint supports: L1 = 2 (the largest possible); half the mass moved: L1 = 1.
+        let apart = compare(
+            "y",
+            source,
+            Reference::Grid,
+            &[0.5, 0.5, 0.0, 0.0],
+            &[0.0, 0.0, 0.5, 0.5],
+            &grid,
+        );
+        let half = compare(
+            "y",
+            source,
+            Reference::Grid,
+            &[0.5, 0.0, 0.0, 0.5],
+            &[0.0, 0.0, 0.5, 0.5],
+            &grid,
+        );
+        let near = compare(
+            "y",
+            source,
+            Reference::Mc,
+            &[0.0, 0.1, 0.4, 0.5],
+            &[0.0, 0.0, 0.5, 0.5],
+            &grid,
+        );
+        let all = [apart.clone(), half.clone(), near];
+        let found = disagreements(&all, |_| Some(0.01));
+        assert_eq!(found.len(), 1);
+        assert_eq!((found[0].l1, found[0].allowed), (2.0, 1.01));
+        assert_eq!(found[0].reference, Reference::Grid);
+        // Half the mass moved, with an exact reference: at the tolerance, not beyond it.
+        assert_eq!(
+            disagreements(std::slice::from_ref(&half), |_| Some(0.0)).len(),
+            0
+        );
+        // A reference that does not claim success judges nothing.
+        assert!(disagreements(&all, |_| None).is_empty());
+        // A distance that is not a number is flagged.
+        let nan = Comparison {
+            l1: f64::NAN,
+            ..half
+        };
+        assert_eq!(disagreements(&[nan], |_| Some(0.0)).len(), 1);
     }
 }

@@ -25,7 +25,7 @@ use crate::report::{
 use crate::solve::{quantities, reported, MethodName, MethodSet, Problem, Quantity};
 use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
 
-pub use compare::{Comparison, LogRatio, Reference};
+pub use compare::{Comparison, Disagreement, LogRatio, Reference, DISAGREEMENT_L1};
 pub use mc_from::{McFrom, McFromError};
 
 /// What a job reports PDFs of.
@@ -143,6 +143,8 @@ struct Summary<'a> {
     epc_vs_grid: Vec<&'a Comparison>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     epc_impact_vs_grid: Vec<&'a Comparison>,
+    #[serde(skip_serializing_if = "<[Disagreement]>::is_empty")]
+    disagreements: &'a [Disagreement],
     #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
     unwritten: &'a [Unwritten],
 }
@@ -176,6 +178,9 @@ pub struct JobReport {
     /// Distances of every method (every degree) to Monte Carlo and to the grid, per
     /// quantity reported.
     pub comparisons: Vec<Comparison>,
+    /// The comparisons whose two methods both claim success yet are further apart than
+    /// their errors allow (listed in `summary.json` under `disagreements`; the run is flagged).
+    pub disagreements: Vec<Disagreement>,
     /// The files written.
     pub files: Vec<PathBuf>,
     /// Numbers of `summary.json` that have no finite value (written there as `null` and listed
@@ -361,6 +366,18 @@ fn run(
     let comparisons = written.comparisons;
     let mut files = written.files;
     let unwritten = written.unwritten;
+    let disagreements = compare::disagreements(&comparisons, |c| match c.reference {
+        Reference::Grid => study
+            .grid
+            .as_ref()
+            .and_then(|g| g.report())
+            .map(|r| r.discretisation_estimate.map_or(0.0, |e| e.x.max(e.v))),
+        Reference::Mc => {
+            let result = mc.as_ref().filter(|m| m.verdict().is_ok())?;
+            let h = result.quantity(&c.quantity)?;
+            Some(h.stderr.iter().sum::<f64>() * h.grid.width())
+        }
+    });
     let pair = |method: MethodName, reference: Reference| -> Vec<&Comparison> {
         comparisons
             .iter()
@@ -379,6 +396,7 @@ fn run(
         grid_vs_mc: pair(MethodName::Grid, Reference::Mc),
         epc_vs_grid: pair(MethodName::Epc, Reference::Grid),
         epc_impact_vs_grid: pair(MethodName::EpcImpact, Reference::Grid),
+        disagreements: &disagreements,
         unwritten: &unwritten,
     };
     let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
@@ -392,14 +410,16 @@ fn run(
         mc_error,
         mc_wall_s,
         comparisons,
+        disagreements,
         files,
         undefined,
         unwritten,
     })
 }
 
-/// What a finished job flags, one line each: degrees that did not converge and numbers that
-/// have no finite value. Empty when everything asked for was computed and is defined.
+/// What a finished job flags, one line each: degrees that did not converge, methods that
+/// disagree beyond their errors and numbers that have no finite value. Empty when everything
+/// asked for was computed and is defined.
 pub fn flags(report: &JobReport) -> Vec<String> {
     let mut out: Vec<String> = report
         .study
@@ -419,27 +439,34 @@ pub fn flags(report: &JobReport) -> Vec<String> {
         out.push(format!("Monte Carlo: {e}"));
     }
     out.extend(defect_notes(&report.study));
+    out.extend(report.disagreements.iter().map(Disagreement::to_string));
     for u in &report.unwritten {
         out.push(format!("{} was not written: {}", u.file, u.error));
     }
     if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
         out.push(format!("Monte Carlo: {e}"));
     }
-    match report.undefined.as_slice() {
-        [] => {}
-        [u] => out.push(format!(
-            "summary.json: {} is {} (written as null)",
+    out.extend(undefined_flag("summary.json", &report.undefined));
+    out
+}
+
+/// The line that flags the numbers of `file` that have no finite value (`None` when there
+/// are none).
+fn undefined_flag(file: &str, undefined: &[UndefinedField]) -> Option<String> {
+    match undefined {
+        [] => None,
+        [u] => Some(format!(
+            "{file}: {} is {} (written as null)",
             u.field, u.value
         )),
-        [u, rest @ ..] => out.push(format!(
-            "summary.json: {} is {} and {} more numbers have no finite value (written as null, \
+        [u, rest @ ..] => Some(format!(
+            "{file}: {} is {} and {} more numbers have no finite value (written as null, \
              listed under `undefined`)",
             u.field,
             u.value,
             rest.len()
         )),
     }
-    out
 }
 
 /// What is wrong with each defective observable (one with no finite value on part of the
@@ -480,11 +507,36 @@ fn simulate(
     merge_shards(&outputs)
 }
 
+/// What [`write_mc`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct McFiles {
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// Numbers of `mc_summary.json` that have no finite value (written there as `null` and
+    /// listed under `undefined`).
+    pub undefined: Vec<UndefinedField>,
+}
+
+impl McFiles {
+    /// What the files flag, one line each: the result's verdict failures and the numbers
+    /// that have no finite value. Empty when the result can be used as it stands.
+    pub fn flags(&self, result: &McResult) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Err(e) = result.verdict() {
+            out.push(e.to_string());
+        }
+        out.extend(undefined_flag("mc_summary.json", &self.undefined));
+        out
+    }
+}
+
 /// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
 /// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
 /// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
-/// whole [`McResult`]: verdicts and warnings included). A merged set of shards writes exactly what the unsplit run writes.
-pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, ReportError> {
+/// whole [`McResult`]: verdicts and warnings included, numbers without a finite value written
+/// as `null` and listed under `undefined`). A merged set of shards writes exactly what the
+/// unsplit run writes.
+pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<McFiles, ReportError> {
     let mut files = Vec::new();
     for q in &result.quantities {
         let table = PdfTable {
@@ -494,8 +546,9 @@ pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<Vec<PathBuf>, Repo
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
     }
-    files.push(write_json_flagging_undefined(out, "mc_summary.json", result)?.0);
-    Ok(files)
+    let (summary, undefined) = write_json_flagging_undefined(out, "mc_summary.json", result)?;
+    files.push(summary);
+    Ok(McFiles { files, undefined })
 }
 
 /// A histogram's columns: `mc`, `mc_stderr`, and the time-step bias estimate of each bin

@@ -88,6 +88,9 @@ fn table(report: &JobReport) -> String {
         distances(&mut s, study, report, Reference::Mc);
     }
     distances(&mut s, study, report, Reference::Grid);
+    for d in &report.disagreements {
+        let _ = writeln!(s, "error: {d}");
+    }
     s
 }
 
@@ -112,15 +115,23 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
             );
         }
         Ok(None) => match d.outcome.as_ref().ok().and_then(|s| s.epc_impact()) {
-            // EPC with the exact impact condition has no FPK residual of its own: its
-            // equations are the weak form itself; the column shows the quadrature's change
-            // of ‖R‖ on a rule twice as fine instead.
+            // EPC with the exact impact condition: its FPK residual includes the impact
+            // condition's; the quadrature check (‖R‖ on a rule twice as fine) under its name.
             Some(sol) => {
                 let r = &sol.report;
+                let fpk = r
+                    .fpk_residual
+                    .map_or_else(|| "n/a".to_string(), |v| format!("{v:.2e}"));
                 let _ = writeln!(
                     s,
-                    "{:>6} {:>6} {:>10.2e} {:>10.2e} {:>10.1}  {} (quadrature check in the 4th column)",
-                    d.degree, r.iterations, r.residual, r.quadrature_change, d.wall_ms, r.normalisation
+                    "{:>6} {:>6} {:>10.2e} {:>10} {:>10.1}  {}; quadrature check {:.1e}",
+                    d.degree,
+                    r.iterations,
+                    r.residual,
+                    fpk,
+                    d.wall_ms,
+                    r.normalisation,
+                    r.quadrature_change
                 );
             }
             None => {

@@ -40,7 +40,7 @@ pub use name::{MethodName, MethodNameError, MethodSet};
 pub use quantity::{quantities, Quantity};
 pub(crate) use quantity::{quantities_of, reported, through};
 pub use solution::{Density, QuantityMoments, Solution};
-pub(crate) use tail::tail_probability;
+pub(crate) use tail::{tail_probability, two_sided_tail_probability};
 
 /// How to solve for the stationary density. More methods are to come, so a `match` on it
 /// needs a wildcard arm.
@@ -334,8 +334,9 @@ mod tests {
         (f(x) + f(b) + inner) * h / 3.0 * 2.0 / std::f64::consts::PI.sqrt()
     }
 
-    /// The one tail routine, on its report grid, against erfc for z ~ N(0, 5) and for
-    /// |z| (a support edge at 0): relative error below 1e−6 out to 4σ (measured 5.1e−5 at 5σ).
+    /// The one tail routine, on its report grid, against erfc: P(z > a) for z ~ N(0, 5) and
+    /// P(y > a) for y = |z| (a support edge at 0): relative error below 1e−6 out to 4σ
+    /// (measured 5.1e−5 at 5σ); below every value the answer is 1, never more.
     #[test]
     fn tail_probabilities_are_erfc_for_a_gaussian() {
         let text = "model m\nparam c = 0.1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
@@ -346,13 +347,19 @@ mod tests {
             .unwrap();
         let solution = solve(&bound, Method::Epc { degree: 2 }).unwrap();
         let sd = 5.0_f64.sqrt();
-        for name in ["z", "y"] {
+        for (name, share) in [("z", 0.5), ("y", 1.0)] {
             for k in [0.0, 0.3, 1.0, 1.7, 2.0, 3.0, 4.0, 5.0] {
-                let exact = erfc(k / 2.0_f64.sqrt());
+                let exact = share * erfc(k / 2.0_f64.sqrt());
                 let got = solution.tail_probability(name, k * sd).unwrap().unwrap();
                 assert!(
                     ((got - exact) / exact).abs() < if k < 4.5 { 1e-6 } else { 1e-4 },
                     "{name}, k = {k}: {got:e} vs {exact:e}"
+                );
+                let below = solution.tail_probability(name, -k * sd).unwrap().unwrap();
+                let exact = if name == "y" { 1.0 } else { 1.0 - exact };
+                assert!(
+                    (below - exact).abs() < 1e-6 && below <= 1.0,
+                    "{name}, k = -{k}: {below:e} vs {exact:e}"
                 );
             }
         }

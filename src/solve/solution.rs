@@ -205,12 +205,13 @@ impl Solution {
         Ok((x, p))
     }
 
-    /// P(|g| > a) for the quantity `name`, from its PDF on the [`marginal`](Self::marginal)
+    /// P(g > a) for the quantity g = `name`, from its PDF on the [`marginal`](Self::marginal)
     /// grid (log-linear between grid points, the exponential decay of the last cell continued
-    /// beyond the grid, normalised by the curve's own mass); `None` when `a` lies beyond the
-    /// grid on both sides, where the curve does not resolve the tail. The crate's one tail
-    /// routine (the sweep's too). Measured for a Gaussian on its 401-point report grid:
-    /// relative error below 1e−6 out to 4σ, 5e−5 at 5σ.
+    /// beyond the grid, normalised by the curve's own mass): 1 for `a` below every value,
+    /// never more; `None` when `a` lies at or beyond the grid's upper end, where the curve
+    /// does not resolve the tail. The crate's one tail routine (the sweep's two-sided
+    /// P(|g| > a) columns use the same rule). Measured for a Gaussian on its 401-point report
+    /// grid: relative error below 1e−6 out to 4σ, 5e−5 at 5σ.
     ///
     /// # Errors
     /// [`SolveError::UnknownQuantity`].
@@ -219,9 +220,11 @@ impl Solution {
     /// use fpsolve::model::parse_model;
     /// let model = parse_model("model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
     /// let solution = fpsolve::solve(&model.bind(&[])?, fpsolve::Method::Epc { degree: 2 })?;
-    /// // z is standard normal: P(|z| > 2) = 0.0455.
+    /// // z is standard normal: P(z > 2) = 0.02275, P(z > −2) = 0.97725.
     /// let p = solution.tail_probability("z", 2.0)?.unwrap();
-    /// assert!((p - 0.0455).abs() < 1e-3);
+    /// assert!((p - 0.02275).abs() < 1e-4);
+    /// let q = solution.tail_probability("z", -2.0)?.unwrap();
+    /// assert!((q - 0.97725).abs() < 1e-4);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn tail_probability(&self, name: &str, a: f64) -> Result<Option<f64>, SolveError> {

@@ -1,4 +1,7 @@
-//! Tail probabilities P(|g| > a) from a PDF tabulated on a grid: the one routine of the crate.
+//! Tail probabilities from a PDF tabulated on a grid: P(g > a) ([`tail_probability`], the
+//! one meaning of "tail probability" in the crate's API) and P(|g| > a)
+//! ([`two_sided_tail_probability`], for the sweep's symmetric `p_gt_<k>rms` columns). One
+//! integration rule for both.
 
 /// ∫ p over [u, w] ⊂ [x0, x1], with p interpolated log-linearly between (x0, p0) and
 /// (x1, p1): exact for an exponential tail and much closer than a straight line for the
@@ -24,25 +27,20 @@ fn cell_integral(x0: f64, x1: f64, p0: f64, p1: f64, u: f64, w: f64) -> f64 {
     }
 }
 
-/// P(|g| > a) from g's PDF tabulated on the grid `x`, normalised by the curve's own mass so
-/// that quadrature error largely cancels. Beyond the grid's ends (where the density is below
-/// about 1e−8 of its peak) the last cell's exponential decay is continued to infinity. `None`
-/// when a lies beyond the grid on both sides: the curve does not resolve that tail.
-pub(crate) fn tail_probability(x: &[f64], p: &[f64], a: f64) -> Option<f64> {
+/// ∫ p over (lo, hi) and the whole curve's mass, with p log-linear between grid points and
+/// the last cell's exponential decay continued to infinity beyond each end of the grid (only
+/// where the grid ends in a decaying tail, not at a support edge like |z| = 0: there the
+/// continuation is 0). `lo < hi`; either may lie beyond the grid.
+fn mass_between(x: &[f64], p: &[f64], lo: f64, hi: f64) -> (f64, f64) {
     let n = x.len();
-    if n < 2 || (x[n - 1] <= a && x[0] >= -a) {
-        return None;
-    }
     let mut mass = 0.0;
-    let mut tail = 0.0;
+    let mut part = 0.0;
     for i in 1..n {
         let (x0, x1, p0, p1) = (x[i - 1], x[i], p[i - 1], p[i]);
         mass += cell_integral(x0, x1, p0, p1, x0, x1);
-        tail += cell_integral(x0, x1, p0, p1, x0.max(a), x1);
-        tail += cell_integral(x0, x1, p0, p1, x0, x1.min(-a));
+        part += cell_integral(x0, x1, p0, p1, x0.max(lo), x1.min(hi));
     }
-    // ∫ beyond an end of p_end·exp(−λ|x − x_end|) = p_end/λ, λ the last cell's decay rate;
-    // only where the grid ends in a decaying tail (not at a support edge like |z| = 0).
+    // ∫ beyond an end of p_end·exp(−λ|x − x_end|) = p_end/λ, λ the last cell's decay rate.
     let peak = p.iter().copied().fold(0.0, f64::max);
     let beyond = |p_in: f64, p_end: f64, h: f64| {
         if p_in > p_end && p_end > 0.0 && p_end < 1e-6 * peak {
@@ -54,13 +52,52 @@ pub(crate) fn tail_probability(x: &[f64], p: &[f64], a: f64) -> Option<f64> {
     let right = beyond(p[n - 2], p[n - 1], x[n - 1] - x[n - 2]);
     let left = beyond(p[1], p[0], x[1] - x[0]);
     mass += right + left;
-    if x[n - 1] > a {
-        tail += right;
+    if hi > x[n - 1] {
+        part += right;
     }
-    if x[0] < -a {
-        tail += left;
+    if lo < x[0] {
+        part += left;
     }
-    (mass > 0.0 && tail.is_finite()).then(|| tail / mass)
+    (part, mass)
+}
+
+/// The fraction `part / mass`, normalising by the curve's own mass so that quadrature error
+/// largely cancels; `None` for a curve without positive finite mass.
+fn fraction((part, mass): (f64, f64)) -> Option<f64> {
+    (mass > 0.0 && part.is_finite()).then(|| (part / mass).min(1.0))
+}
+
+/// P(g > a) from g's PDF tabulated on the grid `x` (log-linear between grid points, the
+/// exponential decay of the last cell continued beyond the grid's ends, where the density is
+/// below about 1e−8 of its peak). 1 for `a` below the grid (the whole mass), never more;
+/// `None` when `a` lies at or beyond the grid's upper end, where the curve does not resolve
+/// the tail, or when the curve has no mass.
+pub(crate) fn tail_probability(x: &[f64], p: &[f64], a: f64) -> Option<f64> {
+    let n = x.len();
+    if n < 2 || p.len() != n || a.is_nan() || x[n - 1] <= a {
+        return None;
+    }
+    fraction(mass_between(x, p, a, f64::INFINITY))
+}
+
+/// P(|g| > a) from g's PDF tabulated on the grid `x`, by the rule of [`tail_probability`]:
+/// the two tails g > a and g < −a. 1 for a < 0 (every value has |g| > a), never more; `None`
+/// when a lies beyond the grid on both sides, or when the curve has no mass.
+pub(crate) fn two_sided_tail_probability(x: &[f64], p: &[f64], a: f64) -> Option<f64> {
+    let n = x.len();
+    if n < 2 || p.len() != n || a.is_nan() {
+        return None;
+    }
+    if a < 0.0 {
+        let (_, mass) = mass_between(x, p, 0.0, 0.0);
+        return (mass > 0.0 && mass.is_finite()).then_some(1.0);
+    }
+    if x[n - 1] <= a && x[0] >= -a {
+        return None;
+    }
+    let (upper, mass) = mass_between(x, p, a, f64::INFINITY);
+    let (lower, _) = mass_between(x, p, f64::NEG_INFINITY, -a);
+    fraction((upper + lower, mass))
 }
 #[cfg(test)]
 mod tests {
@@ -76,7 +113,7 @@ mod tests {
         approx::assert_relative_eq!(cell_integral(0.0, 1.0, 0.0, 2.0, 0.0, 1.0), 1.0);
     }
 
-    /// P(|g| > a) for a standard normal, by Simpson's rule on a fine grid.
+    /// P(|g| > a) = 2 P(g > a) for a standard normal, by Simpson's rule on a fine grid.
     fn normal_tail(a: f64) -> f64 {
         let n = 20_000;
         let b = a + 14.0;
@@ -98,11 +135,29 @@ mod tests {
             .collect();
         let p: Vec<f64> = x.iter().map(|x| (-0.5 * x * x).exp()).collect();
         for a in [1.0, 2.0, 3.0, 4.0, 5.5] {
-            let got = tail_probability(&x, &p, a).unwrap();
-            approx::assert_relative_eq!(got, normal_tail(a), max_relative = 2e-3);
+            // P(g > a) is one tail, P(g > −a) all but the other one, P(|g| > a) both.
+            let upper = tail_probability(&x, &p, a).unwrap();
+            approx::assert_relative_eq!(upper, 0.5 * normal_tail(a), max_relative = 2e-3);
+            let most = tail_probability(&x, &p, -a).unwrap();
+            approx::assert_relative_eq!(most, 1.0 - 0.5 * normal_tail(a), max_relative = 1e-5);
+            let both = two_sided_tail_probability(&x, &p, a).unwrap();
+            approx::assert_relative_eq!(both, normal_tail(a), max_relative = 2e-3);
         }
+        approx::assert_relative_eq!(tail_probability(&x, &p, 0.0).unwrap(), 0.5);
+        // Below every value: the whole mass, never more (P(|g| > a) was 2 for a < 0).
+        let all = tail_probability(&x, &p, -end - 1.0).unwrap();
+        approx::assert_relative_eq!(all, 1.0, max_relative = 1e-15);
+        assert!(all <= 1.0);
+        for a in [-0.5, -3.0, -end - 1.0] {
+            assert_eq!(two_sided_tail_probability(&x, &p, a), Some(1.0));
+        }
+        let zero = two_sided_tail_probability(&x, &p, 0.0).unwrap();
+        approx::assert_relative_eq!(zero, 1.0, max_relative = 1e-14);
+        assert!(zero <= 1.0);
         // Beyond the tabulated range the tail is not resolved.
         assert_eq!(tail_probability(&x, &p, end + 0.1), None);
+        assert_eq!(two_sided_tail_probability(&x, &p, end + 0.1), None);
+        assert_eq!(tail_probability(&x, &p, f64::NAN), None);
     }
 
     #[test]
@@ -111,10 +166,15 @@ mod tests {
         let end = (2.0 * 1e8f64.ln()).sqrt();
         let x: Vec<f64> = (0..401).map(|i| end * i as f64 / 400.0).collect();
         let p: Vec<f64> = x.iter().map(|x| 2.0 * (-0.5 * x * x).exp()).collect();
-        approx::assert_relative_eq!(
-            tail_probability(&x, &p, 3.0).unwrap(),
-            normal_tail(3.0),
-            max_relative = 2e-3
-        );
+        for tail in [tail_probability, two_sided_tail_probability] {
+            approx::assert_relative_eq!(
+                tail(&x, &p, 3.0).unwrap(),
+                normal_tail(3.0),
+                max_relative = 2e-3
+            );
+            // Below the support edge: all of it.
+            let all = tail(&x, &p, -1.0).unwrap();
+            approx::assert_relative_eq!(all, 1.0, max_relative = 1e-15);
+        }
     }
 }

@@ -17,12 +17,13 @@ const EPC_COLUMNS: [&str; 5] = [
     "fpk_residual",
     "normalisation",
 ];
-/// The figures of an EPC-impact solution: as EPC's, with the quadrature's change of ‖R‖ on
-/// a rule twice as fine in place of the FPK residual.
-const EPC_IMPACT_COLUMNS: [&str; 5] = [
+/// The figures of an EPC-impact solution: as EPC's (its FPK residual includes the impact
+/// condition's), and the quadrature's change of ‖R‖ on a rule twice as fine.
+const EPC_IMPACT_COLUMNS: [&str; 6] = [
     "iterations",
     "residual",
     "residual_threshold",
+    "fpk_residual",
     "quadrature_change",
     "normalisation",
 ];
@@ -137,6 +138,7 @@ impl SweepResult {
                 Cell::Word(r.iterations.to_string()),
                 Cell::Number(r.residual),
                 Cell::Number(r.residual_threshold),
+                r.fpk_residual.map_or(Cell::Empty, Cell::Number),
                 Cell::Number(r.quadrature_change),
                 Cell::Word(r.normalisation.to_string()),
             ]),

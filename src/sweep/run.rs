@@ -9,7 +9,9 @@ use rayon::prelude::*;
 use crate::cancel::{Cancel, Cancelled};
 use crate::grid::Cells;
 use crate::model::Model;
-use crate::solve::{quantities_of, reported, tail_probability, Method, MethodName, MethodSet};
+use crate::solve::{
+    quantities_of, reported, two_sided_tail_probability, Method, MethodName, MethodSet,
+};
 
 use super::method::{applies, settle};
 use super::point::{solve_point, PointCurves, Raw};
@@ -334,7 +336,7 @@ fn with_tails(
                     stats.tail = t
                         .thresholds
                         .iter()
-                        .map(|&a| tail_probability(&curve.x, &curve.p, a))
+                        .map(|&a| two_sided_tail_probability(&curve.x, &curve.p, a))
                         .collect();
                 }
             }
