@@ -136,7 +136,9 @@ impl Mesh {
             nx,
             nv,
             x0: x[0],
-            x1: x[0] + nx as f64 * ((x[1] - x[0]) / nx as f64),
+            // The domain's own end, not x0 + nx·hx (an ulp off): a wall there is the end of
+            // every report window.
+            x1: x[1],
             hx: (x[1] - x[0]) / nx as f64,
             v0: -vmax,
             hv,

@@ -446,6 +446,11 @@ pub fn flags(report: &JobReport) -> Vec<String> {
     if let Some(Err(e)) = report.mc.as_ref().map(|m| m.verdict()) {
         out.push(format!("Monte Carlo: {e}"));
     }
+    // A histogram that misses mass makes every distance to it short by that mass.
+    let missing = report.mc.iter().flat_map(|m| &m.warnings);
+    for w in missing.filter(|w| w.flags_a_comparison()) {
+        out.push(format!("Monte Carlo: {w}"));
+    }
     out.extend(undefined_flag("summary.json", &report.undefined));
     out
 }

@@ -86,5 +86,5 @@ pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
 pub use simulation::Simulation;
 pub use verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
-    MIN_STATIONARITY_BATCHES,
+    MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,
 };

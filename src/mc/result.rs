@@ -133,6 +133,16 @@ pub(crate) fn finalize_run(
     for q in &quantities {
         bias_warnings(q, &mut warnings);
     }
+    // Mass outside a histogram's grid is never silent.
+    for q in quantities.iter().filter(|q| q.underflow + q.overflow > 0) {
+        warnings.push(McWarning::OutsideGrid {
+            quantity: q.name.clone(),
+            range: [q.grid.lo, q.grid.hi],
+            below: q.underflow,
+            above: q.overflow,
+            samples: q.samples,
+        });
+    }
     let bias = st
         .has_barrier
         .then(|| impact_rate_bias(st, batches, coarse))

@@ -295,6 +295,43 @@ pub enum McWarning {
         /// Steps recorded.
         steps: u64,
     },
+    /// Samples of a quantity fell outside its histogram grid: the histogram's density
+    /// integrates to less than 1 by their share, and so do the distances computed from it.
+    OutsideGrid {
+        /// The quantity.
+        quantity: String,
+        /// The grid's range [lo, hi).
+        range: [f64; 2],
+        /// Samples below the grid.
+        below: u64,
+        /// Samples at or above its right edge.
+        above: u64,
+        /// Finite samples recorded.
+        samples: u64,
+    },
+}
+
+/// The fraction of a quantity's samples outside its histogram grid above which a job that
+/// compares methods with the histogram is flagged: a report grid reaches 1e−8 of the
+/// density's peak, which leaves out far less than this for any density with a tail lighter
+/// than a power law, and a mass below it cannot change a distance printed to 1e−4.
+pub const OUTSIDE_GRID_TOLERANCE: f64 = 1e-6;
+
+impl McWarning {
+    /// Whether a job that compares with the histogram must be flagged for it: samples
+    /// outside the grid beyond [`OUTSIDE_GRID_TOLERANCE`] of them (the histogram, and every
+    /// distance computed from it, leave their mass out).
+    pub fn flags_a_comparison(&self) -> bool {
+        match self {
+            McWarning::OutsideGrid {
+                below,
+                above,
+                samples,
+                ..
+            } => (below + above) as f64 > OUTSIDE_GRID_TOLERANCE * *samples as f64,
+            _ => false,
+        }
+    }
 }
 
 impl fmt::Display for McWarning {
@@ -337,6 +374,21 @@ impl fmt::Display for McWarning {
                 "{folded} of {steps} steps met a wall more often than a step resolves, their \
                  overshoot reflected back (more than 1e-4 of them): the motion at the wall is \
                  not resolved; reduce dt"
+            ),
+            McWarning::OutsideGrid {
+                quantity,
+                range,
+                below,
+                above,
+                samples,
+            } => write!(
+                f,
+                "{below} samples of {quantity} fell below its histogram grid [{:.4e}, {:.4e}) \
+                 and {above} above it, a fraction {:.2e} of the {samples}: the histogram and \
+                 the distances computed from it leave that mass out",
+                range[0],
+                range[1],
+                (below + above) as f64 / (*samples).max(1) as f64
             ),
         }
     }

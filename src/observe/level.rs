@@ -264,6 +264,16 @@ impl LevelSet {
         Ok(set)
     }
 
+    /// The values of g where p_g is infinite: its saddle and degenerate critical values
+    /// (a log singularity at a saddle's, an inverse power at a degenerate one's, e.g. v² at 0).
+    pub(crate) fn singular_values(&self) -> Vec<f64> {
+        self.critical
+            .iter()
+            .filter(|c| matches!(c.kind, Kind::Saddle | Kind::Degenerate))
+            .map(|c| c.value)
+            .collect()
+    }
+
     /// p_g(u).
     pub(crate) fn pdf(&self, density: &dyn JointDensity, u: f64) -> f64 {
         let width = (self.ext[0][1] - self.ext[0][0]).max(self.ext[1][1] - self.ext[1][0]);

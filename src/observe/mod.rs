@@ -435,6 +435,20 @@ impl<'a> ObservableDensity<'a> {
         }
     }
 
+    /// The values where the density is infinite, sorted: the map's saddle and degenerate
+    /// critical values (none for ± a state). Next to each the density has an integrable
+    /// singularity (a log, or an inverse power such as u^(−1/2) for v² at 0) that a
+    /// polynomial quadrature rule does not integrate.
+    pub(crate) fn singular_values(&self) -> Vec<f64> {
+        let mut v = match &self.method {
+            Method::Level(l) => l.singular_values(),
+            Method::Signed { .. } | Method::Undefined(_) => Vec::new(),
+        };
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
+    }
+
     /// Why the observable has no density at all (it could not be compiled), if so.
     ///
     /// ```

@@ -3,32 +3,33 @@
 use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
 use crate::symbolic::{DeltaPolicy, Tape};
 
-use super::Quantity;
-
 /// Grid points per PDF curve.
 pub(crate) const GRID_POINTS: usize = 401;
 /// The grid reaches where the density is this fraction of its peak.
 const TAIL: f64 = 1e-8;
 
-/// The common grid of a quantity under several densities: the union of the windows where
-/// each density is at least [`TAIL`] of its peak, [`GRID_POINTS`] points (empty when no
+/// The common grid of a quantity under several densities, each given with the quantity's
+/// map in that density's own states (EPC of an original-coordinates model solves the
+/// Zhuravlev transform, y = x_b + |z|; the grid solver and EPC-impact the model as written,
+/// y itself): the union of the windows where each density is at least [`TAIL`] of its
+/// peak, each inside the values the quantity takes on its density's support (a wall is an
+/// end point of the grid, never a point beyond it), [`GRID_POINTS`] points (empty when no
 /// density has such a window).
 pub(crate) fn common_grid(
-    q: &Quantity,
-    densities: &[(&dyn JointDensity, &ObservableDensity)],
+    densities: &[(&dyn JointDensity, &ObservableMap, &ObservableDensity)],
 ) -> Vec<f64> {
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
-    for (joint, density) in densities {
-        let [a, b] = value_range(*joint, q);
+    for (joint, map, density) in densities {
+        let [a, b] = value_range(*joint, map);
+        // An empty or NaN range: the density has no values to scan.
+        if a.partial_cmp(&b) != Some(std::cmp::Ordering::Less) {
+            continue;
+        }
         if let Some([a, b]) = scanned_window(&linspace(a, b, SCAN_POINTS), |x| density.pdf(x)) {
             lo = lo.min(a);
             hi = hi.max(b);
         }
-    }
-    // A quantity like |z| has its support edge at 0: start the grid exactly there.
-    if non_negative(q) {
-        lo = lo.max(0.0);
     }
     if lo >= hi {
         return Vec::new();
@@ -45,14 +46,13 @@ pub(crate) fn printable(p: Vec<f64>) -> Vec<f64> {
         .collect()
 }
 
-/// The interval of values a quantity can take where the density lives.
-fn value_range(joint: &dyn JointDensity, q: &Quantity) -> [f64; 2] {
+/// The interval of values the map takes on the density's extent where the density lives.
+/// A density's extent ends at its walls (the grid solver's and EPC-impact's domain), so the
+/// interval of a state, or of ± a state, ends exactly on them.
+fn value_range(joint: &dyn JointDensity, map: &ObservableMap) -> [f64; 2] {
     let ext = joint.extent();
-    match &q.map {
-        ObservableMap::SignedState { state, .. } => {
-            let r = ext[*state][0].abs().max(ext[*state][1].abs());
-            [-r, r]
-        }
+    match map {
+        ObservableMap::SignedState { state, sign } => signed_range(&ext, *state, sign),
         ObservableMap::General { expr, states } => {
             let mut lo = f64::INFINITY;
             let mut hi = f64::NEG_INFINITY;
@@ -63,11 +63,18 @@ fn value_range(joint: &dyn JointDensity, q: &Quantity) -> [f64; 2] {
                 return [lo, hi];
             };
             let (mut scratch, mut g) = (Vec::new(), [0.0]);
-            let n = 120;
-            for i in 0..=n {
-                for j in 0..=n {
-                    let x1 = ext[0][0] + (ext[0][1] - ext[0][0]) * i as f64 / n as f64;
-                    let x2 = ext[1][0] + (ext[1][1] - ext[1][0]) * j as f64 / n as f64;
+            // The axes (where abs and sgn have their kinks: the Zhuravlev map x_b + |z| has
+            // its wall at z = 0) are sampled exactly.
+            let axis = |k: usize| {
+                let mut t = linspace(ext[k][0], ext[k][1], 121);
+                if ext[k][0] < 0.0 && 0.0 < ext[k][1] {
+                    t.push(0.0);
+                }
+                t
+            };
+            let (a1, a2) = (axis(0), axis(1));
+            for &x1 in &a1 {
+                for &x2 in &a2 {
                     if joint.pdf([x1, x2]) <= 0.0 {
                         continue;
                     }
@@ -83,9 +90,43 @@ fn value_range(joint: &dyn JointDensity, q: &Quantity) -> [f64; 2] {
     }
 }
 
+/// The values of g = s(q)·x_state on the box `ext`: the hull of the image of each quadrant
+/// q = (sgn x1, sgn x2) the box reaches (|z| on [−3, 2] is [0, 3]; y on [0.3, 9] is itself).
+fn signed_range(ext: &[[f64; 2]; 2], state: usize, sign: &[[f64; 2]; 2]) -> [f64; 2] {
+    let half = |k: usize, positive: usize| -> Option<[f64; 2]> {
+        let [lo, hi] = ext[k];
+        let (lo, hi) = if positive == 1 {
+            (lo.max(0.0), hi)
+        } else {
+            (lo, hi.min(0.0))
+        };
+        (lo <= hi).then_some([lo, hi])
+    };
+    let mut out = [f64::INFINITY, f64::NEG_INFINITY];
+    for (a, row) in sign.iter().enumerate() {
+        for (b, &s) in row.iter().enumerate() {
+            let (Some(r1), Some(r2)) = (half(0, a), half(1, b)) else {
+                continue;
+            };
+            let [lo, hi] = if state == 0 { r1 } else { r2 };
+            let (lo, hi) = if s > 0.0 { (lo, hi) } else { (-hi, -lo) };
+            out = [out[0].min(lo), out[1].max(hi)];
+        }
+    }
+    out
+}
+
+/// `n` points from `lo` to `hi`, both ends exact (a wall is an end point, not a point an
+/// ulp beyond it where the density is 0).
 fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (0..n)
-        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .map(|i| {
+            if i + 1 == n {
+                hi
+            } else {
+                lo + (hi - lo) * i as f64 / (n - 1) as f64
+            }
+        })
         .collect()
 }
 
@@ -163,21 +204,6 @@ fn window(x: &[f64], p: &[f64]) -> Option<[f64; 2]> {
     let lo = x[first.saturating_sub(1)];
     let hi = x[(last + 1).min(x.len() - 1)];
     Some([lo, hi])
-}
-
-/// Whether a signed-state quantity only takes values ≥ 0 (like |z|): every quadrant maps
-/// its half-line of the state to the non-negative side.
-fn non_negative(q: &Quantity) -> bool {
-    let ObservableMap::SignedState { state, sign } = &q.map else {
-        return false;
-    };
-    (0..2).all(|a| {
-        (0..2).all(|b| {
-            let half = if *state == 0 { a } else { b };
-            let side = if half == 1 { 1.0 } else { -1.0 };
-            sign[a][b] * side > 0.0
-        })
-    })
 }
 
 #[cfg(test)]

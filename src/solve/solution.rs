@@ -200,7 +200,7 @@ impl Solution {
     pub fn marginal(&self, name: &str) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
         let q = self.quantity(name)?;
         let density = ObservableDensity::new(self.joint(), &q.map);
-        let x = common_grid(q, &[(self.joint(), &density)]);
+        let x = common_grid(&[(self.joint(), &q.map, &density)]);
         let p = printable(density.pdf(&x));
         Ok((x, p))
     }

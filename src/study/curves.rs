@@ -3,8 +3,9 @@
 
 use serde::Serialize;
 
+use super::bin_means::bin_means;
 use crate::mc::Grid;
-use crate::observe::{JointDensity, ObservableDensity};
+use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
 use crate::solve::{common_grid, printable, MethodName, Quantity, Solution};
 
 /// Which solution a column holds: a method, and its degree for a ladder method.
@@ -58,8 +59,9 @@ pub struct MethodColumn {
     pub source: Source,
     /// The PDF on the grid (NaN where it is infinite).
     pub pdf: Vec<f64>,
-    /// The PDF averaged over each bin of [`PdfCurves::bins`] (4-point Gauss–Legendre per bin),
-    /// from the same prepared density as `pdf`; empty without bins.
+    /// The PDF averaged over each bin of [`PdfCurves::bins`] (4-point Gauss–Legendre on a
+    /// smooth bin, an adaptive rule next to a value where the PDF is infinite), from the same
+    /// prepared density as `pdf`; empty without bins.
     pub bin_means: Vec<f64>,
 }
 
@@ -87,31 +89,6 @@ impl PdfCurves {
     }
 }
 
-/// Gauss–Legendre nodes and weights on [−1, 1], 4 points (exact for cubics): enough for a bin
-/// average of a density sampled by a histogram of ≥ 50 bins.
-const GL4: [(f64, f64); 4] = [
-    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
-];
-
-/// The density averaged over each bin of `grid`.
-fn bin_means(density: &ObservableDensity, grid: &Grid) -> Vec<f64> {
-    let (lo, w) = (grid.lo, grid.width());
-    let nodes: Vec<f64> = (0..grid.bins)
-        .flat_map(|b| {
-            let c = lo + (b as f64 + 0.5) * w;
-            GL4.iter().map(move |(t, _)| c + 0.5 * w * t)
-        })
-        .collect();
-    density
-        .pdf(&nodes)
-        .chunks(GL4.len())
-        .map(|c| c.iter().zip(&GL4).map(|(v, (_, wt))| v * wt).sum::<f64>() / 2.0)
-        .collect()
-}
-
 /// The curves of quantity `q` under every solution: one grid (the union of the windows where
 /// each density is at least 1e−8 of its peak), each density prepared once for its grid values
 /// and its bin means.
@@ -123,7 +100,7 @@ pub(super) fn curves(
     // Each solution maps `q` from its own states: EPC of an original-coordinates model
     // solves the Zhuravlev transform (y = |z| …), the grid and epc-impact the model as
     // written (y itself), so the same name has a different map under each.
-    let densities: Vec<(Source, &dyn JointDensity, ObservableDensity)> = solved
+    let densities: Vec<(Source, &dyn JointDensity, &ObservableMap, ObservableDensity)> = solved
         .iter()
         .map(|&(source, sol)| {
             let map = sol
@@ -134,20 +111,21 @@ pub(super) fn curves(
             (
                 source,
                 sol.joint(),
+                map,
                 ObservableDensity::new(sol.joint(), map),
             )
         })
         .collect();
-    let windows: Vec<(&dyn JointDensity, &ObservableDensity)> =
-        densities.iter().map(|(_, j, d)| (*j, d)).collect();
-    let x = common_grid(q, &windows);
+    let windows: Vec<(&dyn JointDensity, &ObservableMap, &ObservableDensity)> =
+        densities.iter().map(|(_, j, m, d)| (*j, *m, d)).collect();
+    let x = common_grid(&windows);
     let bins = bins.and_then(|choose| choose(q, &x));
     let columns = if x.is_empty() && bins.is_none() {
         Vec::new()
     } else {
         densities
             .iter()
-            .map(|(source, _, density)| MethodColumn {
+            .map(|(source, _, _, density)| MethodColumn {
                 source: *source,
                 pdf: if x.is_empty() {
                     Vec::new()

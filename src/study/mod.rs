@@ -5,6 +5,7 @@
 
 #![warn(missing_docs)]
 
+mod bin_means;
 mod curves;
 mod methods;
 pub mod timeline;

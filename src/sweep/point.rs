@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use crate::model::{BoundModel, Model};
-use crate::observe::ObservableDensity;
+use crate::observe::{ObservableDensity, ObservableMap};
 use crate::solve::{
     common_grid, printable, Density, Method, MethodName, Problem, QuantityMoments, Solution,
     SolveError,
@@ -181,7 +181,11 @@ fn epc_curves(
     let mut collected = Collected::default();
     for (q, st) in problem.quantities().iter().zip(&moments) {
         // Each solution maps the quantity from its own states.
-        let densities: Vec<(&dyn crate::observe::JointDensity, ObservableDensity)> = solutions
+        let densities: Vec<(
+            &dyn crate::observe::JointDensity,
+            &ObservableMap,
+            ObservableDensity,
+        )> = solutions
             .iter()
             .map(|s| {
                 let map = s
@@ -189,17 +193,17 @@ fn epc_curves(
                     .iter()
                     .find(|own| own.name == q.name)
                     .map_or(&q.map, |own| &own.map);
-                (s.joint(), ObservableDensity::new(s.joint(), map))
+                (s.joint(), map, ObservableDensity::new(s.joint(), map))
             })
             .collect();
-        let windows: Vec<_> = densities.iter().map(|(j, d)| (*j, d)).collect();
-        let x = common_grid(q, &windows);
+        let windows: Vec<_> = densities.iter().map(|(j, m, d)| (*j, *m, d)).collect();
+        let x = common_grid(&windows);
         if x.is_empty() {
             return Err(PointFailure::NoCurve {
                 quantity: q.name.clone(),
             });
         }
-        let (_, target) = densities.last().expect("one density per degree");
+        let (_, _, target) = densities.last().expect("one density per degree");
         let p = printable(target.pdf(&x));
         collected.push(st, x, p)?;
     }
