@@ -27,11 +27,12 @@ fn simulate_model(model: &str, extra: &[&str], dir: &Path) -> (Option<i32>, Stri
 
 #[test]
 fn mass_blow_ups_exit_1_with_the_files_written_and_flagged() {
-    // Models the admissibility check refuses (r > 1, no damping) never get this far; this one
-    // passes it (damped, stable at rest) and still escapes over its potential barrier.
+    // Models the admissibility check refuses (r > 1, no damping, a softening spring) never get
+    // this far; this one passes it (damped at low speed, stable at rest) and still runs away
+    // where its damping turns negative.
     let dir = fresh_path("blowups");
     let (code, stdout, stderr) = simulate_model(
-        "tests/models/softening_duffing.sde",
+        "tests/models/runaway_damping.sde",
         &[
             "--samples",
             "1e5",

@@ -487,7 +487,7 @@ mod tests {
         let mut blowups = 0;
         for (path, samples, count) in [
             ("models/vibro_duffing.sde", 60, 3),
-            ("tests/models/softening_duffing.sde", 200, 3),
+            ("tests/models/runaway_damping.sde", 200, 3),
             // Platen's scheme (not of the mechanical form): one part.
             ("models/cubic_damping_two_noises.sde", 20, 1),
         ] {
@@ -543,9 +543,9 @@ mod tests {
                 21,
                 0.01,
             ),
-            // Escapes over the softening potential's barrier: blow-ups.
+            // Runs away where the damping turns negative: blow-ups.
             (
-                format!("{dir}/tests/models/softening_duffing.sde"),
+                format!("{dir}/tests/models/runaway_damping.sde"),
                 50,
                 200,
                 0.05,

@@ -342,10 +342,10 @@ fn a_run_that_keeps_growing_is_not_stationary_and_keeps_its_histograms() {
 
 #[test]
 fn mass_blow_ups_fail_the_verdict() {
-    // Escapes over the softening potential's barrier.
+    // Runs away where the damping turns negative.
     let grid = Grid::new(-10.0, 10.0, 50).unwrap();
     let r = fixture(
-        "softening_duffing.sde",
+        "runaway_damping.sde",
         256,
         200,
         McConfig {
@@ -353,7 +353,7 @@ fn mass_blow_ups_fail_the_verdict() {
             ..McConfig::default()
         },
     );
-    eprintln!("softening Duffing: {}", r.blowup_verdict);
+    eprintln!("runaway damping: {}", r.blowup_verdict);
     let BlowUps::TooMany {
         count,
         trajectories,

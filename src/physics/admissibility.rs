@@ -1,5 +1,5 @@
 //! [`check`]: the admissibility checks in order (noise, impacts, damping, rest points, linear
-//! stability), each refusal an [`Inadmissible`].
+//! stability, a restoring force far out), each refusal an [`Inadmissible`].
 
 use super::impact::{impact_terms, jump_ratio, jump_text, weight_at};
 use super::probe::{
@@ -169,6 +169,66 @@ pub(crate) fn check_with_drift(
             if re.is_finite() && re >= -1e-9 * scale {
                 return Err(Inadmissible::UnstableLinearDrift { real_part: re });
             }
+        }
+    }
+
+    // A position that escapes to infinity on a side no wall closes.
+    if let Some((p, q)) = mech {
+        restoring_force(model, m, p, q)?;
+    }
+    Ok(())
+}
+
+/// The force at rest, f(x) = m_v(x, 0), far out on each side of the position that no wall
+/// closes: pointing outwards at every one of the farthest probe positions (10² to 10⁴) is a
+/// softening spring ([`Inadmissible::Escapes`]); zero at every probe position of that side
+/// is no spring at all ([`Inadmissible::NoRestoringForce`]). A restoring force however weak
+/// passes (its density is wide, not absent).
+fn restoring_force(
+    model: &BoundModel,
+    m: &[Expr; 2],
+    p: usize,
+    q: usize,
+) -> Result<(), Inadmissible> {
+    use crate::model::BarrierSide;
+    let states = model.states();
+    let walls = model.impacts().iter().filter(|law| law.state == p);
+    let (mut lower_open, mut upper_open) = (true, true);
+    for law in walls {
+        match law.side {
+            Some(BarrierSide::Above) => lower_open = false,
+            Some(BarrierSide::Below) => upper_open = false,
+            None => {}
+        }
+    }
+    let force = |x: f64| {
+        let mut point = [0.0; 2];
+        point[p] = x;
+        at(&m[q], states, point)
+    };
+    for (dir, open, side) in [(1.0, upper_open, "upper"), (-1.0, lower_open, "lower")] {
+        if !open {
+            continue;
+        }
+        let far: Vec<(f64, f64)> = PROBE_MAGNITUDES[PROBE_MAGNITUDES.len() - 3..]
+            .iter()
+            .map(|&s| (dir * s, force(dir * s)))
+            .collect();
+        if far.iter().all(|(_, f)| f.is_finite() && f * dir > 0.0) {
+            let (at, force) = far[0];
+            return Err(Inadmissible::Escapes {
+                position: states[p].to_string(),
+                side,
+                at,
+                force,
+            });
+        }
+        if PROBE_MAGNITUDES.iter().all(|&s| force(dir * s) == 0.0) {
+            return Err(Inadmissible::NoRestoringForce {
+                position: states[p].to_string(),
+                velocity: states[q].to_string(),
+                side,
+            });
         }
     }
     Ok(())

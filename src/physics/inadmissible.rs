@@ -99,4 +99,39 @@ pub enum Inadmissible {
         /// The largest real part of the drift matrix's eigenvalues.
         real_part: f64,
     },
+    /// The force at rest pushes the position outwards far from the origin on a side no wall
+    /// closes (a softening spring, μ < 0 in a Duffing oscillator): every trajectory escapes
+    /// over the potential's barrier sooner or later, and no density stays.
+    #[error(
+        "no stationary density: far out on the {side} side of `{position}` the force pushes it \
+         further out ({} at {position} = {}: a softening restoring force), and no wall closes \
+         that side, so every trajectory escapes over the potential barrier in time; only a \
+         restoring force that grows outwards (or a wall) keeps a stationary density",
+        number(*force), number(*at)
+    )]
+    Escapes {
+        /// The position state.
+        position: String,
+        /// `upper` or `lower`.
+        side: &'static str,
+        /// A probe position where the force points outwards.
+        at: f64,
+        /// The force there (at zero velocity).
+        force: f64,
+    },
+    /// No force at rest anywhere on a side no wall closes: the position wanders without bound
+    /// (a free particle under noise), and no density stays.
+    #[error(
+        "no stationary density: the drift of `{velocity}` has no restoring force (it is 0 at \
+         rest for every {position} on the {side} side) and no wall closes that side, so \
+         `{position}` wanders without bound"
+    )]
+    NoRestoringForce {
+        /// The position state.
+        position: String,
+        /// The velocity state.
+        velocity: String,
+        /// `upper` or `lower`.
+        side: &'static str,
+    },
 }

@@ -160,6 +160,50 @@ fn no_damping_and_negative_damping() {
     ));
 }
 
+/// A softening spring (the force at rest outwards far out) or none at all, on a side no wall
+/// closes, has no stationary density; a wall on that side, a strip, or a weak restoring force
+/// leaves one. The grid solver once searched for a domain for minutes on these.
+#[test]
+fn softening_and_missing_springs_escape_unless_a_wall_closes_the_side() {
+    let vibro = model_file("vibro_duffing.sde");
+    for mu in [-1.0, -0.01] {
+        match check(&bind(&vibro, &[("mu", mu)])) {
+            Err(Inadmissible::Escapes {
+                position,
+                side,
+                at,
+                force,
+            }) => {
+                assert_eq!((position.as_str(), side), ("z", "upper"));
+                assert!(at > 0.0 && force > 0.0, "{at} {force}");
+            }
+            other => panic!("mu = {mu}: {other:?}"),
+        }
+    }
+    assert!(matches!(
+        check(&bind(&vibro, &[("k", 0.0), ("mu", 0.0)])),
+        Err(Inadmissible::NoRestoringForce { .. })
+    ));
+    let parametric = model_file("parametric.sde");
+    assert!(matches!(
+        check(&bind(&parametric, &[("mu", -0.5)])),
+        Err(Inadmissible::Escapes { .. })
+    ));
+    // A weak restoring force is a wide density, not none.
+    assert_eq!(check(&bind(&vibro, &[("k", 1e-8), ("mu", 0.0)])), Ok(()));
+    // Softening towards a wall: the lower side is open and escapes.
+    let soft = "-c*v - k*z + 0.02*z^3";
+    let wall_above = text(soft, "xi", "impact z = 0: v -> -0.9*v\ndomain z <= 0\n");
+    assert!(matches!(
+        check(&wall_above.bind(&[]).unwrap()),
+        Err(Inadmissible::Escapes { side: "lower", .. })
+    ));
+    // Between two walls nothing escapes, nor does a free particle wander off.
+    let strip = "impact z = -1: v -> -0.9*v\nimpact z = 1: v -> -0.9*v\ndomain -1 <= z <= 1\n";
+    assert_eq!(check(&text(soft, "xi", strip).bind(&[]).unwrap()), Ok(()));
+    assert_eq!(check(&text("-c*v", "xi", strip).bind(&[]).unwrap()), Ok(()));
+}
+
 #[test]
 fn no_noise_and_noise_vanishing_at_rest() {
     let m = text("-c*v - k*z", "c*xi", "");
