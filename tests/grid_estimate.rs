@@ -8,7 +8,11 @@
 //! strip between two walls. The estimate once compared cell masses, and the written curve of
 //! the linear oscillator's position was 2.4 times its stated error.
 
+mod common;
+
 use std::path::Path;
+
+use common::simpson;
 
 use fpsolve::model::{load_model, parse_model, BoundModel, Override};
 use fpsolve::solve::{Density, Method, Solution};
@@ -118,23 +122,8 @@ fn exact(case: &Case, axis: usize, x: f64) -> f64 {
 /// The position's normalising constant (Simpson on the domain cut at ±40).
 fn mass(case: &Case) -> f64 {
     let (a, b) = (case.domain[0].max(-40.0), case.domain[1].min(40.0));
-    let n = 40_000;
-    let h = (b - a) / n as f64;
-    (0..=n)
-        .map(|i| {
-            let x = a + i as f64 * h;
-            let w = if i == 0 || i == n {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            w * (-F * (x * x / 2.0 + case.mu * x.powi(4) / 4.0)).exp()
-        })
-        .sum::<f64>()
-        * h
-        / 3.0
+    let f = |x: f64| (-F * (x * x / 2.0 + case.mu * x.powi(4) / 4.0)).exp();
+    simpson(&f, a, b, 40_000)
 }
 
 /// Mean and standard deviation of the exact marginal of `axis`.

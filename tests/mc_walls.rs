@@ -12,6 +12,9 @@
 //! side of it (1.8 % of the samples of the lower-wall case, E[z] 10 standard errors off):
 //! here no sample is outside the domain, and every bin and moment meets the exact law.
 
+mod common;
+
+use common::simpson;
 use fpsolve::mc::{Grid, McConfig, SchemeChoice, Simulation};
 use fpsolve::model::{parse_model, BoundModel};
 
@@ -47,24 +50,7 @@ fn model(noise: &str, walls: &str) -> BoundModel {
 /// (composite Simpson on a fine grid; the integrand is smooth and bounded).
 fn exact_z(lo: f64, hi: f64, edges: &[f64]) -> (Vec<f64>, f64, f64) {
     let f = |z: f64| (-(z * z / 2.0 + MU * z.powi(4) / 4.0)).exp();
-    let integrate = |a: f64, b: f64, g: &dyn Fn(f64) -> f64| {
-        let n = 2000;
-        let h = (b - a) / n as f64;
-        (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * g(a + i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0
-    };
+    let integrate = |a: f64, b: f64, g: &dyn Fn(f64) -> f64| simpson(g, a, b, 2000);
     let (a, b) = (lo.max(-8.0), hi.min(8.0));
     let norm = integrate(a, b, &f);
     let mean = integrate(a, b, &|z| z * f(z)) / norm;
