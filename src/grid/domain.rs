@@ -107,10 +107,18 @@ pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
             }
         }
     }
-    // Φ(E) by the midpoint rule on energy steps of σv²/20.
+    // Φ(E) by the midpoint rule on energy steps of σv²/20, at most MAX_ENERGY_STEPS of them:
+    // a diffusion that grows as fast as the potential (parametric noise on a spring of
+    // k = 1e−8) keeps Φ from reaching the cut for ever, and the coarse passes size such a
+    // domain instead.
     let de = sv * sv / 20.0;
     let (mut e, mut phi) = (0.0f64, 0.0f64);
+    let mut steps = 0;
     while phi < LOG_CUT {
+        steps += 1;
+        if steps > MAX_ENERGY_STEPS {
+            return None;
+        }
         let mid = e + 0.5 * de;
         let (mut num, mut den) = (0.0, 0.0);
         for side in &sides {
@@ -144,6 +152,10 @@ pub(crate) fn energy_box(problem: &Mechanical) -> Option<Domain> {
         v: [-v * MARGIN, v * MARGIN],
     })
 }
+
+/// Energy steps of the energy box's Φ(E) before it gives up (a few hundred on the bundled
+/// models).
+const MAX_ENERGY_STEPS: usize = 20_000;
 
 /// Room added to the energy box (the tails of a non-energy-type density differ).
 const MARGIN: f64 = 1.15;
