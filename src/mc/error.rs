@@ -250,6 +250,30 @@ pub enum ShardDefect {
         /// The ones it holds (first few).
         found: Vec<u64>,
     },
+    /// It carries no digest (written by an fpsolve before shards had one): its numbers
+    /// cannot be verified.
+    #[error("it carries no digest (written by an older fpsolve), so its numbers cannot be verified: run the shard again")]
+    NoDigest,
+    /// Its contents are not what it was written with: edited or damaged.
+    #[error(
+        "its {part} do not match the digest it was written with: the file was edited or damaged"
+    )]
+    Digest {
+        /// Which part disagrees.
+        part: super::shard_digest::DigestPart,
+    },
+    /// Its file name says another shard than its contents.
+    #[error("its name says shard {named_index} of {named_count}, its contents shard {index} of {count} (counted from 1): it was renamed")]
+    Renamed {
+        /// The index in the name, from 1.
+        named_index: u64,
+        /// The count in the name.
+        named_count: u64,
+        /// The index in the contents, from 1.
+        index: u64,
+        /// The count in the contents.
+        count: u64,
+    },
     /// A batch's numbers contradict each other or the settings.
     #[error("statistics batch {batch} (counted from 0){}: {what}", quantity.as_ref().map(|q| format!(", quantity `{q}`")).unwrap_or_default())]
     Batch {

@@ -58,6 +58,7 @@ mod scheme;
 mod settings;
 mod shard;
 mod shard_check;
+mod shard_digest;
 mod simulation;
 mod step;
 mod verdict;
@@ -83,6 +84,7 @@ pub use rng::Increments;
 pub use scheme::{SchemeChoice, SchemeKind};
 pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
+pub use shard_digest::{DigestPart, ShardDigest};
 pub use simulation::Simulation;
 pub use verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,

@@ -6,6 +6,10 @@
 //! the shards replays exactly the reduction a single run performs. Floating-point values in
 //! shard files are written as their shortest round-trip decimal strings, so a shard that has
 //! been through JSON merges to the same bits as one that has not.
+//!
+//! Every shard carries a [`ShardDigest`] of its settings and of its statistics, both with its
+//! index and count, which merge recomputes: an edited or damaged file, or one renamed to
+//! another index, is refused by name.
 
 use serde::{Deserialize, Serialize};
 
@@ -15,6 +19,7 @@ use super::error::ShardDefect;
 use super::result::{finalize_run, McResult};
 use super::settings::RunSettings;
 use super::shard_check::check_batch;
+use super::shard_digest::ShardDigest;
 
 /// Which part of a run to compute: the `index`-th of `count` disjoint shards.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -93,9 +98,35 @@ pub struct ShardOutput {
     pub shard: Shard,
     pub(crate) batches: Vec<BatchSummary>,
     pub(crate) coarse: Vec<BatchSummary>,
+    /// The digests it was written with (absent in files of an older fpsolve, which are
+    /// refused).
+    #[serde(default)]
+    pub(crate) digest: Option<ShardDigest>,
 }
 
 impl ShardOutput {
+    /// A shard's parts with their digests.
+    pub(super) fn sealed(
+        settings: RunSettings,
+        shard: Shard,
+        batches: Vec<BatchSummary>,
+        coarse: Vec<BatchSummary>,
+    ) -> Result<ShardOutput, McError> {
+        let digest = ShardDigest::of(&settings, shard, &batches, &coarse).map_err(|e| {
+            McError::BadSetting {
+                name: "shard",
+                reason: format!("its statistics cannot be serialised: {e}"),
+            }
+        })?;
+        Ok(ShardOutput {
+            settings,
+            shard,
+            batches,
+            coarse,
+            digest: Some(digest),
+        })
+    }
+
     /// Number of statistics batches this shard holds.
     pub fn batches(&self) -> usize {
         self.batches.len()
@@ -104,7 +135,8 @@ impl ShardOutput {
     /// Checks every invariant of the shard on its own: valid settings, an index that fits
     /// the split, exactly the statistics batches (and coarse batches) its index implies,
     /// and within each batch counts that add up to the recorded samples, bins matching the
-    /// grid, extremes and power sums consistent with each other. Errors name the shard as
+    /// grid, extremes and power sums consistent with each other; then its digests, which any
+    /// edit of its settings or statistics (or index) breaks. Errors name the shard as
     /// `shard K of N`, counted from 1 like the file names.
     ///
     /// ```
@@ -165,7 +197,51 @@ impl ShardOutput {
         for b in &self.coarse {
             check_batch(&coarse, b)?;
         }
-        Ok(())
+        // The invariants above name what contradicts itself; the digests catch the edits
+        // that do not (a count moved to the next bin, an extreme moved inside its range, a
+        // different barrier map), and an index edited together with its batches.
+        let written = self.digest.as_ref().ok_or(ShardDefect::NoDigest)?;
+        let actual =
+            ShardDigest::of(st, self.shard, &self.batches, &self.coarse).map_err(|_| {
+                ShardDefect::Digest {
+                    part: super::shard_digest::DigestPart::Content,
+                }
+            })?;
+        match written.mismatch(&actual) {
+            Some(part) => Err(ShardDefect::Digest { part }),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether `name` (a path) names another shard than this one: `shard_K_of_N.json` with
+    /// K/N not its index and count. Other names say nothing (the contents decide).
+    fn renamed(&self, name: &str) -> Result<(), ShardDefect> {
+        let file = std::path::Path::new(name)
+            .file_name()
+            .and_then(|f| f.to_str())
+            .unwrap_or("");
+        let Some(numbers) = file
+            .strip_prefix("shard_")
+            .and_then(|f| f.strip_suffix(".json"))
+        else {
+            return Ok(());
+        };
+        let Some((k, n)) = numbers.split_once("_of_") else {
+            return Ok(());
+        };
+        let (Ok(k), Ok(n)) = (k.parse::<u64>(), n.parse::<u64>()) else {
+            return Ok(());
+        };
+        let (index, count) = (self.shard.index.saturating_add(1), self.shard.count);
+        if (k, n) == (index, count) {
+            return Ok(());
+        }
+        Err(ShardDefect::Renamed {
+            named_index: k,
+            named_count: n,
+            index,
+            count,
+        })
     }
 }
 
@@ -192,7 +268,9 @@ pub fn merge_shards(shards: &[ShardOutput]) -> Result<McResult, McError> {
     merge_impl(&named)
 }
 
-/// [`merge_shards`] with a name per shard (its file name), used in every error message.
+/// [`merge_shards`] with a name per shard (its file name), used in every error message. A
+/// name of the form `shard_K_of_N.json` must agree with the shard's contents (which its
+/// digests cover): a file renamed to another index is refused.
 ///
 /// ```
 /// use fpsolve::mc::{merge_named, McConfig, Shard, Simulation};
@@ -211,6 +289,12 @@ pub fn merge_named<S: AsRef<str>>(shards: &[(S, ShardOutput)]) -> Result<McResul
         .iter()
         .map(|(n, s)| (n.as_ref().to_string(), s))
         .collect();
+    for (name, s) in &named {
+        s.renamed(name).map_err(|defect| McError::BadShard {
+            shard: name.clone(),
+            defect,
+        })?;
+    }
     merge_impl(&named)
 }
 
@@ -445,6 +529,10 @@ mod tests {
                         a.parse::<f64>().ok().map(f64::to_bits)
                             == b.parse::<f64>().ok().map(f64::to_bits)
                     }
+                    // 1 for 1.0 is the same file to serde.
+                    (Value::Number(a), Value::Number(b)) => {
+                        a.as_f64().map(f64::to_bits) == b.as_f64().map(f64::to_bits)
+                    }
                     (a, b) => a == b,
                 };
                 if same {
@@ -460,7 +548,12 @@ mod tests {
                 tried += 1;
                 let outcome = std::panic::catch_unwind(|| merge_named(&named));
                 match outcome {
-                    Ok(r) => accepted += r.is_ok() as usize,
+                    Ok(r) => {
+                        if r.is_ok() {
+                            eprintln!("merged: {path:?} = {h}");
+                        }
+                        accepted += r.is_ok() as usize;
+                    }
                     Err(_) => panic!("merge panicked with {path:?} = {h}"),
                 }
             }
@@ -470,17 +563,110 @@ mod tests {
             paths.len()
         );
         assert!(tried > 500);
+        // Every edit of a value is caught (before the digests, some merged into other numbers).
+        assert_eq!(accepted, 0);
+    }
+
+    /// Edits that keep a shard consistent with itself, which only the digests catch, and a
+    /// shard named as another: each refused, naming the file.
+    #[test]
+    fn consistent_edits_and_renamed_shards_are_refused() {
+        let (_, parts) = two_shards();
+        type Edit = fn(&mut Value);
+        let cases: [(&str, Edit, &str); 4] = [
+            (
+                "a count moved to the next bin",
+                |v| {
+                    let counts = v["batches"][0]["quantities"][0]["counts"]
+                        .as_array_mut()
+                        .unwrap();
+                    let j = (0..counts.len() - 1)
+                        .find(|&j| {
+                            counts[j].as_u64().unwrap() > 1 && counts[j + 1].as_u64().unwrap() > 0
+                        })
+                        .unwrap();
+                    counts[j] = json!(counts[j].as_u64().unwrap() - 1);
+                    counts[j + 1] = json!(counts[j + 1].as_u64().unwrap() + 1);
+                },
+                "statistics do not match",
+            ),
+            (
+                "an extreme moved inside its range",
+                |v| {
+                    let q = &mut v["batches"][0]["quantities"][0];
+                    let max: f64 = q["max"].as_str().unwrap().parse().unwrap();
+                    q["max"] = json!(format!("{:?}", max * (1.0 - 1e-12)));
+                },
+                "statistics do not match",
+            ),
+            (
+                "the seed",
+                |v| {
+                    v["settings"]["seed"] = json!(99);
+                },
+                "run settings do not match",
+            ),
+            (
+                "no digest",
+                |v| {
+                    v.as_object_mut().unwrap().remove("digest");
+                },
+                "carries no digest",
+            ),
+        ];
+        for (what, edit, says) in cases {
+            let mut bad = parts.clone();
+            edit(&mut bad[1]);
+            let err = merge_values(&bad).unwrap_err();
+            assert!(
+                matches!(&err, McError::BadShard { shard, .. } if shard == "dir/shard_2_of_2.json"),
+                "{what}: {err}"
+            );
+            assert!(err.to_string().contains(says), "{what}: {err}");
+        }
+        let swapped = [
+            (
+                "dir/shard_1_of_2.json",
+                serde_json::from_value::<ShardOutput>(parts[1].clone()).unwrap(),
+            ),
+            (
+                "dir/shard_2_of_2.json",
+                serde_json::from_value::<ShardOutput>(parts[0].clone()).unwrap(),
+            ),
+        ];
+        let err = merge_named(&swapped).unwrap_err();
+        assert!(
+            matches!(&err, McError::BadShard { shard, defect: ShardDefect::Renamed { .. } } if shard == "dir/shard_1_of_2.json"),
+            "{err}"
+        );
     }
 
     #[test]
     fn duplicated_missing_and_foreign_shards_are_errors() {
         let (_, parts) = two_shards();
-        let err = merge_values(&[parts[0].clone(), parts[0].clone()]).unwrap_err();
+        let copy = |v: &Value| serde_json::from_value::<ShardOutput>(v.clone()).unwrap();
+        let twice = [
+            ("a/shard_1_of_2.json", copy(&parts[0])),
+            ("b/shard_1_of_2.json", copy(&parts[0])),
+        ];
+        let err = merge_named(&twice).unwrap_err();
         assert!(err.to_string().contains("both shard 1 of 2"), "{err}");
         let err = merge_values(&parts[..1]).unwrap_err();
         assert!(err.to_string().contains("split into 2"), "{err}");
+        let model = reference::linear_oscillator(0.5, 1.0, 1.0)
+            .bind(&[])
+            .unwrap();
+        let config = McConfig {
+            trajectories: 64,
+            lanes: 16,
+            samples: 20,
+            seed: 99,
+            ..McConfig::default()
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
         let mut foreign = parts.clone();
-        foreign[1]["settings"]["seed"] = json!(99);
+        foreign[1] =
+            serde_json::to_value(sim.run_shard(Shard::new(1, 2).unwrap()).unwrap()).unwrap();
         let err = merge_values(&foreign).unwrap_err();
         assert!(
             err.to_string()

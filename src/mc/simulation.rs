@@ -246,12 +246,7 @@ impl Simulation {
             &Cancel::new(),
         )
         .expect("a run whose flag nobody holds is never cancelled");
-        Ok(ShardOutput {
-            settings: st.clone(),
-            shard,
-            batches,
-            coarse,
-        })
+        ShardOutput::sealed(st.clone(), shard, batches, coarse)
     }
 }
 
