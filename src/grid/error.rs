@@ -149,8 +149,14 @@ pub enum GridError {
         /// faer's message.
         detail: String,
     },
-    /// The solution has no positive mass or is not finite.
-    #[error("the discrete solution on {nx}x{nv} cells has no finite positive mass")]
+    /// The solution has no positive mass or is not finite: the cells do not resolve the
+    /// density (a thin limit cycle or a deep double well defeats the sizing passes).
+    #[error(
+        "the discrete solution on {nx}x{nv} cells has no finite positive mass: the grid does not \
+         resolve this density (a thin limit cycle or a deep double well defeats its sizing \
+         passes); Monte Carlo answers any model (`fpsolve simulate MODEL`, or `--mc` in the \
+         main job), and `--method epc` or `--method epc-impact` may where they apply"
+    )]
     Degenerate {
         /// Cells along the position.
         nx: usize,
