@@ -6,62 +6,7 @@ mod common;
 
 use std::process::Command;
 
-use common::{names, scratch};
-
-/// Runs `fpsolve args… --out <scratch>/out` (unless the case sets its own) and checks the
-/// refusal: exit 2, every `expected` fragment in stderr, no panic, nothing written.
-fn refused(tag: &str, args: &[&str], expected: &[&str]) {
-    refused_with_env(tag, &[], args, expected)
-}
-
-/// [`refused`] with environment variables `env` set for the run.
-fn refused_with_env(tag: &str, env: &[(&str, &str)], args: &[&str], expected: &[&str]) {
-    let root = scratch(tag);
-    let out = root.join("out");
-    let mut full: Vec<String> = args.iter().map(|s| s.to_string()).collect();
-    let is_merge = args.first() == Some(&"merge");
-    if !args.contains(&"--out") && args.first() != Some(&"check") && !is_merge {
-        full.push("--out".into());
-        full.push(out.to_string_lossy().into_owned());
-    }
-    if is_merge && !args.contains(&"--out") {
-        full.push("--out".into());
-        full.push(out.to_string_lossy().into_owned());
-    }
-    let before = names(&root);
-    let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(&full)
-        .envs(env.iter().copied())
-        .output()
-        .expect("run fpsolve");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert_eq!(
-        output.status.code(),
-        Some(2),
-        "{full:?}: expected exit 2\nstdout: {stdout}\nstderr: {stderr}"
-    );
-    for e in expected {
-        assert!(
-            stderr.contains(e),
-            "{full:?}: stderr lacks {e:?}\nstderr: {stderr}"
-        );
-    }
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
-        "{full:?}: panic\n{stderr}"
-    );
-    assert!(
-        !stdout.contains("wrote"),
-        "{full:?}: claims to have written files\n{stdout}"
-    );
-    assert_eq!(
-        names(&root),
-        before,
-        "{full:?}: something was written beside the output directory"
-    );
-    let _ = std::fs::remove_dir_all(&root);
-}
+use common::{names, refused, refused_with_env, scratch};
 
 const MODEL: &str = "models/vibro_duffing.sde";
 const LINEAR: &str = "models/linear.sde";

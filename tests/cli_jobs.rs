@@ -6,7 +6,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::{fpsolve, fresh_path, json};
+use common::{fpsolve, fresh_path, json, simpson};
 
 /// Runs `fpsolve args…` and asserts that it succeeded, showing its stderr if not.
 fn succeeds(args: &[&str]) -> Output {
@@ -306,22 +306,7 @@ fn exact_elastic_columns(file: &str, methods: &str) {
     let (c, k, mu, pk) = (0.1, 1.0, 0.1, 0.5);
     let energy = |z: f64| k * z * z / 2.0 + mu * z.powi(4) / 4.0;
     // Normalisation of exp(−(c/πK)·U(z)) over the line (Simpson, 20001 points on ±40).
-    let n = 20_000;
-    let h = 80.0 / n as f64;
-    let norm: f64 = (0..=n)
-        .map(|i| {
-            let w = if i == 0 || i == n {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            w * (-(c / pk) * energy(-40.0 + i as f64 * h)).exp()
-        })
-        .sum::<f64>()
-        * h
-        / 3.0;
+    let norm = simpson(&|z| (-(c / pk) * energy(z)).exp(), -40.0, 40.0, 20_000);
     let exact_y = |y: f64| 2.0 * (-(c / pk) * energy(y)).exp() / norm;
     let var_v = pk / c;
     let exact_ydot =

@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::refused_before_work;
+use common::refused;
 
 fn model(name: &str) -> String {
     format!("{}/models/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -30,18 +30,19 @@ fn softening_and_missing_springs_are_refused_by_every_command() {
                 }
                 let mut args = vec!["solve", m.as_str(), "--method", method];
                 args.extend(sets);
-                refused_before_work(&args, &words);
+                refused("escape", &args, &words);
             }
             let mut job = vec![m.as_str()];
             job.extend(sets);
-            refused_before_work(&job, &words);
+            refused("escape", &job, &words);
             let mut sim = vec!["simulate", m.as_str()];
             sim.extend(sets);
-            refused_before_work(&sim, &words);
+            refused("escape", &sim, &words);
         }
     }
     let parametric = model("parametric.sde");
-    refused_before_work(
+    refused(
+        "refused",
         &["solve", &parametric, "--method", "grid", "--set", "mu=-0.5"],
         &words,
     );
@@ -53,9 +54,18 @@ fn thin_meshes_are_refused_by_every_command_that_takes_cells() {
     let words = ["--cells", "64 times"];
     for cells in ["8,65536", "8,16384", "16384,16", "8,520"] {
         let m = m.as_str();
-        refused_before_work(&["solve", m, "--method", "grid", "--cells", cells], &words);
-        refused_before_work(&[m, "--method", "grid", "--cells", cells], &words);
-        refused_before_work(
+        refused(
+            "refused",
+            &["solve", m, "--method", "grid", "--cells", cells],
+            &words,
+        );
+        refused(
+            "refused",
+            &[m, "--method", "grid", "--cells", cells],
+            &words,
+        );
+        refused(
+            "refused",
             &[
                 "sweep",
                 m,

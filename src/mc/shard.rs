@@ -359,6 +359,11 @@ mod tests {
 
     /// The two shards of a small real run, as JSON values (as they arrive from files).
     fn two_shards() -> (McResult, Vec<Value>) {
+        two_shards_seeded(McConfig::default().seed)
+    }
+
+    /// [`two_shards`] of the run seeded with `seed`.
+    fn two_shards_seeded(seed: u64) -> (McResult, Vec<Value>) {
         let model = reference::linear_oscillator(0.5, 1.0, 1.0)
             .bind(&[])
             .unwrap();
@@ -366,6 +371,7 @@ mod tests {
             trajectories: 64,
             lanes: 16,
             samples: 20,
+            seed,
             ..McConfig::default()
         };
         let sim = Simulation::new(&model, &config).unwrap();
@@ -653,20 +659,8 @@ mod tests {
         assert!(err.to_string().contains("both shard 1 of 2"), "{err}");
         let err = merge_values(&parts[..1]).unwrap_err();
         assert!(err.to_string().contains("split into 2"), "{err}");
-        let model = reference::linear_oscillator(0.5, 1.0, 1.0)
-            .bind(&[])
-            .unwrap();
-        let config = McConfig {
-            trajectories: 64,
-            lanes: 16,
-            samples: 20,
-            seed: 99,
-            ..McConfig::default()
-        };
-        let sim = Simulation::new(&model, &config).unwrap();
         let mut foreign = parts.clone();
-        foreign[1] =
-            serde_json::to_value(sim.run_shard(Shard::new(1, 2).unwrap()).unwrap()).unwrap();
+        foreign[1] = two_shards_seeded(99).1.swap_remove(1);
         let err = merge_values(&foreign).unwrap_err();
         assert!(
             err.to_string()

@@ -63,21 +63,57 @@ pub fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
     sum * h / 3.0
 }
 
-/// Runs `fpsolve args… --out <fresh>` and checks a refusal before any work: exit 2, every
-/// `expected` fragment in stderr, no panic, nothing written.
-pub fn refused_before_work(args: &[&str], expected: &[&str]) {
-    let out = fresh_path("refused");
+/// Runs `fpsolve args… --out <scratch>/out` (unless the case sets its own) and checks the
+/// refusal: exit 2, every `expected` fragment in stderr, no panic, nothing written.
+pub fn refused(tag: &str, args: &[&str], expected: &[&str]) {
+    refused_with_env(tag, &[], args, expected)
+}
+
+/// [`refused`] with environment variables `env` set for the run.
+pub fn refused_with_env(tag: &str, env: &[(&str, &str)], args: &[&str], expected: &[&str]) {
+    let root = scratch(tag);
+    let out = root.join("out");
+    let mut full: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    let is_merge = args.first() == Some(&"merge");
+    if !args.contains(&"--out") && args.first() != Some(&"check") && !is_merge {
+        full.push("--out".into());
+        full.push(out.to_string_lossy().into_owned());
+    }
+    if is_merge && !args.contains(&"--out") {
+        full.push("--out".into());
+        full.push(out.to_string_lossy().into_owned());
+    }
+    let before = names(&root);
     let output = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .arg("--out")
-        .arg(&out)
+        .args(&full)
+        .envs(env.iter().copied())
         .output()
         .expect("run fpsolve");
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert_eq!(
+        output.status.code(),
+        Some(2),
+        "{full:?}: expected exit 2\nstdout: {stdout}\nstderr: {stderr}"
+    );
     for e in expected {
-        assert!(stderr.contains(e), "{args:?}: stderr lacks {e:?}: {stderr}");
+        assert!(
+            stderr.contains(e),
+            "{full:?}: stderr lacks {e:?}\nstderr: {stderr}"
+        );
     }
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-    assert!(!out.exists(), "{args:?}: wrote {}", out.display());
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
+        "{full:?}: panic\n{stderr}"
+    );
+    assert!(
+        !stdout.contains("wrote"),
+        "{full:?}: claims to have written files\n{stdout}"
+    );
+    assert_eq!(
+        names(&root),
+        before,
+        "{full:?}: something was written beside the output directory"
+    );
+    let _ = std::fs::remove_dir_all(&root);
 }
