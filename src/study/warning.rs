@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::model::BoundModel;
 use crate::solve::{Density, MethodName, Problem, QuantityMoments, Solution};
-use crate::symbolic::{Expr, Func};
+use crate::symbolic::{expand, simplify, Expr, Func};
 
 /// How many times its stated accuracy a method's mean velocity may be before it is flagged:
 /// a margin for the quadrature's error estimate, which is a tolerance met, not a bound.
@@ -107,11 +107,17 @@ pub(crate) fn non_smooth_transform(problem: &Problem) -> Option<StudyWarning> {
     let t = problem.zhuravlev()?;
     let mut terms: Vec<String> = Vec::new();
     let model = &t.model;
-    let all = model
-        .drift()
-        .iter()
-        .chain(model.noise_matrix().iter().flatten());
-    for e in all {
+    // The diffusion is made of products of noise coefficients: the sgn z every coefficient
+    // gets from the transform squares to 1 there (additive noise stays smooth), while the
+    // paper's (εz + sgn z)² = ε²z² + 2ε|z| + 1 does not.
+    let noise: Vec<&Expr> = model.noise_matrix().iter().flatten().collect();
+    let products = noise.iter().flat_map(|a| {
+        noise
+            .iter()
+            .map(move |b| simplify(&expand(&((*a).clone() * (*b).clone()))))
+    });
+    let all: Vec<Expr> = model.drift().iter().cloned().chain(products).collect();
+    for e in &all {
         e.without_deltas().walk(&mut |node| {
             if let Expr::Call(Func::Abs | Func::Sgn, args) = node {
                 if args.iter().any(|a| a.mentions(&t.position)) {
@@ -181,12 +187,24 @@ mod tests {
     }
 
     /// A wall at 0 folds the Duffing spring into a smooth one (sgn(z)·(k|z| + μ|z|³) =
-    /// kz + μz³): no warning. A wall at −0.5 leaves sgn z terms: warned, with the wall.
+    /// kz + μz³) and additive noise stays additive (sgn(z)² = 1): no warning; the paper's
+    /// parametric noise does not ((εz + sgn z)² has 2ε|z|). A wall at −0.5 leaves sgn z
+    /// terms in the drift: warned, with the wall.
     #[test]
     fn only_an_offset_wall_is_non_smooth() {
-        let at_zero = problem_of("models/vibro_impact_duffing.sde");
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models/vibro_impact_duffing.sde");
+        let model = load_model(&path).unwrap();
+        let eps = [crate::model::Override::number("eps", 0.0)];
+        let additive = model.bind(&eps).unwrap();
+        let at_zero = Problem::new(&additive).unwrap();
         assert!(at_zero.zhuravlev().is_some());
         assert_eq!(non_smooth_transform(&at_zero), None);
+        let parametric = problem_of("models/vibro_impact_duffing.sde");
+        assert!(matches!(
+            non_smooth_transform(&parametric),
+            Some(StudyWarning::NonSmoothTransform { wall, .. }) if wall == 0.0
+        ));
         let offset = problem_of("tests/models/barrier_caughey_lower.sde");
         let Some(StudyWarning::NonSmoothTransform { wall, terms }) = non_smooth_transform(&offset)
         else {
