@@ -705,6 +705,11 @@ fn main_job(
     bar.finish();
     let report = report.map_err(at_error(path))?;
     say!("{report}");
+    // A warning that does not flag the run is said on stderr too (those that do are said
+    // with the flags).
+    for w in report.study.warnings.iter().filter(|w| !w.flags()) {
+        eprintln!("warning: {w}");
+    }
     fpsolve::study::timeline::mark("report printed");
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);

@@ -439,6 +439,8 @@ pub fn flags(report: &JobReport) -> Vec<String> {
         out.push(format!("Monte Carlo: {e}"));
     }
     out.extend(defect_notes(&report.study));
+    let warnings = report.study.warnings.iter();
+    out.extend(warnings.filter(|w| w.flags()).map(|w| w.to_string()));
     out.extend(report.disagreements.iter().map(Disagreement::to_string));
     for u in &report.unwritten {
         out.push(format!("{} was not written: {}", u.file, u.error));

@@ -74,6 +74,9 @@ fn table(report: &JobReport) -> String {
     for note in super::defect_notes(study) {
         let _ = writeln!(s, "warning: {note}");
     }
+    for w in &study.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
     if let Some(mc) = &report.mc {
         // The same table `fpsolve simulate` prints, then the run's wall time or origin.
         let _ = write!(s, "{mc}");

@@ -68,10 +68,13 @@ impl CriticalSearch<'_> {
                 if p[k] <= 1e-300 * pmax || p[k].is_nan() || !grad2[k].is_finite() {
                     continue;
                 }
+                // Among the neighbours inside the support: a critical point on a wall (the
+                // energy's minimum at a wall through the rest position) has its smallest
+                // |∇g| outside, where the density is 0.
                 let local_min = (i - 1..=i + 1).all(|a| {
                     (j - 1..=j + 1).all(|b| {
                         let q = grad2[a * n + b];
-                        !q.is_finite() || grad2[k] <= q
+                        !q.is_finite() || p[a * n + b] <= 0.0 || grad2[k] <= q
                     })
                 });
                 if local_min {
@@ -168,7 +171,15 @@ impl CriticalSearch<'_> {
             let hinv = (hessian * s)
                 .try_inverse()
                 .unwrap_or_else(|| Matrix2::from_element(f64::NAN));
-            let limit = px * 2.0 * std::f64::consts::PI / det.abs().sqrt();
+            // The small component around x* is an ellipse; a wall through x* leaves half of
+            // it (a line through its centre halves an ellipse) and the density its limit
+            // from inside.
+            let share = if on_a_wall(density, x, width) {
+                0.5
+            } else {
+                1.0
+            };
+            let limit = share * px * 2.0 * std::f64::consts::PI / det.abs().sqrt();
             found.push(Critical {
                 x,
                 value,
@@ -179,6 +190,21 @@ impl CriticalSearch<'_> {
         }
         found
     }
+}
+
+/// Whether the density's support ends at `x` along an axis (a wall through `x`): it is zero
+/// on one side of `x` and positive on the other, 1e−9 of the extent away.
+fn on_a_wall(density: &dyn JointDensity, x: [f64; 2], width: f64) -> bool {
+    let step = 1e-9 * width;
+    (0..2).any(|a| {
+        let at = |d: f64| {
+            let mut y = x;
+            y[a] += d;
+            density.pdf(y)
+        };
+        let (below, above) = (at(-step), at(step));
+        (below <= 0.0) != (above <= 0.0)
+    })
 }
 
 /// Whether `x` lies on the small component of {g = u} around extremum `c` (used when that

@@ -390,13 +390,17 @@ pub fn observable_pdf(density: &dyn JointDensity, map: &ObservableMap, u: &[f64]
 /// ```
 pub struct ObservableDensity<'a> {
     density: &'a dyn JointDensity,
-    method: Method<'a>,
+    method: Method,
 }
 
-enum Method<'a> {
+enum Method {
+    /// g = `offset` + ± a state on each quadrant (Eqs. 25, 28, shifted): the exact line
+    /// integrals. An offset comes from a wall away from 0 under the Zhuravlev transform
+    /// (y = y_b ± |z|); the map keeps it [`ObservableMap::General`] for its moments.
     Signed {
         state: usize,
-        sign: &'a [[f64; 2]; 2],
+        sign: [[f64; 2]; 2],
+        offset: f64,
     },
     Level(level::LevelSet),
     /// The observable could not be compiled (e.g. a constant `log(-1)`): NaN everywhere.
@@ -409,14 +413,20 @@ impl<'a> ObservableDensity<'a> {
         let method = match map {
             ObservableMap::SignedState { state, sign } => Method::Signed {
                 state: *state,
-                sign,
+                sign: *sign,
+                offset: 0.0,
             },
-            ObservableMap::General { expr, states } => {
-                match level::LevelSet::new(density, expr, states) {
+            ObservableMap::General { expr, states } => match shifted_state(expr, states) {
+                Some((offset, ObservableMap::SignedState { state, sign })) => Method::Signed {
+                    state,
+                    sign,
+                    offset,
+                },
+                _ => match level::LevelSet::new(density, expr, states) {
                     Ok(l) => Method::Level(l),
                     Err(e) => Method::Undefined(e),
-                }
-            }
+                },
+            },
         };
         ObservableDensity { density, method }
     }
@@ -426,9 +436,13 @@ impl<'a> ObservableDensity<'a> {
     /// the observable could not be compiled ([`ObservableDensity::error`]).
     pub fn pdf(&self, u: &[f64]) -> Vec<f64> {
         match &self.method {
-            Method::Signed { state, sign } => u
+            Method::Signed {
+                state,
+                sign,
+                offset,
+            } => u
                 .par_iter()
-                .map(|&u| signed_state_pdf(self.density, *state, sign, u))
+                .map(|&u| signed_state_pdf(self.density, *state, sign, u - offset))
                 .collect(),
             Method::Level(l) => u.par_iter().map(|&u| l.pdf(self.density, u)).collect(),
             Method::Undefined(_) => vec![f64::NAN; u.len()],
@@ -481,9 +495,53 @@ impl<'a> ObservableDensity<'a> {
     }
 }
 
+/// `c + g` with `c` a number and `g` ± a state on each quadrant (after simplification), as
+/// (`c`, the map of `g`): the Zhuravlev transform's y = y_b ± |z| of a wall at y_b ≠ 0.
+/// `None` for anything else.
+fn shifted_state(expr: &Expr, states: &[Symbol; 2]) -> Option<(f64, ObservableMap)> {
+    let Expr::Add(terms) = simplify(expr) else {
+        return None;
+    };
+    let (mut offset, mut rest) = (0.0, Vec::new());
+    for t in terms {
+        match t {
+            Expr::Num(c) => offset += c,
+            other => rest.push(other),
+        }
+    }
+    let [g] = <[Expr; 1]>::try_from(rest).ok()?;
+    let map = ObservableMap::classify(&g, states);
+    (offset.is_finite() && matches!(map, ObservableMap::SignedState { .. }))
+        .then_some((offset, map))
+}
+
 /// Eqs. 25 and 28 in general: Σ over quadrants of ∫ p(x_state = s·u, x_other) over the
 /// quadrant's half-line of x_other, where the quadrant admits x_state = s·u.
+///
+/// At u = 0, the end of the support of a folded map (|z|, −|z|: a wall under the Zhuravlev
+/// transform), the value is the one-sided limit from the side the quantity lives on: the
+/// limit u → 0+ (p_Y(0) = 2 p_Z(0), as Eq. 25 defines it), or u → 0− when no quadrant admits
+/// positive values (y = y_b − |z| below an upper wall), never the 0 of the side outside.
 fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 2], u: f64) -> f64 {
+    // g = s·x_state is positive on a quadrant where s has the sign of x_state there.
+    let admits_above = (0..2).any(|a| {
+        (0..2).any(|b| {
+            let own = if state == 0 { a } else { b };
+            (own == 1) == (sign[a][b] > 0.0)
+        })
+    });
+    let approach = if u == 0.0 && !admits_above { -1.0 } else { 1.0 };
+    signed_state_limit(density, state, sign, u, approach)
+}
+
+/// [`signed_state_pdf`] at u, at u = 0 the limit from the side `approach` (+1 or −1).
+fn signed_state_limit(
+    density: &dyn JointDensity,
+    state: usize,
+    sign: &[[f64; 2]; 2],
+    u: f64,
+    approach: f64,
+) -> f64 {
     let other = 1 - state;
     let ext = density.extent();
     let tolerance = lines::rule_tolerance(density);
@@ -499,9 +557,9 @@ fn signed_state_pdf(density: &dyn JointDensity, state: usize, sign: &[[f64; 2]; 
             let s = sign[a][b];
             let xs = s * u;
             // x_state = s·u must lie in the quadrant's half-line. At u = 0 the density is
-            // taken as its limit u → 0+ (so p_Y(0) = 2 p_Z(0), as Eq. 25 defines it): the
-            // side is then the sign of s.
-            let side = if u != 0.0 { xs } else { s };
+            // taken as its limit from the side `approach` (u → 0+: p_Y(0) = 2 p_Z(0), as
+            // Eq. 25 defines it): the side is then the sign of s·approach.
+            let side = if u != 0.0 { xs } else { s * approach };
             let inside = if own == 1 { side > 0.0 } else { side < 0.0 };
             let [lo, hi] = halves[half];
             (inside && hi > lo).then_some(xs)
@@ -588,6 +646,38 @@ mod tests {
         for (u, p) in u.iter().zip(&p) {
             let exact = phi(u - 0.5) + phi(-u - 0.5);
             assert!((p - exact).abs() <= 1e-9 * exact, "y={u}: {p} vs {exact}");
+        }
+    }
+
+    /// y = y_b ± |z| (the Zhuravlev map of a wall at y_b ≠ 0, above or below it): Eq. 25
+    /// shifted, p_Y(y) = p_Z(y − y_b) + p_Z(y_b − y) on the domain's side, and at the wall
+    /// itself the limit from that side, 2·p_Z(0), not the 0 of the side outside.
+    #[test]
+    fn folded_displacement_of_an_offset_wall_has_its_limit_at_the_wall() {
+        let d = Normal {
+            m: [0.5, -0.3],
+            rho: 0.4,
+        };
+        let abs = Expr::call(Func::Abs, Expr::sym("z"));
+        for side in [1.0, -1.0] {
+            let wall = -0.5 * side;
+            let g = Expr::num(wall) + Expr::num(side) * abs.clone();
+            let map = ObservableMap::classify(&g, &states());
+            assert!(matches!(map, ObservableMap::General { .. }));
+            let u: Vec<f64> = [0.0, 0.3, 1.0, 2.5]
+                .iter()
+                .map(|t| wall + side * t)
+                .collect();
+            let p = observable_pdf(&d, &map, &u);
+            for (u, p) in u.iter().zip(&p) {
+                let t = (u - wall) * side;
+                let exact = phi(t - 0.5) + phi(-t - 0.5);
+                assert!(
+                    (p - exact).abs() <= 1e-9 * exact,
+                    "{side}: y={u}: {p} vs {exact}"
+                );
+            }
+            assert_eq!(observable_pdf(&d, &map, &[wall - side * 0.1])[0], 0.0);
         }
     }
 

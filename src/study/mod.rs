@@ -9,6 +9,7 @@ mod bin_means;
 mod curves;
 mod methods;
 pub mod timeline;
+mod warning;
 
 use rayon::prelude::*;
 use std::time::Instant;
@@ -25,6 +26,7 @@ use crate::solve::{
 
 pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
 pub use methods::{applies, MethodPlan, NotApplicable, PlanError, Refused, Skipped};
+pub use warning::{StudyWarning, MEAN_VELOCITY_MARGIN};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
 #[derive(Debug, thiserror::Error)]
@@ -134,6 +136,10 @@ pub struct Study {
     pub curves: Vec<PdfCurves>,
     /// The states, then the observables, with how each is computed.
     pub quantities: Vec<Quantity>,
+    /// What the reader must know beyond each method's report (a non-smooth Zhuravlev
+    /// transform under EPC, a mean velocity that is not 0); those that
+    /// [flag](StudyWarning::flags) the run make it exit 1.
+    pub warnings: Vec<StudyWarning>,
     /// Total wall time in milliseconds.
     pub wall_ms: f64,
 }
@@ -363,14 +369,53 @@ impl<'a> StudyRunner<'a> {
         for (d, s) in degrees.iter_mut().zip(stats) {
             d.stats = s;
         }
+        let warnings = self.warnings(problem, &degrees, grid.as_ref());
         Ok(Study {
             model: self.model.clone(),
             degrees,
             grid,
             curves,
             quantities,
+            warnings,
             wall_ms: start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// The study's [`StudyWarning`]s: EPC's non-smooth transform (when EPC ran), then each
+    /// solution's mean velocity.
+    fn warnings(
+        &self,
+        problem: &Problem,
+        degrees: &[DegreeResult],
+        grid: Option<&GridRun>,
+    ) -> Vec<StudyWarning> {
+        let mut out = Vec::new();
+        if self.methods.contains(&MethodName::Epc) {
+            out.extend(warning::non_smooth_transform(problem));
+        }
+        for d in degrees {
+            if let Ok(s) = &d.outcome {
+                out.extend(warning::mean_velocity(
+                    self.model,
+                    d.method,
+                    Some(d.degree),
+                    s,
+                    &d.stats,
+                ));
+            }
+        }
+        if let Some(g) = grid {
+            if let Ok(s) = &g.outcome {
+                out.extend(warning::mean_velocity(
+                    self.model,
+                    MethodName::Grid,
+                    None,
+                    s,
+                    &g.stats,
+                ));
+            }
+        }
+        out
     }
 
     fn ladder(
@@ -553,6 +598,10 @@ pub struct StudySummary<'a> {
     pub grid: Option<GridSummary<'a>>,
     /// Whether every degree converged.
     pub all_converged: bool,
+    /// The study's warnings, each with its kind under `warning` (`non-smooth-transform`,
+    /// `mean-velocity`); absent when there are none.
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    pub warnings: &'a [StudyWarning],
     /// Total wall time of the study in milliseconds.
     pub wall_ms: f64,
 }
@@ -597,6 +646,7 @@ impl Study {
                 stats: &g.stats,
             }),
             all_converged: self.all_converged(),
+            warnings: &self.warnings,
             wall_ms: self.wall_ms,
         }
     }
