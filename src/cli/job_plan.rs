@@ -9,18 +9,22 @@ use fpsolve::grid::{memory_limit_bytes, Cells};
 use fpsolve::job::{JobSpec, McFrom, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
-use fpsolve::study::MethodPlan;
+use fpsolve::study::{applies, MethodPlan};
 
 use super::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
-/// The methods when `--method` is not given: EPC and the grid for the main job (the grid
-/// only where it applies), EPC for `solve`.
-fn default_methods(target: Target) -> MethodSet {
+/// The methods when `--method` is not given: for the main job EPC and the grid, and
+/// EPC-impact too where EPC cannot use the model's impact law (a strip, a reflecting law EPC
+/// has no δ-term form for), each run where it applies; EPC for `solve`.
+fn default_methods(target: Target, problem: &Problem) -> Result<MethodSet> {
     let names = match target {
-        Target::Observables => vec![MethodName::Epc, MethodName::Grid],
+        Target::Observables => match applies(problem, MethodName::Epc).map_err(lib)? {
+            Ok(()) => vec![MethodName::Epc, MethodName::Grid],
+            Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
+        },
         Target::States => vec![MethodName::Epc],
     };
-    MethodSet::new(names).expect("distinct methods")
+    Ok(MethodSet::new(names).expect("distinct methods"))
 }
 
 pub(crate) fn plan_job(
@@ -38,7 +42,7 @@ pub(crate) fn plan_job(
     let bound = problem.model();
     let (methods, named) = match &args.method {
         Some(m) => (m.clone(), true),
-        None => (default_methods(target), false),
+        None => (default_methods(target, &problem)?, false),
     };
     let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
         anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())
