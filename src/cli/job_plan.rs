@@ -9,22 +9,17 @@ use fpsolve::grid::{memory_limit_bytes, Cells};
 use fpsolve::job::{JobSpec, McFrom, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
-use fpsolve::study::{applies, MethodPlan};
+use fpsolve::study::MethodPlan;
 
 use super::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
-/// The methods when `--method` is not given: for the main job EPC and the grid, and
-/// EPC-impact too where EPC cannot use the model's impact law (a strip, a reflecting law EPC
-/// has no δ-term form for), each run where it applies; EPC for `solve`.
+/// The methods when `--method` is not given: the main job's ([`fpsolve::job::default_methods`],
+/// each run where it applies), EPC for `solve`.
 fn default_methods(target: Target, problem: &Problem) -> Result<MethodSet> {
-    let names = match target {
-        Target::Observables => match applies(problem, MethodName::Epc).map_err(lib)? {
-            Ok(()) => vec![MethodName::Epc, MethodName::Grid],
-            Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
-        },
-        Target::States => vec![MethodName::Epc],
-    };
-    Ok(MethodSet::new(names).expect("distinct methods"))
+    match target {
+        Target::Observables => fpsolve::job::default_methods(problem).map_err(lib),
+        Target::States => Ok(MethodSet::new(vec![MethodName::Epc]).expect("one method")),
+    }
 }
 
 pub(crate) fn plan_job(

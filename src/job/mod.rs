@@ -86,6 +86,33 @@ impl Default for JobSpec {
     }
 }
 
+/// The main job's methods when none are named: EPC and the grid, and EPC-impact too where
+/// EPC cannot use the model's impact law (two walls, a reflecting law it has no δ-term form
+/// for), so that the job runs every method that applies (a [`MethodPlan`] then skips those
+/// that do not, with their reasons).
+///
+/// # Errors
+/// [`crate::solve::SolveError`] when EPC cannot even check the model.
+///
+/// ```
+/// use fpsolve::job::default_methods;
+/// use fpsolve::solve::Problem;
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_impact_strip.sde");
+/// let strip = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// assert_eq!(default_methods(&Problem::new(&strip)?)?.to_string(), "epc,epc-impact,grid");
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+/// let linear = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// assert_eq!(default_methods(&Problem::new(&linear)?)?.to_string(), "epc,grid");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn default_methods(problem: &Problem) -> Result<MethodSet, crate::solve::SolveError> {
+    let names = match crate::study::applies(problem, MethodName::Epc)? {
+        Ok(()) => vec![MethodName::Epc, MethodName::Grid],
+        Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
+    };
+    Ok(MethodSet::new(names).expect("distinct methods"))
+}
+
 /// Hears about a job's progress (a progress bar in the command line; nothing in tests).
 pub trait Progress: Sync {
     /// A new stage begins.
