@@ -81,8 +81,9 @@ struct SolveArgs {
     degree: DegreeList,
     /// Methods, comma-separated: `epc` (the paper's closure, δ-term impacts), `epc-impact`
     /// (EPC with the exact impact condition), `grid` (finite volumes, impacts exact). Default
-    /// for the main job: epc,grid, the grid only where it applies; for `solve`: epc. A method
-    /// named here that does not apply to the model is refused.
+    /// for the main job: epc,grid, with epc-impact where EPC cannot use the impact law, each
+    /// where it applies; for `solve`: epc. Methods named here that do not apply to the model
+    /// are refused, all of them in one message.
     #[arg(long, value_name = "NAME,...")]
     method: Option<MethodSet>,
     /// Cells of the grid solver, position and velocity: even, at least 8 each.

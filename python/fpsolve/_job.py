@@ -19,11 +19,12 @@ def run_job(
     **set: Any,
 ) -> Dict[str, Any]:
     """Runs what ``fpsolve MODEL --out OUT`` runs (without Monte Carlo) and writes the same
-    files (``pdf_<observable>.csv``, ``summary.json``, figures) the same way: staged, then
-    moved into place whole.
+    files (``pdf_<state>.csv`` and ``pdf_<observable>.csv``, ``summary.json``, figures) the
+    same way: staged, then moved into place whole.
 
-    ``methods`` defaults to EPC and the grid (the grid only where it applies); named methods
-    must all apply (else :class:`NotApplicableError`). Returns ``{"table": the table the
+    ``methods`` defaults to EPC and the grid, with EPC-impact where EPC cannot use the impact
+    law, each only where it applies; named methods must all apply (else
+    :class:`NotApplicableError`, naming every one that does not). Returns ``{"table": the table the
     command line prints, "files": paths written, "flags": what is flagged (the reasons the
     command line would exit 1)}``. Ctrl-C is honoured once the job finishes (nothing is
     written then).

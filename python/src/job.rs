@@ -22,7 +22,8 @@ pub(crate) struct JobOutcome {
     flags: Vec<String>,
 }
 
-/// Runs the main job on `model` into `out`: EPC at `degrees` and the grid (where it applies)
+/// Runs the main job on `model` into `out`: EPC at `degrees` and the grid, with EPC-impact
+/// where EPC cannot use the impact law, each where it applies ([`job::default_methods`]),
 /// unless `methods` names others, with the overrides `set`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
@@ -44,20 +45,22 @@ pub(crate) fn run_job(
         .bind(&overrides)
         .map_err(|e| errors::bind_error(py, &e, path.as_deref()))?;
     let named = methods.is_some();
-    let names = match methods {
-        Some(m) => m
-            .iter()
-            .map(|m| m.parse::<MethodName>())
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| errors::bad_argument(e.to_string()))?,
-        None => vec![MethodName::Epc, MethodName::Grid],
-    };
-    let methods = MethodSet::new(names).map_err(|e| errors::bad_argument(e.to_string()))?;
     let asked = Asked {
         method: "job",
         degree: None,
     };
     let problem = Problem::new(&bound).map_err(|e| errors::solve_error(py, &e, &asked))?;
+    let methods = match methods {
+        Some(m) => {
+            let names = m
+                .iter()
+                .map(|m| m.parse::<MethodName>())
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| errors::bad_argument(e.to_string()))?;
+            MethodSet::new(names).map_err(|e| errors::bad_argument(e.to_string()))?
+        }
+        None => job::default_methods(&problem).map_err(|e| errors::solve_error(py, &e, &asked))?,
+    };
     MethodPlan::new(&problem, &methods, named)
         .map_err(|e| errors::other::<errors::NotApplicableError>(py, "methods", e.to_string()))?;
     let spec = JobSpec {

@@ -13,14 +13,13 @@ use fpsolve::study::MethodPlan;
 
 use super::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
-/// The methods when `--method` is not given: EPC and the grid for the main job (the grid
-/// only where it applies), EPC for `solve`.
-fn default_methods(target: Target) -> MethodSet {
-    let names = match target {
-        Target::Observables => vec![MethodName::Epc, MethodName::Grid],
-        Target::States => vec![MethodName::Epc],
-    };
-    MethodSet::new(names).expect("distinct methods")
+/// The methods when `--method` is not given: the main job's ([`fpsolve::job::default_methods`],
+/// each run where it applies), EPC for `solve`.
+fn default_methods(target: Target, problem: &Problem) -> Result<MethodSet> {
+    match target {
+        Target::Observables => fpsolve::job::default_methods(problem).map_err(lib),
+        Target::States => Ok(MethodSet::new(vec![MethodName::Epc]).expect("one method")),
+    }
 }
 
 pub(crate) fn plan_job(
@@ -38,7 +37,7 @@ pub(crate) fn plan_job(
     let bound = problem.model();
     let (methods, named) = match &args.method {
         Some(m) => (m.clone(), true),
-        None => (default_methods(target), false),
+        None => (default_methods(target, &problem)?, false),
     };
     let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
         anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())

@@ -143,8 +143,9 @@ pub enum Divergence {
     /// Q grows again beyond a ridge only `depth` e-folds below the peak (less than the
     /// `threshold` required to normalise inside it).
     #[error(
-        "exp(Q) grows without bound beyond a ridge only {depth:.1} e-folds below its peak \
-         (normalising inside a ridge needs at least {threshold})"
+        "exp(Q) grows without bound beyond a ridge only {} e-folds below its peak \
+         (normalising inside a ridge needs at least {threshold})",
+        crate::epc::EFolds(*depth)
     )]
     ShallowRidge {
         /// e-folds from the peak to the pass.

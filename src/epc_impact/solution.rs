@@ -60,7 +60,11 @@ impl std::fmt::Display for Normalisation {
         match self {
             Normalisation::Domain => f.write_str("on the whole domain"),
             Normalisation::InsideRidge { depth, .. } => {
-                write!(f, "inside a ridge {depth:.1} e-folds deep")
+                write!(
+                    f,
+                    "inside a ridge {} e-folds deep",
+                    crate::epc::EFolds(*depth)
+                )
             }
         }
     }

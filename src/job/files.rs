@@ -200,7 +200,10 @@ fn legend(study: &Study, source: Source) -> String {
             crate::epc::NormalisationKind::Plane { .. } => None,
         });
     match ridge {
-        Some(depth) => format!("{source} (inside ridge, {depth:.1} e-folds)"),
+        Some(depth) => format!(
+            "{source} (inside ridge, {} e-folds)",
+            crate::epc::EFolds(depth)
+        ),
         None => source.to_string(),
     }
 }

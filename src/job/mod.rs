@@ -22,8 +22,10 @@ use crate::model::{Model, Override};
 use crate::report::{
     write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
 };
-use crate::solve::{quantities, reported, MethodName, MethodSet, Problem, Quantity};
-use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
+use crate::solve::{quantities, MethodName, MethodSet, Problem, Quantity};
+use crate::study::{
+    MethodPlan, NotApplicable, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary,
+};
 
 pub use compare::{Comparison, Disagreement, LogRatio, Reference, DISAGREEMENT_L1};
 pub use mc_from::{McFrom, McFromError};
@@ -31,7 +33,8 @@ pub use mc_from::{McFrom, McFromError};
 /// What a job reports PDFs of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Target {
-    /// The model's observables (the states when it declares none): the main job.
+    /// The states and the model's observables (the states are always reported, so that
+    /// every method is compared on them too): the main job.
     Observables,
     /// The states' marginals: `fpsolve solve`.
     States,
@@ -83,6 +86,33 @@ impl Default for JobSpec {
     }
 }
 
+/// The main job's methods when none are named: EPC and the grid, and EPC-impact too where
+/// EPC cannot use the model's impact law (two walls, a reflecting law it has no δ-term form
+/// for), so that the job runs every method that applies (a [`MethodPlan`] then skips those
+/// that do not, with their reasons).
+///
+/// # Errors
+/// [`crate::solve::SolveError`] when EPC cannot even check the model.
+///
+/// ```
+/// use fpsolve::job::default_methods;
+/// use fpsolve::solve::Problem;
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_impact_strip.sde");
+/// let strip = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// assert_eq!(default_methods(&Problem::new(&strip)?)?.to_string(), "epc,epc-impact,grid");
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+/// let linear = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// assert_eq!(default_methods(&Problem::new(&linear)?)?.to_string(), "epc,grid");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn default_methods(problem: &Problem) -> Result<MethodSet, crate::solve::SolveError> {
+    let names = match crate::study::applies(problem, MethodName::Epc)? {
+        Ok(()) => vec![MethodName::Epc, MethodName::Grid],
+        Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
+    };
+    Ok(MethodSet::new(names).expect("distinct methods"))
+}
+
 /// Hears about a job's progress (a progress bar in the command line; nothing in tests).
 pub trait Progress: Sync {
     /// A new stage begins.
@@ -125,6 +155,8 @@ struct Summary<'a> {
     study: StudySummary<'a>,
     #[serde(skip_serializing_if = "<[Skipped]>::is_empty")]
     skipped_methods: &'a [Skipped],
+    #[serde(skip_serializing_if = "<[Skipped]>::is_empty")]
+    skipped_curves: &'a [Skipped],
     #[serde(skip_serializing_if = "Option::is_none")]
     monte_carlo: Option<&'a McResult>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -166,6 +198,9 @@ pub struct JobReport {
     /// Methods of the set asked for that were not run because they do not apply to the
     /// model (only when the user did not name the methods).
     pub skipped: Vec<Skipped>,
+    /// Methods that ran but left out some of their PDFs, and why (the grid's PDFs of
+    /// observables that take minutes, unless the grid was named).
+    pub skipped_curves: Vec<Skipped>,
     /// The Monte Carlo result, if one was run or read.
     pub mc: Option<McResult>,
     /// The directory it was read from, with `--mc-from`.
@@ -322,8 +357,17 @@ fn run(
             .filter(|q| q.is_state)
             .map(|q| q.name.clone())
             .collect(),
-        Target::Observables => reported(&all).into_iter().map(|q| q.name.clone()).collect(),
+        Target::Observables => all.iter().map(|q| q.name.clone()).collect(),
     };
+    let without_grid: Vec<String> = plan
+        .skipped_curves
+        .iter()
+        .filter(|s| s.method == MethodName::Grid)
+        .flat_map(|s| match &s.why {
+            NotApplicable::SlowObservables { observables } => observables.clone(),
+            _ => Vec::new(),
+        })
+        .collect();
     // The curves of the quantities reported; with a Monte Carlo run, of every quantity: their
     // ranges are the histograms' grids (no pilot run needed).
     let curves_of = if spec.mc.is_some() {
@@ -336,6 +380,7 @@ fn run(
         .degrees(&spec.degrees)
         .methods(&plan.run)
         .cells(spec.cells)
+        .without_grid_curves_of(&without_grid)
         .bins(&choose)
         .run()?;
     let mut mc = spec.mc_from.as_ref().map(|f| f.result.clone());
@@ -387,6 +432,7 @@ fn run(
     let summary = Summary {
         study: study.summary(),
         skipped_methods: &plan.skipped,
+        skipped_curves: &plan.skipped_curves,
         monte_carlo: mc.as_ref(),
         monte_carlo_from: spec.mc_from.as_ref().map(|f| f.dir.as_path()),
         monte_carlo_error: mc_error.as_deref(),
@@ -405,6 +451,7 @@ fn run(
     Ok(JobReport {
         study,
         skipped: plan.skipped,
+        skipped_curves: plan.skipped_curves,
         mc,
         mc_from: spec.mc_from.as_ref().map(|f| f.dir.clone()),
         mc_error,

@@ -56,6 +56,9 @@ fn table(report: &JobReport) -> String {
     for skipped in &report.skipped {
         let _ = writeln!(s, "{}: not run: {}", skipped.method, skipped.why);
     }
+    for skipped in &report.skipped_curves {
+        let _ = writeln!(s, "{}: {}", skipped.method, skipped.why);
+    }
     let _ = writeln!(
         s,
         "{:>8} {:>6} {:>12} {:>12} {:>10}",
@@ -103,7 +106,10 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
             let norm = match &sol.normalisation.kind {
                 crate::epc::NormalisationKind::Plane { .. } => "plane".to_string(),
                 crate::epc::NormalisationKind::InsideRidge { depth, .. } => {
-                    format!("inside ridge, {depth:.1} e-folds below the mode")
+                    format!(
+                        "inside ridge, {} e-folds below the mode",
+                        crate::epc::EFolds(*depth)
+                    )
                 }
             };
             let _ = writeln!(

@@ -145,7 +145,9 @@ enum Jump {
     Reflecting,
     /// Keeps it at every probe (`v -> r*v`, r > 0): the state passes through.
     PassThrough,
-    /// Neither (a plastic `v -> 0`, or a sign that depends on the velocity).
+    /// Stops it at every probe (`v -> 0*v`): a plastic impact, r = 0.
+    Plastic,
+    /// Neither (a sign that depends on the velocity).
     Neither,
 }
 
@@ -166,6 +168,9 @@ fn jump(law: &BoundImpact, states: &[Symbol; 2]) -> Jump {
         after * v
     });
     let first = signs.next().unwrap_or(f64::NAN);
+    if first == 0.0 && signs.clone().all(|p| p == 0.0) {
+        return Jump::Plastic;
+    }
     let all = |neg: bool| {
         let ok = |p: f64| if neg { p < 0.0 } else { p > 0.0 };
         ok(first) && signs.clone().all(ok)
@@ -288,6 +293,16 @@ pub(crate) fn bind_impacts(
                             ));
                         }
                     });
+                }
+                (Jump::Plastic, Some(_)) => {
+                    return Err(Placed::Impact(
+                        0,
+                        BindError::PlasticWall {
+                            state: state.clone(),
+                            at,
+                            jump: jump_text(model, &laws[0]),
+                        },
+                    ))
                 }
                 (_, Some(_)) => {
                     return Err(Placed::Domain(

@@ -106,6 +106,25 @@ pub enum BindError {
         /// The jump, printed.
         jump: String,
     },
+    /// A `domain` line with a law that stops the velocity (`v -> 0*v`): a plastic wall, which
+    /// no method solves (EPC and epc-impact need a restitution r > 0, the grid and Monte
+    /// Carlo's walls a law that reverses the velocity).
+    #[error(
+        "the impact at `{state} = {}` stops the velocity (`{jump}`): a plastic impact (r = 0), \
+         which holds `{state}` at the barrier rather than letting it pass through; no method \
+         solves a plastic wall (EPC and epc-impact need a restitution 0 < r <= 1, the grid \
+         and Monte Carlo's walls a law that reverses the velocity): for a nearly plastic wall \
+         write `v -> -r*v` with a small r > 0, e.g. `v -> -0.05*v`, which every method solves",
+        number(*at)
+    )]
+    PlasticWall {
+        /// The barrier state.
+        state: String,
+        /// The barrier's position.
+        at: f64,
+        /// The jump, printed.
+        jump: String,
+    },
     /// A bound of the `domain` line where no impact law is.
     #[error(
         "the domain bound `{state} = {}` has no impact law at it: a bound of the domain is \

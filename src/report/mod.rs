@@ -37,7 +37,7 @@ mod run_dir;
 use std::path::PathBuf;
 
 pub use csv::{Cell, PdfTable, TableError, TextTable};
-pub use figure::{Curve, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
+pub use figure::{Curve, CurveStyle, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
 pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;

@@ -160,6 +160,20 @@ impl Problem<'static> {
     }
 }
 
+/// A refusal of the Zhuravlev transform that EPC solves, said in the terms of the model as
+/// written when the model itself is refused for a reason (its law `v -> -1.2*v`, its states
+/// and parameters, rather than the transform's `v_ -> 1.2*v_`): the user wrote that model.
+/// Only computed on failure, so a solvable model pays nothing for it.
+fn in_own_terms(model: &BoundModel, error: FpkError) -> FpkError {
+    match error {
+        FpkError::Inadmissible(_) => match crate::physics::check(model) {
+            Err(own) => FpkError::Inadmissible(own),
+            Ok(()) => error,
+        },
+        other => other,
+    }
+}
+
 impl<'a> Problem<'a> {
     /// Derives the FPK operator of `model` (of its Zhuravlev transform for a model with one
     /// reflecting barrier in its own coordinates) and lists its quantities.
@@ -189,7 +203,7 @@ impl<'a> Problem<'a> {
         let zhuravlev = reflecting.then(|| zhuravlev_bound(model));
         let (fpk, quantities) = match &zhuravlev {
             Some(Ok(t)) => (
-                FpkOperator::derive(&t.model)?,
+                FpkOperator::derive(&t.model).map_err(|e| in_own_terms(model, e))?,
                 through(&t.model, model.observables().len()).into(),
             ),
             _ => (FpkOperator::derive(model)?, own.clone()),

@@ -41,12 +41,14 @@ pub enum NotApplicable {
         /// What it does not handle.
         unsupported: Unsupported,
     },
-    /// Not run unless named: the grid's PDFs of these observables (neither a state nor ± a
-    /// state on each quadrant) go through level-set quadrature of its piecewise-bilinear
-    /// density, which takes minutes where everything else takes a second.
+    /// Not computed unless the grid is named: its PDFs of these observables (neither a state
+    /// nor ± a state on each quadrant) go through level-set quadrature of its
+    /// piecewise-bilinear density, which takes minutes where everything else takes a second.
+    /// The grid still runs: its states' PDFs and every moment are reported.
     #[error(
-        "not run by default: the PDFs of {} under the grid solution take minutes (level-set \
-         quadrature of a piecewise-bilinear density); name it with --method to run it anyway",
+        "its PDFs of {} are not computed by default: they take minutes (level-set quadrature \
+         of a piecewise-bilinear density); its states' PDFs and the moments are reported; name \
+         the grid with --method to compute them",
         observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
     )]
     SlowObservables {
@@ -74,14 +76,28 @@ pub struct Skipped {
     pub why: NotApplicable,
 }
 
-/// A method named by the user that does not apply to the model.
+/// The methods named by the user that do not apply to the model: every one of them, each
+/// with its reason, so that one message says all that stands in the way.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("--method {method}: {why}")]
+#[error("{}", refusal(.methods))]
 pub struct Refused {
-    /// The method.
-    pub method: MethodName,
-    /// Why it does not apply.
-    pub why: NotApplicable,
+    /// The methods, in the order named, with why each does not apply (at least one).
+    pub methods: Vec<Skipped>,
+}
+
+fn refusal(methods: &[Skipped]) -> String {
+    match methods {
+        [one] => format!("--method {}: {}", one.method, one.why),
+        _ => {
+            let names: Vec<&str> = methods.iter().map(|s| s.method.as_str()).collect();
+            format!(
+                "--method: {} of the methods named do not apply ({}): {}",
+                methods.len(),
+                names.join(", "),
+                reasons(methods)
+            )
+        }
+    }
 }
 
 /// The methods a study runs, and those of the set asked for that it skips.
@@ -91,6 +107,9 @@ pub struct MethodPlan {
     pub run: Vec<MethodName>,
     /// Methods left out, with the reason.
     pub skipped: Vec<Skipped>,
+    /// Methods that run but leave out some of their PDFs by default, with the reason (the
+    /// grid's PDFs of observables that take minutes): the study computes the rest.
+    pub skipped_curves: Vec<Skipped>,
 }
 
 /// Why no plan: a named method does not apply, nothing applies, or the model cannot be
@@ -123,8 +142,9 @@ fn reasons(skipped: &[Skipped]) -> String {
 
 impl MethodPlan {
     /// The plan for `asked`: with `required` (the user named the methods) every method must
-    /// apply; otherwise those that do not are skipped with their reason, and at least one must
-    /// apply.
+    /// apply (the refusal names all that do not); otherwise those that do not are skipped
+    /// with their reason, and at least one must apply. Unless named, the grid runs without
+    /// its PDFs of observables that take minutes ([`MethodPlan::skipped_curves`]).
     ///
     /// # Errors
     /// [`PlanError::Refused`], [`PlanError::NothingApplies`], or [`PlanError::Solve`] when a
@@ -151,14 +171,24 @@ impl MethodPlan {
         let mut plan = MethodPlan {
             run: Vec::new(),
             skipped: Vec::new(),
+            skipped_curves: Vec::new(),
         };
         for &method in asked.names() {
-            let applies = applies(problem, method)?;
-            match applies.and_then(|()| default_cost(problem, method, required)) {
-                Ok(()) => plan.run.push(method),
-                Err(why) if required => return Err(Refused { method, why }.into()),
+            match applies(problem, method)? {
+                Ok(()) => {
+                    plan.run.push(method);
+                    if let Err(why) = default_cost(problem, method, required) {
+                        plan.skipped_curves.push(Skipped { method, why });
+                    }
+                }
                 Err(why) => plan.skipped.push(Skipped { method, why }),
             }
+        }
+        if required && !plan.skipped.is_empty() {
+            return Err(Refused {
+                methods: plan.skipped,
+            }
+            .into());
         }
         if plan.run.is_empty() {
             return Err(PlanError::NothingApplies {
@@ -170,8 +200,8 @@ impl MethodPlan {
     }
 }
 
-/// A method that applies but is not run unless named: the grid when the model has
-/// observables whose PDFs need level-set quadrature.
+/// What a method that applies leaves out unless named: the grid's PDFs of observables that
+/// need level-set quadrature.
 fn default_cost(
     problem: &Problem,
     method: MethodName,

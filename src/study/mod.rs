@@ -177,6 +177,7 @@ pub struct StudyRunner<'a> {
     cells: [usize; 2],
     bins: Option<&'a BinChoice<'a>>,
     curves_of: Option<Vec<String>>,
+    without_grid_curves: Vec<String>,
 }
 
 impl<'a> StudyRunner<'a> {
@@ -190,6 +191,7 @@ impl<'a> StudyRunner<'a> {
             cells: crate::grid::DEFAULT_CELLS,
             bins: None,
             curves_of: None,
+            without_grid_curves: Vec::new(),
         }
     }
 
@@ -228,6 +230,32 @@ impl<'a> StudyRunner<'a> {
     /// ```
     pub fn curves_of(mut self, names: &[String]) -> Self {
         self.curves_of = Some(names.to_vec());
+        self
+    }
+
+    /// Leaves the grid's column out of the curves of these quantities (the grid's PDFs of
+    /// observables that need level-set quadrature take minutes); its moments of them, and its
+    /// columns of every other quantity, are computed as usual.
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::study::{GridRun, StudyRunner};
+    /// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\n\
+    ///             diffusion v: xi\nobserve E = v^2/2 + z^2/2\n";
+    /// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
+    /// let study = StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .methods(&[MethodName::Epc, MethodName::Grid])
+    ///     .cells([40, 60])
+    ///     .without_grid_curves_of(&["E".to_string()])
+    ///     .run()?;
+    /// let curve = |name: &str| study.curves.iter().find(|c| c.name == name).unwrap();
+    /// assert!(curve("E").column(GridRun::SOURCE).is_none());
+    /// assert!(curve("z").column(GridRun::SOURCE).is_some());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn without_grid_curves_of(mut self, names: &[String]) -> Self {
+        self.without_grid_curves = names.to_vec();
         self
     }
 
@@ -358,7 +386,15 @@ impl<'a> StudyRunner<'a> {
                 let wanted: Vec<&Quantity> = quantities.iter().filter(wanted).collect();
                 let curves = wanted
                     .par_iter()
-                    .map(|q| curves::curves(q, &solved, self.bins))
+                    .map(|q| {
+                        let skip_grid = self.without_grid_curves.contains(&q.name);
+                        let of_q: Vec<(Source, &Solution)> = solved
+                            .iter()
+                            .filter(|(source, _)| !(skip_grid && *source == GridRun::SOURCE))
+                            .copied()
+                            .collect();
+                        curves::curves(q, &of_q, self.bins)
+                    })
                     .collect::<Vec<_>>();
                 timeline::mark("study: curves done");
                 curves
