@@ -82,6 +82,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let stage = failure.stage();
                 println!("{eps:>6.2} {mu:>5} {:>10} ({stage}) {failure}", "failed");
             }
+            PointOutcome::Refused(refusal) => {
+                println!("{eps:>6.2} {mu:>5} {:>10} {refusal}", "refused");
+            }
         }
     }
 

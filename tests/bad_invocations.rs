@@ -550,3 +550,74 @@ fn arguments_that_are_not_utf8() {
     }
     let _ = std::fs::remove_dir_all(&root);
 }
+
+// issue 39 item 10: sweeps
+/// Runs `fpsolve args… --out <scratch>/out` with a deadline (a hang ends in a kill and a
+/// failure, not a stuck test run) and checks the refusal: exit 2 within a second, no panic,
+/// every `expected` fragment in stderr, nothing written beside `--out`.
+fn sweep_refused_in_time(tag: &str, args: &[&str], expected: &[&str]) -> String {
+    let root = scratch(tag);
+    let out = root.join("out");
+    let t = std::time::Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run fpsolve");
+    while child.try_wait().expect("wait for fpsolve").is_none() {
+        if t.elapsed() > std::time::Duration::from_secs(10) {
+            let _ = child.kill();
+            let _ = child.wait();
+            let _ = std::fs::remove_dir_all(&root);
+            panic!("{tag}: {args:?} still running after 10 s (a hang)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let elapsed = t.elapsed();
+    let output = child.wait_with_output().expect("fpsolve's output");
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(2), "{tag}: {stderr}");
+    assert!(
+        elapsed < std::time::Duration::from_secs(1),
+        "{tag}: refused after {elapsed:?}"
+    );
+    assert!(!stderr.contains("panicked"), "{tag}: panic\n{stderr}");
+    for e in expected {
+        assert!(stderr.contains(e), "{tag}: stderr lacks {e:?}\n{stderr}");
+    }
+    assert!(names(&root).is_empty(), "{tag}: wrote {:?}", names(&root));
+    let _ = std::fs::remove_dir_all(&root);
+    stderr
+}
+
+/// Sweeps into the unrepresentable: values further apart than the largest float (their
+/// figures' axis searched for ticks forever) are refused at once, in ranges and lists; a
+/// point that does not bind names its values in short form, not in 57 digits.
+#[test]
+fn sweeps_into_the_unrepresentable_are_refused_at_once() {
+    for (tag, set) in [
+        ("sweep-span-range", "eps=-1e308:1e308:3"),
+        ("sweep-span-list", "eps=-1e308,0,1e308"),
+        ("sweep-span-mu", "mu=-1.5e308,1e308"),
+    ] {
+        sweep_refused_in_time(
+            tag,
+            &["sweep", MODEL, "--set", set],
+            &[set, "largest floating-point number"],
+        );
+    }
+    let stderr = sweep_refused_in_time(
+        "sweep-bind-digits",
+        &["sweep", MODEL, "--set", "K=-1e56,1"],
+        &["at the sweep point K = -1e56", "intensity"],
+    );
+    let longest = stderr
+        .split(|c: char| !c.is_ascii_digit())
+        .map(str::len)
+        .max()
+        .unwrap_or(0);
+    assert!(longest < 20, "a {longest}-digit number in: {stderr}");
+}

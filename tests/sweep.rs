@@ -35,6 +35,7 @@ fn solution(outcome: &PointOutcome) -> &PointSolution {
     match outcome {
         PointOutcome::Converged(s) => s,
         PointOutcome::Failed(f) => panic!("point failed ({}): {f}", f.stage()),
+        PointOutcome::Refused(r) => panic!("point refused: {r}"),
     }
 }
 
@@ -249,10 +250,11 @@ fn a_failing_degree_is_reported_per_point() {
             other => panic!("expected a failure, got {other:?}"),
         }
     }
-    // An unsupported degree does not stop degree 2, whose solutions still set the tail
-    // thresholds (from the first point).
-    assert_eq!(result.threshold_point, Some(0));
-    assert!(!result.tail_thresholds.is_empty());
+    // No point succeeded, so none sets tail thresholds (degree 2 converging at a point
+    // whose target degree failed does not make it a reference): no tail columns.
+    assert_eq!(result.threshold_point, None);
+    assert!(result.tail_thresholds.is_empty());
+    assert!(!result.to_csv().contains("p_gt"));
 }
 
 #[test]
@@ -442,8 +444,9 @@ fn a_failure_is_recorded_per_method() {
     let grid = second
         .solution(MethodName::Grid)
         .expect("the grid solves K = 0.2");
-    // Thresholds come from EPC's degree 2, which converged at the second point.
-    assert_eq!(result.threshold_method, MethodName::Epc);
+    // EPC, the first method, solved no point: the thresholds come from the next method that
+    // solved one, the grid, at the second point.
+    assert_eq!(result.threshold_method, MethodName::Grid);
     assert_eq!(result.threshold_point, Some(1));
     assert!(grid.stats_of("z").unwrap().tail.iter().all(Option::is_some));
 

@@ -69,14 +69,21 @@ class SweepResult:
         return np.sqrt(out) if stat == "std" else out
 
     def failures(self, method: str) -> List[Dict[str, Any]]:
-        """The points ``method`` failed at: ``{"values": {...}, "stage": ..., "message": ...}``."""
+        """The points ``method`` did not solve: ``{"values": {...}, "status": ..., "stage": ...,
+        "message": ...}``, status ``"failed"``, or ``"refused"`` (stage ``"admissibility"``) for
+        a point without a stationary density, which no method was asked to solve."""
         names = list(self.values)
         out = []
         for p in self._points:
             o = self._outcome(p, method)
-            if o["status"] == "failed":
+            if o["status"] in ("failed", "refused"):
                 out.append(
-                    {"values": dict(zip(names, p["values"])), "stage": o["stage"], "message": o["message"]}
+                    {
+                        "values": dict(zip(names, p["values"])),
+                        "status": o["status"],
+                        "stage": o["stage"],
+                        "message": o["message"],
+                    }
                 )
         return out
 

@@ -130,15 +130,28 @@ pub(crate) fn run_whole(
         }
         sayln!("in {seconds:.1} s");
     }
+    if result.tail_thresholds.is_empty() {
+        sayln!("no tail thresholds: no method solved any point, so sweep.csv has no p_gt columns");
+    }
     commit_output(run, files.len())?;
-    if failed > 0 {
-        let what = if result.methods.names().len() == 1 {
-            format!("{failed} points failed")
-        } else {
-            format!("{failed} (point, method) pairs failed")
-        };
+    // Refused points count once, not once per method: no method was asked to solve them.
+    let refused = result.refused();
+    let failed = failed - refused * result.methods.names().len();
+    if failed > 0 || refused > 0 {
+        let mut what = Vec::new();
+        if refused > 0 {
+            what.push(format!(
+                "{refused} points refused before any work (no stationary density)"
+            ));
+        }
+        if failed > 0 && result.methods.names().len() == 1 {
+            what.push(format!("{failed} points failed"));
+        } else if failed > 0 {
+            what.push(format!("{failed} (point, method) pairs failed"));
+        }
         return Err(Failure::Flagged(format!(
-            "error: {what} (reported in sweep.csv and sweep.json; the others were kept)"
+            "error: {} (reported in sweep.csv and sweep.json; the others were kept)",
+            what.join(", ")
         )));
     }
     Ok(())

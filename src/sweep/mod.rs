@@ -61,6 +61,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod admission;
 mod method;
 mod outcome;
 mod point;
@@ -72,7 +73,7 @@ mod thresholds;
 
 pub use method::MethodRefusal;
 pub use outcome::{
-    EpcFigures, MethodOutcome, PointFailure, PointOutcome, PointSolution, PointStats,
+    EpcFigures, MethodOutcome, PointFailure, PointOutcome, PointRefusal, PointSolution, PointStats,
     SolverFigures, SweepPoint, SweepResult, TailThresholds,
 };
 pub use run::Sweep;

@@ -5,7 +5,9 @@ use serde::Serialize;
 
 use crate::epc::{EpcError, EpcSolution, NormalisationKind};
 use crate::grid::{GridError, GridReport};
+use crate::model::number;
 use crate::moments::Moments;
+use crate::physics::Inadmissible;
 use crate::solve::{MethodName, MethodSet};
 
 use super::MethodRefusal;
@@ -111,6 +113,34 @@ pub enum PointOutcome {
     Converged(PointSolution),
     /// The method has no answer at this point; the other methods and points are unaffected.
     Failed(PointFailure),
+    /// The point has no stationary density (found before any point was solved, as a single
+    /// run refuses such parameters): no method solved it; the other points are unaffected.
+    Refused(PointRefusal),
+}
+
+/// Why a point was not solved by any method: its parameters leave the model without a
+/// stationary density ([`crate::physics::check`], the check a single run makes before any
+/// work). `Display` gives the message of `sweep.csv`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(transparent)]
+pub struct PointRefusal(pub Inadmissible);
+
+impl PointRefusal {
+    /// The stage that refused the point, as `sweep.csv` names it: `admissibility`.
+    pub fn stage(&self) -> &'static str {
+        "admissibility"
+    }
+}
+
+/// In `sweep.json` a refusal is its stage and its message.
+impl Serialize for PointRefusal {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("PointRefusal", 2)?;
+        st.serialize_field("stage", self.stage())?;
+        st.serialize_field("message", &self.to_string())?;
+        st.end()
+    }
 }
 
 /// Why a method has no solution at a point, by the stage that failed. `Display` gives the
@@ -161,7 +191,12 @@ pub enum PointFailure {
         quantity: String,
     },
     /// A statistic of a quantity has no finite value.
-    #[error("statistics of `{quantity}` are not finite (mean {mean}, std dev {std_dev}, kurtosis {kurtosis})")]
+    #[error(
+        "statistics of `{quantity}` are not finite (mean {}, std dev {}, kurtosis {})",
+        number(*mean),
+        number(*std_dev),
+        number(*kurtosis)
+    )]
     NotFinite {
         /// The quantity.
         quantity: String,
@@ -238,7 +273,7 @@ impl SweepPoint {
     pub fn solution(&self, method: MethodName) -> Option<&PointSolution> {
         match self.outcome(method)? {
             PointOutcome::Converged(s) => Some(s),
-            PointOutcome::Failed(_) => None,
+            PointOutcome::Failed(_) | PointOutcome::Refused(_) => None,
         }
     }
 }
@@ -275,10 +310,13 @@ pub struct SweepResult {
     /// The observables (the states when the model declares none): what the figures show.
     pub figure_quantities: Vec<String>,
     /// The method whose solutions set the tail thresholds: the first of
-    /// [`methods`](Self::methods) (for EPC, its degree-2 solution, the Gaussian closure).
+    /// [`methods`](Self::methods) that solved any point (for EPC, its degree-2 solution,
+    /// the Gaussian closure, gives the values); the first method when none did.
     pub threshold_method: MethodName,
-    /// Index of the point whose solution set the tail thresholds (the first point the
-    /// threshold method solved), if any.
+    /// Index of the point whose solution set the tail thresholds: the first point, in the
+    /// sweep's order, that the threshold method solved (for EPC: converged at the target
+    /// degree). `None` when no method solved any point: then there are no thresholds, no
+    /// tail columns and no tail figures.
     pub threshold_point: Option<usize>,
     /// Tail thresholds per quantity, fixed for the whole sweep and every method so that
     /// curves are comparable.

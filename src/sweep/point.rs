@@ -11,13 +11,38 @@ use crate::solve::{
 };
 
 use super::thresholds::{Frontier, ReferenceRms};
-use super::{EpcFigures, PointFailure, PointSolution, PointStats, SolverFigures, SweepSpec};
+use super::{
+    EpcFigures, PointFailure, PointRefusal, PointSolution, PointStats, SolverFigures, SweepSpec,
+};
 
 /// A point's data before the tail thresholds are known.
 pub(super) struct Raw {
     pub(super) values: Vec<f64>,
     pub(super) wall_ms: f64,
+    /// One entry per method; none when the point was refused.
     pub(super) methods: Vec<RawMethod>,
+    /// Why no method solved the point, when it has no stationary density.
+    pub(super) refusal: Option<PointRefusal>,
+}
+
+impl Raw {
+    /// A point refused before any work: no method's data.
+    pub(super) fn refused(values: Vec<f64>, refusal: PointRefusal) -> Raw {
+        Raw {
+            values,
+            wall_ms: 0.0,
+            methods: Vec::new(),
+            refusal: Some(refusal),
+        }
+    }
+
+    /// What the point knows of its reference values under method number `k` (see
+    /// [`super::thresholds`]); none for a refused point.
+    pub(super) fn reference(&self, k: usize) -> ReferenceRms {
+        self.methods
+            .get(k)
+            .map_or(ReferenceRms::Known(None), |m| m.reference.clone())
+    }
 }
 
 /// One method's data at a point.
@@ -93,6 +118,7 @@ pub(super) fn solve_point(
         values,
         wall_ms: ms(start),
         methods,
+        refusal: None,
     }
 }
 
@@ -131,13 +157,16 @@ fn epc_ladder(
 }
 
 /// √E\[g²\] per quantity under the degree-2 EPC solution at a point (the reference the tail
-/// thresholds are set from), when it converged with finite positive values. The ladder is
-/// solved exactly as [`by_epc`] solves it, so the degree-2 solution is bit for bit the one a
-/// point reports beside its target degree.
+/// thresholds are set from), when the point succeeded (its target degree converged and its
+/// statistics are finite) and the values are finite and positive. The ladder is solved
+/// exactly as [`by_epc`] solves it, so the degree-2 solution is bit for bit the one a point
+/// reports beside its target degree.
 pub(super) fn epc_reference_rms(bound: &BoundModel, degree: usize) -> Option<Vec<f64>> {
     let (problem, solved) = epc_ladder(bound, degree).ok()?;
     let first = solved.first()?.as_ref().ok()?;
-    rms_of(&first.all_moments(), problem.quantities().len())
+    let rms = rms_of(&first.all_moments(), problem.quantities().len());
+    epc_curves(&problem, solved).ok()?;
+    rms
 }
 
 /// EPC at `degree`, continued from degree 2, and the reference values of the degree-2
@@ -158,7 +187,15 @@ fn by_epc(
         (Some(Ok(_)), _) => ReferenceRms::Unknown,
         (_, _) => ReferenceRms::Known(None),
     };
-    (epc_curves(&problem, solved), rms)
+    let curves = epc_curves(&problem, solved);
+    // Only a point that succeeded sets the thresholds: a degree-2 solution whose target
+    // degree failed would set them from a point the sweep reports as failed.
+    let rms = if curves.is_ok() {
+        rms
+    } else {
+        ReferenceRms::Known(None)
+    };
+    (curves, rms)
 }
 
 /// The target degree of a point's EPC ladder. Reported: its moments, and its PDF curves on
@@ -221,8 +258,13 @@ pub(super) fn by_method(
         Err(e) => return (Err(failure(e, method)), None),
     };
     let moments = solution.all_moments();
-    let rms = rms_of(&moments, solution.quantities().len());
-    (curves_of(&solution, &moments), rms)
+    let curves = curves_of(&solution, &moments);
+    // Only a point that succeeded sets the thresholds.
+    let rms = curves
+        .is_ok()
+        .then(|| rms_of(&moments, solution.quantities().len()))
+        .flatten();
+    (curves, rms)
 }
 
 fn curves_of(

@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::report::{write_json, Cell, Curve, LineFigure, OutputDir, ReportError, TextTable};
+use crate::report::{
+    write_json, Cell, Curve, FigureError, LineFigure, OutputDir, ReportError, TextTable,
+};
 
 use crate::solve::MethodName;
 
@@ -44,6 +46,18 @@ impl SweepResult {
             .count()
     }
 
+    /// The points refused before any work (no stationary density): no method solved them.
+    pub fn refused(&self) -> usize {
+        self.points
+            .iter()
+            .filter(|p| {
+                p.outcomes
+                    .iter()
+                    .any(|o| matches!(o.outcome, PointOutcome::Refused(_)))
+            })
+            .count()
+    }
+
     /// The points `method` solved.
     pub fn converged_by(&self, method: MethodName) -> usize {
         self.points
@@ -53,8 +67,9 @@ impl SweepResult {
     }
 
     /// The sweep as CSV text: one row per point with the swept parameters, then one block of
-    /// columns per method: `status` (`converged` or `failed`), `stage` and `message` of a
-    /// failure, the method's own figures (EPC: iterations, residual, residual threshold, FPK
+    /// columns per method: `status` (`converged`, `failed`, or `refused` for a point without a
+    /// stationary density, which no method was asked to solve), `stage` and `message` of a
+    /// failure or refusal (stage `admissibility`), the method's own figures (EPC: iterations, residual, residual threshold, FPK
     /// residual and normalisation; grid: clipped negative mass and the estimated L1 errors of
     /// the two marginals), then per quantity `<g>_mean`, `<g>_std_dev`, `<g>_kurtosis` and
     /// `<g>_p_gt_<k>rms` = P(|g| > k·rms) for k = 2, 3, 4 (the thresholds are in
@@ -112,6 +127,11 @@ impl SweepResult {
                         Cell::Word("failed".into()),
                         Cell::Word(failure.stage().into()),
                         Cell::Text(failure.to_string()),
+                    ],
+                    PointOutcome::Refused(refusal) => vec![
+                        Cell::Word("refused".into()),
+                        Cell::Word(refusal.stage().into()),
+                        Cell::Text(refusal.to_string()),
                     ],
                 };
                 let n = block.len();
@@ -350,7 +370,8 @@ impl SweepResult {
     }
 
     /// Writes `sweep.csv`, `sweep.json` and the figures of [`figures`](Self::figures)
-    /// (PNG and SVG) into `out`; returns the files written.
+    /// (PNG and SVG) into `out`; returns the files written. A figure whose statistics span
+    /// more than the largest floating-point number fits no axis and is left out.
     ///
     /// # Errors
     /// The first [`ReportError`] met; files written before it stay.
@@ -360,9 +381,19 @@ impl SweepResult {
             write_json(out, "sweep.json", self)?,
         ];
         for (stem, figure) in self.figures() {
-            let written = figure.write(out, &stem)?;
-            files.push(written.png);
-            files.push(written.svg);
+            match figure.write(out, &stem) {
+                Ok(written) => {
+                    files.push(written.png);
+                    files.push(written.svg);
+                }
+                // Statistics further apart than the largest float (a blown-up point) fit no
+                // axis: the figure is left out, its numbers are in sweep.csv and sweep.json.
+                Err(ReportError::Figure {
+                    source: FigureError::Span { .. },
+                    ..
+                }) => {}
+                Err(e) => return Err(e),
+            }
         }
         Ok(files)
     }
@@ -376,8 +407,9 @@ fn join_label(a: &str, b: &str) -> String {
     }
 }
 
-/// A number for a legend: at most four significant digits, no trailing zeros.
+/// A number for a legend or title: at most four significant digits, no trailing zeros, in
+/// exponent form outside [1e−4, 1e6) (`{}` of an f64 writes every digit of 1e56).
 fn short(v: f64) -> String {
     let rounded: f64 = format!("{v:.3e}").parse().unwrap_or(v);
-    format!("{rounded}")
+    crate::model::number(rounded)
 }

@@ -10,9 +10,10 @@ use crate::cancel::{Cancel, Cancelled};
 use crate::grid::Cells;
 use crate::model::Model;
 use crate::solve::{
-    quantities_of, reported, two_sided_tail_probability, Method, MethodName, MethodSet,
+    quantities_of, reported, two_sided_tail_probability, Method, MethodName, MethodSet, Problem,
 };
 
+use super::admission;
 use super::method::{applies, settle};
 use super::point::{solve_point, PointCurves, Raw};
 use super::thresholds::{self, Frontier, Reference, ReferenceRms};
@@ -135,11 +136,13 @@ impl<'a> Sweep<'a> {
         for &name in self.methods.names() {
             settled.push((name, settle(name, self.degree, self.cells)));
         }
-        let bound = self
-            .spec
-            .points()
-            .into_iter()
-            .find_map(|values| self.model.bind(&self.spec.overrides_at(&values)).ok());
+        // The structure is checked at the first point with a stationary density: at a point
+        // without one no operator is derived, and nothing could be checked.
+        let bound = self.spec.points().into_iter().find_map(|values| {
+            let bound = self.model.bind(&self.spec.overrides_at(&values)).ok()?;
+            Problem::new(&bound).ok()?;
+            Some(bound)
+        });
         if let Some(bound) = bound {
             for (name, method) in settled {
                 applies(&bound, name, method).map_err(|r| refused(name, r))?;
@@ -150,14 +153,21 @@ impl<'a> Sweep<'a> {
 
     /// Solves every point by every method (EPC at the degree, continued from degree 2 within
     /// the point), all points in parallel, and collects the statistics of each state and
-    /// observable. A method that fails at a point — bind error (e.g. a negative intensity),
-    /// FPK error, EPC failure at degree 2 or at `degree`, grid failure — is kept as
-    /// [`PointOutcome::Failed`] with its stage and message; the other methods and points are
-    /// unaffected.
+    /// observable. Before any point is solved, every point is checked for a stationary
+    /// density as a single run is ([`crate::physics::check`]); a point without one (a
+    /// softening spring's escaping regime, no noise, …) is not solved but kept as
+    /// [`PointOutcome::Refused`] for every method, with the typed reason. A method that
+    /// fails at a point — bind error (e.g. a negative intensity), FPK error, EPC failure at
+    /// degree 2 or at `degree`, grid failure — is kept as [`PointOutcome::Failed`] with its
+    /// stage and message; the other methods and points are unaffected.
     ///
     /// Tail probabilities P(|g| > a) use thresholds a = 2, 3, 4 × √E\[g²\] at the first
-    /// point the first method solved (for EPC its degree-2 solution), fixed for the whole
-    /// sweep and every method. √E\[g²\] is σ for a zero-mean quantity and makes the
+    /// point, in the sweep's order, that the first method solved (converged at the target
+    /// degree; for EPC the values are those of its degree-2 solution) — or, when the first
+    /// method solved no point, the next method in the order asked that solved one — fixed
+    /// for the whole sweep and every method; [`SweepResult::threshold_method`] and
+    /// [`SweepResult::threshold_point`] name them, and when no method solved any point there
+    /// are no thresholds. √E\[g²\] is σ for a zero-mean quantity and makes the
     /// thresholds of |z| those of z. The probabilities are integrals of the quantity's PDF
     /// curve (Eqs. 23–28) beyond ±a, normalised by the curve's mass.
     ///
@@ -197,12 +207,16 @@ impl<'a> Sweep<'a> {
         &self,
         range: Range<usize>,
         cancel: &Cancel,
-    ) -> Result<(Vec<Raw>, Option<Reference>), Cancelled> {
+    ) -> Result<(Vec<Raw>, Option<(MethodName, Reference)>), Cancelled> {
         let (model, spec, progress) = (self.model, self.spec, self.progress);
         let total = range.len() as u64;
         let done = AtomicU64::new(0);
         let settled = self.settled();
         let all = spec.points();
+        // Every point of the sweep is checked before any is solved (the walk below may need
+        // points outside the range): a point without a stationary density is never handed
+        // to a solver.
+        let refusals = admission::refusals(model, spec, &all);
         let frontier = Frontier::at(&range);
         let solve = || {
             range
@@ -212,29 +226,54 @@ impl<'a> Sweep<'a> {
                     if cancel.is_cancelled() {
                         return Err(Cancelled);
                     }
-                    let point = solve_point(model, spec, i, all[i].clone(), &settled, &frontier);
+                    let point = match &refusals[i] {
+                        Some(refusal) => {
+                            frontier.passed(i);
+                            Raw::refused(all[i].clone(), refusal.clone())
+                        }
+                        None => solve_point(model, spec, i, all[i].clone(), &settled, &frontier),
+                    };
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(k, total);
                     Ok(point)
                 })
                 .collect::<Result<Vec<Raw>, Cancelled>>()
         };
-        let method = settled[0].1;
-        let walk = |indices: Range<usize>, known: &dyn Fn(usize) -> ReferenceRms| {
+        let walk = |k: usize, indices: Range<usize>, known: &dyn Fn(usize) -> ReferenceRms| {
+            let known = |i: usize| match refusals[i] {
+                Some(_) => ReferenceRms::Known(None),
+                None => known(i),
+            };
+            let method = settled[k].1;
             thresholds::reference(model, spec, &all, indices, method, known, cancel)
         };
         // The points before this range (a shard's) are walked on one core while the others
         // solve; then the range's own points, from what they computed (see
         // [`super::thresholds`]), and any after it.
-        let (raw, before) = rayon::join(solve, || walk(0..range.start, &|_| ReferenceRms::Unknown));
-        let raw = raw?;
-        let reference = before.or_else(|| {
-            let known = |i: usize| match i.checked_sub(range.start).and_then(|k| raw.get(k)) {
-                Some(point) => point.methods[0].reference.clone(),
-                None => ReferenceRms::Unknown,
-            };
-            walk(range.start..all.len(), &known)
+        let (raw, before) = rayon::join(solve, || {
+            walk(0, 0..range.start, &|_| ReferenceRms::Unknown)
         });
+        let raw = raw?;
+        let (solved, first) = (&raw, range.start);
+        let known = |k: usize| {
+            move |i: usize| match i.checked_sub(first).and_then(|j| solved.get(j)) {
+                Some(point) => point.reference(k),
+                None => ReferenceRms::Unknown,
+            }
+        };
+        let mut reference = before
+            .or_else(|| walk(0, range.start..all.len(), &known(0)))
+            .map(|r| (settled[0].0, r));
+        // A method that solved no point sets no thresholds: the next method, in the order
+        // asked, that solved one does.
+        for k in 1..settled.len() {
+            if reference.is_some() {
+                break;
+            }
+            reference = walk(k, 0..range.start, &|_| ReferenceRms::Unknown)
+                .or_else(|| walk(k, range.start..all.len(), &known(k)))
+                .map(|r| (settled[k].0, r));
+        }
         if cancel.is_cancelled() {
             return Err(Cancelled);
         }
@@ -255,7 +294,7 @@ impl<'a> Sweep<'a> {
     pub(super) fn assemble(
         &self,
         raw: Vec<Raw>,
-        reference: Option<Reference>,
+        reference: Option<(MethodName, Reference)>,
         start: Instant,
     ) -> SweepResult {
         let (model, spec) = (self.model, self.spec);
@@ -265,10 +304,12 @@ impl<'a> Sweep<'a> {
             .into_iter()
             .map(|q| q.name.clone())
             .collect();
-        let threshold_method = self.methods.names()[0];
-        let threshold_point = reference.as_ref().map(|r| r.point);
+        let threshold_method = reference
+            .as_ref()
+            .map_or(self.methods.names()[0], |(method, _)| *method);
+        let threshold_point = reference.as_ref().map(|(_, r)| r.point);
         let tail_thresholds: Vec<TailThresholds> = reference
-            .map(|r| {
+            .map(|(_, r)| {
                 quantities
                     .iter()
                     .zip(r.rms)
@@ -285,15 +326,28 @@ impl<'a> Sweep<'a> {
             .map(|r| SweepPoint {
                 values: r.values,
                 wall_ms: r.wall_ms,
-                outcomes: r
-                    .methods
-                    .into_iter()
-                    .map(|m| MethodOutcome {
-                        method: m.method,
-                        wall_ms: m.wall_ms,
-                        outcome: with_tails(m.outcome, &tail_thresholds),
-                    })
-                    .collect(),
+                outcomes: match r.refusal {
+                    // Refused before any work: every method has the same reason.
+                    Some(refusal) => self
+                        .methods
+                        .names()
+                        .iter()
+                        .map(|&method| MethodOutcome {
+                            method,
+                            wall_ms: 0.0,
+                            outcome: PointOutcome::Refused(refusal.clone()),
+                        })
+                        .collect(),
+                    None => r
+                        .methods
+                        .into_iter()
+                        .map(|m| MethodOutcome {
+                            method: m.method,
+                            wall_ms: m.wall_ms,
+                            outcome: with_tails(m.outcome, &tail_thresholds),
+                        })
+                        .collect(),
+                },
             })
             .collect();
         SweepResult {

@@ -5,7 +5,7 @@ use std::str::FromStr;
 use serde::Serialize;
 
 use crate::model::set::split_assignment;
-use crate::model::{parse_expr, Model, Override, SetError};
+use crate::model::{number as short_number, parse_expr, Model, Override, SetError};
 
 use super::{MAX_POINTS, MAX_SWEPT};
 
@@ -43,6 +43,23 @@ pub enum SweepError {
         arg: String,
         /// What is wrong with it.
         reason: String,
+    },
+    /// Swept values further apart than the largest floating-point number (`eps=-1e308:1e308:3`):
+    /// no axis of a figure holds them, and no model's parameter means anything there.
+    #[error(
+        "`--set {arg}`: the values span from {} to {}, further apart than the largest \
+         floating-point number ({}); sweep a narrower range",
+        short_number(*lo),
+        short_number(*hi),
+        short_number(f64::MAX)
+    )]
+    SpanOverflow {
+        /// The argument.
+        arg: String,
+        /// The smallest value.
+        lo: f64,
+        /// The largest value.
+        hi: f64,
     },
     /// A list with an empty item (`mu=0.1,,1` or a trailing comma).
     #[error("`--set {arg}`: item {index} of the list is empty")]
@@ -285,7 +302,7 @@ impl SweepSpec {
                     .swept
                     .iter()
                     .zip(&values)
-                    .map(|(p, v)| format!("{} = {v}", p.name))
+                    .map(|(p, &v)| format!("{} = {}", p.name, short_number(v)))
                     .collect::<Vec<_>>()
                     .join(", ");
                 return Err(SweepError::Bind { point, source });
@@ -338,14 +355,14 @@ impl FromStr for SetArg {
                 let (name, _) = split_assignment(arg).map_err(set_error)?;
                 Ok(SetArg::Swept(SweptParameter {
                     name: name.to_string(),
-                    values: range(arg, &parts)?,
+                    values: within_span(arg, range(arg, &parts)?)?,
                 }))
             }
             Some(Value::List(items)) => {
                 let (name, _) = split_assignment(arg).map_err(set_error)?;
                 Ok(SetArg::Swept(SweptParameter {
                     name: name.to_string(),
-                    values: list(arg, &items)?,
+                    values: within_span(arg, list(arg, &items)?)?,
                 }))
             }
             Some(Value::Single) | None => Ok(SetArg::Fixed(arg.parse().map_err(set_error)?)),
@@ -460,6 +477,22 @@ fn range(arg: &str, parts: &[&str]) -> Result<Vec<f64>, SweepError> {
         .collect())
 }
 
+/// The values, when their span max − min is a finite number (the figures' axis runs over
+/// it; an infinite span made the axis' tick search loop forever).
+fn within_span(arg: &str, values: Vec<f64>) -> Result<Vec<f64>, SweepError> {
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if (hi - lo).is_finite() {
+        Ok(values)
+    } else {
+        Err(SweepError::SpanOverflow {
+            arg: arg.to_string(),
+            lo,
+            hi,
+        })
+    }
+}
+
 fn list(arg: &str, items: &[&str]) -> Result<Vec<f64>, SweepError> {
     items
         .iter()
@@ -486,6 +519,25 @@ mod tests {
         assert!(matches!(classify("max(1, 2)"), Value::Single));
         assert!(matches!(classify("max(1, 2), 3"), Value::List(v) if v.len() == 2));
         assert!(matches!(classify("0:1:3"), Value::Range(v) if v.len() == 3));
+    }
+
+    #[test]
+    fn values_further_apart_than_the_largest_float_are_refused() {
+        for arg in [
+            "eps=-1e308:1e308:3",
+            "eps=-1e308,0,1e308",
+            "eps=1.7e308,-1e308",
+        ] {
+            let err = arg.parse::<SetArg>().unwrap_err();
+            assert!(
+                matches!(err, SweepError::SpanOverflow { .. }),
+                "{arg}: {err}"
+            );
+            // Short numbers in the message, not 309 digits.
+            assert!(!err.to_string().contains("0000000000"), "{err}");
+        }
+        assert!("eps=-1e307:1e307:3".parse::<SetArg>().is_ok());
+        assert!("eps=1e308,1.7e308".parse::<SetArg>().is_ok());
     }
 
     #[test]

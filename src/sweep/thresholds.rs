@@ -1,6 +1,7 @@
 //! The reference point of a sweep's tail thresholds: the first point, in the sweep's order,
-//! that the first method solved (for EPC: its degree-2 solution, the Gaussian closure, with
-//! finite positive √E\[g²\] of every quantity).
+//! that the first method solved — converged at the target degree with finite statistics, so
+//! a point the sweep reports as failed or refused never sets them — with finite positive
+//! √E\[g²\] of every quantity (for EPC under its degree-2 solution, the Gaussian closure).
 //!
 //! Found by walking the sweep's points in order from the first, whatever part of the sweep
 //! this process solves: a shard finds the same point and the same values as the whole run,

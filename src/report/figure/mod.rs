@@ -160,6 +160,21 @@ pub enum FigureError {
     /// The PNG encoder failed.
     #[error("PNG encoding failed: {0}")]
     Encoding(String),
+    /// Values further apart on one axis than the largest floating-point number: no axis
+    /// holds them.
+    #[error(
+        "the {axis} values span from {} to {}, further than the largest floating-point number",
+        crate::model::number(*lo),
+        crate::model::number(*hi)
+    )]
+    Span {
+        /// `x` or `y`.
+        axis: &'static str,
+        /// The axis' lower end.
+        lo: f64,
+        /// The axis' upper end.
+        hi: f64,
+    },
 }
 
 const PDF_SIZE: (u32, u32) = (1500, 620);
@@ -303,6 +318,16 @@ fn finite_range<'a>(values: impl IntoIterator<Item = &'a f64>) -> Option<(f64, f
             None => Some((v, v)),
             Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
         })
+}
+
+/// `(lo, hi)` when an axis can run over it: a finite span (plotters' tick search never
+/// ends on an infinite one).
+fn spanned(axis: &'static str, (lo, hi): (f64, f64)) -> Result<(f64, f64), FigureError> {
+    if (hi - lo).is_finite() {
+        Ok((lo, hi))
+    } else {
+        Err(FigureError::Span { axis, lo, hi })
+    }
 }
 
 /// Widens a degenerate range so that the axis has a span.
@@ -545,12 +570,15 @@ impl PdfFigure {
         if y_max <= 0.0 {
             return Err(FigureError::NoPositiveValues);
         }
-        let (x_lo, x_hi) = if x_hi > x_lo {
-            (x_lo, x_hi)
-        } else {
-            padded(x_lo, x_hi, 0.0)
-        };
-        let lin_y = (y_min.min(0.0), y_max * 1.08);
+        let (x_lo, x_hi) = spanned(
+            "x",
+            if x_hi > x_lo {
+                (x_lo, x_hi)
+            } else {
+                padded(x_lo, x_hi, 0.0)
+            },
+        )?;
+        let lin_y = spanned("y", (y_min.min(0.0), y_max * 1.08))?;
         // Log panel, whole decades: from above the peak down to the smallest positive value
         // shown, but not much below 1e-8 of the peak. Eight decades show every tail a Monte
         // Carlo run can resolve; more would squeeze the part where methods differ.
@@ -690,8 +718,8 @@ impl LineFigure {
             finite_range(self.series.iter().flat_map(|s| &s.x)).ok_or(FigureError::NoData)?;
         let (y_lo, y_hi) =
             finite_range(self.series.iter().flat_map(|s| &s.y)).ok_or(FigureError::NoData)?;
-        let (x_lo, x_hi) = padded(x_lo, x_hi, 0.03);
-        let (y_lo, y_hi) = padded(y_lo, y_hi, 0.06);
+        let (x_lo, x_hi) = spanned("x", padded(x_lo, x_hi, 0.03))?;
+        let (y_lo, y_hi) = spanned("y", padded(y_lo, y_hi, 0.06))?;
 
         root.fill(&WHITE).map_err(drawing_error)?;
         let mut chart = ChartBuilder::on(&root)

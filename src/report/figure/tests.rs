@@ -102,3 +102,42 @@ fn invalid_data_is_refused_before_drawing() {
         Err(FigureError::NonFiniteX { index: 0, .. })
     ));
 }
+
+/// Renders on another thread and gives up after `seconds` (a hang is a failure, not a stuck
+/// test run).
+fn rendered_within<T: Send + 'static>(
+    seconds: u64,
+    render: impl FnOnce() -> T + Send + 'static,
+) -> T {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || tx.send(render()));
+    rx.recv_timeout(std::time::Duration::from_secs(seconds))
+        .expect("the figure was not drawn or refused in time (an endless tick search)")
+}
+
+#[test]
+fn an_axis_wider_than_the_largest_float_is_refused_not_looped() {
+    let line = |x: Vec<f64>, y: Vec<f64>| LineFigure {
+        title: "t".into(),
+        x_label: "eps".into(),
+        y_label: "mean".into(),
+        series: vec![Curve {
+            label: "a".into(),
+            x,
+            y,
+        }],
+    };
+    let wide_x = line(vec![-1e308, 0.0, 1e308], vec![1.0, 2.0, 3.0]);
+    assert!(matches!(
+        rendered_within(20, move || wide_x.render_svg()),
+        Err(FigureError::Span { axis: "x", .. })
+    ));
+    let wide_y = line(vec![0.0, 1.0], vec![-1e308, 1e308]);
+    assert!(matches!(
+        rendered_within(20, move || wide_y.render_png()),
+        Err(FigureError::Span { axis: "y", .. })
+    ));
+    // Wide but finite spans are drawn.
+    let wide = line(vec![-1e307, 1e307], vec![-1e307, 1e307]);
+    assert!(rendered_within(60, move || wide.render_svg()).is_ok());
+}
