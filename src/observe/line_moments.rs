@@ -216,5 +216,6 @@ fn inner_moments(nodes: impl Iterator<Item = (f64, f64, [f64; MOMENTS])>) -> Obs
         moments: Moments::from_raw(sums.map(|s| s / mass)),
         undefined_mass: 0.0,
         existing: 4,
+        point_masses: Vec::new(),
     }
 }

@@ -47,7 +47,7 @@ use rayon::prelude::*;
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
 pub use lines::{LinePiece, PieceKind};
-pub use moments::{moments, moments_of_all, ObservableMoments};
+pub use moments::{moments, moments_of_all, ObservableMoments, PointMass, POINT_MASS_FLOOR};
 /// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
 #[cfg(feature = "test-support")]
 #[doc(hidden)]

@@ -102,7 +102,30 @@ pub struct ObservableMoments {
     /// p(0, v) > 0). A convergent integral with a singularity off the axes (log|z − 1|) may
     /// also be left undetermined: flagged, not guessed.
     pub existing: usize,
+    /// The values g takes with positive probability (g constant on a region of the plane,
+    /// as `max(z, 0)` is 0 on z < 0), by value: there g has no density, and its PDF is the
+    /// density of the rest, integrating to 1 − Σ probability (see [`PointMass`]). Empty for
+    /// ± a state.
+    pub point_masses: Vec<PointMass>,
 }
+
+/// A value that an observable takes with positive probability: g is constant on a region of
+/// the plane (a `min` or `max` that clips, a `sgn`), so its distribution has an atom there
+/// and no density. The probability is that of the rule's nodes where g and its values a step
+/// of 1e−6 of the extent away along each axis are all equal: its error is that of a
+/// Gauss–Legendre rule across the region's edge, where the weight jumps (4e−3 for a normal
+/// density cut along a diagonal, less along an axis).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PointMass {
+    /// The value.
+    pub value: f64,
+    /// P(g = value), at least [`POINT_MASS_FLOOR`].
+    pub probability: f64,
+}
+
+/// The smallest point mass reported: below the accuracy the observables' PDFs claim (1e−8
+/// relative), a missing mass changes no written number.
+pub const POINT_MASS_FLOOR: f64 = 1e-9;
 
 /// Nodes and weights of the composite rule on [lo, hi] (split at 0 when 0 is inside).
 fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
@@ -268,7 +291,9 @@ pub fn moments_of_all(
                 Some(check) => established(&f, &check.samples(map)),
                 None => 4,
             };
-            f.moments(existing)
+            let mut m = f.moments(existing);
+            m.point_masses = fine.point_masses(map);
+            m
         })
         .collect()
 }
@@ -458,6 +483,7 @@ impl RawSums {
             },
             undefined_mass: ((self.total - self.defined) / self.total).max(0.0),
             existing,
+            point_masses: Vec::new(),
         }
     }
 }
@@ -509,6 +535,8 @@ fn established(fine: &Samples, check: &Samples) -> usize {
 /// in blocks of rows (in order; not concatenated, which would copy them).
 struct Grid {
     blocks: Vec<Vec<([f64; 2], f64)>>,
+    /// The extent's widths.
+    width: [f64; 2],
 }
 
 impl Grid {
@@ -536,7 +564,67 @@ impl Grid {
                 nodes
             })
             .collect();
-        Grid { blocks }
+        Grid {
+            blocks,
+            width: [ext[0][1] - ext[0][0], ext[1][1] - ext[1][0]],
+        }
+    }
+
+    /// The values a general map takes with probability at least [`POINT_MASS_FLOOR`]: the
+    /// weight of the nodes where g is finite and equal, bit for bit, to its values a step of
+    /// 1e−6 of the extent away on either side along each axis (a smooth g changes over such
+    /// a step unless its gradient vanishes, and then only on a curve, which carries no
+    /// mass), grouped by g's value. Sorted by value.
+    fn point_masses(&self, map: &ObservableMap) -> Vec<PointMass> {
+        let ObservableMap::General { expr, states } = map else {
+            return Vec::new();
+        };
+        let Ok(tape) = Tape::compile(
+            std::slice::from_ref(expr),
+            &[&*states[0], &*states[1]],
+            DeltaPolicy::Zero,
+        ) else {
+            return Vec::new();
+        };
+        let (mut scratch, mut out) = (Vec::new(), [0.0]);
+        let mut g = |x: [f64; 2]| {
+            tape.eval(&x, &mut scratch, &mut out);
+            out[0]
+        };
+        let step = self.width.map(|w| 1e-6 * w);
+        let (mut total, mut flat): (f64, Vec<(f64, f64)>) = (0.0, Vec::new());
+        for &(x, w) in self.nodes() {
+            total += w;
+            let g0 = g(x);
+            let level = g0.is_finite()
+                && [0, 1].iter().all(|&a| {
+                    [-1.0, 1.0].iter().all(|s| {
+                        let mut y = x;
+                        y[a] += s * step[a];
+                        g(y).to_bits() == g0.to_bits()
+                    })
+                });
+            if level {
+                // +0 and −0 are one value.
+                flat.push((g0 + 0.0, w));
+            }
+        }
+        flat.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut masses: Vec<PointMass> = Vec::new();
+        for (value, w) in flat {
+            match masses.last_mut() {
+                Some(m) if m.value.to_bits() == value.to_bits() => m.probability += w,
+                _ => masses.push(PointMass {
+                    value,
+                    probability: w,
+                }),
+            }
+        }
+        for m in &mut masses {
+            m.probability /= total;
+        }
+        masses.retain(|m| m.probability >= POINT_MASS_FLOOR);
+        masses
     }
 
     /// The nodes with their weights times the density, in order.
@@ -636,6 +724,50 @@ mod tests {
         }
         fn analytic(&self) -> bool {
             true
+        }
+    }
+
+    /// A map constant on a region of the plane (`max`, `min` that clip; `sgn`) takes that
+    /// value with positive probability, reported as a point mass; smooth maps, ± a state and
+    /// maps whose gradient vanishes only on a curve (v², z·v) have none.
+    #[test]
+    fn maps_constant_on_a_region_have_point_masses() {
+        use crate::symbolic::{Expr, Func};
+        let d = Normal {
+            m: [0.0, 0.0],
+            sd: [1.0, 1.0],
+            rho: 0.0,
+        };
+        let states = ["z".into(), "v".into()];
+        let (z, v) = (Expr::sym("z"), Expr::sym("v"));
+        let masses = |e: Expr| moments(&d, &ObservableMap::classify(&e, &states)).point_masses;
+        let max = Expr::Call(Func::Max, vec![z.clone(), Expr::num(0.0)]);
+        let m = masses(max);
+        assert_eq!(m.len(), 1, "{m:?}");
+        assert_eq!(m[0].value, 0.0);
+        assert!((m[0].probability - 0.5).abs() < 1e-3, "{m:?}");
+        // min(|z|, 1) = 1 where |z| ≥ 1: P = 2(1 − Φ(1)) = 0.317311.
+        let min = Expr::Call(
+            Func::Min,
+            vec![Expr::call(Func::Abs, z.clone()), Expr::num(1.0)],
+        );
+        let m = masses(min);
+        assert_eq!(m.len(), 1, "{m:?}");
+        assert_eq!(m[0].value, 1.0);
+        assert!((m[0].probability - 0.317_310_5).abs() < 2e-3, "{m:?}");
+        let m = masses(Expr::call(Func::Sgn, z.clone() - v.clone()));
+        assert_eq!(m.iter().map(|m| m.value).collect::<Vec<_>>(), [-1.0, 1.0]);
+        assert!(
+            m.iter().all(|m| (m.probability - 0.5).abs() < 1e-2),
+            "{m:?}"
+        );
+        for smooth in [
+            v.clone() * v.clone(),
+            z.clone() * v.clone(),
+            z.clone() + v.clone(),
+            Expr::call(Func::Abs, z.clone()),
+        ] {
+            assert!(masses(smooth.clone()).is_empty(), "{smooth}");
         }
     }
 

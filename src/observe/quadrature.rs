@@ -40,8 +40,16 @@ fn pointwise(f: &dyn Fn(f64) -> f64) -> impl Fn(&[f64], &mut [f64]) + '_ {
     }
 }
 
+/// Panels split in one integral, at most: a smooth integrand needs hundreds, each jump of a
+/// discontinuous one 40 (the depth cap). Beyond it the integral is not resolved, and NaN says
+/// so; before this cap an integrand whose error estimate never fell (one returning NaN, whose
+/// NaN total set the tolerance to 1e−300) split every panel to depth 40, 2^40 panels.
+const MAX_SPLITS: usize = 1 << 18;
+
 /// [`integrate_panels`] with the integrand evaluated a panel at a time (see
-/// [`integrate_adaptive_batch`]).
+/// [`integrate_adaptive_batch`]). A non-finite value on a panel is the result (NaN, or ±∞
+/// for an integrand infinite there), and so is NaN when [`MAX_SPLITS`] splits do not reach
+/// the tolerance.
 pub fn integrate_panels_batch(f: &dyn Fn(&[f64], &mut [f64]), edges: &[f64], rel: f64) -> f64 {
     let mut stack: Vec<(f64, f64, f64, f64, u32)> = Vec::with_capacity(64);
     let mut total = 0.0;
@@ -52,13 +60,21 @@ pub fn integrate_panels_batch(f: &dyn Fn(&[f64], &mut [f64]), edges: &[f64], rel
         total += v;
     }
     let mut done = 0.0;
+    let mut splits = 0;
     while let Some((lo, hi, v, e, depth)) = stack.pop() {
+        if !(v.is_finite() && e.is_finite()) {
+            return if v.is_infinite() { v } else { f64::NAN };
+        }
         let tol = (rel * total.abs()).max(1e-300);
         // Refine a panel while its error is a noticeable share of the tolerance; the depth
         // cap only bites on a discontinuity, where halving no longer helps.
         if e <= tol / 64.0 || depth >= 40 {
             done += v;
             continue;
+        }
+        splits += 1;
+        if splits > MAX_SPLITS {
+            return f64::NAN;
         }
         let mid = 0.5 * (lo + hi);
         let (v1, e1) = gauss_kronrod(f, lo, mid);
@@ -135,5 +151,48 @@ mod tests {
         let g = |x: f64| (-((x - 7.3) / 1e-3).powi(2)).exp();
         let v = integrate_adaptive(&g, 0.0, 10.0, 1e-10);
         assert!((v - 1e-3 * PI.sqrt()).abs() < 1e-12, "{v}");
+    }
+
+    /// Calls of `f` allowed in one of the tests below: far more than a bounded quadrature
+    /// takes, far fewer than 2^40 panels (a test that would hang panics instead).
+    const CALLS: usize = 20_000_000;
+
+    fn counted<'a>(
+        f: impl Fn(f64) -> f64 + 'a,
+        calls: &'a std::cell::Cell<usize>,
+    ) -> impl Fn(f64) -> f64 + 'a {
+        move |x| {
+            calls.set(calls.get() + 1);
+            assert!(calls.get() < CALLS, "the quadrature did not stop");
+            f(x)
+        }
+    }
+
+    #[test]
+    fn an_integrand_that_is_nan_or_infinite_somewhere_ends_at_once() {
+        let calls = std::cell::Cell::new(0);
+        let nan = counted(
+            |x| if (0.4..0.5).contains(&x) { f64::NAN } else { x },
+            &calls,
+        );
+        assert!(integrate_adaptive(&nan, 0.0, 1.0, 1e-10).is_nan());
+        assert!(calls.get() < 1000, "{}", calls.get());
+        let infinite = counted(|x| if x > 0.7 { f64::INFINITY } else { 1.0 }, &calls);
+        assert_eq!(
+            integrate_adaptive(&infinite, 0.0, 1.0, 1e-10),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn an_integral_the_splits_do_not_resolve_is_nan() {
+        // A jump at every 1e−4: 40 splits each, 4e5 in all, beyond the cap.
+        let calls = std::cell::Cell::new(0);
+        let comb = counted(|x| ((x * 1e4 + 0.5).floor() % 2.0) * (1.0 + x), &calls);
+        assert!(integrate_adaptive(&comb, 0.0, 1.0, 1e-12).is_nan());
+        // A few jumps are resolved as before.
+        let step = |x: f64| if x < 0.3 { 1.0 } else { 2.0 };
+        let v = integrate_adaptive(&step, 0.0, 1.0, 1e-12);
+        assert!((v - 1.7).abs() < 1e-9, "{v}");
     }
 }

@@ -224,7 +224,24 @@ fn no_noise_and_noise_vanishing_at_rest() {
     assert_eq!(check(&bind(&m, &[("S", 0.21)])), Ok(()));
     // An external part keeps it away from rest.
     let m = text("-c*v - k*z", "xi + z*xi", "");
-    assert_eq!(check(&m.bind(&[]).unwrap()), Ok(()));
+    assert_eq!(check(&m.bind(&[]).unwrap()), Ok(())); // Noise that does not vanish at rest, however fast it grows away from it, is not
+                                                      // "purely parametric": (1 + z²)^40 is 1 at the origin and 2^80 at unit distance.
+    for noise in ["(1 + z^2)^40*xi", "exp(10*z)*xi", "(1 + z^200)*xi"] {
+        let m = text("-c*v - k*z", noise, "");
+        assert!(
+            !matches!(
+                check(&m.bind(&[]).unwrap()),
+                Err(Inadmissible::VanishingDiffusionAtRest { .. })
+            ),
+            "{noise}"
+        );
+    }
+    // Noise vanishing quadratically at rest still is.
+    let m = text("-c*v - k*z", "z^2*xi", "");
+    assert!(matches!(
+        check(&m.bind(&[]).unwrap()),
+        Err(Inadmissible::VanishingDiffusionAtRest { .. })
+    ));
 }
 
 #[test]

@@ -8,7 +8,7 @@ use crate::epc::EpcSolution;
 use crate::epc_impact::EpcImpactSolution;
 use crate::grid::GridSolution;
 use crate::moments::Moments;
-use crate::observe::{moments_of_all, JointDensity, ObservableDensity};
+use crate::observe::{moments_of_all, JointDensity, ObservableDensity, PointMass};
 
 use super::{common_grid, printable, Method, Quantity, SolveError};
 
@@ -53,6 +53,10 @@ pub struct QuantityMoments {
     /// How many of the raw moments exist (0 to 4), never a number the quadrature happened to
     /// give for a divergent integral.
     pub existing_moments: usize,
+    /// The values g takes with positive probability (g constant on a region: `max(z, 0)` is
+    /// 0 on z < 0): there g has no density, and its PDF is that of the rest, integrating to
+    /// 1 − their sum. Empty for almost every observable.
+    pub point_masses: Vec<PointMass>,
 }
 
 impl QuantityMoments {
@@ -93,6 +97,22 @@ impl QuantityMoments {
                 self.name,
                 self.undefined_mass,
                 1.0 - self.undefined_mass
+            ));
+        }
+        if !self.point_masses.is_empty() {
+            let atoms: Vec<String> = self
+                .point_masses
+                .iter()
+                .map(|m| format!("{} with probability about {:.2}", m.value, m.probability))
+                .collect();
+            let rest = 1.0 - self.point_masses.iter().map(|m| m.probability).sum::<f64>();
+            parts.push(format!(
+                "`{}` is constant on part of the plane: it equals {} (point masses, which \
+                 have no density), so its PDF is that of the rest and integrates to about {:.2}; \
+                 its moments include them",
+                self.name,
+                atoms.join(" and "),
+                rest
             ));
         }
         if self.existing_moments < 4 {
@@ -257,6 +277,7 @@ impl Solution {
                 moments: m.moments,
                 undefined_mass: m.undefined_mass,
                 existing_moments: m.existing,
+                point_masses: m.point_masses,
             })
             .collect()
     }

@@ -1,0 +1,196 @@
+//! Issue 39 item 7: hangs in observables, EPC and the grid. Each case runs the binary under a
+//! deadline (killed and failed past it), and checks that it ends with a correct answer or a
+//! flagged one (exit 1, the problem on stderr), never a panic, never a wrong refusal.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{json, scratch};
+
+/// What a run under a deadline gave.
+struct Ended {
+    code: Option<i32>,
+    stderr: String,
+    seconds: f64,
+}
+
+/// Runs `fpsolve args…`, killed after `limit` seconds (then the test fails).
+fn run_within(limit: f64, args: &[&str]) -> Ended {
+    let start = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fpsolve");
+    // stderr is read on its own thread so that a full pipe never blocks the child.
+    let mut pipe = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut pipe, &mut s).unwrap();
+        s
+    });
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > Duration::from_secs_f64(limit) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("{args:?} ran past {limit} s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stderr = reader.join().unwrap();
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
+        "{args:?}: panic\n{stderr}"
+    );
+    Ended {
+        code: status.code(),
+        stderr,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// `models/duffing.sde` with its diffusion line and observe line replaced, written under
+/// `dir`.
+fn duffing_with(dir: &Path, name: &str, diffusion: &str, observe: &str) -> PathBuf {
+    let text = std::fs::read_to_string("models/duffing.sde")
+        .unwrap()
+        .replace("diffusion v: xi", &format!("diffusion v: {diffusion}"))
+        .replace("observe y = z, ydot = v", observe);
+    let path = dir.join(format!("{name}.sde"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+// issue 39 item 7: hangs in observables, EPC and the grid
+
+/// Diffusion that grows fast with the state is not "purely parametric noise vanishing at
+/// rest" (that refusal compared the noise at 1e−6 with the noise at unit distance, 2^80 times
+/// larger for (1 + z²)^40), and the grid ends on it in seconds, exit 0 or a flagged exit 1.
+#[test]
+fn fast_growing_diffusion_under_the_grid_ends_and_is_not_refused_as_parametric() {
+    let dir = scratch("fast-diffusion");
+    for (k, diffusion) in ["(1+z^2)^40*xi", "exp(z)*xi", "(1+z^200)*xi"]
+        .into_iter()
+        .enumerate()
+    {
+        let model = duffing_with(&dir, &format!("d{k}"), diffusion, "observe y = z");
+        let out = dir.join(format!("out{k}"));
+        let r = run_within(
+            120.0,
+            &[
+                "solve",
+                model.to_str().unwrap(),
+                "--method",
+                "grid",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert!(
+            !r.stderr.contains("purely parametric"),
+            "{diffusion}: {}",
+            r.stderr
+        );
+        assert!(
+            matches!(r.code, Some(0) | Some(1)),
+            "{diffusion}: {:?} {}",
+            r.code,
+            r.stderr
+        );
+        eprintln!("{diffusion}: exit {:?} in {:.1} s", r.code, r.seconds);
+    }
+}
+
+/// `max(z, 0)` is 0 with probability 1/2: its distribution has a point mass there, which no
+/// PDF shows. The run says so (exit 1, on stderr and in summary.json's stats), with its
+/// probability; it wrote a PDF integrating to 1/2 with exit 0 before. `min(|z|, 1)` is 1
+/// with P(|z| ≥ 1), 0.546 under the degree-2 (Gaussian, variance 2.743) density.
+#[test]
+fn an_observable_with_a_point_mass_is_flagged() {
+    let dir = scratch("point-mass");
+    let model = duffing_with(
+        &dir,
+        "clip",
+        "xi",
+        "observe m = max(z, 0), n = min(abs(z), 1)",
+    );
+    let out = dir.join("out");
+    let r = run_within(
+        120.0,
+        &[
+            model.to_str().unwrap(),
+            "--method",
+            "epc",
+            "--degree",
+            "2",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(r.code, Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.contains(
+            "`m` is constant on part of the plane: it equals 0 with probability about 0.50"
+        ),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        r.stderr.contains(
+            "`n` is constant on part of the plane: it equals 1 with probability about 0.5"
+        ),
+        "{}",
+        r.stderr
+    );
+    let summary = json(&out.join("summary.json"));
+    let stats = summary["degrees"][0]["stats"].as_array().unwrap();
+    let m = stats.iter().find(|s| s["name"] == "m").unwrap();
+    let masses = m["point_masses"].as_array().unwrap();
+    assert_eq!(masses.len(), 1, "{m}");
+    assert_eq!(masses[0]["value"].as_f64(), Some(0.0));
+    // p(z) is even, so P(z < 0) = 1/2 exactly.
+    let p = masses[0]["probability"].as_f64().unwrap();
+    assert!((p - 0.5).abs() < 2e-3, "{p}");
+    let z = stats.iter().find(|s| s["name"] == "z").unwrap();
+    assert_eq!(z["point_masses"].as_array().unwrap().len(), 0);
+}
+
+/// The δ-term EPC's energy density at the energy's minimum, with an elastic wall away from
+/// it (Caughey–Ma, wall at y = −0.5 or 0.4), beside epc-impact: both methods together end
+/// in the time each takes alone.
+#[test]
+fn the_energy_density_at_its_minimum_beside_a_wall_ends() {
+    let dir = scratch("energy-min");
+    for wall in ["lower", "upper"] {
+        let text = std::fs::read_to_string(format!("tests/models/barrier_caughey_{wall}.sde"))
+            .unwrap()
+            + "observe energy = v^2/2 + k*y^2/2 + mu*y^4/4\n";
+        let model = dir.join(format!("{wall}.sde"));
+        std::fs::write(&model, text).unwrap();
+        let out = dir.join(format!("out-{wall}"));
+        let r = run_within(
+            120.0,
+            &[
+                "solve",
+                model.to_str().unwrap(),
+                "--method",
+                "epc,epc-impact",
+                "--degree",
+                "2",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        );
+        assert_eq!(r.code, Some(0), "{wall}: {}", r.stderr);
+    }
+}
