@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use fpsolve::epc::DegreeList;
 use fpsolve::grid::Cells;
+use fpsolve::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
@@ -797,8 +798,8 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
             .collect();
         names.sort();
         for p in names {
-            let text =
-                std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+            let text = read_regular_text(&p, MAX_RESULT_FILE_BYTES)
+                .with_context(|| format!("reading {}", p.display()))?;
             let shard: ShardOutput = serde_json::from_str(&text)
                 .with_context(|| format!("{} is not a shard file", p.display()))?;
             shards.push((p.display().to_string(), shard));

@@ -621,3 +621,206 @@ fn sweeps_into_the_unrepresentable_are_refused_at_once() {
         .unwrap_or(0);
     assert!(longest < 20, "a {longest}-digit number in: {stderr}");
 }
+
+// issue 39 items 7/8: Monte Carlo and file readers
+
+/// [`refused`] for a case that used to hang or exhaust memory: the run is killed if it is
+/// still going after `REFUSAL_DEADLINE` (so the test fails instead of hanging), and must have
+/// been refused (exit 2, `expected` in stderr, no panic, nothing beside `--out`) within it.
+fn refused_at_once(tag: &str, args: &[&str], expected: &[&str]) {
+    use std::process::Stdio;
+    const REFUSAL_DEADLINE: std::time::Duration = std::time::Duration::from_secs(1);
+    let root = scratch(tag);
+    let out = root.join("out");
+    let mut full: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    full.extend(["--out".into(), out.to_string_lossy().into_owned()]);
+    let before = names(&root);
+    let t = std::time::Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(&full)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fpsolve");
+    while child.try_wait().unwrap().is_none() {
+        if t.elapsed() > 10 * REFUSAL_DEADLINE {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("{full:?}: still running after {:?}", t.elapsed());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let elapsed = t.elapsed();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{full:?}: {stderr}");
+    assert!(
+        elapsed < REFUSAL_DEADLINE,
+        "{full:?}: refused after {elapsed:?}"
+    );
+    assert!(!stderr.contains("panicked"), "{full:?}: panic\n{stderr}");
+    for e in expected {
+        assert!(stderr.contains(e), "{full:?}: stderr lacks {e:?}\n{stderr}");
+    }
+    assert_eq!(names(&root), before, "{full:?}: wrote beside --out");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A FIFO at `path` (no writer ever opens it: a reader that opens it blocking hangs).
+fn fifo(path: &std::path::Path) {
+    let status = Command::new("mkfifo").arg(path).status().expect("mkfifo");
+    assert!(status.success());
+}
+
+/// Damping c = 1e6 at dt = 0.01 (c·dt = 1e4, the explicit step stable to 2): every
+/// trajectory blew up, in a run that printed nothing for minutes.
+#[test]
+fn a_time_step_the_damping_makes_unstable() {
+    let expected = ["dt = 0.01 is too large", "largest stable dt is"];
+    refused_at_once(
+        "mc-stiff-simulate",
+        &["simulate", MODEL, "--set", "c=1e6", "--samples", "1e5"],
+        &expected,
+    );
+    refused_at_once(
+        "mc-stiff-job",
+        &[MODEL, "--set", "c=1e6", "--mc", "1e5"],
+        &expected,
+    );
+    refused_at_once(
+        "mc-stiff-210",
+        &["simulate", MODEL, "--set", "c=210", "--samples", "1e5"],
+        &["dt = 0.01 is too large", "largest stable dt is 9.52e-3"],
+    );
+}
+
+/// The histograms of the documented maximum of bins (10⁷) took 12.5 GB.
+#[test]
+fn histograms_over_the_memory_limit() {
+    refused_at_once(
+        "mc-grid-max",
+        &[
+            "simulate",
+            MODEL,
+            "--grid",
+            "y=0:8:10000000",
+            "--samples",
+            "1e6",
+        ],
+        &["memory", "10000300 bins"],
+    );
+}
+
+/// Every reader of a named file refuses what is not a regular file of bounded size: a
+/// symbolic link to `/dev/zero` was read until the kernel killed the process, a FIFO waited
+/// forever.
+#[test]
+fn input_files_that_are_not_regular_files() {
+    let root = scratch("readers-src");
+    let zero = |p: &std::path::Path| std::os::unix::fs::symlink("/dev/zero", p).unwrap();
+    // Model files.
+    let fifo_model = root.join("fifo.sde");
+    fifo(&fifo_model);
+    let zero_model = root.join("zero.sde");
+    zero(&zero_model);
+    for (tag, path, why) in [
+        ("model-fifo", &fifo_model, "not a regular file (a FIFO)"),
+        (
+            "model-zero",
+            &zero_model,
+            "not a regular file (a character device)",
+        ),
+        ("model-dir", &root, "not a regular file (a directory)"),
+    ] {
+        let path = path.to_str().unwrap();
+        refused_at_once(tag, &[path], &[path, why]);
+        refused_at_once(
+            &format!("{tag}-simulate"),
+            &["simulate", path, "--samples", "1e4"],
+            &[path, why],
+        );
+    }
+    // `--mc-from`: the summary a link to /dev/zero, a FIFO, a directory, a huge file.
+    let mc = |name: &str, make: &dyn Fn(&std::path::Path)| {
+        let dir = root.join(name);
+        std::fs::create_dir(&dir).unwrap();
+        make(&dir.join("mc_summary.json"));
+        dir
+    };
+    let huge = |p: &std::path::Path| {
+        // Sparse: 17 GiB claimed, nothing written.
+        std::fs::File::create(p).unwrap().set_len(17 << 30).unwrap();
+    };
+    for (tag, dir, why) in [
+        (
+            "mc-from-zero",
+            mc("mc-zero", &|p| zero(p)),
+            "not a regular file (a character device)",
+        ),
+        (
+            "mc-from-fifo",
+            mc("mc-fifo", &fifo),
+            "not a regular file (a FIFO)",
+        ),
+        (
+            "mc-from-dir",
+            mc("mc-dir", &|p| std::fs::create_dir(p).unwrap()),
+            "not a regular file (a directory)",
+        ),
+        (
+            "mc-from-huge",
+            mc("mc-huge", &huge),
+            "18253611008 bytes, more than the 17179869184",
+        ),
+    ] {
+        let d = dir.to_str().unwrap();
+        refused_at_once(
+            tag,
+            &[MODEL, "--method", "epc", "--mc-from", d],
+            &["--mc-from", "mc_summary.json", why],
+        );
+    }
+    refused_at_once(
+        "mc-from-dev-zero",
+        &[MODEL, "--method", "epc", "--mc-from", "/dev/zero"],
+        &["--mc-from", "/dev/zero"],
+    );
+    // Shard files of `merge`, Monte Carlo and sweep.
+    let shards = |name: &str, file: &str, make: &dyn Fn(&std::path::Path)| {
+        let dir = root.join(name);
+        std::fs::create_dir(&dir).unwrap();
+        make(&dir.join(file));
+        dir
+    };
+    for (tag, dir, why) in [
+        (
+            "merge-zero",
+            shards("sh-zero", "shard_1_of_2.json", &|p| zero(p)),
+            "not a regular file (a character device)",
+        ),
+        (
+            "merge-fifo",
+            shards("sh-fifo", "shard_1_of_2.json", &fifo),
+            "not a regular file (a FIFO)",
+        ),
+        (
+            "merge-huge",
+            shards("sh-huge", "shard_1_of_2.json", &huge),
+            "more than the 17179869184",
+        ),
+        (
+            "merge-sweep-fifo",
+            shards("sw-fifo", "sweep_shard_1_of_2.json", &fifo),
+            "not a regular file (a FIFO)",
+        ),
+        (
+            "merge-sweep-zero",
+            shards("sw-zero", "sweep_shard_1_of_2.json", &|p| zero(p)),
+            "not a regular file (a character device)",
+        ),
+    ] {
+        let d = dir.to_str().unwrap();
+        refused_at_once(tag, &["merge", d], &[d, why]);
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -405,6 +405,7 @@ pub(crate) fn mc_error(py: Python<'_>, e: &McError) -> PyErr {
         McError::NotStationary { .. } => ("not_stationary", vec![]),
         McError::TooLong { .. } => ("too_long", vec![]),
         McError::TooMuchMemory { .. } => ("too_much_memory", vec![]),
+        McError::UnstableStep { .. } => ("unstable_step", vec![]),
         McError::Cancelled => ("cancelled", vec![]),
         _ => ("other", vec![]),
     };

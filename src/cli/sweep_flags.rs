@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use fpsolve::cancel::Cancel;
+use fpsolve::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use fpsolve::job::Progress;
 use fpsolve::mc::Shard;
 use fpsolve::report::OutputDir;
@@ -169,8 +170,8 @@ pub(crate) fn read_sweep_shards(dirs: &[PathBuf]) -> Result<Option<Vec<(String, 
         }
         let names = shard_files(dir, "sweep_shard_")?;
         for p in names {
-            let text =
-                std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+            let text = read_regular_text(&p, MAX_RESULT_FILE_BYTES)
+                .with_context(|| format!("reading {}", p.display()))?;
             let shard: SweepShard = serde_json::from_str(&text)
                 .with_context(|| format!("{} is not a sweep shard file", p.display()))?;
             shards.push((p.display().to_string(), shard));

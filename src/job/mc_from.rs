@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use crate::mc::{McResult, QuantityHistogram};
 use crate::model::BoundModel;
 use crate::report::PdfTable;
@@ -106,9 +107,11 @@ impl McFrom {
     /// ```
     pub fn read(dir: &Path, model: &BoundModel) -> Result<McFrom, McFromError> {
         let path = dir.join("mc_summary.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| McFromError::Unreadable {
-            path: path.clone(),
-            source,
+        let text = read_regular_text(&path, MAX_RESULT_FILE_BYTES).map_err(|source| {
+            McFromError::Unreadable {
+                path: path.clone(),
+                source,
+            }
         })?;
         let result = parse_summary(&text).map_err(|detail| McFromError::Corrupt {
             path: path.clone(),

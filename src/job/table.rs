@@ -3,6 +3,7 @@
 use std::fmt::Write;
 
 use super::{Comparison, JobReport, LogRatio, Reference};
+use crate::number_text::fixed_or_scientific;
 use crate::solve::{MethodName, QuantityMoments};
 use crate::study::{DegreeResult, Source, Study};
 
@@ -157,12 +158,12 @@ fn stats_rows(s: &mut String, key: &str, stats: &[QuantityMoments]) {
     for st in stats {
         let _ = writeln!(
             s,
-            "{:>8} {:>6} {:>12.5} {:>12.5} {:>10.4}{}",
+            "{:>8} {:>6} {} {} {}{}",
             st.name,
             key,
-            st.moments.mean,
-            st.std_dev(),
-            st.moments.kurtosis,
+            fixed_or_scientific(st.moments.mean, 5, 12),
+            fixed_or_scientific(st.std_dev(), 5, 12),
+            fixed_or_scientific(st.moments.kurtosis, 4, 10),
             if st.note().is_some() {
                 "   (see warning)"
             } else {

@@ -278,9 +278,11 @@ impl BatchSummary {
 }
 
 /// The parts of the batches `jobs` (each `(run, batch)`), run in parallel and merged per
-/// batch; `done` hears about each batch when its last part ends. The summaries come back in
-/// the order of `jobs`. `None` when `cancel` was set before every part finished (parts not
-/// yet started are not started).
+/// batch as soon as its last part ends (so that a batch's parts are not all held until the
+/// whole run ends: with 4 parts a batch, they were 4 copies of every histogram of every
+/// batch, 1.25 kB a bin of a default run); `done` hears about each batch then. The
+/// summaries come back in the order of `jobs`. `None` when `cancel` was set before every
+/// part finished (parts not yet started are not started).
 fn run_jobs<'a, R: Copy + Sync>(
     plan: &Plan,
     jobs: &[(R, u64)],
@@ -288,24 +290,34 @@ fn run_jobs<'a, R: Copy + Sync>(
     done: &(dyn Fn() + Sync),
     cancel: &Cancel,
 ) -> Option<Vec<BatchSummary>> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    let split: Vec<(usize, Range<usize>)> = jobs
+    use std::sync::Mutex;
+    // (job, the part's place in its job, its lanes)
+    let split: Vec<(usize, usize, Range<usize>)> = jobs
         .iter()
         .enumerate()
-        .flat_map(|(j, &(run, _))| parts(plan, settings(run).0).map(move |p| (j, p)))
+        .flat_map(|(j, &(run, _))| {
+            parts(plan, settings(run).0)
+                .enumerate()
+                .map(move |(k, p)| (j, k, p))
+        })
         .collect();
     // Each job's part count, from the split itself (its parts are adjacent).
     let mut counts = vec![0; jobs.len()];
-    for (j, _) in &split {
+    for (j, _, _) in &split {
         counts[*j] += 1;
     }
-    let left: Vec<AtomicUsize> = counts.iter().map(|&n| AtomicUsize::new(n)).collect();
+    // Per job: its finished parts until the last one ends, then the merged summary.
+    type Slot = (Vec<Option<BatchSummary>>, Option<BatchSummary>);
+    let slots: Vec<Mutex<Slot>> = counts
+        .iter()
+        .map(|&n| Mutex::new(((0..n).map(|_| None).collect(), None)))
+        .collect();
     // One task per part: rayon would otherwise run runs of adjacent parts as one task that
     // no idle thread can take a part from (seen: one thread done 120 ms before the other).
-    let summaries: Vec<BatchSummary> = split
+    split
         .par_iter()
         .with_max_len(1)
-        .map(|(j, part)| {
+        .map(|(j, k, part)| {
             if cancel.is_cancelled() {
                 return None;
             }
@@ -314,18 +326,29 @@ fn run_jobs<'a, R: Copy + Sync>(
             crate::study::timeline::mark(phase[0]);
             let b = run_part(plan, st, (index, part.clone()), cancel)?;
             crate::study::timeline::mark(phase[1]);
-            if left[*j].fetch_sub(1, Ordering::AcqRel) == 1 {
+            let mut slot = slots[*j].lock().unwrap_or_else(|p| p.into_inner());
+            slot.0[*k] = Some(b);
+            if slot.0.iter().all(Option::is_some) {
+                // In lane order, whichever part ended last: the same bits as a serial run.
+                let parts = std::mem::take(&mut slot.0).into_iter().flatten().collect();
+                slot.1 = Some(BatchSummary::merge(parts));
+                drop(slot);
                 done();
             }
-            Some(b)
+            Some(())
         })
-        .collect::<Option<_>>()?;
-    let mut summaries = summaries.into_iter();
-    let merged = counts
-        .iter()
-        .map(|&n| BatchSummary::merge(summaries.by_ref().take(n).collect()))
-        .collect();
-    Some(merged)
+        .collect::<Option<()>>()?;
+    Some(
+        slots
+            .into_iter()
+            .map(|m| {
+                m.into_inner()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .1
+                    .expect("every part of every job ended")
+            })
+            .collect(),
+    )
 }
 
 /// Runs the batches in `range` in parallel (their parts, see [`PART_LANES`]); the summaries
@@ -461,6 +484,7 @@ mod tests {
             lanes,
             batches,
             seed: 9,
+            evaluator: None,
             has_barrier: !plan.barriers.is_empty(),
             barriers: vec![],
             quantities: names

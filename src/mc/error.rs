@@ -178,6 +178,16 @@ pub enum McError {
         /// The run is split into this many shards; the estimate is for one.
         shards: u64,
     },
+    /// The time step is beyond the stability limit of the explicit scheme for the model's
+    /// drift (estimated before starting, see [`StepLimit`](super::StepLimit)): every
+    /// trajectory would blow up.
+    #[error("dt = {dt} is too large for this model: {limit}")]
+    UnstableStep {
+        /// The time step asked for.
+        dt: f64,
+        /// The fastest decay found and the largest stable step.
+        limit: super::StepLimit,
+    },
     /// The run would need more memory than the limit (estimated before starting).
     #[error(
         "the run{} would need about {:.3e} bytes of memory for its histograms ({bins} bins in all, kept per statistics batch), over the limit of {:.1e} bytes; use fewer bins or fewer trajectories per run (shards)",

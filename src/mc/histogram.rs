@@ -9,7 +9,7 @@ use super::exact;
 use crate::moments::Moments;
 
 mod accumulator;
-pub(crate) use accumulator::Accumulator;
+pub(crate) use accumulator::{Accumulator, COUNT_COPIES};
 
 /// A fixed histogram grid: `bins` equal bins covering `[lo, hi)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

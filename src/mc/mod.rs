@@ -61,6 +61,7 @@ mod shard_check;
 mod shard_digest;
 mod simulation;
 mod step;
+mod stiffness;
 mod verdict;
 
 #[cfg(test)]
@@ -81,11 +82,12 @@ pub use estimate::Estimate;
 pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;
-pub use scheme::{SchemeChoice, SchemeKind};
+pub use scheme::{Evaluator, SchemeChoice, SchemeKind};
 pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
 pub use shard_digest::{DigestPart, ShardDigest};
 pub use simulation::Simulation;
+pub use stiffness::{StepLimit, STABLE_RATE_TIMES_DT};
 pub use verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,

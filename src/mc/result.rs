@@ -13,7 +13,8 @@ use super::judge::{
     bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
 };
 use super::settings::RunSettings;
-use super::verdict::{BlowUps, McWarning, Stationarity};
+use super::verdict::{BlowUps, McWarning, Stationarity, Undetermined};
+use crate::number_text::fixed_or_scientific;
 
 /// Impact statistics of a run with a barrier.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -188,7 +189,20 @@ pub(crate) fn finalize_run(
     }
     Ok(McResult {
         settings: st.clone(),
-        stationarity: stationarity(st, batches),
+        // Survivors of a run that lost trajectories to infinity can look stationary; the
+        // run is not, whatever their quarters say.
+        stationarity: match blowup_verdict {
+            BlowUps::TooMany {
+                count,
+                trajectories,
+            } => Stationarity::Undetermined {
+                why: Undetermined::BlewUp {
+                    count,
+                    trajectories,
+                },
+            },
+            _ => stationarity(st, batches),
+        },
         blowup_verdict,
         warnings,
         trajectories,
@@ -219,6 +233,9 @@ impl fmt::Display for McResult {
             st.spacing(),
             st.burn_in()
         )?;
+        if let Some(evaluator) = st.evaluator {
+            writeln!(f, "evaluator: {evaluator}")?;
+        }
         writeln!(
             f,
             "{:>8} {:>9} {:>13} {:>8} {:>24} {:>13} {:>8} {:>24} {:>10} {:>8} {:>24}",
@@ -238,16 +255,16 @@ impl fmt::Display for McResult {
             let b = q.time_step_bias.as_ref();
             writeln!(
                 f,
-                "{:>8} {:>9} {:>13.6} {:>8.1e} {:>24} {:>13.6} {:>8.1e} {:>24} {:>10.4} {:>8.1e} {:>24}",
+                "{:>8} {:>9} {} {:>8.1e} {:>24} {} {:>8.1e} {:>24} {} {:>8.1e} {:>24}",
                 q.name,
                 "mc",
-                q.moments.mean.value,
+                fixed_or_scientific(q.moments.mean.value, 6, 13),
                 q.moments.mean.stderr,
                 render_bias(b.map(|b| b.moments.mean)),
-                q.moments.variance.value,
+                fixed_or_scientific(q.moments.variance.value, 6, 13),
                 q.moments.variance.stderr,
                 render_bias(b.map(|b| b.moments.variance)),
-                q.moments.kurtosis.value,
+                fixed_or_scientific(q.moments.kurtosis.value, 4, 10),
                 q.moments.kurtosis.stderr,
                 render_bias(b.map(|b| b.moments.kurtosis))
             )?;

@@ -94,6 +94,40 @@ impl std::fmt::Display for SchemeKind {
     }
 }
 
+/// What evaluates the model's drift and noise in the time-stepping loop, the main factor of
+/// a run's speed after the scheme.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Evaluator {
+    /// The mechanical splitting with its force and noise recognised as polynomials in x,
+    /// sgn(x) and v (at most one barrier, three-point increments): the vectorised kernel
+    /// with the fused recording.
+    PolynomialKernel,
+    /// The compiled tape, evaluated over the lanes of a batch: any expression (`exp`,
+    /// `abs(v)`, damping that depends on the energy, several noises), several times slower.
+    Tape,
+}
+
+impl Evaluator {
+    /// The evaluator a run of `plan` with `increments` gets (as the batch driver decides).
+    pub(crate) fn of(plan: &Plan, increments: super::rng::Increments) -> Evaluator {
+        if super::step::fast_rows(plan, increments == super::rng::Increments::ThreePoint) {
+            Evaluator::PolynomialKernel
+        } else {
+            Evaluator::Tape
+        }
+    }
+}
+
+impl std::fmt::Display for Evaluator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Evaluator::PolynomialKernel => "the vectorised polynomial mechanical kernel",
+            Evaluator::Tape => "the general tape evaluator",
+        })
+    }
+}
+
 /// How to choose the scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]

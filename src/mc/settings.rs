@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::scheme::Evaluator;
+
 use super::exact;
 use super::histogram::Grid;
 use super::rng::Increments;
@@ -97,6 +99,10 @@ pub struct RunSettings {
     /// Statistics batches `0..bias_batches` are run a second time at 2·dt for the
     /// time-step bias estimate (0: no estimate).
     pub bias_batches: u64,
+    /// What evaluates the model's coefficients in the time-stepping loop (absent in files
+    /// written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evaluator: Option<Evaluator>,
 }
 
 impl RunSettings {

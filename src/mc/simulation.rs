@@ -7,7 +7,7 @@ use super::error::McError;
 use super::histogram::{Grid, QuantityHistogram};
 use super::impact::ImpactSpec;
 use super::result::{finalize_run, McResult};
-use super::scheme::Plan;
+use super::scheme::{Evaluator, Plan};
 use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 use super::shard::{Shard, ShardOutput};
 use crate::cancel::Cancel;
@@ -93,6 +93,7 @@ impl Simulation {
                 })
                 .collect(),
             bias_batches,
+            evaluator: Some(Evaluator::of(&plan, config.increments)),
         };
         let given = |n: &str| config.grids.iter().any(|(g, _)| g == n);
         if settings.quantities.iter().any(|q| !given(&q.name)) {

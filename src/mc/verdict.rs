@@ -106,6 +106,14 @@ pub enum Undetermined {
         /// Samples per trajectory.
         samples: u64,
     },
+    /// More trajectories blew up than [`BLOWUP_TOLERANCE`] allows: the run is not
+    /// stationary whatever its survivors' quarters show, so they are not compared.
+    BlewUp {
+        /// Trajectories that blew up.
+        count: u64,
+        /// Trajectories run.
+        trajectories: u64,
+    },
 }
 
 /// The stationarity verdict: the first and last quarter of every trajectory's recording must
@@ -150,6 +158,17 @@ impl fmt::Display for Stationarity {
             } => write!(
                 f,
                 "not tested ({samples} samples per trajectory, the test needs 4)"
+            ),
+            Stationarity::Undetermined {
+                why:
+                    Undetermined::BlewUp {
+                        count,
+                        trajectories,
+                    },
+            } => write!(
+                f,
+                "not stationary: {count} of {trajectories} trajectories blew up (the survivors' \
+                 quarters were not compared)"
             ),
         }
     }

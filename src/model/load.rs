@@ -1,6 +1,5 @@
 //! The entry points: model text or file → [`Model`], and lone expressions.
 
-use std::io::Read;
 use std::path::Path;
 
 use super::ast::Span;
@@ -10,6 +9,7 @@ use super::parse::{parse_file, parse_lone_expr, MAX_SOURCE_BYTES};
 use super::syntax::SyntaxFailure;
 use super::validate::{lower_free, validate, Located, SemanticError};
 use super::Model;
+use crate::input_file::{read_regular_file, refusal, FileRefusal};
 use crate::symbolic::Expr;
 
 /// Parses and validates a model from its text. `path`, if given, is shown in error messages.
@@ -62,20 +62,17 @@ pub fn load_model(path: &Path) -> Result<Model, ModelError> {
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut bytes = Vec::new();
-    // Read one byte past the limit: enough to know the file is too large, without reading
-    // all of whatever was passed by mistake.
-    file.take(MAX_SOURCE_BYTES as u64 + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io)?;
     let shown = path.display().to_string();
-    if bytes.len() > MAX_SOURCE_BYTES {
-        return Err(ModelError::TooLarge {
-            path: shown,
-            limit: MAX_SOURCE_BYTES,
-        });
-    }
+    // A regular file only, read at most one byte past the limit: `/dev/zero` or a FIFO
+    // passed by mistake is refused at once instead of read (or waited on) forever.
+    let bytes =
+        read_regular_file(path, MAX_SOURCE_BYTES as u64).map_err(|e| match refusal(&e) {
+            Some(FileRefusal::TooLarge { .. }) => ModelError::TooLarge {
+                path: shown.clone(),
+                limit: MAX_SOURCE_BYTES,
+            },
+            _ => io(e),
+        })?;
     let source = match std::str::from_utf8(&bytes) {
         Ok(s) => s,
         Err(e) => return Err(encoding_error(&bytes, e, &shown)),

@@ -179,7 +179,7 @@ impl SlotGrid {
 }
 
 /// Copies of the bin counts (a power of two), lane i counting into copy i mod COUNT_COPIES.
-const COUNT_COPIES: usize = 4;
+pub(crate) const COUNT_COPIES: usize = 4;
 
 /// Rows of counter indices an [`IndexRing`] holds.
 const RING_ROWS: usize = 16;
