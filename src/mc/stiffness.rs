@@ -23,7 +23,7 @@ const POINTS: i32 = 8;
 /// The fastest decay of the drift along a state's own axis, −∂fᵢ/∂xᵢ, found over the states
 /// a run is expected to visit, and the largest time step it allows.
 ///
-/// An estimate, not a guarantee: the states are a 17 × 17 lattice over ±4 standard deviations
+/// An estimate, not a guarantee: the states are a 16 × 16 lattice over ±4 standard deviations
 /// of the model linearised at the origin (±4 when that has no stationary law), and only the
 /// diagonal of the drift's Jacobian is looked at (the damping, not the stiffness of the
 /// spring). A run that still blows up is flagged by its blow-up verdict.
