@@ -183,3 +183,30 @@ fn a_sweep_where_no_point_succeeded_has_no_tail_thresholds() {
     assert!(result.tail_thresholds.is_empty());
     assert!(!result.to_csv().contains("p_gt"));
 }
+
+/// A shard records its refused points as a single run does, and the merge of the shards is
+/// the single run's text.
+#[test]
+fn shards_record_refused_points_as_one_run_does() {
+    let model = vibro();
+    let spec = SweepSpec::parse(&["mu=-1,0.5,1".to_string()]).unwrap();
+    let sweep = Sweep::new(&model, &spec);
+    let parts: Vec<_> = (0..2)
+        .map(|k| {
+            sweep
+                .run_shard(Shard::new(k, 2).unwrap(), &Cancel::new())
+                .unwrap()
+        })
+        .map(|s| (s.file_name(), s))
+        .collect();
+    let merged = fpsolve::sweep::merge_sweep_shards(&parts).unwrap();
+    let whole = sweep.run();
+    assert_eq!(merged.csv(), whole.to_csv());
+    assert!(merged
+        .csv()
+        .lines()
+        .nth(1)
+        .unwrap()
+        .starts_with("-1,refused,admissibility,"));
+    assert_eq!(whole.threshold_point, Some(1));
+}

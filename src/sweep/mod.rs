@@ -8,7 +8,9 @@
 //! `name=lo:hi:count`, a list `name=v1,v2,...`, or a plain `name=expr` that stays fixed. The
 //! points are the Cartesian product of the ranged and listed parameters (one or two of them).
 //! [`Sweep::check`] refuses, before any work, a method that does not apply to the model;
-//! [`Sweep::run`] solves every point by every method in parallel (EPC by its ladder of degrees, the
+//! [`Sweep::run`] first checks every point for a stationary density (as a single run checks
+//! its parameters) and records a point without one as [`PointOutcome::Refused`], solved by no
+//! method, then solves every other point by every method in parallel (EPC by its ladder of degrees, the
 //! others through [`crate::solve::Problem`]) and keeps what fails next to the rest, each
 //! method's failure at a point a typed [`PointFailure`] in that method's [`MethodOutcome`];
 //! [`SweepResult::write`] writes `sweep.csv`, `sweep.json` and figures of the statistics

@@ -22,6 +22,9 @@ use super::{
     SweepSpec, TailThresholds, TAIL_MULTIPLES,
 };
 
+/// The method whose solution set the tail thresholds, and its reference point.
+pub(super) type ThresholdSource = (MethodName, Reference);
+
 /// A sweep to run: a model, the points, the methods and their settings (the builder;
 /// [`Sweep::run`] gives the report).
 pub struct Sweep<'a> {
@@ -207,7 +210,7 @@ impl<'a> Sweep<'a> {
         &self,
         range: Range<usize>,
         cancel: &Cancel,
-    ) -> Result<(Vec<Raw>, Option<(MethodName, Reference)>), Cancelled> {
+    ) -> Result<(Vec<Raw>, Option<ThresholdSource>), Cancelled> {
         let (model, spec, progress) = (self.model, self.spec, self.progress);
         let total = range.len() as u64;
         let done = AtomicU64::new(0);
@@ -266,13 +269,13 @@ impl<'a> Sweep<'a> {
             .map(|r| (settled[0].0, r));
         // A method that solved no point sets no thresholds: the next method, in the order
         // asked, that solved one does.
-        for k in 1..settled.len() {
+        for (k, &(name, _)) in settled.iter().enumerate().skip(1) {
             if reference.is_some() {
                 break;
             }
             reference = walk(k, 0..range.start, &|_| ReferenceRms::Unknown)
                 .or_else(|| walk(k, range.start..all.len(), &known(k)))
-                .map(|r| (settled[k].0, r));
+                .map(|r| (name, r));
         }
         if cancel.is_cancelled() {
             return Err(Cancelled);
@@ -294,7 +297,7 @@ impl<'a> Sweep<'a> {
     pub(super) fn assemble(
         &self,
         raw: Vec<Raw>,
-        reference: Option<(MethodName, Reference)>,
+        reference: Option<ThresholdSource>,
         start: Instant,
     ) -> SweepResult {
         let (model, spec) = (self.model, self.spec);
