@@ -71,10 +71,11 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     ] {
         assert!(!grid["report"][key].is_null(), "{key}: {grid}");
     }
-    // EPC against the grid, per degree and quantity; degree 4 is closer than the Gaussian
-    // closure for y (as against Monte Carlo, paper Fig. 1).
+    // EPC against the grid, per degree and quantity (the states z, v and the observables y,
+    // ydot); degree 4 is closer than the Gaussian closure for y (as against Monte Carlo,
+    // paper Fig. 1).
     let to_grid = summary["epc_vs_grid"].as_array().unwrap();
-    assert_eq!(to_grid.len(), 4);
+    assert_eq!(to_grid.len(), 8);
     let l1 = |q: &str, d: u64| {
         to_grid
             .iter()
@@ -215,10 +216,11 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
         "y,mc,mc_stderr,mc_bias,mc_bias_stderr,epc_n2_bin_mean,epc_n4_bin_mean,grid_bin_mean"
     );
     let summary = json(&dir.join("summary.json"));
+    // Two degrees on four quantities: the states z, v and the observables y, ydot.
     let distances = summary["epc_vs_mc"].as_array().unwrap();
-    assert_eq!(distances.len(), 4);
+    assert_eq!(distances.len(), 8);
     // The grid is compared with Monte Carlo too, on the same bins.
-    assert_eq!(summary["grid_vs_mc"].as_array().unwrap().len(), 2);
+    assert_eq!(summary["grid_vs_mc"].as_array().unwrap().len(), 4);
     // Degree 4 is closer to the Monte Carlo than the Gaussian closure for y (paper, Fig. 1).
     let l1 = |d: u64| {
         distances
@@ -442,7 +444,8 @@ fn a_finished_monte_carlo_run_is_read_as_the_reference() {
     for key in ["epc_vs_mc", "grid_vs_mc", "epc_vs_grid"] {
         assert_eq!(
             summary[key].as_array().unwrap().len(),
-            4 / if key == "grid_vs_mc" { 2 } else { 1 },
+            // Four quantities (the states and the observables), two degrees.
+            8 / if key == "grid_vs_mc" { 2 } else { 1 },
             "{key}"
         );
     }

@@ -498,11 +498,14 @@ mod tests {
             "{err}"
         );
         assert_eq!(err.diagnostic().unwrap().line(), 9);
+        // A plastic law keeps the state at the barrier: a plastic wall, not a pass-through,
+        // refused at its impact line.
         let err = bound("impact y = 0: v -> 0*v\ndomain y >= 0\n").unwrap_err();
-        assert!(matches!(
-            err.cause(),
-            BindError::DomainWithoutReflection { .. }
-        ));
+        assert!(
+            matches!(err.cause(), BindError::PlasticWall { jump, .. } if jump == "v -> 0*v"),
+            "{err}"
+        );
+        assert_eq!(err.diagnostic().unwrap().line(), 8);
         let err = bound("impact y = 0: v -> -r*v\ndomain y >= d\n").unwrap_err();
         assert_eq!(
             err.cause(),
