@@ -164,6 +164,51 @@ fn an_observable_with_a_point_mass_is_flagged() {
     assert_eq!(z["point_masses"].as_array().unwrap().len(), 0);
 }
 
+/// The grid named beside EPC on a model with `max(z, 0)`: its level-set quadrature of the
+/// piecewise-bilinear density split panels across the kink without end (past 150 s). Its
+/// PDFs of non-smooth observables are left out even when named, said in `skipped_curves`
+/// and on stderr; its states' PDFs and EPC's PDF of `m` are written.
+#[test]
+fn the_named_grid_leaves_out_non_smooth_observables_and_ends() {
+    let dir = scratch("named-grid-max");
+    let model = duffing_with(&dir, "clipm", "xi", "observe m = max(z, 0)");
+    let out = dir.join("out");
+    let r = run_within(
+        120.0,
+        &[
+            model.to_str().unwrap(),
+            "--method",
+            "epc,grid",
+            "--degree",
+            "2",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        matches!(r.code, Some(0) | Some(1)),
+        "{:?} {}",
+        r.code,
+        r.stderr
+    );
+    let summary = json(&out.join("summary.json"));
+    let skipped = summary["skipped_curves"].as_array().unwrap();
+    let text = serde_json::to_string(skipped).unwrap();
+    assert!(
+        text.contains("non_smooth_observables") && text.contains("\"m\""),
+        "{text}"
+    );
+    let m = std::fs::read_to_string(out.join("pdf_m.csv")).unwrap();
+    assert!(m.starts_with("m,epc_n2\n"), "{}", &m[..40.min(m.len())]);
+    let z = std::fs::read_to_string(out.join("pdf_z.csv")).unwrap();
+    assert!(
+        z.starts_with("z,epc_n2,grid\n"),
+        "{}",
+        &z[..40.min(z.len())]
+    );
+}
+
 /// The δ-term EPC's energy density at the energy's minimum, with an elastic wall away from
 /// it (Caughey–Ma, wall at y = −0.5 or 0.4), beside epc-impact: both methods together end
 /// in the time each takes alone.

@@ -364,7 +364,8 @@ fn run(
         .iter()
         .filter(|s| s.method == MethodName::Grid)
         .flat_map(|s| match &s.why {
-            NotApplicable::SlowObservables { observables } => observables.clone(),
+            NotApplicable::SlowObservables { observables }
+            | NotApplicable::NonSmoothObservables { observables } => observables.clone(),
             _ => Vec::new(),
         })
         .collect();

@@ -8,6 +8,7 @@ use crate::grid::{GridError, GridSolver, Unsupported};
 use crate::observe::ObservableMap;
 use crate::physics::ImpactForm;
 use crate::solve::{MethodName, MethodSet, Problem, Solution, SolveError};
+use crate::symbolic::{Expr, Func};
 
 /// Why a method does not apply to a model: found before any work. As JSON, a `reason` tag
 /// beside the variant's fields.
@@ -52,6 +53,18 @@ pub enum NotApplicable {
         observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
     )]
     SlowObservables {
+        /// The observables.
+        observables: Vec<String>,
+    },
+    /// Not computed even when the grid is named: its PDFs of these observables, which have
+    /// `min`, `max`, `abs` or `sgn` of the states (kinks or jumps the level-set quadrature of
+    /// a piecewise-bilinear density resolves only by splitting panels without end: `max(z, 0)`
+    /// ran past 150 s). The grid still runs: its states' PDFs and every moment are reported.
+    #[error(
+        "its PDFs of {} are not computed: they have min, max, abs or sgn of the states, which          the level-set quadrature of its piecewise-bilinear density does not resolve in          reasonable time; its states' PDFs and the moments are reported; epc and Monte Carlo          give these PDFs",
+        observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+    )]
+    NonSmoothObservables {
         /// The observables.
         observables: Vec<String>,
     },
@@ -200,27 +213,51 @@ impl MethodPlan {
     }
 }
 
-/// What a method that applies leaves out unless named: the grid's PDFs of observables that
-/// need level-set quadrature.
+/// What a method that applies leaves out: the grid's PDFs of observables that need level-set
+/// quadrature unless it is named, and of non-smooth ones always.
 fn default_cost(
     problem: &Problem,
     method: MethodName,
     required: bool,
 ) -> Result<(), NotApplicable> {
-    if required || method != MethodName::Grid {
+    if method != MethodName::Grid {
         return Ok(());
     }
-    let observables: Vec<String> = problem
+    let general: Vec<(&str, &Expr)> = problem
         .quantities()
         .iter()
-        .filter(|q| !q.is_state && matches!(q.map, ObservableMap::General { .. }))
-        .map(|q| q.name.clone())
+        .filter(|q| !q.is_state)
+        .filter_map(|q| match &q.map {
+            ObservableMap::General { expr, .. } => Some((q.name.as_str(), expr)),
+            _ => None,
+        })
         .collect();
-    if observables.is_empty() {
+    let rough: Vec<String> = general
+        .iter()
+        .filter(|(_, expr)| non_smooth(expr))
+        .map(|(name, _)| name.to_string())
+        .collect();
+    if !rough.is_empty() {
+        return Err(NotApplicable::NonSmoothObservables { observables: rough });
+    }
+    if required || general.is_empty() {
         Ok(())
     } else {
-        Err(NotApplicable::SlowObservables { observables })
+        Err(NotApplicable::SlowObservables {
+            observables: general.iter().map(|(n, _)| n.to_string()).collect(),
+        })
     }
+}
+
+/// Whether `expr` has `min`, `max`, `abs` or `sgn`: a kink or a jump somewhere in the plane.
+fn non_smooth(expr: &Expr) -> bool {
+    let mut found = false;
+    expr.walk(&mut |node| {
+        if let Expr::Call(Func::Min | Func::Max | Func::Abs | Func::Sgn, _) = node {
+            found = true;
+        }
+    });
+    found
 }
 
 /// Whether `method` applies to the problem's model (the outer `Result` is a model that cannot

@@ -26,7 +26,7 @@ use crate::solve::{
 
 pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
 pub use methods::{applies, MethodPlan, NotApplicable, PlanError, Refused, Skipped};
-pub use warning::{StudyWarning, MEAN_VELOCITY_MARGIN};
+pub use warning::{StudyWarning, MEAN_VELOCITY_MARGIN, MEAN_VELOCITY_RELATIVE};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
 #[derive(Debug, thiserror::Error)]
