@@ -419,6 +419,7 @@ pub(crate) fn sweep_error(py: Python<'_>, e: &LibSweepError) -> PyErr {
         LibSweepError::NotANumber { arg, .. } => ("not_a_number", Some(arg), None),
         LibSweepError::BadRange { arg, .. } => ("bad_range", Some(arg), None),
         LibSweepError::EmptyListItem { arg, .. } => ("empty_list_item", Some(arg), None),
+        LibSweepError::SpanOverflow { arg, .. } => ("span_overflow", Some(arg), None),
         LibSweepError::Duplicate { name } => ("duplicate", None, Some(name)),
         LibSweepError::UnknownParameter { name, .. } => ("unknown_parameter", None, Some(name)),
         LibSweepError::NothingSwept => ("nothing_swept", None, None),

@@ -58,6 +58,10 @@ def test_sweep_errors(vibro):
     with pytest.raises(fpsolve.SweepError) as info:
         fpsolve.sweep(vibro, method="epc-impact", eps=[0.1, 0.2])
     assert info.value.kind == "method"
+    # Values further apart than the largest float (the figures' axis search looped on them).
+    with pytest.raises(fpsolve.SweepError) as info:
+        fpsolve.sweep(vibro, eps=[-1e308, 1e308])
+    assert info.value.kind == "span_overflow"
     with pytest.raises(KeyError):
         fpsolve.sweep(vibro, eps=[0.1, 0.2]).stat("grid", "y")
 
