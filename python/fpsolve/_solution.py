@@ -77,9 +77,19 @@ class Solution:
         p = self._inner.pdf(name, np.ascontiguousarray(arr.reshape(-1)))
         return float(p[0]) if arr.ndim == 0 else p.reshape(arr.shape)
 
+    @property
+    def joint_states(self) -> Tuple[str, str]:
+        """The names of :meth:`joint`'s two coordinates: the model's states, except for a
+        model with an impact law in its own coordinates solved by the δ-term EPC
+        (``method="epc"``), whose density is that of the Zhuravlev transform's states
+        (``("z", "v")``), the model's states being observables of it."""
+        return tuple(self._inner.joint_states)
+
     def joint(self, x1: ArrayLike, x2: ArrayLike) -> Union[float, np.ndarray]:
-        """The joint density of the two states at (x1, x2), broadcast together (e.g. a
-        meshgrid); a float for scalars."""
+        """The joint density at (x1, x2) of the states named by :attr:`joint_states`,
+        broadcast together (e.g. a meshgrid); a float for scalars. For the δ-term EPC of a
+        model in its own coordinates these are the Zhuravlev states, not the model's: use
+        :meth:`pdf` for the model's states."""
         a, b = np.broadcast_arrays(np.asarray(x1, dtype=np.float64), np.asarray(x2, dtype=np.float64))
         shape = a.shape
         p = self._inner.joint(np.ascontiguousarray(a.reshape(-1)), np.ascontiguousarray(b.reshape(-1)))

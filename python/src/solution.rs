@@ -70,6 +70,17 @@ impl PySolution {
             .collect()
     }
 
+    /// The names of the joint density's two coordinates: the model's states, or, for a model
+    /// in its own coordinates solved by the δ-term EPC, the Zhuravlev transform's (z, v).
+    #[getter]
+    fn joint_states(&self) -> Vec<String> {
+        self.solution
+            .joint_states()
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    }
+
     /// The PDF of state or observable `name` at every point of `x` (C-contiguous float64),
     /// with `x`'s shape.
     fn pdf<'py>(

@@ -162,3 +162,16 @@ def test_unknown_method_is_a_value_error(vibro):
 def test_too_many_cells_are_refused_before_any_work(linear):
     with pytest.raises(ValueError):
         linear.solve("grid", cells=(100_000, 100_000))
+
+
+def test_joint_states_name_the_joint_densitys_coordinates(vibro_impact):
+    # The δ-term EPC of a model in its own coordinates solves the Zhuravlev transform: its
+    # joint density is over (z, v), the model's y, ydot being observables of it; the methods
+    # with the exact impact condition keep the model's states.
+    epc = vibro_impact.solve("epc", degree=4)
+    assert epc.joint_states == ("z", "v")
+    # joint(-0.5, 0) is a density value of z below the wall (the model's y is never below it).
+    assert epc.joint(-0.5, 0.0) > 0.0
+    assert epc.pdf("y", -0.5) == 0.0
+    for method in ("epc-impact", "grid"):
+        assert vibro_impact.solve(method, degree=4).joint_states == ("y", "ydot")

@@ -305,7 +305,11 @@ impl<'a> Problem<'a> {
     }
 
     fn solution(&self, sol: crate::epc::EpcSolution) -> Solution {
-        Solution::new(Density::Epc(Box::new(sol)), self.quantities.clone())
+        let solution = Solution::new(Density::Epc(Box::new(sol)), self.quantities.clone());
+        match self.zhuravlev() {
+            Some(t) => solution.over([t.position.to_string(), t.velocity.to_string()]),
+            None => solution,
+        }
     }
 }
 

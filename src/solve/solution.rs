@@ -34,6 +34,8 @@ pub enum Density {
 pub struct Solution {
     density: Density,
     quantities: Arc<[Quantity]>,
+    /// The names of the joint density's coordinates (see [`Solution::joint_states`]).
+    joint_states: [String; 2],
 }
 
 /// The moments of one state or observable under a solution, from the joint density directly
@@ -134,10 +136,47 @@ impl QuantityMoments {
 
 impl Solution {
     pub(crate) fn new(density: Density, quantities: Arc<[Quantity]>) -> Solution {
+        let mut states = quantities
+            .iter()
+            .filter(|q| q.is_state)
+            .map(|q| q.name.clone());
+        let joint_states = [
+            states.next().unwrap_or_default(),
+            states.next().unwrap_or_default(),
+        ];
         Solution {
             density,
             quantities,
+            joint_states,
         }
+    }
+
+    /// The same solution, its joint density over the states `names` (the Zhuravlev
+    /// transform's, for the δ-term EPC of a model in its own coordinates).
+    pub(crate) fn over(mut self, names: [String; 2]) -> Solution {
+        self.joint_states = names;
+        self
+    }
+
+    /// The names of [`Solution::joint`]'s two coordinates: the model's states, except for the
+    /// δ-term EPC of a model with a wall in its own coordinates, which solves the Zhuravlev
+    /// transform: its joint density is over the transform's states (z, v), and the model's
+    /// states are quantities mapped through them (`y = |z|`), read with
+    /// [`Solution::pdf`](Solution::pdf).
+    ///
+    /// ```
+    /// use fpsolve::solve::{solve, Method};
+    /// let bound = fpsolve::model::parse_model("model m\nparam c = 0.2\nstate y, w\n\
+    ///     drift y: w\ndrift w: -c*w - y\nnoise xi: intensity 1\ndiffusion w: xi\n\
+    ///     impact y = 0: w -> -0.9*w\ndomain y >= 0\n", None)?.bind(&[])?;
+    /// let epc = solve(&bound, Method::Epc { degree: 2 })?;
+    /// assert_eq!(epc.joint_states(), ["z", "v"]);
+    /// let grid = solve(&bound, Method::Grid { cells: [40, 80] })?;
+    /// assert_eq!(grid.joint_states(), ["y", "w"]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn joint_states(&self) -> [&str; 2] {
+        [&self.joint_states[0], &self.joint_states[1]]
     }
 
     /// The method that produced the density.
@@ -173,7 +212,7 @@ impl Solution {
         }
     }
 
-    /// The joint density p(x1, x2) of the states.
+    /// The joint density p(x1, x2) over the states [`Solution::joint_states`] names.
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {
             Density::Epc(s) => s.as_ref(),

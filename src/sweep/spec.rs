@@ -48,10 +48,9 @@ pub enum SweepError {
     /// no axis of a figure holds them, and no model's parameter means anything there.
     #[error(
         "`--set {arg}`: the values span from {} to {}, further apart than the largest \
-         floating-point number ({}); sweep a narrower range",
+         floating-point number (about 1.8e308); sweep a narrower range",
         short_number(*lo),
-        short_number(*hi),
-        short_number(f64::MAX)
+        short_number(*hi)
     )]
     SpanOverflow {
         /// The argument.
