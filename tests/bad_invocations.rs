@@ -6,7 +6,7 @@ mod common;
 
 use std::process::Command;
 
-use common::{names, refused, refused_with_env, scratch};
+use common::{names, refused, refused_at_once, refused_with_env, scratch};
 
 const MODEL: &str = "models/vibro_duffing.sde";
 const LINEAR: &str = "models/linear.sde";
@@ -552,47 +552,6 @@ fn arguments_that_are_not_utf8() {
 }
 
 // issue 39 item 10: sweeps
-/// Runs `fpsolve args… --out <scratch>/out` with a deadline (a hang ends in a kill and a
-/// failure, not a stuck test run) and checks the refusal: exit 2 within a second, no panic,
-/// every `expected` fragment in stderr, nothing written beside `--out`.
-fn sweep_refused_in_time(tag: &str, args: &[&str], expected: &[&str]) -> String {
-    let root = scratch(tag);
-    let out = root.join("out");
-    let t = std::time::Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .arg("--out")
-        .arg(&out)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("run fpsolve");
-    while child.try_wait().expect("wait for fpsolve").is_none() {
-        if t.elapsed() > std::time::Duration::from_secs(10) {
-            let _ = child.kill();
-            let _ = child.wait();
-            let _ = std::fs::remove_dir_all(&root);
-            panic!("{tag}: {args:?} still running after 10 s (a hang)");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    let elapsed = t.elapsed();
-    let output = child.wait_with_output().expect("fpsolve's output");
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    assert_eq!(output.status.code(), Some(2), "{tag}: {stderr}");
-    assert!(
-        elapsed < std::time::Duration::from_secs(1),
-        "{tag}: refused after {elapsed:?}"
-    );
-    assert!(!stderr.contains("panicked"), "{tag}: panic\n{stderr}");
-    for e in expected {
-        assert!(stderr.contains(e), "{tag}: stderr lacks {e:?}\n{stderr}");
-    }
-    assert!(names(&root).is_empty(), "{tag}: wrote {:?}", names(&root));
-    let _ = std::fs::remove_dir_all(&root);
-    stderr
-}
-
 /// Sweeps into the unrepresentable: values further apart than the largest float (their
 /// figures' axis searched for ticks forever) are refused at once, in ranges and lists; a
 /// point that does not bind names its values in short form, not in 57 digits.
@@ -603,13 +562,13 @@ fn sweeps_into_the_unrepresentable_are_refused_at_once() {
         ("sweep-span-list", "eps=-1e308,0,1e308"),
         ("sweep-span-mu", "mu=-1.5e308,1e308"),
     ] {
-        sweep_refused_in_time(
+        refused_at_once(
             tag,
             &["sweep", MODEL, "--set", set],
             &[set, "largest floating-point number"],
         );
     }
-    let stderr = sweep_refused_in_time(
+    let stderr = refused_at_once(
         "sweep-bind-digits",
         &["sweep", MODEL, "--set", "K=-1e56,1"],
         &["at the sweep point K = -1e56", "intensity"],
@@ -623,48 +582,6 @@ fn sweeps_into_the_unrepresentable_are_refused_at_once() {
 }
 
 // issue 39 items 7/8: Monte Carlo and file readers
-
-/// [`refused`] for a case that used to hang or exhaust memory: the run is killed if it is
-/// still going after `REFUSAL_DEADLINE` (so the test fails instead of hanging), and must have
-/// been refused (exit 2, `expected` in stderr, no panic, nothing beside `--out`) within it.
-fn refused_at_once(tag: &str, args: &[&str], expected: &[&str]) {
-    use std::process::Stdio;
-    const REFUSAL_DEADLINE: std::time::Duration = std::time::Duration::from_secs(1);
-    let root = scratch(tag);
-    let out = root.join("out");
-    let mut full: Vec<String> = args.iter().map(|s| s.to_string()).collect();
-    full.extend(["--out".into(), out.to_string_lossy().into_owned()]);
-    let before = names(&root);
-    let t = std::time::Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(&full)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fpsolve");
-    while child.try_wait().unwrap().is_none() {
-        if t.elapsed() > 10 * REFUSAL_DEADLINE {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("{full:?}: still running after {:?}", t.elapsed());
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    let elapsed = t.elapsed();
-    let output = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{full:?}: {stderr}");
-    assert!(
-        elapsed < REFUSAL_DEADLINE,
-        "{full:?}: refused after {elapsed:?}"
-    );
-    assert!(!stderr.contains("panicked"), "{full:?}: panic\n{stderr}");
-    for e in expected {
-        assert!(stderr.contains(e), "{full:?}: stderr lacks {e:?}\n{stderr}");
-    }
-    assert_eq!(names(&root), before, "{full:?}: wrote beside --out");
-    let _ = std::fs::remove_dir_all(&root);
-}
 
 /// A FIFO at `path` (no writer ever opens it: a reader that opens it blocking hangs).
 fn fifo(path: &std::path::Path) {

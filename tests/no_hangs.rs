@@ -5,56 +5,9 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::{json, scratch};
-
-/// What a run under a deadline gave.
-struct Ended {
-    code: Option<i32>,
-    stderr: String,
-    seconds: f64,
-}
-
-/// Runs `fpsolve args…`, killed after `limit` seconds (then the test fails).
-fn run_within(limit: f64, args: &[&str]) -> Ended {
-    let start = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run fpsolve");
-    // stderr is read on its own thread so that a full pipe never blocks the child.
-    let mut pipe = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut pipe, &mut s).unwrap();
-        s
-    });
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if start.elapsed() > Duration::from_secs_f64(limit) {
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("{args:?} ran past {limit} s");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let stderr = reader.join().unwrap();
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
-        "{args:?}: panic\n{stderr}"
-    );
-    Ended {
-        code: status.code(),
-        stderr,
-        seconds: start.elapsed().as_secs_f64(),
-    }
-}
+use common::{json, run_within, scratch};
 
 /// `models/duffing.sde` with its diffusion line and observe line replaced, written under
 /// `dir`.
@@ -83,7 +36,7 @@ fn fast_growing_diffusion_under_the_grid_ends_and_is_not_refused_as_parametric()
         let model = duffing_with(&dir, &format!("d{k}"), diffusion, "observe y = z");
         let out = dir.join(format!("out{k}"));
         let r = run_within(
-            120.0,
+            Duration::from_secs_f64(120.0),
             &[
                 "solve",
                 model.to_str().unwrap(),
@@ -105,7 +58,11 @@ fn fast_growing_diffusion_under_the_grid_ends_and_is_not_refused_as_parametric()
             r.code,
             r.stderr
         );
-        eprintln!("{diffusion}: exit {:?} in {:.1} s", r.code, r.seconds);
+        eprintln!(
+            "{diffusion}: exit {:?} in {:.1} s",
+            r.code,
+            r.elapsed.as_secs_f64()
+        );
     }
 }
 
@@ -124,7 +81,7 @@ fn an_observable_with_a_point_mass_is_flagged() {
     );
     let out = dir.join("out");
     let r = run_within(
-        120.0,
+        Duration::from_secs_f64(120.0),
         &[
             model.to_str().unwrap(),
             "--method",
@@ -174,7 +131,7 @@ fn the_named_grid_leaves_out_non_smooth_observables_and_ends() {
     let model = duffing_with(&dir, "clipm", "xi", "observe m = max(z, 0)");
     let out = dir.join("out");
     let r = run_within(
-        120.0,
+        Duration::from_secs_f64(120.0),
         &[
             model.to_str().unwrap(),
             "--method",
@@ -223,7 +180,7 @@ fn the_energy_density_at_its_minimum_beside_a_wall_ends() {
         std::fs::write(&model, text).unwrap();
         let out = dir.join(format!("out-{wall}"));
         let r = run_within(
-            120.0,
+            Duration::from_secs_f64(120.0),
             &[
                 "solve",
                 model.to_str().unwrap(),

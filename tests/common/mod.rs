@@ -6,7 +6,8 @@
 pub mod exact;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// Runs `fpsolve args…` to completion.
 pub fn fpsolve(args: &[&str]) -> Output {
@@ -116,4 +117,85 @@ pub fn refused_with_env(tag: &str, env: &[(&str, &str)], args: &[&str], expected
         "{full:?}: something was written beside the output directory"
     );
     let _ = std::fs::remove_dir_all(&root);
+}
+
+/// What a run under a deadline gave ([`run_within`]).
+pub struct Ended {
+    /// The exit code (`None`: killed by a signal).
+    pub code: Option<i32>,
+    /// Its standard error.
+    pub stderr: String,
+    /// Wall time to its end.
+    pub elapsed: Duration,
+}
+
+/// Runs `fpsolve args…`, killed after `limit` (then the test fails: a hang ends in a
+/// failure, not a stuck test run); stdout discarded, stderr read on its own thread so that a
+/// full pipe never blocks the child. A panic message in stderr fails the test.
+pub fn run_within(limit: Duration, args: &[&str]) -> Ended {
+    let start = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fpsolve");
+    let mut pipe = child.stderr.take().expect("stderr piped");
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut pipe, &mut s).expect("read stderr");
+        s
+    });
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for fpsolve") {
+            break status;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} still running after {limit:?} (a hang)");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let elapsed = start.elapsed();
+    let stderr = reader.join().expect("stderr reader");
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("RUST_BACKTRACE"),
+        "{args:?}: panic\n{stderr}"
+    );
+    Ended {
+        code: status.code(),
+        stderr,
+        elapsed,
+    }
+}
+
+/// [`refused`] for a case that used to hang or exhaust memory: `fpsolve args… --out
+/// <scratch tag>/out` must be refused (exit 2, every `expected` fragment in stderr, nothing
+/// added beside `--out`) within a second; past ten it is killed and the test fails. Returns
+/// stderr.
+pub fn refused_at_once(tag: &str, args: &[&str], expected: &[&str]) -> String {
+    const DEADLINE: Duration = Duration::from_secs(1);
+    let root = scratch(tag);
+    let out = root.join("out");
+    let out = out.to_str().expect("a UTF-8 scratch path");
+    let full: Vec<&str> = args.iter().copied().chain(["--out", out]).collect();
+    let before = names(&root);
+    let r = run_within(10 * DEADLINE, &full);
+    assert_eq!(r.code, Some(2), "{full:?}: {}", r.stderr);
+    assert!(
+        r.elapsed < DEADLINE,
+        "{full:?}: refused after {:?}",
+        r.elapsed
+    );
+    for e in expected {
+        assert!(
+            r.stderr.contains(e),
+            "{full:?}: stderr lacks {e:?}\n{}",
+            r.stderr
+        );
+    }
+    assert_eq!(names(&root), before, "{full:?}: wrote beside --out");
+    let _ = std::fs::remove_dir_all(&root);
+    r.stderr
 }
