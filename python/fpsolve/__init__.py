@@ -32,7 +32,7 @@ from ._fpsolve import (
 )
 from ._model import Model
 from ._montecarlo import Histogram, MonteCarlo
-from ._solution import Moments, Solution
+from ._solution import Moments, PointMassWarning, Solution
 from ._sweep import SweepResult, sweep
 from ._job import run_job
 
@@ -54,6 +54,7 @@ __all__ = [
     "NotApplicableError",
     "NotNormalisableError",
     "ParameterError",
+    "PointMassWarning",
     "Solution",
     "SolveError",
     "SweepError",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any, Dict, Optional, Tuple, Union
 
@@ -26,6 +27,10 @@ class Moments:
     A moment that does not exist, and every statistic built on it, is NaN;
     ``existing_moments`` says how many of E[g] ... E[g^4] exist, ``undefined_mass`` is
     P(g has no finite value) (the moments are then conditional on g being defined).
+    ``point_masses`` lists ``(value, probability)`` for the values g takes with positive
+    probability (g constant on a region: ``max(z, 0)`` is 0 with probability 1/2); there g has
+    no density, its PDF is that of the rest and integrates to 1 minus their sum; the moments
+    include them.
     """
 
     name: str
@@ -35,11 +40,17 @@ class Moments:
     raw: Tuple[float, float, float, float]
     undefined_mass: float
     existing_moments: int
+    point_masses: Tuple[Tuple[float, float], ...] = ()
 
     @property
     def std(self) -> float:
         """The standard deviation, sqrt(variance)."""
         return math.sqrt(self.variance)
+
+
+class PointMassWarning(UserWarning):
+    """A quantity takes some values with positive probability: its PDF integrates to less
+    than 1 (see :attr:`Moments.point_masses`)."""
 
 
 class Solution:
@@ -49,11 +60,12 @@ class Solution:
     :class:`UnknownQuantityError` (``.name``, ``.known``).
     """
 
-    __slots__ = ("_inner", "_report")
+    __slots__ = ("_inner", "_report", "_checked")
 
     def __init__(self, inner: "_fpsolve._Solution"):
         self._inner = inner
         self._report: Optional[Dict[str, Any]] = None
+        self._checked: set = set()
 
     @property
     def method(self) -> str:
@@ -75,7 +87,27 @@ class Solution:
         scalar ``x``. Releases the GIL."""
         arr = np.asarray(x, dtype=np.float64)
         p = self._inner.pdf(name, np.ascontiguousarray(arr.reshape(-1)))
+        self._warn_point_masses(name)
         return float(p[0]) if arr.ndim == 0 else p.reshape(arr.shape)
+
+    def _warn_point_masses(self, name: str) -> None:
+        """A ``PointMassWarning`` (once per quantity) when ``name`` takes some values with
+        positive probability: its PDF then integrates to less than 1 (the command line flags
+        the same run, exit 1). States never do; an observable is checked once (its moments)."""
+        if name in self.joint_states or name in self._checked:
+            return
+        self._checked.add(name)
+        masses = self.moments(name).point_masses
+        if masses:
+            listed = ", ".join(f"{v:.6g} with probability about {q:.2g}" for v, q in masses)
+            rest = 1.0 - sum(q for _, q in masses)
+            warnings.warn(
+                f"`{name}` is constant on part of the plane: it equals {listed} (point masses, "
+                f"which have no density), so its PDF is that of the rest and integrates to about "
+                f"{rest:.2g}; Solution.moments({name!r}).point_masses lists them",
+                PointMassWarning,
+                stacklevel=3,
+            )
 
     @property
     def joint_states(self) -> Tuple[str, str]:
@@ -97,7 +129,9 @@ class Solution:
 
     def marginal(self, name: str) -> Tuple[np.ndarray, np.ndarray]:
         """``(x, p)``: the PDF of ``name`` on the grid the command line's reports use."""
-        return self._inner.marginal(name)
+        out = self._inner.marginal(name)
+        self._warn_point_masses(name)
+        return out
 
     def moments(self, name: str) -> Moments:
         """Mean, variance, kurtosis and raw moments E[g^k], k <= 4, of ``name``."""
@@ -110,6 +144,7 @@ class Solution:
             raw=tuple(_nan(v) for v in d["raw"]),  # type: ignore[arg-type]
             undefined_mass=_nan(d["undefined_mass"]),
             existing_moments=int(d["existing_moments"]),
+            point_masses=tuple((float(m["value"]), float(m["probability"])) for m in d.get("point_masses", [])),
         )
 
     def tail_probability(self, name: str, a: float) -> Optional[float]:

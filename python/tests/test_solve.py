@@ -2,11 +2,13 @@
 exceptions of failed solves."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 
 import fpsolve
+from conftest import MODELS
 
 
 def gaussian(x, var):
@@ -175,3 +177,20 @@ def test_joint_states_name_the_joint_densitys_coordinates(vibro_impact):
     assert epc.pdf("y", -0.5) == 0.0
     for method in ("epc-impact", "grid"):
         assert vibro_impact.solve(method, degree=4).joint_states == ("y", "ydot")
+
+
+def test_point_masses_are_data_and_a_warning():
+    # max(z, 0) is 0 with probability 1/2 (p(z) even): no density there; its PDF integrates
+    # to 1/2. The CLI flags it (exit 1); Python gives the masses and warns once.
+    text = (MODELS / "duffing.sde").read_text().replace("observe y = z, ydot = v", "observe m = max(z, 0)")
+    sol = fpsolve.Model.from_text(text).solve("epc", degree=2)
+    masses = sol.moments("m").point_masses
+    assert len(masses) == 1 and masses[0][0] == 0.0
+    assert masses[0][1] == pytest.approx(0.5, abs=2e-3)
+    assert sol.moments("z").point_masses == ()
+    with pytest.warns(fpsolve.PointMassWarning, match="integrates to about 0.5"):
+        sol.pdf("m", [0.5, 1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sol.pdf("m", 0.5)  # once per quantity
+        sol.pdf("z", 0.5)  # states never
