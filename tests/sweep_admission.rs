@@ -7,10 +7,9 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use common::{json, scratch};
+use common::{json, run_within, scratch};
 use fpsolve::cancel::Cancel;
 use fpsolve::grid::Cells;
 use fpsolve::mc::Shard;
@@ -23,29 +22,6 @@ fn vibro() -> Model {
     load_model(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde")).unwrap()
 }
 
-/// Runs `fpsolve args…` with a deadline: a hang is a failure, not a stuck test run.
-fn run_within(limit: Duration, args: &[&str]) -> (Option<i32>, String) {
-    let t = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fpsolve"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    while child.try_wait().unwrap().is_none() {
-        if t.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{args:?} still running after {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let output = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    (output.status.code(), stderr)
-}
-
 /// `fpsolve sweep models/vibro_duffing.sde --set mu=-1:1:5`: μ < 0 is a softening spring
 /// whose trajectories escape. Those points are refused before any work — status `refused`,
 /// stage `admissibility` and the reason in sweep.csv and sweep.json — and the others solved;
@@ -55,7 +31,7 @@ fn a_mu_range_into_the_softening_regime_refuses_those_points_and_solves_the_othe
     let root = scratch("sweep-softening");
     let out = root.join("out");
     let out_arg = out.to_str().unwrap();
-    let (code, stderr) = run_within(
+    let ended = run_within(
         Duration::from_secs(120),
         &[
             "sweep",
@@ -66,6 +42,7 @@ fn a_mu_range_into_the_softening_regime_refuses_those_points_and_solves_the_othe
             out_arg,
         ],
     );
+    let (code, stderr) = (ended.code, ended.stderr);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(
@@ -209,4 +186,6 @@ fn shards_record_refused_points_as_one_run_does() {
         .unwrap()
         .starts_with("-1,refused,admissibility,"));
     assert_eq!(whole.threshold_point, Some(1));
+    // The merge counts refused points as the run does (its exit message reads this).
+    assert_eq!((merged.refused(), whole.refused()), (1, 1));
 }

@@ -207,9 +207,25 @@ pub(crate) fn write_merged(merged: &MergedSweep, out: &Path) -> Result<(), Failu
         merged.shards()
     );
     commit_output(run, files.len())?;
-    if failed > 0 {
+    // As a single run counts them: a refused point once, not once per method.
+    let methods = merged.solved_by().count();
+    let refused = merged.refused();
+    let failed = failed - refused * methods;
+    if failed > 0 || refused > 0 {
+        let mut what = Vec::new();
+        if refused > 0 {
+            what.push(format!(
+                "{refused} points refused before any work (no stationary density)"
+            ));
+        }
+        if failed > 0 && methods == 1 {
+            what.push(format!("{failed} points failed"));
+        } else if failed > 0 {
+            what.push(format!("{failed} (point, method) pairs failed"));
+        }
         return Err(Failure::Flagged(format!(
-            "error: {failed} (point, method) pairs failed (reported in sweep.csv and sweep.json; the others were kept)"
+            "error: {} (reported in sweep.csv and sweep.json; the others were kept)",
+            what.join(", ")
         )));
     }
     Ok(())

@@ -56,6 +56,22 @@ struct ShardPoint {
     solved: Vec<bool>,
 }
 
+impl ShardPoint {
+    /// Whether the point was refused before any work: its `sweep.json` entry's outcomes have
+    /// status `refused` (the entry is the checked content of the shard, so no second record
+    /// of it is needed).
+    fn refused(&self) -> bool {
+        serde_json::from_str::<serde_json::Value>(&self.json)
+            .ok()
+            .and_then(|v| {
+                v["outcomes"]
+                    .as_array()
+                    .map(|o| o.iter().any(|o| o["status"] == "refused"))
+            })
+            .unwrap_or(false)
+    }
+}
+
 /// A shard of a sweep: what `fpsolve sweep --shard K/N` writes, and what
 /// [`merge_sweep_shards`] joins.
 ///
@@ -312,6 +328,7 @@ pub struct MergedSweep {
     points: usize,
     solved: Vec<usize>,
     all_solved: usize,
+    refused: usize,
     shards: u64,
 }
 
@@ -335,6 +352,12 @@ impl MergedSweep {
     /// Points every method solved.
     pub fn converged(&self) -> usize {
         self.all_solved
+    }
+
+    /// Points refused before any work (no stationary density), as
+    /// [`SweepResult::refused`](crate::sweep::SweepResult::refused) counts them in one run.
+    pub fn refused(&self) -> usize {
+        self.refused
     }
 
     /// Points each method solved, with the method's name, in the sweep's order.
@@ -461,6 +484,7 @@ fn join(first: &SweepShard, parts: &[&SweepShard]) -> MergedSweep {
             .iter()
             .filter(|p| p.solved.iter().all(|&s| s))
             .count(),
+        refused: points.iter().filter(|p| p.refused()).count(),
         shards: first.shard.count,
     }
 }
