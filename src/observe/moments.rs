@@ -579,6 +579,11 @@ impl Grid {
         let ObservableMap::General { expr, states } = map else {
             return Vec::new();
         };
+        // An analytic g that depends on the states is constant on no region: only a kink
+        // (or no state at all) makes one, so the other maps skip the five evaluations a node.
+        if !expr.has_kink() && (expr.mentions(&states[0]) || expr.mentions(&states[1])) {
+            return Vec::new();
+        }
         let Ok(tape) = Tape::compile(
             std::slice::from_ref(expr),
             &[&*states[0], &*states[1]],

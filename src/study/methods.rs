@@ -8,7 +8,7 @@ use crate::grid::{GridError, GridSolver, Unsupported};
 use crate::observe::ObservableMap;
 use crate::physics::ImpactForm;
 use crate::solve::{MethodName, MethodSet, Problem, Solution, SolveError};
-use crate::symbolic::{Expr, Func};
+use crate::symbolic::Expr;
 
 /// Why a method does not apply to a model: found before any work. As JSON, a `reason` tag
 /// beside the variant's fields.
@@ -234,7 +234,7 @@ fn default_cost(
         .collect();
     let rough: Vec<String> = general
         .iter()
-        .filter(|(_, expr)| non_smooth(expr))
+        .filter(|(_, expr)| expr.has_kink())
         .map(|(name, _)| name.to_string())
         .collect();
     if !rough.is_empty() {
@@ -247,17 +247,6 @@ fn default_cost(
             observables: general.iter().map(|(n, _)| n.to_string()).collect(),
         })
     }
-}
-
-/// Whether `expr` has `min`, `max`, `abs` or `sgn`: a kink or a jump somewhere in the plane.
-fn non_smooth(expr: &Expr) -> bool {
-    let mut found = false;
-    expr.walk(&mut |node| {
-        if let Expr::Call(Func::Min | Func::Max | Func::Abs | Func::Sgn, _) = node {
-            found = true;
-        }
-    });
-    found
 }
 
 /// Whether `method` applies to the problem's model (the outer `Result` is a model that cannot

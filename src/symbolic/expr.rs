@@ -401,6 +401,28 @@ impl Expr {
         found
     }
 
+    /// Whether the expression has `min`, `max`, `abs` or `sgn`: a kink or a jump somewhere
+    /// (every other function is analytic where defined).
+    ///
+    /// ```
+    /// use fpsolve::symbolic::{Expr, Func};
+    /// let z = Expr::sym("z");
+    /// assert!(Expr::Call(Func::Max, vec![z.clone(), Expr::num(0.0)]).has_kink());
+    /// assert!(!Expr::call(Func::Tanh, z).has_kink());
+    /// ```
+    pub fn has_kink(&self) -> bool {
+        let mut found = false;
+        self.walk(&mut |e| {
+            if matches!(
+                e,
+                Expr::Call(Func::Min | Func::Max | Func::Abs | Func::Sgn, _)
+            ) {
+                found = true;
+            }
+        });
+        found
+    }
+
     /// The expression with every `delta(...)` replaced by 0 (no simplification): its regular
     /// part between impacts, and the classical derivative of `abs`/`sgn` away from their kinks
     /// once the distributional δ parts are dropped.
