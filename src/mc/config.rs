@@ -3,10 +3,11 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::compile::scheme::{Plan, SchemeChoice, SchemeKind};
 use super::error::McError;
-use super::histogram::{Grid, COUNT_COPIES};
-use super::rng::Increments;
-use super::scheme::{Plan, SchemeChoice, SchemeKind};
+use super::kernel::rng::Increments;
+use super::record::accumulator::COUNT_COPIES;
+use super::record::histogram::Grid;
 use crate::model::BoundModel;
 /// How long to run each trajectory before recording.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -207,14 +208,14 @@ impl McConfig {
     }
 
     pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
-        self.resolve_with(model, super::scheme::impact_specs(model))
+        self.resolve_with(model, super::compile::scheme::impact_specs(model))
     }
 
     /// [`McConfig::resolve`] with the impact laws `specs` in place of the model's own.
     pub(super) fn resolve_with(
         &self,
         model: &BoundModel,
-        specs: Vec<super::impact::ImpactSpec>,
+        specs: Vec<super::compile::impact::ImpactSpec>,
     ) -> Result<Resolved, McError> {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.

@@ -155,7 +155,7 @@ pub enum McError {
     #[error("the run is not stationary: {drift}; the histograms do not show a stationary law")]
     NotStationary {
         /// The largest drift found.
-        drift: super::verdict::Drift,
+        drift: super::stats::verdict::Drift,
     },
     /// The run would take longer than the limit (estimated before starting).
     #[error(
@@ -270,7 +270,7 @@ pub enum ShardDefect {
     )]
     Digest {
         /// Which part disagrees.
-        part: super::shard_digest::DigestPart,
+        part: super::shard::digest::DigestPart,
     },
     /// Its file name says another shard than its contents.
     #[error("its name says shard {named_index} of {named_count}, its contents shard {index} of {count} (counted from 1): it was renamed")]

@@ -33,36 +33,21 @@
 // or five slices would hide that.
 #![allow(clippy::needless_range_loop)]
 
-mod batch;
+mod compile;
 mod config;
 mod error;
 mod estimate;
-mod eval;
-mod events;
 mod exact;
-mod fused;
-mod histogram;
-mod impact;
-mod judge;
-mod lanes;
-mod mech_form;
-mod mech_kernel;
-mod platen;
+mod kernel;
 mod record;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;
-mod result;
-mod rng;
-mod scheme;
 mod settings;
 mod shard;
-mod shard_check;
-mod shard_digest;
 mod simulation;
+mod stats;
 mod step;
-mod stiffness;
-mod verdict;
 
 #[cfg(test)]
 pub(crate) mod strip_tests;
@@ -71,7 +56,8 @@ mod tests;
 #[cfg(test)]
 mod trust_tests;
 
-pub use batch::{BlowUp, LastState};
+pub use compile::scheme::{Evaluator, SchemeChoice, SchemeKind};
+pub use compile::stiffness::{StepLimit, STABLE_RATE_TIMES_DT};
 pub(crate) use config::MAX_LANES;
 pub use config::{
     BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
@@ -79,16 +65,15 @@ pub use config::{
 };
 pub use error::{BarrierLayout, McError, ShardDefect};
 pub use estimate::Estimate;
-pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
-pub use result::{ImpactStats, McResult};
-pub use rng::Increments;
-pub use scheme::{Evaluator, SchemeChoice, SchemeKind};
+pub use kernel::rng::Increments;
+pub use record::batch::{BlowUp, LastState};
+pub use record::histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
-pub use shard::{merge_named, merge_shards, Shard, ShardOutput};
-pub use shard_digest::{DigestPart, ShardDigest};
+pub use shard::digest::{DigestPart, ShardDigest};
+pub use shard::part::{merge_named, merge_shards, Shard, ShardOutput};
 pub use simulation::Simulation;
-pub use stiffness::{StepLimit, STABLE_RATE_TIMES_DT};
-pub use verdict::{
+pub use stats::result::{ImpactStats, McResult};
+pub use stats::verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,
 };

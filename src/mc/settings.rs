@@ -3,12 +3,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::scheme::Evaluator;
+use super::compile::scheme::Evaluator;
 
+use super::compile::scheme::SchemeKind;
 use super::exact;
-use super::histogram::Grid;
-use super::rng::Increments;
-use super::scheme::SchemeKind;
+use super::kernel::rng::Increments;
+use super::record::histogram::Grid;
 
 /// A parameter and the value a model was bound with, as runs and reports record it (in
 /// `summary.json`, `mc_summary.json`, shard files and blow-up reports). The value is a JSON

@@ -1,15 +1,15 @@
 //! The simulation driver: a model compiled with its settings resolved (the pilot run fixes
 //! the grids not given), run whole or in shards.
 
-use super::batch::{run_batch_pair, run_batches_to_end};
+use super::compile::impact::ImpactSpec;
+use super::compile::scheme::{Evaluator, Plan};
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
-use super::histogram::{Grid, QuantityHistogram};
-use super::impact::ImpactSpec;
-use super::result::{finalize_run, McResult};
-use super::scheme::{Evaluator, Plan};
+use super::record::batch::{run_batch_pair, run_batches_to_end};
+use super::record::histogram::{Grid, QuantityHistogram};
 use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
-use super::shard::{Shard, ShardOutput};
+use super::shard::part::{Shard, ShardOutput};
+use super::stats::result::{finalize_run, McResult};
 use crate::cancel::Cancel;
 use crate::model::BoundModel;
 
@@ -27,7 +27,7 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        Simulation::with_impacts(model, config, super::scheme::impact_specs(model))
+        Simulation::with_impacts(model, config, super::compile::scheme::impact_specs(model))
     }
 
     /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (two

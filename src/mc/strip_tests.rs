@@ -2,7 +2,7 @@
 //! sample inside, impacts at both walls, and with elastic walls the exact density of a
 //! Caughey–Ma oscillator restricted to the strip, within the run's error bars.
 
-use super::impact::ImpactSpec;
+use super::compile::impact::ImpactSpec;
 use super::reference::{bin_errors, CaugheyMa};
 use super::{BarrierLayout, Grid, McConfig, McError, McResult, Simulation};
 use crate::grid::BarrierSide;

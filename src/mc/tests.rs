@@ -288,10 +288,10 @@ fn ito_and_stratonovich_readings_reach_their_own_exact_variances() {
 
 #[test]
 fn fully_correlated_sources_have_a_singular_square_root() {
-    let l = scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
+    let l = compile::scheme::psd_sqrt(&[vec![4.0, 2.0], vec![2.0, 1.0]]).unwrap();
     assert_eq!(l, vec![2.0, 0.0, 1.0, 0.0]);
     assert!(matches!(
-        scheme::psd_sqrt(&[vec![1.0, 2.0], vec![2.0, 1.0]]),
+        compile::scheme::psd_sqrt(&[vec![1.0, 2.0], vec![2.0, 1.0]]),
         Err(McError::IntensityNotPsd { .. })
     ));
 }

@@ -622,15 +622,15 @@ fn the_run_says_which_evaluator_it_gets() {
     let evaluator = |name: &str| {
         let model = bundled(name, &[]);
         let resolved = McConfig::default().resolve(&model).unwrap();
-        scheme::Evaluator::of(&resolved.plan, McConfig::default().increments)
+        compile::scheme::Evaluator::of(&resolved.plan, McConfig::default().increments)
     };
     assert_eq!(
         evaluator("vibro_duffing.sde"),
-        scheme::Evaluator::PolynomialKernel
+        compile::scheme::Evaluator::PolynomialKernel
     );
     assert_eq!(
         evaluator("cubic_damping_two_noises.sde"),
-        scheme::Evaluator::Tape
+        compile::scheme::Evaluator::Tape
     );
     let model = bundled("linear.sde", &[]);
     let config = McConfig {
@@ -641,7 +641,7 @@ fn the_run_says_which_evaluator_it_gets() {
     let r = Simulation::new(&model, &config).unwrap().run().unwrap();
     assert_eq!(
         r.settings.evaluator,
-        Some(scheme::Evaluator::PolynomialKernel)
+        Some(compile::scheme::Evaluator::PolynomialKernel)
     );
     assert!(
         r.to_string()

@@ -1,0 +1,390 @@
+//! The mechanical form the fast kernel (`mech_kernel.rs`) runs: the step program's three
+//! outputs recognised, at plan time, as polynomials in `z`, `s = sgn(z)` and `v`:
+//!
+//! ```text
+//! f(z, v)      = A₀(z) + s·A₁(z) + v·(B₀(z) + s·B₁(z))
+//! σ(z)         = S₀(z) + s·S₁(z)
+//! ∂f/∂v(z)     = L₀(z) + s·L₁(z)
+//! ```
+//!
+//! The recogniser runs the tape's instructions over this algebra (`abs(z)` is `s·z`); a
+//! program outside it (any other function, a division, `sgn(z)²`, a second power of `v`)
+//! is not recognised and keeps the lane evaluator. The kernel evaluates each polynomial by
+//! Horner's rule on coefficients prescaled by the step sizes (`mech_coef.rs`), not in the
+//! tape's order, so its outputs agree with the tape's to rounding (a bound in the tests),
+//! not to the bit.
+
+use crate::mc::compile::lanes::{LaneOp, LaneProgram};
+use crate::symbolic::TapeUnary as Unary;
+
+/// Highest power of `z` the recogniser follows.
+const MAX_DEGREE: usize = 8;
+
+/// A polynomial in z, s (degree ≤ 1) and v (degree ≤ 1): `c[k][j][l]` multiplies
+/// `z^k s^j v^l`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Poly {
+    c: [[[f64; 2]; 2]; MAX_DEGREE + 1],
+}
+
+/// A value of the program under the algebra: a polynomial, or something outside it.
+// Plan-time only, one per instruction of a short program: the size does not matter.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+enum Value {
+    Poly(Poly),
+    /// Not a polynomial of the form (e.g. `abs(v)`): vanishes only when multiplied by zero.
+    Opaque,
+}
+
+impl Poly {
+    fn zero() -> Poly {
+        Poly {
+            c: [[[0.0; 2]; 2]; MAX_DEGREE + 1],
+        }
+    }
+
+    fn constant(c: f64) -> Poly {
+        let mut p = Poly::zero();
+        p.c[0][0][0] = c;
+        p
+    }
+
+    fn monomial(k: usize, j: usize, l: usize) -> Poly {
+        let mut p = Poly::zero();
+        p.c[k][j][l] = 1.0;
+        p
+    }
+
+    fn is_zero(&self) -> bool {
+        self.c.iter().flatten().flatten().all(|&c| c == 0.0)
+    }
+
+    fn map(&self, f: impl Fn(f64) -> f64) -> Poly {
+        let mut p = *self;
+        p.c.iter_mut().flatten().flatten().for_each(|c| *c = f(*c));
+        p
+    }
+
+    fn zip(&self, o: &Poly, f: impl Fn(f64, f64) -> f64) -> Poly {
+        let mut p = Poly::zero();
+        for k in 0..=MAX_DEGREE {
+            for j in 0..2 {
+                for l in 0..2 {
+                    p.c[k][j][l] = f(self.c[k][j][l], o.c[k][j][l]);
+                }
+            }
+        }
+        p
+    }
+
+    /// The product, `None` when a degree leaves the form.
+    fn mul(&self, o: &Poly) -> Option<Poly> {
+        let mut p = Poly::zero();
+        for (k1, a) in self.c.iter().enumerate() {
+            for (j1, a) in a.iter().enumerate() {
+                for (l1, &a) in a.iter().enumerate() {
+                    if a == 0.0 {
+                        continue;
+                    }
+                    for (k2, b) in o.c.iter().enumerate() {
+                        for (j2, b) in b.iter().enumerate() {
+                            for (l2, &b) in b.iter().enumerate() {
+                                if b == 0.0 {
+                                    continue;
+                                }
+                                let (k, j, l) = (k1 + k2, j1 + j2, l1 + l2);
+                                if k > MAX_DEGREE || j > 1 || l > 1 {
+                                    return None;
+                                }
+                                p.c[k][j][l] += a * b;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Some(p)
+    }
+
+    /// The coefficients of `s^j v^l` as a polynomial in z (trailing zeros trimmed).
+    fn part(&self, j: usize, l: usize) -> ZPoly {
+        let mut coef: Vec<f64> = self.c.iter().map(|c| c[j][l]).collect();
+        while coef.last() == Some(&0.0) {
+            coef.pop();
+        }
+        ZPoly { coef }
+    }
+}
+
+/// A polynomial in z, coefficients from the constant up (none: the zero polynomial).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ZPoly {
+    pub(crate) coef: Vec<f64>,
+}
+
+impl ZPoly {
+    /// Horner's rule, from the highest power down.
+    #[cfg(test)]
+    pub(crate) fn eval(&self, z: f64) -> f64 {
+        let mut it = self.coef.iter().rev();
+        let Some(&top) = it.next() else {
+            return 0.0;
+        };
+        it.fold(top, |p, &c| p * z + c)
+    }
+}
+
+/// `P₀(z) + s·P₁(z)`, the sign part absent when zero.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct SgnPoly {
+    pub(crate) plain: ZPoly,
+    pub(crate) sgn: Option<ZPoly>,
+}
+
+impl SgnPoly {
+    fn new(plain: ZPoly, sgn: ZPoly) -> SgnPoly {
+        SgnPoly {
+            plain,
+            sgn: (!sgn.coef.is_empty()).then_some(sgn),
+        }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn eval(&self, z: f64, s: f64) -> f64 {
+        match &self.sgn {
+            None => self.plain.eval(z),
+            Some(q) => self.plain.eval(z) + s * q.eval(z),
+        }
+    }
+}
+
+/// The step program (outputs f, σ, ∂f/∂v) recognised in the mechanical form.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct MechForm {
+    /// The part of f free of v.
+    pub(crate) force0: SgnPoly,
+    /// The coefficient of v in f (absent when f does not depend on v).
+    pub(crate) force1: Option<SgnPoly>,
+    /// σ.
+    pub(crate) sigma: SgnPoly,
+    /// ∂f/∂v, as the step program computes it.
+    pub(crate) slope: SgnPoly,
+}
+
+/// sgn as the tape computes it (0 at zero and for NaN).
+#[inline(always)]
+pub(crate) fn sgn(z: f64) -> f64 {
+    Unary::Sgn.apply(z)
+}
+
+impl MechForm {
+    /// The form of `program` (outputs f, σ, ∂f/∂v of the states z, v), or `None` when the
+    /// program is outside it.
+    pub(crate) fn recognise(program: &LaneProgram) -> Option<MechForm> {
+        let outputs = program.outputs();
+        if outputs.len() != 3 {
+            return None;
+        }
+        let z = Poly::monomial(1, 0, 0);
+        let mut vals: Vec<Value> = Vec::with_capacity(program.ops().len());
+        for &op in program.ops() {
+            let get = |a: u32| vals[a as usize];
+            let lin = |a: u32, f: &dyn Fn(&Poly) -> Poly| match get(a) {
+                Value::Poly(p) => Value::Poly(f(&p)),
+                Value::Opaque => Value::Opaque,
+            };
+            let both = |a: u32, b: u32, f: &dyn Fn(f64, f64) -> f64| match (get(a), get(b)) {
+                (Value::Poly(p), Value::Poly(q)) => Value::Poly(p.zip(&q, f)),
+                _ => Value::Opaque,
+            };
+            let value = match op {
+                LaneOp::Const(c) => Value::Poly(Poly::constant(c)),
+                LaneOp::Var(0) => Value::Poly(z),
+                LaneOp::Var(_) => Value::Poly(Poly::monomial(0, 0, 1)),
+                LaneOp::Add(a, b) => both(a, b, &|p, q| p + q),
+                LaneOp::Sub(a, b) => both(a, b, &|p, q| p - q),
+                LaneOp::Neg(a) => lin(a, &|p| p.map(|c| -c)),
+                LaneOp::AddC(a, c) => lin(a, &|p| {
+                    let mut p = *p;
+                    p.c[0][0][0] += c;
+                    p
+                }),
+                // Anything times zero (the pattern matches −0 too) is zero here: a
+                // non-finite state has blown up anyway.
+                LaneOp::MulC(_, 0.0) => Value::Poly(Poly::zero()),
+                LaneOp::MulC(a, c) => lin(a, &|p| p.map(|x| x * c)),
+                LaneOp::Mul(a, b) => match (get(a), get(b)) {
+                    (Value::Poly(p), Value::Poly(q)) => Value::Poly(p.mul(&q)?),
+                    (Value::Poly(p), Value::Opaque) | (Value::Opaque, Value::Poly(p))
+                        if p.is_zero() =>
+                    {
+                        Value::Poly(Poly::zero())
+                    }
+                    _ => Value::Opaque,
+                },
+                LaneOp::PowC(a, c) if c.fract() == 0.0 && (0.0..=8.0).contains(&c) => {
+                    match get(a) {
+                        Value::Poly(p) => {
+                            let mut acc = Poly::constant(1.0);
+                            for _ in 0..c as usize {
+                                acc = acc.mul(&p)?;
+                            }
+                            Value::Poly(acc)
+                        }
+                        Value::Opaque => Value::Opaque,
+                    }
+                }
+                LaneOp::Unary(f @ (Unary::Abs | Unary::Sgn), a) => match get(a) {
+                    Value::Poly(p) if p == z => Value::Poly(match f {
+                        Unary::Abs => Poly::monomial(1, 1, 0),
+                        _ => Poly::monomial(0, 1, 0),
+                    }),
+                    _ => Value::Opaque,
+                },
+                _ => Value::Opaque,
+            };
+            vals.push(value);
+        }
+        let out = |j: usize| match vals[outputs[j] as usize] {
+            Value::Poly(p) => Some(p),
+            Value::Opaque => None,
+        };
+        let (f, sigma, slope) = (out(0)?, out(1)?, out(2)?);
+        let free_of_v = |p: &Poly| p.c.iter().all(|c| c[0][1] == 0.0 && c[1][1] == 0.0);
+        if !free_of_v(&sigma) || !free_of_v(&slope) {
+            return None;
+        }
+        let force1 = SgnPoly::new(f.part(0, 1), f.part(1, 1));
+        Some(MechForm {
+            force0: SgnPoly::new(f.part(0, 0), f.part(1, 0)),
+            force1: (!force1.plain.coef.is_empty() || force1.sgn.is_some()).then_some(force1),
+            sigma: SgnPoly::new(sigma.part(0, 0), sigma.part(1, 0)),
+            slope: SgnPoly::new(slope.part(0, 0), slope.part(1, 0)),
+        })
+    }
+
+    /// f, σ and ∂f/∂v at `(z, v)` by Horner's rule (the reference of the tests).
+    #[cfg(test)]
+    pub(crate) fn eval(&self, z: f64, v: f64) -> (f64, f64, f64) {
+        let s = sgn(z);
+        let f = match &self.force1 {
+            None => self.force0.eval(z, s),
+            Some(b) => self.force0.eval(z, s) + v * b.eval(z, s),
+        };
+        (f, self.sigma.eval(z, s), self.slope.eval(z, s))
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::mc::compile::scheme::{impact_specs, Dynamics, Plan, SchemeChoice};
+    use crate::mc::McError;
+
+    pub(crate) fn plan(name: &str) -> Result<Plan, McError> {
+        let path = format!("{}/models/{name}.sde", env!("CARGO_MANIFEST_DIR"));
+        let model = crate::model::load_model(path.as_ref())
+            .unwrap()
+            .bind(&[])
+            .unwrap();
+        Plan::with_impacts(&model, SchemeChoice::Auto, impact_specs(&model))
+    }
+
+    /// The bundled models on the mechanical path (the strip's runs the form too, though its
+    /// two walls keep it on the lane evaluator).
+    pub(crate) const MECHANICAL: [&str; 8] = [
+        "vibro_duffing",
+        "vibro_impact_duffing",
+        "duffing",
+        "linear",
+        "parametric",
+        "van_der_pol",
+        "bistable_duffing",
+        "vibro_impact_strip",
+    ];
+
+    fn form_of(p: &Plan) -> Option<&MechForm> {
+        match &p.dynamics {
+            Dynamics::Mechanical { form, .. } => form.as_ref(),
+            Dynamics::General { .. } => panic!("not on the mechanical path"),
+        }
+    }
+
+    #[test]
+    fn the_bundled_mechanical_models_take_the_fast_path() {
+        for name in MECHANICAL {
+            assert!(form_of(&plan(name).unwrap()).is_some(), "{name}");
+        }
+        // σ = √(2D₁ sgn(z)² + 2D₂ z²): a square root, outside the form.
+        assert!(form_of(&plan("vdp_vibro_impact").unwrap()).is_none());
+    }
+
+    #[test]
+    fn the_form_of_vibro_duffing_is_its_model() {
+        // f = −0.1 v − z − 0.1 z³ (the impact term, times 1 − r = 0 under δ = 0, drops),
+        // σ = √(2πK)(sgn z + 0.1 z) with 2πK = 1, ∂f/∂v = −0.1.
+        let p = plan("vibro_duffing").unwrap();
+        let f = form_of(&p).unwrap();
+        assert_eq!(f.force0.plain.coef, vec![0.0, -1.0, 0.0, -0.1]);
+        assert!(f.force0.sgn.is_none());
+        let b = f.force1.as_ref().unwrap();
+        assert_eq!((b.plain.coef.as_slice(), &b.sgn), (&[-0.1][..], &None));
+        assert_eq!(f.sigma.plain.coef, vec![0.0, 0.1]);
+        assert_eq!(f.sigma.sgn.as_ref().unwrap().coef, vec![1.0]);
+        assert_eq!(f.slope.plain.coef, vec![-0.1]);
+    }
+
+    /// The form's f, σ, ∂f/∂v against the step program's at random states: Horner's order
+    /// is not the tape's, so they agree to rounding, bounded by a few ulps of the sum of the
+    /// terms' magnitudes (the bound of either order of summation).
+    #[test]
+    fn the_form_agrees_with_the_lane_evaluator() {
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for name in MECHANICAL {
+            let p = plan(name).unwrap();
+            let form = form_of(&p).unwrap();
+            let Dynamics::Mechanical { step, .. } = &p.dynamics else {
+                unreachable!()
+            };
+            // The magnitude bound: the form evaluated on |z| with |coefficients|.
+            let abs = |q: &SgnPoly| SgnPoly {
+                plain: ZPoly {
+                    coef: q.plain.coef.iter().map(|c| c.abs()).collect(),
+                },
+                sgn: q.sgn.as_ref().map(|s| ZPoly {
+                    coef: s.coef.iter().map(|c| c.abs()).collect(),
+                }),
+            };
+            let bound = MechForm {
+                force0: abs(&form.force0),
+                force1: form.force1.as_ref().map(abs),
+                sigma: abs(&form.sigma),
+                slope: abs(&form.slope),
+            };
+            for k in 0..2000 {
+                let (z, v) = if k < 4 {
+                    ([0.0, -0.0, 1.0, -1.0][k], 0.5)
+                } else {
+                    ((uniform() - 0.5) * 10.0, (uniform() - 0.5) * 10.0)
+                };
+                let mut want = [0.0; 3];
+                step.eval_point(z, v, &mut want);
+                let (f, s, l) = form.eval(z, v);
+                let (fm, sm, lm) = bound.eval(z.abs(), v.abs());
+                for (got, want, mag) in [(f, want[0], fm), (s, want[1], sm), (l, want[2], lm)] {
+                    assert!(
+                        (got - want).abs() <= 8.0 * f64::EPSILON * mag,
+                        "{name} at ({z}, {v}): {got} vs the tape's {want}"
+                    );
+                }
+            }
+        }
+    }
+}

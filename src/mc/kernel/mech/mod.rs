@@ -1,0 +1,475 @@
+//! The fast mechanical path: the Strang splitting of `scheme.rs` for a model in the
+//! recognised form ([`MechForm`]), at most one barrier and three-point increments, with
+//! the loops interchanged. Each group of lanes keeps its whole state (position, velocity,
+//! barrier side, generator, last draw) in registers for all the steps of a call, draws its
+//! increments inside the step and evaluates h·f, √h·σ and the Heun factor by Horner's rule
+//! on coefficients prescaled once per call (`mech_coef.rs`): no pass over arrays per step,
+//! no dispatch per instruction.
+//!
+//! One step, written with few operations (the same scheme as the lane-evaluator path, to
+//! rounding):
+//! - the Heun velocity update at frozen z with f affine in v, collapsed:
+//!   `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`; when ∂f/∂v is constant the factor is folded
+//!   into the coefficients, `v ← (h·F·f₀(z) + v·(1 + h·F·f₁)) + F·dw` ([`Velocity`]);
+//! - `dw = ±√h·a·σ(z)` or 0, picked by the three-point bits (no product by the variable):
+//!   its sign flipped and its sum taken where the bits say (masked operations on AVX-512);
+//! - the barrier distance `(x − b)·side` as a flip of the sign bit, and the meets test as
+//!   one comparison `d ≤ 0` per flight, the exact test (`impact::meets`) only when some
+//!   lane is on or beyond the barrier.
+//!
+//! Impacts are resolved in vector form for the laws `v → r·v` (the compiled map recognised,
+//! [`Barrier::gain`]): located, jumped and continued with masked operations, the division
+//! only when some lane met the barrier, the same arithmetic as the scalar
+//! `impact_in_flight`; any other law is resolved lane by lane by `impact_in_flight` itself.
+//!
+//! The kernel is written once, generic over the vector type of `mech_vector.rs`: groups of
+//! [`VECTORS_512`] AVX-512 vectors, [`VECTORS_256`] AVX2 vectors, then single vectors, then
+//! single lanes (`f64`), every one the same IEEE operations in the same order (no fused
+//! multiply-add), so the vector width does not change a bit (tested).
+
+use crate::mc::compile::eval::Simd;
+use crate::mc::compile::impact::{impact_in_flight, Barrier};
+use crate::mc::compile::mech_form::MechForm;
+use crate::mc::kernel::rng::THREE_POINT_FIELDS;
+
+mod coef;
+mod vector;
+
+use coef::{Coefs, Velocity};
+use vector::Vector;
+
+/// `[f(0), …, f(N − 1)]`, inlined with `f` into the caller (`std::array::from_fn` was left
+/// as a call, and then every vector operation in `f` was a call too).
+#[inline(always)]
+fn each<T: Copy, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [f(0); N];
+    for (k, o) in out.iter_mut().enumerate().skip(1) {
+        *o = f(k);
+    }
+    out
+}
+
+/// AVX-512 vectors (8 lanes) a group interleaves: independent dependency chains keep the
+/// vector units busy, and a group's state still fits the 32 registers.
+#[cfg(target_arch = "x86_64")]
+const VECTORS_512: usize = 4;
+/// AVX2 vectors (4 lanes) a group interleaves (16 registers).
+#[cfg(target_arch = "x86_64")]
+const VECTORS_256: usize = 4;
+
+/// The batch's columns the kernel advances in place.
+pub(crate) struct Columns<'a> {
+    pub(crate) x: &'a mut [f64],
+    pub(crate) v: &'a mut [f64],
+    pub(crate) side: &'a mut [f64],
+    pub(crate) impacts: &'a mut [u64],
+    /// The xoshiro256++ state words of each lane.
+    pub(crate) rng: [&'a mut [u64]; 4],
+    /// Each lane's last draw, whose fields from [`Steps::field`] on are the next steps'
+    /// three-point variables (`rng::IncrementStream`).
+    pub(crate) draws: &'a mut [u64],
+    /// Where the states at each sample point go, when the call records them.
+    pub(crate) rows: Option<Rows<'a>>,
+}
+
+/// The states of the lanes at each sample point of a call: lane i's state at sample j at
+/// `x[j * stride + i]`, `v[j * stride + i]`.
+pub(crate) struct Rows<'a> {
+    pub(crate) x: &'a mut [f64],
+    pub(crate) v: &'a mut [f64],
+    pub(crate) stride: usize,
+}
+
+impl Columns<'_> {
+    /// The lanes `r` of every column.
+    fn slice(&mut self, r: std::ops::Range<usize>) -> Columns<'_> {
+        let [s0, s1, s2, s3] = &mut self.rng;
+        Columns {
+            x: &mut self.x[r.clone()],
+            v: &mut self.v[r.clone()],
+            side: &mut self.side[r.clone()],
+            impacts: &mut self.impacts[r.clone()],
+            rng: [
+                &mut s0[r.clone()],
+                &mut s1[r.clone()],
+                &mut s2[r.clone()],
+                &mut s3[r.clone()],
+            ],
+            draws: &mut self.draws[r.clone()],
+            rows: self.rows.as_mut().map(|w| Rows {
+                x: &mut w.x[r.start..],
+                v: &mut w.v[r.start..],
+                stride: w.stride,
+            }),
+        }
+    }
+}
+
+/// The barrier as the kernel reads it.
+struct Jump<'a> {
+    bar: &'a Barrier,
+    /// `r` of a law `v → r·v` (then resolved in vector form).
+    gain: Option<f64>,
+}
+
+/// What one call does to every lane.
+struct Steps<'a> {
+    /// Steps per sample point.
+    steps: u64,
+    /// Sample points: the call advances `samples · steps` steps, by `steps` at a time.
+    samples: u64,
+    h: f64,
+    /// The field of the lanes' last draws the first step takes (0: a new draw first).
+    field: u8,
+    coefs: Coefs,
+    jump: Option<Jump<'a>>,
+}
+
+/// Advances every lane by `samples` times `steps` steps of size `h`, each `steps` as one
+/// `BatchState::advance` on the lane-evaluator path (half flight, then velocity update and
+/// flight per step, the last flight a half), with f, σ, ∂f/∂v from `form`; the states after
+/// each `steps` go to `c.rows` when given. `field` is the increment stream's next field,
+/// updated; `a` its three-point value.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn advance(
+    form: &MechForm,
+    bar: Option<&Barrier>,
+    c: Columns<'_>,
+    field: &mut u8,
+    a: f64,
+    samples: u64,
+    steps: u64,
+    h: f64,
+    simd: Simd,
+) {
+    if steps == 0 || samples == 0 {
+        return;
+    }
+    let st = Steps {
+        steps,
+        samples,
+        h,
+        field: *field,
+        coefs: Coefs::new(form, h, a),
+        jump: bar.map(|bar| Jump {
+            bar,
+            gain: bar.gain(),
+        }),
+    };
+    let mut c = c;
+    let done = match simd {
+        Simd::Baseline => 0,
+        // SAFETY: `simd` names an extension only when it was detected on this CPU.
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx2 => unsafe { groups_avx2(&st, &mut c) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Simd::Avx512 => unsafe { groups_avx512(&st, &mut c) },
+    };
+    let n = c.x.len();
+    for i in done..n {
+        group::<f64, 1>(&st, c.slice(i..i + 1));
+    }
+    let fields = u64::from(THREE_POINT_FIELDS);
+    *field = ((u64::from(*field) + steps % fields * (samples % fields)) % fields) as u8;
+}
+
+/// The kernel compiled for AVX-512: groups of [`VECTORS_512`] vectors, then single vectors;
+/// the lanes done.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn groups_avx512(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
+    groups::<vector::Avx512, VECTORS_512>(st, c)
+}
+
+/// The kernel compiled for AVX2, as [`groups_avx512`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn groups_avx2(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
+    groups::<vector::Avx2, VECTORS_256>(st, c)
+}
+
+/// Groups of `N` vectors over the columns, then single vectors; the lanes done (the rest
+/// are fewer than a vector).
+#[inline(always)]
+fn groups<V: Vector, const N: usize>(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
+    let n = c.x.len();
+    let (wide, one) = (N * V::LANES, V::LANES);
+    let mut start = 0;
+    while start + wide <= n {
+        group::<V, N>(st, c.slice(start..start + wide));
+        start += wide;
+    }
+    while start + one <= n {
+        group::<V, 1>(st, c.slice(start..start + one));
+        start += one;
+    }
+    start
+}
+
+/// The flight of `N` vectors of lanes that the out-of-line impact handler
+/// ([`Vector::impacts`], [`impacts`]) resolves: positions `x0` before it, `x` after it, the
+/// velocities `v` and the sign bits `side` of the barrier sides (−0 for side −1).
+pub(crate) struct Flight<'a, V: Vector, const N: usize> {
+    jump: &'a Jump<'a>,
+    x0: &'a [V; N],
+    x: &'a mut [V; N],
+    v: &'a mut [V; N],
+    side: &'a mut [V; N],
+    impacts: &'a mut [u64],
+    tau: f64,
+    /// Bit `k·V::LANES + i` set when lane i of vector k ended its flight on or beyond the
+    /// barrier (the vectors without one are skipped).
+    near: u32,
+}
+
+/// `(s − b)·side` for side = ±1 as its sign bit `side` flipping the sign of `s − b`: the
+/// same number, bit for bit (`s − 0` is `s`).
+#[inline(always)]
+fn dist<V: Vector>(b: f64, s: V, side: V) -> V {
+    if b == 0.0 {
+        s.xor(side)
+    } else {
+        s.sub(V::splat(b)).xor(side)
+    }
+}
+
+/// The lanes of a flight that met the barrier (as `impact::meets`), each given its impact
+/// as `impact_in_flight` does it, and counted.
+#[inline(always)]
+fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
+    let (zero, b, w) = (V::splat(0.0), f.jump.bar.at, V::LANES);
+    for k in 0..N {
+        if (f.near >> (k * w)) & ((1 << w) - 1) == 0 {
+            continue;
+        }
+        let d1 = dist(b, f.x[k], f.side[k]);
+        let d0 = dist(b, f.x0[k], f.side[k]);
+        let met = V::mask_or(d1.lt(zero), V::mask_and(d1.eq(zero), d0.gt(zero)));
+        let bits = V::mask_bits(met);
+        if bits == 0 {
+            continue;
+        }
+        match f.jump.gain {
+            Some(r) => {
+                // impact_in_flight with the jump r·v, lane-parallel.
+                let (bv, tau) = (V::splat(b), V::splat(f.tau));
+                let t = bv.sub(f.x0[k]).div(f.v[k]);
+                // f64::clamp(t, 0, τ): below 0 → 0, then above τ → τ, NaN kept.
+                let t = V::select(t.lt(zero), zero, t);
+                let t = V::select(t.gt(tau), tau, t);
+                let vn = V::splat(r).mul(f.v[k]);
+                // v_new·side < 0 flips the side: v_new·side is v_new with the side's sign.
+                let flip = vn.xor(f.side[k]).lt(zero);
+                let side = V::select(flip, f.side[k].xor(V::splat(-0.0)), f.side[k]);
+                let xn = bv.add(vn.mul(tau.sub(t)));
+                f.x[k] = V::select(met, xn, f.x[k]);
+                f.v[k] = V::select(met, vn, f.v[k]);
+                f.side[k] = V::select(met, side, f.side[k]);
+            }
+            None => {
+                let (mut x0, mut x, mut v, mut side) = ([0.0; 8], [0.0; 8], [0.0; 8], [0.0; 8]);
+                f.x0[k].store(&mut x0);
+                f.x[k].store(&mut x);
+                f.v[k].store(&mut v);
+                f.side[k].or(V::splat(1.0)).store(&mut side);
+                for i in (0..w).filter(|i| bits >> i & 1 == 1) {
+                    impact_in_flight(x0[i], &mut x[i], &mut v[i], &mut side[i], f.tau, f.jump.bar);
+                }
+                f.x[k] = V::load(&x);
+                f.v[k] = V::load(&v);
+                f.side[k] = V::load(&side).and(V::splat(-0.0));
+            }
+        }
+        for i in (0..w).filter(|i| bits >> i & 1 == 1) {
+            f.impacts[k * w + i] += 1;
+        }
+    }
+}
+
+/// The flight x → x + v·τ of `N` vectors of lanes, impacts resolved out of line when some
+/// lane is on or beyond the barrier.
+#[inline(always)]
+fn fly<V: Vector, const N: usize>(
+    jump: Option<&Jump<'_>>,
+    x: &mut [V; N],
+    v: &mut [V; N],
+    side: &mut [V; N],
+    impacts: &mut [u64],
+    tau: f64,
+) {
+    let t = V::splat(tau);
+    let x0 = *x;
+    *x = each(
+        #[inline(always)]
+        |k| x0[k].add(v[k].mul(t)),
+    );
+    let Some(jump) = jump else { return };
+    let zero = V::splat(0.0);
+    // meets() needs d1 < 0 or d1 = 0: one comparison d1 ≤ 0 rules both out for most flights.
+    let mut near = 0;
+    for k in 0..N {
+        near |= V::mask_bits(dist(jump.bar.at, x[k], side[k]).le(zero)) << (k * V::LANES);
+    }
+    if near != 0 {
+        V::impacts(&mut Flight {
+            jump,
+            x0: &x0,
+            x,
+            v,
+            side,
+            impacts,
+            tau,
+            near,
+        });
+    }
+}
+
+/// The velocity update of one step at frozen z = `x`, the step's three-point variables in
+/// the top fields of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, as [`Coefs`]
+/// arranges it ([`Velocity`]).
+#[inline(always)]
+fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words: &[V::Bits; N]) {
+    let f0 = c.force0.eval(x);
+    let s = c.sigma.eval(x);
+    // g + dw: dw = ±s or 0 as the three-point bits say, added where it is not zero.
+    #[inline(always)]
+    fn noise<V: Vector>(g: V, s: V, word: V::Bits) -> V {
+        let (neg, nonzero) = V::three_point_high(word);
+        g.add_where(nonzero, s.neg_where(neg))
+    }
+    match &c.velocity {
+        Velocity::Folded { keep } => {
+            // v·keep, or v itself when keep is 1.
+            let vk = match keep {
+                None => *v,
+                Some(b) => {
+                    let b = b.eval(x);
+                    each(
+                        #[inline(always)]
+                        |k| v[k].mul(b[k]),
+                    )
+                }
+            };
+            *v = each(
+                #[inline(always)]
+                |k| noise(f0[k].add(vk[k]), s[k], words[k]),
+            );
+        }
+        Velocity::Heun { force1, factor } => {
+            let hf = match force1 {
+                None => f0,
+                Some(b) => {
+                    let b = b.eval(x);
+                    each(
+                        #[inline(always)]
+                        |k| f0[k].add(v[k].mul(b[k])),
+                    )
+                }
+            };
+            let f = factor.eval(x);
+            *v = each(
+                #[inline(always)]
+                |k| v[k].add(noise(hf[k], s[k], words[k]).mul(f[k])),
+            );
+        }
+    }
+}
+
+/// `N` vectors of lanes (the columns hold exactly `N · V::LANES`) through all the steps of
+/// a call.
+#[inline(always)]
+fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
+    // A flight's lanes near the barrier are the bits of one u32 (`Flight::near`).
+    const { assert!(N * V::LANES <= 32) };
+    let w = V::LANES;
+    let Columns {
+        x: xs,
+        v: vs,
+        side: sides,
+        impacts,
+        mut rng,
+        draws,
+        mut rows,
+    } = c;
+    let sign = V::splat(-0.0);
+    let mut x: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&xs[k * w..]),
+    );
+    let mut v: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&vs[k * w..]),
+    );
+    let mut side: [V; N] = each(
+        #[inline(always)]
+        |k| V::load(&sides[k * w..]).and(sign),
+    );
+    let mut r: [[V::Bits; 4]; N] = each(
+        #[inline(always)]
+        |k| {
+            each(
+                #[inline(always)]
+                |j| V::load_bits(&rng[j][k * w..]),
+            )
+        },
+    );
+    // The last draw, whose fields from `field` on are the next steps' variables.
+    let mut draw: [V::Bits; N] = each(
+        #[inline(always)]
+        |k| V::load_bits(&draws[k * w..]),
+    );
+    let mut field = st.field;
+    let jump = st.jump.as_ref();
+    let (h, half) = (st.h, 0.5 * st.h);
+    for j in 0..st.samples {
+        fly(jump, &mut x, &mut v, &mut side, impacts, half);
+        for step in 0..st.steps {
+            let tau = if step + 1 == st.steps { half } else { h };
+            // Three variables a draw: its fields in turn, moved to the top bits.
+            let words: [V::Bits; N] = match field {
+                0 => {
+                    draw = each(
+                        #[inline(always)]
+                        |k| V::xoshiro(&mut r[k]),
+                    );
+                    draw
+                }
+                1 => each(
+                    #[inline(always)]
+                    |k| V::field_up(draw[k], 1),
+                ),
+                _ => each(
+                    #[inline(always)]
+                    |k| V::field_up(draw[k], 2),
+                ),
+            };
+            field = if field + 1 == THREE_POINT_FIELDS {
+                0
+            } else {
+                field + 1
+            };
+            kick(&st.coefs, &x, &mut v, &words);
+            fly(jump, &mut x, &mut v, &mut side, impacts, tau);
+        }
+        if let Some(rows) = rows.as_mut() {
+            let at = j as usize * rows.stride;
+            for k in 0..N {
+                x[k].store(&mut rows.x[at + k * w..]);
+                v[k].store(&mut rows.v[at + k * w..]);
+            }
+        }
+    }
+    for k in 0..N {
+        x[k].store(&mut xs[k * w..]);
+        v[k].store(&mut vs[k * w..]);
+        side[k].or(V::splat(1.0)).store(&mut sides[k * w..]);
+        V::store_bits(draw[k], &mut draws[k * w..]);
+        for (j, col) in rng.iter_mut().enumerate() {
+            V::store_bits(r[k][j], &mut col[k * w..]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
