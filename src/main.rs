@@ -16,24 +16,14 @@ use fpsolve::report::{write_json, OutputDir, RunDir};
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::sweep::{Sweep, SweepSpec};
 
-#[path = "cli/allocator.rs"]
-mod allocator;
-#[path = "cli/console.rs"]
-mod console;
-#[path = "cli/job_plan.rs"]
-mod job_plan;
-#[path = "cli/mc_flags.rs"]
-mod mc_flags;
-#[path = "cli/progress.rs"]
-mod progress;
-#[path = "cli/sweep_flags.rs"]
-mod sweep_flags;
-use console::{say, sayln, Console};
-use job_plan::plan_job;
+mod cli;
+use cli::console::{say, sayln, Console};
+use cli::job_plan::plan_job;
 #[cfg(test)]
-use mc_flags::parse_count;
-use mc_flags::McFlags;
-use progress::Bar;
+use cli::mc_flags::parse_count;
+use cli::mc_flags::McFlags;
+use cli::progress::Bar;
+use cli::{allocator, sweep_flags};
 
 /// Stationary PDFs of randomly excited nonlinear oscillators.
 ///
@@ -832,7 +822,3 @@ fn verdict(result: &McResult, written: &job::McFiles) -> Result<(), Failure> {
         flagged.join("\n  ")
     )))
 }
-
-#[cfg(test)]
-#[path = "cli/tests.rs"]
-mod tests;

@@ -71,7 +71,7 @@ pub(crate) fn print(args: std::fmt::Arguments<'_>) {
 /// `print!` through [`print`]: never panics on a closed or failing stdout.
 macro_rules! say {
     ($($arg:tt)*) => {
-        $crate::console::print(format_args!($($arg)*))
+        $crate::cli::console::print(format_args!($($arg)*))
     };
 }
 pub(crate) use say;
@@ -79,7 +79,7 @@ pub(crate) use say;
 /// `println!` through [`print`].
 macro_rules! sayln {
     ($($arg:tt)*) => {
-        $crate::console::print(format_args!("{}\n", format_args!($($arg)*)))
+        $crate::cli::console::print(format_args!("{}\n", format_args!($($arg)*)))
     };
 }
 pub(crate) use sayln;

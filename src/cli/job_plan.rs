@@ -11,7 +11,7 @@ use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::study::MethodPlan;
 
-use super::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
+use crate::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
 /// The methods when `--method` is not given: the main job's ([`fpsolve::job::default_methods`],
 /// each run where it applies), EPC for `solve`.

@@ -4,7 +4,7 @@
 use anyhow::{anyhow, bail, Result};
 use fpsolve::mc::{BurnIn, Grid, McConfig, NamedGrid};
 
-use super::McArgs;
+use crate::McArgs;
 
 /// A count given as `200000000`, `2e8` or `2.5e6`.
 pub(crate) fn parse_count(text: &str, what: &str) -> Result<u64> {

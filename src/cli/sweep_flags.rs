@@ -14,7 +14,7 @@ use fpsolve::report::OutputDir;
 use fpsolve::solve::MethodName;
 use fpsolve::sweep::{merge_sweep_shards, MergedSweep, Sweep, SweepShard, SweepSpec};
 
-use super::{begin_output, commit_output, flag, lib, sayln, Bar, Failure};
+use crate::{begin_output, commit_output, flag, lib, sayln, Bar, Failure};
 
 /// `--shard K/N` of `fpsolve sweep`.
 #[derive(Args, Debug)]

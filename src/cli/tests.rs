@@ -2,7 +2,7 @@
 //! it refuses. Plans read and check everything but compute and write nothing, so they can
 //! be made by the thousand.
 
-use super::*;
+use crate::*;
 use fpsolve::mc::NamedGrid;
 use proptest::prelude::*;
 
