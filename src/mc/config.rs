@@ -7,7 +7,7 @@ use super::compile::scheme::{Plan, SchemeChoice, SchemeKind};
 use super::error::McError;
 use super::kernel::rng::Increments;
 use super::record::accumulator::COUNT_COPIES;
-use super::record::histogram::Grid;
+use super::record::histogram::{Grid, MAX_BINS};
 use crate::model::BoundModel;
 /// How long to run each trajectory before recording.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -77,8 +77,6 @@ impl Default for McConfig {
 /// Fewest statistics batches the time-step bias is estimated from (its standard error
 /// needs a spread).
 pub const MIN_BIAS_PAIRS: u64 = 8;
-/// Largest number of bins of one histogram grid.
-pub const MAX_BINS: usize = 10_000_000;
 /// Largest number of trajectories of one run (the blow-up list and the batch summaries
 /// grow with it).
 pub const MAX_TRAJECTORIES: u64 = 1 << 40;

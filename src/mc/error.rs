@@ -270,7 +270,7 @@ pub enum ShardDefect {
     )]
     Digest {
         /// Which part disagrees.
-        part: super::shard::digest::DigestPart,
+        part: DigestPart,
     },
     /// Its file name says another shard than its contents.
     #[error("its name says shard {named_index} of {named_count}, its contents shard {index} of {count} (counted from 1): it was renamed")]
@@ -294,4 +294,22 @@ pub enum ShardDefect {
         /// What is inconsistent.
         what: String,
     },
+}
+
+/// Which of a shard's two digests disagrees with its contents.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DigestPart {
+    /// The settings digest.
+    Settings,
+    /// The content digest.
+    Content,
+}
+
+impl std::fmt::Display for DigestPart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DigestPart::Settings => "run settings",
+            DigestPart::Content => "statistics",
+        })
+    }
 }

@@ -57,22 +57,27 @@ mod tests;
 mod trust_tests;
 
 pub use compile::scheme::{Evaluator, SchemeChoice, SchemeKind};
-pub use compile::stiffness::{StepLimit, STABLE_RATE_TIMES_DT};
+pub use compile::step_limit::{StepLimit, STABLE_RATE_TIMES_DT};
 pub(crate) use config::MAX_LANES;
 pub use config::{
-    BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
+    BurnIn, McConfig, RunEstimate, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
     TIME_LIMIT_SECONDS,
 };
-pub use error::{BarrierLayout, McError, ShardDefect};
+pub use error::{BarrierLayout, DigestPart, McError, ShardDefect};
 pub use estimate::Estimate;
 pub use kernel::rng::Increments;
-pub use record::batch::{BlowUp, LastState};
-pub use record::histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
+pub use record::batch::BlowUp;
+pub use record::histogram::{
+    Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias, MAX_BINS,
+};
+pub use record::sample::LastState;
 pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
-pub use shard::digest::{DigestPart, ShardDigest};
-pub use shard::part::{merge_named, merge_shards, Shard, ShardOutput};
+pub use shard::digest::ShardDigest;
+pub use shard::index::Shard;
+pub use shard::part::{merge_named, merge_shards, ShardOutput};
 pub use simulation::Simulation;
-pub use stats::result::{ImpactStats, McResult};
+pub use stats::impacts::ImpactStats;
+pub use stats::result::McResult;
 pub use stats::verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,

@@ -8,4 +8,5 @@ pub(crate) mod impact;
 pub(crate) mod lanes;
 pub(crate) mod mech_form;
 pub(crate) mod scheme;
+pub(crate) mod step_limit;
 pub(crate) mod stiffness;

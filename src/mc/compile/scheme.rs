@@ -108,20 +108,6 @@ pub enum Evaluator {
     Tape,
 }
 
-impl Evaluator {
-    /// The evaluator a run of `plan` with `increments` gets (as the batch driver decides).
-    pub(crate) fn of(plan: &Plan, increments: crate::mc::kernel::rng::Increments) -> Evaluator {
-        if crate::mc::step::mech_step::fast_rows(
-            plan,
-            increments == crate::mc::kernel::rng::Increments::ThreePoint,
-        ) {
-            Evaluator::PolynomialKernel
-        } else {
-            Evaluator::Tape
-        }
-    }
-}
-
 impl std::fmt::Display for Evaluator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {

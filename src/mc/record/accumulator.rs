@@ -260,7 +260,7 @@ impl Accumulator {
     pub(crate) fn new(grid: Grid, lanes: usize) -> Accumulator {
         // `add`'s unchecked bin conversion relies on it (runs check their grids).
         assert!(
-            grid.bins <= crate::mc::MAX_BINS,
+            grid.bins <= crate::mc::record::histogram::MAX_BINS,
             "a grid of {} bins",
             grid.bins
         );

@@ -10,11 +10,10 @@ use serde::{Deserialize, Serialize};
 use crate::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::scheme::Plan;
-use crate::mc::exact;
 use crate::mc::kernel::rng::Increments;
 use crate::mc::record::accumulator::Accumulator;
 use crate::mc::record::histogram::QuantityBatch;
-use crate::mc::record::sample::{record_batch, Observed};
+use crate::mc::record::sample::{record_batch, LastState, Observed};
 use crate::mc::settings::{ParamValue, RunSettings};
 use crate::mc::step::mech_step::fast_rows;
 use crate::mc::step::state::BatchState;
@@ -31,16 +30,6 @@ pub struct BlowUp {
     pub last_finite: Option<LastState>,
     /// The model's parameter values, so the report is self-contained.
     pub params: Vec<ParamValue>,
-}
-
-/// A recorded state of a trajectory.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LastState {
-    /// The step it was recorded at.
-    pub step: u64,
-    /// The two states.
-    #[serde(with = "exact::array2")]
-    pub state: [f64; 2],
 }
 
 /// One statistics batch's contribution.

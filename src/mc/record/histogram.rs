@@ -8,6 +8,9 @@ use crate::mc::estimate::Estimate;
 use crate::mc::exact;
 use crate::moments::Moments;
 
+/// Largest number of bins of one histogram grid.
+pub const MAX_BINS: usize = 10_000_000;
+
 /// A fixed histogram grid: `bins` equal bins covering `[lo, hi)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Grid {

@@ -11,16 +11,28 @@
 //! takes the fast form of the update (`Accumulator::add_lanes` with `FINE`): the same operations
 //! on the same values without the blends for skipped and non-finite lanes.
 
+use serde::{Deserialize, Serialize};
+
 use crate::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::lanes::{LaneOp, LaneProgram};
 use crate::mc::compile::mech_form::sgn;
 use crate::mc::compile::scheme::Plan;
+use crate::mc::exact;
 use crate::mc::record::accumulator::Accumulator;
-use crate::mc::record::batch::LastState;
 use crate::mc::settings::RunSettings;
 use crate::mc::step::state::BatchState;
 use crate::symbolic::TapeUnary as Unary;
+
+/// A recorded state of a trajectory.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LastState {
+    /// The step it was recorded at.
+    pub step: u64,
+    /// The two states.
+    #[serde(with = "exact::array2")]
+    pub state: [f64; 2],
+}
 
 /// Sample points the kernel advances between two recordings (rows of states kept: 32 of
 /// the 32 lanes of a batch's part are 16 kB; at most 32, the rows of `record_chunk`'s mask).

@@ -82,7 +82,7 @@ impl RunSettings {
         }
         for q in &self.quantities {
             let g = q.grid;
-            if !g.well_formed() || g.bins > crate::mc::MAX_BINS {
+            if !g.well_formed() || g.bins > crate::mc::record::histogram::MAX_BINS {
                 return Err(defect_setting(
                     "grid",
                     format!(

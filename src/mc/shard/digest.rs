@@ -11,9 +11,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::mc::error::DigestPart;
 use crate::mc::record::batch::BatchSummary;
 use crate::mc::settings::RunSettings;
-use crate::mc::shard::part::Shard;
+use crate::mc::shard::index::Shard;
 
 /// FNV-1a's 128-bit offset basis and prime.
 const OFFSET: u128 = 0x6c62_272e_07bb_0142_62b8_2175_6295_c58d;
@@ -40,24 +41,6 @@ pub struct ShardDigest {
     /// Digest of the shard's index and count and its statistics: every batch's counts,
     /// sums, extremes, impacts and blow-ups, fine and coarse.
     pub content: String,
-}
-
-/// Which of a shard's two digests disagrees with its contents.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DigestPart {
-    /// The settings digest.
-    Settings,
-    /// The content digest.
-    Content,
-}
-
-impl std::fmt::Display for DigestPart {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            DigestPart::Settings => "run settings",
-            DigestPart::Content => "statistics",
-        })
-    }
 }
 
 impl ShardDigest {

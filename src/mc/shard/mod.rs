@@ -4,4 +4,5 @@
 
 pub(crate) mod check;
 pub(crate) mod digest;
+pub(crate) mod index;
 pub(crate) mod part;

@@ -6,7 +6,7 @@ use crate::mc::estimate::Estimate;
 use crate::mc::record::batch::BatchSummary;
 use crate::mc::record::histogram::{batch_density, batch_moments, QuantityHistogram, TimeStepBias};
 use crate::mc::settings::RunSettings;
-use crate::mc::stats::result::ImpactStats;
+use crate::mc::stats::impacts::ImpactStats;
 use crate::mc::stats::verdict::{
     t_critical, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
     MIN_STATIONARITY_BATCHES,

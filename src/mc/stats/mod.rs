@@ -2,6 +2,7 @@
 //! (stationarity, time-step bias, impact rates), the verdicts as data and the [`McResult`].
 //! Verdicts keep the statistics writable; only [`McResult::verdict`] turns one into an error.
 
+pub(crate) mod impacts;
 pub(crate) mod judge;
 pub(crate) mod result;
 pub(crate) mod verdict;

@@ -10,30 +10,12 @@ use crate::mc::estimate::Estimate;
 use crate::mc::record::batch::{BatchSummary, BlowUp};
 use crate::mc::record::histogram::{finalize, QuantityBatch, QuantityHistogram};
 use crate::mc::settings::RunSettings;
+use crate::mc::stats::impacts::ImpactStats;
 use crate::mc::stats::judge::{
     bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
 };
 use crate::mc::stats::verdict::{BlowUps, McWarning, Stationarity, Undetermined};
 use crate::number_text::fixed_or_scientific;
-
-/// Impact statistics of a run with a barrier.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ImpactStats {
-    /// Impacts counted over the recording time of all recorded trajectories.
-    pub count: u64,
-    /// Impacts per unit time per trajectory.
-    pub rate: Estimate,
-    /// The rate's time-step bias r_dt − r, by the moments' Richardson estimate from the
-    /// batches paired with the 2·dt run ([`TimeStepBias`](crate::mc::TimeStepBias)); `None`
-    /// when the run estimated no bias.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_step_bias: Option<Estimate>,
-    /// Steps whose impacts at a wall ran past the events one step may resolve, the overshoot
-    /// reflected back into the domain (the general schemes' bound on chattering; 0 on the
-    /// splitting scheme, whose flights resolve their impacts exactly).
-    #[serde(default)]
-    pub folded: u64,
-}
 
 /// The share of the recorded steps whose impacts may run past a step's events before the run
 /// says so ([`McWarning::UnresolvedImpacts`]).

@@ -5,9 +5,21 @@
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::impact::Barrier;
 use crate::mc::compile::mech_form::MechForm;
-use crate::mc::compile::scheme::{Dynamics, Plan};
+use crate::mc::compile::scheme::{Dynamics, Evaluator, Plan};
 use crate::mc::kernel::mech::{self, Columns, Rows};
+use crate::mc::kernel::rng::Increments;
 use crate::mc::step::state::BatchState;
+
+impl Evaluator {
+    /// The evaluator a run of `plan` with `increments` gets (as the batch driver decides).
+    pub(crate) fn of(plan: &Plan, increments: Increments) -> Evaluator {
+        if fast_rows(plan, increments == Increments::ThreePoint) {
+            Evaluator::PolynomialKernel
+        } else {
+            Evaluator::Tape
+        }
+    }
+}
 
 impl BatchState {
     /// The fast mechanical path (`mech_kernel.rs`) for three-point increments; `false`

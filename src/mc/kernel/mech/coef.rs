@@ -7,8 +7,7 @@
 //! with the scale folded into its coefficients. `sgn(z)·P₁(z)` is P₁, −P₁ or 0 picked by the
 //! two comparisons of z with zero (no product), made only by a part that has a sign part.
 
-use super::each;
-use super::vector::Vector;
+use super::vector::{each, Vector};
 use crate::mc::compile::mech_form::{MechForm, SgnPoly, ZPoly};
 
 /// Coefficients a [`Horner`] holds (`mech_form`'s highest power plus one).

@@ -36,18 +36,7 @@ mod coef;
 mod vector;
 
 use coef::{Coefs, Velocity};
-use vector::Vector;
-
-/// `[f(0), …, f(N − 1)]`, inlined with `f` into the caller (`std::array::from_fn` was left
-/// as a call, and then every vector operation in `f` was a call too).
-#[inline(always)]
-fn each<T: Copy, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
-    let mut out = [f(0); N];
-    for (k, o) in out.iter_mut().enumerate().skip(1) {
-        *o = f(k);
-    }
-    out
-}
+use vector::{each, Vector};
 
 /// AVX-512 vectors (8 lanes) a group interleaves: independent dependency chains keep the
 /// vector units busy, and a group's state still fits the 32 registers.

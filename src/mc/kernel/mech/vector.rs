@@ -14,6 +14,17 @@ use crate::mc::kernel::rng::{THREE_POINT_BITS, THREE_POINT_T};
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+/// `[f(0), …, f(N − 1)]`, inlined with `f` into the caller (`std::array::from_fn` was left
+/// as a call, and then every vector operation in `f` was a call too).
+#[inline(always)]
+pub(super) fn each<T: Copy, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [f(0); N];
+    for (k, o) in out.iter_mut().enumerate().skip(1) {
+        *o = f(k);
+    }
+    out
+}
+
 /// The three-point thresholds of the field at the top of a 64-bit draw
 /// (`rng::three_point_field` k = 0): its top 21 bits `u` satisfy `u < T` exactly when
 /// `w < T·2⁴³`.
