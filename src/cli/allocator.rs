@@ -4,12 +4,10 @@
 //! more than 128 kB free (`M_TRIM_THRESHOLD`), and serves blocks from 128 kB up by `mmap`
 //! (a threshold it raises only after such a block is freed). A sweep or a study allocates and
 //! frees the same grid-sized buffers at every point, degree and quantity, so that memory goes
-//! back to the kernel and returns as fresh zeroed pages, over and over. Measured with
-//! `GLIBC_TUNABLES` on 1684aba (3 rounds interleaved, load 3): the 100-point EPC sweep's user +
-//! system CPU and the default grid solve's peak memory were 1.71-1.73 s and 322 MB with the
-//! defaults, 1.66-1.68 s and 330-335 MB with the values below, 1.63-1.66 s and 377 MB with an
-//! `mmap` threshold of 32 or 64 MB. The values below take most of the time for a few per cent
-//! of memory.
+//! back to the kernel and returns as fresh zeroed pages, over and over. Keeping freed memory
+//! and serving mid-sized blocks from the heap removes most of that cost (a few per cent of a
+//! sweep's CPU time) for a few per cent more peak memory; a larger `mmap` threshold would
+//! save a little more time but keep whole grid-sized buffers resident.
 
 /// Keeps freed memory in the process (trimmed only above 256 MB free) and serves blocks up to
 /// 4 MB from the heap, where freed blocks are reused, instead of by `mmap`. Larger blocks

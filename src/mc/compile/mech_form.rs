@@ -1,4 +1,4 @@
-//! The mechanical form the fast kernel (`mech_kernel.rs`) runs: the step program's three
+//! The mechanical form the fast kernel (`kernel/mech`) runs: the step program's three
 //! outputs recognised, at plan time, as polynomials in `z`, `s = sgn(z)` and `v`:
 //!
 //! ```text
@@ -10,7 +10,7 @@
 //! The recogniser runs the tape's instructions over this algebra (`abs(z)` is `s·z`); a
 //! program outside it (any other function, a division, `sgn(z)²`, a second power of `v`)
 //! is not recognised and keeps the lane evaluator. The kernel evaluates each polynomial by
-//! Horner's rule on coefficients prescaled by the step sizes (`mech_coef.rs`), not in the
+//! Horner's rule on coefficients prescaled by the step sizes (`kernel/mech/coef.rs`), not in the
 //! tape's order, so its outputs agree with the tape's to rounding (a bound in the tests),
 //! not to the bit.
 

@@ -143,7 +143,7 @@ pub(crate) enum Dynamics {
         /// Whether f is affine in v (then f(x, v̄) = f(x, v) + ∂f/∂v·(v̄ − v), exactly).
         affine: bool,
         /// `step` recognised as polynomials in z, sgn(z) and v: the fast kernel
-        /// (`mech_kernel.rs`) runs it; `None` keeps the lane evaluator.
+        /// (`kernel/mech`) runs it; `None` keeps the lane evaluator.
         form: Option<MechForm>,
     },
     General {

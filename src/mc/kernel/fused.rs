@@ -1,4 +1,4 @@
-//! The fused mechanical step of one chunk of lanes (`BatchState::fused_step` in `step.rs`):
+//! The fused mechanical step of one chunk of lanes (`BatchState::fused_step` in `step/state.rs`):
 //! the step kernel, the Heun velocity update and the free flight while the chunk is in
 //! registers, the same arithmetic as the unfused loops.
 

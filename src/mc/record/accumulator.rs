@@ -190,10 +190,9 @@ const RING_ROWS: usize = 16;
 /// updates, leaves the counter increments (loads and stores) and the vector arithmetic of
 /// the updates each waiting on their own units. Counting the row 8 behind interleaves them,
 /// and the indices read back were stored long enough before not to wait on their store.
-/// Measured on vibro_duffing (the numba peer's work, `benches/peers/compare_mc.sh`, 2
-/// threads, AVX-512), whole process, medians of 11 interleaved runs in two rounds: a block
-/// of 32 rows counted at its end 0.376 s, 8 rows behind 0.358 s, 16 behind 0.368 s; then 2
-/// behind 0.382 s, 4 behind 0.364 s, 8 behind 0.357 s.
+/// Eight rows was the fastest lag measured (about 5 % faster than counting a block at its
+/// end on the numba peer's work, `benches/peers/compare_mc.sh`); shorter lags wait on the
+/// stores again, longer ones keep more indices in flight than the ring's rows pay for.
 const LAG: usize = 8;
 
 /// The counter indices (a lane's copy offset plus its slot, as [`SlotGrid::update`] returns

@@ -100,7 +100,7 @@ fn run_part_with(
     let mut obs = vec![0.0; n_obs * lanes];
     let mut scratch = crate::mc::compile::eval::Scratch::new();
     let mut blown: Vec<(usize, u64, Option<LastState>)> = Vec::new();
-    // The recording fused with the fast mechanical kernel when it applies (`record.rs`),
+    // The recording fused with the fast mechanical kernel when it applies (`sample.rs`),
     // the same bits as the loop below.
     let kinds = fused.and(Observed::recognise(plan.observables.program()));
     let fused = match kinds {

@@ -1,5 +1,5 @@
 //! The recording of a statistics batch on the fast mechanical path, fused with the kernel:
-//! the kernel (`mech_kernel.rs`) writes the lanes' states at [`CHUNK_SAMPLES`] sample points
+//! the kernel (`kernel/mech`) writes the lanes' states at [`CHUNK_SAMPLES`] sample points
 //! in a row each, and the recording takes them lane block by lane block, each block's
 //! running sums in registers through the chunk ([`Accumulator::add_lanes`]), the
 //! observables computed on the way. It applies when every observable is one of the

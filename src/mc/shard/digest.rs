@@ -1,5 +1,5 @@
 //! The digests a shard file carries, so that `merge` can tell an honest file from an edited
-//! one. The invariants of [`shard_check`](crate::mc::shard::check) catch edits that contradict
+//! one. The invariants of [`check`](crate::mc::shard::check) catch edits that contradict
 //! themselves; counts moved between neighbouring bins, an extreme moved inside its range or
 //! a different barrier map do not, and would merge into silently wrong numbers.
 //!

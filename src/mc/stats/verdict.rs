@@ -1,5 +1,5 @@
 //! Whether a finished run can be trusted, as data: the stationarity verdict, the blow-up
-//! verdict and the warnings; `Display` renders them as sentences. `judge.rs` computes them.
+//! verdict and the warnings; `Display` renders them as sentences. `judge.rs` beside it computes them.
 
 use std::fmt;
 

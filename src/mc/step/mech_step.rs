@@ -1,4 +1,4 @@
-//! The fast mechanical path's part of [`BatchState`] (`mech_kernel.rs` runs it): a call
+//! The fast mechanical path's part of [`BatchState`] (`kernel/mech` runs it): a call
 //! by steps, a call by sample points that writes the states at each, and the vector
 //! extension the lane loops run with.
 
@@ -22,7 +22,7 @@ impl Evaluator {
 }
 
 impl BatchState {
-    /// The fast mechanical path (`mech_kernel.rs`) for three-point increments; `false`
+    /// The fast mechanical path (`kernel/mech`) for three-point increments; `false`
     /// (nothing done) for Gaussian ones, which keep the lane evaluator.
     #[inline(always)]
     pub(in crate::mc) fn mech_fast(

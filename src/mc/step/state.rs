@@ -1,4 +1,4 @@
-//! One batch of trajectories in flight and the time steps of every scheme (see `scheme.rs`
+//! One batch of trajectories in flight and the time steps of every scheme (see `compile/scheme.rs`
 //! for the schemes and why each is used): structure-of-arrays loops over the lanes, the
 //! events of an impact law resolved lane by lane.
 

@@ -1,9 +1,9 @@
-//! The fast mechanical path: the Strang splitting of `scheme.rs` for a model in the
+//! The fast mechanical path: the Strang splitting of `compile/scheme.rs` for a model in the
 //! recognised form ([`MechForm`]), at most one barrier and three-point increments, with
 //! the loops interchanged. Each group of lanes keeps its whole state (position, velocity,
 //! barrier side, generator, last draw) in registers for all the steps of a call, draws its
 //! increments inside the step and evaluates h·f, √h·σ and the Heun factor by Horner's rule
-//! on coefficients prescaled once per call (`mech_coef.rs`): no pass over arrays per step,
+//! on coefficients prescaled once per call (`kernel/mech/coef.rs`): no pass over arrays per step,
 //! no dispatch per instruction.
 //!
 //! One step, written with few operations (the same scheme as the lane-evaluator path, to
@@ -22,7 +22,7 @@
 //! only when some lane met the barrier, the same arithmetic as the scalar
 //! `impact_in_flight`; any other law is resolved lane by lane by `impact_in_flight` itself.
 //!
-//! The kernel is written once, generic over the vector type of `mech_vector.rs`: groups of
+//! The kernel is written once, generic over the vector type of `kernel/mech/vector.rs`: groups of
 //! [`VECTORS_512`] AVX-512 vectors, [`VECTORS_256`] AVX2 vectors, then single vectors, then
 //! single lanes (`f64`), every one the same IEEE operations in the same order (no fused
 //! multiply-add), so the vector width does not change a bit (tested).

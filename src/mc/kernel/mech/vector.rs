@@ -1,4 +1,4 @@
-//! The vectors the mechanical kernel (`mech_kernel.rs`) is written over: one lane (`f64`,
+//! The vectors the mechanical kernel (`kernel/mech`) is written over: one lane (`f64`,
 //! every CPU), 4 lanes on AVX2 ([`Avx2`]) and 8 on AVX-512 ([`Avx512`]). The kernel is one
 //! generic function; each type supplies the same IEEE operations (no fused multiply-add)
 //! with its own instructions, so the vector width does not change a bit.

@@ -1,4 +1,4 @@
-//! Platen's weak order-2 step (see `scheme.rs`) of a batch, chunk by chunk of lanes: every
+//! Platen's weak order-2 step (see `compile/scheme.rs`) of a batch, chunk by chunk of lanes: every
 //! kernel evaluated by its lane program on the chunk, the predictor, the supporting points
 //! and the sums of the step formed in few passes over the chunk while it is in L1 (the
 //! increments and pair signs formed where they are used, from the standardised draws), in
