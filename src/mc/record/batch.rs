@@ -11,9 +11,9 @@ use crate::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::scheme::Plan;
 use crate::mc::kernel::rng::Increments;
-use crate::mc::record::accumulator::Accumulator;
 use crate::mc::record::histogram::QuantityBatch;
-use crate::mc::record::sample::{record_batch, LastState, Observed};
+use crate::mc::record::recorder::{record_samples, Histograms, Recorder};
+use crate::mc::record::sample::{record_batch, Blown, LastState, Observed};
 use crate::mc::settings::{ParamValue, RunSettings};
 use crate::mc::step::mech_step::fast_rows;
 use crate::mc::step::state::BatchState;
@@ -91,17 +91,10 @@ fn run_part_with(
     b.impacts.fill(0);
     b.folded.fill(0);
     let mut record: Vec<bool> = excluded.iter().map(|e| !e).collect();
-    let mut acc: Vec<Accumulator> = st
-        .quantities
-        .iter()
-        .map(|q| Accumulator::new(q.grid, lanes))
-        .collect();
-    let n_obs = st.quantities.len() - 2;
-    let mut obs = vec![0.0; n_obs * lanes];
-    let mut scratch = crate::mc::compile::eval::Scratch::new();
-    let mut blown: Vec<(usize, u64, Option<LastState>)> = Vec::new();
+    let mut histograms = Histograms::new(plan, st, lanes);
+    let mut blown: Vec<Blown> = Vec::new();
     // The recording fused with the fast mechanical kernel when it applies (`sample.rs`),
-    // the same bits as the loop below.
+    // the same bits as the general recording.
     let kinds = fused.and(Observed::recognise(plan.observables.program()));
     let fused = match kinds {
         Some(kinds) => record_batch(
@@ -109,46 +102,23 @@ fn run_part_with(
             st,
             &kinds,
             &mut b,
-            &mut acc,
+            &mut histograms.acc,
             &mut record,
             &mut blown,
             cancel,
         )?,
         None => false,
     };
-    let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
-    let mut step = st.burn_in_steps;
-    let general = if fused { 0 } else { st.samples_per_trajectory };
-    for s in 0..general {
-        if cancel.is_cancelled() {
-            return None;
-        }
-        let window = ((s as u128 * 4) / st.samples_per_trajectory as u128) as usize;
-        for a in &mut acc {
-            a.set_window(window);
-        }
-        prev_x.copy_from_slice(&b.x);
-        prev_v.copy_from_slice(&b.v);
-        b.advance(plan, st.steps_per_sample, st.dt);
-        let prev_step = step;
-        step += st.steps_per_sample;
-        for i in 0..lanes {
-            if record[i] && !(b.x[i].is_finite() && b.v[i].is_finite()) {
-                record[i] = false;
-                let last = (s > 0).then(|| LastState {
-                    step: prev_step,
-                    state: [prev_x[i], prev_v[i]],
-                });
-                blown.push((i, step, last));
-            }
-        }
-        plan.observables
-            .eval_batch(&b.x, &b.v, &mut obs, &mut scratch);
-        acc[0].add(&b.x, &record);
-        acc[1].add(&b.v, &record);
-        for j in 0..n_obs {
-            acc[2 + j].add(&obs[j * lanes..(j + 1) * lanes], &record);
-        }
+    if !fused {
+        record_samples(
+            plan,
+            st,
+            &mut b,
+            &mut histograms,
+            &mut record,
+            &mut blown,
+            cancel,
+        )?;
     }
     let impacts = (0..lanes)
         .filter(|&i| record[i])
@@ -171,7 +141,7 @@ fn run_part_with(
         recorded,
         impacts,
         folded,
-        quantities: acc.into_iter().map(Accumulator::finish).collect(),
+        quantities: histograms.finish(),
         blowups,
     };
     Some((summary, blown))
@@ -490,6 +460,78 @@ mod tests {
             bias_batches: 0,
         };
         (plan, st)
+    }
+
+    /// The general recording hands the recorder every sample point once, in order, with the
+    /// step count after it; a lane is left out from the point its state stops being finite,
+    /// stays out, and is listed as blown up in the order the recorder saw it go.
+    #[test]
+    fn a_recorder_hears_every_sample_point_in_order() {
+        use crate::mc::record::recorder::SamplePoint;
+        struct Points {
+            seen: Vec<SamplePoint>,
+            dropped: Vec<usize>,
+            last: Vec<bool>,
+        }
+        impl Recorder for Points {
+            type Summary = Points;
+            fn sample(&mut self, at: SamplePoint, x: &[f64], v: &[f64], record: &[bool]) {
+                for i in 0..record.len() {
+                    let finite = x[i].is_finite() && v[i].is_finite();
+                    assert!(self.last[i] || !record[i], "lane {i} recorded again");
+                    assert!(!record[i] || finite, "lane {i} recorded not finite");
+                    if self.last[i] && !record[i] {
+                        assert!(!finite, "lane {i} left out while finite");
+                        self.dropped.push(i);
+                    }
+                }
+                self.last = record.to_vec();
+                self.seen.push(at);
+            }
+            fn finish(self) -> Points {
+                self
+            }
+        }
+        let dir = env!("CARGO_MANIFEST_DIR");
+        let lanes = 50;
+        let path = format!("{dir}/tests/models/runaway_damping.sde");
+        let (plan, st) = settings(&path, lanes, 200, 0.05);
+        let spread = plan.initial_spread();
+        let mut b = BatchState::new(&plan, &spread, st.seed, 0, lanes, st.increments);
+        b.advance(&plan, st.burn_in_steps, st.dt);
+        let mut record = vec![true; lanes];
+        let mut blown = Vec::new();
+        let mut points = Points {
+            seen: vec![],
+            dropped: vec![],
+            last: vec![true; lanes],
+        };
+        let cancel = Cancel::new();
+        record_samples(
+            &plan,
+            &st,
+            &mut b,
+            &mut points,
+            &mut record,
+            &mut blown,
+            &cancel,
+        )
+        .unwrap();
+        let points = points.finish();
+        assert_eq!(points.seen.len() as u64, st.samples_per_trajectory);
+        for (s, p) in points.seen.iter().enumerate() {
+            let step = st.burn_in_steps + (s as u64 + 1) * st.steps_per_sample;
+            let want = SamplePoint {
+                index: s as u64,
+                of: st.samples_per_trajectory,
+                step,
+            };
+            assert_eq!(*p, want);
+        }
+        assert!(!points.dropped.is_empty(), "no blow-up tested");
+        let blown_lanes: Vec<usize> = blown.iter().map(|b| b.0).collect();
+        assert_eq!(points.dropped, blown_lanes);
+        assert_eq!(points.last, record);
     }
 
     /// A batch run part by part in parallel (on the fused fast path three parts of 80 lanes:

@@ -5,4 +5,5 @@
 pub(crate) mod accumulator;
 pub(crate) mod batch;
 pub(crate) mod histogram;
+pub(crate) mod recorder;
 pub(crate) mod sample;
