@@ -8,7 +8,7 @@ paper's approximation of that impact) is not simulated, as in fpsolve's Monte Ca
 Scheme as fpsolve's mechanical one: Strang splitting A(h/2) B(h) A(h/2), A the exact free
 flight with the impact, B the Heun velocity update at frozen z (f affine in v), three-point
 increments (three per 64-bit xoshiro256++ draw, 21-bit fields, seeded per trajectory like
-src/mc/rng.rs).
+src/mc/kernel/rng.rs).
 Each thread steps `--lanes` trajectories side by side (independent dependency chains the
 compiler can interleave and vectorise); a trajectory's numbers depend only on (seed, index),
 so the results do not depend on --lanes or --threads.
