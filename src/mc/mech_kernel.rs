@@ -29,7 +29,7 @@
 
 use super::eval::Simd;
 use super::impact::{impact_in_flight, Barrier};
-use super::mech_form::MechForm;
+use super::mech_form::{MechForm, MAX_V_DEGREE};
 use super::rng::THREE_POINT_FIELDS;
 
 #[path = "mech_coef.rs"]
@@ -375,6 +375,57 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
                 |k| v[k].add(noise(hf[k], s[k], words[k]).mul(f[k])),
             );
         }
+        Velocity::Polynomial { powers } => {
+            // The coefficients of v's powers at the frozen z, once for both evaluations.
+            let p: [Option<[V; N]>; MAX_V_DEGREE] = each(|l| powers[l].as_ref().map(|q| q.eval(x)));
+            let hf0 = in_v(&f0, &p, v);
+            let vbar: [V; N] = each(
+                #[inline(always)]
+                |k| v[k].add(noise(hf0[k], s[k], words[k])),
+            );
+            let hf1 = in_v(&f0, &p, &vbar);
+            let half = V::splat(0.5);
+            *v = each(
+                #[inline(always)]
+                |k| noise(v[k].add(hf0[k].add(hf1[k]).mul(half)), s[k], words[k]),
+            );
+        }
+    }
+}
+
+/// `f0 + u·(p₁ + u·(p₂ + u·p₃))` by Horner's rule in u, absent powers skipped: h·f at the
+/// velocities `u` for [`Velocity::Polynomial`].
+#[inline(always)]
+fn in_v<V: Vector, const N: usize>(
+    f0: &[V; N],
+    p: &[Option<[V; N]>; MAX_V_DEGREE],
+    u: &[V; N],
+) -> [V; N] {
+    let mut acc: Option<[V; N]> = None;
+    for q in p.iter().rev() {
+        acc = match (acc, q) {
+            (None, q) => *q,
+            (Some(a), q) => {
+                let m: [V; N] = each(
+                    #[inline(always)]
+                    |k| a[k].mul(u[k]),
+                );
+                Some(match q {
+                    None => m,
+                    Some(q) => each(
+                        #[inline(always)]
+                        |k| m[k].add(q[k]),
+                    ),
+                })
+            }
+        };
+    }
+    match acc {
+        None => *f0,
+        Some(a) => each(
+            #[inline(always)]
+            |k| f0[k].add(a[k].mul(u[k])),
+        ),
     }
 }
 
