@@ -377,7 +377,13 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
         }
         Velocity::Polynomial { powers } => {
             // The coefficients of v's powers at the frozen z, once for both evaluations.
-            let p: [Option<[V; N]>; MAX_V_DEGREE] = each(|l| powers[l].as_ref().map(|q| q.eval(x)));
+            let p: [Option<[V; N]>; MAX_V_DEGREE] = each(
+                #[inline(always)]
+                |l| match &powers[l] {
+                    Some(q) => Some(q.eval(x)),
+                    None => None,
+                },
+            );
             let hf0 = in_v(&f0, &p, v);
             let vbar: [V; N] = each(
                 #[inline(always)]
