@@ -1,30 +1,35 @@
-//! The mechanical form the fast kernel (`kernel/mech`) runs: the step program's three
-//! outputs recognised, at plan time, as polynomials in `z`, `s = sgn(z)` and `v`:
+//! The mechanical form the fast kernel (`kernel/mech`) runs: the step program's outputs
+//! recognised, at plan time, as polynomials in `z`, `s = sgn(z)` and `v`:
 //!
 //! ```text
-//! f(z, v)      = A₀(z) + s·A₁(z) + v·(B₀(z) + s·B₁(z))
+//! f(z, v)      = Σ_{l ≤ 3} v^l·(F_l0(z) + s·F_l1(z))
 //! σ(z)         = S₀(z) + s·S₁(z)
-//! ∂f/∂v(z)     = L₀(z) + s·L₁(z)
+//! ∂f/∂v(z)     = L₀(z) + s·L₁(z)          (only when f is affine in v)
 //! ```
 //!
-//! The recogniser runs the tape's instructions over this algebra (`abs(z)` is `s·z`); a
-//! program outside it (any other function, a division, `sgn(z)²`, a second power of `v`)
-//! is not recognised and keeps the lane evaluator. The kernel evaluates each polynomial by
-//! Horner's rule on coefficients prescaled by the step sizes (`kernel/mech/coef.rs`), not in the
-//! tape's order, so its outputs agree with the tape's to rounding (a bound in the tests),
-//! not to the bit.
+//! A force affine in v (linear damping, van der Pol, parametric damping) comes with its
+//! slope ∂f/∂v, which collapses the Heun corrector into one evaluation; a force of degree 2
+//! or 3 in v (Rayleigh damping `v³`, energy-dependent damping `H(z, v)·v`) is evaluated twice
+//! a step, at v and at the predictor, as the lane evaluator does it. The recogniser runs the
+//! tape's instructions over this algebra (`abs(z)` is `s·z`); a program outside it (any
+//! other function, a division, `sgn(z)²`, a fourth power of `v`) is not recognised and keeps
+//! the lane evaluator. The kernel evaluates each polynomial by Horner's rule on coefficients
+//! prescaled by the step sizes (`kernel/mech/coef.rs`), not in the tape's order, so its outputs
+//! agree with the tape's to rounding (a bound in the tests), not to the bit.
 
 use crate::mc::compile::lanes::{LaneOp, LaneProgram};
 use crate::symbolic::TapeUnary as Unary;
 
 /// Highest power of `z` the recogniser follows.
 const MAX_DEGREE: usize = 8;
+/// Highest power of `v` the recogniser follows (Rayleigh and energy-dependent damping).
+pub(crate) const MAX_V_DEGREE: usize = 3;
 
-/// A polynomial in z, s (degree ≤ 1) and v (degree ≤ 1): `c[k][j][l]` multiplies
-/// `z^k s^j v^l`.
+/// A polynomial in z, s (degree ≤ 1) and v (degree ≤ [`MAX_V_DEGREE`]): `c[k][j][l]`
+/// multiplies `z^k s^j v^l`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Poly {
-    c: [[[f64; 2]; 2]; MAX_DEGREE + 1],
+    c: [[[f64; MAX_V_DEGREE + 1]; 2]; MAX_DEGREE + 1],
 }
 
 /// A value of the program under the algebra: a polynomial, or something outside it.
@@ -40,7 +45,7 @@ enum Value {
 impl Poly {
     fn zero() -> Poly {
         Poly {
-            c: [[[0.0; 2]; 2]; MAX_DEGREE + 1],
+            c: [[[0.0; MAX_V_DEGREE + 1]; 2]; MAX_DEGREE + 1],
         }
     }
 
@@ -70,7 +75,7 @@ impl Poly {
         let mut p = Poly::zero();
         for k in 0..=MAX_DEGREE {
             for j in 0..2 {
-                for l in 0..2 {
+                for l in 0..=MAX_V_DEGREE {
                     p.c[k][j][l] = f(self.c[k][j][l], o.c[k][j][l]);
                 }
             }
@@ -94,7 +99,7 @@ impl Poly {
                                     continue;
                                 }
                                 let (k, j, l) = (k1 + k2, j1 + j2, l1 + l2);
-                                if k > MAX_DEGREE || j > 1 || l > 1 {
+                                if k > MAX_DEGREE || j > 1 || l > MAX_V_DEGREE {
                                     return None;
                                 }
                                 p.c[k][j][l] += a * b;
@@ -159,17 +164,34 @@ impl SgnPoly {
     }
 }
 
-/// The step program (outputs f, σ, ∂f/∂v) recognised in the mechanical form.
+/// The step program (outputs f, σ and, for a force affine in v, ∂f/∂v) recognised in the
+/// mechanical form.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct MechForm {
     /// The part of f free of v.
     pub(crate) force0: SgnPoly,
-    /// The coefficient of v in f (absent when f does not depend on v).
-    pub(crate) force1: Option<SgnPoly>,
+    /// How f depends on v.
+    pub(crate) in_v: InVelocity,
     /// σ.
     pub(crate) sigma: SgnPoly,
-    /// ∂f/∂v, as the step program computes it.
-    pub(crate) slope: SgnPoly,
+}
+
+/// How the force f depends on the velocity, which decides how the Heun corrector is taken.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum InVelocity {
+    /// `f = force0 + v·force1` (`force1` absent when f does not depend on v), with the
+    /// slope ∂f/∂v as the step program computes it: the corrector needs no second
+    /// evaluation of f.
+    Affine {
+        force1: Option<SgnPoly>,
+        slope: SgnPoly,
+    },
+    /// `f = force0 + Σ_l v^l·powers[l − 1]` for l = 1..=[`MAX_V_DEGREE`] (a power absent
+    /// when its coefficient is zero), of degree 2 or more in v: f is evaluated at v and at
+    /// the predictor.
+    Polynomial {
+        powers: [Option<SgnPoly>; MAX_V_DEGREE],
+    },
 }
 
 /// sgn as the tape computes it (0 at zero and for NaN).
@@ -179,11 +201,11 @@ pub(crate) fn sgn(z: f64) -> f64 {
 }
 
 impl MechForm {
-    /// The form of `program` (outputs f, σ, ∂f/∂v of the states z, v), or `None` when the
-    /// program is outside it.
+    /// The form of `program` (outputs f, σ and, when f is affine in v, ∂f/∂v, of the states
+    /// z, v), or `None` when the program is outside it.
     pub(crate) fn recognise(program: &LaneProgram) -> Option<MechForm> {
         let outputs = program.outputs();
-        if outputs.len() != 3 {
+        if !(2..=3).contains(&outputs.len()) {
             return None;
         }
         let z = Poly::monomial(1, 0, 0);
@@ -250,29 +272,65 @@ impl MechForm {
             Value::Poly(p) => Some(p),
             Value::Opaque => None,
         };
-        let (f, sigma, slope) = (out(0)?, out(1)?, out(2)?);
-        let free_of_v = |p: &Poly| p.c.iter().all(|c| c[0][1] == 0.0 && c[1][1] == 0.0);
-        if !free_of_v(&sigma) || !free_of_v(&slope) {
+        let (f, sigma) = (out(0)?, out(1)?);
+        let free_of_v = |p: &Poly| {
+            p.c.iter()
+                .flatten()
+                .all(|c| c[1..].iter().all(|&x| x == 0.0))
+        };
+        if !free_of_v(&sigma) {
             return None;
         }
-        let force1 = SgnPoly::new(f.part(0, 1), f.part(1, 1));
+        let power = |l: usize| {
+            let p = SgnPoly::new(f.part(0, l), f.part(1, l));
+            (!p.plain.coef.is_empty() || p.sgn.is_some()).then_some(p)
+        };
+        let in_v = match outputs.len() {
+            // The slope comes with a force the model's symbols show affine in v.
+            3 => {
+                let slope = out(2)?;
+                if !free_of_v(&slope) || (2..=MAX_V_DEGREE).any(|l| power(l).is_some()) {
+                    return None;
+                }
+                InVelocity::Affine {
+                    force1: power(1),
+                    slope: SgnPoly::new(slope.part(0, 0), slope.part(1, 0)),
+                }
+            }
+            2 => InVelocity::Polynomial {
+                powers: std::array::from_fn(|l| power(l + 1)),
+            },
+            _ => return None,
+        };
         Some(MechForm {
             force0: SgnPoly::new(f.part(0, 0), f.part(1, 0)),
-            force1: (!force1.plain.coef.is_empty() || force1.sgn.is_some()).then_some(force1),
+            in_v,
             sigma: SgnPoly::new(sigma.part(0, 0), sigma.part(1, 0)),
-            slope: SgnPoly::new(slope.part(0, 0), slope.part(1, 0)),
         })
     }
 
-    /// f, σ and ∂f/∂v at `(z, v)` by Horner's rule (the reference of the tests).
+    /// f, σ and (for a force affine in v) ∂f/∂v at `(z, v)` by Horner's rule (the
+    /// reference of the tests).
     #[cfg(test)]
-    pub(crate) fn eval(&self, z: f64, v: f64) -> (f64, f64, f64) {
+    pub(crate) fn eval(&self, z: f64, v: f64) -> (f64, f64, Option<f64>) {
         let s = sgn(z);
-        let f = match &self.force1 {
-            None => self.force0.eval(z, s),
-            Some(b) => self.force0.eval(z, s) + v * b.eval(z, s),
+        let (f, slope) = match &self.in_v {
+            InVelocity::Affine { force1, slope } => (
+                match force1 {
+                    None => self.force0.eval(z, s),
+                    Some(b) => self.force0.eval(z, s) + v * b.eval(z, s),
+                },
+                Some(slope.eval(z, s)),
+            ),
+            InVelocity::Polynomial { powers } => {
+                let mut acc = 0.0;
+                for p in powers.iter().rev() {
+                    acc = acc * v + p.as_ref().map_or(0.0, |p| p.eval(z, s));
+                }
+                (self.force0.eval(z, s) + acc * v, None)
+            }
         };
-        (f, self.sigma.eval(z, s), self.slope.eval(z, s))
+        (f, self.sigma.eval(z, s), slope)
     }
 }
 
@@ -285,6 +343,15 @@ pub(crate) mod tests {
     pub(crate) fn plan(name: &str) -> Result<Plan, McError> {
         let path = format!("{}/models/{name}.sde", env!("CARGO_MANIFEST_DIR"));
         let model = crate::model::load_model(path.as_ref())
+            .unwrap()
+            .bind(&[])
+            .unwrap();
+        Plan::with_impacts(&model, SchemeChoice::Auto, impact_specs(&model))
+    }
+
+    /// The plan of a model given as text.
+    pub(crate) fn plan_of(source: &str) -> Result<Plan, McError> {
+        let model = crate::model::parse_model(source, None)
             .unwrap()
             .bind(&[])
             .unwrap();
@@ -304,6 +371,51 @@ pub(crate) mod tests {
         "vibro_impact_strip",
     ];
 
+    /// Forces of degree 3 in v, none of them bundled: energy-dependent damping
+    /// `(c₀ + c₁·H)·v` with the Duffing energy H, and Rayleigh damping `−c·v + d·v³` with
+    /// a parametric noise and a barrier (the van der Pol–Rayleigh family under impacts).
+    pub(crate) const POLYNOMIAL_IN_V: [(&str, &str); 2] = [
+        (
+            "energy_damping",
+            "model energy_damping \"energy-dependent damping\"\n\
+             param c0 = 0.05, c1 = 0.01, S = 0.05\n\
+             state x, v\n\
+             drift x: v\n\
+             drift v: -(c0 + c1*(v^2/2 + x^2/2 + x^4/4))*v - x - x^3\n\
+             noise xi: intensity 2*pi*S\n\
+             diffusion v: xi\n",
+        ),
+        (
+            "rayleigh_impact",
+            "model rayleigh_impact \"Rayleigh damping at a barrier\"\n\
+             param c = 0.1, d = 0.05, r = 0.8\n\
+             state y, ydot\n\
+             drift y: ydot\n\
+             drift ydot: -c*ydot - d*ydot^3 + 0.02*abs(y)*ydot^2 - y\n\
+             noise xi: intensity 0.2\n\
+             diffusion ydot: (1 + 0.1*y)*xi\n\
+             impact y = -0.5: ydot -> -r*ydot\n\
+             domain y >= -0.5\n",
+        ),
+    ];
+
+    /// The plan of a bundled model or of one of [`POLYNOMIAL_IN_V`], by name.
+    pub(crate) fn plan_named(name: &str) -> Result<Plan, McError> {
+        match POLYNOMIAL_IN_V.iter().find(|(n, _)| *n == name) {
+            Some((_, text)) => plan_of(text),
+            None => plan(name),
+        }
+    }
+
+    /// Every mechanical model the kernel's tests run: the bundled ones and
+    /// [`POLYNOMIAL_IN_V`].
+    pub(crate) fn mechanical_plans() -> Vec<(&'static str, Plan)> {
+        let names = MECHANICAL
+            .iter()
+            .chain(POLYNOMIAL_IN_V.iter().map(|(n, _)| n));
+        names.map(|&n| (n, plan_named(n).unwrap())).collect()
+    }
+
     fn form_of(p: &Plan) -> Option<&MechForm> {
         match &p.dynamics {
             Dynamics::Mechanical { form, .. } => form.as_ref(),
@@ -312,9 +424,20 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn the_bundled_mechanical_models_take_the_fast_path() {
-        for name in MECHANICAL {
-            assert!(form_of(&plan(name).unwrap()).is_some(), "{name}");
+    fn the_mechanical_models_take_the_fast_path() {
+        for (name, p) in mechanical_plans() {
+            assert!(form_of(&p).is_some(), "{name}");
+        }
+        for (name, text) in POLYNOMIAL_IN_V {
+            let p = plan_of(text).unwrap();
+            let Some(MechForm {
+                in_v: InVelocity::Polynomial { powers },
+                ..
+            }) = form_of(&p)
+            else {
+                panic!("{name}: not a force polynomial in v");
+            };
+            assert!(powers[2].is_some(), "{name}: no v³ term");
         }
         // σ = √(2D₁ sgn(z)² + 2D₂ z²): a square root, outside the form.
         assert!(form_of(&plan("vdp_vibro_impact").unwrap()).is_none());
@@ -328,11 +451,45 @@ pub(crate) mod tests {
         let f = form_of(&p).unwrap();
         assert_eq!(f.force0.plain.coef, vec![0.0, -1.0, 0.0, -0.1]);
         assert!(f.force0.sgn.is_none());
-        let b = f.force1.as_ref().unwrap();
+        let InVelocity::Affine { force1, slope } = &f.in_v else {
+            panic!("a force affine in v");
+        };
+        let b = force1.as_ref().unwrap();
         assert_eq!((b.plain.coef.as_slice(), &b.sgn), (&[-0.1][..], &None));
         assert_eq!(f.sigma.plain.coef, vec![0.0, 0.1]);
         assert_eq!(f.sigma.sgn.as_ref().unwrap().coef, vec![1.0]);
-        assert_eq!(f.slope.plain.coef, vec![-0.1]);
+        assert_eq!(slope.plain.coef, vec![-0.1]);
+    }
+
+    #[test]
+    fn the_form_of_energy_dependent_damping_is_its_model() {
+        // f = −(c₀ + c₁(v²/2 + x²/2 + x⁴/4))·v − x − x³, c₀ = 0.05, c₁ = 0.01.
+        let p = plan_of(POLYNOMIAL_IN_V[0].1).unwrap();
+        let f = form_of(&p).unwrap();
+        assert_eq!(f.force0.plain.coef, vec![0.0, -1.0, 0.0, -1.0]);
+        let InVelocity::Polynomial { powers } = &f.in_v else {
+            panic!("a force of degree 3 in v");
+        };
+        let coef = |l: usize| powers[l].as_ref().map(|p| p.plain.coef.clone());
+        assert_eq!(coef(0), Some(vec![-0.05, 0.0, -0.005, 0.0, -0.0025]));
+        assert_eq!(coef(1), None);
+        assert_eq!(coef(2), Some(vec![-0.005]));
+    }
+
+    /// A fourth power of v, or a v under a function, keeps the lane evaluator.
+    #[test]
+    fn forces_outside_the_form_are_not_recognised() {
+        for drift in [
+            "-0.1*v^5 - x",
+            "-0.1*v*v*v*v*v - x",
+            "-0.1*tanh(v) - x",
+            "-0.1*v/(1 + x^2) - x",
+        ] {
+            let text = POLYNOMIAL_IN_V[0]
+                .1
+                .replace("-(c0 + c1*(v^2/2 + x^2/2 + x^4/4))*v - x - x^3", drift);
+            assert!(form_of(&plan_of(&text).unwrap()).is_none(), "{drift}");
+        }
     }
 
     /// The form's f, σ, ∂f/∂v against the step program's at random states: Horner's order
@@ -347,8 +504,7 @@ pub(crate) mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        for name in MECHANICAL {
-            let p = plan(name).unwrap();
+        for (name, p) in mechanical_plans() {
             let form = form_of(&p).unwrap();
             let Dynamics::Mechanical { step, .. } = &p.dynamics else {
                 unreachable!()
@@ -364,9 +520,16 @@ pub(crate) mod tests {
             };
             let bound = MechForm {
                 force0: abs(&form.force0),
-                force1: form.force1.as_ref().map(abs),
+                in_v: match &form.in_v {
+                    InVelocity::Affine { force1, slope } => InVelocity::Affine {
+                        force1: force1.as_ref().map(abs),
+                        slope: abs(slope),
+                    },
+                    InVelocity::Polynomial { powers } => InVelocity::Polynomial {
+                        powers: std::array::from_fn(|l| powers[l].as_ref().map(abs)),
+                    },
+                },
                 sigma: abs(&form.sigma),
-                slope: abs(&form.slope),
             };
             for k in 0..2000 {
                 let (z, v) = if k < 4 {
@@ -378,7 +541,11 @@ pub(crate) mod tests {
                 step.eval_point(z, v, &mut want);
                 let (f, s, l) = form.eval(z, v);
                 let (fm, sm, lm) = bound.eval(z.abs(), v.abs());
-                for (got, want, mag) in [(f, want[0], fm), (s, want[1], sm), (l, want[2], lm)] {
+                let mut pairs = vec![(f, want[0], fm), (s, want[1], sm)];
+                if let (Some(l), Some(lm)) = (l, lm) {
+                    pairs.push((l, want[2], lm));
+                }
+                for (got, want, mag) in pairs {
                     assert!(
                         (got - want).abs() <= 8.0 * f64::EPSILON * mag,
                         "{name} at ({z}, {v}): {got} vs the tape's {want}"

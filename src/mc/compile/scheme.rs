@@ -387,11 +387,7 @@ impl Plan {
             let mut outputs = vec![force.clone(), sigma];
             outputs.extend(slope.iter().cloned());
             let step = compile(&outputs, states)?;
-            let form = if slope.is_some() {
-                MechForm::recognise(step.program())
-            } else {
-                None
-            };
+            let form = MechForm::recognise(step.program());
             (
                 SchemeKind::MechanicalStrang,
                 Dynamics::Mechanical {

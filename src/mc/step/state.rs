@@ -718,7 +718,7 @@ mod tests {
 #[cfg(test)]
 mod fast_path_tests {
     use super::*;
-    use crate::mc::compile::mech_form::tests::{plan, MECHANICAL};
+    use crate::mc::compile::mech_form::tests::{mechanical_plans, plan_named};
 
     /// The fast kernel against the lane evaluator, from the same random states and streams,
     /// a few steps at a time (4, so that calls start at every field of a draw): the
@@ -728,16 +728,16 @@ mod fast_path_tests {
     /// less than 1e-13·(1 + |x| + |v|)³. Impacts agree exactly.
     #[test]
     fn the_fast_kernel_follows_the_lane_evaluator() {
-        for name in MECHANICAL.iter().filter(|n| **n != "vibro_impact_strip") {
-            let fast = plan(name).unwrap();
-            let mut slow = plan(name).unwrap();
+        let plans = mechanical_plans();
+        for (name, fast) in plans.iter().filter(|(n, _)| *n != "vibro_impact_strip") {
+            let mut slow = plan_named(name).unwrap();
             if let Dynamics::Mechanical { form, .. } = &mut slow.dynamics {
                 *form = None;
             }
             let spread = fast.initial_spread();
             let lanes = 150;
             let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
-            let (mut a, mut b) = (new(&fast), new(&slow));
+            let (mut a, mut b) = (new(fast), new(&slow));
             let mut seed = 0x2545_F491_4F6C_DD1Du64;
             let mut uniform = move || {
                 seed ^= seed << 13;
@@ -755,7 +755,7 @@ mod fast_path_tests {
                     b.x[i] = a.x[i];
                     b.v[i] = a.v[i];
                 }
-                a.advance(&fast, 4, 0.01);
+                a.advance(fast, 4, 0.01);
                 b.advance(&slow, 4, 0.01);
                 for i in 0..lanes {
                     let m = 1.0 + a.x[i].abs() + a.v[i].abs();

@@ -8,7 +8,7 @@
 //! two comparisons of z with zero (no product), made only by a part that has a sign part.
 
 use super::vector::{each, Vector};
-use crate::mc::compile::mech_form::{MechForm, SgnPoly, ZPoly};
+use crate::mc::compile::mech_form::{InVelocity, MechForm, SgnPoly, ZPoly, MAX_V_DEGREE};
 
 /// Coefficients a [`Horner`] holds (`mech_form`'s highest power plus one).
 const MAX_COEFS: usize = 9;
@@ -112,8 +112,9 @@ impl Part {
 
 /// The parts of one kernel call with steps of size h and three-point value a.
 ///
-/// The step's velocity update is `v ← v + (h·f + dw)·F` with f affine in v,
-/// `h·f = force0(z) + v·h·f₁(z)` and F the Heun factor `1 + (h/2)·∂f/∂v`.
+/// For f affine in v the step's velocity update is `v ← v + (h·f + dw)·F` with
+/// `h·f = force0(z) + v·h·f₁(z)` and F the Heun factor `1 + (h/2)·∂f/∂v`; for f of higher
+/// degree in v, Heun's two evaluations of h·f ([`Velocity::Polynomial`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Coefs {
     /// The part of h·f free of v, times F when F is folded in ([`Velocity::Folded`]).
@@ -136,15 +137,36 @@ pub(crate) enum Velocity {
     /// `v ← v + ((force0(z) + v·force1(z)) + dw)·factor(z)`: `force1 = h·f₁` (absent when f
     /// does not depend on v) and `factor` = F, a function of z.
     Heun { force1: Option<Part>, factor: Part },
+    /// f of degree 2 or more in v: `h·f(v) = force0(z) + v·(p₁(z) + v·(p₂(z) + v·p₃(z)))`
+    /// with `p_l = h·f_l` (absent when zero), at v and at the predictor
+    /// `v̄ = v + (h·f(v) + dw)`, then `v ← (v + (h·f(v) + h·f(v̄))/2) + dw`: the lane
+    /// evaluator's corrector, to rounding.
+    Polynomial {
+        powers: [Option<Part>; MAX_V_DEGREE],
+    },
 }
 
 impl Coefs {
     pub(crate) fn new(form: &MechForm, h: f64, a: f64) -> Coefs {
-        let factor = Part::scaled(&form.slope, 0.5 * h, 1.0);
+        let (force1, slope) = match &form.in_v {
+            InVelocity::Affine { force1, slope } => (force1, slope),
+            InVelocity::Polynomial { powers } => {
+                return Coefs {
+                    force0: Part::scaled(&form.force0, h, 0.0),
+                    sigma: Part::scaled(&form.sigma, h.sqrt() * a, 0.0),
+                    velocity: Velocity::Polynomial {
+                        powers: std::array::from_fn(|l| {
+                            powers[l].as_ref().map(|p| Part::scaled(p, h, 0.0))
+                        }),
+                    },
+                }
+            }
+        };
+        let factor = Part::scaled(slope, 0.5 * h, 1.0);
         match factor.constant() {
             Some(f) => {
                 // keep = 1 when f does not depend on v.
-                let keep = form.force1.as_ref().map(|b| Part::scaled(b, h * f, 1.0));
+                let keep = force1.as_ref().map(|b| Part::scaled(b, h * f, 1.0));
                 Coefs {
                     force0: Part::scaled(&form.force0, h * f, 0.0),
                     sigma: Part::scaled(&form.sigma, h.sqrt() * a * f, 0.0),
@@ -157,7 +179,7 @@ impl Coefs {
                 force0: Part::scaled(&form.force0, h, 0.0),
                 sigma: Part::scaled(&form.sigma, h.sqrt() * a, 0.0),
                 velocity: Velocity::Heun {
-                    force1: form.force1.as_ref().map(|b| Part::scaled(b, h, 0.0)),
+                    force1: force1.as_ref().map(|b| Part::scaled(b, h, 0.0)),
                     factor,
                 },
             },

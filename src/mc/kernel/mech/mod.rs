@@ -29,7 +29,7 @@
 
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::impact::{impact_in_flight, Barrier};
-use crate::mc::compile::mech_form::MechForm;
+use crate::mc::compile::mech_form::{MechForm, MAX_V_DEGREE};
 use crate::mc::kernel::rng::THREE_POINT_FIELDS;
 
 mod coef;
@@ -362,6 +362,63 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
                 |k| v[k].add(noise(hf[k], s[k], words[k]).mul(f[k])),
             );
         }
+        Velocity::Polynomial { powers } => {
+            // The coefficients of v's powers at the frozen z, once for both evaluations.
+            let p: [Option<[V; N]>; MAX_V_DEGREE] = each(
+                #[inline(always)]
+                |l| match &powers[l] {
+                    Some(q) => Some(q.eval(x)),
+                    None => None,
+                },
+            );
+            let hf0 = in_v(&f0, &p, v);
+            let vbar: [V; N] = each(
+                #[inline(always)]
+                |k| v[k].add(noise(hf0[k], s[k], words[k])),
+            );
+            let hf1 = in_v(&f0, &p, &vbar);
+            let half = V::splat(0.5);
+            *v = each(
+                #[inline(always)]
+                |k| noise(v[k].add(hf0[k].add(hf1[k]).mul(half)), s[k], words[k]),
+            );
+        }
+    }
+}
+
+/// `f0 + u·(p₁ + u·(p₂ + u·p₃))` by Horner's rule in u, absent powers skipped: h·f at the
+/// velocities `u` for [`Velocity::Polynomial`].
+#[inline(always)]
+fn in_v<V: Vector, const N: usize>(
+    f0: &[V; N],
+    p: &[Option<[V; N]>; MAX_V_DEGREE],
+    u: &[V; N],
+) -> [V; N] {
+    let mut acc: Option<[V; N]> = None;
+    for q in p.iter().rev() {
+        acc = match (acc, q) {
+            (None, q) => *q,
+            (Some(a), q) => {
+                let m: [V; N] = each(
+                    #[inline(always)]
+                    |k| a[k].mul(u[k]),
+                );
+                Some(match q {
+                    None => m,
+                    Some(q) => each(
+                        #[inline(always)]
+                        |k| m[k].add(q[k]),
+                    ),
+                })
+            }
+        };
+    }
+    match acc {
+        None => *f0,
+        Some(a) => each(
+            #[inline(always)]
+            |k| f0[k].add(a[k].mul(u[k])),
+        ),
     }
 }
 

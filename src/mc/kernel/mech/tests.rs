@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::mc::compile::eval::compile;
-use crate::mc::compile::mech_form::tests::plan;
+use crate::mc::compile::mech_form::tests::{plan, plan_named};
 use crate::mc::compile::scheme::{Dynamics, Plan};
 use crate::mc::kernel::rng::{stream_state, IncrementStream, Increments};
 use crate::symbolic::Expr;
@@ -145,8 +145,10 @@ fn every_vector_width_gives_the_same_bits() {
         "vibro_duffing",
         "van_der_pol",
         "parametric",
+        "energy_damping",
+        "rayleigh_impact",
     ] {
-        let p = plan(name).unwrap();
+        let p = plan_named(name).unwrap();
         let nonlinear = p.barriers.first().map(|_| {
             let v = Expr::sym("v");
             with_map(
