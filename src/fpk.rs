@@ -7,8 +7,8 @@
 
 use std::fmt;
 
+use crate::dynamics::{self, ImpactForm, Inadmissible};
 use crate::model::{BoundModel, DeltaTreatment, Diagnostic, Interpretation};
-use crate::physics::{self, ImpactForm, Inadmissible};
 use crate::symbolic::{
     diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
 };
@@ -46,7 +46,7 @@ pub struct FpkOperator {
     pub b: [[DeltaSplit; 2]; 2],
     /// What EPC makes of the model's impact law (`None` without one): the operator above
     /// represents an impact only through a Zhuravlev term in the drift, so any other law is
-    /// recorded here for EPC to refuse ([`physics::impact_form`]).
+    /// recorded here for EPC to refuse ([`dynamics::impact_form`]).
     pub impact: Option<ImpactForm>,
     /// How the Galerkin integrals treat the operator's δ terms: the model's `delta:` line
     /// (sifting by default), recorded by [`FpkOperator::derive`] so that a solver needs
@@ -86,7 +86,7 @@ pub enum FpkError {
         expr: String,
     },
     /// The model has no stationary density (an impact that adds energy, no damping, no
-    /// noise, …): refused before anything is derived, see [`physics::check`].
+    /// noise, …): refused before anything is derived, see [`dynamics::check`].
     #[error(transparent)]
     Inadmissible(#[from] Inadmissible),
     /// One of the errors above, at the line of the model file that causes it (`Display`: the
@@ -173,7 +173,7 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 
 impl FpkOperator {
     /// Derives the operator of a bound model and checks that the model can have a
-    /// stationary density at all ([`physics::check`]): an operator exists only for models
+    /// stationary density at all ([`dynamics::check`]): an operator exists only for models
     /// whose stationary FPK equation is worth solving.
     ///
     /// ```
@@ -202,7 +202,7 @@ impl FpkOperator {
         // The symbolic derivation first: a term with no meaning is the more specific error.
         let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
         // The check reuses the operator's Itô drift instead of deriving it again.
-        physics::check_with_drift(model, Some(&operator.drift))?;
+        dynamics::check_with_drift(model, Some(&operator.drift))?;
         Ok(operator)
     }
 
@@ -291,7 +291,7 @@ impl FpkOperator {
             a0,
             a,
             b,
-            impact: physics::impact_form(model),
+            impact: dynamics::impact_form(model),
             delta_treatment: model.delta_treatment(),
         })
     }

@@ -16,7 +16,7 @@ pub(crate) struct Barrier {
     /// The side the state lives on.
     pub(crate) side: BarrierSide,
     /// The post-impact velocity v -> map(x, v), compiled over (x, v).
-    map: crate::physics::Jump,
+    map: crate::dynamics::Jump,
 }
 
 impl Barrier {
@@ -161,7 +161,7 @@ impl Mechanics {
 fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImpactError> {
     let mut out = Vec::new();
     for law in model.impacts() {
-        let map = crate::physics::Jump::compile(&law.map, vars).map_err(|source| {
+        let map = crate::dynamics::Jump::compile(&law.map, vars).map_err(|source| {
             EpcImpactError::Symbolic {
                 what: "the jump map".into(),
                 source,
@@ -199,7 +199,7 @@ fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImp
 }
 
 /// Whether the jump sends every probe velocity (±1e-3 to ±1e3) to zero: a plastic impact.
-fn stops(map: &crate::physics::Jump, at: f64) -> bool {
+fn stops(map: &crate::dynamics::Jump, at: f64) -> bool {
     (-3..=3).all(|e| {
         [1.0, -1.0, 2.0, -2.0, 5.0, -5.0]
             .iter()
@@ -252,7 +252,7 @@ impl Barrier {
     /// A barrier with the law v -> −r·v, for tests of barrier sets the model language cannot
     /// state yet (a strip).
     pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Barrier {
-        let map = crate::physics::Jump::compile(&(Expr::num(-r) * Expr::sym("v")), &["x", "v"])
+        let map = crate::dynamics::Jump::compile(&(Expr::num(-r) * Expr::sym("v")), &["x", "v"])
             .expect("a linear map compiles");
         Barrier { at, side, map }
     }

@@ -51,7 +51,7 @@ pub(crate) struct Barrier {
     pub(crate) at: f64,
     pub(crate) kind: BarrierKind,
     /// The jump map v -> map(x, v), compiled over (x, v).
-    map: crate::physics::Jump,
+    map: crate::dynamics::Jump,
 }
 
 impl Barrier {
@@ -110,7 +110,7 @@ impl Mechanical {
                 }));
             }
         }
-        crate::physics::check(model)?;
+        crate::dynamics::check(model)?;
         // δ terms are dropped below only because an impact law stands for them exactly.
         if laws.is_empty() && model.drift()[1].contains_delta() {
             return Err(refuse(Unsupported::DeltaWithoutImpact {
@@ -150,7 +150,7 @@ impl Mechanical {
                     velocity: v,
                 }));
             }
-            let map = crate::physics::Jump::compile(&law.map, &vars).map_err(|source| {
+            let map = crate::dynamics::Jump::compile(&law.map, &vars).map_err(|source| {
                 GridError::Symbolic {
                     what: "the jump map".into(),
                     source,

@@ -21,7 +21,7 @@
 //!
 //! ```
 //! use fpsolve::model::{parse_model, Override};
-//! use fpsolve::physics::{check, Inadmissible};
+//! use fpsolve::dynamics::{check, Inadmissible};
 //! let text = "model lin
 //! param c = 0.1
 //! state z, v

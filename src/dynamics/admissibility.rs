@@ -16,7 +16,7 @@ use crate::symbolic::Expr;
 ///
 /// ```
 /// use fpsolve::model::{parse_model, Override};
-/// use fpsolve::physics::{check, Inadmissible};
+/// use fpsolve::dynamics::{check, Inadmissible};
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let model = fpsolve::model::load_model(&path).unwrap();
 /// assert!(check(&model.bind(&[]).unwrap()).is_ok());
