@@ -462,7 +462,7 @@ mod tests {
             burn_in: BurnIn::Time(1.0),
             ..McConfig::default()
         };
-        let specs = crate::mc::scheme::impact_specs(&model);
+        let specs = crate::mc::scheme::impact_specs(&model).unwrap();
         let Resolved {
             plan,
             names,

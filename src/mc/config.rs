@@ -207,14 +207,14 @@ impl McConfig {
     }
 
     pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
-        self.resolve_with(model, super::scheme::impact_specs(model))
+        self.resolve_with(model, super::scheme::impact_specs(model)?)
     }
 
     /// [`McConfig::resolve`] with the impact laws `specs` in place of the model's own.
     pub(super) fn resolve_with(
         &self,
         model: &BoundModel,
-        specs: Vec<super::impact::ImpactSpec>,
+        specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Resolved, McError> {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.

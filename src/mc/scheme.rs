@@ -24,8 +24,9 @@
 use super::error::BarrierLayout;
 use super::error::McError;
 use super::eval::{compile, BatchKernel};
-use super::impact::{Barrier, Crossing, ImpactSpec};
+use super::impact::{Barrier, Crossing};
 use super::mech_form::MechForm;
+use crate::dynamics::Barrier as Wall;
 use crate::model::BarrierSide;
 use crate::model::{BoundModel, Interpretation};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
@@ -292,27 +293,23 @@ fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2])
     Ok((drift, columns))
 }
 
-/// The model's impact laws as the simulation reads them: the one place that knows how the
-/// model states them (none, one, or the two walls of a strip, each reflecting law with the
-/// side its `domain` line gives).
-pub(crate) fn impact_specs(model: &BoundModel) -> Vec<ImpactSpec> {
-    model
-        .impacts()
-        .iter()
-        .map(|law| ImpactSpec {
-            state: law.state,
-            at: law.at,
-            other: law.other,
-            map: law.map.clone(),
-            side: law.side,
-        })
-        .collect()
+/// The model's barriers as the simulation takes them, from its
+/// [`Dynamics`](crate::dynamics::Dynamics).
+pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
+    use crate::dynamics::{Dynamics, DynamicsError};
+    let dynamics = Dynamics::read(model).map_err(|e| match e {
+        DynamicsError::JumpMap { source } => McError::Compile(source),
+        DynamicsError::TooManyBarriers { count } => McError::Barriers {
+            layout: BarrierLayout::TooMany { count },
+        },
+    })?;
+    Ok(dynamics.barriers().iter().cloned().collect())
 }
 
 /// Checks that `specs` is a layout the simulation handles: none, one, or two on the same
 /// state bounding a strip (the lower one with the state above it, the upper one below);
 /// returns them lower first.
-fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLayout> {
+fn check_layout(mut specs: Vec<Wall>) -> Result<Vec<Wall>, BarrierLayout> {
     match specs.len() {
         0 | 1 => Ok(specs),
         2 => {
@@ -322,8 +319,8 @@ fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLa
                 return Err(BarrierLayout::DifferentStates);
             }
             let strip = lo.at < hi.at
-                && lo.side == Some(BarrierSide::Above)
-                && hi.side == Some(BarrierSide::Below);
+                && lo.side() == Some(BarrierSide::Above)
+                && hi.side() == Some(BarrierSide::Below);
             if !strip {
                 return Err(BarrierLayout::NotAStrip {
                     lower: lo.at,
@@ -341,7 +338,7 @@ impl Plan {
     pub(crate) fn with_impacts(
         model: &BoundModel,
         choice: SchemeChoice,
-        specs: Vec<ImpactSpec>,
+        specs: Vec<Wall>,
     ) -> Result<Plan, McError> {
         let specs = check_layout(specs).map_err(|layout| McError::Barriers { layout })?;
         let [x, v] = [&*model.states[0], &*model.states[1]];
@@ -471,14 +468,14 @@ impl Plan {
                     state: b.state,
                     at: b.at,
                     other: b.other,
-                    map: compile(std::slice::from_ref(&b.map), states)?,
-                    expr: b.map.clone(),
-                    side: match b.side {
+                    map: compile(std::slice::from_ref(b.law().map()), states)?,
+                    expr: b.law().map().clone(),
+                    side: match b.side() {
                         Some(BarrierSide::Above) => 1.0,
                         Some(BarrierSide::Below) => -1.0,
                         None => Barrier::side_of(b.at, 0.0),
                     },
-                    crossing: match b.side {
+                    crossing: match b.side() {
                         Some(_) => Crossing::Reflects,
                         None => Crossing::PassesThrough,
                     },

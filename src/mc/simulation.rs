@@ -5,7 +5,6 @@ use super::batch::{run_batch_pair, run_batches_to_end};
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
 use super::histogram::{Grid, QuantityHistogram};
-use super::impact::ImpactSpec;
 use super::result::{finalize_run, McResult};
 use super::scheme::{Evaluator, Plan};
 use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
@@ -27,7 +26,7 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        Simulation::with_impacts(model, config, super::scheme::impact_specs(model))
+        Simulation::with_impacts(model, config, super::scheme::impact_specs(model)?)
     }
 
     /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (two
@@ -35,7 +34,7 @@ impl Simulation {
     pub(crate) fn with_impacts(
         model: &BoundModel,
         config: &McConfig,
-        specs: Vec<ImpactSpec>,
+        specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Simulation, McError> {
         let Resolved {
             plan,
