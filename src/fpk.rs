@@ -7,11 +7,9 @@
 
 use std::fmt;
 
-use crate::model::{BoundModel, DeltaTreatment, Diagnostic, Interpretation};
-use crate::physics::{self, ImpactForm, Inadmissible};
-use crate::symbolic::{
-    diff, expand, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError,
-};
+use crate::dynamics::{self, ImpactForm, Inadmissible};
+use crate::model::{BoundModel, DeltaTreatment, Diagnostic};
+use crate::symbolic::{diff, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError};
 
 /// The derived stationary FPK operator of a bound model, ready for the EPC engine.
 ///
@@ -46,7 +44,7 @@ pub struct FpkOperator {
     pub b: [[DeltaSplit; 2]; 2],
     /// What EPC makes of the model's impact law (`None` without one): the operator above
     /// represents an impact only through a Zhuravlev term in the drift, so any other law is
-    /// recorded here for EPC to refuse ([`physics::impact_form`]).
+    /// recorded here for EPC to refuse ([`dynamics::impact_form`]).
     pub impact: Option<ImpactForm>,
     /// How the Galerkin integrals treat the operator's δ terms: the model's `delta:` line
     /// (sifting by default), recorded by [`FpkOperator::derive`] so that a solver needs
@@ -86,7 +84,7 @@ pub enum FpkError {
         expr: String,
     },
     /// The model has no stationary density (an impact that adds energy, no damping, no
-    /// noise, …): refused before anything is derived, see [`physics::check`].
+    /// noise, …): refused before anything is derived, see [`dynamics::check`].
     #[error(transparent)]
     Inadmissible(#[from] Inadmissible),
     /// One of the errors above, at the line of the model file that causes it (`Display`: the
@@ -164,6 +162,15 @@ fn locate(model: &BoundModel, error: FpkError) -> FpkError {
     error
 }
 
+impl From<crate::dynamics::DerivationError> for FpkError {
+    fn from(e: crate::dynamics::DerivationError) -> FpkError {
+        FpkError::Symbolic {
+            what: e.what,
+            source: e.source,
+        }
+    }
+}
+
 fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, FpkError> {
     r.map_err(|source| FpkError::Symbolic {
         what: what.into(),
@@ -173,7 +180,7 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 
 impl FpkOperator {
     /// Derives the operator of a bound model and checks that the model can have a
-    /// stationary density at all ([`physics::check`]): an operator exists only for models
+    /// stationary density at all ([`dynamics::check`]): an operator exists only for models
     /// whose stationary FPK equation is worth solving.
     ///
     /// ```
@@ -202,7 +209,7 @@ impl FpkOperator {
         // The symbolic derivation first: a term with no meaning is the more specific error.
         let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
         // The check reuses the operator's Itô drift instead of deriving it again.
-        physics::check_with_drift(model, Some(&operator.drift))?;
+        dynamics::check_with_drift(model, Some(&operator.drift))?;
         Ok(operator)
     }
 
@@ -221,27 +228,9 @@ impl FpkOperator {
     /// ```
     pub fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
         let states = model.states().clone();
-        let g = model.noise_matrix();
-        let s = model.intensity();
-        let m_src = model.noise_names().len();
         // b = G S Gᵀ
-        let mut diffusion: [[Expr; 2]; 2] =
-            std::array::from_fn(|_| std::array::from_fn(|_| Expr::num(0.0)));
-        for i in 0..2 {
-            for j in 0..2 {
-                let mut terms = Vec::new();
-                for k in 0..m_src {
-                    for l in 0..m_src {
-                        if s[k][l] != 0.0 {
-                            terms.push(Expr::num(s[k][l]) * g[i][k].clone() * g[j][l].clone());
-                        }
-                    }
-                }
-                // Expanded so that sgn(z)^2 = 1 and z*sgn(z) = |z| are seen (Eq. 13's form).
-                diffusion[i][j] = simplify(&expand(&Expr::sum(terms)));
-            }
-        }
-        let (wong_zakai, drift) = ito_drift(model)?;
+        let diffusion = crate::dynamics::diffusion(model);
+        let (wong_zakai, drift) = crate::dynamics::ito_drift(model)?;
         let name = |i: usize| states[i].to_string();
         // A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij
         let mut a0_terms = Vec::new();
@@ -291,7 +280,7 @@ impl FpkOperator {
             a0,
             a,
             b,
-            impact: physics::impact_form(model),
+            impact: dynamics::impact_form(model),
             delta_treatment: model.delta_treatment(),
         })
     }
@@ -314,51 +303,6 @@ impl FpkOperator {
         self.delta_treatment = treatment;
         self
     }
-}
-
-/// The Wong–Zakai drift correction m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik of a Stratonovich
-/// model (zero for Itô models).
-/// The Wong–Zakai correction and the Itô drift m = drift + correction, simplified.
-pub(crate) fn ito_drift(model: &BoundModel) -> Result<([Expr; 2], [Expr; 2]), FpkError> {
-    let wz = wong_zakai(model)?;
-    let d = model.drift();
-    let m = [
-        simplify(&(d[0].clone() + wz[0].clone())),
-        simplify(&(d[1].clone() + wz[1].clone())),
-    ];
-    Ok((wz, m))
-}
-
-pub(crate) fn wong_zakai(model: &BoundModel) -> Result<[Expr; 2], FpkError> {
-    let states = model.states();
-    let g = model.noise_matrix();
-    let s = model.intensity();
-    let m_src = model.noise_names().len();
-    // Wong–Zakai: m_i += ½ Σ_j Σ_kl S_kl G_jl ∂_j G_ik.
-    let mut wong_zakai: [Expr; 2] = [Expr::num(0.0), Expr::num(0.0)];
-    if model.interpretation() == Interpretation::Stratonovich {
-        for i in 0..2 {
-            let mut terms = Vec::new();
-            for (j, xj) in states.iter().enumerate() {
-                for k in 0..m_src {
-                    let dg = ctx(
-                        format!("d G[{}][{k}] / d{xj}", states[i]),
-                        diff(&g[i][k], xj),
-                    )?;
-                    if dg.as_num() == Some(0.0) {
-                        continue;
-                    }
-                    for l in 0..m_src {
-                        if s[k][l] != 0.0 && g[j][l].as_num() != Some(0.0) {
-                            terms.push(Expr::num(0.5 * s[k][l]) * g[j][l].clone() * dg.clone());
-                        }
-                    }
-                }
-            }
-            wong_zakai[i] = simplify(&Expr::sum(terms));
-        }
-    }
-    Ok(wong_zakai)
 }
 
 /// Prints a split coefficient as `regular + weight*delta(x - at) + …`.
@@ -450,7 +394,7 @@ impl fmt::Display for FpkOperator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::DeltaTreatment;
+    use crate::model::{DeltaTreatment, Interpretation};
     use crate::symbolic::Func;
 
     fn sym(s: &str) -> Expr {

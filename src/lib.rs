@@ -121,6 +121,7 @@
 
 pub mod cancel;
 pub mod check;
+pub mod dynamics;
 pub mod epc;
 pub mod epc_impact;
 mod error;
@@ -133,7 +134,6 @@ pub mod model;
 pub mod moments;
 pub mod number_text;
 pub mod observe;
-pub mod physics;
 pub mod report;
 pub mod simd;
 pub mod solve;

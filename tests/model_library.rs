@@ -6,12 +6,12 @@
 use std::path::{Path, PathBuf};
 
 use approx::assert_relative_eq;
+use fpsolve::dynamics::{ImpactForm, UnsupportedImpact};
 use fpsolve::epc::{Epc, EpcError, EpcSolution, NormalisationKind};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::mc::{BurnIn, Grid, McConfig, McResult, QuantityHistogram, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
 use fpsolve::observe::{observable_pdf, ObservableMap};
-use fpsolve::physics::{ImpactForm, UnsupportedImpact};
 use fpsolve::solve::Problem;
 
 fn model_path(file: &str) -> PathBuf {
@@ -647,7 +647,7 @@ fn vibro_impact_duffing_is_vibro_duffing_in_its_own_coordinates() {
         panic!("one impact law")
     };
     assert_eq!(law.side, Some(fpsolve::model::BarrierSide::Above));
-    assert_eq!(fpsolve::physics::check(&bound), Ok(()));
+    assert_eq!(fpsolve::dynamics::check(&bound), Ok(()));
     let (_, fpk) = derive(&original, &[]);
     let (_, fpk_paper) = derive(&paper, &[]);
     let a = Epc::new(&fpk).solve_degrees(&[2, 4]);
@@ -671,7 +671,7 @@ fn vibro_impact_strip_bounds_a_strip_hit_often_on_both_sides() {
     let sides: Vec<_> = bound.impacts().iter().map(|l| (l.at, l.side)).collect();
     use fpsolve::model::BarrierSide::{Above, Below};
     assert_eq!(sides, [(-1.0, Some(Above)), (1.0, Some(Below))]);
-    assert_eq!(fpsolve::physics::check(&bound), Ok(()));
+    assert_eq!(fpsolve::dynamics::check(&bound), Ok(()));
     // The `domain` line is optional: without it the same strip is inferred.
     let text = std::fs::read_to_string(model_path("vibro_impact_strip.sde")).unwrap();
     let without = parse_model(&text.replace("domain -d <= y <= d\n", ""), None).unwrap();

@@ -11,10 +11,10 @@ use std::time::Duration;
 
 use common::{json, run_within, scratch};
 use fpsolve::cancel::Cancel;
+use fpsolve::dynamics::Inadmissible;
 use fpsolve::grid::Cells;
 use fpsolve::mc::Shard;
 use fpsolve::model::{load_model, parse_model, Model};
-use fpsolve::physics::Inadmissible;
 use fpsolve::solve::MethodName;
 use fpsolve::sweep::{PointOutcome, Sweep, SweepSpec};
 

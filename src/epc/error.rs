@@ -2,7 +2,7 @@
 
 use super::outcome::{self, Attempt, BestPoint};
 use super::NotNormalisable;
-use crate::physics::UnsupportedImpact;
+use crate::dynamics::UnsupportedImpact;
 use crate::symbolic::{EvalError, SymbolicError};
 
 /// Why an EPC solve failed; every numeric failure carries what was tried and how far it got.

@@ -64,8 +64,8 @@ pub use outcome::{
 };
 pub use solution::{EpcSolution, SolveReport};
 
+use crate::dynamics::ImpactForm;
 use crate::fpk::FpkOperator;
-use crate::physics::ImpactForm;
 use galerkin::GalerkinSystem;
 use normalise::Poly;
 use prepare::{Prepared, Quadrature};
@@ -407,7 +407,7 @@ impl<'a> Epc<'a> {
     }
 
     /// Refuses, before any work, an impact law the operator does not represent (see
-    /// [`crate::physics::impact_form`]).
+    /// [`crate::dynamics::impact_form`]).
     fn refuse_unsupported_impact(&self) -> Result<(), EpcError> {
         match &self.fpk.impact {
             Some(ImpactForm::Unsupported { law, reason }) => Err(EpcError::UnsupportedImpact {

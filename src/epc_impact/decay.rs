@@ -13,7 +13,7 @@
 //! with a barrier as the edge on its side.
 
 use super::error::Divergence;
-use super::mechanics::{Barrier, BarrierSide};
+use super::mechanics::{BarrierSide, Wall};
 use super::rule::{free_x_edges, q_at, Window};
 
 /// e-folds below the peak at which the density counts as negligible (e^−40 ≈ 4e−18).
@@ -147,7 +147,7 @@ pub(crate) fn fit_box(
     exps: &[(usize, usize)],
     a: &[f64],
     sigma: [f64; 2],
-    barriers: &[Barrier],
+    barriers: &[Wall],
     start: Window,
     mode: [f64; 2],
     decays: bool,
@@ -285,7 +285,7 @@ pub(crate) fn edge_e_folds(
     exps: &[(usize, usize)],
     a: &[f64],
     sigma: [f64; 2],
-    barriers: &[Barrier],
+    barriers: &[Wall],
     w: Window,
     peak: f64,
 ) -> f64 {

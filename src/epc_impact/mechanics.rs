@@ -1,28 +1,29 @@
-//! The mechanical form x' = v, v' = m(x, v) + noise read from a bound model (the Itô drift m
-//! of v and the v–v diffusion b, compiled to one tape), and the model's barrier(s) on x.
+//! The mechanical form x' = v, v' = m(x, v) + noise taken from the model's [`Dynamics`] (the
+//! Itô drift m of v and the v–v diffusion b, compiled to one tape), and its reflecting walls.
 
 use super::error::{EpcImpactError, Unsupported};
-use crate::fpk::FpkOperator;
+use crate::dynamics::{Barrier, Dynamics, DynamicsError};
 use crate::model::BoundModel;
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Tape, TapeScratch};
 
 pub use crate::model::BarrierSide;
 
-/// A reflecting barrier on the position.
+/// A reflecting wall on the position: the model's [`Barrier`] with the side this method
+/// needs it to have (it solves reflecting walls only).
 #[derive(Clone, Debug)]
-pub(crate) struct Barrier {
+pub(crate) struct Wall {
     /// Its position.
     pub(crate) at: f64,
     /// The side the state lives on.
     pub(crate) side: BarrierSide,
-    /// The post-impact velocity v -> map(x, v), compiled over (x, v).
-    map: crate::physics::Jump,
+    /// The barrier, for its jump.
+    barrier: Barrier,
 }
 
-impl Barrier {
+impl Wall {
     /// The post-impact velocity of an arriving `v`.
     pub(crate) fn map(&self, v: f64) -> f64 {
-        self.map.map(self.at, v)
+        self.barrier.jump(v)
     }
 
     /// The sign of the arriving velocities (−1 at a lower barrier, +1 at an upper one).
@@ -43,13 +44,29 @@ pub(crate) struct Mechanics {
     /// have δ terms (a drift with sgn(v), say), which the residual does not integrate.
     derivatives: Option<Tape>,
     /// 0, 1 or 2 barriers (two bound a strip, the lower one first).
-    pub(crate) barriers: Vec<Barrier>,
+    pub(crate) barriers: Vec<Wall>,
 }
 
 impl Mechanics {
     /// Reads the mechanical form of `model` and its barriers, or says why it has none.
     pub(crate) fn new(model: &BoundModel) -> Result<Mechanics, EpcImpactError> {
-        let states = model.states();
+        let dynamics = Dynamics::read(model).map_err(|e| match e {
+            DynamicsError::JumpMap { source } => EpcImpactError::Symbolic {
+                what: "the jump map".into(),
+                source,
+            },
+            DynamicsError::TooManyBarriers { .. } => {
+                let at = |i: usize| model.impacts().get(i).map_or(f64::NAN, |l| l.at);
+                EpcImpactError::Unsupported {
+                    model: model.name().to_string(),
+                    reason: Unsupported::NotAStrip {
+                        lower: at(0),
+                        upper: at(1),
+                    },
+                }
+            }
+        })?;
+        let states = dynamics.states();
         let (x, v) = (states[0].to_string(), states[1].to_string());
         let refuse = |reason| EpcImpactError::Unsupported {
             model: model.name().to_string(),
@@ -69,18 +86,24 @@ impl Mechanics {
                 coefficient: "diffusion",
             }));
         }
-        if model
-            .impacts()
+        if dynamics
+            .barriers()
             .iter()
-            .any(|law| law.state != 0 || law.other != 1)
+            .any(|b| b.state() != 0 || b.other() != 1)
         {
             return Err(refuse(Unsupported::ImpactNotOnPosition {
                 position: x,
                 velocity: v,
             }));
         }
-        let fpk = FpkOperator::derive(model)?;
-        let rate = simplify(&fpk.drift[0]);
+        // A model without a stationary density is refused before the form is read.
+        let drift = dynamics.ito_drift().map_err(crate::fpk::FpkError::from)?;
+        crate::dynamics::check_with_drift(model, Some(drift))
+            .map_err(crate::fpk::FpkError::from)?;
+        // This method's reading of the form is stricter than the grid's (`Form`): the Itô
+        // rate of the position must be v and the position's diffusion entries must vanish
+        // as expressions (the grid asks that no source with an intensity of its own drives x).
+        let rate = simplify(&drift[0]);
         if rate != Expr::sym(&v) {
             return Err(refuse(Unsupported::NotMechanical {
                 position: x,
@@ -88,7 +111,8 @@ impl Mechanics {
                 rate: format!("{rate:#}"),
             }));
         }
-        for entry in [&fpk.diffusion[0][0], &fpk.diffusion[0][1]] {
+        let b = dynamics.diffusion();
+        for entry in [&b[0][0], &b[0][1]] {
             let e = simplify(entry);
             if e.as_num() != Some(0.0) {
                 return Err(refuse(Unsupported::NoiseInPosition {
@@ -98,7 +122,7 @@ impl Mechanics {
             }
         }
         let vars = [x.as_str(), v.as_str()];
-        let exprs = [simplify(&fpk.drift[1]), simplify(&fpk.diffusion[1][1])];
+        let exprs = [simplify(&drift[1]), simplify(&b[1][1])];
         let coefficients = Tape::compile(&exprs, &vars, DeltaPolicy::Reject).map_err(|source| {
             EpcImpactError::Symbolic {
                 what: format!("the drift and diffusion of `{v}`"),
@@ -111,7 +135,7 @@ impl Mechanics {
             let ddb = simplify(&diff(&db, &v).ok()?);
             Tape::compile(&[dm, db, ddb], &vars, DeltaPolicy::Reject).ok()
         })();
-        let barriers = barriers(model, &vars)?;
+        let barriers = walls(model, &dynamics)?;
         Ok(Mechanics {
             coefficients,
             derivatives,
@@ -154,61 +178,50 @@ impl Mechanics {
     }
 }
 
-/// The model's barrier(s), each with the side the state lives on. The one place that reads
-/// the model's impact law: today a single law, on the side holding the origin (as Monte Carlo
-/// starts its trajectories there); the model's own `side` and a second barrier (a strip)
-/// replace this rule when the model language says them.
-fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImpactError> {
+/// The model's barriers as reflecting walls; a law without a side either stops the motion
+/// (`v -> 0`) or passes through (the Zhuravlev form): this method solves neither.
+fn walls(model: &BoundModel, dynamics: &Dynamics) -> Result<Vec<Wall>, EpcImpactError> {
     let mut out = Vec::new();
-    for law in model.impacts() {
-        let map = crate::physics::Jump::compile(&law.map, vars).map_err(|source| {
-            EpcImpactError::Symbolic {
-                what: "the jump map".into(),
-                source,
-            }
-        })?;
-        // The model gives every reflecting law its side; a law without one either stops the
-        // motion (`v -> 0`) or passes through (the Zhuravlev form): this method solves neither.
-        let Some(side) = law.side else {
-            let printed = format!("impact at {}: v -> {:#}", law.at, law.map);
-            let reason = if stops(&map, law.at) {
-                Unsupported::Plastic { law: printed }
+    for barrier in dynamics.barriers().iter() {
+        let printed = format!("{:#}", barrier.law().map());
+        let Some(side) = barrier.side() else {
+            let law = format!("impact at {}: v -> {printed}", barrier.at());
+            let reason = if stops(barrier) {
+                Unsupported::Plastic { law }
             } else {
-                Unsupported::PassThrough { law: printed }
+                Unsupported::PassThrough { law }
             };
             return Err(EpcImpactError::Unsupported {
                 model: model.name().to_string(),
                 reason,
             });
         };
-        let barrier = Barrier {
-            at: law.at,
+        let wall = Wall {
+            at: barrier.at(),
             side,
-            map,
+            barrier: barrier.clone(),
         };
-        check_law(&barrier, &format!("{:#}", law.map)).map_err(|reason| {
-            EpcImpactError::Unsupported {
-                model: model.name().to_string(),
-                reason,
-            }
+        check_law(&wall, &printed).map_err(|reason| EpcImpactError::Unsupported {
+            model: model.name().to_string(),
+            reason,
         })?;
-        out.push(barrier);
+        out.push(wall);
     }
     out.sort_by(|a, b| a.at.total_cmp(&b.at));
     Ok(out)
 }
 
-/// Whether the jump sends every probe velocity (±1e-3 to ±1e3) to zero: a plastic impact.
-fn stops(map: &crate::physics::Jump, at: f64) -> bool {
+/// Whether the jump sends every probe velocity (±1e-3 to ±5e3) to zero: a plastic impact.
+fn stops(barrier: &Barrier) -> bool {
     (-3..=3).all(|e| {
         [1.0, -1.0, 2.0, -2.0, 5.0, -5.0]
             .iter()
-            .all(|f| map.map(at, f * 10f64.powi(e)) == 0.0)
+            .all(|f| barrier.jump(f * 10f64.powi(e)) == 0.0)
     })
 }
 
 /// A barrier pair must bound a strip: the lower one `Above`, the upper one `Below`.
-pub(crate) fn check_strip(barriers: &[Barrier]) -> Result<(), Unsupported> {
+pub(crate) fn check_strip(barriers: &[Wall]) -> Result<(), Unsupported> {
     if let [a, b] = barriers {
         let ok = a.side == BarrierSide::Above && b.side == BarrierSide::Below && a.at < b.at;
         if !ok {
@@ -223,7 +236,7 @@ pub(crate) fn check_strip(barriers: &[Barrier]) -> Result<(), Unsupported> {
 
 /// The law must reflect: every arriving velocity is sent back into the domain, without
 /// gaining speed (probes from 1e-3 to 1e3); a law that keeps the sign is the Zhuravlev form.
-pub(crate) fn check_law(barrier: &Barrier, printed: &str) -> Result<(), Unsupported> {
+pub(crate) fn check_law(barrier: &Wall, printed: &str) -> Result<(), Unsupported> {
     let s = barrier.arriving();
     for e in -3..=3 {
         for f in [1.0, 2.0, 5.0] {
@@ -248,12 +261,13 @@ pub(crate) fn check_law(barrier: &Barrier, printed: &str) -> Result<(), Unsuppor
 }
 
 #[cfg(test)]
-impl Barrier {
-    /// A barrier with the law v -> −r·v, for tests of barrier sets the model language cannot
-    /// state yet (a strip).
-    pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Barrier {
-        let map = crate::physics::Jump::compile(&(Expr::num(-r) * Expr::sym("v")), &["x", "v"])
-            .expect("a linear map compiles");
-        Barrier { at, side, map }
+impl Wall {
+    /// A wall with the law v -> −r·v, for tests of barrier sets no bundled model states.
+    pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Wall {
+        Wall {
+            at,
+            side,
+            barrier: Barrier::restitution(at, side, r),
+        }
     }
 }

@@ -90,7 +90,7 @@ pub use solution::{DomainBarrier, EpcImpactReport, EpcImpactSolution, Normalisat
 use crate::epc::solver::pad;
 use crate::epc::{Epc, EpcError, StartPoint, MAX_DEGREE};
 use crate::model::BoundModel;
-use mechanics::{Barrier, Mechanics};
+use mechanics::{Mechanics, Wall};
 use rule::System;
 
 /// Gauss–Legendre panels per axis of the first rule (8 nodes each).
@@ -142,7 +142,7 @@ pub struct EpcImpact<'a> {
     tolerance: f64,
     panels: [usize; 2],
     ridge_threshold: f64,
-    barriers: Option<Vec<Barrier>>,
+    barriers: Option<Vec<Wall>>,
 }
 
 /// A lower-degree solution (exponents, scaled coefficients) that starts the next degree.
@@ -237,7 +237,7 @@ impl<'a> EpcImpact<'a> {
     /// Replaces the model's barriers (tests of barrier sets the model language cannot state
     /// yet).
     #[cfg(test)]
-    pub(crate) fn barriers(mut self, barriers: Vec<Barrier>) -> Self {
+    pub(crate) fn barriers(mut self, barriers: Vec<Wall>) -> Self {
         self.barriers = Some(barriers);
         self
     }

@@ -14,7 +14,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::error::EpcImpactError;
-use super::mechanics::{Barrier, BarrierSide, Mechanics};
+use super::mechanics::{BarrierSide, Mechanics, Wall};
 use crate::epc::quadrature::gauss_legendre;
 use crate::epc::MAX_DEGREE;
 
@@ -140,7 +140,7 @@ impl System {
             }
         }
         let [m, b] = mech.eval_batch(&px, &pv)?;
-        let mut arriving: Vec<(&Barrier, usize)> = Vec::new();
+        let mut arriving: Vec<(&Wall, usize)> = Vec::new();
         for bar in &mech.barriers {
             for (k, v) in vs.iter().enumerate() {
                 if v * bar.arriving() > 0.0 {
@@ -298,7 +298,7 @@ impl System {
 }
 
 /// Which edges of a box are free (not a barrier): [x_lo, x_hi]; both v edges are free.
-pub(crate) fn free_x_edges(barriers: &[Barrier]) -> [bool; 2] {
+pub(crate) fn free_x_edges(barriers: &[Wall]) -> [bool; 2] {
     let mut free = [true, true];
     for b in barriers {
         match b.side {

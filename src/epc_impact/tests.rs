@@ -4,7 +4,7 @@
 
 use nalgebra::DVector;
 
-use super::mechanics::{Barrier, BarrierSide, Mechanics};
+use super::mechanics::{BarrierSide, Mechanics, Wall};
 use super::rule::{System, Window};
 use super::{EpcImpact, Normalisation};
 use crate::model::{parse_model, BoundModel};
@@ -42,17 +42,17 @@ fn the_exact_elastic_density_is_a_root() {
     let sigma = [2.0, 2.0];
     for (barriers, x) in [
         (
-            vec![Barrier::restitution(-0.5, BarrierSide::Above, 1.0)],
+            vec![Wall::restitution(-0.5, BarrierSide::Above, 1.0)],
             [-0.5, 14.0],
         ),
         (
-            vec![Barrier::restitution(0.7, BarrierSide::Below, 1.0)],
+            vec![Wall::restitution(0.7, BarrierSide::Below, 1.0)],
             [-14.0, 0.7],
         ),
         (
             vec![
-                Barrier::restitution(-0.5, BarrierSide::Above, 1.0),
-                Barrier::restitution(0.8, BarrierSide::Below, 1.0),
+                Wall::restitution(-0.5, BarrierSide::Above, 1.0),
+                Wall::restitution(0.8, BarrierSide::Below, 1.0),
             ],
             [-0.5, 0.8],
         ),
@@ -77,7 +77,7 @@ fn the_exact_elastic_density_is_a_root() {
         // The same equations with r = 0.9 are not solved by it: the boundary term matters.
         let mut inelastic = mech.clone();
         for b in &mut inelastic.barriers {
-            *b = Barrier::restitution(b.at, b.side, 0.9);
+            *b = Wall::restitution(b.at, b.side, 0.9);
         }
         let sys = System::build(&inelastic, sigma, window, [24, 24], 4).unwrap();
         assert!(sys.residual(&a).norm() > 1e-4, "{x:?}");
@@ -90,8 +90,8 @@ fn the_exact_elastic_density_is_a_root() {
 fn a_strip_is_solved_exactly() {
     let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let strip = vec![
-        Barrier::restitution(-0.5, BarrierSide::Above, 1.0),
-        Barrier::restitution(0.8, BarrierSide::Below, 1.0),
+        Wall::restitution(-0.5, BarrierSide::Above, 1.0),
+        Wall::restitution(0.8, BarrierSide::Below, 1.0),
     ];
     let sol = EpcImpact::new(&model).barriers(strip).solve(4).unwrap();
     let q = exact_q(&sol.exponents);
@@ -109,8 +109,8 @@ fn a_strip_is_solved_exactly() {
 fn barriers_that_do_not_bound_a_strip_are_refused() {
     let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
     let crossed = vec![
-        Barrier::restitution(0.8, BarrierSide::Above, 1.0),
-        Barrier::restitution(-0.5, BarrierSide::Below, 1.0),
+        Wall::restitution(0.8, BarrierSide::Above, 1.0),
+        Wall::restitution(-0.5, BarrierSide::Below, 1.0),
     ];
     let err = EpcImpact::new(&model)
         .barriers(crossed)

@@ -87,7 +87,7 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                 mesh.v0 + j as f64 * mesh.hv,
                 mesh.v0 + (j + 1) as f64 * mesh.hv,
             );
-            let (m0, m1) = (barrier.map(e0), barrier.map(e1));
+            let (m0, m1) = (barrier.jump(e0), barrier.jump(e1));
             let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
             for (col, w) in [(from, 1.5), (inner, -0.5)] {
                 push(&mut outflow, from, col, -rate * w);

@@ -4,8 +4,9 @@
 use super::assemble::{assemble, solve};
 use super::error::GridError;
 use super::mesh::{Domain, Mesh};
-use super::problem::{BarrierKind, Mechanical};
+use super::problem::Mechanical;
 use super::BarrierSide;
+use crate::dynamics::BarrierKind;
 
 /// Cells of a sizing pass.
 const COARSE: [usize; 2] = [48, 64];

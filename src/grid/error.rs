@@ -1,7 +1,7 @@
 //! Why a grid solve was refused or failed.
 
+use crate::dynamics::Inadmissible;
 use crate::fpk::FpkError;
-use crate::physics::Inadmissible;
 use crate::symbolic::SymbolicError;
 
 /// What the grid solver does not handle: a refusal before any work, never a wrong number.

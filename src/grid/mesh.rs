@@ -2,8 +2,8 @@
 
 use serde::Serialize;
 
-use super::problem::{Barrier, BarrierKind};
 use super::BarrierSide;
+use crate::dynamics::{Barrier, BarrierKind};
 
 /// The rectangle [x_lo, x_hi] × [v_lo, v_hi] the density is computed on.
 ///

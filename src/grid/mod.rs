@@ -71,9 +71,10 @@ pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
 pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
 
+use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
 use mesh::Mesh;
-use problem::{BarrierKind, Mechanical};
+use problem::Mechanical;
 
 /// Cells (position, velocity) used unless [`GridSolver::cells`] says otherwise: on the
 /// paper's vibro-impact cases within 1e−3 (L1) of a 10⁹-sample Monte Carlo of the original
@@ -108,7 +109,7 @@ pub struct GridSolver<'a> {
     model: &'a BoundModel,
     cells: [usize; 2],
     domain: Option<Domain>,
-    laws: Option<Vec<problem::Law>>,
+    barriers: Option<crate::dynamics::Barriers>,
     estimate: bool,
 }
 
@@ -125,7 +126,7 @@ impl<'a> GridSolver<'a> {
             model,
             cells: DEFAULT_CELLS,
             domain: None,
-            laws: None,
+            barriers: None,
             estimate: true,
         }
     }
@@ -162,11 +163,10 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// Solves with the impact laws `laws` in place of the model's own (two walls of a strip
-    /// before the model language can state them).
+    /// Solves with the barriers `barriers` in place of the model's own.
     #[cfg(test)]
-    pub(crate) fn impacts(mut self, laws: Vec<problem::Law>) -> Self {
-        self.laws = Some(laws);
+    pub(crate) fn barriers(mut self, barriers: crate::dynamics::Barriers) -> Self {
+        self.barriers = Some(barriers);
         self
     }
 
@@ -217,8 +217,12 @@ impl<'a> GridSolver<'a> {
         let start = Instant::now();
         let [nx, nv] = self.cells;
         check_cells(self.cells)?;
-        let problem = match &self.laws {
-            Some(laws) => Mechanical::with_laws(self.model, laws.clone())?,
+        let problem = match &self.barriers {
+            Some(barriers) => {
+                let dynamics =
+                    crate::dynamics::Dynamics::read(self.model).expect("a test model reads");
+                Mechanical::with_barriers(self.model, &dynamics, barriers)?
+            }
             None => Mechanical::new(self.model)?,
         };
         let barriers = problem.barriers.as_slice();

@@ -1,65 +1,14 @@
 //! The mechanical form x' = v, v' = m(x, v) + noise that the grid solver discretises, taken
-//! from a bound model: the Itô drift m of v, the diffusion b = b_vv and ∂b/∂v compiled to one
-//! tape, and the model's impact law read as a barrier on x.
+//! from the model's [`Dynamics`]: the Itô drift m of v, the diffusion b = b_vv and ∂b/∂v
+//! compiled to one tape, and the barriers on x.
 
 use super::error::{GridError, Unsupported};
 use super::BarrierSide;
+use crate::dynamics::{
+    Barrier, BarrierKind, Barriers, Dynamics, DynamicsError, Form, NotMechanical,
+};
 use crate::model::BoundModel;
-use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Tape};
-
-/// How the barrier acts on the flux that reaches it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum BarrierKind {
-    /// The jump keeps the velocity's sign (`v -> r*v`, the Zhuravlev form): the state passes
-    /// through and the density lives on both sides.
-    PassThrough,
-    /// The jump reverses the velocity (`v -> -r*v`, original coordinates): the state stays on
-    /// one side.
-    Reflecting(BarrierSide),
-}
-
-/// An impact law as the grid solver reads it from a model, before compilation.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Law {
-    pub(crate) state: usize,
-    pub(crate) other: usize,
-    pub(crate) at: f64,
-    pub(crate) map: Expr,
-    /// The side the state lives on for a reflecting law (`None` for a pass-through law).
-    pub(crate) side: Option<BarrierSide>,
-}
-
-/// The model's impact laws as the grid solver reads them: the one place that knows how the
-/// model states them (none, one, or the two walls of a strip, each with its side).
-fn model_laws(model: &BoundModel) -> Vec<Law> {
-    model
-        .impacts()
-        .iter()
-        .map(|law| Law {
-            state: law.state,
-            other: law.other,
-            at: law.at,
-            map: law.map.clone(),
-            side: law.side,
-        })
-        .collect()
-}
-
-/// The model's impact law on the position axis.
-#[derive(Clone, Debug)]
-pub(crate) struct Barrier {
-    pub(crate) at: f64,
-    pub(crate) kind: BarrierKind,
-    /// The jump map v -> map(x, v), compiled over (x, v).
-    map: crate::physics::Jump,
-}
-
-impl Barrier {
-    /// The post-impact velocity of `v` at the barrier.
-    pub(crate) fn map(&self, v: f64) -> f64 {
-        self.map.map(self.at, v)
-    }
-}
+use crate::symbolic::{diff, simplify, DeltaPolicy, Tape};
 
 /// Drift, diffusion and barrier of a mechanical-form model.
 #[derive(Clone, Debug)]
@@ -81,57 +30,53 @@ pub(crate) struct Coefficients {
 impl Mechanical {
     /// Reads the mechanical form of `model`, or says why it has none.
     pub(crate) fn new(model: &BoundModel) -> Result<Self, GridError> {
-        Mechanical::with_laws(model, model_laws(model))
+        let dynamics = Dynamics::read(model).map_err(|e| jump_map_error(model, e))?;
+        Mechanical::with_barriers(model, &dynamics, dynamics.barriers())
     }
 
-    /// [`Mechanical::new`] with the impact laws `laws` in place of the model's own.
-    pub(crate) fn with_laws(model: &BoundModel, laws: Vec<Law>) -> Result<Self, GridError> {
-        let states = model.states();
+    /// [`Mechanical::new`] with the barriers `barriers` in place of the model's own.
+    pub(crate) fn with_barriers(
+        model: &BoundModel,
+        dynamics: &Dynamics,
+        barriers: &Barriers,
+    ) -> Result<Self, GridError> {
+        let states = dynamics.states();
         let (x, v) = (states[0].to_string(), states[1].to_string());
         let refuse = |reason| GridError::Unsupported {
             model: model.name().to_string(),
             reason,
         };
-        let rate = simplify(&model.drift()[0].without_deltas());
-        if rate != Expr::sym(&v) {
-            return Err(refuse(Unsupported::NotMechanical {
-                position: x,
-                velocity: v,
-                rate: format!("{rate:#}"),
+        if let Form::General { why } = dynamics.form() {
+            return Err(refuse(match why.clone() {
+                NotMechanical::Rate {
+                    position,
+                    velocity,
+                    rate,
+                } => Unsupported::NotMechanical {
+                    position,
+                    velocity,
+                    rate,
+                },
+                NotMechanical::NoiseInPosition { position, noise } => {
+                    Unsupported::NoiseInPosition { position, noise }
+                }
             }));
         }
-        let s = model.intensity();
-        let g = model.noise_matrix();
-        for (k, name) in model.noise_names().iter().enumerate() {
-            if g[0][k].as_num() != Some(0.0) && s[k][k] != 0.0 {
-                return Err(refuse(Unsupported::NoiseInPosition {
-                    position: x,
-                    noise: name.to_string(),
-                }));
-            }
-        }
-        crate::physics::check(model)?;
+        crate::dynamics::check(model)?;
         // δ terms are dropped below only because an impact law stands for them exactly.
-        if laws.is_empty() && model.drift()[1].contains_delta() {
+        if barriers.is_empty() && model.drift()[1].contains_delta() {
             return Err(refuse(Unsupported::DeltaWithoutImpact {
                 velocity: v,
                 coefficient: "drift",
             }));
         }
-        if (0..g[1].len()).any(|k| g[1][k].contains_delta()) {
+        if model.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
             return Err(refuse(Unsupported::DeltaInDiffusion { velocity: v }));
         }
-        let (_, ito) = crate::fpk::ito_drift(model)?;
+        let ito = dynamics.ito_drift().map_err(crate::fpk::FpkError::from)?;
         let m = simplify(&ito[1].without_deltas());
-        let mut terms = Vec::new();
-        for (k, row) in s.iter().enumerate() {
-            for (l, &skl) in row.iter().enumerate() {
-                if skl != 0.0 {
-                    terms.push(Expr::num(skl) * g[1][k].clone() * g[1][l].clone());
-                }
-            }
-        }
-        let b = simplify(&crate::symbolic::expand(&Expr::sum(terms)).without_deltas());
+        // No δ in the diffusion (refused above), so b is the dynamics' entry as it stands.
+        let b = dynamics.diffusion()[1][1].clone();
         let db = diff(&b, &v).map_err(|source| GridError::Symbolic {
             what: format!("d b_{v}{v} / d{v}"),
             source,
@@ -142,44 +87,29 @@ impl Mechanical {
                 what: format!("the drift and diffusion of `{v}`"),
                 source,
             })?;
-        let mut barriers = Vec::with_capacity(laws.len());
-        for law in &laws {
-            if law.state != 0 || law.other != 1 {
+        let mut walls = Vec::with_capacity(barriers.len());
+        for barrier in barriers.iter() {
+            if barrier.state != 0 || barrier.other != 1 {
                 return Err(refuse(Unsupported::ImpactNotOnPosition {
                     position: x,
                     velocity: v,
                 }));
             }
-            let map = crate::physics::Jump::compile(&law.map, &vars).map_err(|source| {
-                GridError::Symbolic {
-                    what: "the jump map".into(),
-                    source,
-                }
-            })?;
-            let mut barrier = Barrier {
-                at: law.at,
-                kind: BarrierKind::PassThrough,
-                map,
-            };
-            let kind = classify(&barrier).ok_or_else(|| {
+            let refused = || {
                 refuse(Unsupported::ImpactMap {
-                    map: format!("{:#}", law.map),
+                    map: format!("{:#}", barrier.law().map()),
                 })
-            })?;
-            barrier.kind = match kind {
-                // The model says the side of every reflecting law (its `domain` line); a map
-                // this solver reads as reflecting where the model did not is refused.
-                BarrierKind::Reflecting(_) => {
-                    BarrierKind::Reflecting(law.side.ok_or_else(|| {
-                        refuse(Unsupported::ImpactMap {
-                            map: format!("{:#}", law.map),
-                        })
-                    })?)
-                }
-                pass => pass,
             };
-            barriers.push(barrier);
+            // This solver's own acceptance of a jump (monotone, no gain); the side of a
+            // reflecting law is the model's (its `domain` line): a map this solver reads as
+            // reflecting where the model did not is refused.
+            let reflects = classify(barrier).ok_or_else(refused)?;
+            if reflects && barrier.side().is_none() {
+                return Err(refused());
+            }
+            walls.push(barrier.clone());
         }
+        let mut barriers = walls;
         barriers.sort_by(|a, b| a.at.total_cmp(&b.at));
         let strip = match barriers.as_slice() {
             [lo, hi] => {
@@ -241,16 +171,16 @@ impl Mechanical {
     }
 }
 
-/// Whether the jump keeps or reverses the sign of the velocity, monotonically and without
-/// adding speed, on probes from 1e-3 to 1e3.
-fn classify(barrier: &Barrier) -> Option<BarrierKind> {
+/// Whether the jump reverses (`true`) or keeps (`false`) the sign of the velocity,
+/// monotonically and without adding speed, on probes from 1e-3 to 5e3; `None` when neither.
+fn classify(barrier: &Barrier) -> Option<bool> {
     let mut sign = 0.0;
     let mut last = [0.0f64; 2];
     for e in -3..=3 {
         for f in [1.0, 2.0, 5.0] {
             let v = f * 10f64.powi(e);
             for (s, vv) in [v, -v].into_iter().enumerate() {
-                let w = barrier.map(vv);
+                let w = barrier.jump(vv);
                 let ratio = w / vv;
                 if !(ratio.is_finite() && ratio != 0.0 && ratio.abs() <= 1.0 + 1e-12) {
                     return None;
@@ -267,9 +197,22 @@ fn classify(barrier: &Barrier) -> Option<BarrierKind> {
             }
         }
     }
-    Some(if sign > 0.0 {
-        BarrierKind::PassThrough
-    } else {
-        BarrierKind::Reflecting(BarrierSide::Above)
-    })
+    Some(sign < 0.0)
+}
+
+/// A jump map that does not compile, as the grid solver reports it.
+fn jump_map_error(model: &BoundModel, e: DynamicsError) -> GridError {
+    match e {
+        DynamicsError::JumpMap { source } => GridError::Symbolic {
+            what: "the jump map".into(),
+            source,
+        },
+        DynamicsError::TooManyBarriers { count } => GridError::Unsupported {
+            model: model.name().to_string(),
+            reason: Unsupported::NotAStrip {
+                count,
+                at: model.impacts().iter().map(|l| l.at).collect(),
+            },
+        },
+    }
 }

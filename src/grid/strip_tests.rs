@@ -5,28 +5,19 @@
 
 use super::assemble::assemble;
 use super::mesh::{Domain, Mesh};
-use super::problem::{Law, Mechanical};
+use super::problem::Mechanical;
 use super::{BarrierSide, GridSolution, GridSolver};
+use crate::dynamics::{Barrier, Barriers, Dynamics};
 use crate::mc::reference::bin_errors;
 use crate::mc::strip_tests::{run_strip, OSCILLATOR};
-use crate::symbolic::Expr;
 
 const STRIP: [f64; 2] = [-0.6, 0.8];
 
-fn walls(r: f64) -> Vec<Law> {
-    [
-        (STRIP[0], BarrierSide::Above),
-        (STRIP[1], BarrierSide::Below),
-    ]
-    .into_iter()
-    .map(|(at, side)| Law {
-        state: 0,
-        other: 1,
-        at,
-        map: Expr::num(-r) * Expr::sym("v"),
-        side: Some(side),
-    })
-    .collect()
+fn walls(r: f64) -> Barriers {
+    Barriers::Strip {
+        lo: Barrier::restitution(STRIP[0], BarrierSide::Above, r),
+        hi: Barrier::restitution(STRIP[1], BarrierSide::Below, r),
+    }
 }
 
 /// The solution on `n`×2n cells, on the strip × [−4.5, 4.5] (the density down to e^−35;
@@ -34,7 +25,7 @@ fn walls(r: f64) -> Vec<Law> {
 fn solve(r: f64, n: usize, sized: bool) -> GridSolution {
     let model = OSCILLATOR.model().bind(&[]).unwrap();
     let solver = GridSolver::new(&model)
-        .impacts(walls(r))
+        .barriers(walls(r))
         .cells(n, 2 * n)
         .estimate(false);
     let solver = if sized {
@@ -52,7 +43,8 @@ fn solve(r: f64, n: usize, sized: bool) -> GridSolution {
 #[test]
 fn both_walls_conserve_mass() {
     let model = OSCILLATOR.model().bind(&[]).unwrap();
-    let problem = Mechanical::with_laws(&model, walls(0.9)).unwrap();
+    let dynamics = Dynamics::read(&model).unwrap();
+    let problem = Mechanical::with_barriers(&model, &dynamics, &walls(0.9)).unwrap();
     let d = Domain {
         x: [-3.0, 3.0],
         v: [-4.0, 4.0],

@@ -206,18 +206,18 @@ impl McConfig {
     }
 
     pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
-        self.resolve_with(model, super::compile::scheme::impact_specs(model))
+        self.resolve_with(model, super::compile::scheme::impact_specs(model)?)
     }
 
     /// [`McConfig::resolve`] with the impact laws `specs` in place of the model's own.
     pub(super) fn resolve_with(
         &self,
         model: &BoundModel,
-        specs: Vec<super::compile::impact::ImpactSpec>,
+        specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Resolved, McError> {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
-        crate::physics::check(model)?;
+        crate::dynamics::check(model)?;
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));

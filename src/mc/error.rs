@@ -59,9 +59,9 @@ pub enum McError {
     /// A model expression could not be compiled for evaluation.
     #[error("cannot compile the model for simulation: {0}")]
     Compile(#[from] crate::symbolic::SymbolicError),
-    /// The model has no stationary law to sample (see [`crate::physics::check`]).
+    /// The model has no stationary law to sample (see [`crate::dynamics::check`]).
     #[error(transparent)]
-    Inadmissible(#[from] crate::physics::Inadmissible),
+    Inadmissible(#[from] crate::dynamics::Inadmissible),
     /// A drift or noise coefficient has a `delta(...)` term but the model has no impact law:
     /// a time-stepping simulation never sees a delta (it is zero off a line the trajectories
     /// cross in no time), so the term would silently vanish.

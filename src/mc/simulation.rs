@@ -1,7 +1,6 @@
 //! The simulation driver: a model compiled with its settings resolved (the pilot run fixes
 //! the grids not given), run whole or in shards.
 
-use super::compile::impact::ImpactSpec;
 use super::compile::scheme::{Evaluator, Plan};
 use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SAMPLES};
 use super::error::McError;
@@ -28,7 +27,7 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        Simulation::with_impacts(model, config, super::compile::scheme::impact_specs(model))
+        Simulation::with_impacts(model, config, super::compile::scheme::impact_specs(model)?)
     }
 
     /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (two
@@ -36,7 +35,7 @@ impl Simulation {
     pub(crate) fn with_impacts(
         model: &BoundModel,
         config: &McConfig,
-        specs: Vec<ImpactSpec>,
+        specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Simulation, McError> {
         let Resolved {
             plan,

@@ -2,11 +2,10 @@
 //! sample inside, impacts at both walls, and with elastic walls the exact density of a
 //! Caughey–Ma oscillator restricted to the strip, within the run's error bars.
 
-use super::compile::impact::ImpactSpec;
 use super::reference::{bin_errors, CaugheyMa};
 use super::{BarrierLayout, Grid, McConfig, McError, McResult, Simulation};
+use crate::dynamics::{Barrier, BarrierKind};
 use crate::grid::BarrierSide;
-use crate::symbolic::Expr;
 
 pub(crate) const OSCILLATOR: CaugheyMa = CaugheyMa {
     c: 0.2,
@@ -17,17 +16,11 @@ pub(crate) const OSCILLATOR: CaugheyMa = CaugheyMa {
 };
 
 /// Reflecting walls `v -> -r v` at `lo` (state above) and `hi` (state below).
-pub(crate) fn strip(lo: f64, hi: f64, r: f64) -> Vec<ImpactSpec> {
-    [(lo, BarrierSide::Above), (hi, BarrierSide::Below)]
-        .into_iter()
-        .map(|(at, side)| ImpactSpec {
-            state: 0,
-            at,
-            other: 1,
-            map: Expr::num(-r) * Expr::sym("v"),
-            side: Some(side),
-        })
-        .collect()
+pub(crate) fn strip(lo: f64, hi: f64, r: f64) -> Vec<Barrier> {
+    vec![
+        Barrier::restitution(lo, BarrierSide::Above, r),
+        Barrier::restitution(hi, BarrierSide::Below, r),
+    ]
 }
 
 /// A Monte Carlo run of the oscillator between the walls, histograms of z and v on `bins`.
@@ -88,8 +81,8 @@ fn walls_that_do_not_bound_a_strip_are_refused() {
     let model = OSCILLATOR.model().bind(&[]).unwrap();
     let config = McConfig::default();
     let mut swapped = strip(-0.5, 0.5, 1.0);
-    swapped[0].side = Some(BarrierSide::Below);
-    swapped[1].side = Some(BarrierSide::Above);
+    swapped[0].kind = BarrierKind::Reflecting(BarrierSide::Below);
+    swapped[1].kind = BarrierKind::Reflecting(BarrierSide::Above);
     let err = Simulation::with_impacts(&model, &config, swapped)
         .err()
         .unwrap();

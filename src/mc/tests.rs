@@ -111,7 +111,7 @@ fn burn_in_is_ten_decay_times_of_the_linearisation() {
     assert!(matches!(
         Simulation::new(&free, &small(32)),
         Err(McError::Inadmissible(
-            crate::physics::Inadmissible::NoDamping { .. }
+            crate::dynamics::Inadmissible::NoDamping { .. }
         ))
     ));
 }

@@ -10,7 +10,7 @@
 
 use serde::Serialize;
 
-use super::bind::{BindError, BoundImpact};
+use super::bind_error::BindError;
 use super::{number, Model};
 use crate::symbolic::{DeltaPolicy, Expr, Symbol};
 
@@ -41,6 +41,31 @@ impl BarrierSide {
             BarrierSide::Below => -1.0,
         }
     }
+}
+
+/// An impact law with its barrier at a number.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+/// let model = fpsolve::model::load_model(&path).unwrap();
+/// let bound = model.bind(&[]).unwrap();
+/// assert_eq!(bound.impacts()[0].map.to_string(), "0.95*v");
+/// assert_eq!(bound.impacts()[0].side, None);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoundImpact {
+    /// Index of the state that meets the barrier.
+    pub state: usize,
+    /// The barrier's position.
+    pub at: f64,
+    /// Index of the state that jumps.
+    pub other: usize,
+    /// The post-impact value of `other`, an expression of the states only.
+    pub map: Expr,
+    /// The side of the barrier the state lives on, for a law that reverses the velocity
+    /// (`v -> -r*v`, from the `domain` line or the strip of two barriers); `None` for a law
+    /// the state passes through (`v -> r*v`, the Zhuravlev form).
+    pub side: Option<BarrierSide>,
 }
 
 /// One bound of a [`Domain`]: an expression of parameters, and whether it was written `<`/`>`

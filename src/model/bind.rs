@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use super::barrier::{bind_impacts, BarrierSide, DomainPart, Placed};
+use super::barrier::{bind_impacts, BoundImpact, DomainPart, Placed};
 pub use super::bind_error::BindError;
 use super::dependency::{walk, WalkError};
 use super::{DeltaTreatment, Interpretation, Model, Observable, Origin};
@@ -36,31 +36,6 @@ impl Override {
             value: Expr::num(value),
         }
     }
-}
-
-/// An impact law with its barrier at a number.
-///
-/// ```
-/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
-/// let model = fpsolve::model::load_model(&path).unwrap();
-/// let bound = model.bind(&[]).unwrap();
-/// assert_eq!(bound.impacts()[0].map.to_string(), "0.95*v");
-/// assert_eq!(bound.impacts()[0].side, None);
-/// ```
-#[derive(Clone, Debug, PartialEq)]
-pub struct BoundImpact {
-    /// Index of the state that meets the barrier.
-    pub state: usize,
-    /// The barrier's position.
-    pub at: f64,
-    /// Index of the state that jumps.
-    pub other: usize,
-    /// The post-impact value of `other`, an expression of the states only.
-    pub map: Expr,
-    /// The side of the barrier the state lives on, for a law that reverses the velocity
-    /// (`v -> -r*v`, from the `domain` line or the strip of two barriers); `None` for a law
-    /// the state passes through (`v -> r*v`, the Zhuravlev form).
-    pub side: Option<BarrierSide>,
 }
 
 /// A model whose parameters are numbers: every expression in it mentions only the states
@@ -235,7 +210,8 @@ impl BoundModel {
         self.interpretation
     }
     /// The impact laws: none, one, or two on the same state bounding a strip (sorted by
-    /// position, the lower one [`BarrierSide::Above`], the upper one [`BarrierSide::Below`]).
+    /// position, the lower one [`BarrierSide::Above`](super::BarrierSide::Above), the upper
+    /// one [`BarrierSide::Below`](super::BarrierSide::Below)).
     ///
     /// ```
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");

@@ -18,8 +18,8 @@ pub(crate) mod set;
 mod syntax;
 mod validate;
 
-pub use barrier::{BarrierSide, Domain, DomainBound};
-pub use bind::{BindError, BoundImpact, BoundModel, Override};
+pub use barrier::{BarrierSide, BoundImpact, Domain, DomainBound};
+pub use bind::{BindError, BoundModel, Override};
 pub use diagnostic::Diagnostic;
 pub use error::ModelError;
 pub use load::{load_model, parse_expr, parse_model};

@@ -166,7 +166,7 @@ impl Problem<'static> {
 /// Only computed on failure, so a solvable model pays nothing for it.
 fn in_own_terms(model: &BoundModel, error: FpkError) -> FpkError {
     match error {
-        FpkError::Inadmissible(_) => match crate::physics::check(model) {
+        FpkError::Inadmissible(_) => match crate::dynamics::check(model) {
             Err(own) => FpkError::Inadmissible(own),
             Ok(()) => error,
         },

@@ -3,10 +3,10 @@
 
 use serde::Serialize;
 
+use crate::dynamics::ImpactForm;
 use crate::epc::EpcError;
 use crate::grid::{GridError, GridSolver, Unsupported};
 use crate::observe::ObservableMap;
-use crate::physics::ImpactForm;
 use crate::solve::{MethodName, MethodSet, Problem, Solution, SolveError};
 use crate::symbolic::Expr;
 

@@ -1,6 +1,6 @@
 //! Which points of a sweep have a stationary density at all, decided for every point before
 //! any point is solved, by the check a single run makes before any work
-//! ([`crate::physics::check`], through [`Problem::new`]): a point in the escaping regime of
+//! ([`crate::dynamics::check`], through [`Problem::new`]): a point in the escaping regime of
 //! a softening spring, or without noise, is refused in milliseconds instead of being handed
 //! to the solvers.
 
@@ -38,7 +38,7 @@ pub(super) fn refusal_at(model: &Model, spec: &SweepSpec, values: &[f64]) -> Opt
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::Inadmissible;
+    use crate::dynamics::Inadmissible;
 
     #[test]
     fn softening_and_noiseless_points_are_refused_and_the_others_not() {

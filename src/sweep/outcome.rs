@@ -3,11 +3,11 @@
 
 use serde::Serialize;
 
+use crate::dynamics::Inadmissible;
 use crate::epc::{EpcError, EpcSolution, NormalisationKind};
 use crate::grid::{GridError, GridReport};
 use crate::model::number;
 use crate::moments::Moments;
-use crate::physics::Inadmissible;
 use crate::solve::{MethodName, MethodSet};
 
 use super::MethodRefusal;
@@ -119,7 +119,7 @@ pub enum PointOutcome {
 }
 
 /// Why a point was not solved by any method: its parameters leave the model without a
-/// stationary density ([`crate::physics::check`], the check a single run makes before any
+/// stationary density ([`crate::dynamics::check`], the check a single run makes before any
 /// work). `Display` gives the message of `sweep.csv`.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error(transparent)]

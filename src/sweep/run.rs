@@ -157,7 +157,7 @@ impl<'a> Sweep<'a> {
     /// Solves every point by every method (EPC at the degree, continued from degree 2 within
     /// the point), all points in parallel, and collects the statistics of each state and
     /// observable. Before any point is solved, every point is checked for a stationary
-    /// density as a single run is ([`crate::physics::check`]); a point without one (a
+    /// density as a single run is ([`crate::dynamics::check`]); a point without one (a
     /// softening spring's escaping regime, no noise, …) is not solved but kept as
     /// [`PointOutcome::Refused`] for every method, with the typed reason. A method that
     /// fails at a point — bind error (e.g. a negative intensity), FPK error, EPC failure at

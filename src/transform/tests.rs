@@ -195,8 +195,8 @@ fn check_fold(domain: &str, yb: f64, s: f64) {
     }
     assert_eq!(tm.impacts()[0].map.to_string(), "0.8*v");
     assert_eq!(
-        crate::physics::impact_form(tm),
-        Some(crate::physics::ImpactForm::Zhuravlev { restitution: 0.8 })
+        crate::dynamics::impact_form(tm),
+        Some(crate::dynamics::ImpactForm::Zhuravlev { restitution: 0.8 })
     );
     // The unbound route gives the same model once bound.
     let via_model = zhuravlev(&m).unwrap().model.bind(&[]).unwrap();

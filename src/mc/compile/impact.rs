@@ -20,28 +20,11 @@
 
 use crate::mc::compile::eval::BatchKernel;
 use crate::mc::compile::lanes::LaneOp;
-use crate::model::BarrierSide;
 use crate::symbolic::Expr;
 
 /// Impacts one free flight between two walls may have before its remaining time is spent on
 /// the wall (see the module's documentation).
 pub(crate) const MAX_FLIGHT_EVENTS: usize = 64;
-
-/// An impact law as the simulation reads it from a model, before compilation.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct ImpactSpec {
-    /// Index of the state that meets the barrier.
-    pub(crate) state: usize,
-    /// Where the barrier is.
-    pub(crate) at: f64,
-    /// Index of the state that jumps.
-    pub(crate) other: usize,
-    /// The post-impact value of `other`.
-    pub(crate) map: Expr,
-    /// The side the state lives on (`None`: a pass-through law, whose trajectories start on
-    /// the side holding the origin).
-    pub(crate) side: Option<BarrierSide>,
-}
 
 /// A compiled impact law.
 pub(crate) struct Barrier {

@@ -21,8 +21,9 @@
 //!   of the step taken with the Brownian-bridge remainder of its increment (so a step with
 //!   an impact is of weak order 1 on every general scheme).
 
+use crate::dynamics::Barrier as Wall;
 use crate::mc::compile::eval::{compile, BatchKernel};
-use crate::mc::compile::impact::{Barrier, Crossing, ImpactSpec};
+use crate::mc::compile::impact::{Barrier, Crossing};
 use crate::mc::compile::mech_form::MechForm;
 use crate::mc::error::BarrierLayout;
 use crate::mc::error::McError;
@@ -281,27 +282,23 @@ fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2])
     Ok((drift, columns))
 }
 
-/// The model's impact laws as the simulation reads them: the one place that knows how the
-/// model states them (none, one, or the two walls of a strip, each reflecting law with the
-/// side its `domain` line gives).
-pub(crate) fn impact_specs(model: &BoundModel) -> Vec<ImpactSpec> {
-    model
-        .impacts()
-        .iter()
-        .map(|law| ImpactSpec {
-            state: law.state,
-            at: law.at,
-            other: law.other,
-            map: law.map.clone(),
-            side: law.side,
-        })
-        .collect()
+/// The model's barriers as the simulation takes them, from its
+/// [`Dynamics`](crate::dynamics::Dynamics).
+pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
+    use crate::dynamics::{Dynamics, DynamicsError};
+    let dynamics = Dynamics::read(model).map_err(|e| match e {
+        DynamicsError::JumpMap { source } => McError::Compile(source),
+        DynamicsError::TooManyBarriers { count } => McError::Barriers {
+            layout: BarrierLayout::TooMany { count },
+        },
+    })?;
+    Ok(dynamics.barriers().iter().cloned().collect())
 }
 
 /// Checks that `specs` is a layout the simulation handles: none, one, or two on the same
 /// state bounding a strip (the lower one with the state above it, the upper one below);
 /// returns them lower first.
-fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLayout> {
+fn check_layout(mut specs: Vec<Wall>) -> Result<Vec<Wall>, BarrierLayout> {
     match specs.len() {
         0 | 1 => Ok(specs),
         2 => {
@@ -311,8 +308,8 @@ fn check_layout(mut specs: Vec<ImpactSpec>) -> Result<Vec<ImpactSpec>, BarrierLa
                 return Err(BarrierLayout::DifferentStates);
             }
             let strip = lo.at < hi.at
-                && lo.side == Some(BarrierSide::Above)
-                && hi.side == Some(BarrierSide::Below);
+                && lo.side() == Some(BarrierSide::Above)
+                && hi.side() == Some(BarrierSide::Below);
             if !strip {
                 return Err(BarrierLayout::NotAStrip {
                     lower: lo.at,
@@ -330,7 +327,7 @@ impl Plan {
     pub(crate) fn with_impacts(
         model: &BoundModel,
         choice: SchemeChoice,
-        specs: Vec<ImpactSpec>,
+        specs: Vec<Wall>,
     ) -> Result<Plan, McError> {
         let specs = check_layout(specs).map_err(|layout| McError::Barriers { layout })?;
         let [x, v] = [&*model.states[0], &*model.states[1]];
@@ -456,14 +453,14 @@ impl Plan {
                     state: b.state,
                     at: b.at,
                     other: b.other,
-                    map: compile(std::slice::from_ref(&b.map), states)?,
-                    expr: b.map.clone(),
-                    side: match b.side {
+                    map: compile(std::slice::from_ref(b.law().map()), states)?,
+                    expr: b.law().map().clone(),
+                    side: match b.side() {
                         Some(BarrierSide::Above) => 1.0,
                         Some(BarrierSide::Below) => -1.0,
                         None => Barrier::side_of(b.at, 0.0),
                     },
-                    crossing: match b.side {
+                    crossing: match b.side() {
                         Some(_) => Crossing::Reflects,
                         None => Crossing::PassesThrough,
                     },

@@ -423,7 +423,7 @@ mod tests {
             burn_in: BurnIn::Time(1.0),
             ..McConfig::default()
         };
-        let specs = crate::mc::compile::scheme::impact_specs(&model);
+        let specs = crate::mc::compile::scheme::impact_specs(&model).unwrap();
         let Resolved {
             plan,
             names,

@@ -10,7 +10,7 @@ use crate::symbolic::{sift, Expr, Symbol};
 /// Why EPC cannot use an impact law.
 ///
 /// ```
-/// use fpsolve::physics::{impact_form, ImpactForm, UnsupportedImpact};
+/// use fpsolve::dynamics::{impact_form, ImpactForm, UnsupportedImpact};
 /// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 1\n\
 ///             diffusion v: xi\nimpact z = 0: v -> 0*v\n";
 /// let bound = fpsolve::model::parse_model(text, None).unwrap().bind(&[]).unwrap();
@@ -21,7 +21,7 @@ use crate::symbolic::{sift, Expr, Symbol};
 pub enum UnsupportedImpact {
     /// `v -> -r*v`: the state stays on its side (the model in its original coordinates).
     /// The δ-term EPC solves such a model through its Zhuravlev transform
-    /// (see [`crate::physics`]), which `fpsolve::solve` and `fpsolve check` apply; EPC
+    /// (see [`crate::dynamics`]), which `fpsolve::solve` and `fpsolve check` apply; EPC
     /// given the original model directly refuses it, as it would solve it without the barrier.
     #[error(
         "it reflects the velocity (r = {}): the model is in its original coordinates; EPC \
@@ -114,7 +114,7 @@ pub enum UnsupportedImpact {
 /// ```
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let model = fpsolve::model::load_model(&path).unwrap();
-/// let form = fpsolve::physics::impact_form(&model.bind(&[]).unwrap()).unwrap();
+/// let form = fpsolve::dynamics::impact_form(&model.bind(&[]).unwrap()).unwrap();
 /// assert_eq!(form.to_string(), "Zhuravlev (r = 0.95)");
 /// ```
 #[derive(Clone, Debug, PartialEq)]
@@ -201,7 +201,7 @@ pub(super) fn weight_at(
 /// [`ImpactForm`].
 ///
 /// ```
-/// use fpsolve::physics::{impact_form, ImpactForm, UnsupportedImpact};
+/// use fpsolve::dynamics::{impact_form, ImpactForm, UnsupportedImpact};
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
 /// assert_eq!(impact_form(&bound), Some(ImpactForm::Zhuravlev { restitution: 0.95 }));

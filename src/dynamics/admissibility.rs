@@ -16,7 +16,7 @@ use crate::symbolic::Expr;
 ///
 /// ```
 /// use fpsolve::model::{parse_model, Override};
-/// use fpsolve::physics::{check, Inadmissible};
+/// use fpsolve::dynamics::{check, Inadmissible};
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
 /// let model = fpsolve::model::load_model(&path).unwrap();
 /// assert!(check(&model.bind(&[]).unwrap()).is_ok());
@@ -26,7 +26,7 @@ use crate::symbolic::Expr;
 /// assert!(err.to_string().contains("`v -> 1.001*v` adds energy at every impact"));
 /// ```
 pub fn check(model: &BoundModel) -> Result<(), Inadmissible> {
-    let m = crate::fpk::ito_drift(model).ok().map(|(_, m)| m);
+    let m = super::ito::ito_drift(model).ok().map(|(_, m)| m);
     check_with_drift(model, m.as_ref())
 }
 

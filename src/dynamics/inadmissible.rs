@@ -6,7 +6,7 @@ use crate::model::number;
 /// terms, starting with "no stationary density: ".
 ///
 /// ```
-/// use fpsolve::physics::{check, Inadmissible};
+/// use fpsolve::dynamics::{check, Inadmissible};
 /// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 0\n\
 ///             diffusion v: xi\n";
 /// let bound = fpsolve::model::parse_model(text, None).unwrap().bind(&[]).unwrap();

@@ -400,3 +400,51 @@ fn an_impact_term_on_a_position_driven_by_noise_is_no_impact() {
         }))
     );
 }
+
+/// The one reading: a strip's walls lower first with their sides, a Zhuravlev law passing
+/// through, the diffusion the FPK operator uses, and the form's typed refusal.
+#[test]
+fn dynamics_reads_barriers_diffusion_and_form() {
+    let strip = text(
+        "-c*v - k*z",
+        "xi",
+        "impact z = 1: v -> -0.8*v\nimpact z = -1: v -> -0.8*v\n",
+    );
+    let d = Dynamics::read(&bind(&strip, &[])).unwrap();
+    let Barriers::Strip { lo, hi } = d.barriers() else {
+        panic!("two walls read as {:?}", d.barriers());
+    };
+    assert_eq!((lo.at(), hi.at()), (-1.0, 1.0));
+    assert_eq!(
+        lo.kind(),
+        BarrierKind::Reflecting(crate::model::BarrierSide::Above)
+    );
+    assert_eq!(
+        hi.kind(),
+        BarrierKind::Reflecting(crate::model::BarrierSide::Below)
+    );
+    assert_eq!(lo.jump(-2.0), 1.6);
+    assert_eq!(d.barriers().len(), 2);
+
+    let zhuravlev = bind(&model_file("vibro_duffing.sde"), &[]);
+    let d = Dynamics::read(&zhuravlev).unwrap();
+    let Barriers::One(b) = d.barriers() else {
+        panic!("one law read as {:?}", d.barriers());
+    };
+    assert_eq!(b.kind(), BarrierKind::PassThrough);
+    assert_eq!(b.side(), None);
+    let fpk = FpkOperator::derive(&zhuravlev).unwrap();
+    assert_eq!(d.diffusion(), &fpk.diffusion);
+    assert_eq!(d.ito_drift().unwrap(), &fpk.drift);
+    assert_eq!(d.form(), &Form::Mechanical);
+
+    let src = "model m\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
+               diffusion x: xi\n";
+    let general = parse_model(src, None).unwrap().bind(&[]).unwrap();
+    let d = Dynamics::read(&general).unwrap();
+    assert!(matches!(
+        d.form(),
+        Form::General { why: NotMechanical::Rate { position, .. } } if position == "x"
+    ));
+    assert!(d.barriers().is_empty());
+}

@@ -1,0 +1,174 @@
+//! The one reading of a bound model every method starts from: the Itô drift, the diffusion
+//! b = G·S·Gᵀ, the mechanical form (or why not), the barriers with their jump laws, and
+//! whether a stationary density can exist at all ([`check`]).
+//!
+//! [`Dynamics::read`] derives these once; a method that needs a quantity in its own shape (a
+//! compiled tape, a lane-friendly copy) derives it from [`Dynamics`], never from the model.
+//!
+//! The admissibility checks look only at the bound model (numbers substituted), before any
+//! solve:
+//!
+//! * [`check`] refuses models for which no non-degenerate stationary density exists, each
+//!   for a reason that can be decided with certainty from the equations ([`Inadmissible`]):
+//!   an impact that adds energy, no noise, no energy sink at all, a drift that only ever adds
+//!   energy, noise that vanishes at a stable rest point, a linear drift with a mode that does
+//!   not decay. What cannot be decided this way (negative linear damping that a nonlinear term
+//!   may or may not contain, as in the Van der Pol oscillator) is accepted: the solvers then
+//!   report what they find.
+//! * [`impact_form`] says whether EPC can use the model's impact law. EPC's operator knows an
+//!   impact only through the Zhuravlev term `-(1 - r)*v*abs(v)*delta(z)` in the drift (the
+//!   paper's Eqs. 6–10); the `impact` line itself is what Monte Carlo uses. A reflecting law
+//!   in the original coordinates (`impact x = 0: v -> -r*v`) has no such term: EPC would solve
+//!   the model as if there were no barrier, so it is refused ([`UnsupportedImpact`]).
+//!
+//! Every admissibility decision is made on a fixed grid of probe points spanning 1e-3 to 1e4
+//! in each state (both signs, 45 values each), so the checks cost a few milliseconds.
+//!
+//! ```
+//! use fpsolve::model::{parse_model, Override};
+//! use fpsolve::dynamics::{check, Inadmissible};
+//! let text = "model lin
+//! param c = 0.1
+//! state z, v
+//! drift z: v
+//! drift v: -c*v - z
+//! noise xi: intensity 1
+//! diffusion v: xi
+//! ";
+//! let model = parse_model(text, None).unwrap();
+//! assert!(check(&model.bind(&[]).unwrap()).is_ok());
+//! let undamped = model.bind(&[Override::number("c", 0.0)]).unwrap();
+//! assert!(matches!(check(&undamped), Err(Inadmissible::NoDamping { .. })));
+//! ```
+
+mod admissibility;
+mod barrier;
+mod form;
+mod impact;
+mod inadmissible;
+mod ito;
+mod jump;
+mod probe;
+mod rest;
+#[cfg(test)]
+mod tests;
+
+pub use admissibility::check;
+pub(crate) use admissibility::check_with_drift;
+pub use barrier::{Barrier, BarrierKind, Barriers};
+pub use form::{Form, NotMechanical};
+pub use impact::{impact_form, ImpactForm, UnsupportedImpact};
+pub use inadmissible::Inadmissible;
+pub use ito::DerivationError;
+pub(crate) use ito::{diffusion, ito_drift};
+pub use jump::JumpLaw;
+
+use crate::model::BoundModel;
+use crate::symbolic::{Expr, Symbol};
+
+/// Why a bound model could not be read.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DynamicsError {
+    /// An impact law's map does not compile.
+    #[error("while compiling the jump map: {source}")]
+    JumpMap {
+        /// The underlying failure.
+        source: crate::symbolic::SymbolicError,
+    },
+    /// More barriers than binding admits (two, bounding a strip).
+    #[error("{count} impact laws: at most two (the walls of a strip) are read")]
+    TooManyBarriers {
+        /// How many laws.
+        count: usize,
+    },
+}
+
+/// A bound model read once for every method.
+///
+/// ```
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+/// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound)?;
+/// assert_eq!(dynamics.form(), &fpsolve::dynamics::Form::Mechanical);
+/// assert!(dynamics.ito_drift().is_ok());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Dynamics {
+    states: [Symbol; 2],
+    /// The Wong–Zakai correction and the Itô drift, or why they have no meaning (kept, not
+    /// returned, so that a method refuses with its own earlier reasons first).
+    ito: Result<([Expr; 2], [Expr; 2]), DerivationError>,
+    diffusion: [[Expr; 2]; 2],
+    form: Form,
+    barriers: Barriers,
+}
+
+impl Dynamics {
+    /// Reads `model`.
+    ///
+    /// # Errors
+    /// [`DynamicsError`] when an impact law's map does not compile.
+    pub fn read(model: &BoundModel) -> Result<Dynamics, DynamicsError> {
+        let states = model.states();
+        let vars = [&*states[0], &*states[1]];
+        let mut walls = Vec::with_capacity(model.impacts().len());
+        for law in model.impacts() {
+            walls.push(
+                Barrier::read(law, &vars).map_err(|source| DynamicsError::JumpMap { source })?,
+            );
+        }
+        // Binding sorts two laws lower first and gives them the sides of a strip.
+        let count = walls.len();
+        let mut walls = walls.into_iter();
+        let barriers = match (walls.next(), walls.next(), count) {
+            (None, _, _) => Barriers::None,
+            (Some(one), None, _) => Barriers::One(one),
+            (Some(lo), Some(hi), 2) => Barriers::Strip { lo, hi },
+            _ => return Err(DynamicsError::TooManyBarriers { count }),
+        };
+        Ok(Dynamics {
+            states: states.clone(),
+            ito: ito_drift(model),
+            diffusion: diffusion(model),
+            form: form::read(model),
+            barriers,
+        })
+    }
+
+    /// The states (position and velocity in the mechanical form).
+    pub fn states(&self) -> &[Symbol; 2] {
+        &self.states
+    }
+
+    /// The Itô drift m = f + Wong–Zakai correction, simplified.
+    ///
+    /// # Errors
+    /// [`DerivationError`] when the correction has no meaning (a derivative of δ).
+    pub fn ito_drift(&self) -> Result<&[Expr; 2], DerivationError> {
+        self.ito.as_ref().map(|(_, m)| m).map_err(Clone::clone)
+    }
+
+    /// The Wong–Zakai correction the Itô drift adds (zero for an Itô model).
+    ///
+    /// # Errors
+    /// As [`Dynamics::ito_drift`].
+    pub fn wong_zakai(&self) -> Result<&[Expr; 2], DerivationError> {
+        self.ito.as_ref().map(|(wz, _)| wz).map_err(Clone::clone)
+    }
+
+    /// The diffusion matrix b = G·S·Gᵀ (symmetric), expanded and simplified.
+    pub fn diffusion(&self) -> &[[Expr; 2]; 2] {
+        &self.diffusion
+    }
+
+    /// The mechanical form, or why the model has none.
+    pub fn form(&self) -> &Form {
+        &self.form
+    }
+
+    /// The barriers.
+    pub fn barriers(&self) -> &Barriers {
+        &self.barriers
+    }
+}
