@@ -14,7 +14,7 @@
 //! Special values as `f64::exp`: NaN → NaN, −∞ and anything below −745.2 → 0, +∞ and
 //! anything above 709.79 → +∞.
 
-use crate::simd::Simd;
+use crate::base::simd::Simd;
 
 /// 1.5·2⁵²: adding it rounds a number below 2⁵¹ in magnitude to an integer, which then sits
 /// in the low bits of the sum.

@@ -15,7 +15,7 @@ use super::rng::Increments;
 use super::scheme::Plan;
 use super::settings::{ParamValue, RunSettings};
 use super::step::{fast_rows, BatchState};
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 
 /// A trajectory whose state stopped being finite: it is left out of every statistic.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -323,9 +323,9 @@ fn run_jobs<'a, R: Copy + Sync>(
             }
             let (run, index) = jobs[*j];
             let (st, phase) = settings(run);
-            crate::study::timeline::mark(phase[0]);
+            crate::base::timeline::mark(phase[0]);
             let b = run_part(plan, st, (index, part.clone()), cancel)?;
-            crate::study::timeline::mark(phase[1]);
+            crate::base::timeline::mark(phase[1]);
             let mut slot = slots[*j].lock().unwrap_or_else(|p| p.into_inner());
             slot.0[*k] = Some(b);
             if slot.0.iter().all(Option::is_some) {

@@ -24,7 +24,7 @@ pub(crate) trait BatchKernel: Send + Sync {
     fn program(&self) -> &LaneProgram;
 }
 
-pub(crate) use crate::simd::Simd;
+pub(crate) use crate::base::simd::Simd;
 
 /// A compiled kernel: the program and the extension its batch evaluation uses.
 struct Kernel {

@@ -4,9 +4,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::McError;
-use super::estimate::Estimate;
 use super::exact;
-use crate::moments::Moments;
+use crate::stats::Estimate;
+use crate::stats::Moments;
 
 mod accumulator;
 pub(crate) use accumulator::{Accumulator, COUNT_COPIES};

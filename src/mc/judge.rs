@@ -3,7 +3,6 @@
 //! warnings the bias raises.
 
 use super::batch::BatchSummary;
-use super::estimate::Estimate;
 use super::histogram::{batch_density, batch_moments, QuantityHistogram, TimeStepBias};
 use super::result::ImpactStats;
 use super::settings::RunSettings;
@@ -11,7 +10,8 @@ use super::verdict::{
     t_critical, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
     MIN_STATIONARITY_BATCHES,
 };
-use crate::moments::Moments;
+use crate::stats::Estimate;
+use crate::stats::Moments;
 
 /// Compares the first and last quarter of the recording of each state.
 pub(crate) fn stationarity(st: &RunSettings, batches: &[&BatchSummary]) -> Stationarity {

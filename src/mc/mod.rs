@@ -36,7 +36,6 @@
 mod batch;
 mod config;
 mod error;
-mod estimate;
 mod eval;
 mod events;
 mod exact;
@@ -78,7 +77,6 @@ pub use config::{
     TIME_LIMIT_SECONDS,
 };
 pub use error::{BarrierLayout, McError, ShardDefect};
-pub use estimate::Estimate;
 pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};
 pub use result::{ImpactStats, McResult};
 pub use rng::Increments;

@@ -19,7 +19,7 @@ use super::mech_form::sgn;
 use super::scheme::Plan;
 use super::settings::RunSettings;
 use super::step::BatchState;
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::symbolic::TapeUnary as Unary;
 
 /// Sample points the kernel advances between two recordings (rows of states kept: 32 of

@@ -7,14 +7,14 @@ use serde::{Deserialize, Serialize};
 
 use super::batch::{BatchSummary, BlowUp};
 use super::error::McError;
-use super::estimate::Estimate;
 use super::histogram::{finalize, QuantityBatch, QuantityHistogram};
 use super::judge::{
     bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
 };
 use super::settings::RunSettings;
 use super::verdict::{BlowUps, McWarning, Stationarity, Undetermined};
-use crate::number_text::fixed_or_scientific;
+use crate::base::number_text::fixed_or_scientific;
+use crate::stats::Estimate;
 
 /// Impact statistics of a run with a barrier.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -4,6 +4,7 @@
 use super::*;
 use crate::model::load_model;
 use crate::model::BoundModel;
+use crate::stats::Estimate;
 
 fn bundled(name: &str, set: &[(&str, f64)]) -> BoundModel {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

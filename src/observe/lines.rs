@@ -541,7 +541,7 @@ mod tests {
                     .sum::<f64>()
                     / mass
             });
-            let exact = crate::moments::Moments::from_raw(raw);
+            let exact = crate::stats::Moments::from_raw(raw);
             let got = &all[k].moments;
             for j in 0..4 {
                 let scale = raw[3].powf((j as f64 + 1.0) / 4.0);

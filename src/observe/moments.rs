@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::line_moments::LineQuadrants;
 use super::{JointDensity, ObservableMap};
-use crate::moments::Moments;
+use crate::stats::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.

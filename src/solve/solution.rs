@@ -7,8 +7,8 @@ use serde::Serialize;
 use crate::epc::EpcSolution;
 use crate::epc_impact::EpcImpactSolution;
 use crate::grid::GridSolution;
-use crate::moments::Moments;
 use crate::observe::{moments_of_all, JointDensity, ObservableDensity, PointMass};
+use crate::stats::Moments;
 
 use super::{common_grid, printable, Method, Quantity, SolveError};
 

@@ -6,9 +6,9 @@ use serde::Serialize;
 use crate::epc::{EpcError, EpcSolution, NormalisationKind};
 use crate::grid::{GridError, GridReport};
 use crate::model::number;
-use crate::moments::Moments;
 use crate::physics::Inadmissible;
 use crate::solve::{MethodName, MethodSet};
+use crate::stats::Moments;
 
 use super::MethodRefusal;
 

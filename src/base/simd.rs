@@ -21,7 +21,7 @@ pub(crate) enum Simd {
 /// machine (`FPSOLVE_SIMD=avx2 cargo bench --bench mc`) and for checking that claim.
 ///
 /// ```
-/// assert_eq!(fpsolve::simd::SIMD_VAR, "FPSOLVE_SIMD");
+/// assert_eq!(fpsolve::base::simd::SIMD_VAR, "FPSOLVE_SIMD");
 /// ```
 pub const SIMD_VAR: &str = "FPSOLVE_SIMD";
 
@@ -33,7 +33,7 @@ const NAMES: [&str; 3] = ["baseline", "avx2", "avx512"];
 ///
 /// ```
 /// // Unset here, so accepted.
-/// assert!(fpsolve::simd::check_env().is_ok());
+/// assert!(fpsolve::base::simd::check_env().is_ok());
 /// ```
 pub fn check_env() -> Result<(), String> {
     match std::env::var_os(SIMD_VAR) {
