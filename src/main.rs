@@ -538,7 +538,7 @@ fn plan(cli: Cli) -> Result<Planned> {
                 let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
                 let at_once = threads.unwrap_or(cores).min(spec.len());
                 cells
-                    .within_at_once(fpsolve::grid::memory_limit_bytes(), at_once)
+                    .within_at_once(fpsolve::base::limits::memory_limit_bytes(), at_once)
                     .with_context(|| format!("--cells {cells} with {at_once} sweep points solved at once (--threads)"))?;
             }
             let shard = shard.parse(spec.len())?;

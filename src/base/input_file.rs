@@ -10,7 +10,7 @@ use std::path::Path;
 
 /// Largest result file (`mc_summary.json`, `mc_<quantity>.csv`, `shard_*.json`,
 /// `sweep_shard_*.json`) a reader accepts, in bytes (16 GiB). The largest shard a run can
-/// write is bounded by [`crate::mc::MEMORY_LIMIT_BYTES`] (4 GiB of counts, 8 bytes a bin of
+/// write is bounded by [`crate::base::limits::MEMORY_LIMIT_BYTES`] (4 GiB of counts, 8 bytes a bin of
 /// a batch) and is written at up to about 18 bytes a bin of a batch (measured: 36.2 MB for
 /// 20 batches of 10⁵ bins), about 9 GB; a summary takes about 76 bytes a bin (76 MB for
 /// 10⁶ bins).

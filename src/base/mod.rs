@@ -5,6 +5,7 @@
 
 pub mod cancel;
 pub mod input_file;
+pub mod limits;
 pub mod number_text;
 pub mod simd;
 pub mod timeline;

@@ -73,8 +73,7 @@ mod trust_tests;
 pub use batch::{BlowUp, LastState};
 pub(crate) use config::MAX_LANES;
 pub use config::{
-    BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
-    TIME_LIMIT_SECONDS,
+    BurnIn, McConfig, RunEstimate, MAX_BINS, MAX_TRAJECTORIES, MIN_BIAS_PAIRS, TIME_LIMIT_SECONDS,
 };
 pub use error::{BarrierLayout, McError, ShardDefect};
 pub use histogram::{Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias};

@@ -2,6 +2,7 @@
 //! verdicts and the pre-flight.
 
 use super::*;
+use crate::base::limits::MEMORY_LIMIT_BYTES;
 use crate::model::load_model;
 use crate::model::BoundModel;
 use crate::stats::Estimate;
