@@ -121,6 +121,7 @@
 
 pub mod base;
 pub mod check;
+pub mod density;
 pub mod epc;
 pub mod epc_impact;
 mod error;
