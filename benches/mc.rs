@@ -165,14 +165,14 @@ fn step_rate(c: &mut Criterion) {
     // The AVX2 kernel where the CPU has AVX-512 too (otherwise the widest runs): its
     // step rate is what a workstation without AVX-512 gets. The cap is read when a batch
     // starts; the pool's threads are idle while it is set.
-    if std::env::var_os(fpsolve::simd::SIMD_VAR).is_none() && has_avx512() {
+    if std::env::var_os(fpsolve::base::simd::SIMD_VAR).is_none() && has_avx512() {
         let one = pool(1);
         let (name, sim) = &sims[0];
-        std::env::set_var(fpsolve::simd::SIMD_VAR, "avx2");
+        std::env::set_var(fpsolve::base::simd::SIMD_VAR, "avx2");
         g.bench_function(format!("{name}/1_threads/avx2"), |b| {
             b.iter(|| one.install(|| sim.run().unwrap()))
         });
-        std::env::remove_var(fpsolve::simd::SIMD_VAR);
+        std::env::remove_var(fpsolve::base::simd::SIMD_VAR);
     }
     g.finish();
 }

@@ -119,24 +119,22 @@
 
 #![warn(missing_docs)]
 
-pub mod cancel;
+pub mod base;
 pub mod check;
+pub mod density;
 pub mod dynamics;
 pub mod epc;
 pub mod epc_impact;
 mod error;
 pub mod fpk;
 pub mod grid;
-pub mod input_file;
 pub mod job;
 pub mod mc;
 pub mod model;
-pub mod moments;
-pub mod number_text;
 pub mod observe;
 pub mod report;
-pub mod simd;
 pub mod solve;
+pub mod stats;
 pub mod study;
 pub mod sweep;
 pub mod symbolic;

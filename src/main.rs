@@ -6,9 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
+use fpsolve::base::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use fpsolve::epc::DegreeList;
 use fpsolve::grid::Cells;
-use fpsolve::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use fpsolve::job::{self, JobSpec, Progress, Target};
 use fpsolve::mc::{merge_named, McConfig, McResult, Shard, ShardOutput, Simulation};
 use fpsolve::model::{load_model, BoundModel, Model, Override};
@@ -239,7 +239,7 @@ impl From<anyhow::Error> for Failure {
 }
 
 fn main() -> ExitCode {
-    fpsolve::study::timeline::mark("main");
+    fpsolve::base::timeline::mark("main");
     allocator::keep_freed_memory();
     // An interrupted run removes its staging directory: the previous results stay as they
     // were and no partial file is left behind.
@@ -252,8 +252,8 @@ fn main() -> ExitCode {
     });
     let cli = Cli::parse();
     let status = run(cli);
-    fpsolve::study::timeline::mark("end");
-    fpsolve::study::timeline::print();
+    fpsolve::base::timeline::mark("end");
+    fpsolve::base::timeline::print();
     match status {
         // Reported once when it happened; the files are written.
         Ok(()) if Console::state() == Console::Failed => ExitCode::from(FLAGGED),
@@ -324,7 +324,7 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
-    fpsolve::simd::check_env().map_err(|e| Failure::Usage(anyhow::anyhow!(e)))?;
+    fpsolve::base::simd::check_env().map_err(|e| Failure::Usage(anyhow::anyhow!(e)))?;
     if solves_on_global_pool(&cli) {
         // The global pool's start (its threads spawned, the cores counted: 0.4–0.8 ms here)
         // on a thread of its own, beside the reading and checking of the plan, rather than
@@ -333,7 +333,7 @@ fn run(cli: Cli) -> Result<(), Failure> {
         std::thread::spawn(|| rayon::spawn(|| ()));
     }
     let planned = plan(cli)?;
-    fpsolve::study::timeline::mark("planned");
+    fpsolve::base::timeline::mark("planned");
     for n in &planned.notes {
         eprintln!("note: {n}");
     }
@@ -528,7 +528,7 @@ fn plan(cli: Cli) -> Result<Planned> {
                 let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
                 let at_once = threads.unwrap_or(cores).min(spec.len());
                 cells
-                    .within_at_once(fpsolve::grid::memory_limit_bytes(), at_once)
+                    .within_at_once(fpsolve::base::limits::memory_limit_bytes(), at_once)
                     .with_context(|| format!("--cells {cells} with {at_once} sweep points solved at once (--threads)"))?;
             }
             let shard = shard.parse(spec.len())?;
@@ -688,7 +688,7 @@ fn main_job(
     quiet: bool,
 ) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    fpsolve::study::timeline::mark("output begun");
+    fpsolve::base::timeline::mark("output begun");
     let bar = Bar::new(quiet);
     let report = job::Job::new(model, spec)
         .problem(problem)
@@ -702,7 +702,7 @@ fn main_job(
     for w in report.study.warnings.iter().filter(|w| !w.flags()) {
         eprintln!("warning: {w}");
     }
-    fpsolve::study::timeline::mark("report printed");
+    fpsolve::base::timeline::mark("report printed");
     commit_output(run, report.files.len())?;
     let flagged = job::flags(&report);
     if flagged.is_empty() {

@@ -319,7 +319,7 @@ fn same_law(
     a: &McResult,
     b: &McResult,
     names: &[&str],
-) -> (f64, fpsolve::mc::Estimate, fpsolve::mc::Estimate, f64) {
+) -> (f64, fpsolve::stats::Estimate, fpsolve::stats::Estimate, f64) {
     let mut worst: f64 = 0.0;
     for &name in names {
         let (qa, qb) = (a.quantity(name).unwrap(), b.quantity(name).unwrap());

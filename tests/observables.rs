@@ -6,12 +6,11 @@
 
 use std::path::Path;
 
+use fpsolve::density::JointDensity;
 use fpsolve::epc::{Epc, EpcSolution};
 use fpsolve::fpk::FpkOperator;
 use fpsolve::model::{load_model, Override};
-use fpsolve::observe::{
-    integrate_adaptive as integrate, observable_pdf, JointDensity, ObservableMap,
-};
+use fpsolve::observe::{integrate_adaptive as integrate, observable_pdf, ObservableMap};
 
 fn solve(mu: f64, eps: f64) -> (EpcSolution, Vec<ObservableMap>) {
     let model = load_model(Path::new("models/vibro_duffing.sde")).unwrap();

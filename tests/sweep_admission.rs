@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use common::{json, run_within, scratch};
-use fpsolve::cancel::Cancel;
+use fpsolve::base::cancel::Cancel;
 use fpsolve::dynamics::Inadmissible;
 use fpsolve::grid::Cells;
 use fpsolve::mc::Shard;

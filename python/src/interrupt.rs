@@ -7,7 +7,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Condvar, Mutex};
 use std::time::Duration;
 
-use fpsolve::cancel::Cancel;
+use fpsolve::base::cancel::Cancel;
 use pyo3::panic::PanicException;
 use pyo3::prelude::*;
 

@@ -3,7 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use fpsolve::grid::{memory_limit_bytes, Cells};
+use fpsolve::base::limits::memory_limit_bytes;
+use fpsolve::grid::Cells;
 use fpsolve::mc::{Grid, McConfig, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
 use fpsolve::solve::{Method, MethodName, Problem};

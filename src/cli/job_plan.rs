@@ -4,8 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
+use fpsolve::base::limits::memory_limit_bytes;
+use fpsolve::grid::Cells;
 use fpsolve::grid::DEFAULT_CELLS;
-use fpsolve::grid::{memory_limit_bytes, Cells};
 use fpsolve::job::{JobSpec, McFrom, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};

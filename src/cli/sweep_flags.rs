@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use fpsolve::cancel::Cancel;
-use fpsolve::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
+use fpsolve::base::cancel::Cancel;
+use fpsolve::base::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use fpsolve::job::Progress;
 use fpsolve::mc::Shard;
 use fpsolve::report::OutputDir;

@@ -14,7 +14,7 @@
 //! Special values as `f64::exp`: NaN → NaN, −∞ and anything below −745.2 → 0, +∞ and
 //! anything above 709.79 → +∞.
 
-use crate::simd::Simd;
+use crate::base::simd::Simd;
 
 /// 1.5·2⁵²: adding it rounds a number below 2⁵¹ in magnitude to an integer, which then sits
 /// in the low bits of the sum.
@@ -125,10 +125,10 @@ fn exp_in_place_with(x: &mut [f64], simd: Simd) {
         Simd::Baseline => exp_body(x),
         // SAFETY: `simd` names an extension only when it was detected on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { exp_avx2(x) },
+        Simd::Avx2(_) => unsafe { exp_avx2(x) },
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { exp_avx512(x) },
+        Simd::Avx512(_) => unsafe { exp_avx512(x) },
     }
 }
 

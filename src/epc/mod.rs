@@ -299,26 +299,26 @@ impl<'a> Epc<'a> {
                 .map(|c| Err(c.expect_err("no valid degree")))
                 .collect();
         };
-        crate::study::timeline::mark("epc: start");
+        crate::base::timeline::mark("epc: start");
         let prep = match self.prepare() {
             Ok(p) => p,
             Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
         };
-        crate::study::timeline::mark("epc: closure done");
+        crate::base::timeline::mark("epc: closure done");
         let t0 = Instant::now();
         let moments = match self.moments(&prep, max_n) {
             Ok(m) => m,
             Err(e) => return degrees.iter().map(|_| Err(e.clone())).collect(),
         };
         let moments_ms = ms(t0);
-        crate::study::timeline::mark("epc: quadrature ready");
+        crate::base::timeline::mark("epc: quadrature ready");
         let mut previous: Option<Start> = None;
         let mut by_degree: Vec<(usize, Result<EpcSolution, EpcError>)> = Vec::new();
         for n in (2..=max_n).step_by(2) {
             let asked = degrees.contains(&n);
             match self.solve_coefficients(&prep, &moments, n, previous.as_ref(), true) {
                 Ok(c) => {
-                    crate::study::timeline::mark("epc: degree solved");
+                    crate::base::timeline::mark("epc: degree solved");
                     previous = Some((c.sys.exps.clone(), c.a.clone()));
                     if asked {
                         by_degree.push((n, self.finish(&prep, &moments, moments_ms, c)));
@@ -492,7 +492,7 @@ impl<'a> Epc<'a> {
         let (grid, norm) = normalise::normalise(&q, sigma, self.ridge_threshold)
             .map_err(|reason| EpcError::NotNormalisable { degree: n, reason })?;
         let normalise_ms = ms(t2);
-        crate::study::timeline::mark("epc: normalised");
+        crate::base::timeline::mark("epc: normalised");
         let t3 = Instant::now();
         let fpk_residual = prep.fpk_residual(&q, &grid)?;
         let report = SolveReport {

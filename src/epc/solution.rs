@@ -8,7 +8,7 @@ use super::normalise::{
     horner, powers, DensityGrid, NormalisationReport, Poly, Stretch, MAX_POWER, TRANSITION_CHUNK,
 };
 use super::outcome::SolverMethod;
-use crate::moments::Moments;
+use crate::stats::Moments;
 
 /// Timings and convergence of one solve.
 ///

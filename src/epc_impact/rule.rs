@@ -256,7 +256,7 @@ impl System {
     }
 
     /// Raw moments E[x^k], E[v^k] (k = 1..4) and the central moments, by the rule.
-    pub(crate) fn moments(&self, a: &DVector<f64>) -> [crate::moments::Moments; 2] {
+    pub(crate) fn moments(&self, a: &DVector<f64>) -> [crate::stats::Moments; 2] {
         let q = &self.phi * a;
         let top = q.max();
         let mut p: Vec<f64> = (0..self.nodes.len())
@@ -275,7 +275,7 @@ impl System {
             let mean = e(&|x| x);
             let var = e(&|x| (x - mean).powi(2));
             let m4 = e(&|x| (x - mean).powi(4));
-            crate::moments::Moments {
+            crate::stats::Moments {
                 raw: [1, 2, 3, 4].map(|k| e(&|x| x.powi(k))),
                 mean,
                 variance: var,

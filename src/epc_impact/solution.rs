@@ -3,11 +3,11 @@
 use serde::Serialize;
 
 use super::rule::{powers, q_at, Window};
+use crate::density::JointDensity;
 use crate::epc::SolverMethod;
 use crate::epc::MAX_DEGREE;
 use crate::model::BarrierSide;
-use crate::moments::Moments;
-use crate::observe::JointDensity;
+use crate::stats::Moments;
 
 /// A barrier of the solved domain.
 ///

@@ -149,22 +149,6 @@ impl Cells {
 /// Bytes of peak memory per n·log₂ n unknowns (measured 241 to 259, with a margin).
 const FILL_BYTES: f64 = 320.0;
 
-/// The memory a grid solve may use: the memory available on the machine (`MemAvailable` of
-/// `/proc/meminfo`), at most [`crate::mc::MEMORY_LIMIT_BYTES`]; that limit where the machine
-/// does not say.
-pub fn memory_limit_bytes() -> f64 {
-    let cap = crate::mc::MEMORY_LIMIT_BYTES;
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<f64>().ok())
-        })
-        .map_or(cap, |kb| (kb * 1024.0).min(cap))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,7 +176,7 @@ mod tests {
     /// 560×1120 fits under the 4 GiB cap, alone; twice its cells, or two of it at once, do not.
     #[test]
     fn the_cap_admits_627k_cells_and_refuses_twice_that() {
-        let cap = crate::mc::MEMORY_LIMIT_BYTES;
+        let cap = crate::base::limits::MEMORY_LIMIT_BYTES;
         assert!(Cells([560, 1120]).within(cap).is_ok());
         assert!(Cells([560, 1120]).within_at_once(cap, 2).is_err());
         assert!(matches!(

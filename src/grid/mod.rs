@@ -65,7 +65,7 @@ mod strip_tests;
 
 use std::time::Instant;
 
-pub use cells::{memory_limit_bytes, Cells, CellsError};
+pub use cells::{Cells, CellsError};
 pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;

@@ -17,7 +17,7 @@
 mod numeric;
 mod pages;
 
-use super::cells::memory_limit_bytes;
+use crate::base::limits::memory_limit_bytes;
 #[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place;

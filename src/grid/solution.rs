@@ -6,7 +6,7 @@ use std::fmt;
 use serde::Serialize;
 
 use super::mesh::{Domain, Mesh};
-use crate::observe::JointDensity;
+use crate::density::JointDensity;
 
 /// The discretisation error of what a solution writes, estimated from a second solve on half
 /// the cells per axis: the same curve or statistic of both solutions (each read through its
@@ -428,9 +428,9 @@ impl JointDensity for GridSolution {
 
 #[cfg(test)]
 mod tests {
+    use crate::density::JointDensity;
     use crate::grid::GridSolver;
     use crate::model::parse_model;
-    use crate::observe::JointDensity;
 
     /// The exact line integrals equal adaptive quadrature of the interpolant, on both axes,
     /// over whole lines and half-lines, for a pass-through barrier (two runs in x) and a wall.

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
+use crate::base::input_file::{read_regular_text, MAX_RESULT_FILE_BYTES};
 use crate::mc::{McResult, QuantityHistogram};
 use crate::model::BoundModel;
 use crate::report::PdfTable;
@@ -332,7 +332,7 @@ fn nan_slot<'a>(result: &'a mut McResult, path: &str) -> Option<&'a mut f64> {
 }
 
 fn moment_slot<'a>(
-    m: &'a mut crate::moments::Moments<crate::mc::Estimate>,
+    m: &'a mut crate::stats::Moments<crate::stats::Estimate>,
     path: &[&str],
 ) -> Option<&'a mut f64> {
     let e = match path {
@@ -345,7 +345,7 @@ fn moment_slot<'a>(
     estimate_part(e, path.last()?)
 }
 
-fn estimate_part<'a>(e: &'a mut crate::mc::Estimate, which: &str) -> Option<&'a mut f64> {
+fn estimate_part<'a>(e: &'a mut crate::stats::Estimate, which: &str) -> Option<&'a mut f64> {
     match which {
         "value" => Some(&mut e.value),
         "stderr" => Some(&mut e.stderr),

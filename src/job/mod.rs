@@ -407,7 +407,7 @@ fn run(
     }
 
     progress.stage("writing results");
-    crate::study::timeline::mark("job: writing");
+    crate::base::timeline::mark("job: writing");
     let written = files::write(&study, &names, mc.as_ref(), spec.figures, out);
     let comparisons = written.comparisons;
     let mut files = written.files;
@@ -448,7 +448,7 @@ fn run(
     };
     let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
     files.push(path);
-    crate::study::timeline::mark("job: summary written");
+    crate::base::timeline::mark("job: summary written");
     Ok(JobReport {
         study,
         skipped: plan.skipped,

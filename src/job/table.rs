@@ -3,7 +3,7 @@
 use std::fmt::Write;
 
 use super::{Comparison, JobReport, LogRatio, Reference};
-use crate::number_text::fixed_or_scientific;
+use crate::base::number_text::fixed_or_scientific;
 use crate::solve::{MethodName, QuantityMoments};
 use crate::study::{DegreeResult, Source, Study};
 

@@ -8,6 +8,7 @@ use super::error::McError;
 use super::kernel::rng::Increments;
 use super::record::accumulator::COUNT_COPIES;
 use super::record::histogram::{Grid, MAX_BINS};
+use crate::base::limits::MEMORY_LIMIT_BYTES;
 use crate::model::BoundModel;
 /// How long to run each trajectory before recording.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -82,8 +83,6 @@ pub const MIN_BIAS_PAIRS: u64 = 8;
 pub const MAX_TRAJECTORIES: u64 = 1 << 40;
 /// Longest run [`McConfig::preflight`] accepts, in estimated seconds (24 h).
 pub const TIME_LIMIT_SECONDS: f64 = 86_400.0;
-/// Most memory [`McConfig::preflight`] accepts for the histograms, in bytes (4 GiB).
-pub const MEMORY_LIMIT_BYTES: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
 
 /// What a run will cost, estimated before it starts by [`McConfig::preflight`].
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -111,7 +111,7 @@ pub enum McError {
         /// The quantity.
         name: String,
     },
-    /// The run was cancelled through its [`crate::cancel::Cancel`] flag before it finished;
+    /// The run was cancelled through its [`crate::base::cancel::Cancel`] flag before it finished;
     /// nothing of it is returned.
     #[error("the Monte Carlo run was cancelled before it finished")]
     Cancelled,

@@ -36,7 +36,6 @@
 mod compile;
 mod config;
 mod error;
-mod estimate;
 mod exact;
 mod kernel;
 mod record;
@@ -60,11 +59,9 @@ pub use compile::scheme::{Evaluator, SchemeChoice, SchemeKind};
 pub use compile::step_limit::{StepLimit, STABLE_RATE_TIMES_DT};
 pub(crate) use config::MAX_LANES;
 pub use config::{
-    BurnIn, McConfig, RunEstimate, MAX_TRAJECTORIES, MEMORY_LIMIT_BYTES, MIN_BIAS_PAIRS,
-    TIME_LIMIT_SECONDS,
+    BurnIn, McConfig, RunEstimate, MAX_TRAJECTORIES, MIN_BIAS_PAIRS, TIME_LIMIT_SECONDS,
 };
 pub use error::{BarrierLayout, DigestPart, McError, ShardDefect};
-pub use estimate::Estimate;
 pub use kernel::rng::Increments;
 pub use record::batch::BlowUp;
 pub use record::histogram::{

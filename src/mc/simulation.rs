@@ -10,7 +10,7 @@ use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
 use super::shard::index::Shard;
 use super::shard::part::ShardOutput;
 use super::stats::result::{finalize_run, McResult};
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::model::BoundModel;
 
 /// Half-width of an automatic grid, in pilot standard deviations.
@@ -104,9 +104,9 @@ impl Simulation {
                 bias_batches: 0,
                 ..settings.clone()
             };
-            crate::study::timeline::mark("mc: pilot start");
+            crate::base::timeline::mark("mc: pilot start");
             let summaries = run_batches_to_end(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
-            crate::study::timeline::mark("mc: pilot end");
+            crate::base::timeline::mark("mc: pilot end");
             let refs: Vec<_> = summaries.iter().collect();
             let res = finalize_run(&pilot, &refs, &[]).map_err(|_| McError::NoPilotRange {
                 name: settings.quantities[0].name.clone(),
@@ -185,7 +185,7 @@ impl Simulation {
     /// [`McError::Cancelled`] and nothing else (its batches are not a sample of the run).
     ///
     /// ```
-    /// use fpsolve::cancel::Cancel;
+    /// use fpsolve::base::cancel::Cancel;
     /// use fpsolve::mc::{McConfig, McError, Simulation};
     /// use fpsolve::model::{load_model, Override};
     /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");

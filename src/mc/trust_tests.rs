@@ -2,8 +2,10 @@
 //! verdicts and the pre-flight.
 
 use super::*;
+use crate::base::limits::MEMORY_LIMIT_BYTES;
 use crate::model::load_model;
 use crate::model::BoundModel;
+use crate::stats::Estimate;
 
 fn bundled(name: &str, set: &[(&str, f64)]) -> BoundModel {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

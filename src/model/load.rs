@@ -9,7 +9,7 @@ use super::parse::{parse_file, parse_lone_expr, MAX_SOURCE_BYTES};
 use super::syntax::SyntaxFailure;
 use super::validate::{lower_free, validate, Located, SemanticError};
 use super::Model;
-use crate::input_file::{read_regular_file, refusal, FileRefusal};
+use crate::base::input_file::{read_regular_file, refusal, FileRefusal};
 use crate::symbolic::Expr;
 
 /// Parses and validates a model from its text. `path`, if given, is shown in error messages.

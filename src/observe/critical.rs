@@ -5,7 +5,7 @@
 
 use nalgebra::Matrix2;
 
-use super::JointDensity;
+use crate::density::JointDensity;
 use crate::symbolic::Tape;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -3,7 +3,7 @@
 
 use std::cell::Cell;
 
-use super::{JointDensity, LinePiece, PieceKind};
+use crate::density::{JointDensity, LinePiece, PieceKind};
 use crate::epc::{EpcSolution, Stretch};
 
 impl JointDensity for EpcSolution {

@@ -33,7 +33,7 @@ use super::fixed::{nodes, pair};
 use super::lines::{half_line_moments, rule_tolerance};
 use super::moments::{finer_if_agreeing, moments_of_pairs, ObservableMoments};
 use super::JointDensity;
-use crate::moments::Moments;
+use crate::stats::Moments;
 
 /// The outer rule's number of intervals first tried, and its refinement when the check fails.
 const LEVELS: [usize; 2] = [128, 256];

@@ -19,52 +19,8 @@
 
 use std::cell::Cell;
 
-use super::{fixed, quadrature, JointDensity};
-
-/// A piece of a coordinate line on which a joint density is smooth
-/// ([`JointDensity::smooth_pieces`]).
-///
-/// ```
-/// use fpsolve::observe::{LinePiece, PieceKind};
-/// let p = LinePiece { range: [0.0, 2.0], kind: PieceKind::Transition { max: 1e-9 } };
-/// assert_eq!(p.kind.bound(p.range), Some(2e-9));
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LinePiece {
-    /// The interval of the line's free coordinate.
-    pub range: [f64; 2],
-    /// What the density is on it.
-    pub kind: PieceKind,
-}
-
-/// What a joint density is on a [`LinePiece`].
-///
-/// ```
-/// use fpsolve::observe::PieceKind;
-/// assert_eq!(PieceKind::Analytic.bound([0.0, 1.0]), None);
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PieceKind {
-    /// Analytic on the closed piece: a fixed polynomial rule converges geometrically and its
-    /// doubling check can be trusted.
-    Analytic,
-    /// A cutoff's transition: C^∞ but not analytic, between 0 and `max`.
-    Transition {
-        /// The density's largest value on the piece (a bound).
-        max: f64,
-    },
-}
-
-impl PieceKind {
-    /// For a transition over `range`, the bound max·length on its integral; `None` for an
-    /// analytic piece.
-    pub fn bound(&self, range: [f64; 2]) -> Option<f64> {
-        match self {
-            PieceKind::Analytic => None,
-            PieceKind::Transition { max } => Some(max * (range[1] - range[0])),
-        }
-    }
-}
+use super::{fixed, quadrature};
+use crate::density::{JointDensity, LinePiece, PieceKind};
 
 /// The relative tolerance of the adaptive quadrature, and the tightest the fixed rules are
 /// ever held to.
@@ -541,7 +497,7 @@ mod tests {
                     .sum::<f64>()
                     / mass
             });
-            let exact = crate::moments::Moments::from_raw(raw);
+            let exact = crate::stats::Moments::from_raw(raw);
             let got = &all[k].moments;
             for j in 0..4 {
                 let scale = raw[3].powf((j as f64 + 1.0) / 4.0);

@@ -5,8 +5,9 @@ use serde::Serialize;
 use rayon::prelude::*;
 
 use super::line_moments::LineQuadrants;
-use super::{JointDensity, ObservableMap};
-use crate::moments::Moments;
+use super::ObservableMap;
+use crate::density::JointDensity;
+use crate::stats::Moments;
 use crate::symbolic::{DeltaPolicy, Tape};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
@@ -71,7 +72,8 @@ struct Rule {
 /// silently renormalised.
 ///
 /// ```
-/// use fpsolve::observe::{moments, JointDensity, ObservableMap};
+/// use fpsolve::density::JointDensity;
+/// use fpsolve::observe::{moments, ObservableMap};
 /// use fpsolve::symbolic::{Expr, Func};
 /// struct Normal;
 /// impl JointDensity for Normal {
@@ -175,7 +177,8 @@ fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
 /// The moments of `map` under `density` (see [`Moments`]).
 ///
 /// ```
-/// use fpsolve::observe::{moments, JointDensity, ObservableMap};
+/// use fpsolve::density::JointDensity;
+/// use fpsolve::observe::{moments, ObservableMap};
 /// use fpsolve::symbolic::Expr;
 /// struct Normal;
 /// impl JointDensity for Normal {
@@ -202,7 +205,8 @@ pub fn moments(density: &dyn JointDensity, map: &ObservableMap) -> ObservableMom
 /// polynomial), each quantity's map at the same nodes.
 ///
 /// ```
-/// use fpsolve::observe::{moments, moments_of_all, JointDensity, ObservableMap};
+/// use fpsolve::density::JointDensity;
+/// use fpsolve::observe::{moments, moments_of_all, ObservableMap};
 /// use fpsolve::symbolic::Expr;
 /// struct Normal;
 /// impl JointDensity for Normal {

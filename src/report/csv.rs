@@ -233,16 +233,18 @@ impl PdfTable {
     ///
     /// # Errors
     /// [`ReportError::Io`] if the file cannot be read or is not a regular file of at most
-    /// [`MAX_RESULT_FILE_BYTES`](crate::input_file::MAX_RESULT_FILE_BYTES), [`ReportError::Table`]
+    /// [`MAX_RESULT_FILE_BYTES`](crate::base::input_file::MAX_RESULT_FILE_BYTES), [`ReportError::Table`]
     /// if its text is not a valid table.
     pub fn read_csv(path: impl AsRef<Path>) -> Result<Self, ReportError> {
         let path = path.as_ref();
-        let text =
-            crate::input_file::read_regular_text(path, crate::input_file::MAX_RESULT_FILE_BYTES)
-                .map_err(|source| ReportError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+        let text = crate::base::input_file::read_regular_text(
+            path,
+            crate::base::input_file::MAX_RESULT_FILE_BYTES,
+        )
+        .map_err(|source| ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         Self::parse_csv(&text).map_err(|source| ReportError::Table {
             path: path.to_path_buf(),
             source,

@@ -222,11 +222,11 @@ fn write_staged(
     // run's remaining work and the other files' flushes (which a journaling file system
     // commits together).
     let sync = std::thread::spawn(move || {
-        crate::study::timeline::mark("file: fsync start");
+        crate::base::timeline::mark("file: fsync start");
         let synced = file
             .sync_all()
             .map_err(|source| ReportError::Io { path, source });
-        crate::study::timeline::mark("file: fsync end");
+        crate::base::timeline::mark("file: fsync end");
         synced
     });
     pending.lock().unwrap_or_else(|p| p.into_inner()).push(sync);

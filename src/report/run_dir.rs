@@ -326,7 +326,7 @@ impl RunDir {
     /// cannot be written or a rename fails; the previous run's directory is then in place,
     /// and the staged files are removed.
     pub fn commit(mut self) -> Result<PathBuf, ReportError> {
-        crate::study::timeline::mark("commit: start");
+        crate::base::timeline::mark("commit: start");
         self.wait_for_leftovers();
         // The run wrote its last file before calling this: the listing is complete.
         let marker = marker_text(&self.command, &entries(self.staging.path())?);
@@ -334,11 +334,11 @@ impl RunDir {
         // The files' flushes (started as each was written) and the directory's, side by
         // side: a journaling file system commits concurrent flushes together.
         let dir = sync_dir(self.staging.path());
-        crate::study::timeline::mark("commit: staging synced");
+        crate::base::timeline::mark("commit: staging synced");
         // A failed flush does not discard the finished result: the files are complete (the
         // run wrote them all), so they are put in place and the failure reported after.
         let flushed = self.staging.wait_for_syncs().and(dir);
-        crate::study::timeline::mark("commit: files synced");
+        crate::base::timeline::mark("commit: files synced");
         let old = self.swap_in()?;
         self.committed = true;
         // The old directory's removal need not be durable (a later run removes what a crash
@@ -353,11 +353,11 @@ impl RunDir {
             // Best effort: the rename is done; durability of the new entry is all that is left.
             let _ = sync_dir(parent);
         }
-        crate::study::timeline::mark("commit: parent synced");
+        crate::base::timeline::mark("commit: parent synced");
         if let Some(removal) = removal {
             let _ = removal.join();
         }
-        crate::study::timeline::mark("commit: old removed");
+        crate::base::timeline::mark("commit: old removed");
         match flushed {
             Ok(()) => Ok(self.dest.clone()),
             Err(ReportError::Io { path, source }) => Err(ReportError::NotFlushed {

@@ -1,6 +1,7 @@
 //! The grid a quantity's PDF is tabulated on: where its density is at least 1e−8 of its peak.
 
-use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
+use crate::density::JointDensity;
+use crate::observe::{ObservableDensity, ObservableMap};
 use crate::symbolic::{DeltaPolicy, Tape};
 
 /// Grid points per PDF curve.

@@ -4,11 +4,12 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
+use crate::density::JointDensity;
 use crate::epc::EpcSolution;
 use crate::epc_impact::EpcImpactSolution;
 use crate::grid::GridSolution;
-use crate::moments::Moments;
-use crate::observe::{moments_of_all, JointDensity, ObservableDensity, PointMass};
+use crate::observe::{moments_of_all, ObservableDensity, PointMass};
+use crate::stats::Moments;
 
 use super::{common_grid, printable, Method, Quantity, SolveError};
 

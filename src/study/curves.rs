@@ -4,8 +4,9 @@
 use serde::Serialize;
 
 use super::bin_means::bin_means;
+use crate::density::JointDensity;
 use crate::mc::Grid;
-use crate::observe::{JointDensity, ObservableDensity, ObservableMap};
+use crate::observe::{ObservableDensity, ObservableMap};
 use crate::solve::{common_grid, printable, MethodName, Quantity, Solution};
 
 /// Which solution a column holds: a method, and its degree for a ladder method.

@@ -8,7 +8,6 @@
 mod bin_means;
 mod curves;
 mod methods;
-pub mod timeline;
 mod warning;
 
 use rayon::prelude::*;
@@ -16,6 +15,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::base::timeline;
 use crate::epc::EpcSolution;
 use crate::grid::GridReport;
 use crate::mc::ParamValue;

@@ -7,8 +7,8 @@ use crate::dynamics::Inadmissible;
 use crate::epc::{EpcError, EpcSolution, NormalisationKind};
 use crate::grid::{GridError, GridReport};
 use crate::model::number;
-use crate::moments::Moments;
 use crate::solve::{MethodName, MethodSet};
+use crate::stats::Moments;
 
 use super::MethodRefusal;
 

@@ -219,7 +219,7 @@ fn epc_curves(
     for (q, st) in problem.quantities().iter().zip(&moments) {
         // Each solution maps the quantity from its own states.
         let densities: Vec<(
-            &dyn crate::observe::JointDensity,
+            &dyn crate::density::JointDensity,
             &ObservableMap,
             ObservableDensity,
         )> = solutions

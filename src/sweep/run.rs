@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::cancel::{Cancel, Cancelled};
+use crate::base::cancel::{Cancel, Cancelled};
 use crate::grid::Cells;
 use crate::model::Model;
 use crate::solve::{
@@ -187,7 +187,7 @@ impl<'a> Sweep<'a> {
     /// returns [`Cancelled`] and nothing else.
     ///
     /// ```
-    /// use fpsolve::cancel::{Cancel, Cancelled};
+    /// use fpsolve::base::cancel::{Cancel, Cancelled};
     /// use fpsolve::sweep::{Sweep, SweepSpec};
     /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 1\ndiffusion v: xi\n", None).unwrap();
     /// let spec = SweepSpec::parse(&["c=0.5,1".into()]).unwrap();

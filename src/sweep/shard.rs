@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::cancel::{Cancel, Cancelled};
+use crate::base::cancel::{Cancel, Cancelled};
 use crate::mc::Shard;
 use crate::report::{check_finite, write_json, OutputDir, ReportError};
 
@@ -76,7 +76,7 @@ impl ShardPoint {
 /// [`merge_sweep_shards`] joins.
 ///
 /// ```
-/// use fpsolve::cancel::Cancel;
+/// use fpsolve::base::cancel::Cancel;
 /// use fpsolve::mc::Shard;
 /// use fpsolve::sweep::{merge_sweep_shards, Sweep, SweepSpec};
 /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;

@@ -1,7 +1,7 @@
 //! Sweeps in parts: shards merged against one run, bit for bit; every defect of a set of
 //! shards a typed error; results independent of the thread count.
 
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::grid::Cells;
 use crate::mc::Shard;
 use crate::model::{parse_model, Model};

@@ -20,7 +20,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::model::Model;
 use crate::solve::Method;
 

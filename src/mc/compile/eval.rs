@@ -24,7 +24,7 @@ pub(crate) trait BatchKernel: Send + Sync {
     fn program(&self) -> &LaneProgram;
 }
 
-pub(crate) use crate::simd::Simd;
+pub(crate) use crate::base::simd::Simd;
 
 /// A compiled kernel: the program and the extension its batch evaluation uses.
 struct Kernel {
@@ -65,10 +65,10 @@ impl BatchKernel for Kernel {
             Simd::Baseline => self.program.eval_rows(x, v, out, scratch),
             // SAFETY: `simd` was detected on this CPU (`Simd::detect`).
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => unsafe { self.eval_avx2(x, v, out, scratch) },
+            Simd::Avx2(_) => unsafe { self.eval_avx2(x, v, out, scratch) },
             // SAFETY: as above.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => unsafe { self.eval_avx512(x, v, out, scratch) },
+            Simd::Avx512(_) => unsafe { self.eval_avx512(x, v, out, scratch) },
         }
     }
 

@@ -335,10 +335,10 @@ impl Accumulator {
             // SAFETY: `simd` was detected on this CPU. The arithmetic is IEEE-exact whatever
             // the vector width (no fused multiply-add), so results do not change.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => unsafe { self.add_avx2(values, record) },
+            Simd::Avx2(_) => unsafe { self.add_avx2(values, record) },
             // SAFETY: as above.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => unsafe { self.add_avx512(values, record) },
+            Simd::Avx512(_) => unsafe { self.add_avx512(values, record) },
         }
     }
 

@@ -7,7 +7,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::scheme::Plan;
 use crate::mc::kernel::rng::Increments;
@@ -284,9 +284,9 @@ fn run_jobs<'a, R: Copy + Sync>(
             }
             let (run, index) = jobs[*j];
             let (st, phase) = settings(run);
-            crate::study::timeline::mark(phase[0]);
+            crate::base::timeline::mark(phase[0]);
             let b = run_part(plan, st, (index, part.clone()), cancel)?;
-            crate::study::timeline::mark(phase[1]);
+            crate::base::timeline::mark(phase[1]);
             let mut slot = slots[*j].lock().unwrap_or_else(|p| p.into_inner());
             slot.0[*k] = Some(b);
             if slot.0.iter().all(Option::is_some) {

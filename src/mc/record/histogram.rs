@@ -4,9 +4,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::mc::error::McError;
-use crate::mc::estimate::Estimate;
 use crate::mc::exact;
-use crate::moments::Moments;
+use crate::stats::Estimate;
+use crate::stats::Moments;
 
 /// Largest number of bins of one histogram grid.
 pub const MAX_BINS: usize = 10_000_000;

@@ -2,7 +2,7 @@
 //! general recording loop that drives one ([`record_samples`]) and the stationary run's
 //! recorder, streaming histograms and power sums per quantity ([`Histograms`]).
 
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::{BatchKernel, Scratch};
 use crate::mc::compile::scheme::Plan;
 use crate::mc::record::accumulator::Accumulator;

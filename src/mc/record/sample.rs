@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::cancel::Cancel;
+use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::lanes::{LaneOp, LaneProgram};
 use crate::mc::compile::mech_form::sgn;
@@ -222,10 +222,10 @@ fn record_chunk(acc: &mut [Accumulator], chunk: Chunk<'_>, record: &[bool], simd
         Simd::Baseline => record_body(acc, chunk, record),
         // SAFETY: `simd` was detected on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { record_avx2(acc, chunk, record) },
+        Simd::Avx2(_) => unsafe { record_avx2(acc, chunk, record) },
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { record_avx512(acc, chunk, record) },
+        Simd::Avx512(_) => unsafe { record_avx512(acc, chunk, record) },
     }
 }
 

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::mc::estimate::Estimate;
+use crate::stats::Estimate;
 
 /// Impact statistics of a run with a barrier.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -2,7 +2,6 @@
 //! quarter), the time-step bias estimate (Richardson, from the paired 2·dt batches) and the
 //! warnings the bias raises.
 
-use crate::mc::estimate::Estimate;
 use crate::mc::record::batch::BatchSummary;
 use crate::mc::record::histogram::{batch_density, batch_moments, QuantityHistogram, TimeStepBias};
 use crate::mc::settings::RunSettings;
@@ -11,7 +10,8 @@ use crate::mc::stats::verdict::{
     t_critical, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined,
     MIN_STATIONARITY_BATCHES,
 };
-use crate::moments::Moments;
+use crate::stats::Estimate;
+use crate::stats::Moments;
 
 /// Compares the first and last quarter of the recording of each state.
 pub(crate) fn stationarity(st: &RunSettings, batches: &[&BatchSummary]) -> Stationarity {

@@ -5,8 +5,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::base::number_text::fixed_or_scientific;
 use crate::mc::error::McError;
-use crate::mc::estimate::Estimate;
 use crate::mc::record::batch::{BatchSummary, BlowUp};
 use crate::mc::record::histogram::{finalize, QuantityBatch, QuantityHistogram};
 use crate::mc::settings::RunSettings;
@@ -15,7 +15,7 @@ use crate::mc::stats::judge::{
     bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
 };
 use crate::mc::stats::verdict::{BlowUps, McWarning, Stationarity, Undetermined};
-use crate::number_text::fixed_or_scientific;
+use crate::stats::Estimate;
 
 /// The share of the recorded steps whose impacts may run past a step's events before the run
 /// says so ([`McWarning::UnresolvedImpacts`]).

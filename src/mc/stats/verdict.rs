@@ -5,7 +5,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::mc::estimate::Estimate;
+use crate::stats::Estimate;
 
 /// Statistics batches needed for the stationarity test (its t statistic then has at least
 /// 7 degrees of freedom).

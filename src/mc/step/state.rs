@@ -110,10 +110,10 @@ impl BatchState {
             Simd::Baseline => self.advance_body(plan, steps, h),
             // SAFETY: `simd` was detected on this CPU (`Simd::detect`).
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => unsafe { self.advance_avx2(plan, steps, h) },
+            Simd::Avx2(_) => unsafe { self.advance_avx2(plan, steps, h) },
             // SAFETY: as above.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => unsafe { self.advance_avx512(plan, steps, h) },
+            Simd::Avx512(_) => unsafe { self.advance_avx512(plan, steps, h) },
         }
     }
 

@@ -150,10 +150,10 @@ pub(crate) fn advance(
         Simd::Baseline => 0,
         // SAFETY: `simd` names an extension only when it was detected on this CPU.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx2 => unsafe { groups_avx2(&st, &mut c) },
+        Simd::Avx2(_) => unsafe { groups_avx2(&st, &mut c) },
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
-        Simd::Avx512 => unsafe { groups_avx512(&st, &mut c) },
+        Simd::Avx512(_) => unsafe { groups_avx512(&st, &mut c) },
     };
     let n = c.x.len();
     for i in done..n {

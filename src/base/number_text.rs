@@ -10,7 +10,7 @@ pub const SCIENTIFIC_FROM: f64 = 1e7;
 /// `width`.
 ///
 /// ```
-/// use fpsolve::number_text::fixed_or_scientific;
+/// use fpsolve::base::number_text::fixed_or_scientific;
 /// assert_eq!(fixed_or_scientific(0.0245853, 6, 0), "0.024585");
 /// assert_eq!(fixed_or_scientific(-1.5e280, 6, 0), "-1.500000e280");
 /// assert_eq!(fixed_or_scientific(12.5, 2, 8), "   12.50");

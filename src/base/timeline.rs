@@ -29,8 +29,8 @@ fn on() -> bool {
 /// Records that `phase` was reached now (when `FPSOLVE_TIMELINE` is set).
 ///
 /// ```
-/// fpsolve::study::timeline::mark("start");
-/// fpsolve::study::timeline::print(); // nothing unless FPSOLVE_TIMELINE is set
+/// fpsolve::base::timeline::mark("start");
+/// fpsolve::base::timeline::print(); // nothing unless FPSOLVE_TIMELINE is set
 /// ```
 pub fn mark(phase: &'static str) {
     if !on() {

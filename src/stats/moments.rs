@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// built on it; the producer says how many exist.
 ///
 /// ```
-/// use fpsolve::moments::Moments;
+/// use fpsolve::stats::Moments;
 /// // A standard normal: E g = 0, E g² = 1, E g³ = 0, E g⁴ = 3.
 /// let m = Moments::from_raw([0.0, 1.0, 0.0, 3.0]);
 /// assert_eq!((m.mean, m.variance, m.kurtosis), (0.0, 1.0, 3.0));
@@ -37,7 +37,7 @@ impl Moments<f64> {
     /// The moments whose raw moments are `raw` = \[E g, E g², E g³, E g⁴\].
     ///
     /// ```
-    /// use fpsolve::moments::Moments;
+    /// use fpsolve::stats::Moments;
     /// // g uniform on {1, 3}: E g = 2, E g² = 5, E g³ = 14, E g⁴ = 41.
     /// let m = Moments::from_raw([2.0, 5.0, 14.0, 41.0]);
     /// assert_eq!((m.mean, m.variance, m.kurtosis), (2.0, 1.0, 1.0));
@@ -57,7 +57,7 @@ impl Moments<f64> {
     /// √Var\[g\].
     ///
     /// ```
-    /// use fpsolve::moments::Moments;
+    /// use fpsolve::stats::Moments;
     /// assert_eq!(Moments::from_raw([1.0, 5.0, 13.0, 73.0]).std_dev(), 2.0);
     /// ```
     pub fn std_dev(&self) -> f64 {
@@ -68,7 +68,7 @@ impl Moments<f64> {
     /// set to NaN: a moment that does not exist is never reported as a number.
     ///
     /// ```
-    /// use fpsolve::moments::Moments;
+    /// use fpsolve::stats::Moments;
     /// let m = Moments::from_raw([0.0, 1.0, 0.0, 3.0]).keep_existing(2);
     /// assert_eq!(m.variance, 1.0);
     /// assert!(m.raw[2].is_nan() && m.kurtosis.is_nan());

@@ -17,7 +17,7 @@ impl Estimate {
     /// Whether the value is resolved from zero: |value| > 2·stderr.
     ///
     /// ```
-    /// use fpsolve::mc::Estimate;
+    /// use fpsolve::stats::Estimate;
     /// assert!(Estimate { value: 0.3, stderr: 0.1 }.resolved());
     /// assert!(!Estimate { value: 0.1, stderr: 0.1 }.resolved());
     /// ```
@@ -28,7 +28,7 @@ impl Estimate {
     /// The bound |value| + 2·stderr below which an unresolved value lies.
     ///
     /// ```
-    /// use fpsolve::mc::Estimate;
+    /// use fpsolve::stats::Estimate;
     /// assert_eq!(Estimate { value: -0.1, stderr: 0.1 }.bound(), 0.30000000000000004);
     /// ```
     pub fn bound(&self) -> f64 {

@@ -10,7 +10,7 @@ use std::path::Path;
 
 /// Largest result file (`mc_summary.json`, `mc_<quantity>.csv`, `shard_*.json`,
 /// `sweep_shard_*.json`) a reader accepts, in bytes (16 GiB). The largest shard a run can
-/// write is bounded by [`crate::mc::MEMORY_LIMIT_BYTES`] (4 GiB of counts, 8 bytes a bin of
+/// write is bounded by [`crate::base::limits::MEMORY_LIMIT_BYTES`] (4 GiB of counts, 8 bytes a bin of
 /// a batch) and is written at up to about 18 bytes a bin of a batch (measured: 36.2 MB for
 /// 20 batches of 10⁵ bins), about 9 GB; a summary takes about 76 bytes a bin (76 MB for
 /// 10⁶ bins).
@@ -21,7 +21,7 @@ pub const MAX_RESULT_FILE_BYTES: u64 = 16 * 1024 * 1024 * 1024;
 /// recovered with `error.get_ref().and_then(|e| e.downcast_ref::<FileRefusal>())`.
 ///
 /// ```
-/// use fpsolve::input_file::FileRefusal;
+/// use fpsolve::base::input_file::FileRefusal;
 /// let e = FileRefusal::NotRegular { kind: "a directory" };
 /// assert_eq!(e.to_string(), "not a regular file (a directory)");
 /// ```
@@ -56,7 +56,7 @@ impl From<FileRefusal> for io::Error {
 /// The refusal inside an error of [`read_regular_file`], if it is one.
 ///
 /// ```
-/// use fpsolve::input_file::{read_regular_file, refusal, FileRefusal};
+/// use fpsolve::base::input_file::{read_regular_file, refusal, FileRefusal};
 /// let e = read_regular_file("/dev/null".as_ref(), 10).unwrap_err();
 /// assert!(matches!(refusal(&e), Some(FileRefusal::NotRegular { .. })));
 /// ```
@@ -125,7 +125,7 @@ fn open(path: &Path) -> io::Result<File> {
 /// [`refusal`]).
 ///
 /// ```
-/// use fpsolve::input_file::{read_regular_file, refusal, FileRefusal};
+/// use fpsolve::base::input_file::{read_regular_file, refusal, FileRefusal};
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
 /// assert!(read_regular_file(&path, 1 << 20).is_ok());
 /// let e = read_regular_file(&path, 10).unwrap_err();
@@ -156,7 +156,7 @@ pub fn read_regular_file(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
 /// Those of [`read_regular_file`], and `InvalidData` when the bytes are not UTF-8.
 ///
 /// ```
-/// use fpsolve::input_file::read_regular_text;
+/// use fpsolve::base::input_file::read_regular_text;
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
 /// assert!(read_regular_text(&path, 1 << 20).unwrap().contains("model"));
 /// ```

@@ -8,7 +8,7 @@ use std::sync::Arc;
 /// A cancellation flag shared between the caller and a run: clones share one flag.
 ///
 /// ```
-/// use fpsolve::cancel::Cancel;
+/// use fpsolve::base::cancel::Cancel;
 /// let cancel = Cancel::new();
 /// let seen_by_run = cancel.clone();
 /// assert!(!seen_by_run.is_cancelled());
@@ -24,7 +24,7 @@ impl Cancel {
     /// A flag not yet set.
     ///
     /// ```
-    /// assert!(!fpsolve::cancel::Cancel::new().is_cancelled());
+    /// assert!(!fpsolve::base::cancel::Cancel::new().is_cancelled());
     /// ```
     pub fn new() -> Cancel {
         Cancel::default()
@@ -33,7 +33,7 @@ impl Cancel {
     /// Asks every run holding this flag (or a clone) to stop at its next check.
     ///
     /// ```
-    /// let c = fpsolve::cancel::Cancel::new();
+    /// let c = fpsolve::base::cancel::Cancel::new();
     /// c.cancel();
     /// assert!(c.is_cancelled());
     /// ```
@@ -44,7 +44,7 @@ impl Cancel {
     /// Whether [`Cancel::cancel`] was called on this flag or a clone.
     ///
     /// ```
-    /// assert!(!fpsolve::cancel::Cancel::default().is_cancelled());
+    /// assert!(!fpsolve::base::cancel::Cancel::default().is_cancelled());
     /// ```
     pub fn is_cancelled(&self) -> bool {
         self.flag.load(Ordering::Relaxed)
@@ -54,7 +54,7 @@ impl Cancel {
 /// The error of a run stopped by its [`Cancel`] flag: nothing of the run is returned.
 ///
 /// ```
-/// assert_eq!(fpsolve::cancel::Cancelled.to_string(), "cancelled before it finished");
+/// assert_eq!(fpsolve::base::cancel::Cancelled.to_string(), "cancelled before it finished");
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("cancelled before it finished")]
