@@ -41,7 +41,6 @@ mod gaussian;
 mod normalise;
 mod outcome;
 mod prepare;
-pub(crate) mod quadrature;
 mod residual;
 mod solution;
 pub(crate) mod solver;

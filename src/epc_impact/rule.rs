@@ -15,8 +15,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::error::EpcImpactError;
 use super::mechanics::{Barrier, BarrierSide, Mechanics};
-use crate::epc::quadrature::gauss_legendre;
 use crate::epc::MAX_DEGREE;
+use crate::numerics::quadrature::gauss_legendre;
 
 /// Gauss–Legendre nodes per panel.
 pub(crate) const NODES_PER_PANEL: usize = 8;

@@ -216,9 +216,12 @@ fn solve_system(
     order: Vec<usize>,
     pin: usize,
 ) -> Result<Vec<f64>, String> {
-    let patterned = match super::pattern_lu::PatternLu::ordered(a.as_ref(), order) {
+    let patterned = match crate::numerics::sparse::pattern_lu::PatternLu::ordered(a.as_ref(), order)
+    {
         // faer's LU needs more still (the pattern of AᵀA): no fallback.
-        Err(e @ super::pattern_lu::LuFailure::TooLarge { .. }) => return Err(e.to_string()),
+        Err(e @ crate::numerics::sparse::pattern_lu::LuFailure::TooLarge { .. }) => {
+            return Err(e.to_string())
+        }
         other => other,
     };
     let patterned = patterned.map_err(|e| e.to_string()).and_then(|factor| {
@@ -243,7 +246,10 @@ fn drop_beside<T: Send + 'static>(value: T) {
 /// Solves A p = e_pin by faer's LU with partial pivoting over whole columns (COLAMD order),
 /// checked as [`checked_solve`] checks.
 fn pivoting_solve(a: &SparseColMat<usize, f64>, pin: usize) -> Result<Vec<f64>, String> {
-    let factor = super::lu::Factor::new(a.as_ref(), &super::lu::Ordering::Colamd)?;
+    let factor = crate::numerics::sparse::faer_lu::Factor::new(
+        a.as_ref(),
+        &crate::numerics::sparse::faer_lu::Ordering::Colamd,
+    )?;
     checked_solve(a, pin, |b| factor.solve(b))
 }
 

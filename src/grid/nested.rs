@@ -74,7 +74,7 @@ impl Graph {
 /// The pattern of A + Aᵀ as lists: entry k's list is `next[start[k]..start[k + 1]]`, the
 /// rows of A's column k and the columns of A's row k, in the order A's entries come (column by
 /// column), repeats kept; the diagonal entries only `with_diagonal` (then twice each).
-pub(super) fn union_with_transpose(
+pub(crate) fn union_with_transpose(
     a: SymbolicSparseColMatRef<'_, usize>,
     with_diagonal: bool,
 ) -> (Vec<usize>, Vec<usize>) {

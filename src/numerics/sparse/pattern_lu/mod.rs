@@ -17,7 +17,7 @@
 mod numeric;
 mod pages;
 
-use super::cells::memory_limit_bytes;
+use crate::grid::memory_limit_bytes;
 #[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place;
@@ -339,7 +339,7 @@ fn symmetric_pattern(
     let n = a.ncols();
     // Column c of A + Aᵀ: the rows of A's column c and the columns of A's row c, each column
     // then sorted and its repeats dropped in place.
-    let (mut ptr, mut idx) = super::nested::union_with_transpose(a, true);
+    let (mut ptr, mut idx) = crate::grid::nested::union_with_transpose(a, true);
     // Compacting never overtakes the reading: a column starts at or after its output.
     let mut write = 0;
     for c in 0..n {
@@ -363,8 +363,8 @@ fn symmetric_pattern(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::lu::tests::system;
-    use crate::grid::lu::{Factor, Ordering};
+    use crate::numerics::sparse::faer_lu::tests::system;
+    use crate::numerics::sparse::faer_lu::{Factor, Ordering};
 
     /// The pattern of A + Aᵀ by its definition: each column's set of rows, from A's column
     /// and A's row.

@@ -83,7 +83,7 @@ fn order(
         }
         #[cfg(test)]
         Ordering::NestedDissection { hops, coords } => {
-            fwd = super::nested::nested_dissection(a, coords, *hops);
+            fwd = crate::grid::nested::nested_dissection(a, coords, *hops);
             for (new, &old) in fwd.iter().enumerate() {
                 inv[old] = new;
             }
@@ -132,7 +132,7 @@ impl Factor {
         );
         // L and U hold at least the Cholesky pattern of AᵀA each: refused before allocation.
         let entries: f64 = col_counts.iter().map(|&c| c as f64).sum();
-        let limit = super::cells::memory_limit_bytes();
+        let limit = crate::grid::memory_limit_bytes();
         if 16.0 * entries > limit {
             return Err(format!(
                 "faer's LU needs at least {:.1} GiB, more than the {:.1} GiB this solve may use",
