@@ -132,7 +132,7 @@ pub mod mc;
 pub mod model;
 pub mod moments;
 pub mod number_text;
-pub(crate) mod numerics;
+pub mod numerics;
 pub mod observe;
 pub mod physics;
 pub mod report;

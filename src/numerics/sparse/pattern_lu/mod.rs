@@ -461,7 +461,7 @@ mod tests {
     /// The ordering table of docs/method.md section 8: stored entries of L and U,
     /// multiply-adds and time of faer's LU (COLAMD, pattern of AᵀA) and of this LU (pattern
     /// of A + Aᵀ) under AMD and nested dissection, by cell count. Run it with
-    /// `cargo test --release --lib grid::pattern_lu::tests::ordering_table -- --ignored --nocapture`.
+    /// `cargo test --release --lib numerics::sparse::pattern_lu::tests::ordering_table -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, a minute long: prints the ordering table"]
     fn ordering_table() {
