@@ -131,6 +131,7 @@ pub mod grid;
 pub mod job;
 pub mod mc;
 pub mod model;
+pub mod numerics;
 pub mod observe;
 pub mod report;
 pub mod solve;

@@ -5,8 +5,8 @@ use crate::fpk::FpkOperator;
 use crate::model::DeltaTreatment;
 use crate::symbolic::{DeltaLine, DeltaPolicy, Expr, Func, Symbol, Tape, TapeScratch};
 
-use super::quadrature::{normal_pdf, regularised_rule, split_normal_rule};
 use super::EpcError;
+use crate::numerics::quadrature::{normal_pdf, regularised_rule, split_normal_rule};
 
 /// Channel order: A0, A1, A2, B11, B12, B22.
 pub(crate) const CHANNELS: usize = 6;
@@ -300,7 +300,7 @@ impl Coefficients {
             let o = 1 - a;
             let xi_at = to_xi(a, &line.at);
             let along = match treatment {
-                DeltaTreatment::Exact => super::quadrature::QuadratureRule {
+                DeltaTreatment::Exact => crate::numerics::quadrature::QuadratureRule {
                     nodes: vec![xi_at],
                     weights: vec![normal_pdf(xi_at)],
                 },

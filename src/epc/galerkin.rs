@@ -10,19 +10,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::coefficients::{Point, CHANNELS};
-
-/// The exponents (i, j) of the monomials x1^i x2^j with 1 ≤ i + j ≤ n, by total degree and then
-/// by the power of x2 (the order of Eq. 16): for degree 2, (1, 0), (0, 1), (2, 0), (1, 1),
-/// (0, 2).
-pub(crate) fn exponents(degree: usize) -> Vec<(usize, usize)> {
-    let mut out = Vec::new();
-    for d in 1..=degree {
-        for j in 0..=d {
-            out.push((d - j, j));
-        }
-    }
-    out
-}
+use crate::numerics::poly2d::exponents;
 
 /// Moment tables of the six channels, up to total degree `max`.
 pub(crate) struct MomentTables {
@@ -291,12 +279,6 @@ mod tests {
     use crate::epc::Epc;
     use crate::fpk::FpkOperator;
     use crate::model::load_model;
-
-    #[test]
-    fn exponents_are_ordered_by_degree_then_power_of_x2() {
-        assert_eq!(exponents(2), vec![(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]);
-        assert_eq!(exponents(4).len(), 14);
-    }
 
     /// The assembled systems of `models/linear.sde` (c = 0.1, k = 1, 2πK = 1) at degrees 2
     /// and 4, pinned by snapshots under `src/epc/snapshots/`.

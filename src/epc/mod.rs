@@ -36,12 +36,11 @@ mod degrees;
 mod efolds;
 mod error;
 mod exp;
-pub(crate) mod galerkin;
+mod galerkin;
 mod gaussian;
 mod normalise;
 mod outcome;
 mod prepare;
-pub(crate) mod quadrature;
 mod residual;
 mod solution;
 pub(crate) mod solver;
@@ -59,8 +58,8 @@ pub use error::EpcError;
 pub(crate) use normalise::Stretch;
 pub use normalise::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeRegion};
 pub use outcome::{
-    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, NewtonStop,
-    SolverMethod, StartPoint,
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, SolverMethod,
+    StartPoint,
 };
 pub use solution::{EpcSolution, SolveReport};
 
@@ -439,7 +438,7 @@ impl<'a> Epc<'a> {
                 StartPoint::LowerDegree {
                     degree: e.iter().map(|x| x.0 + x.1).max().unwrap_or(0),
                 },
-                solver::pad(a, e, &sys.exps),
+                crate::numerics::newton::pad(a, e, &sys.exps),
             ));
         }
         let closure_start = prep.closure_start(&sys.exps);
@@ -531,6 +530,18 @@ fn check_degree(n: usize) -> Result<(), EpcError> {
             degree: n,
             max: MAX_DEGREE,
         })
+    }
+}
+
+impl Epc<'_> {
+    /// What every degree of this problem shares ([`Prepared::new`]).
+    fn prepare(&self) -> Result<Prepared, EpcError> {
+        Prepared::new(self.fpk, self.sigma)
+    }
+
+    /// Moment tables good for degree `n` ([`Prepared::moments`]).
+    fn moments(&self, prep: &Prepared, n: usize) -> Result<Quadrature, EpcError> {
+        prep.moments(n, self.fpk, self.quadrature_tolerance)
     }
 }
 

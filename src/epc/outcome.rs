@@ -8,6 +8,8 @@ use std::fmt;
 
 use serde::{Serialize, Serializer};
 
+use crate::numerics::newton::{LmStop, NewtonStop};
+
 /// Where an iteration started.
 ///
 /// ```
@@ -129,61 +131,6 @@ impl Serialize for SolverMethod {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.collect_str(self)
     }
-}
-
-/// Why a damped Newton run stopped.
-///
-/// ```
-/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
-/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
-/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
-/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
-/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
-///     panic!("degree 6 of case 1 does not converge")
-/// };
-/// assert!(matches!(attempts[0].end, AttemptEnd::Newton { stop: NewtonStop::Crawling | NewtonStop::NoDescent | NewtonStop::Singular | NewtonStop::IterationLimit, .. }));
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NewtonStop {
-    /// ‖R‖ reached the threshold.
-    Converged,
-    /// The Jacobian was singular or the step not finite.
-    Singular,
-    /// No step length down to 2^−20 decreased ½‖R‖² enough.
-    NoDescent,
-    /// Less than 10% gained over eight iterations: crawling towards a nonzero minimum.
-    Crawling,
-    /// The iteration limit came first.
-    IterationLimit,
-}
-
-/// Why a Levenberg–Marquardt run stopped.
-///
-/// ```
-/// # use fpsolve::{epc::*, fpk::FpkOperator, model::load_model};
-/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
-/// # let fpk = FpkOperator::derive(&load_model(&path).unwrap().bind(&[]).unwrap()).unwrap();
-/// // Table 1 case 1 of the paper has no degree-6 solution connected to the Gaussian one.
-/// let Err(EpcError::NoConvergence { attempts, best, .. }) = Epc::new(&fpk).degree(6).solve() else {
-///     panic!("degree 6 of case 1 does not converge")
-/// };
-/// let lm = attempts.iter().find_map(|a| match a.end {
-///     AttemptEnd::LevenbergMarquardt { stop, .. } => Some(stop),
-///     _ => None,
-/// });
-/// assert!(lm.is_some_and(|s| s != LmStop::Converged));
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LmStop {
-    /// ‖R‖ reached the threshold.
-    Converged,
-    /// No descent is possible any more (no damping gave a decrease, or ‖R‖ stopped
-    /// decreasing): a numerical local minimum of ‖R‖.
-    Stationary,
-    /// The gradient JᵀR vanished: a critical point of ½‖R‖², possibly a saddle or maximum.
-    Critical,
-    /// The iteration limit came first.
-    IterationLimit,
 }
 
 /// A homotopy path whose ‖a‖ exceeds this many times 1 + ‖a0‖ counts as diverged.

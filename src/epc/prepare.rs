@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use super::closure::{self, GaussianClosure};
 use super::coefficients::Coefficients;
+use super::error::EpcError;
 use super::galerkin::{GalerkinSystem, MomentTables};
-use super::{ms, Epc, EpcError};
+use crate::fpk::FpkOperator;
 
 /// What every degree's solve shares: coefficients, weights and the closure.
 pub(super) struct Prepared {
@@ -26,11 +27,11 @@ pub(super) struct Quadrature {
     pub(super) checked: bool,
 }
 
-impl Epc<'_> {
-    /// Checks the weights, builds the coefficients and, unless both σ were given, solves the
-    /// Gaussian closure for them.
-    pub(super) fn prepare(&self) -> Result<Prepared, EpcError> {
-        for (i, s) in self.sigma.iter().enumerate() {
+impl Prepared {
+    /// Checks the weights `given`, builds the coefficients of `fpk` and, unless both σ were
+    /// given, solves the Gaussian closure for them.
+    pub(super) fn new(fpk: &FpkOperator, given: [Option<f64>; 2]) -> Result<Prepared, EpcError> {
+        for (i, s) in given.iter().enumerate() {
             if let Some(v) = s {
                 if !(v.is_finite() && *v > 0.0) {
                     return Err(EpcError::Weight {
@@ -40,9 +41,9 @@ impl Epc<'_> {
                 }
             }
         }
-        let coefs = Coefficients::new(self.fpk)?;
+        let coefs = Coefficients::new(fpk)?;
         let t0 = Instant::now();
-        let (sigma, closure) = match self.sigma {
+        let (sigma, closure) = match given {
             [Some(a), Some(b)] => ([a, b], None),
             _ => {
                 let (kinks, _) = coefs.kinks([50.0, 50.0])?;
@@ -50,13 +51,10 @@ impl Epc<'_> {
                     .polynomial_degree()
                     .map_or(16, |d| (d as usize + 6).div_ceil(2) + 2)
                     .max(8);
-                let c = closure::gaussian_closure(&coefs, &kinks, self.fpk.delta_treatment, order)?;
+                let c = closure::gaussian_closure(&coefs, &kinks, fpk.delta_treatment, order)?;
                 let sd = c.std_devs();
                 (
-                    [
-                        self.sigma[0].unwrap_or(sd[0]),
-                        self.sigma[1].unwrap_or(sd[1]),
-                    ],
+                    [given[0].unwrap_or(sd[0]), given[1].unwrap_or(sd[1])],
                     Some(c),
                 )
             }
@@ -65,19 +63,27 @@ impl Epc<'_> {
             coefs,
             sigma,
             closure,
-            closure_ms: ms(t0),
+            closure_ms: t0.elapsed().as_secs_f64() * 1e3,
         })
     }
 
-    /// Moment tables good for degree `n`, with the quadrature order used.
-    pub(super) fn moments(&self, prep: &Prepared, n: usize) -> Result<Quadrature, EpcError> {
+    /// Moment tables good for degree `n` (δ terms treated as `fpk` says), with the
+    /// quadrature order used: raised until the assembled system changes by less than
+    /// `tolerance` where the coefficients are not piecewise polynomial.
+    pub(super) fn moments(
+        &self,
+        n: usize,
+        fpk: &FpkOperator,
+        tolerance: f64,
+    ) -> Result<Quadrature, EpcError> {
+        let prep = self;
         let s = prep.sigma;
         let (kinks, mixed) = prep.coefs.kinks([16.0 * s[0], 16.0 * s[1]])?;
         let dmax = 3 * n - 2;
         let build = |order: usize| -> Result<MomentTables, EpcError> {
             let pts = prep
                 .coefs
-                .points([0.0, 0.0], s, &kinks, order, self.fpk.delta_treatment)?;
+                .points([0.0, 0.0], s, &kinks, order, fpk.delta_treatment)?;
             Ok(MomentTables::new(&pts, s, dmax))
         };
         match prep.coefs.polynomial_degree() {
@@ -101,7 +107,7 @@ impl Epc<'_> {
                     let sys = GalerkinSystem::assemble(&mom, n);
                     change = sys.max_difference(&prev) / sys.scale().max(f64::MIN_POSITIVE);
                     order = next_order;
-                    if change < self.quadrature_tolerance {
+                    if change < tolerance {
                         return Ok(Quadrature {
                             tables: mom,
                             order,

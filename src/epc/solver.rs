@@ -20,10 +20,23 @@ use serde::Serialize;
 use super::continuation::{self, PathEnd, TraceOptions};
 use super::galerkin::GalerkinSystem;
 use super::outcome::{
-    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, LmStop, NewtonStop,
-    SolverMethod, StartPoint, HOMOTOPY_NORM_FACTOR, HOMOTOPY_STEPS,
+    Attempt, AttemptEnd, BestPoint, BestPointKind, HomotopyEnd, HomotopyPath, SolverMethod,
+    StartPoint, HOMOTOPY_NORM_FACTOR, HOMOTOPY_STEPS,
 };
 use super::EpcError;
+use crate::numerics::newton::{
+    levenberg_marquardt, newton, Equations, LmStop, NewtonOptions, NewtonStop, Trial,
+};
+
+/// Newton as the δ-term EPC runs it: 60 iterations, stopping at the threshold (the homotopies
+/// and Levenberg–Marquardt that follow judge by the same threshold), a non-finite step
+/// counted as a singular Jacobian, and the Jacobian kept from each accepted trial.
+const NEWTON: NewtonOptions = NewtonOptions {
+    max_iter: 60,
+    polish: 0,
+    reject_non_finite_step: true,
+    trial: Trial::WithJacobian,
+};
 
 /// How a solve ended.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -47,66 +60,6 @@ pub(crate) struct SolveFailure {
     pub threshold: f64,
     /// The point of least ‖R‖.
     pub best: BestPoint,
-}
-
-fn newton(
-    sys: &GalerkinSystem,
-    a0: &DVector<f64>,
-    tol: f64,
-    max_iter: usize,
-) -> (DVector<f64>, f64, usize, NewtonStop) {
-    let mut a = a0.clone();
-    let (mut r, mut j) = sys.residual_and_jacobian(&a);
-    let mut norm = r.norm();
-    // ‖R‖ eight iterations ago: damped Newton that gains less than 10% over eight steps is
-    // crawling along a valley towards a nonzero minimum (near a root it converges
-    // quadratically), which Levenberg–Marquardt handles better.
-    let mut history = std::collections::VecDeque::with_capacity(9);
-    for it in 0..max_iter {
-        if norm <= tol {
-            return (a, norm, it, NewtonStop::Converged);
-        }
-        history.push_back(norm);
-        if history.len() > 8 {
-            let old = history.pop_front().expect("non-empty");
-            if norm > 0.9 * old {
-                return (a, norm, it, NewtonStop::Crawling);
-            }
-        }
-        let Some(step) = j.clone().lu().solve(&(-&r)) else {
-            return (a, norm, it, NewtonStop::Singular);
-        };
-        if !step.iter().all(|v| v.is_finite()) {
-            return (a, norm, it, NewtonStop::Singular);
-        }
-        let mut t = 1.0;
-        let mut accepted = false;
-        // t down to 2^-20: a Newton direction that only helps at shorter steps is useless here.
-        for _ in 0..20 {
-            let an = &a + t * &step;
-            let (rn, jn) = sys.residual_and_jacobian(&an);
-            let nn = rn.norm();
-            // Armijo on ½‖R‖²: the Newton direction's slope is −‖R‖².
-            if nn.is_finite() && nn * nn <= norm * norm * (1.0 - 2e-4 * t) {
-                a = an;
-                r = rn;
-                j = jn;
-                norm = nn;
-                accepted = true;
-                break;
-            }
-            t *= 0.5;
-        }
-        if !accepted {
-            return (a, norm, it, NewtonStop::NoDescent);
-        }
-    }
-    let stop = if norm <= tol {
-        NewtonStop::Converged
-    } else {
-        NewtonStop::IterationLimit
-    };
-    (a, norm, max_iter, stop)
 }
 
 /// Follows a homotopy through folds in λ from (a0, 0) towards λ = 1.
@@ -189,84 +142,10 @@ fn operator_homotopy(
     homotopy(&eval, a_g, SolverMethod::OperatorHomotopy)
 }
 
-/// A square system R(a) = 0 with its Jacobian: what [`levenberg_marquardt`] needs (the δ-term
-/// Galerkin system, and the exact-impact moment equations of [`crate::epc_impact`]).
-pub(crate) trait Equations {
-    /// R(a) and ∂R/∂a.
-    fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>);
-}
-
 impl Equations for GalerkinSystem {
     fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
         GalerkinSystem::residual_and_jacobian(self, a)
     }
-}
-
-/// Levenberg–Marquardt on ‖R‖² from `a0`, at most `max_iter` steps: the end point, its ‖R‖,
-/// the steps taken and why it stopped.
-pub(crate) fn levenberg_marquardt<S: Equations + ?Sized>(
-    sys: &S,
-    a0: &DVector<f64>,
-    tol: f64,
-    max_iter: usize,
-) -> (DVector<f64>, f64, usize, LmStop) {
-    let mut a = a0.clone();
-    let (mut r, mut j) = sys.residual_and_jacobian(&a);
-    let mut norm = r.norm();
-    let mut lambda = 1e-3;
-    let n = a.len();
-    // ‖R‖ ten iterations ago: a run that gains almost nothing over ten steps has stalled at a
-    // minimum (near a root LM converges quadratically and never trips this).
-    let mut history = std::collections::VecDeque::with_capacity(11);
-    for it in 0..max_iter {
-        if norm <= tol {
-            return (a, norm, it, LmStop::Converged);
-        }
-        history.push_back(norm);
-        if history.len() > 10 {
-            let old = history.pop_front().expect("non-empty");
-            if norm > (1.0 - 1e-6) * old {
-                return (a, norm, it, LmStop::Stationary);
-            }
-        }
-        let jt = j.transpose();
-        let jtj = &jt * &j;
-        let g = &jt * &r;
-        if g.norm() <= 1e-14 * (1.0 + jtj.norm()) * norm.max(1e-300) {
-            return (a, norm, it, LmStop::Critical);
-        }
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut mat = jtj.clone();
-            for d in 0..n {
-                mat[(d, d)] += lambda * (jtj[(d, d)] + 1e-12);
-            }
-            if let Some(step) = mat.cholesky().map(|c| c.solve(&(-&g))) {
-                let an = &a + &step;
-                let (rn, jn) = sys.residual_and_jacobian(&an);
-                let nn = rn.norm();
-                if nn.is_finite() && nn < norm {
-                    a = an;
-                    r = rn;
-                    j = jn;
-                    norm = nn;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = true;
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            return (a, norm, it, LmStop::Stationary);
-        }
-    }
-    let stop = if norm <= tol {
-        LmStop::Converged
-    } else {
-        LmStop::IterationLimit
-    };
-    (a, norm, max_iter, stop)
 }
 
 /// Perturbed Levenberg–Marquardt starts tried after the given starts have failed.
@@ -313,7 +192,7 @@ pub(crate) fn solve(
     };
     for &(from, ref a0) in starts {
         let method = SolverMethod::Newton { from };
-        let (a, n, it, stop) = newton(sys, a0, threshold, 60);
+        let (a, n, it, stop) = newton(sys, a0, threshold, &NEWTON);
         if stop == NewtonStop::Converged {
             return Ok(done(a, method, it));
         }
@@ -410,19 +289,6 @@ pub(crate) fn solve(
             },
         },
     })
-}
-
-/// Pads a solution of a lower degree (exponents `from`) to the exponents `to`.
-pub(crate) fn pad(
-    a: &DVector<f64>,
-    from: &[(usize, usize)],
-    to: &[(usize, usize)],
-) -> DVector<f64> {
-    DVector::from_iterator(
-        to.len(),
-        to.iter()
-            .map(|e| from.iter().position(|f| f == e).map_or(0.0, |i| a[i])),
-    )
 }
 
 #[cfg(test)]

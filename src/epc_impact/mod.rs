@@ -87,9 +87,9 @@ pub use error::{Divergence, EpcImpactError, Unsupported};
 pub use rule::Window;
 pub use solution::{DomainBarrier, EpcImpactReport, EpcImpactSolution, Normalisation};
 
-use crate::epc::solver::pad;
 use crate::epc::{Epc, EpcError, StartPoint, MAX_DEGREE};
 use crate::model::BoundModel;
+use crate::numerics::newton::pad;
 use mechanics::{Mechanics, Wall};
 use rule::System;
 
@@ -365,7 +365,7 @@ impl<'a> EpcImpact<'a> {
         })?;
         let sigma = closure.std_devs();
         let mu = closure.mean;
-        let exps = crate::epc::galerkin::exponents(2);
+        let exps = crate::numerics::poly2d::exponents(2);
         let start = DVector::from_iterator(
             exps.len(),
             exps.iter().map(|&(i, j)| {
@@ -413,7 +413,7 @@ impl<'a> EpcImpact<'a> {
         let mut sys = System::build(mech, sigma, window, panels, n)?;
         let closure = pad(
             &prep.closure,
-            &crate::epc::galerkin::exponents(2),
+            &crate::numerics::poly2d::exponents(2),
             &sys.exps,
         );
         let reference = sys.residual(&closure).norm();
@@ -437,8 +437,9 @@ impl<'a> EpcImpact<'a> {
         };
         let mut refits = 0;
         let refit = |sys: &System, a: &DVector<f64>, what| {
-            let (a, residual, _, stop) = newton::newton(sys, a, threshold);
-            if stop == crate::epc::NewtonStop::Converged {
+            let (a, residual, _, stop) =
+                crate::numerics::newton::newton(sys, a, threshold, &newton::NEWTON);
+            if stop == crate::numerics::newton::NewtonStop::Converged {
                 Ok(a)
             } else {
                 Err(EpcImpactError::Refit {

@@ -7,14 +7,22 @@
 use nalgebra::DVector;
 
 use super::rule::System;
-use crate::epc::solver::levenberg_marquardt;
 use crate::epc::{
-    Attempt, AttemptEnd, BestPoint, BestPointKind, EpcError, LmStop, NewtonStop, SolverMethod,
-    StartPoint,
+    Attempt, AttemptEnd, BestPoint, BestPointKind, EpcError, SolverMethod, StartPoint,
+};
+use crate::numerics::newton::{
+    levenberg_marquardt, newton, LmStop, NewtonOptions, NewtonStop, Trial,
 };
 
-/// Newton iterations at most.
-const NEWTON_ITERATIONS: usize = 60;
+/// Newton as the exact-impact EPC runs it: 60 iterations, then polished while ‖R‖ still
+/// halves (at most three more steps) so that the root is as accurate as the rounding of R
+/// allows; line-search trials evaluate R alone, the Jacobian once at each accepted point.
+pub(crate) const NEWTON: NewtonOptions = NewtonOptions {
+    max_iter: 60,
+    polish: 3,
+    reject_non_finite_step: false,
+    trial: Trial::ResidualOnly,
+};
 /// Levenberg–Marquardt iterations at most (each costs one Jacobian).
 const LM_ITERATIONS: usize = 60;
 
@@ -23,82 +31,6 @@ const LM_ITERATIONS: usize = 60;
 pub(crate) struct Converged {
     pub(crate) method: SolverMethod,
     pub(crate) iterations: usize,
-}
-
-/// Damped Newton from `a0` to ‖R‖ ≤ `tol`, then polished while ‖R‖ still halves (at most
-/// three more steps), so that the root is as accurate as the rounding of R allows.
-pub(crate) fn newton(
-    sys: &System,
-    a0: &DVector<f64>,
-    tol: f64,
-) -> (DVector<f64>, f64, usize, NewtonStop) {
-    let mut a = a0.clone();
-    let (mut r, mut j) = sys.residual_and_jacobian(&a);
-    let mut norm = r.norm();
-    let mut history = std::collections::VecDeque::with_capacity(9);
-    let mut polish = 0;
-    for it in 0..NEWTON_ITERATIONS {
-        if norm <= tol {
-            if polish == 3 {
-                return (a, norm, it, NewtonStop::Converged);
-            }
-            polish += 1;
-        }
-        history.push_back(norm);
-        if history.len() > 8 {
-            let old = history.pop_front().expect("non-empty");
-            if norm > 0.9 * old {
-                let stop = if norm <= tol {
-                    NewtonStop::Converged
-                } else {
-                    NewtonStop::Crawling
-                };
-                return (a, norm, it, stop);
-            }
-        }
-        let Some(step) = j.clone().lu().solve(&(-&r)) else {
-            let stop = if norm <= tol {
-                NewtonStop::Converged
-            } else {
-                NewtonStop::Singular
-            };
-            return (a, norm, it, stop);
-        };
-        let mut t = 1.0;
-        let mut accepted = false;
-        for _ in 0..20 {
-            let an = &a + t * &step;
-            let rn = sys.residual(&an);
-            let nn = rn.norm();
-            let gain = if polish > 0 { 0.5 } else { 1.0 - 2e-4 * t };
-            if nn.is_finite() && nn * nn <= norm * norm * gain {
-                a = an;
-                norm = nn;
-                accepted = true;
-                break;
-            }
-            if polish > 0 {
-                break;
-            }
-            t *= 0.5;
-        }
-        if !accepted {
-            let stop = if norm <= tol {
-                NewtonStop::Converged
-            } else {
-                NewtonStop::NoDescent
-            };
-            return (a, norm, it, stop);
-        }
-        (r, j) = sys.residual_and_jacobian(&a);
-        norm = r.norm();
-    }
-    let stop = if norm <= tol {
-        NewtonStop::Converged
-    } else {
-        NewtonStop::IterationLimit
-    };
-    (a, norm, NEWTON_ITERATIONS, stop)
 }
 
 /// Newton from each start in order, then Levenberg–Marquardt from each; the first to reach
@@ -118,7 +50,7 @@ pub(crate) fn solve(
     };
     for (from, a0) in starts {
         let method = SolverMethod::Newton { from: *from };
-        let (a, n, it, stop) = newton(sys, a0, threshold);
+        let (a, n, it, stop) = newton(sys, a0, threshold, &NEWTON);
         if stop == NewtonStop::Converged {
             return Ok((
                 a,
@@ -139,7 +71,7 @@ pub(crate) fn solve(
         let (a, n, it, stop) = levenberg_marquardt(sys, a0, threshold, LM_ITERATIONS);
         if stop == LmStop::Converged {
             // Polish the LM root by Newton (quadratic convergence near a regular root).
-            let (a, _, more, _) = newton(sys, &a, threshold);
+            let (a, _, more, _) = newton(sys, &a, threshold, &NEWTON);
             return Ok((
                 a,
                 Converged {

@@ -15,8 +15,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::error::EpcImpactError;
 use super::mechanics::{BarrierSide, Mechanics, Wall};
-use crate::epc::quadrature::gauss_legendre;
 use crate::epc::MAX_DEGREE;
+use crate::numerics::quadrature::gauss_legendre;
 
 /// Gauss–Legendre nodes per panel.
 pub(crate) const NODES_PER_PANEL: usize = 8;
@@ -123,7 +123,7 @@ impl System {
         panels: [usize; 2],
         n: usize,
     ) -> Result<System, EpcImpactError> {
-        let exps = crate::epc::galerkin::exponents(n);
+        let exps = crate::numerics::poly2d::exponents(n);
         let np = exps.len();
         let (xs, wx) = composite(window.x[0], window.x[1], panels[0]);
         let half = panels[1] / 2;
@@ -309,8 +309,12 @@ pub(crate) fn free_x_edges(barriers: &[Wall]) -> [bool; 2] {
     free
 }
 
-impl crate::epc::solver::Equations for System {
+impl crate::numerics::newton::Equations for System {
     fn residual_and_jacobian(&self, a: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
         System::residual_and_jacobian(self, a)
+    }
+
+    fn residual(&self, a: &DVector<f64>) -> DVector<f64> {
+        System::residual(self, a)
     }
 }

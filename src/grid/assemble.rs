@@ -6,11 +6,15 @@
 //! puts back into the destination cells exactly what left, so every column sums to zero:
 //! mass is conserved to rounding.
 
+use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
+use crate::numerics::sparse::pattern_lu::PatternLu;
+use crate::numerics::sparse::{Check, FactorError, Factorization};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat, Triplet};
 
 use super::error::GridError;
 use super::mesh::{face_weights, overlaps, Mesh};
 use super::problem::Mechanical;
+use crate::base::limits::memory_limit_bytes;
 
 /// The operator as (row, column, value) entries, duplicates summed by the sparse matrix.
 #[derive(Clone, Debug, Default)]
@@ -187,7 +191,7 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
     let mut order = super::nested::nested_dissection(a.symbolic(), &coords, 1);
     order.retain(|&c| c != pin);
     order.push(pin);
-    let mut p = solve_system(&a, order, pin).map_err(singular)?;
+    let mut p = solve_system(&a, order, pin).map_err(|e| singular(e.to_string()))?;
     let mass: f64 = p.iter().sum::<f64>() * mesh.hx * mesh.hv;
     if !(mass.is_finite() && mass > 0.0) {
         return Err(GridError::Degenerate {
@@ -199,35 +203,60 @@ pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, 
     Ok(p)
 }
 
-/// The largest backward error ‖A p − e_pin‖∞ / (‖A‖∞ ‖p‖∞ + 1) a solve may leave.
-const BACKWARD_ERROR_LIMIT: f64 = 1e-12;
+/// When a solve is accepted: one step of iterative refinement above a backward error
+/// ‖A p − e_pin‖∞ / (‖A‖∞ ‖p‖∞ + 1) of 1e-14, refused above 1e-12.
+const CHECK: Check = Check {
+    refine_above: 1e-14,
+    limit: 1e-12,
+};
 
-/// The backward error above which a step of iterative refinement is taken.
-const REFINE_ABOVE: f64 = 1e-14;
+/// Why neither factorisation solved the system; `Display` is the detail of
+/// [`GridError::Singular`].
+#[derive(Debug, thiserror::Error)]
+enum SystemError {
+    /// The pattern LU's factors exceed the memory limit; faer's LU needs more still (the
+    /// pattern of AᵀA), so it is not tried.
+    #[error("{0}")]
+    TooLarge(FactorError),
+    /// The pattern LU failed, then faer's LU failed too.
+    #[error("{pattern}; faer's LU: {faer}")]
+    BothFailed {
+        /// Why the pattern LU failed.
+        pattern: FactorError,
+        /// Why faer's LU failed.
+        faer: FactorError,
+    },
+}
 
 /// Solves A p = e_pin, A's columns eliminated in `order`: by the pattern LU, which pivots
 /// only inside its supernodes, so its backward error is checked rather than assumed (1e-17 to
 /// 1e-16 on the grid operators). When it fails (a zero pivot, or a backward error above the
-/// limit after refinement), faer's LU with partial pivoting over whole columns solves the same
-/// system and must pass the same check; a system neither solves to that accuracy is refused
-/// (the error says why each failed).
+/// limit after refinement), faer's LU with partial pivoting over whole columns (COLAMD order)
+/// solves the same system and must pass the same check; a system neither solves to that
+/// accuracy is refused (the error says why each failed).
 fn solve_system(
     a: &SparseColMat<usize, f64>,
     order: Vec<usize>,
     pin: usize,
-) -> Result<Vec<f64>, String> {
-    let patterned = match super::pattern_lu::PatternLu::ordered(a.as_ref(), order) {
-        // faer's LU needs more still (the pattern of AᵀA): no fallback.
-        Err(e @ super::pattern_lu::LuFailure::TooLarge { .. }) => return Err(e.to_string()),
+) -> Result<Vec<f64>, SystemError> {
+    let limit = memory_limit_bytes();
+    let mut b = vec![0.0; a.ncols()];
+    b[pin] = 1.0;
+    let patterned = match PatternLu::factor(a.as_ref(), order, limit) {
+        Err(e @ FactorError::TooLarge { .. }) => return Err(SystemError::TooLarge(e)),
         other => other,
     };
-    let patterned = patterned.map_err(|e| e.to_string()).and_then(|factor| {
-        let solved = checked_solve(a, pin, |b| factor.solve(b));
-        drop_beside(factor);
-        solved
-    });
     patterned
-        .or_else(|first| pivoting_solve(a, pin).map_err(|e| format!("{first}; faer's LU: {e}")))
+        .and_then(|factor| {
+            let solved = factor.checked_solve(a.as_ref(), &b, CHECK);
+            drop_beside(factor);
+            solved
+        })
+        .or_else(|pattern| {
+            FaerLu::factor(a.as_ref(), Ordering::Colamd, limit)
+                .and_then(|factor| factor.checked_solve(a.as_ref(), &b, CHECK))
+                .map_err(|faer| SystemError::BothFailed { pattern, faer })
+        })
 }
 
 /// Frees `value` on a thread of its own. A factor of a fine grid is hundreds of MB, whose
@@ -238,66 +267,6 @@ fn drop_beside<T: Send + 'static>(value: T) {
     let _ = std::thread::Builder::new()
         .name("fpsolve-free".into())
         .spawn(move || drop(value));
-}
-
-/// Solves A p = e_pin by faer's LU with partial pivoting over whole columns (COLAMD order),
-/// checked as [`checked_solve`] checks.
-fn pivoting_solve(a: &SparseColMat<usize, f64>, pin: usize) -> Result<Vec<f64>, String> {
-    let factor = super::lu::Factor::new(a.as_ref(), &super::lu::Ordering::Colamd)?;
-    checked_solve(a, pin, |b| factor.solve(b))
-}
-
-/// Solves A p = e_pin with `solve` (a factorisation's solve, in place), takes one step of
-/// iterative refinement when the backward error exceeds [`REFINE_ABOVE`], and fails when it
-/// still exceeds [`BACKWARD_ERROR_LIMIT`] (or is NaN).
-fn checked_solve(
-    a: &SparseColMat<usize, f64>,
-    pin: usize,
-    solve: impl Fn(&mut [f64]),
-) -> Result<Vec<f64>, String> {
-    let mut p = vec![0.0; a.ncols()];
-    p[pin] = 1.0;
-    solve(&mut p);
-    let mut error = backward_error(a, &p, pin);
-    if error > REFINE_ABOVE {
-        let mut r = residual(a, &p, pin);
-        solve(&mut r);
-        p.iter_mut().zip(&r).for_each(|(x, d)| *x += d);
-        error = backward_error(a, &p, pin);
-    }
-    if error.is_nan() || error > BACKWARD_ERROR_LIMIT {
-        return Err(format!(
-            "backward error {error:.1e} after refinement (limit {BACKWARD_ERROR_LIMIT:.0e})"
-        ));
-    }
-    Ok(p)
-}
-
-/// e_pin − A p.
-fn residual(a: &SparseColMat<usize, f64>, p: &[f64], pin: usize) -> Vec<f64> {
-    let mut r = vec![0.0; p.len()];
-    r[pin] = 1.0;
-    for (c, &x) in p.iter().enumerate() {
-        let rows = a.symbolic().row_idx_of_col_raw(c);
-        for (&row, &v) in rows.iter().zip(a.val_of_col(c)) {
-            r[row] -= v * x;
-        }
-    }
-    r
-}
-
-/// ‖A p − e_pin‖∞ / (‖A‖∞ ‖p‖∞ + 1), the normwise backward error of a solve.
-fn backward_error(a: &SparseColMat<usize, f64>, p: &[f64], pin: usize) -> f64 {
-    let r = residual(a, p, pin);
-    let mut row_sums = vec![0.0f64; p.len()];
-    for c in 0..p.len() {
-        let rows = a.symbolic().row_idx_of_col_raw(c);
-        for (&row, &v) in rows.iter().zip(a.val_of_col(c)) {
-            row_sums[row] += v.abs();
-        }
-    }
-    let norm = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    norm(&r) / (norm(&row_sums) * norm(p) + 1.0)
 }
 
 #[cfg(test)]
@@ -371,10 +340,12 @@ mod tests {
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(3, 3, &t).unwrap();
         let exact = [1.0, -2.0, 0.0];
         let close = |p: &[f64]| p.iter().zip(exact).all(|(x, e)| (x - e).abs() < 1e-14);
-        assert!(close(&pivoting_solve(&a, 2).unwrap()));
+        let faer = FaerLu::factor(a.as_ref(), Ordering::Colamd, f64::INFINITY).unwrap();
+        assert!(close(
+            &faer
+                .checked_solve(a.as_ref(), &[0.0, 0.0, 1.0], CHECK)
+                .unwrap()
+        ));
         assert!(close(&solve_system(&a, vec![0, 1, 2], 2).unwrap()));
-        // A solve that is wrong fails the check, refinement with the same wrong solve included.
-        let wrong = checked_solve(&a, 2, |b| b.iter_mut().for_each(|x| *x *= 3.0));
-        assert!(wrong.is_err());
     }
 }

@@ -49,16 +49,14 @@
 
 #![warn(missing_docs)]
 
-mod assemble;
+pub(crate) mod assemble;
 mod cells;
 mod domain;
 mod error;
 mod estimate;
-mod lu;
-mod mesh;
-mod nested;
-mod pattern_lu;
-mod problem;
+pub(crate) mod mesh;
+pub(crate) mod nested;
+pub(crate) mod problem;
 mod solution;
 #[cfg(test)]
 mod strip_tests;

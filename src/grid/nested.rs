@@ -10,6 +10,7 @@
 //! LU allocates the pattern of the Cholesky factor of AᵀA, in which two cells are joined
 //! when a common row touches both, so it needs two hops (measured, docs/method.md §8).
 
+use crate::numerics::sparse::pattern::union_with_transpose;
 use faer::sparse::SymbolicSparseColMatRef;
 
 /// Geometric coordinates of the cells of an nx × nv mesh (cell k at (k / nv, k % nv)),
@@ -69,42 +70,6 @@ impl Graph {
     fn neighbours(&self, k: usize) -> &[usize] {
         &self.next[self.start[k]..self.start[k + 1]]
     }
-}
-
-/// The pattern of A + Aᵀ as lists: entry k's list is `next[start[k]..start[k + 1]]`, the
-/// rows of A's column k and the columns of A's row k, in the order A's entries come (column by
-/// column), repeats kept; the diagonal entries only `with_diagonal` (then twice each).
-pub(super) fn union_with_transpose(
-    a: SymbolicSparseColMatRef<'_, usize>,
-    with_diagonal: bool,
-) -> (Vec<usize>, Vec<usize>) {
-    let n = a.ncols();
-    let kept = |r: usize, c: usize| with_diagonal || r != c;
-    let mut start = vec![0usize; n + 1];
-    for c in 0..n {
-        for &r in a.row_idx_of_col_raw(c) {
-            if kept(r, c) {
-                start[r + 1] += 1;
-                start[c + 1] += 1;
-            }
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start[..n].to_vec();
-    let mut next = vec![0usize; start[n]];
-    for c in 0..n {
-        for &r in a.row_idx_of_col_raw(c) {
-            if kept(r, c) {
-                next[fill[r]] = c;
-                fill[r] += 1;
-                next[fill[c]] = r;
-                fill[c] += 1;
-            }
-        }
-    }
-    (start, next)
 }
 
 struct State<'a> {

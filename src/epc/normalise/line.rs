@@ -56,12 +56,11 @@ const BISECTIONS: usize = 60;
 /// Samples of the first block [`DensityGrid::stretches`] tries to prove of one class; a
 /// proven block doubles the next. An unproven one is not halved: its first [`BLOCK`] samples
 /// are evaluated at once ([`horner_block`], the points side by side), then looked at in
-/// order, and the next block is [`BLOCK`] samples again. On vibro_duffing's degree-4 `solve`
-/// (1149 lines, 186 samples a line) that is 5.7 enclosures and 3.6 blocks evaluated a line,
-/// where halving unproven blocks of 16 down to 8 samples evaluated one by one took 17.5
-/// enclosures and 25 evaluations a line: criterion's degree-4 observables on one thread take
-/// about 4 % less time (medians of six interleaved rounds, 5.25 against 5.04 ms; the rounds'
-/// changes from −11 to +2 %).
+/// order, and the next block is [`BLOCK`] samples again. Halving an unproven block would
+/// evaluate its samples one by one, and a block that fails to prove one class usually holds
+/// a class boundary, where the side-by-side evaluation of the whole block is the cheaper way
+/// to find it (about a third of the enclosures and a seventh of the evaluations per line on
+/// a degree-4 density).
 const FIRST_BLOCK: usize = BLOCK;
 
 /// Where Q = `q` falls among the levels that bound the classes: 0 at or below the floor, 1 in

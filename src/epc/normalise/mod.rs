@@ -40,10 +40,7 @@ pub use report::{NormalisationKind, NormalisationReport, NotNormalisable, RidgeR
 
 use grid::trapezoid_on_region;
 use rayon::prelude::*;
-use region::{explore_ray, find_mode, saddle_near, RayEnd, RaySteps};
-
-/// Below this many e-folds from the mode the density is treated as zero when choosing the box.
-const TAIL_E_FOLDS: f64 = 40.0;
+use region::{explore_ray, find_mode, saddle_near, RayEnd, RaySteps, TAIL_E_FOLDS};
 /// Number of rays used to explore Q around the mode (half a degree apart).
 const RAYS: usize = 720;
 /// First trapezoid spacing tried (scaled units: the weights' σ are 1).

@@ -3,9 +3,11 @@
 
 use nalgebra::{Matrix2, Vector2};
 
-use super::poly::{derivative, enclosure, horner, horner_block, rounding, BLOCK, MAX_POWER};
+use super::poly::{derivative, enclosure, horner, horner_block, rounding, Poly, BLOCK, MAX_POWER};
 use super::report::NotNormalisable;
-use super::{Poly, TAIL_E_FOLDS};
+
+/// Below this many e-folds from the mode the density is treated as zero when choosing the box.
+pub(super) const TAIL_E_FOLDS: f64 = 40.0;
 
 /// Finds a local maximum of Q by Newton ascent from the best point of a coarse grid.
 pub(super) fn find_mode(q: &Poly) -> Result<[f64; 2], NotNormalisable> {

@@ -12,12 +12,16 @@
 //! caller's: nested dissection in the solver) with faer's supernodal symbolic Cholesky as
 //! the pattern of L and Uᵀ, and each supernode's diagonal block is factorised with partial
 //! pivoting among its own rows (which keeps the pattern). Since pivoting is restricted, the
-//! caller checks the backward error of each solve and refines (`assemble::solve`).
+//! caller checks the backward error of each solve and refines
+//! ([`Factorization::checked_solve`]).
 
 mod numeric;
 mod pages;
+mod permuted;
 
-use crate::base::limits::memory_limit_bytes;
+use super::error::FactorError;
+use super::factorization::Factorization;
+use super::pattern::union_with_transpose;
 #[cfg(test)]
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::triangular_solve::solve_unit_lower_triangular_in_place;
@@ -33,8 +37,8 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, MatRef, Par, Side};
 use numeric::numeric;
+use permuted::permute;
 
-const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
 #[cfg(test)]
 use numeric::plan;
 
@@ -55,41 +59,14 @@ pub(crate) struct PatternLu {
     pub(crate) growth: f64,
 }
 
-/// Why the factorisation failed.
-#[derive(Debug)]
-pub(crate) enum LuFailure {
-    /// faer's analysis failed (memory, index overflow).
-    Analysis(String),
-    /// A zero pivot at column `column` of the permuted matrix.
-    ZeroPivot { column: usize },
-    /// The factors would take `bytes`, more than the `limit` the machine leaves (found by the
-    /// symbolic analysis, before any value is allocated).
-    TooLarge { bytes: f64, limit: f64 },
-}
-
-impl std::fmt::Display for LuFailure {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            LuFailure::Analysis(e) => write!(f, "symbolic analysis failed: {e}"),
-            LuFailure::ZeroPivot { column } => write!(f, "zero pivot at column {column}"),
-            LuFailure::TooLarge { bytes, limit } => write!(
-                f,
-                "the factors need {:.1} GiB, more than the {:.1} GiB this solve may use",
-                bytes / GIB,
-                limit / GIB
-            ),
-        }
-    }
-}
-
 /// The fill-reducing symmetric ordering: AMD on A + Aᵀ with cell `last` moved to the end.
 #[cfg(test)]
-fn ordering(a: SymbolicSparseColMatRef<'_, usize>, last: usize) -> Result<Vec<usize>, LuFailure> {
+fn ordering(a: SymbolicSparseColMatRef<'_, usize>, last: usize) -> Result<Vec<usize>, FactorError> {
     let n = a.ncols();
     let nnz = a.compute_nnz();
     let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
     let mut mem = MemBuffer::try_new(amd::order_scratch::<usize>(n, nnz))
-        .map_err(|e| LuFailure::Analysis(format!("{e:?}")))?;
+        .map_err(|e| FactorError::Analysis(format!("{e:?}")))?;
     amd::order(
         &mut fwd,
         &mut inv,
@@ -97,61 +74,10 @@ fn ordering(a: SymbolicSparseColMatRef<'_, usize>, last: usize) -> Result<Vec<us
         amd::Control::default(),
         MemStack::new(&mut mem),
     )
-    .map_err(|e| LuFailure::Analysis(format!("{e:?}")))?;
+    .map_err(|e| FactorError::Analysis(format!("{e:?}")))?;
     fwd.retain(|&c| c != last);
     fwd.push(last);
     Ok(fwd)
-}
-
-/// P A Pᵀ in compressed columns (`by_col`) and compressed rows (`by_row`, i.e. its
-/// transpose in compressed columns), each as (pointers, indices, values).
-struct Permuted {
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    val: Vec<f64>,
-    row_ptr: Vec<usize>,
-    col_idx: Vec<usize>,
-    tval: Vec<f64>,
-}
-
-fn permute(a: SparseColMatRef<'_, usize, f64>, inv: &[usize]) -> Permuted {
-    let n = a.ncols();
-    let nnz = a.compute_nnz();
-    let mut col_ptr = vec![0usize; n + 1];
-    let mut row_ptr = vec![0usize; n + 1];
-    for c in 0..n {
-        for &r in a.symbolic().row_idx_of_col_raw(c) {
-            col_ptr[inv[c] + 1] += 1;
-            row_ptr[inv[r] + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        col_ptr[k + 1] += col_ptr[k];
-        row_ptr[k + 1] += row_ptr[k];
-    }
-    let (mut row_idx, mut val) = (vec![0usize; nnz], vec![0.0; nnz]);
-    let (mut col_idx, mut tval) = (vec![0usize; nnz], vec![0.0; nnz]);
-    let (mut cfill, mut rfill) = (col_ptr.clone(), row_ptr.clone());
-    for c in 0..n {
-        let vals = a.val_of_col(c);
-        for (&r, &v) in a.symbolic().row_idx_of_col_raw(c).iter().zip(vals) {
-            let (pr, pc) = (inv[r], inv[c]);
-            row_idx[cfill[pc]] = pr;
-            val[cfill[pc]] = v;
-            cfill[pc] += 1;
-            col_idx[rfill[pr]] = pc;
-            tval[rfill[pr]] = v;
-            rfill[pr] += 1;
-        }
-    }
-    Permuted {
-        col_ptr,
-        row_idx,
-        val,
-        row_ptr,
-        col_idx,
-        tval,
-    }
 }
 
 impl PatternLu {
@@ -161,30 +87,21 @@ impl PatternLu {
     pub(crate) fn new(
         a: SparseColMatRef<'_, usize, f64>,
         last: usize,
-    ) -> Result<PatternLu, LuFailure> {
+    ) -> Result<PatternLu, FactorError> {
         let fwd = ordering(a.symbolic(), last)?;
-        PatternLu::ordered(a, fwd)
+        PatternLu::factor(a, fwd, f64::INFINITY)
     }
 
-    /// Factorises `a` in the symmetric order `fwd` (position → cell), disjoint subtrees of
-    /// the supernodal elimination tree in parallel (the same bits as one task).
-    pub(crate) fn ordered(
-        a: SparseColMatRef<'_, usize, f64>,
-        fwd: Vec<usize>,
-    ) -> Result<PatternLu, LuFailure> {
-        PatternLu::ordered_with(a, fwd, true, memory_limit_bytes())
-    }
-
-    /// [`PatternLu::ordered`] on one task or in parallel, refusing factors of more than
+    /// [`PatternLu::factor`] on one task or in parallel, refusing factors of more than
     /// `limit` bytes.
     fn ordered_with(
         a: SparseColMatRef<'_, usize, f64>,
         fwd: Vec<usize>,
         parallel: bool,
         limit: f64,
-    ) -> Result<PatternLu, LuFailure> {
+    ) -> Result<PatternLu, FactorError> {
         let n = a.ncols();
-        let analysis = |e: &dyn std::fmt::Debug| LuFailure::Analysis(format!("{e:?}"));
+        let analysis = |e: &dyn std::fmt::Debug| FactorError::Analysis(format!("{e:?}"));
         let mut inv = vec![0usize; n];
         for (k, &c) in fwd.iter().enumerate() {
             inv[c] = k;
@@ -205,12 +122,12 @@ impl PatternLu {
         )
         .map_err(|e| analysis(&e))?;
         let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
-            return Err(LuFailure::Analysis("not supernodal".into()));
+            return Err(FactorError::Analysis("not supernodal".into()));
         };
         // L and U, one value each per entry of the pattern: refused before allocation.
         let bytes = 16.0 * sym.len_val() as f64;
         if bytes > limit {
-            return Err(LuFailure::TooLarge { bytes, limit });
+            return Err(FactorError::TooLarge { bytes, limit });
         }
         let p = permute(a, &inv);
         let (l, u, pivots) = numeric(sym, &p, parallel)?;
@@ -233,7 +150,9 @@ impl PatternLu {
     fn sym(&self) -> &SymbolicSupernodalCholesky<usize> {
         match self.symbolic.raw() {
             SymbolicCholeskyRaw::Supernodal(sym) => sym,
-            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("checked in PatternLu::new"),
+            SymbolicCholeskyRaw::Simplicial(_) => {
+                unreachable!("checked in PatternLu::ordered_with")
+            }
         }
     }
 
@@ -265,8 +184,9 @@ impl PatternLu {
         2 * self.sym().len_val()
     }
 
-    /// Solves A x = b in place (`b` in, x out).
-    pub(crate) fn solve(&self, b: &mut [f64]) {
+    /// Solves A x = b in place (`b` in, x out): forward substitution through the supernodes
+    /// (their pivots applied), then backward.
+    fn substitute(&self, b: &mut [f64]) {
         let sym = self.sym();
         let n = self.fwd.len();
         let mut y: Vec<f64> = self.fwd.iter().map(|&r| b[r]).collect();
@@ -332,6 +252,25 @@ impl PatternLu {
     }
 }
 
+impl Factorization for PatternLu {
+    /// The symmetric order (position → cell).
+    type Ordering = Vec<usize>;
+
+    /// Factorises `a` in the symmetric order `fwd`, disjoint subtrees of the supernodal
+    /// elimination tree in parallel (the same bits as one task).
+    fn factor(
+        a: SparseColMatRef<'_, usize, f64>,
+        fwd: Vec<usize>,
+        limit: f64,
+    ) -> Result<PatternLu, FactorError> {
+        PatternLu::ordered_with(a, fwd, true, limit)
+    }
+
+    fn solve_in_place(&self, b: &mut [f64]) {
+        self.substitute(b);
+    }
+}
+
 /// The pattern of A + Aᵀ (values unused).
 fn symmetric_pattern(
     a: SymbolicSparseColMatRef<'_, usize>,
@@ -339,7 +278,7 @@ fn symmetric_pattern(
     let n = a.ncols();
     // Column c of A + Aᵀ: the rows of A's column c and the columns of A's row c, each column
     // then sorted and its repeats dropped in place.
-    let (mut ptr, mut idx) = super::nested::union_with_transpose(a, true);
+    let (mut ptr, mut idx) = union_with_transpose(a, true);
     // Compacting never overtakes the reading: a column starts at or after its output.
     let mut write = 0;
     for c in 0..n {
@@ -363,8 +302,8 @@ fn symmetric_pattern(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::lu::tests::system;
-    use crate::grid::lu::{Factor, Ordering};
+    use crate::numerics::sparse::faer_lu::tests::system;
+    use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
 
     /// The pattern of A + Aᵀ by its definition: each column's set of rows, from A's column
     /// and A's row.
@@ -438,20 +377,20 @@ mod tests {
             let n = mesh.cells();
             let mut p = vec![0.0; n];
             p[pin] = 1.0;
-            Factor::new(a.as_ref(), &Ordering::Colamd)
+            FaerLu::factor(a.as_ref(), Ordering::Colamd, f64::INFINITY)
                 .unwrap()
-                .solve(&mut p);
+                .solve_in_place(&mut p);
             let coords = crate::grid::nested::cell_coords(mesh.nx, mesh.nv, false);
             let mut nd = crate::grid::nested::nested_dissection(a.symbolic(), &coords, 1);
             nd.retain(|&c| c != pin);
             nd.push(pin);
             for lu in [
                 PatternLu::new(a.as_ref(), pin).unwrap(),
-                PatternLu::ordered(a.as_ref(), nd).unwrap(),
+                PatternLu::factor(a.as_ref(), nd, f64::INFINITY).unwrap(),
             ] {
                 let mut q = vec![0.0; n];
                 q[pin] = 1.0;
-                lu.solve(&mut q);
+                lu.solve_in_place(&mut q);
                 let top = p.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 let worst = p
                     .iter()
@@ -473,7 +412,7 @@ mod tests {
         let bytes = 8.0 * lu.entries() as f64;
         let refused = PatternLu::ordered_with(a.as_ref(), fwd.clone(), false, 0.99 * bytes);
         assert!(
-            matches!(refused, Err(LuFailure::TooLarge { bytes: b, .. }) if b == bytes),
+            matches!(refused, Err(FactorError::TooLarge { bytes: b, .. }) if b == bytes),
             "{:?}",
             refused.err()
         );
@@ -510,7 +449,7 @@ mod tests {
                     .build()
                     .unwrap();
                 let lu = pool
-                    .install(|| PatternLu::ordered(a.as_ref(), nd.clone()))
+                    .install(|| PatternLu::factor(a.as_ref(), nd.clone(), f64::INFINITY))
                     .unwrap();
                 assert_eq!(bits(&lu.l), bits(&one.l), "{file}: L on {threads} threads");
                 assert_eq!(bits(&lu.u), bits(&one.u), "{file}: U on {threads} threads");
@@ -522,7 +461,7 @@ mod tests {
     /// The ordering table of docs/method.md section 8: stored entries of L and U,
     /// multiply-adds and time of faer's LU (COLAMD, pattern of AᵀA) and of this LU (pattern
     /// of A + Aᵀ) under AMD and nested dissection, by cell count. Run it with
-    /// `cargo test --release --lib grid::pattern_lu::tests::ordering_table -- --ignored --nocapture`.
+    /// `cargo test --release --lib numerics::sparse::pattern_lu::tests::ordering_table -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, a minute long: prints the ordering table"]
     fn ordering_table() {
@@ -544,7 +483,7 @@ mod tests {
                     );
                 };
                 let t = std::time::Instant::now();
-                let f = Factor::new(a.as_ref(), &Ordering::Colamd).unwrap();
+                let f = FaerLu::factor(a.as_ref(), Ordering::Colamd, f64::INFINITY).unwrap();
                 // faer allocates L and U, each with the pattern of the Cholesky factor of AᵀA.
                 row(
                     "faer, COLAMD on AᵀA",
@@ -561,7 +500,7 @@ mod tests {
                     let mut order = nested_dissection(a.symbolic(), &coords, hops);
                     order.retain(|&c| c != pin);
                     order.push(pin);
-                    let lu = PatternLu::ordered(a.as_ref(), order).unwrap();
+                    let lu = PatternLu::factor(a.as_ref(), order, f64::INFINITY).unwrap();
                     let name = format!("A + Aᵀ, ND {hops}-step separators");
                     row(&name, lu.entries() as f64, lu.flops(), ms(t));
                 }

@@ -2,7 +2,9 @@
 //! sequential sweep's order, the supernodal elimination tree) and the factorisation of
 //! disjoint subtrees in parallel, bit-identical to one task.
 
-use super::{pages, LuFailure, Permuted};
+use super::super::error::FactorError;
+use super::pages;
+use super::permuted::Permuted;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
 use faer::linalg::matmul::matmul;
@@ -194,10 +196,13 @@ impl<'a> Part<'a> {
 }
 
 /// The first failure in the sequential order: the lower column.
-fn first_failure(a: Result<(), LuFailure>, b: Result<(), LuFailure>) -> Result<(), LuFailure> {
+fn first_failure(
+    a: Result<(), FactorError>,
+    b: Result<(), FactorError>,
+) -> Result<(), FactorError> {
     match (a, b) {
-        (Err(LuFailure::ZeroPivot { column: x }), Err(LuFailure::ZeroPivot { column: y })) => {
-            Err(LuFailure::ZeroPivot { column: x.min(y) })
+        (Err(FactorError::ZeroPivot { column: x }), Err(FactorError::ZeroPivot { column: y })) => {
+            Err(FactorError::ZeroPivot { column: x.min(y) })
         }
         (Err(e), _) | (_, Err(e)) => Err(e),
         _ => Ok(()),
@@ -210,7 +215,7 @@ fn forest(
     list: &[usize],
     part: Part<'_>,
     sc: &mut Scratch,
-) -> Result<(), LuFailure> {
+) -> Result<(), FactorError> {
     if let [s] = list {
         return subtree(ctx, *s, part, sc);
     }
@@ -225,7 +230,12 @@ fn forest(
 
 /// Factorises the subtree of supernode `s`: its children's subtrees in parallel when it is
 /// costly enough, then `s`.
-fn subtree(ctx: &Ctx<'_>, s: usize, mut part: Part<'_>, sc: &mut Scratch) -> Result<(), LuFailure> {
+fn subtree(
+    ctx: &Ctx<'_>,
+    s: usize,
+    mut part: Part<'_>,
+    sc: &mut Scratch,
+) -> Result<(), FactorError> {
     let kids = &ctx.plan.children[s];
     if ctx.plan.cost[s] < ctx.min_cost || kids.is_empty() {
         for t in ctx.plan.first[s]..=s {
@@ -248,7 +258,7 @@ pub(super) fn numeric(
     sym: &SymbolicSupernodalCholesky<usize>,
     a: &Permuted,
     parallel: bool,
-) -> Result<Factors, LuFailure> {
+) -> Result<Factors, FactorError> {
     let n = sym.nrows();
     let plan = plan(sym);
     let mut l = pages::zeroed(sym.len_val());
@@ -286,7 +296,7 @@ fn factor_one(
     s: usize,
     part: &mut Part<'_>,
     sc: &mut Scratch,
-) -> Result<(), LuFailure> {
+) -> Result<(), FactorError> {
     let (sym, a) = (ctx.sym, ctx.a);
     let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
     let (cpr, cpv, rows) = (
@@ -412,7 +422,7 @@ fn factor_one(
     }
     for k in 0..ns {
         if top[(k, k)] == 0.0 || !top[(k, k)].is_finite() {
-            return Err(LuFailure::ZeroPivot { column: s0 + k });
+            return Err(FactorError::ZeroPivot { column: s0 + k });
         }
     }
     part.pivots[s0 - part.pbase..s1 - part.pbase].copy_from_slice(&sc.perm_fwd);

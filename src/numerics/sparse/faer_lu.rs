@@ -1,8 +1,7 @@
 //! faer's supernodal sparse LU (free row pivoting, the pattern of AᵀA) with a column ordering
-//! of our choice: the factorisation the solver used before [`super::pattern_lu`]. It is the
-//! fallback when the pattern LU (pivoting only inside its supernodes) fails its backward-error
-//! check (`assemble::solve`), the tests' reference, and a row of the ordering table
-//! (docs/method.md, section 8).
+//! of our choice. The grid falls back to it when the pattern LU ([`super::pattern_lu`],
+//! pivoting only inside its supernodes) fails its backward-error check; it is also the tests'
+//! reference and a row of the ordering table (docs/method.md, section 8).
 //!
 //! faer's `sp_lu` always orders by COLAMD, so the symbolic analysis is done here with faer's
 //! public building blocks (column elimination tree, postorder, column counts of AᵀA,
@@ -20,20 +19,18 @@ use faer::sparse::linalg::{colamd, qr};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, MatMut, Par};
 
+use super::error::FactorError;
+use super::factorization::Factorization;
+
 /// The fill-reducing column ordering of the LU.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) enum Ordering {
     /// faer's default (approximate minimum degree on AᵀA).
     Colamd,
-    /// Geometric nested dissection of the cells at `coords`, separators `hops` steps of the
-    /// matrix graph wide ([`nested_dissection`]); measured against COLAMD only.
+    /// A given column order (position → column): the grid's nested dissection, measured
+    /// against COLAMD only.
     #[cfg(test)]
-    NestedDissection {
-        /// Separator width in graph steps.
-        hops: usize,
-        /// The cells' geometric coordinates.
-        coords: Vec<[u32; 2]>,
-    },
+    Given(Vec<usize>),
 }
 
 /// The size of a factorisation from its symbolic analysis: entries and flops of the
@@ -47,8 +44,8 @@ pub(crate) struct FactorSize {
     pub(crate) flops: f64,
 }
 
-/// A numeric LU factorisation, ready to solve.
-pub(crate) struct Factor {
+/// faer's numeric LU factorisation, ready to solve.
+pub(crate) struct FaerLu {
     lu: SupernodalLu<usize, f64>,
     row_fwd: Vec<usize>,
     row_inv: Vec<usize>,
@@ -64,14 +61,14 @@ pub(crate) struct Factor {
 fn order(
     a: SymbolicSparseColMatRef<'_, usize>,
     ordering: &Ordering,
-) -> Result<(Vec<usize>, Vec<usize>), String> {
+) -> Result<(Vec<usize>, Vec<usize>), FactorError> {
     let n = a.ncols();
     let mut fwd = vec![0usize; n];
     let mut inv = vec![0usize; n];
     match ordering {
         Ordering::Colamd => {
             let req = colamd::order_scratch::<usize>(n, n, a.compute_nnz());
-            let mut mem = MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?;
+            let mut mem = MemBuffer::try_new(req).map_err(FactorError::faer)?;
             colamd::order(
                 &mut fwd,
                 &mut inv,
@@ -79,11 +76,11 @@ fn order(
                 Default::default(),
                 MemStack::new(&mut mem),
             )
-            .map_err(|e| format!("{e:?}"))?;
+            .map_err(FactorError::faer)?;
         }
         #[cfg(test)]
-        Ordering::NestedDissection { hops, coords } => {
-            fwd = super::nested::nested_dissection(a, coords, *hops);
+        Ordering::Given(given) => {
+            fwd.clone_from(given);
             for (new, &old) in fwd.iter().enumerate() {
                 inv[old] = new;
             }
@@ -92,28 +89,30 @@ fn order(
     Ok((fwd, inv))
 }
 
-impl Factor {
+impl Factorization for FaerLu {
+    type Ordering = Ordering;
+
     /// Factorises the square matrix `a` (its columns ordered by `ordering`) with faer's
     /// supernodal LU, the steps of faer's `sp_lu` with the ordering ours. With
     /// [`Ordering::Colamd`] the factors are those of `sp_lu`, bit for bit.
-    pub(crate) fn new(
+    fn factor(
         a: SparseColMatRef<'_, usize, f64>,
-        ordering: &Ordering,
-    ) -> Result<Factor, String> {
+        ordering: Ordering,
+        limit: f64,
+    ) -> Result<FaerLu, FactorError> {
         let par = faer::get_global_parallelism();
         let n = a.ncols();
-        let err = |e: &dyn std::fmt::Debug| format!("{e:?}");
-        let (col_fwd, col_inv) = order(a.symbolic(), ordering)?;
+        let (col_fwd, col_inv) = order(a.symbolic(), &ordering)?;
         let col_perm = PermRef::new_checked(&col_fwd, &col_inv, n);
         let sym = a.symbolic();
-        let at = a.transpose().to_col_major().map_err(|e| err(&e))?;
+        let at = a.transpose().to_col_major().map_err(FactorError::faer)?;
         let req = StackReq::any_of(&[
             qr::col_etree_scratch::<usize>(n, n),
             qr::postorder_scratch::<usize>(n),
             qr::column_counts_aat_scratch::<usize>(n, n),
             factorize_supernodal_symbolic_lu_scratch::<usize>(n, n),
         ]);
-        let mut mem = MemBuffer::try_new(req).map_err(|e| err(&e))?;
+        let mut mem = MemBuffer::try_new(req).map_err(FactorError::faer)?;
         let stack = MemStack::new(&mut mem);
         let mut etree = vec![0usize; n];
         let mut post = vec![0usize; n];
@@ -132,13 +131,11 @@ impl Factor {
         );
         // L and U hold at least the Cholesky pattern of AᵀA each: refused before allocation.
         let entries: f64 = col_counts.iter().map(|&c| c as f64).sum();
-        let limit = crate::base::limits::memory_limit_bytes();
         if 16.0 * entries > limit {
-            return Err(format!(
-                "faer's LU needs at least {:.1} GiB, more than the {:.1} GiB this solve may use",
-                16.0 * entries / (1u64 << 30) as f64,
-                limit / (1u64 << 30) as f64
-            ));
+            return Err(FactorError::FaerTooLarge {
+                bytes: 16.0 * entries,
+                limit,
+            });
         }
         #[cfg(test)]
         let size = FactorSize {
@@ -154,11 +151,11 @@ impl Factor {
             stack,
             Default::default(),
         )
-        .map_err(|e| err(&e))?;
+        .map_err(FactorError::faer)?;
         drop(mem);
         let req =
             factorize_supernodal_numeric_lu_scratch::<usize, f64>(&symbolic, Default::default());
-        let mut mem = MemBuffer::try_new(req).map_err(|e| err(&e))?;
+        let mut mem = MemBuffer::try_new(req).map_err(FactorError::faer)?;
         let mut lu = SupernodalLu::new();
         let (mut row_fwd, mut row_inv) = (vec![0usize; n], vec![0usize; n]);
         factorize_supernodal_numeric_lu(
@@ -173,8 +170,8 @@ impl Factor {
             MemStack::new(&mut mem),
             Default::default(),
         )
-        .map_err(|e| err(&e))?;
-        Ok(Factor {
+        .map_err(FactorError::faer)?;
+        Ok(FaerLu {
             lu,
             row_fwd,
             row_inv,
@@ -186,8 +183,7 @@ impl Factor {
         })
     }
 
-    /// Solves A x = b in place (`b` in, x out).
-    pub(crate) fn solve(&self, b: &mut [f64]) {
+    fn solve_in_place(&self, b: &mut [f64]) {
         let n = self.col_fwd.len();
         let mut work = Mat::<f64>::zeros(n, 1);
         self.lu.solve_in_place_with_conj(
@@ -206,7 +202,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::grid::assemble::{assemble, matrix};
     use crate::grid::mesh::{Domain, Mesh};
-    use crate::grid::nested::cell_coords;
+    use crate::grid::nested::{cell_coords, nested_dissection};
     use crate::grid::problem::Mechanical;
     use faer::linalg::solvers::SolveCore;
     use faer::sparse::{SparseColMat, Triplet};
@@ -282,7 +278,7 @@ pub(crate) mod tests {
         }
     }
 
-    /// With COLAMD, [`Factor`] solves bit for bit as faer's `sp_lu` does; nested dissection
+    /// With COLAMD, [`FaerLu`] solves bit for bit as faer's `sp_lu` does; nested dissection
     /// solves the same system to rounding.
     #[test]
     fn factor_is_faers_lu() {
@@ -299,17 +295,17 @@ pub(crate) mod tests {
                 .solve_in_place_with_conj(Conj::No, reference.as_mut());
             let mut p = vec![0.0; n];
             p[pin] = 1.0;
-            Factor::new(a.as_ref(), &Ordering::Colamd)
+            FaerLu::factor(a.as_ref(), Ordering::Colamd, f64::INFINITY)
                 .unwrap()
-                .solve(&mut p);
+                .solve_in_place(&mut p);
             assert!((0..n).all(|k| p[k].to_bits() == reference[(k, 0)].to_bits()));
-            let nd = Ordering::NestedDissection {
-                hops: 2,
-                coords: cell_coords(mesh.nx, mesh.nv, false),
-            };
+            let coords = cell_coords(mesh.nx, mesh.nv, false);
+            let nd = Ordering::Given(nested_dissection(a.symbolic(), &coords, 2));
             let mut q = vec![0.0; n];
             q[pin] = 1.0;
-            Factor::new(a.as_ref(), &nd).unwrap().solve(&mut q);
+            FaerLu::factor(a.as_ref(), nd, f64::INFINITY)
+                .unwrap()
+                .solve_in_place(&mut q);
             let top = p.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let worst = p
                 .iter()
@@ -357,7 +353,7 @@ pub(crate) mod tests {
 
     /// The ordering table of docs/method.md section 8: factor entries, flops, memory and
     /// time of COLAMD and nested dissection by cell count. Run it with
-    /// `cargo test --release --lib grid::lu::tests::ordering_table -- --ignored --nocapture`.
+    /// `cargo test --release --lib numerics::sparse::faer_lu::tests::ordering_table -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, minutes long: prints the ordering table"]
     fn ordering_table() {
@@ -369,31 +365,14 @@ pub(crate) mod tests {
             for n in [50, 100, 200, 400] {
                 let (mesh, a, pin) = system(file, n, 2 * n);
                 let fold = mesh.exits.iter().any(|e| e.from == e.into);
+                // (name, nested dissection's (hops, v folded), or COLAMD)
                 let orderings = [
-                    ("COLAMD", Ordering::Colamd),
-                    (
-                        "ND, 1-step separators",
-                        Ordering::NestedDissection {
-                            hops: 1,
-                            coords: cell_coords(mesh.nx, mesh.nv, false),
-                        },
-                    ),
-                    (
-                        "ND, 2-step separators",
-                        Ordering::NestedDissection {
-                            hops: 2,
-                            coords: cell_coords(mesh.nx, mesh.nv, false),
-                        },
-                    ),
-                    (
-                        "ND, 2-step, v folded",
-                        Ordering::NestedDissection {
-                            hops: 2,
-                            coords: cell_coords(mesh.nx, mesh.nv, true),
-                        },
-                    ),
+                    ("COLAMD", None),
+                    ("ND, 1-step separators", Some((1, false))),
+                    ("ND, 2-step separators", Some((2, false))),
+                    ("ND, 2-step, v folded", Some((2, true))),
                 ];
-                for (name, ordering) in orderings {
+                for (name, nd) in orderings {
                     if name.contains("folded") && !fold {
                         continue;
                     }
@@ -401,12 +380,19 @@ pub(crate) mod tests {
                         continue;
                     }
                     let t = std::time::Instant::now();
-                    let f = Factor::new(a.as_ref(), &ordering).unwrap();
+                    let ordering = match nd {
+                        None => Ordering::Colamd,
+                        Some((hops, fold)) => {
+                            let coords = cell_coords(mesh.nx, mesh.nv, fold);
+                            Ordering::Given(nested_dissection(a.symbolic(), &coords, hops))
+                        }
+                    };
+                    let f = FaerLu::factor(a.as_ref(), ordering, f64::INFINITY).unwrap();
                     let factor_ms = t.elapsed().as_secs_f64() * 1e3;
                     let mut p = vec![0.0; mesh.cells()];
                     p[pin] = 1.0;
                     let t = std::time::Instant::now();
-                    f.solve(&mut p);
+                    f.solve_in_place(&mut p);
                     let solve_ms = t.elapsed().as_secs_f64() * 1e3;
                     println!(
                         "{file} | {}x{} | {name} | {:.3e} | {:.3e} | {:.0} | {factor_ms:.0} | {solve_ms:.1}",

@@ -1,0 +1,8 @@
+//! Numerical tools shared by the solution methods: quadrature rules, one damped Newton and
+//! Levenberg–Marquardt, and sparse LU factorisations behind one trait. Nothing here knows a
+//! model or a method; the methods build on it.
+
+pub mod newton;
+pub(crate) mod poly2d;
+pub(crate) mod quadrature;
+pub(crate) mod sparse;
