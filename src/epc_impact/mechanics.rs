@@ -154,10 +154,9 @@ impl Mechanics {
     }
 }
 
-/// The model's barrier(s), each with the side the state lives on. The one place that reads
-/// the model's impact law: today a single law, on the side holding the origin (as Monte Carlo
-/// starts its trajectories there); the model's own `side` and a second barrier (a strip)
-/// replace this rule when the model language says them.
+/// The model's barrier(s) (one, or the two walls of a strip), each with the side the state
+/// lives on as binding decided it, sorted by position: the one place this method reads the
+/// model's impact laws.
 fn barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Vec<Barrier>, EpcImpactError> {
     let mut out = Vec::new();
     for law in model.impacts() {
@@ -249,8 +248,8 @@ pub(crate) fn check_law(barrier: &Barrier, printed: &str) -> Result<(), Unsuppor
 
 #[cfg(test)]
 impl Barrier {
-    /// A barrier with the law v -> −r·v, for tests of barrier sets the model language cannot
-    /// state yet (a strip).
+    /// A barrier with the law v -> −r·v, for tests that set barriers in code on a
+    /// barrier-free model.
     pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Barrier {
         let map = crate::physics::Jump::compile(&(Expr::num(-r) * Expr::sym("v")), &["x", "v"])
             .expect("a linear map compiles");

@@ -162,8 +162,8 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// Solves with the impact laws `laws` in place of the model's own (two walls of a strip
-    /// before the model language can state them).
+    /// Solves with the impact laws `laws` in place of the model's own (tests that set the walls
+    /// of a strip on a barrier-free model).
     #[cfg(test)]
     pub(crate) fn impacts(mut self, laws: Vec<problem::Law>) -> Self {
         self.laws = Some(laws);
