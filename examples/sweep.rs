@@ -69,7 +69,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "{eps:>6.2} {mu:>5} {:>10} {:>5} {:>10} {:>9.4} {:>9.4} {:>9.3} {:>10.3e} {:>9.4} {:>9.3}",
                     "converged",
                     sol.epc().map_or(0, |e| e.iterations),
-                    sol.epc().map_or("", |e| &e.normalisation),
+                    sol.epc().map_or(String::new(), |e| e.normalisation.to_string()),
                     y.moments.mean,
                     y.moments.std_dev(),
                     y.moments.kurtosis,

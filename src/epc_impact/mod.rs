@@ -234,8 +234,8 @@ impl<'a> EpcImpact<'a> {
         self
     }
 
-    /// Replaces the model's barriers (tests of barrier sets the model language cannot state
-    /// yet).
+    /// Replaces the model's barriers (tests that set barriers in code on a barrier-free
+    /// model).
     #[cfg(test)]
     pub(crate) fn barriers(mut self, barriers: Vec<Wall>) -> Self {
         self.barriers = Some(barriers);

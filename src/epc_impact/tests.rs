@@ -1,5 +1,5 @@
 //! Unit tests of the parts: the exact density is a root of the discrete equations, and
-//! barrier sets the model language cannot state yet (a strip, an upper barrier at a
+//! barrier sets given in code on a barrier-free model (a strip, an upper barrier at a
 //! positive position read from a lower one).
 
 use nalgebra::DVector;

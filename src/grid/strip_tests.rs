@@ -1,5 +1,5 @@
-//! Two reflecting walls bounding a strip (built in code until the model language states
-//! them): the domain is the strip exactly, the flux re-enters at both walls with mass
+//! Two reflecting walls bounding a strip, set in code on a barrier-free oscillator so that
+//! one model serves every strip and restitution these tests try: the domain is the strip exactly, the flux re-enters at both walls with mass
 //! conserved, the elastic strip converges to the exact restricted density at order ≥ 2,
 //! and an inelastic strip agrees with Monte Carlo.
 

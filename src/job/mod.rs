@@ -2,8 +2,9 @@
 //! the grid solver, …; PDFs of states or observables), optionally a Monte Carlo reference on
 //! the same grids (run, or read from a finished run's directory), the distances of every
 //! method to Monte Carlo and to the grid, and the files: `pdf_<name>.csv`, `mc_<name>.csv`,
-//! `summary.json`, figures. A finished job's [`JobReport`] prints as the table the command
-//! line shows.
+//! `summary.json`, figures. It is the top of the pipeline, just under the CLI: it runs the
+//! study and Monte Carlo and hands their results to the report stage, and a finished job's
+//! [`JobReport`] prints as the table the command line shows.
 
 #![warn(missing_docs)]
 

@@ -30,8 +30,8 @@ impl Simulation {
         Simulation::with_impacts(model, config, super::compile::scheme::impact_specs(model)?)
     }
 
-    /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (two
-    /// walls of a strip before the model language can state them).
+    /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (tests
+    /// that set the walls of a strip on a barrier-free model).
     pub(crate) fn with_impacts(
         model: &BoundModel,
         config: &McConfig,

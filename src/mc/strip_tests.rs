@@ -1,4 +1,5 @@
-//! Two walls bounding a strip (built in code until the model language states them): every
+//! Two walls bounding a strip, set in code on a barrier-free oscillator so that one model
+//! serves every strip and restitution these tests try (a model file states a strip too): every
 //! sample inside, impacts at both walls, and with elastic walls the exact density of a
 //! Caughey–Ma oscillator restricted to the strip, within the run's error bars.
 

@@ -31,7 +31,7 @@ use rayon::prelude::*;
 
 use super::fixed::{nodes, pair};
 use super::lines::{half_line_moments, rule_tolerance};
-use super::moments::{finer_if_agreeing, moments_of_pairs, ObservableMoments};
+use super::moment_sums::{finer_if_agreeing, moments_of_pairs, ObservableMoments};
 use super::JointDensity;
 use crate::stats::Moments;
 

@@ -1,4 +1,7 @@
-//! PDFs and moments of observables g(x1, x2) from a joint density (the paper's Eqs. 23–28).
+//! PDFs and moments of the observables g(x1, x2) a model names, from any solved joint density
+//! (the paper's Eqs. 23–28). It comes after the methods (EPC, EPC with the exact impact
+//! condition, the grid), which hand it a [`JointDensity`], and before the study and the
+//! reports, which ask it for every quantity's curve and moments.
 //!
 //! An observable that is ± a state on each quadrant — `abs(z)`, `v*sgn(z)`, `-v`, `z` — gets the
 //! exact treatment: p_g(u) is a sum of line integrals of the joint density over half-lines
@@ -39,6 +42,7 @@ mod fixed;
 mod level;
 mod line_moments;
 mod lines;
+mod moment_sums;
 mod moments;
 pub(crate) mod quadrature;
 
@@ -47,7 +51,8 @@ use rayon::prelude::*;
 use crate::density::JointDensity;
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
-pub use moments::{moments, moments_of_all, ObservableMoments, PointMass, POINT_MASS_FLOOR};
+pub use moment_sums::{ObservableMoments, PointMass, POINT_MASS_FLOOR};
+pub use moments::{moments, moments_of_all};
 /// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
 #[cfg(feature = "test-support")]
 #[doc(hidden)]

@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use plotters::style::FontStyle;
+use plotters::style::{FontDesc, FontStyle, IntoFont};
 
 /// DejaVu Sans, unmodified.
 static DEJAVU_SANS: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
@@ -20,4 +20,9 @@ pub(super) fn register() -> bool {
     *REGISTERED.get_or_init(|| {
         plotters::style::register_font(FAMILY, FontStyle::Normal, DEJAVU_SANS).is_ok()
     })
+}
+
+/// The font at `size` pixels times the supersampling factor `k`.
+pub(super) fn font_of(size: u32, k: u32) -> FontDesc<'static> {
+    (FAMILY, size * k).into_font()
 }

@@ -1,9 +1,8 @@
-//! The report stage: CSV tables, JSON summaries and figures, written atomically into an
-//! output directory.
-//!
-//! This stage takes plain data (grids, columns, curves, any `Serialize` value) and knows nothing
-//! of how it was computed, so the EPC solver, the Monte Carlo simulator and the CLI can all
-//! hand their results here without this module depending on them.
+//! The report stage, last in the pipeline: CSV tables, JSON summaries and figures, written
+//! atomically into an output directory. It takes plain data (grids, columns, curves, any
+//! `Serialize` value) and knows nothing of how it was computed, so the methods, the study,
+//! the sweep, the job and the CLI hand their results here without this module depending on
+//! them.
 //!
 //! Every file goes through [`OutputDir::write_atomic`]: a run that dies part-way leaves either
 //! the old file or the complete new one, never a truncated file with the final name.
@@ -37,7 +36,9 @@ mod run_dir;
 use std::path::PathBuf;
 
 pub use csv::{Cell, PdfTable, TableError, TextTable};
-pub use figure::{Curve, CurveStyle, FigureError, FigureFiles, LineFigure, PdfFigure, Points};
+pub use figure::error::FigureError;
+pub use figure::render::FigureFiles;
+pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
 pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;

@@ -1,7 +1,8 @@
 //! A study: one bound model, the methods asked for (EPC at several degrees, the grid solver,
 //! …) and the PDFs of its states and observables on common grids — what `fpsolve solve` and
-//! the main job report. Built on the front door ([`crate::solve::Problem`]): each degree of a
-//! ladder method, and the grid, is a [`Solution`] or the reason there is none.
+//! the main job report. It sits above the front door ([`crate::solve::Problem`]: each degree
+//! of a ladder method, and the grid, is a [`Solution`] or the reason there is none) and the
+//! observables, and below the job and the sweep, which add Monte Carlo and the files.
 
 #![warn(missing_docs)]
 

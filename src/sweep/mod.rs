@@ -1,8 +1,9 @@
-//! Parameter sweeps: one model solved on a grid of parameter values by one or several methods
-//! (EPC, the grid FPK solver), with the moments and tail probabilities of every state and
-//! observable at each point — how a response statistic changes with, say, the
-//! parametric-noise strength ε, for two nonlinearities μ, and where the closure departs from
-//! the grid solution.
+//! Parameter sweeps: one model solved at every point of a grid of parameter values by one or
+//! several methods, with the moments and tail probabilities of every state and observable at
+//! each point (how a response statistic changes with, say, the parametric-noise strength ε,
+//! and where the closure departs from the grid solution). It is an application of the
+//! pipeline beside the job: it solves through the front door ([`crate::solve::Problem`]) and
+//! hands its tables and figures to the report stage.
 //!
 //! A sweep is described by `--set` arguments ([`SweepSpec::parse`], each read by [`SetArg`]): a range
 //! `name=lo:hi:count`, a list `name=v1,v2,...`, or a plain `name=expr` that stays fixed. The
@@ -64,6 +65,7 @@
 //! ```
 
 mod admission;
+mod frontier;
 mod method;
 mod outcome;
 mod point;
@@ -75,11 +77,13 @@ mod thresholds;
 
 pub use method::MethodRefusal;
 pub use outcome::{
-    EpcFigures, MethodOutcome, PointFailure, PointOutcome, PointRefusal, PointSolution, PointStats,
-    SolverFigures, SweepPoint, SweepResult, TailThresholds,
+    EpcFigures, EpcNormalisation, MethodOutcome, PointFailure, PointOutcome, PointRefusal,
+    PointSolution, PointStats, SolverFigures, SweepPoint, SweepResult, TailThresholds,
 };
 pub use run::Sweep;
-pub use shard::{merge_sweep_shards, MergedSweep, SweepIdentity, SweepShard, SweepShardError};
+pub use shard::{
+    merge_sweep_shards, MergedSweep, ShardDifference, SweepIdentity, SweepShard, SweepShardError,
+};
 pub use spec::{SetArg, SweepError, SweepSpec, SweptParameter};
 
 /// Most parameters a sweep may vary at once (a table and line figures stay readable).

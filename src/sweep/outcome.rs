@@ -39,8 +39,43 @@ pub struct EpcFigures {
     pub residual_threshold: f64,
     /// FPK residual indicator ∫|F|·p dx (0 for an exact solution).
     pub fpk_residual: f64,
-    /// How the density was normalised: `plane` or `inside_ridge`.
-    pub normalisation: String,
+    /// How the density was normalised.
+    pub normalisation: EpcNormalisation,
+}
+
+/// Where an EPC density was normalised, without the normaliser's figures: written as
+/// `plane` or `inside_ridge` in the sweep's CSV and JSON.
+///
+/// ```
+/// use fpsolve::sweep::EpcNormalisation;
+/// assert_eq!(EpcNormalisation::InsideRidge.to_string(), "inside_ridge");
+/// assert_eq!(serde_json::to_string(&EpcNormalisation::Plane).unwrap(), "\"plane\"");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EpcNormalisation {
+    /// exp(Q) is integrable on the whole plane.
+    Plane,
+    /// exp(Q) was normalised inside the ridge around the mode.
+    InsideRidge,
+}
+
+impl From<&NormalisationKind> for EpcNormalisation {
+    fn from(kind: &NormalisationKind) -> Self {
+        match kind {
+            NormalisationKind::Plane { .. } => EpcNormalisation::Plane,
+            NormalisationKind::InsideRidge { .. } => EpcNormalisation::InsideRidge,
+        }
+    }
+}
+
+impl std::fmt::Display for EpcNormalisation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            EpcNormalisation::Plane => "plane",
+            EpcNormalisation::InsideRidge => "inside_ridge",
+        })
+    }
 }
 
 impl EpcFigures {
@@ -50,11 +85,7 @@ impl EpcFigures {
             residual: sol.solve.residual,
             residual_threshold: sol.solve.residual_threshold,
             fpk_residual: sol.fpk_residual,
-            normalisation: match sol.normalisation.kind {
-                NormalisationKind::Plane { .. } => "plane",
-                NormalisationKind::InsideRidge { .. } => "inside_ridge",
-            }
-            .to_string(),
+            normalisation: EpcNormalisation::from(&sol.normalisation.kind),
         }
     }
 }

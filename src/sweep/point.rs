@@ -10,7 +10,7 @@ use crate::solve::{
     SolveError,
 };
 
-use super::thresholds::{Frontier, ReferenceRms};
+use super::frontier::{Frontier, ReferenceRms};
 use super::{
     EpcFigures, PointFailure, PointRefusal, PointSolution, PointStats, SolverFigures, SweepSpec,
 };

@@ -152,7 +152,7 @@ impl SweepResult {
                 Cell::Number(f.residual),
                 Cell::Number(f.residual_threshold),
                 Cell::Number(f.fpk_residual),
-                Cell::Word(f.normalisation.clone()),
+                Cell::Word(f.normalisation.to_string()),
             ]),
             SolverFigures::EpcImpact(r) => row.extend([
                 Cell::Word(r.iterations.to_string()),

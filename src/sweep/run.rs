@@ -14,9 +14,10 @@ use crate::solve::{
 };
 
 use super::admission;
+use super::frontier::{Frontier, ReferenceRms};
 use super::method::{applies, settle};
 use super::point::{solve_point, PointCurves, Raw};
-use super::thresholds::{self, Frontier, Reference, ReferenceRms};
+use super::thresholds::{self, Reference};
 use super::{
     MethodOutcome, MethodRefusal, PointFailure, PointOutcome, SweepError, SweepPoint, SweepResult,
     SweepSpec, TailThresholds, TAIL_MULTIPLES,

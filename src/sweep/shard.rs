@@ -150,9 +150,8 @@ pub enum SweepShardError {
         file: String,
         /// The first shard's file.
         first: String,
-        /// What differs (`model`, `methods`, `degree`, `cells`, `parameters`, `fixed
-        /// parameters`, `points`, `split`, `tail thresholds or columns`).
-        what: &'static str,
+        /// What differs.
+        what: ShardDifference,
     },
     /// Two files are the same shard.
     #[error("{file} and {other} are both shard {index} of {count}")]
@@ -176,6 +175,51 @@ pub enum SweepShardError {
         /// A file of the split.
         first: String,
     },
+}
+
+/// What two shards of different sweeps differ in ([`SweepShardError::Mismatch`]), checked in
+/// this order.
+///
+/// ```
+/// use fpsolve::sweep::ShardDifference;
+/// assert_eq!(ShardDifference::FixedParameters.to_string(), "fixed parameters");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShardDifference {
+    /// The model's name.
+    Model,
+    /// The methods.
+    Methods,
+    /// The EPC degree.
+    Degree,
+    /// The grid's cells.
+    Cells,
+    /// The swept parameters.
+    Parameters,
+    /// The fixed overrides.
+    FixedParameters,
+    /// The values of the points.
+    Points,
+    /// The number of shards the sweep is split into.
+    Split,
+    /// The tail thresholds or the columns of the CSV and JSON.
+    Columns,
+}
+
+impl std::fmt::Display for ShardDifference {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ShardDifference::Model => "model",
+            ShardDifference::Methods => "methods",
+            ShardDifference::Degree => "degree",
+            ShardDifference::Cells => "cells",
+            ShardDifference::Parameters => "parameters",
+            ShardDifference::FixedParameters => "fixed parameters",
+            ShardDifference::Points => "points",
+            ShardDifference::Split => "split",
+            ShardDifference::Columns => "tail thresholds or columns",
+        })
+    }
 }
 
 impl Sweep<'_> {
@@ -410,22 +454,22 @@ pub fn merge_sweep_shards<S: AsRef<str>>(
             what,
         };
         let (a, b) = (&s.identity, &first.identity);
-        let checks: [(bool, &'static str); 9] = [
-            (a.model == b.model, "model"),
-            (a.methods == b.methods, "methods"),
-            (a.degree == b.degree, "degree"),
-            (a.cells == b.cells, "cells"),
-            (a.parameters == b.parameters, "parameters"),
-            (a.fixed == b.fixed, "fixed parameters"),
-            (a.points == b.points, "points"),
-            (s.shard.count == count, "split"),
+        let checks = [
+            (a.model == b.model, ShardDifference::Model),
+            (a.methods == b.methods, ShardDifference::Methods),
+            (a.degree == b.degree, ShardDifference::Degree),
+            (a.cells == b.cells, ShardDifference::Cells),
+            (a.parameters == b.parameters, ShardDifference::Parameters),
+            (a.fixed == b.fixed, ShardDifference::FixedParameters),
+            (a.points == b.points, ShardDifference::Points),
+            (s.shard.count == count, ShardDifference::Split),
             (
                 s.csv_header == first.csv_header && s.json_head == first.json_head,
-                "tail thresholds or columns",
+                ShardDifference::Columns,
             ),
         ];
         if let Some((_, what)) = checks.iter().find(|(same, _)| !same) {
-            return Err(mismatch(what));
+            return Err(mismatch(*what));
         }
         let slot = &mut slots[s.shard.index as usize];
         if let Some((other, _)) = slot {

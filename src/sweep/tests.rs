@@ -7,7 +7,7 @@ use crate::mc::Shard;
 use crate::model::{parse_model, Model};
 use crate::solve::MethodName;
 
-use super::{merge_sweep_shards, Sweep, SweepShard, SweepShardError, SweepSpec};
+use super::{merge_sweep_shards, ShardDifference, Sweep, SweepShard, SweepShardError, SweepSpec};
 
 /// A linear oscillator: EPC is exact at every degree, the grid solver close.
 fn linear() -> Model {
@@ -156,9 +156,9 @@ fn defective_sets_of_shards_are_typed_errors_naming_the_file() {
     let other_points = shards(&Sweep::new(&model, &spec2).degree(2), 3);
     let other_split = shards(&sweep, 5);
     for (stranger, what) in [
-        (&other_degree[2], "degree"),
-        (&other_points[2], "points"),
-        (&other_split[4], "split"),
+        (&other_degree[2], ShardDifference::Degree),
+        (&other_points[2], ShardDifference::Points),
+        (&other_split[4], ShardDifference::Split),
     ] {
         let mut mixed = parts[..2].to_vec();
         mixed.push(("stranger.json".to_string(), stranger.1.clone()));

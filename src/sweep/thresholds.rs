@@ -11,19 +11,19 @@
 //! its reference values ([`ReferenceRms`]) beside its results: always for a method whose
 //! reference is its reported solution, and for EPC (whose reference is the degree-2 solution
 //! of the point's own ladder) when the point is the first of its range not yet known to have
-//! no reference (the [`Frontier`]), so that √E\[g²\] under the degree-2 solution is computed
+//! no reference (the [`Frontier`](super::frontier::Frontier)), so that √E\[g²\] under the degree-2 solution is computed
 //! at that point alone and not at every point. Only a point the walk needs and nobody
 //! computed — one before this process's range (a shard), or one that finished before the
 //! points ahead of it were known to have failed — is solved by the walk, exactly as the
 //! point's ladder solves it, so the values are bit for bit the same either way.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::base::cancel::Cancel;
 use crate::model::Model;
 use crate::solve::Method;
 
+use super::frontier::ReferenceRms;
 use super::point::{by_method, epc_reference_rms};
 use super::SweepSpec;
 
@@ -34,42 +34,6 @@ pub(super) struct Reference {
     pub(super) point: usize,
     /// √E\[g²\] per quantity (states, then observables).
     pub(super) rms: Vec<f64>,
-}
-
-/// What a solved point knows of its own reference values.
-#[derive(Clone, Debug, PartialEq)]
-pub(super) enum ReferenceRms {
-    /// Not computed (an EPC point behind the frontier when it finished).
-    Unknown,
-    /// Computed: √E\[g²\] per quantity, or `None` when the point cannot be the reference
-    /// (no reference solution, or a value not finite and positive).
-    Known(Option<Vec<f64>>),
-}
-
-/// The first point of a range not yet known to have no reference: the one point whose EPC
-/// reference values are worth computing while the points run in parallel.
-pub(super) struct Frontier(AtomicUsize);
-
-impl Frontier {
-    /// A frontier at the first point of `range`.
-    pub(super) fn at(range: &Range<usize>) -> Self {
-        Frontier(AtomicUsize::new(range.start))
-    }
-
-    /// Whether point `index` is the frontier (its reference values are wanted).
-    pub(super) fn wants(&self, index: usize) -> bool {
-        self.0.load(Ordering::Acquire) == index
-    }
-
-    /// Point `index`, the frontier, has no reference: the frontier moves to the next point
-    /// (which computes its values if it has not finished yet, and is solved by the walk
-    /// otherwise).
-    pub(super) fn passed(&self, index: usize) {
-        // Only the frontier itself moves it, so the exchange cannot fail for another reason.
-        let _ = self
-            .0
-            .compare_exchange(index, index + 1, Ordering::AcqRel, Ordering::Acquire);
-    }
 }
 
 /// The reference values of point `values` by `method`, solved here: as the point's own
@@ -179,15 +143,5 @@ mod tests {
             reference(&model, &spec, &points, 0..4, method, told, &cancel),
             None
         );
-    }
-
-    #[test]
-    fn the_frontier_moves_only_from_itself() {
-        let frontier = Frontier::at(&(3..9));
-        assert!(frontier.wants(3) && !frontier.wants(4));
-        frontier.passed(5); // not the frontier: no move
-        assert!(frontier.wants(3));
-        frontier.passed(3);
-        assert!(frontier.wants(4) && !frontier.wants(3));
     }
 }

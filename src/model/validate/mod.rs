@@ -1,32 +1,29 @@
 //! [`ModelAst`] → validated [`Model`]: names resolved, expressions lowered to [`Expr`], the
 //! noise matrix extracted, and every mistake reported as a typed [`SemanticError`] at the
-//! span where it was made.
+//! span where it was made. It is the model stage's step between parsing (the syntax tree)
+//! and binding (parameter values), so a model that reaches the methods says what it means.
 //!
 //! One job per file: the error catalogue (`error`), name resolution and lowering (`scope`),
 //! noise linearity (`noise`), where deltas may stand (`delta`), checks of single statements
-//! (`statements`); parameter cycles are found by [`super::dependency`], shared with binding.
+//! (`statements`), the statements of the dynamics gathered in file order (`gather`); parameter cycles are found by [`super::dependency`], shared with binding.
 
 mod delta;
 mod error;
+mod gather;
 mod noise;
 mod scope;
 mod statements;
 #[cfg(test)]
 mod tests;
 
-use std::collections::BTreeMap;
-
-use super::ast::{Binding, ExprNode, Ident, ModelAst, Span, StatementKind};
-use super::{
-    Correlation, DeltaTreatment, Domain, DomainBound, ImpactLaw, Interpretation, Model,
-    NoiseSource, Observable, Origin,
-};
+use super::ast::{Binding, ExprNode, Ident, ModelAst, Span};
+use super::{Domain, ImpactLaw, Model, Origin};
 use crate::symbolic::{Expr, Symbol};
 pub(crate) use error::Located;
 use error::{fail, Result};
 pub use error::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 pub(crate) use scope::lower_free;
-use scope::{line_of, Context, Scope};
+use scope::{line_of, Scope};
 
 /// Validates a parsed model file and builds the [`Model`]; `path` is what error messages
 /// about its bound values will show.
@@ -65,201 +62,55 @@ impl<'a> Validator<'a> {
         line_of(self.source, span.start)
     }
 
+    /// The model line, the declarations, then every statement of the dynamics in file order,
+    /// then the checks that need all of them: each state has a drift, the noise matrix, the
+    /// domain against the impacts, the parameter graph.
     fn run(mut self) -> Result<Model> {
         let (name, description) = self.model_line()?;
         self.once_only()?;
         self.declare_all()?;
         let states = self.state_pair()?;
         let params = self.lower_params()?;
+        let g = self.gather(&states)?;
+        let drift = self.drifts(g.drift, &states)?;
+        let noise_matrix = self.noise_matrix(g.diffusion)?;
+        self.domain_agrees(g.domain.as_ref(), &g.impacts, &states)?;
+        self.check_parameter_graph(&params)?;
 
-        let mut drift: [Option<(Expr, Span)>; 2] = [None, None];
-        let mut diffusion: [Option<(BTreeMap<usize, Expr>, Span)>; 2] = [None, None];
-        let mut correlations: Vec<(Correlation, Span)> = Vec::new();
-        let mut noises = Vec::new();
-        let mut interpretation = Interpretation::default();
-        let mut impacts: Vec<(ImpactLaw, Span)> = Vec::new();
-        let mut domain: Option<(Domain, Span, Ident)> = None;
-        let mut domain_bounds = [None, None];
-        let mut observables = Vec::new();
-        let mut delta = DeltaTreatment::default();
-        let mut intensity_spans = Vec::new();
-        let mut correlation_spans = Vec::new();
-        let mut barrier_spans = Vec::new();
-        let mut map_spans = Vec::new();
-        let mut drift_spans = [None, None];
-        let mut diffusion_spans = [None, None];
+        let spans = g.spans;
+        let domain_span = g.domain.as_ref().map(|(_, span, _)| *span);
+        Ok(Model {
+            name,
+            description,
+            params,
+            states,
+            drift,
+            noises: g.noises,
+            correlations: g.correlations.into_iter().map(|(c, _)| c).collect(),
+            noise_matrix,
+            interpretation: g.interpretation,
+            impacts: g.impacts.into_iter().map(|(law, _)| law).collect(),
+            domain: g.domain.map(|(d, ..)| d),
+            observables: g.observables,
+            delta: g.delta,
+            origin: Some(std::sync::Arc::new(Origin {
+                source: self.source.to_string(),
+                path: self.path.map(str::to_string),
+                params: self.params.iter().map(|b| b.value.span).collect(),
+                intensities: spans.intensities,
+                correlations: spans.correlations,
+                barriers: spans.barriers,
+                maps: spans.maps,
+                domain: domain_span,
+                domain_bounds: spans.domain_bounds,
+                drifts: spans.drifts,
+                diffusions: spans.diffusions,
+            })),
+        })
+    }
 
-        for st in &self.ast.statements {
-            match &st.kind {
-                StatementKind::Model { .. } | StatementKind::Param(_) | StatementKind::State(_) => {
-                }
-                StatementKind::Drift { state, expr } => {
-                    let i = self.state_index(state, None)?;
-                    if let Some((_, first)) = &drift[i] {
-                        return self.duplicate(&state.name, "drift", "drift", *first, state.span);
-                    }
-                    let e = self.scope.lower(expr, Context::StateFunction("a drift"))?;
-                    self.check_drift_deltas(expr, i)?;
-                    drift_spans[i] = Some(expr.span);
-                    drift[i] = Some((e, state.span));
-                }
-                StatementKind::Noise { name, intensity } => {
-                    let e = self
-                        .scope
-                        .lower(intensity, Context::Constant("a noise intensity"))?;
-                    self.forbid_delta(
-                        intensity,
-                        DeltaMisuse::InConstant {
-                            context: "a noise intensity",
-                        },
-                    )?;
-                    intensity_spans.push(intensity.span);
-                    noises.push(NoiseSource {
-                        name: Symbol::from(name.name.as_str()),
-                        intensity: e,
-                    });
-                }
-                StatementKind::Correlate { a, b, coefficient } => {
-                    let c = self.correlation(a, b, coefficient, st.span, &correlations)?;
-                    self.forbid_delta(
-                        coefficient,
-                        DeltaMisuse::InConstant {
-                            context: "a correlation coefficient",
-                        },
-                    )?;
-                    correlation_spans.push(coefficient.span);
-                    correlations.push((c, st.span));
-                }
-                StatementKind::Diffusion { state, expr } => {
-                    let i = self.state_index(state, Some("diffusion"))?;
-                    if let Some((_, first)) = &diffusion[i] {
-                        return self.duplicate(
-                            &state.name,
-                            "diffusion",
-                            "diffusion",
-                            *first,
-                            state.span,
-                        );
-                    }
-                    let map =
-                        self.scope
-                            .noise_coefficients(expr, &state.name)
-                            .map_err(|mut l| {
-                                if let SemanticError::NoiseFreeTerm { state: s } = &mut l.error {
-                                    s.clone_from(&state.name);
-                                }
-                                l
-                            })?;
-                    self.forbid_delta(expr, DeltaMisuse::InDiffusion)?;
-                    diffusion_spans[i] = Some(expr.span);
-                    diffusion[i] = Some((map, state.span));
-                }
-                StatementKind::Interpretation(i) => interpretation = *i,
-                StatementKind::Impact {
-                    state,
-                    at,
-                    other,
-                    map,
-                } => {
-                    if let [(_, first), (_, second)] = impacts.as_slice() {
-                        return fail(
-                            SemanticError::TooManyImpacts {
-                                previous_lines: (self.line(*first), self.line(*second)),
-                            },
-                            st.keyword,
-                        );
-                    }
-                    let s = self.state_index(state, Some("impact"))?;
-                    let o = self.state_index(other, Some("impact"))?;
-                    if s == o {
-                        return fail(
-                            SemanticError::ImpactOnItself {
-                                state: state.name.clone(),
-                            },
-                            other.span,
-                        );
-                    }
-                    let law = ImpactLaw {
-                        state: s,
-                        at: self
-                            .scope
-                            .lower(at, Context::Constant("a barrier position"))?,
-                        other: o,
-                        map: self
-                            .scope
-                            .lower(map, Context::StateFunction("an impact map"))?,
-                    };
-                    self.forbid_delta(
-                        at,
-                        DeltaMisuse::InConstant {
-                            context: "a barrier position",
-                        },
-                    )?;
-                    self.forbid_delta(map, DeltaMisuse::InImpactMap)?;
-                    if let Some((first, _)) = impacts.first() {
-                        if first.state != s {
-                            return fail(
-                                SemanticError::ImpactsOnDifferentStates {
-                                    first: states[first.state].to_string(),
-                                    second: state.name.clone(),
-                                },
-                                state.span,
-                            );
-                        }
-                    }
-                    barrier_spans.push(at.span);
-                    map_spans.push(map.span);
-                    impacts.push((law, st.span));
-                }
-                StatementKind::Domain {
-                    state,
-                    lower,
-                    upper,
-                } => {
-                    let s = self.state_index(state, Some("domain"))?;
-                    let mut bound = |limit: &Option<super::ast::DomainLimit>,
-                                     k: usize|
-                     -> Result<Option<DomainBound>> {
-                        let Some(limit) = limit else {
-                            return Ok(None);
-                        };
-                        let at = self
-                            .scope
-                            .lower(&limit.at, Context::Constant("a domain bound"))?;
-                        self.forbid_delta(
-                            &limit.at,
-                            DeltaMisuse::InConstant {
-                                context: "a domain bound",
-                            },
-                        )?;
-                        domain_bounds[k] = Some(limit.at.span);
-                        Ok(Some(DomainBound {
-                            at,
-                            strict: limit.strict,
-                        }))
-                    };
-                    let d = Domain {
-                        state: s,
-                        lower: bound(lower, 0)?,
-                        upper: bound(upper, 1)?,
-                    };
-                    domain = Some((d, st.span, state.clone()));
-                }
-                StatementKind::Observe(bindings) => {
-                    for b in bindings {
-                        observables.push(Observable {
-                            name: Symbol::from(b.name.name.as_str()),
-                            expr: self
-                                .scope
-                                .lower(&b.value, Context::StateFunction("an observable"))?,
-                        });
-                        self.observable_has_density(b, &observables[observables.len() - 1])?;
-                    }
-                }
-                StatementKind::Delta(spec) => delta = self.delta(spec)?,
-            }
-        }
-
+    /// Each state's drift, or [`SemanticError::MissingDrift`] at the first state without one.
+    fn drifts(&self, drift: [Option<(Expr, Span)>; 2], states: &[Symbol; 2]) -> Result<[Expr; 2]> {
         let mut drift_exprs = Vec::with_capacity(2);
         for (i, d) in drift.into_iter().enumerate() {
             match d {
@@ -274,62 +125,36 @@ impl<'a> Validator<'a> {
                 }
             }
         }
-        let noise_matrix = self.noise_matrix(diffusion)?;
-        if let Some((d, span, name)) = &domain {
-            match impacts.first() {
-                None => {
-                    return fail(
-                        SemanticError::DomainWithoutImpact {
-                            state: name.name.clone(),
-                        },
-                        *span,
-                    )
-                }
-                Some((law, _)) if law.state != d.state => {
-                    return fail(
-                        SemanticError::DomainOnOtherState {
-                            domain_state: name.name.clone(),
-                            impact_state: states[law.state].to_string(),
-                        },
-                        name.span,
-                    )
-                }
-                Some(_) => {}
-            }
-        }
-        let domain_span = domain.as_ref().map(|(_, span, _)| *span);
-        self.check_parameter_graph(&params)?;
-
-        let [d0, d1]: [Expr; 2] = drift_exprs
+        Ok(drift_exprs
             .try_into()
-            .expect("one drift per state was checked above");
-        Ok(Model {
-            name,
-            description,
-            params,
-            states,
-            drift: [d0, d1],
-            noises,
-            correlations: correlations.into_iter().map(|(c, _)| c).collect(),
-            noise_matrix,
-            interpretation,
-            impacts: impacts.into_iter().map(|(law, _)| law).collect(),
-            domain: domain.map(|(d, ..)| d),
-            observables,
-            delta,
-            origin: Some(std::sync::Arc::new(Origin {
-                source: self.source.to_string(),
-                path: self.path.map(str::to_string),
-                params: self.params.iter().map(|b| b.value.span).collect(),
-                intensities: intensity_spans,
-                correlations: correlation_spans,
-                barriers: barrier_spans,
-                maps: map_spans,
-                domain: domain_span,
-                domain_bounds,
-                drifts: drift_spans,
-                diffusions: diffusion_spans,
-            })),
-        })
+            .expect("one drift per state was checked above"))
+    }
+
+    /// A domain bounds the state the impacts act on, so it needs an impact of that state.
+    fn domain_agrees(
+        &self,
+        domain: Option<&(Domain, Span, Ident)>,
+        impacts: &[(ImpactLaw, Span)],
+        states: &[Symbol; 2],
+    ) -> Result<()> {
+        let Some((d, span, name)) = domain else {
+            return Ok(());
+        };
+        match impacts.first() {
+            None => fail(
+                SemanticError::DomainWithoutImpact {
+                    state: name.name.clone(),
+                },
+                *span,
+            ),
+            Some((law, _)) if law.state != d.state => fail(
+                SemanticError::DomainOnOtherState {
+                    domain_state: name.name.clone(),
+                    impact_state: states[law.state].to_string(),
+                },
+                name.span,
+            ),
+            Some(_) => Ok(()),
+        }
     }
 }

@@ -1,6 +1,6 @@
 use super::scope::{closest, edit_distance};
 use super::*;
-use crate::model::{parse_model, ModelError};
+use crate::model::{parse_model, DeltaTreatment, ModelError};
 
 const BASE: &str = "\
 model m \"test\"

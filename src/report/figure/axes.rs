@@ -1,6 +1,7 @@
 //! Axes, tick labels, grids and legends of the figures.
 
-use super::{decade_label, drawing_error, font_of, FigureError};
+use super::error::{drawing_error, FigureError};
+use crate::report::font::font_of;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -89,4 +90,21 @@ pub(super) fn legend<'a, DB: DrawingBackend + 'a, Y: Ranged<ValueType = f64>>(
         .border_style(BLACK.mix(0.5))
         .draw()
         .map_err(drawing_error)
+}
+
+/// `10⁻³` for exact decades, scientific notation otherwise.
+pub(super) fn decade_label(v: f64) -> String {
+    let e = v.log10();
+    if (e - e.round()).abs() > 1e-6 {
+        return format!("{v:.0e}");
+    }
+    let digits: String = format!("{}", e.round() as i64)
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            d => ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹']
+                [d.to_digit(10).unwrap_or(0) as usize],
+        })
+        .collect();
+    format!("10{digits}")
 }

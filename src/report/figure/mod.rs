@@ -1,8 +1,7 @@
 //! Figures: a PDF comparison (linear and log panels side by side, like the comparison figures of
-//! the EPC papers) and a plain line chart for moments against a swept parameter. Each renders
-//! to PNG and SVG with the bundled font.
-
-use std::path::PathBuf;
+//! the EPC papers) and a plain line chart for moments against a swept parameter. Part of the
+//! report stage, drawn from plain data: each renders to PNG and SVG with the bundled font and
+//! is written through [`OutputDir`].
 
 use plotters::chart::SeriesAnno;
 use plotters::coord::types::RangedCoordf64;
@@ -10,7 +9,8 @@ use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
-use super::{font, OutputDir, ReportError};
+use super::font::{self, font_of};
+use super::{OutputDir, ReportError};
 
 /// A line: one method's density (or one moment) sampled at `x`. A NaN in `y` leaves a gap.
 #[derive(Clone, Debug, PartialEq)]
@@ -99,84 +99,6 @@ pub struct LineFigure {
     pub series: Vec<Curve>,
 }
 
-/// The two files a figure was written to.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FigureFiles {
-    /// The raster image.
-    pub png: PathBuf,
-    /// The vector image.
-    pub svg: PathBuf,
-}
-
-/// Why a figure could not be drawn.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum FigureError {
-    /// Nothing to draw: no series, or no finite value in any of them.
-    #[error("nothing to draw: no finite data")]
-    NoData,
-    /// A density figure whose data has no positive value, so its log panel has no range.
-    #[error("no positive density value to draw on a log scale")]
-    NoPositiveValues,
-    /// Two vectors of one series with different lengths.
-    #[error("`{series}`: {field} has {found} values for {expected} abscissae")]
-    LengthMismatch {
-        /// The series' label.
-        series: String,
-        /// Which vector: `y` or `stderr`.
-        field: &'static str,
-        /// Length of `x`.
-        expected: usize,
-        /// Length of the other vector.
-        found: usize,
-    },
-    /// An abscissa that is NaN or ±∞.
-    #[error("`{series}`: x[{index}] is {value}, not a finite number")]
-    NonFiniteX {
-        /// The series' label.
-        series: String,
-        /// Index of the value.
-        index: usize,
-        /// The value.
-        value: f64,
-    },
-    /// An infinite ordinate, or a negative or infinite standard error.
-    #[error("`{series}`: {field}[{index}] is {value}")]
-    BadValue {
-        /// The series' label.
-        series: String,
-        /// Which vector: `y` or `stderr`.
-        field: &'static str,
-        /// Index of the value.
-        index: usize,
-        /// The value.
-        value: f64,
-    },
-    /// The bundled font could not be loaded (a build defect).
-    #[error("the bundled font could not be loaded")]
-    Font,
-    /// plotters failed to draw.
-    #[error("drawing failed: {0}")]
-    Drawing(String),
-    /// The PNG encoder failed.
-    #[error("PNG encoding failed: {0}")]
-    Encoding(String),
-    /// Values further apart on one axis than the largest floating-point number: no axis
-    /// holds them.
-    #[error(
-        "the {axis} values span from {} to {}, further than the largest floating-point number",
-        crate::model::number(*lo),
-        crate::model::number(*hi)
-    )]
-    Span {
-        /// `x` or `y`.
-        axis: &'static str,
-        /// The axis' lower end.
-        lo: f64,
-        /// The axis' upper end.
-        hi: f64,
-    },
-}
-
 const PDF_SIZE: (u32, u32) = (1500, 620);
 const LINE_SIZE: (u32, u32) = (900, 600);
 
@@ -196,15 +118,6 @@ const DASHES: [Option<(u32, u32)>; 4] = [None, Some((12, 6)), Some((3, 4)), Some
 
 const REFERENCE_COLOUR: RGBColor = RGBColor(20, 20, 20);
 const STROKE: u32 = 2;
-
-fn drawing_error<E: std::fmt::Display>(e: E) -> FigureError {
-    FigureError::Drawing(e.to_string())
-}
-
-/// The font at `size` pixels times the supersampling factor `k`.
-fn font_of(size: u32, k: u32) -> FontDesc<'static> {
-    (font::FAMILY, size * k).into_font()
-}
 
 fn check_series(
     label: &str,
@@ -290,23 +203,6 @@ fn visible_runs(x: &[f64], y: &[f64], floor: f64) -> Vec<Vec<(f64, f64)>> {
     }
     finish(&mut run);
     runs
-}
-
-/// `10⁻³` for exact decades, scientific notation otherwise.
-fn decade_label(v: f64) -> String {
-    let e = v.log10();
-    if (e - e.round()).abs() > 1e-6 {
-        return format!("{v:.0e}");
-    }
-    let digits: String = format!("{}", e.round() as i64)
-        .chars()
-        .map(|c| match c {
-            '-' => '⁻',
-            d => ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹']
-                [d.to_digit(10).unwrap_or(0) as usize],
-        })
-        .collect();
-    format!("10{digits}")
 }
 
 /// (min, max) of the finite values, if any.
@@ -785,9 +681,11 @@ impl LineFigure {
 }
 
 mod axes;
-mod render;
+pub(super) mod error;
+pub(super) mod render;
 #[cfg(test)]
 mod tests;
 
 use axes::{legend, log_minor_grid, mesh};
-use render::{render_png, render_svg, write_both};
+use error::{drawing_error, FigureError};
+use render::{render_png, render_svg, write_both, FigureFiles};

@@ -3,13 +3,24 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{FigureError, FigureFiles};
-use super::{OutputDir, ReportError};
+use std::path::PathBuf;
+
+use super::error::FigureError;
+use crate::report::{OutputDir, ReportError};
 
 /// Supersampling factor of PNG output. plotters' bitmap backend draws lines without
 /// antialiasing; drawing at this multiple of the size and averaging blocks of pixels gives
 /// smooth curves and text at about the cost of one more render.
 const SUPERSAMPLE: u32 = 2;
+
+/// The two files a figure was written to.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FigureFiles {
+    /// The raster image.
+    pub png: PathBuf,
+    /// The vector image.
+    pub svg: PathBuf,
+}
 
 pub(super) fn render_png(
     size: (u32, u32),

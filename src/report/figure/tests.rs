@@ -1,3 +1,4 @@
+use super::axes::decade_label;
 use super::*;
 use approx::assert_relative_eq;
 
