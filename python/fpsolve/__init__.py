@@ -33,6 +33,7 @@ from ._fpsolve import (
 from ._model import Model
 from ._montecarlo import Histogram, MonteCarlo
 from ._solution import Moments, PointMassWarning, Solution
+from ._warnings import FpsolveWarning, MonteCarloWarning
 from ._sweep import SweepResult, sweep
 from ._job import run_job
 
@@ -50,6 +51,8 @@ __all__ = [
     "Moments",
     "MonteCarlo",
     "MonteCarloError",
+    "MonteCarloWarning",
+    "FpsolveWarning",
     "NoConvergenceError",
     "NotApplicableError",
     "NotNormalisableError",

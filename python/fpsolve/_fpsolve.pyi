@@ -109,7 +109,7 @@ class _Model:
         bins: Optional[int],
         grids: Sequence[Tuple[str, float, float, int]],
         set: Optional[Mapping[str, _Value]] = None,
-    ) -> str: ...
+    ) -> Tuple[str, List[str], List[str]]: ...
 
 class _Solution:
     @property

@@ -121,6 +121,7 @@ class Model:
         trajectories: Optional[int] = None,
         bins: Optional[int] = None,
         grids: Optional[Mapping[str, Tuple[float, float, int]]] = None,
+        strict: bool = False,
         **set: Value,
     ) -> MonteCarlo:
         """Monte Carlo simulation: ``samples`` recorded samples in all (rounded up to whole
@@ -131,11 +132,18 @@ class Model:
         chosen from a pilot run); ``threads`` defaults to the cores available. The result
         does not depend on ``threads``. Releases the GIL; Ctrl-C stops the run and raises
         KeyboardInterrupt. Raises :class:`MonteCarloError` for a run refused or failed.
+
+        A run that finished but is flagged (too many blow-ups, not stationary, numbers
+        without a finite value: what ``fpsolve simulate`` exits 1 for) warns
+        :class:`MonteCarloWarning` and lists why in the result's ``flags``; with
+        ``strict=True`` it raises :class:`MonteCarloError` instead. The run's other warnings
+        (a resolved time-step bias above the statistical error, a few blow-ups) are warned as
+        :class:`FpsolveWarning` and kept in ``warnings``.
         """
         grid_list = [
             (name, float(lo), float(hi), int(n)) for name, (lo, hi, n) in (grids or {}).items()
         ]
-        text = self._inner.simulate(
+        text, flags, notes = self._inner.simulate(
             int(samples),
             int(seed),
             None if threads is None else int(threads),
@@ -146,7 +154,9 @@ class Model:
             grid_list,
             set,
         )
-        return MonteCarlo._from_json(text)
+        mc = MonteCarlo._from_json(text, flags, notes)
+        mc._judge(bool(strict))
+        return mc
 
     def __repr__(self) -> str:
         return repr(self._inner)

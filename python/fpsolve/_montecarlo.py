@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass
-from typing import Any, Dict, Iterator, Optional, Tuple
+from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 import numpy as np
+
+from ._warnings import FpsolveWarning, MonteCarloWarning
 
 
 def _num(v: Any) -> float:
@@ -72,19 +75,53 @@ class Histogram:
 class MonteCarlo:
     """The result of :meth:`Model.simulate`: a :class:`Histogram` per state and observable
     (``mc["y"]``, ``mc.histograms``), and ``report``, the run as a dict (settings, scheme,
-    stationarity test, blow-ups, impacts: the library's serde form)."""
+    stationarity test, blow-ups, impacts: the library's serde form).
 
-    __slots__ = ("histograms", "report")
+    ``flags`` lists what makes the result unusable as it stands, one sentence each (what
+    ``fpsolve simulate`` exits 1 for; empty for a sound run); ``warnings`` lists the run's
+    warnings (a few blow-ups, a time-step bias above the statistical error, ...), as the
+    command line prints them. ``ok`` is ``not flags``."""
 
-    def __init__(self, histograms: Dict[str, Histogram], report: Dict[str, Any]):
+    __slots__ = ("histograms", "report", "flags", "warnings")
+
+    def __init__(
+        self,
+        histograms: Dict[str, Histogram],
+        report: Dict[str, Any],
+        flags: Optional[List[str]] = None,
+        warnings: Optional[List[str]] = None,
+    ):
         self.histograms = histograms
         self.report = report
+        self.flags = list(flags or [])
+        self.warnings = list(warnings or [])
 
     @classmethod
-    def _from_json(cls, text: str) -> "MonteCarlo":
+    def _from_json(
+        cls, text: str, flags: Optional[List[str]] = None, warnings: Optional[List[str]] = None
+    ) -> "MonteCarlo":
         report = json.loads(text)
         hists = {q["name"]: Histogram._from_dict(q) for q in report["quantities"]}
-        return cls(hists, report)
+        return cls(hists, report, flags, warnings)
+
+    @property
+    def ok(self) -> bool:
+        """Whether the run's verdict passed and every number is defined (``flags`` empty)."""
+        return not self.flags
+
+    def _judge(self, strict: bool) -> None:
+        """Raises :class:`MonteCarloError` (``strict``) or warns :class:`MonteCarloWarning`
+        when the result is flagged; the warnings of a sound run are warned as
+        :class:`FpsolveWarning`."""
+        from ._fpsolve import MonteCarloError
+
+        if self.flags:
+            text = "the Monte Carlo run finished, but: " + "; ".join(self.flags)
+            if strict:
+                raise MonteCarloError(text)
+            warnings.warn(text, MonteCarloWarning, stacklevel=3)
+        for w in self.warnings:
+            warnings.warn(f"Monte Carlo: {w}", FpsolveWarning, stacklevel=3)
 
     def __getitem__(self, name: str) -> Histogram:
         return self.histograms[name]

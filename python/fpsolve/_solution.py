@@ -10,6 +10,8 @@ from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
+from ._warnings import FpsolveWarning
+
 from . import _fpsolve
 
 ArrayLike = Union[float, "np.typing.ArrayLike"]
@@ -48,7 +50,7 @@ class Moments:
         return math.sqrt(self.variance)
 
 
-class PointMassWarning(UserWarning):
+class PointMassWarning(FpsolveWarning):
     """A quantity takes some values with positive probability: its PDF integrates to less
     than 1 (see :attr:`Moments.point_masses`)."""
 

@@ -198,7 +198,7 @@ impl PyModel {
         bins: Option<usize>,
         grids: Vec<(String, f64, f64, usize)>,
         set: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<String> {
+    ) -> PyResult<(String, Vec<String>, Vec<String>)> {
         let bound = self.bind(py, set)?;
         let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
             .map_err(|e| errors::mc_error(py, &e))?;
@@ -220,7 +220,14 @@ impl PyModel {
             pool.install(|| simulation.run_cancellable(&|_, _| {}, cancel))
         })?;
         let result = run.map_err(|e| errors::mc_error(py, &e))?;
-        serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
+        // What the CLI exits 1 for: the verdict's failures and numbers without a finite value
+        // (which the JSON below carries as null, NaN in Python).
+        let undefined = fpsolve::report::undefined_fields(&result).map_err(errors::bad_argument)?;
+        let flags = fpsolve::job::mc_flags(&result, &undefined);
+        let warnings = result.warnings.iter().map(ToString::to_string).collect();
+        let json =
+            serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))?;
+        Ok((json, flags, warnings))
     }
 
     fn __repr__(&self) -> String {

@@ -148,3 +148,35 @@ def test_sigint_to_a_python_process(tmp_path):
     assert time.monotonic() - sent < 1.5
     assert proc.returncode == 130
     assert out.strip() == "interrupted"
+
+
+def test_a_flagged_run_warns_and_strict_raises():
+    # dt = 0.5 on the parametric oscillator: hundreds of 4096 trajectories blow up, which
+    # `fpsolve simulate` exits 1 for. Python warns and lists why; strict=True raises.
+    model = fpsolve.Model.load(os.path.join(MODELS, "parametric.sde"))
+    with pytest.warns(fpsolve.MonteCarloWarning, match="blew up"):
+        mc = model.simulate(samples=100_000, dt=0.5, spacing=0.5)
+    assert not mc.ok
+    assert any("blew up" in f for f in mc.flags)
+    with pytest.raises(fpsolve.MonteCarloError, match="blew up"):
+        model.simulate(samples=100_000, dt=0.5, spacing=0.5, strict=True)
+
+
+def test_numbers_without_a_finite_value_are_flagged():
+    # dt = 0.25: no blow-up, but some time-step-bias numbers are infinite (null in the
+    # JSON, NaN here): flagged as the CLI flags them, with the field named.
+    model = fpsolve.Model.load(os.path.join(MODELS, "parametric.sde"))
+    with pytest.warns(fpsolve.MonteCarloWarning, match="no finite value"):
+        mc = model.simulate(samples=100_000, dt=0.25, spacing=0.25)
+    assert any("mc_summary.json" in f for f in mc.flags)
+
+
+def test_a_sound_run_is_silent(linear):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc = linear.simulate(samples=100_000, seed=3)
+    assert mc.ok and mc.flags == []
+    assert issubclass(fpsolve.MonteCarloWarning, fpsolve.FpsolveWarning)
+    assert issubclass(fpsolve.PointMassWarning, fpsolve.FpsolveWarning)

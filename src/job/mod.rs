@@ -577,13 +577,22 @@ impl McFiles {
     /// What the files flag, one line each: the result's verdict failures and the numbers
     /// that have no finite value. Empty when the result can be used as it stands.
     pub fn flags(&self, result: &McResult) -> Vec<String> {
-        let mut out = Vec::new();
-        if let Err(e) = result.verdict() {
-            out.push(e.to_string());
-        }
-        out.extend(undefined_flag("mc_summary.json", &self.undefined));
-        out
+        mc_flags(result, &self.undefined)
     }
+}
+
+/// What a Monte Carlo result flags, one line each: its verdict failures (too many blow-ups,
+/// not stationary) and, when `undefined` (from [`crate::report::undefined_fields`]) is not
+/// empty, the numbers of `mc_summary.json` that have no finite value. Empty when the result
+/// can be used as it stands: what `fpsolve simulate` exits 1 for, and what the Python
+/// package warns about.
+pub fn mc_flags(result: &McResult, undefined: &[UndefinedField]) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Err(e) = result.verdict() {
+        out.push(e.to_string());
+    }
+    out.extend(undefined_flag("mc_summary.json", undefined));
+    out
 }
 
 /// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):

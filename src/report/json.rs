@@ -77,6 +77,32 @@ thread_local! {
         const { std::cell::RefCell::new(None) };
 }
 
+/// The numbers of `value` that have no finite value, with their JSONPath, in serialisation
+/// order (what [`write_json_flagging_undefined`] lists under `undefined`); an error (serde's
+/// message) when `value` does not serialise.
+///
+/// ```
+/// use fpsolve::report::undefined_fields;
+///
+/// #[derive(serde::Serialize)]
+/// struct Moments { mean: f64, kurtosis: f64 }
+///
+/// let undefined = undefined_fields(&Moments { mean: 0.4, kurtosis: f64::INFINITY }).unwrap();
+/// assert_eq!((undefined[0].field.as_str(), undefined[0].value.as_str()), ("$.kurtosis", "inf"));
+/// assert!(undefined_fields(&Moments { mean: 0.4, kurtosis: 3.0 }).unwrap().is_empty());
+/// ```
+pub fn undefined_fields<T: Serialize + ?Sized>(value: &T) -> Result<Vec<UndefinedField>, String> {
+    UNDEFINED.with(|u| *u.borrow_mut() = Some(Vec::new()));
+    let checked = value.serialize(FiniteCheck {
+        path: "$".to_string(),
+    });
+    let undefined = UNDEFINED
+        .with(|u| u.borrow_mut().take())
+        .unwrap_or_default();
+    checked.map_err(|e| e.to_string())?;
+    Ok(undefined)
+}
+
 /// Writes `value` like [`write_json`], except that a non-finite number does not stop the
 /// write: it becomes `null`, and the value's top-level object gains a member `undefined`
 /// listing every such field with what it was, so the file says which numbers are undefined
@@ -108,19 +134,10 @@ pub fn write_json_flagging_undefined<T: Serialize + ?Sized>(
     value: &T,
 ) -> Result<(PathBuf, Vec<UndefinedField>), ReportError> {
     let path = dir.file_path(name)?;
-    UNDEFINED.with(|u| *u.borrow_mut() = Some(Vec::new()));
-    let checked = value.serialize(FiniteCheck {
-        path: "$".to_string(),
-    });
-    let undefined = UNDEFINED
-        .with(|u| u.borrow_mut().take())
-        .unwrap_or_default();
-    if let Err(e) = checked {
-        return Err(ReportError::Json {
-            path,
-            source: <serde_json::Error as ser::Error>::custom(e.to_string()),
-        });
-    }
+    let undefined = undefined_fields(value).map_err(|e| ReportError::Json {
+        path: path.clone(),
+        source: <serde_json::Error as ser::Error>::custom(e),
+    })?;
     let mut json = serde_json::to_value(value).map_err(|source| ReportError::Json {
         path: path.clone(),
         source,

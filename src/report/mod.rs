@@ -40,7 +40,7 @@ pub use figure::error::FigureError;
 pub use figure::render::FigureFiles;
 pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
-pub use json::{write_json, write_json_flagging_undefined, UndefinedField};
+pub use json::{undefined_fields, write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;
 pub use run_dir::{abandon_unfinished, Abandoned, RunDir, RunDirError, MARKER};
 
