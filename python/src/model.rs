@@ -24,6 +24,21 @@ pub(crate) struct PyModel {
 
 /// Overrides from a dict `{name: value}`: a number, or a string holding an expression of
 /// numbers, `pi`, `e` and other parameters (as `--set name=expr` takes it).
+/// `value` as a real number: a Python `int` or `float`, or any object that converts like one
+/// (NumPy's scalars and 0-d arrays, `Fraction`, `Decimal`: `__float__` or `__index__`);
+/// `None` for anything else.
+fn real(value: &Bound<'_, PyAny>) -> Option<f64> {
+    if value.is_instance_of::<PyFloat>() || value.is_instance_of::<PyInt>() {
+        return value.extract::<f64>().ok();
+    }
+    for method in ["__float__", "__index__"] {
+        if value.hasattr(method).unwrap_or(false) {
+            return value.call_method0(method).ok()?.extract::<f64>().ok();
+        }
+    }
+    None
+}
+
 pub(crate) fn overrides(
     py: Python<'_>,
     set: Option<&Bound<'_, PyDict>>,
@@ -40,8 +55,8 @@ pub(crate) fn overrides(
                 .parse::<Override>()
                 .map_err(|e| errors::set_error(py, &e))?;
             out.push(parsed);
-        } else if value.is_instance_of::<PyFloat>() || value.is_instance_of::<PyInt>() {
-            out.push(Override::number(&name, value.extract::<f64>()?));
+        } else if let Some(x) = real(&value) {
+            out.push(Override::number(&name, x));
         } else {
             let t = value.get_type().name()?.to_string();
             return Err(errors::bad_argument(format!(

@@ -109,3 +109,18 @@ def test_bad_override_expression_is_a_parameter_error(vibro):
 def test_override_of_wrong_type_is_a_type_error(vibro):
     with pytest.raises(ValueError):
         vibro.parameters(mu=[1, 2])
+
+
+def test_numpy_scalars_and_other_reals_are_numbers(vibro):
+    import fractions
+
+    import numpy as np
+
+    for value in (np.int64(1), np.float32(1.0), np.array(1.0), np.uint8(1), fractions.Fraction(1)):
+        assert vibro.parameters(mu=value)["mu"] == 1.0, type(value)
+    # The same binding serves solve and simulate.
+    a = vibro.solve(method="epc", degree=2, mu=np.int64(1))
+    b = vibro.solve(method="epc", degree=2, mu=1.0)
+    assert a.coefficients == b.coefficients
+    with pytest.raises(ValueError):
+        vibro.parameters(mu=np.array([1.0, 2.0]))
