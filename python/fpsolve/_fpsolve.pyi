@@ -140,6 +140,7 @@ def sweep_json(
     methods: Sequence[str],
     degree: int,
     cells: Optional[Tuple[int, int]] = None,
+    threads: Optional[int] = None,
 ) -> str: ...
 def run_job(
     model: _Model,

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
-from typing import Dict, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
 
 from . import _fpsolve
 from ._montecarlo import MonteCarlo
@@ -12,6 +14,26 @@ from ._solution import Solution
 Value = Union[float, int, str]
 """A parameter override: a number, or an expression of numbers, ``pi``, ``e`` and other
 parameters (as ``--set name=expr`` takes it)."""
+
+
+def _seed(seed: Any) -> int:
+    """The run's 64-bit seed from what SPEC 7 lets a caller pass: an int (as ``--seed``),
+    ``None`` (fresh entropy), a ``numpy.random.Generator`` or a ``SeedSequence``."""
+    if seed is None:
+        return int(np.random.SeedSequence().generate_state(1, np.uint64)[0])
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, 2**64, dtype=np.uint64))
+    if isinstance(seed, np.random.SeedSequence):
+        return int(seed.generate_state(1, np.uint64)[0])
+    if isinstance(seed, bool) or not hasattr(seed, "__index__"):
+        raise TypeError(
+            "seed: expected an int, None, a numpy Generator or SeedSequence, "
+            f"got {type(seed).__name__}"
+        )
+    value = int(seed.__index__())
+    if not 0 <= value < 2**64:
+        raise ValueError(f"seed: {value} is not a 64-bit unsigned integer")
+    return value
 
 
 def _cells(cells: Optional[Sequence[int]]) -> Optional[Tuple[int, int]]:
@@ -114,7 +136,7 @@ class Model:
     def simulate(
         self,
         samples: int = 1_000_000,
-        seed: int = 0,
+        seed: Union[int, None, "np.random.Generator", "np.random.SeedSequence"] = 1,
         threads: Optional[int] = None,
         dt: Optional[float] = None,
         spacing: Optional[float] = None,
@@ -128,7 +150,10 @@ class Model:
         trajectories, as ``fpsolve simulate --samples``), histograms of every state and
         observable with standard errors.
 
-        ``grids`` maps a quantity to its histogram grid ``(lo, hi, bins)`` (the others are
+        ``seed`` is the command line's ``--seed`` (default 1, as there: the same seed gives the
+        same bits as ``fpsolve simulate``); ``None`` draws a fresh one from the operating
+        system, and a ``numpy.random.Generator`` or ``SeedSequence`` gives one of its draws
+        (SPEC 7); the seed used is ``mc.report["settings"]["seed"]``. ``grids`` maps a quantity to its histogram grid ``(lo, hi, bins)`` (the others are
         chosen from a pilot run); ``threads`` defaults to the cores available. The result
         does not depend on ``threads``. Releases the GIL; Ctrl-C stops the run and raises
         KeyboardInterrupt. Raises :class:`MonteCarloError` for a run refused or failed.
@@ -145,7 +170,7 @@ class Model:
         ]
         text, flags, notes = self._inner.simulate(
             int(samples),
-            int(seed),
+            _seed(seed),
             None if threads is None else int(threads),
             None if dt is None else float(dt),
             None if spacing is None else float(spacing),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Dict, List, Sequence, Union
+from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -96,6 +96,7 @@ def sweep(
     method: Union[str, Sequence[str]] = "epc",
     degree: int = 4,
     cells: Union[Sequence[int], None] = None,
+    threads: Optional[int] = None,
     **parameters: Any,
 ) -> SweepResult:
     """Solves ``model`` at every point of a parameter study, points in parallel.
@@ -105,7 +106,9 @@ def sweep(
     or expression string is a fixed override. ``method`` is one method or a list of them.
     A point that fails for a method is kept, with its reason (``failures``). Releases the
     GIL; Ctrl-C stops the sweep and raises KeyboardInterrupt. Raises :class:`SweepError` for
-    a sweep that cannot run.
+    a sweep that cannot run. ``threads`` (default: all cores) is the number of worker threads;
+    the result does not depend on it (a model parameter named ``threads`` cannot be set
+    through this keyword).
     """
     swept = []
     fixed = []
@@ -118,5 +121,13 @@ def sweep(
             swept.append((name, [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]))
     methods = [method] if isinstance(method, str) else list(method)
     cells_t = None if cells is None else (int(cells[0]), int(cells[1]))
-    text = _fpsolve.sweep_json(model._inner, swept, fixed, methods, int(degree), cells_t)
+    text = _fpsolve.sweep_json(
+        model._inner,
+        swept,
+        fixed,
+        methods,
+        int(degree),
+        cells_t,
+        None if threads is None else int(threads),
+    )
     return SweepResult(json.loads(text))

@@ -65,3 +65,33 @@ def test_run_job_named_method_must_apply(tmp_path):
     with pytest.raises(fpsolve.NotApplicableError):
         fpsolve.run_job(MODEL, out=tmp_path / "x", methods=["epc-impact"])
     assert not (tmp_path / "x").exists()
+
+
+def test_simulate_by_default_is_the_cli_simulate_by_default(cli, linear, tmp_path):
+    # The same default seed (the CLI's --seed 1), so the same histogram to the printed digit.
+    out = tmp_path / "mc"
+    subprocess.run(
+        [cli, "simulate", MODELS / "linear.sde", "--samples", "50000", "--out", out, "--quiet"],
+        check=True,
+        capture_output=True,
+    )
+    header, cols = read_csv(out / "mc_z.csv")
+    mc = linear.simulate(samples=50_000)
+    assert mc.report["settings"]["seed"] == 1
+    np.testing.assert_array_equal(mc["z"].density, cols["mc"])
+
+
+def test_seed_takes_none_an_int_a_generator_and_a_seed_sequence(linear):
+    a = linear.simulate(samples=20_000, seed=np.random.default_rng(5))
+    b = linear.simulate(samples=20_000, seed=np.random.default_rng(5))
+    assert a.report["settings"]["seed"] == b.report["settings"]["seed"]
+    np.testing.assert_array_equal(a["z"].density, b["z"].density)
+    c = linear.simulate(samples=20_000, seed=np.random.SeedSequence(5))
+    d = linear.simulate(samples=20_000, seed=c.report["settings"]["seed"])
+    np.testing.assert_array_equal(c["z"].density, d["z"].density)
+    fresh = [linear.simulate(samples=20_000, seed=None).report["settings"]["seed"] for _ in range(2)]
+    assert fresh[0] != fresh[1]
+    with pytest.raises(TypeError):
+        linear.simulate(samples=20_000, seed="1")
+    with pytest.raises(ValueError):
+        linear.simulate(samples=20_000, seed=-1)

@@ -82,3 +82,14 @@ def test_agrees_with_the_cli_sweep_csv(cli, vibro, tmp_path):
         for col, stat in (("mean", "mean"), ("std_dev", "std"), ("kurtosis", "kurtosis")):
             cli_values = [float(row[f"{q}_{col}"]) if row[f"{q}_{col}"] else math.nan for row in rows]
             np.testing.assert_array_equal(r.stat("epc", q, stat), cli_values)
+
+
+def test_threads_is_the_pool_size_not_a_parameter(vibro):
+    # threads=1 used to be read as a model parameter (an unknown-parameter error).
+    eps = [-0.1, 0.0, 0.1]
+    one = fpsolve.sweep(vibro, eps=eps, threads=1)
+    two = fpsolve.sweep(vibro, eps=eps, threads=2)
+    for q in ("y", "ydot"):
+        np.testing.assert_array_equal(one.stat("epc", q, "variance"), two.stat("epc", q, "variance"))
+    with pytest.raises(ValueError):
+        fpsolve.sweep(vibro, eps=eps, threads=0)
