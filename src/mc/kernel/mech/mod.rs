@@ -28,14 +28,20 @@
 //! multiply-add), so the vector width does not change a bit (tested).
 
 use crate::mc::compile::eval::Simd;
-use crate::mc::compile::impact::{impact_in_flight, Barrier};
+#[cfg(test)]
+use crate::mc::compile::impact::impact_in_flight;
+use crate::mc::compile::impact::Barrier;
 use crate::mc::compile::mech_form::{MechForm, MAX_V_DEGREE};
 use crate::mc::kernel::rng::THREE_POINT_FIELDS;
 
 mod coef;
+mod flight;
 mod vector;
 
 use coef::{Coefs, Velocity};
+#[cfg(test)]
+use flight::impacts;
+use flight::{dist, Flight, Impacts, Jump};
 use vector::{each, Vector};
 
 /// AVX-512 vectors (8 lanes) a group interleaves: independent dependency chains keep the
@@ -92,13 +98,6 @@ impl Columns<'_> {
             }),
         }
     }
-}
-
-/// The barrier as the kernel reads it.
-struct Jump<'a> {
-    bar: &'a Barrier,
-    /// `r` of a law `v → r·v` (then resolved in vector form).
-    gain: Option<f64>,
 }
 
 /// What one call does to every lane.
@@ -181,7 +180,7 @@ fn groups_avx2(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
 /// Groups of `N` vectors over the columns, then single vectors; the lanes done (the rest
 /// are fewer than a vector).
 #[inline(always)]
-fn groups<V: Vector, const N: usize>(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
+fn groups<V: Impacts, const N: usize>(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
     let n = c.x.len();
     let (wide, one) = (N * V::LANES, V::LANES);
     let mut start = 0;
@@ -196,90 +195,10 @@ fn groups<V: Vector, const N: usize>(st: &Steps<'_>, c: &mut Columns<'_>) -> usi
     start
 }
 
-/// The flight of `N` vectors of lanes that the out-of-line impact handler
-/// ([`Vector::impacts`], [`impacts`]) resolves: positions `x0` before it, `x` after it, the
-/// velocities `v` and the sign bits `side` of the barrier sides (−0 for side −1).
-pub(crate) struct Flight<'a, V: Vector, const N: usize> {
-    jump: &'a Jump<'a>,
-    x0: &'a [V; N],
-    x: &'a mut [V; N],
-    v: &'a mut [V; N],
-    side: &'a mut [V; N],
-    impacts: &'a mut [u64],
-    tau: f64,
-    /// Bit `k·V::LANES + i` set when lane i of vector k ended its flight on or beyond the
-    /// barrier (the vectors without one are skipped).
-    near: u32,
-}
-
-/// `(s − b)·side` for side = ±1 as its sign bit `side` flipping the sign of `s − b`: the
-/// same number, bit for bit (`s − 0` is `s`).
-#[inline(always)]
-fn dist<V: Vector>(b: f64, s: V, side: V) -> V {
-    if b == 0.0 {
-        s.xor(side)
-    } else {
-        s.sub(V::splat(b)).xor(side)
-    }
-}
-
-/// The lanes of a flight that met the barrier (as `impact::meets`), each given its impact
-/// as `impact_in_flight` does it, and counted.
-#[inline(always)]
-fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
-    let (zero, b, w) = (V::splat(0.0), f.jump.bar.at, V::LANES);
-    for k in 0..N {
-        if (f.near >> (k * w)) & ((1 << w) - 1) == 0 {
-            continue;
-        }
-        let d1 = dist(b, f.x[k], f.side[k]);
-        let d0 = dist(b, f.x0[k], f.side[k]);
-        let met = V::mask_or(d1.lt(zero), V::mask_and(d1.eq(zero), d0.gt(zero)));
-        let bits = V::mask_bits(met);
-        if bits == 0 {
-            continue;
-        }
-        match f.jump.gain {
-            Some(r) => {
-                // impact_in_flight with the jump r·v, lane-parallel.
-                let (bv, tau) = (V::splat(b), V::splat(f.tau));
-                let t = bv.sub(f.x0[k]).div(f.v[k]);
-                // f64::clamp(t, 0, τ): below 0 → 0, then above τ → τ, NaN kept.
-                let t = V::select(t.lt(zero), zero, t);
-                let t = V::select(t.gt(tau), tau, t);
-                let vn = V::splat(r).mul(f.v[k]);
-                // v_new·side < 0 flips the side: v_new·side is v_new with the side's sign.
-                let flip = vn.xor(f.side[k]).lt(zero);
-                let side = V::select(flip, f.side[k].xor(V::splat(-0.0)), f.side[k]);
-                let xn = bv.add(vn.mul(tau.sub(t)));
-                f.x[k] = V::select(met, xn, f.x[k]);
-                f.v[k] = V::select(met, vn, f.v[k]);
-                f.side[k] = V::select(met, side, f.side[k]);
-            }
-            None => {
-                let (mut x0, mut x, mut v, mut side) = ([0.0; 8], [0.0; 8], [0.0; 8], [0.0; 8]);
-                f.x0[k].store(&mut x0);
-                f.x[k].store(&mut x);
-                f.v[k].store(&mut v);
-                f.side[k].or(V::splat(1.0)).store(&mut side);
-                for i in (0..w).filter(|i| bits >> i & 1 == 1) {
-                    impact_in_flight(x0[i], &mut x[i], &mut v[i], &mut side[i], f.tau, f.jump.bar);
-                }
-                f.x[k] = V::load(&x);
-                f.v[k] = V::load(&v);
-                f.side[k] = V::load(&side).and(V::splat(-0.0));
-            }
-        }
-        for i in (0..w).filter(|i| bits >> i & 1 == 1) {
-            f.impacts[k * w + i] += 1;
-        }
-    }
-}
-
 /// The flight x → x + v·τ of `N` vectors of lanes, impacts resolved out of line when some
 /// lane is on or beyond the barrier.
 #[inline(always)]
-fn fly<V: Vector, const N: usize>(
+fn fly<V: Impacts, const N: usize>(
     jump: Option<&Jump<'_>>,
     x: &mut [V; N],
     v: &mut [V; N],
@@ -425,7 +344,7 @@ fn in_v<V: Vector, const N: usize>(
 /// `N` vectors of lanes (the columns hold exactly `N · V::LANES`) through all the steps of
 /// a call.
 #[inline(always)]
-fn group<V: Vector, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
+fn group<V: Impacts, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
     // A flight's lanes near the barrier are the bits of one u32 (`Flight::near`).
     const { assert!(N * V::LANES <= 32) };
     let w = V::LANES;

@@ -9,7 +9,6 @@
 //! which runs only after the extension was detected on this CPU (`Simd::detect`): that is the
 //! safety argument of every `unsafe` block below (the `simd!` macro).
 
-use super::Flight;
 use crate::mc::kernel::rng::{THREE_POINT_BITS, THREE_POINT_T};
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
@@ -91,9 +90,6 @@ pub(crate) trait Vector: Copy {
     /// The three-point variable of the top field `u` of `w` (as `rng::three_point`):
     /// (u < T: the value −a, u < 2T: a value other than 0).
     fn three_point_high(w: Self::Bits) -> (Self::Mask, Self::Mask);
-    /// The impacts of a flight ([`super::impacts`]), out of line and compiled for this
-    /// vector's extension.
-    fn impacts<const N: usize>(f: &mut Flight<'_, Self, N>);
 }
 
 impl Vector for f64 {
@@ -202,14 +198,6 @@ impl Vector for f64 {
     #[inline(always)]
     fn three_point_high(w: u64) -> (bool, bool) {
         (w < T_HIGH, w < T2_HIGH)
-    }
-    fn impacts<const N: usize>(f: &mut Flight<'_, f64, N>) {
-        #[cold]
-        #[inline(never)]
-        fn cold<const N: usize>(f: &mut Flight<'_, f64, N>) {
-            super::impacts(f)
-        }
-        cold(f)
     }
 }
 
@@ -379,15 +367,6 @@ impl Vector for Avx512 {
             _mm512_cmplt_epu64_mask(w, _mm512_set1_epi64(T2_HIGH as i64)),
         ))
     }
-    fn impacts<const N: usize>(f: &mut Flight<'_, Avx512, N>) {
-        #[cold]
-        #[inline(never)]
-        #[target_feature(enable = "avx512f")]
-        fn cold<const N: usize>(f: &mut Flight<'_, Avx512, N>) {
-            super::impacts(f)
-        }
-        simd!(cold(f))
-    }
 }
 
 /// 4 lanes in an AVX2 register. AVX2 has no mask registers, no 64-bit rotate and no
@@ -546,15 +525,6 @@ impl Vector for Avx2 {
         simd!(Self::three_point(_mm256_srli_epi64::<
             { 64 - THREE_POINT_BITS as i32 },
         >(w)))
-    }
-    fn impacts<const N: usize>(f: &mut Flight<'_, Avx2, N>) {
-        #[cold]
-        #[inline(never)]
-        #[target_feature(enable = "avx2")]
-        fn cold<const N: usize>(f: &mut Flight<'_, Avx2, N>) {
-            super::impacts(f)
-        }
-        simd!(cold(f))
     }
 }
 
