@@ -89,13 +89,11 @@ impl fmt::Display for Cells {
 impl Cells {
     /// The estimated peak memory of a solve, in bytes: the sparse LU factors of the
     /// n = NX·NV unknowns and the solution's own arrays. The nested-dissection order keeps the
-    /// factors' fill at n·log₂ n on a two-dimensional grid (not n·√n), and so does the
-    /// measured peak resident memory of the whole process `fpsolve solve
-    /// models/vibro_impact_duffing.sde --method grid` (the error estimate's half-cells solve
-    /// included, 2 threads), on 5c82887: 74 MB at 100×200, 314 MB at 200×400, 1378 MB at
-    /// 392×800, 2886 MB at 560×1120: 259, 241, 241 and 239 bytes per n·log₂ n
-    /// (`benches/grid_cells.sh`). The estimate
-    /// takes 320 bytes per n·log₂ n plus 15 MB: 1.3 to 1.6 times these.
+    /// factors' fill at n·log₂ n on a two-dimensional grid (not n·√n), so the estimate is
+    /// 320 bytes per n·log₂ n plus 15 MB: above the whole process's peak resident memory
+    /// (the error estimate's half-cells solve included) at every size `benches/grid_cells.sh`
+    /// measures, by a factor 1.3 to 1.6 (the test below holds the measured peaks), so that
+    /// the guard neither lets a solve run out of memory nor refuses one that fits.
     ///
     /// ```
     /// let c = fpsolve::grid::Cells([140, 280]);
@@ -153,9 +151,10 @@ const FILL_BYTES: f64 = 320.0;
 mod tests {
     use super::*;
 
-    /// The estimate covers every measured peak (whole process, `benches/grid_cells.sh` on
-    /// 5c82887) and is at most 1.6 times it: the guard neither lets a solve run out of memory
-    /// nor refuses one that fits in much less.
+    /// The estimate covers every measured peak (whole process `fpsolve solve
+    /// models/vibro_impact_duffing.sde --method grid`, 2 threads, `benches/grid_cells.sh`) and
+    /// is at most 1.6 times it: the guard neither lets a solve run out of memory nor refuses
+    /// one that fits in much less.
     #[test]
     fn the_memory_estimate_covers_the_measured_peaks_closely() {
         let measured_mb = [
