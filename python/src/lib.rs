@@ -8,6 +8,7 @@ mod errors;
 mod interrupt;
 mod job;
 mod model;
+mod pool;
 mod solution;
 mod sweep;
 

@@ -9,7 +9,7 @@ use fpsolve::mc::{Grid, McConfig, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
 use fpsolve::solve::{Method, MethodName, Problem};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyFloat, PyInt, PyString};
+use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{self, Asked};
 use crate::interrupt::interruptible;
@@ -24,21 +24,6 @@ pub(crate) struct PyModel {
 
 /// Overrides from a dict `{name: value}`: a number, or a string holding an expression of
 /// numbers, `pi`, `e` and other parameters (as `--set name=expr` takes it).
-/// `value` as a real number: a Python `int` or `float`, or any object that converts like one
-/// (NumPy's scalars and 0-d arrays, `Fraction`, `Decimal`: `__float__` or `__index__`);
-/// `None` for anything else.
-fn real(value: &Bound<'_, PyAny>) -> Option<f64> {
-    if value.is_instance_of::<PyFloat>() || value.is_instance_of::<PyInt>() {
-        return value.extract::<f64>().ok();
-    }
-    for method in ["__float__", "__index__"] {
-        if value.hasattr(method).unwrap_or(false) {
-            return value.call_method0(method).ok()?.extract::<f64>().ok();
-        }
-    }
-    None
-}
-
 pub(crate) fn overrides(
     py: Python<'_>,
     set: Option<&Bound<'_, PyDict>>,
@@ -55,7 +40,9 @@ pub(crate) fn overrides(
                 .parse::<Override>()
                 .map_err(|e| errors::set_error(py, &e))?;
             out.push(parsed);
-        } else if let Some(x) = real(&value) {
+        } else if let Ok(x) = value.extract::<f64>() {
+            // Any real Python converts with float(): int, float, NumPy's scalars and 0-d
+            // arrays, Fraction.
             out.push(Override::number(&name, x));
         } else {
             let t = value.get_type().name()?.to_string();
@@ -214,6 +201,7 @@ impl PyModel {
         grids: Vec<(String, f64, f64, usize)>,
         set: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<(String, Vec<String>, Vec<String>)> {
+        let pool = crate::pool::thread_pool(threads)?;
         let bound = self.bind(py, set)?;
         let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
             .map_err(|e| errors::mc_error(py, &e))?;
@@ -221,16 +209,6 @@ impl PyModel {
             .preflight(&bound)
             .map_err(|e| errors::mc_error(py, &e))?;
         let simulation = Simulation::new(&bound, &config).map_err(|e| errors::mc_error(py, &e))?;
-        let threads = threads.unwrap_or_else(|| {
-            std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-        });
-        if threads == 0 {
-            return Err(errors::bad_argument("threads must be at least 1"));
-        }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| errors::bad_argument(format!("threads: {e}")))?;
         let run = interruptible(py, |cancel| {
             pool.install(|| simulation.run_cancellable(&|_, _| {}, cancel))
         })?;

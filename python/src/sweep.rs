@@ -26,9 +26,7 @@ pub(crate) fn sweep_json(
     cells: Option<[usize; 2]>,
     threads: Option<usize>,
 ) -> PyResult<String> {
-    if threads == Some(0) {
-        return Err(errors::bad_argument("threads must be at least 1"));
-    }
+    let pool = crate::pool::thread_pool(threads)?;
     // The command line's `--set` arguments, so that one reader checks them (duplicates, too
     // many points, …); Rust prints an f64 so that it reads back exactly.
     let mut args: Vec<String> = swept
@@ -55,11 +53,6 @@ pub(crate) fn sweep_json(
         sweep = sweep.cells(Cells(c));
     }
     sweep.check().map_err(|e| errors::sweep_error(py, &e))?;
-    // Points run in parallel on the pool; the result does not depend on its size.
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.unwrap_or(0))
-        .build()
-        .map_err(|e| errors::bad_argument(format!("threads: {e}")))?;
     let result = interruptible(py, |cancel| pool.install(|| sweep.run_cancellable(cancel)))?
         .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
     serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
