@@ -12,15 +12,18 @@ pub use crate::model::BarrierSide;
 /// needs it to have (it solves reflecting walls only).
 #[derive(Clone, Debug)]
 pub(crate) struct Wall {
-    /// Its position.
-    pub(crate) at: f64,
-    /// The side the state lives on.
+    /// The side the state lives on (the barrier's reflecting side, checked when built).
     pub(crate) side: BarrierSide,
     /// The barrier, for its jump.
     barrier: Barrier,
 }
 
 impl Wall {
+    /// Its position.
+    pub(crate) fn at(&self) -> f64 {
+        self.barrier.at()
+    }
+
     /// The post-impact velocity of an arriving `v`.
     pub(crate) fn map(&self, v: f64) -> f64 {
         self.barrier.jump(v)
@@ -197,7 +200,6 @@ fn walls(model: &BoundModel, dynamics: &Dynamics) -> Result<Vec<Wall>, EpcImpact
             });
         };
         let wall = Wall {
-            at: barrier.at(),
             side,
             barrier: barrier.clone(),
         };
@@ -207,7 +209,7 @@ fn walls(model: &BoundModel, dynamics: &Dynamics) -> Result<Vec<Wall>, EpcImpact
         })?;
         out.push(wall);
     }
-    out.sort_by(|a, b| a.at.total_cmp(&b.at));
+    out.sort_by(|a, b| a.at().total_cmp(&b.at()));
     Ok(out)
 }
 
@@ -223,11 +225,11 @@ fn stops(barrier: &Barrier) -> bool {
 /// A barrier pair must bound a strip: the lower one `Above`, the upper one `Below`.
 pub(crate) fn check_strip(barriers: &[Wall]) -> Result<(), Unsupported> {
     if let [a, b] = barriers {
-        let ok = a.side == BarrierSide::Above && b.side == BarrierSide::Below && a.at < b.at;
+        let ok = a.side == BarrierSide::Above && b.side == BarrierSide::Below && a.at() < b.at();
         if !ok {
             return Err(Unsupported::NotAStrip {
-                lower: a.at,
-                upper: b.at,
+                lower: a.at(),
+                upper: b.at(),
             });
         }
     }
@@ -244,13 +246,13 @@ pub(crate) fn check_law(barrier: &Wall, printed: &str) -> Result<(), Unsupported
             let w = barrier.map(v);
             if w.is_finite() && w != 0.0 && w.signum() == v.signum() {
                 return Err(Unsupported::PassThrough {
-                    law: format!("impact at {}: v -> {printed}", barrier.at),
+                    law: format!("impact at {}: v -> {printed}", barrier.at()),
                 });
             }
             if !(w.is_finite() && w.signum() == -v.signum() && w.abs() <= v.abs() * (1.0 + 1e-12)) {
                 return Err(Unsupported::ImpactMap {
                     map: printed.to_string(),
-                    at: barrier.at,
+                    at: barrier.at(),
                     velocity: v,
                     image: w,
                 });
@@ -265,7 +267,6 @@ impl Wall {
     /// A wall with the law v -> −r·v, for tests of barrier sets no bundled model states.
     pub(crate) fn restitution(at: f64, side: BarrierSide, r: f64) -> Wall {
         Wall {
-            at,
             side,
             barrier: Barrier::restitution(at, side, r),
         }

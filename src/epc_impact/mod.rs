@@ -376,15 +376,15 @@ impl<'a> EpcImpact<'a> {
         for b in &mech.barriers {
             match b.side {
                 BarrierSide::Above => {
-                    x = [b.at, x[1].max(b.at + START_SPAN * sigma[0])];
+                    x = [b.at(), x[1].max(b.at() + START_SPAN * sigma[0])];
                 }
                 BarrierSide::Below => {
-                    x = [x[0].min(b.at - START_SPAN * sigma[0]), b.at];
+                    x = [x[0].min(b.at() - START_SPAN * sigma[0]), b.at()];
                 }
             }
         }
         if let [lo, hi] = mech.barriers.as_slice() {
-            x = [lo.at, hi.at];
+            x = [lo.at(), hi.at()];
         }
         let vmax = mu[1].abs() + START_SPAN * sigma[1];
         Ok(Prepared {
@@ -428,7 +428,7 @@ impl<'a> EpcImpact<'a> {
         let scaled: Vec<(f64, BarrierSide)> = mech
             .barriers
             .iter()
-            .map(|b| (b.at / sigma[0], b.side))
+            .map(|b| (b.at() / sigma[0], b.side))
             .collect();
         let not_normalisable = |reason| EpcImpactError::NotNormalisable { degree: n, reason };
         let xs = |w: &Window| [w.x[0] / sigma[0], w.x[1] / sigma[0]];
@@ -583,7 +583,7 @@ fn finish(prep: &Prepared, s: Solved) -> EpcImpactSolution {
             .barriers
             .iter()
             .map(|b| DomainBarrier {
-                at: b.at,
+                at: b.at(),
                 side: b.side,
             })
             .collect(),

@@ -181,7 +181,7 @@ impl System {
             let image = bar.map(v);
             let h = 1e-6 * v.abs().max(sv);
             boundary.push(BoundaryNode {
-                at: bar.at,
+                at: bar.at(),
                 v,
                 weight: wv[*k],
                 image,
@@ -190,12 +190,12 @@ impl System {
             if !image.is_finite() {
                 return Err(EpcImpactError::NotFinite {
                     what: "the jump map",
-                    x: bar.at,
+                    x: bar.at(),
                     v,
                 });
             }
             let w = wv[*k] * v.abs();
-            powers(bar.at / sx, n, &mut p1);
+            powers(bar.at() / sx, n, &mut p1);
             powers(v / sv, n, &mut p2);
             powers(image / sv, n, &mut p3);
             for (s, &(i, j)) in exps.iter().enumerate() {

@@ -77,7 +77,7 @@ fn the_exact_elastic_density_is_a_root() {
         // The same equations with r = 0.9 are not solved by it: the boundary term matters.
         let mut inelastic = mech.clone();
         for b in &mut inelastic.barriers {
-            *b = Wall::restitution(b.at, b.side, 0.9);
+            *b = Wall::restitution(b.at(), b.side, 0.9);
         }
         let sys = System::build(&inelastic, sigma, window, [24, 24], 4).unwrap();
         assert!(sys.residual(&a).norm() > 1e-4, "{x:?}");
