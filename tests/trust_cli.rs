@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{fpsolve, json, names, scratch};
+use common::{comparisons, fpsolve, json, names, scratch};
 
 /// Rows of a CSV file as numbers, with its header.
 fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
@@ -266,13 +266,10 @@ fn epc_and_monte_carlo_are_compared_on_bin_averages_and_the_epc_curves_are_not_c
         l1 += (row[n4_col] - row[mc_col]).abs() * width;
     }
     let summary = json(&out.join("summary.json"));
-    let c = summary["epc_vs_mc"]
-        .as_array()
-        .unwrap()
-        .iter()
+    let c = comparisons(&summary, "epc", "mc")
+        .into_iter()
         .find(|c| c["quantity"] == "y" && c["degree"] == 4)
-        .unwrap()
-        .clone();
+        .unwrap();
     assert!((c["l1"].as_f64().unwrap() - l1).abs() < 1e-9, "{c}");
     assert_eq!(c["range"][1], 2.0);
     let _ = std::fs::remove_dir_all(&root);
@@ -298,9 +295,7 @@ fn no_burn_in_still_writes_the_summary_and_the_table() {
     assert!(table.contains("EPC n = 4 vs MC"), "{table}\n{}", stderr(&o));
     assert!(out.join("summary.json").exists(), "{}", stderr(&o));
     let summary = json(&out.join("summary.json"));
-    let zero_bins: u64 = summary["epc_vs_mc"]
-        .as_array()
-        .unwrap()
+    let zero_bins: u64 = comparisons(&summary, "epc", "mc")
         .iter()
         .map(|c| c["ratio_1e5"]["bins_epc_zero"].as_u64().unwrap())
         .sum();

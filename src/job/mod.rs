@@ -166,16 +166,11 @@ struct Summary<'a> {
     monte_carlo_error: Option<&'a str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     monte_carlo_wall_s: Option<f64>,
+    /// Every distance between two methods, one entry per method, degree, reference and
+    /// quantity (each entry names its `method` and `reference`): Monte Carlo's first, then
+    /// the grid's, methods in the order [`MethodName::ALL`] lists them.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_impact_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    grid_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_vs_grid: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_impact_vs_grid: Vec<&'a Comparison>,
+    comparisons: Vec<&'a Comparison>,
     #[serde(skip_serializing_if = "<[Disagreement]>::is_empty")]
     disagreements: &'a [Disagreement],
     #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
@@ -425,12 +420,8 @@ fn run(
             Some(h.stderr.iter().sum::<f64>() * h.grid.width())
         }
     });
-    let pair = |method: MethodName, reference: Reference| -> Vec<&Comparison> {
-        comparisons
-            .iter()
-            .filter(|c| c.source.method == method && c.reference == reference)
-            .collect()
-    };
+    let mut listed: Vec<&Comparison> = comparisons.iter().collect();
+    listed.sort_by_key(|c| (c.reference, c.source.method));
     let summary = Summary {
         study: study.summary(),
         skipped_methods: &plan.skipped,
@@ -439,11 +430,7 @@ fn run(
         monte_carlo_from: spec.mc_from.as_ref().map(|f| f.dir.as_path()),
         monte_carlo_error: mc_error.as_deref(),
         monte_carlo_wall_s: (mc.is_some() && spec.mc.is_some()).then_some(mc_wall_s),
-        epc_vs_mc: pair(MethodName::Epc, Reference::Mc),
-        epc_impact_vs_mc: pair(MethodName::EpcImpact, Reference::Mc),
-        grid_vs_mc: pair(MethodName::Grid, Reference::Mc),
-        epc_vs_grid: pair(MethodName::Epc, Reference::Grid),
-        epc_impact_vs_grid: pair(MethodName::EpcImpact, Reference::Grid),
+        comparisons: listed,
         disagreements: &disagreements,
         unwritten: &unwritten,
     };
