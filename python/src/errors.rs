@@ -237,6 +237,10 @@ pub(crate) fn solve_error(py: Python<'_>, e: &LibSolveError, asked: &Asked<'_>) 
             let attrs = base(vec![("reason", obj(py, z.to_string()))]);
             raise::<NotApplicableError>(py, text, "zhuravlev", &attrs)
         }
+        // The package settles each method from its own name; kept typed all the same.
+        LibSolveError::OtherSettings { .. } => {
+            raise::<SolveError>(py, text, "other_settings", &base(vec![]))
+        }
     }
 }
 

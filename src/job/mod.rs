@@ -23,10 +23,8 @@ use crate::model::{Model, Override};
 use crate::report::{
     write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
 };
-use crate::solve::{quantities, MethodName, MethodSet, Problem, Quantity};
-use crate::study::{
-    MethodPlan, NotApplicable, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary,
-};
+use crate::solve::{quantities, MethodName, MethodSet, NotApplicable, Problem, Quantity};
+use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
 
 pub use compare::{Comparison, Disagreement, LogRatio, Reference, DISAGREEMENT_L1};
 pub use mc_from::{McFrom, McFromError};
@@ -107,7 +105,7 @@ impl Default for JobSpec {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn default_methods(problem: &Problem) -> Result<MethodSet, crate::solve::SolveError> {
-    let names = match crate::study::applies(problem, MethodName::Epc)? {
+    let names = match MethodName::Epc.method().applies(problem)? {
         Ok(()) => vec![MethodName::Epc, MethodName::Grid],
         Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
     };
@@ -412,8 +410,8 @@ fn run(
         Reference::Grid => study
             .grid
             .as_ref()
-            .and_then(|g| g.report())
-            .map(|r| r.discretisation_estimate.map_or(0.0, |e| e.x.max(e.v))),
+            .and_then(|g| g.outcome.as_ref().ok())
+            .and_then(|s| MethodName::Grid.method().error_estimate(s)),
         Reference::Mc => {
             let result = mc.as_ref().filter(|m| m.verdict().is_ok())?;
             let h = result.quantity(&c.quantity)?;
