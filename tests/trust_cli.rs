@@ -445,3 +445,47 @@ fn an_undefined_statistic_is_written_as_null_with_the_run_kept() {
     }
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// Issue 37, item 4: with stderr not a terminal (a batch log), a run prints plain status lines
+/// at the interval asked (`FPSOLVE_PROGRESS_EVERY`, a minute by default), and none with
+/// `--quiet`; the results are the same either way.
+#[test]
+fn a_batch_log_gets_plain_progress_lines() {
+    let root = scratch("plain-progress");
+    let run = |quiet: bool, out: &str| {
+        let mut args = vec![
+            "simulate",
+            "models/vibro_duffing.sde",
+            "--samples",
+            "2e6",
+            "--out",
+        ];
+        let dir = root.join(out);
+        let dir = dir.to_str().unwrap().to_string();
+        args.push(&dir);
+        if quiet {
+            args.push("--quiet");
+        }
+        Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+            .args(&args)
+            .env("FPSOLVE_PROGRESS_EVERY", "0.05")
+            .stderr(Stdio::piped())
+            .stdout(Stdio::piped())
+            .output()
+            .unwrap()
+    };
+    let loud = run(false, "loud");
+    let text = stderr(&loud);
+    assert!(loud.status.success(), "{text}");
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("fpsolve ["))
+        .collect();
+    assert!(!lines.is_empty(), "no status line in: {text}");
+    assert!(lines.iter().any(|l| l.contains(" parts")), "{lines:?}");
+    let quiet = run(true, "quiet");
+    assert!(!stderr(&quiet).contains("fpsolve ["), "{}", stderr(&quiet));
+    let csv = |d: &str| std::fs::read_to_string(root.join(d).join("mc_y.csv")).unwrap();
+    assert_eq!(csv("loud"), csv("quiet"));
+    let _ = std::fs::remove_dir_all(&root);
+}
