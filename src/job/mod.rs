@@ -21,7 +21,7 @@ use serde::Serialize;
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
 use crate::model::{Model, Override};
 use crate::report::{
-    write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
+    write_json_flagging_undefined, OutputDir, PdfTable, Provenance, ReportError, UndefinedField,
 };
 use crate::solve::{quantities, MethodName, MethodSet, NotApplicable, Problem, Quantity};
 use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
@@ -150,6 +150,7 @@ pub enum JobError {
 /// What `summary.json` holds.
 #[derive(Serialize)]
 struct Summary<'a> {
+    provenance: Provenance,
     #[serde(flatten)]
     study: StudySummary<'a>,
     #[serde(skip_serializing_if = "<[Skipped]>::is_empty")]
@@ -421,6 +422,7 @@ fn run(
     let mut listed: Vec<&Comparison> = comparisons.iter().collect();
     listed.sort_by_key(|c| (c.reference, c.source.method));
     let summary = Summary {
+        provenance: Provenance::now(Some(model)),
         study: study.summary(),
         skipped_methods: &plan.skipped,
         skipped_curves: &plan.skipped_curves,
@@ -584,9 +586,13 @@ pub fn mc_flags(result: &McResult, undefined: &[UndefinedField]) -> Vec<String> 
 /// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
 /// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
 /// whole [`McResult`]: verdicts and warnings included, numbers without a finite value written
-/// as `null` and listed under `undefined`). A merged set of shards writes exactly what the
-/// unsplit run writes.
-pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<McFiles, ReportError> {
+/// as `null` and listed under `undefined`), with its `provenance`. A merged set of shards
+/// writes exactly what the unsplit run writes, but for the provenance (the command, the time).
+pub fn write_mc(
+    result: &McResult,
+    provenance: &Provenance,
+    out: &OutputDir,
+) -> Result<McFiles, ReportError> {
     let mut files = Vec::new();
     for q in &result.quantities {
         let table = PdfTable {
@@ -596,7 +602,17 @@ pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<McFiles, ReportErr
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
     }
-    let (summary, undefined) = write_json_flagging_undefined(out, "mc_summary.json", result)?;
+    #[derive(Serialize)]
+    struct WithProvenance<'a> {
+        provenance: &'a Provenance,
+        #[serde(flatten)]
+        result: &'a McResult,
+    }
+    let (summary, undefined) = write_json_flagging_undefined(
+        out,
+        "mc_summary.json",
+        &WithProvenance { provenance, result },
+    )?;
     files.push(summary);
     Ok(McFiles { files, undefined })
 }
