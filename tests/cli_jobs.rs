@@ -183,17 +183,31 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         "--out",
         merged.to_str().unwrap(),
     ]);
-    for f in [
-        "mc_summary.json",
-        "mc_z.csv",
-        "mc_v.csv",
-        "mc_y.csv",
-        "mc_ydot.csv",
-    ] {
+    for f in ["mc_z.csv", "mc_v.csv", "mc_y.csv", "mc_ydot.csv"] {
         let a = std::fs::read(whole.join(f)).unwrap();
         let b = std::fs::read(merged.join(f)).unwrap();
         assert!(a == b, "{f} differs between the unsplit and the merged run");
     }
+    // The summaries are equal but for their provenance: each says which command wrote it.
+    let (mut a, mut b) = (
+        json(&whole.join("mc_summary.json")),
+        json(&merged.join("mc_summary.json")),
+    );
+    let (pa, pb) = (a["provenance"].take(), b["provenance"].take());
+    assert_eq!(
+        a, b,
+        "mc_summary.json differs between the unsplit and the merged run"
+    );
+    assert!(
+        pa["command"].as_str().unwrap().contains(" simulate "),
+        "{pa}"
+    );
+    assert!(pb["command"].as_str().unwrap().contains(" merge "), "{pb}");
+    assert!(
+        pa["model"]["text"].as_str().unwrap().starts_with("# "),
+        "{pa}"
+    );
+    assert_eq!(pa["schema_version"], 2);
 }
 
 #[test]
