@@ -62,12 +62,23 @@ class Solution:
     :class:`UnknownQuantityError` (``.name``, ``.known``).
     """
 
-    __slots__ = ("_inner", "_report", "_checked")
+    __slots__ = ("_inner", "_report", "_checked", "_recipe", "_curves")
 
-    def __init__(self, inner: "_fpsolve._Solution"):
+    def __init__(self, inner: "_fpsolve._Solution", recipe: Optional[Tuple[Any, ...]] = None):
         self._inner = inner
         self._report: Optional[Dict[str, Any]] = None
         self._checked: set = set()
+        # (model, method, degree, cells, overrides): what solved it, for pickling.
+        self._recipe = recipe
+        self._curves: Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, float, Tuple]] = {}
+
+    def __reduce__(self):
+        # The solvers are deterministic: the model (pickled by its text), the method and the
+        # overrides give the same density to the bit in any process. The report (with this
+        # solve's timings) travels as data.
+        if self._recipe is None:
+            raise TypeError("this Solution was not made by Model.solve and cannot be pickled")
+        return (_unpickle_solution, (self._recipe, self.report))
 
     @property
     def method(self) -> str:
@@ -176,3 +187,12 @@ class Solution:
 
     def __repr__(self) -> str:
         return repr(self._inner)
+
+
+def _unpickle_solution(recipe: Tuple[Any, ...], report: Dict[str, Any]) -> Solution:
+    """A pickled :class:`Solution` back: solved again from its recipe (bit-identical), with
+    the original's report."""
+    model, method, degree, cells, overrides = recipe
+    solution = model.solve(method, degree=degree, cells=cells, params=overrides)
+    solution._report = report
+    return solution
