@@ -136,8 +136,8 @@ class MonteCarlo:
 
     def to_xarray(self) -> "xarray.Dataset":
         """The histograms as a Dataset: for each quantity ``q`` the variables ``q`` (density)
-        and ``q_stderr`` on the dim ``q`` (its bin centres; ``q_edges`` the edges on
-        ``q_edge``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
+        and ``q_stderr`` on the dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges,
+        on the dim ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
 
         Requires xarray (imported here only).
         """
@@ -147,11 +147,10 @@ class MonteCarlo:
         xr = _optional("xarray")
         data, coords = {}, {}
         for name, h in self.histograms.items():
-            coords[name] = h.x
-            coords[f"{name}_edge"] = np.arange(len(h.edges))
-            data[name] = ([name], h.density)
-            data[f"{name}_stderr"] = ([name], h.stderr)
-            data[f"{name}_edges"] = ([f"{name}_edge"], h.edges)
+            coords[f"x_{name}"] = h.x
+            data[name] = ([f"x_{name}"], h.density)
+            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
+            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
         settings = self.report.get("settings", {})
         attrs = {
             "seed": int(settings.get("seed", 0)),
@@ -205,8 +204,8 @@ class MonteCarloShard:
 
     def to_xarray(self) -> "xarray.Dataset":
         """The histograms as a Dataset: for each quantity ``q`` the variables ``q`` (density)
-        and ``q_stderr`` on the dim ``q`` (its bin centres; ``q_edges`` the edges on
-        ``q_edge``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
+        and ``q_stderr`` on the dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges,
+        on the dim ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
 
         Requires xarray (imported here only).
         """
@@ -216,11 +215,10 @@ class MonteCarloShard:
         xr = _optional("xarray")
         data, coords = {}, {}
         for name, h in self.histograms.items():
-            coords[name] = h.x
-            coords[f"{name}_edge"] = np.arange(len(h.edges))
-            data[name] = ([name], h.density)
-            data[f"{name}_stderr"] = ([name], h.stderr)
-            data[f"{name}_edges"] = ([f"{name}_edge"], h.edges)
+            coords[f"x_{name}"] = h.x
+            data[name] = ([f"x_{name}"], h.density)
+            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
+            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
         settings = self.report.get("settings", {})
         attrs = {
             "seed": int(settings.get("seed", 0)),
