@@ -3,7 +3,9 @@ solutions and results that pickle, and split runs that merge to the local run's 
 
 import concurrent.futures
 import multiprocessing
+import os
 import pickle
+import signal
 import subprocess
 import sys
 import textwrap
@@ -16,7 +18,7 @@ import fpsolve
 from conftest import MODELS
 
 # A pool that hangs fails the test after this long instead of hanging CI.
-TIMEOUT_S = 120
+TIMEOUT_S = int(os.environ.get("FPSOLVE_POOL_TIMEOUT", "120"))
 
 POOL_SCRIPT = textwrap.dedent(
     """
@@ -50,14 +52,23 @@ def test_a_pool_after_the_parent_used_fpsolve_finishes(tmp_path, method):
         pytest.skip(f"no {method} start method on this platform")
     script = tmp_path / "pool.py"
     script.write_text(POOL_SCRIPT)
-    run = subprocess.run(
+    # In its own session, so that a hang is killed with its pool workers (killing only the
+    # script would leave them blocked forever).
+    proc = subprocess.Popen(
         [sys.executable, str(script), method, str(MODELS / "linear.sde")],
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=TIMEOUT_S,
+        start_new_session=True,
     )
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.startswith("ok"), run.stdout
+    try:
+        out, err = proc.communicate(timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail(f"a {method} pool calling fpsolve hung (killed after {TIMEOUT_S} s)")
+    assert proc.returncode == 0, err
+    assert out.startswith("ok"), out
 
 
 def test_model_pickles_by_its_text_and_solves_to_the_same_bits(vibro):
