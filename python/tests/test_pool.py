@@ -228,3 +228,16 @@ def test_the_command_lines_shard_files_merge_in_python(cli, linear, tmp_path):
     parts = [fpsolve.MonteCarloShard(p.read_text()) for p in sorted(tmp_path.glob("shard_*.json"))]
     assert [p.file_name for p in parts] == ["shard_1_of_2.json", "shard_2_of_2.json"]
     _same_mc(fpsolve.merge(parts), linear.simulate(samples=8000, trajectories=1024, seed=7, c=0.5))
+
+
+def _bad_override(model):
+    return model.solve("epc", degree=2, nope=1.0)
+
+
+def test_errors_come_back_from_a_worker_with_their_class_and_data(linear):
+    ctx = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(1, mp_context=ctx) as ex:
+        with pytest.raises(fpsolve.ParameterError) as info:
+            ex.submit(_bad_override, linear).result(timeout=TIMEOUT_S)
+    assert info.value.kind == "bind" and isinstance(info.value, ValueError)
+    assert "nope" in str(info.value)
