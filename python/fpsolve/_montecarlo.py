@@ -10,6 +10,7 @@ from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 import numpy as np
 
+from ._shard import ShardText
 from ._warnings import FpsolveWarning, MonteCarloWarning
 
 
@@ -141,30 +142,13 @@ class MonteCarlo:
 
         Requires xarray (imported here only).
         """
-        from ._fpsolve import __version__
-        from ._sweep import _optional
-
-        xr = _optional("xarray")
-        data, coords = {}, {}
-        for name, h in self.histograms.items():
-            coords[f"x_{name}"] = h.x
-            data[name] = ([f"x_{name}"], h.density)
-            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
-            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
-        settings = self.report.get("settings", {})
-        attrs = {
-            "seed": int(settings.get("seed", 0)),
-            "samples": self.samples,
-            "flags": "; ".join(self.flags),
-            "fpsolve_version": __version__,
-        }
-        return xr.Dataset(data, coords=coords, attrs=attrs)
+        return _histograms_xarray(self)
 
     def __repr__(self) -> str:
         return f"<fpsolve.MonteCarlo {self.samples} samples of {', '.join(self.histograms)}>"
 
 
-class MonteCarloShard:
+class MonteCarloShard(ShardText):
     """One part of a split Monte Carlo run (``Model.simulate(shard=(k, n))``): the statistics
     of its batches as plain data (the command line's ``shard_K_of_N.json`` text), which
     pickles and which :func:`fpsolve.merge` joins with the other parts into the unsplit run's
@@ -173,16 +157,7 @@ class MonteCarloShard:
     ``index`` (from 0) and ``count`` say which part it is; ``json`` is the file's text
     (``write`` puts it where ``fpsolve merge`` reads it)."""
 
-    __slots__ = ("json", "index", "count")
-
-    def __init__(self, text: str):
-        self.json = text
-        shard = json.loads(text)["shard"]
-        self.index = int(shard["index"])
-        self.count = int(shard["count"])
-
-    def __reduce__(self):
-        return (MonteCarloShard, (self.json,))
+    __slots__ = ()
 
     @property
     def file_name(self) -> str:
@@ -209,24 +184,30 @@ class MonteCarloShard:
 
         Requires xarray (imported here only).
         """
-        from ._fpsolve import __version__
-        from ._sweep import _optional
-
-        xr = _optional("xarray")
-        data, coords = {}, {}
-        for name, h in self.histograms.items():
-            coords[f"x_{name}"] = h.x
-            data[name] = ([f"x_{name}"], h.density)
-            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
-            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
-        settings = self.report.get("settings", {})
-        attrs = {
-            "seed": int(settings.get("seed", 0)),
-            "samples": self.samples,
-            "flags": "; ".join(self.flags),
-            "fpsolve_version": __version__,
-        }
-        return xr.Dataset(data, coords=coords, attrs=attrs)
+        return _histograms_xarray(self)
 
     def __repr__(self) -> str:
         return f"<fpsolve.MonteCarloShard {self.index + 1} of {self.count}>"
+
+
+def _histograms_xarray(run: Any) -> "xarray.Dataset":
+    """The Dataset of :meth:`MonteCarlo.to_xarray` for any run with ``histograms``,
+    ``report``, ``samples`` and ``flags`` (a whole run or one shard)."""
+    from ._fpsolve import __version__
+    from ._sweep import _optional
+
+    xr = _optional("xarray")
+    data, coords = {}, {}
+    for name, h in run.histograms.items():
+        coords[f"x_{name}"] = h.x
+        data[name] = ([f"x_{name}"], h.density)
+        data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
+        data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
+    settings = run.report.get("settings", {})
+    attrs = {
+        "seed": int(settings.get("seed", 0)),
+        "samples": run.samples,
+        "flags": "; ".join(run.flags),
+        "fpsolve_version": __version__,
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)

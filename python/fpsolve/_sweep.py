@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _fpsolve
 from ._model import Model
+from ._shard import ShardText
 
 _STATS = ("mean", "variance", "kurtosis")
 
@@ -165,22 +166,13 @@ class SweepResult:
         return f"<fpsolve.SweepResult {len(self)} points of {', '.join(self.values)} by {', '.join(self.methods)}>"
 
 
-class SweepShard:
+class SweepShard(ShardText):
     """One part of a split sweep (``sweep(..., shard=(k, n))``): its points' results as plain
     data (the command line's ``sweep_shard_K_of_N.json`` text), which pickles and which
     :func:`fpsolve.merge` joins with the other parts into the unsplit sweep's
     :class:`SweepResult`."""
 
-    __slots__ = ("json", "index", "count")
-
-    def __init__(self, text: str):
-        self.json = text
-        shard = json.loads(text)["shard"]
-        self.index = int(shard["index"])
-        self.count = int(shard["count"])
-
-    def __reduce__(self):
-        return (SweepShard, (self.json,))
+    __slots__ = ()
 
     @property
     def file_name(self) -> str:
