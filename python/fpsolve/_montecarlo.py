@@ -142,7 +142,24 @@ class MonteCarlo:
 
         Requires xarray (imported here only).
         """
-        return _histograms_xarray(self)
+        from ._fpsolve import __version__
+        from ._sweep import _optional
+
+        xr = _optional("xarray")
+        data, coords = {}, {}
+        for name, h in self.histograms.items():
+            coords[f"x_{name}"] = h.x
+            data[name] = ([f"x_{name}"], h.density)
+            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
+            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
+        settings = self.report.get("settings", {})
+        attrs = {
+            "seed": int(settings.get("seed", 0)),
+            "samples": self.samples,
+            "flags": "; ".join(self.flags),
+            "fpsolve_version": __version__,
+        }
+        return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def __repr__(self) -> str:
         return f"<fpsolve.MonteCarlo {self.samples} samples of {', '.join(self.histograms)}>"
@@ -177,37 +194,6 @@ class MonteCarloShard(ShardText):
     def __eq__(self, other: object) -> bool:
         return isinstance(other, MonteCarloShard) and other.json == self.json
 
-    def to_xarray(self) -> "xarray.Dataset":
-        """The histograms as a Dataset: for each quantity ``q`` the variables ``q`` (density)
-        and ``q_stderr`` on the dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges,
-        on the dim ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
-
-        Requires xarray (imported here only).
-        """
-        return _histograms_xarray(self)
-
     def __repr__(self) -> str:
         return f"<fpsolve.MonteCarloShard {self.index + 1} of {self.count}>"
 
-
-def _histograms_xarray(run: Any) -> "xarray.Dataset":
-    """The Dataset of :meth:`MonteCarlo.to_xarray` for any run with ``histograms``,
-    ``report``, ``samples`` and ``flags`` (a whole run or one shard)."""
-    from ._fpsolve import __version__
-    from ._sweep import _optional
-
-    xr = _optional("xarray")
-    data, coords = {}, {}
-    for name, h in run.histograms.items():
-        coords[f"x_{name}"] = h.x
-        data[name] = ([f"x_{name}"], h.density)
-        data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
-        data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
-    settings = run.report.get("settings", {})
-    attrs = {
-        "seed": int(settings.get("seed", 0)),
-        "samples": run.samples,
-        "flags": "; ".join(run.flags),
-        "fpsolve_version": __version__,
-    }
-    return xr.Dataset(data, coords=coords, attrs=attrs)

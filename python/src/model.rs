@@ -57,6 +57,30 @@ pub(crate) fn overrides(
 }
 
 impl PyModel {
+    /// The model bound with `set` and the run's settings, checked before any work (the
+    /// preflight `simulate` and `simulate_shard` share).
+    #[allow(clippy::too_many_arguments)]
+    fn checked_run(
+        &self,
+        py: Python<'_>,
+        samples: u64,
+        seed: u64,
+        dt: Option<f64>,
+        spacing: Option<f64>,
+        trajectories: Option<u64>,
+        bins: Option<usize>,
+        grids: &[(String, f64, f64, usize)],
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<(BoundModel, McConfig)> {
+        let bound = self.bind(py, set)?;
+        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, grids)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        config
+            .preflight(&bound)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        Ok((bound, config))
+    }
+
     pub(crate) fn bind(
         &self,
         py: Python<'_>,
@@ -228,12 +252,17 @@ impl PyModel {
         set: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<(String, Vec<String>, Vec<String>)> {
         let pool = crate::pool::thread_pool(threads)?;
-        let bound = self.bind(py, set)?;
-        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
-            .map_err(|e| errors::mc_error(py, &e))?;
-        config
-            .preflight(&bound)
-            .map_err(|e| errors::mc_error(py, &e))?;
+        let (bound, config) = self.checked_run(
+            py,
+            samples,
+            seed,
+            dt,
+            spacing,
+            trajectories,
+            bins,
+            &grids,
+            set,
+        )?;
         // The pilot run that sizes the histograms is parallel too: on the pool, not rayon's
         // global one.
         let simulation = py
@@ -268,12 +297,17 @@ impl PyModel {
     ) -> PyResult<String> {
         let pool = crate::pool::thread_pool(threads)?;
         let shard = Shard::new(index, count).map_err(|e| errors::mc_error(py, &e))?;
-        let bound = self.bind(py, set)?;
-        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
-            .map_err(|e| errors::mc_error(py, &e))?;
-        config
-            .preflight(&bound)
-            .map_err(|e| errors::mc_error(py, &e))?;
+        let (bound, config) = self.checked_run(
+            py,
+            samples,
+            seed,
+            dt,
+            spacing,
+            trajectories,
+            bins,
+            &grids,
+            set,
+        )?;
         let part = py
             .allow_threads(|| pool.install(|| Simulation::new(&bound, &config)?.run_shard(shard)));
         let part = part.map_err(|e| errors::mc_error(py, &e))?;
