@@ -55,14 +55,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let report = Job::new(&model, &spec).run(&out)?;
         println!("case {} (mu = {mu}, eps = {eps})", k + 1);
         print!("{report}");
-        for d in &report.study.degrees {
+        for (d, degree) in report.study.ladder() {
             let stat = |name: &str| d.stats.iter().find(|s| s.name == name);
             let (Some(y), Some(yd)) = (stat("y"), stat("ydot")) else {
                 writeln!(
                     table,
                     "| {} | {mu} | {eps} | EPC n = {} | failed | | | | | | | |",
                     k + 1,
-                    d.degree
+                    degree
                 )?;
                 continue;
             };
@@ -70,14 +70,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 report
                     .comparisons
                     .iter()
-                    .find(|c| c.quantity == q && c.source.degree == Some(d.degree))
+                    .find(|c| c.quantity == q && c.source.degree == Some(degree))
             };
             let (cy, cyd) = (c("y"), c("ydot"));
             writeln!(
                 table,
                 "| {} | {mu} | {eps} | EPC n = {} | {:.4} | {:.4} | {:.3} | {:.4} | {:.3} | {:.4} | {:.4} | {} / {} |",
                 k + 1,
-                d.degree,
+                degree,
                 y.moments.mean,
                 y.std_dev(),
                 y.moments.kurtosis,

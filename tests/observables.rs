@@ -252,7 +252,7 @@ fn linear_oscillator_parabola_z2_minus_v_matches_a_one_dimensional_integral() {
 fn linear_oscillator_means_through_the_study() {
     let model = parse_model(LINEAR, None).unwrap();
     let study = Study::run(&model, &[], &[2]).unwrap();
-    let stats = &study.degrees[0].stats;
+    let stats = &study.runs[0].stats;
     let get = |n: &str| stats.iter().find(|s| s.name == n).unwrap();
     assert_rel("E[energy]", get("energy").moments.mean, 5.0, 1e-9);
     assert_rel("E[v²]", get("vsq").moments.mean, 5.0, 1e-9);
@@ -481,7 +481,7 @@ fn moments_that_diverge_are_undefined_not_numbers() {
     assert!(isq.moments.std_dev().is_nan() && isq.moments.kurtosis.is_nan());
     // The study says so in words.
     let study = Study::run(&parse_model(text, None).unwrap(), &[], &[2]).unwrap();
-    let stats = &study.degrees[0].stats;
+    let stats = &study.runs[0].stats;
     let note = stats
         .iter()
         .find(|s| s.name == "inv")

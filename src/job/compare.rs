@@ -4,7 +4,8 @@
 use serde::Serialize;
 
 use crate::mc::Grid;
-use crate::study::{GridRun, PdfCurves, Source};
+use crate::solve::MethodName;
+use crate::study::{PdfCurves, Source};
 
 /// What a method is compared with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -14,6 +15,16 @@ pub enum Reference {
     Mc,
     /// The grid solver's density averaged over the same bins.
     Grid,
+}
+
+impl Reference {
+    /// The stationary method that serves as the reference, `None` for Monte Carlo.
+    pub fn method(self) -> Option<MethodName> {
+        match self {
+            Reference::Mc => None,
+            Reference::Grid => Some(MethodName::Grid),
+        }
+    }
 }
 
 impl std::fmt::Display for Reference {
@@ -201,7 +212,11 @@ pub(crate) fn disagreements(
 /// Every method of a curve against the grid's column on the curve's bins (none without bins
 /// or without a grid column).
 pub(crate) fn against_grid(curve: &PdfCurves) -> Vec<Comparison> {
-    let (Some(bins), Some(grid)) = (curve.bins.as_ref(), curve.column(GridRun::SOURCE)) else {
+    const GRID: Source = Source {
+        method: MethodName::Grid,
+        degree: None,
+    };
+    let (Some(bins), Some(grid)) = (curve.bins.as_ref(), curve.column(GRID)) else {
         return Vec::new();
     };
     if grid.bin_means.len() != bins.bins {
@@ -210,7 +225,7 @@ pub(crate) fn against_grid(curve: &PdfCurves) -> Vec<Comparison> {
     curve
         .columns
         .iter()
-        .filter(|c| c.source != GridRun::SOURCE && c.bin_means.len() == bins.bins)
+        .filter(|c| c.source != GRID && c.bin_means.len() == bins.bins)
         .map(|c| {
             compare(
                 &curve.name,

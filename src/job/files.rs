@@ -10,7 +10,6 @@ use super::compare::{against_grid, compare, Comparison, Reference};
 use super::{mc_columns, Unwritten};
 use crate::mc::McResult;
 use crate::report::{Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
-use crate::solve::MethodName;
 use crate::study::{Source, Study};
 
 /// What writing the per-quantity files gave.
@@ -181,29 +180,23 @@ fn write_quantity(
     }
 }
 
-/// The legend text of a curve: an EPC degree says when its density is normalised inside a
-/// ridge; the grid says its cells.
+/// The legend text of a curve: the method with its settings (`EPC n = 4`, `grid 200×400`),
+/// and for an EPC degree whether its density is normalised inside a ridge.
 fn legend(study: &Study, source: Source) -> String {
-    if source.method == MethodName::Grid {
-        return match study.grid.as_ref().and_then(|g| g.report()) {
-            Some(r) => format!("grid {}×{}", r.cells[0], r.cells[1]),
-            None => "grid".into(),
-        };
-    }
-    let ridge = study
-        .degrees
-        .iter()
-        .find(|d| d.source() == source)
-        .and_then(|d| d.epc())
-        .and_then(|s| match &s.normalisation.kind {
-            crate::epc::NormalisationKind::InsideRidge { depth, .. } => Some(*depth),
-            crate::epc::NormalisationKind::Plane { .. } => None,
-        });
+    let run = study.runs.iter().find(|r| r.source() == source);
+    let Some(solution) = run.and_then(|r| r.solution()) else {
+        return source.to_string();
+    };
+    let label = solution.method().to_string();
+    let ridge = solution.epc().and_then(|s| match &s.normalisation.kind {
+        crate::epc::NormalisationKind::InsideRidge { depth, .. } => Some(*depth),
+        crate::epc::NormalisationKind::Plane { .. } => None,
+    });
     match ridge {
         Some(depth) => format!(
-            "{source} (inside ridge, {} e-folds)",
+            "{label} (inside ridge, {} e-folds)",
             crate::epc::EFolds(depth)
         ),
-        None => source.to_string(),
+        None => label,
     }
 }

@@ -376,7 +376,7 @@ fn run(
         .degrees(&spec.degrees)
         .methods(&plan.run)
         .cells(spec.cells)
-        .without_grid_curves_of(&without_grid)
+        .without_curves_of(MethodName::Grid, &without_grid)
         .bins(&choose)
         .run()?;
     let mut mc = spec.mc_from.as_ref().map(|f| f.result.clone());
@@ -409,9 +409,8 @@ fn run(
     let unwritten = written.unwritten;
     let disagreements = compare::disagreements(&comparisons, |c| match c.reference {
         Reference::Grid => study
-            .grid
-            .as_ref()
-            .and_then(|g| g.outcome.as_ref().ok())
+            .run_of(MethodName::Grid)
+            .and_then(|r| r.solution())
             .and_then(|s| MethodName::Grid.method().error_estimate(s)),
         Reference::Mc => {
             let result = mc.as_ref().filter(|m| m.verdict().is_ok())?;
@@ -457,20 +456,21 @@ fn run(
 /// disagree beyond their errors and numbers that have no finite value. Empty when everything
 /// asked for was computed and is defined.
 pub fn flags(report: &JobReport) -> Vec<String> {
+    // A failed run: EPC's degrees are "degree n" (the method a job runs first), another
+    // ladder's "epc-impact degree n", a method without degrees by its name.
     let mut out: Vec<String> = report
         .study
-        .degrees
+        .runs
         .iter()
-        .filter_map(|d| {
-            d.outcome.as_ref().err().map(|e| match d.method {
-                MethodName::Epc => format!("degree {}: {e}", d.degree),
-                m => format!("{m} degree {}: {e}", d.degree),
+        .filter_map(|r| {
+            let e = r.outcome.as_ref().err()?;
+            Some(match (r.name(), r.degree()) {
+                (MethodName::Epc, Some(d)) => format!("degree {d}: {e}"),
+                (m, Some(d)) => format!("{m} degree {d}: {e}"),
+                (m, None) => format!("{m}: {e}"),
             })
         })
         .collect();
-    if let Some(Err(e)) = report.study.grid.as_ref().map(|g| &g.outcome) {
-        out.push(format!("grid: {e}"));
-    }
     if let Some(e) = &report.mc_error {
         out.push(format!("Monte Carlo: {e}"));
     }
@@ -518,8 +518,7 @@ fn undefined_flag(file: &str, undefined: &[UndefinedField]) -> Option<String> {
 fn defect_notes(study: &Study) -> Vec<String> {
     let mut seen: Vec<&str> = Vec::new();
     let mut notes = Vec::new();
-    let grid = study.grid.iter().flat_map(|g| &g.stats);
-    for st in study.degrees.iter().flat_map(|d| &d.stats).chain(grid) {
+    for st in study.runs.iter().flat_map(|r| &r.stats) {
         if let Some(note) = st.note() {
             if !seen.contains(&st.name.as_str()) {
                 seen.push(&st.name);
@@ -669,7 +668,7 @@ mod tests {
                 None => job,
             };
             let report = job.run(&out).unwrap();
-            let solution = report.study.degrees[0].outcome.as_ref().unwrap();
+            let solution = report.study.runs[0].outcome.as_ref().unwrap();
             solution.moments("v").unwrap().moments.variance
         };
         let fresh = variance(None, "fresh");

@@ -5,7 +5,7 @@ use std::fmt::Write;
 use super::{Comparison, JobReport, LogRatio, Reference};
 use crate::base::number_text::fixed_or_scientific;
 use crate::solve::{MethodName, QuantityMoments};
-use crate::study::{DegreeResult, Source, Study};
+use crate::study::{Run, Source, Study};
 
 impl std::fmt::Display for JobReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -23,7 +23,7 @@ fn table(report: &JobReport) -> String {
         .map(|(n, v)| format!("{n} = {v:.6}"))
         .collect();
     let _ = writeln!(s, "{}: {}", study.model.name(), params.join(", "));
-    if !study.degrees.is_empty() {
+    if study.ladder().next().is_some() {
         // Two quality figures: the Galerkin residual says the projected equations were
         // solved; the FPK residual ∫|F|·p says how far the density is from solving the FPK
         // equation itself.
@@ -34,23 +34,23 @@ fn table(report: &JobReport) -> String {
         );
     }
     let mut method = MethodName::Epc;
-    for d in &study.degrees {
-        if d.method != method {
-            method = d.method;
+    for (r, degree) in study.ladder() {
+        if r.name() != method {
+            method = r.name();
             let _ = writeln!(s, "{method}:");
         }
-        degree_row(&mut s, d);
+        degree_row(&mut s, r, degree);
     }
-    if let Some(g) = &study.grid {
-        match (&g.outcome, g.report()) {
-            (Ok(_), Some(r)) => {
-                let _ = writeln!(s, "{r}");
+    for r in study.runs.iter().filter(|r| r.degree().is_none()) {
+        match (&r.outcome, r.solution().and_then(|s| s.grid())) {
+            (Ok(_), Some(g)) => {
+                let _ = writeln!(s, "{}", g.report);
             }
             (Err(e), _) => {
-                let _ = writeln!(s, "grid {}x{}: failed: {e}", g.cells[0], g.cells[1]);
+                let _ = writeln!(s, "{}: failed: {e}", r.method);
             }
             (Ok(_), None) => {
-                let _ = writeln!(s, "grid: not a grid solution");
+                let _ = writeln!(s, "{}: solved", r.method);
             }
         }
     }
@@ -65,15 +65,13 @@ fn table(report: &JobReport) -> String {
         "{:>8} {:>6} {:>12} {:>12} {:>10}",
         "quantity", "degree", "mean", "std dev", "kurtosis"
     );
-    for d in &study.degrees {
-        let key = match d.method {
-            MethodName::Epc => d.degree.to_string(),
-            _ => format!("i{}", d.degree),
+    for r in &study.runs {
+        let key = match (r.name(), r.degree()) {
+            (MethodName::Epc, Some(d)) => d.to_string(),
+            (_, Some(d)) => format!("i{d}"),
+            (m, None) => m.to_string(),
         };
-        stats_rows(&mut s, &key, &d.stats);
-    }
-    if let Some(g) = &study.grid {
-        stats_rows(&mut s, "grid", &g.stats);
+        stats_rows(&mut s, &key, &r.stats);
     }
     for note in super::defect_notes(study) {
         let _ = writeln!(s, "warning: {note}");
@@ -101,7 +99,7 @@ fn table(report: &JobReport) -> String {
     s
 }
 
-fn degree_row(s: &mut String, d: &DegreeResult) {
+fn degree_row(s: &mut String, d: &Run, degree: usize) {
     match d.outcome.as_ref().map(|s| s.epc()) {
         Ok(Some(sol)) => {
             let norm = match &sol.normalisation.kind {
@@ -116,12 +114,7 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
             let _ = writeln!(
                 s,
                 "{:>6} {:>6} {:>10.2e} {:>10.2e} {:>10.1}  {}",
-                d.degree,
-                sol.solve.iterations,
-                sol.solve.residual,
-                sol.fpk_residual,
-                d.wall_ms,
-                norm
+                degree, sol.solve.iterations, sol.solve.residual, sol.fpk_residual, d.wall_ms, norm
             );
         }
         Ok(None) => match d.outcome.as_ref().ok().and_then(|s| s.epc_impact()) {
@@ -135,7 +128,7 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
                 let _ = writeln!(
                     s,
                     "{:>6} {:>6} {:>10.2e} {:>10} {:>10.1}  {}; quadrature check {:.1e}",
-                    d.degree,
+                    degree,
                     r.iterations,
                     r.residual,
                     fpk,
@@ -145,11 +138,11 @@ fn degree_row(s: &mut String, d: &DegreeResult) {
                 );
             }
             None => {
-                let _ = writeln!(s, "{:>6}  not an EPC solution", d.degree);
+                let _ = writeln!(s, "{degree:>6}  not an EPC solution");
             }
         },
         Err(e) => {
-            let _ = writeln!(s, "{:>6}  failed: {e}", d.degree);
+            let _ = writeln!(s, "{degree:>6}  failed: {e}");
         }
     }
 }
@@ -184,19 +177,24 @@ fn distances(s: &mut String, study: &Study, report: &JobReport, reference: Refer
     if of.is_empty() {
         return;
     }
-    for d in study.degrees.iter().filter(|d| d.outcome.is_err()) {
-        let _ = writeln!(
-            s,
-            "{} vs {reference}: no distances, the degree failed",
-            d.source()
-        );
-    }
-    if let Some(Err(_)) = study.grid.as_ref().map(|g| &g.outcome) {
-        if reference != Reference::Grid {
-            let _ = writeln!(
-                s,
-                "grid vs {reference}: no distances, the grid solve failed"
-            );
+    for r in study.runs.iter().filter(|r| r.outcome.is_err()) {
+        match r.degree() {
+            Some(_) => {
+                let _ = writeln!(
+                    s,
+                    "{} vs {reference}: no distances, the degree failed",
+                    r.source()
+                );
+            }
+            None if reference.method() != Some(r.name()) => {
+                let _ = writeln!(
+                    s,
+                    "{} vs {reference}: no distances, the {} solve failed",
+                    r.source(),
+                    r.name()
+                );
+            }
+            None => {}
         }
     }
     for c in of {

@@ -47,8 +47,10 @@ pub use solution::{Density, QuantityMoments, Solution};
 pub(crate) use tail::{tail_probability, two_sided_tail_probability};
 
 /// How to solve for the stationary density. More methods are to come, so a `match` on it
-/// needs a wildcard arm.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// needs a wildcard arm. It serialises as its settings alone (`{"degree": 4}`,
+/// `{"cells": [200, 400]}`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(untagged)]
 #[non_exhaustive]
 pub enum Method {
     /// Exponential-polynomial closure at this (even) degree, continued from degree 2.
@@ -489,14 +491,14 @@ mod tests {
             assert!(same, "{}", q.name);
             assert_eq!(
                 solution.moments(&q.name).unwrap(),
-                *study.degrees[0]
+                *study.runs[0]
                     .stats
                     .iter()
                     .find(|s| s.name == q.name)
                     .unwrap()
             );
         }
-        assert_eq!(solution.all_moments(), study.degrees[0].stats);
+        assert_eq!(solution.all_moments(), study.runs[0].stats);
     }
 
     /// Issue 11, item 4: the paper's Eqs. 1–2 as written are solved by EPC through their

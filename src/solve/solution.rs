@@ -213,6 +213,15 @@ impl Solution {
         }
     }
 
+    /// The grid solution (cell densities and the solver's report), when the grid produced
+    /// the density.
+    pub fn grid(&self) -> Option<&GridSolution> {
+        match &self.density {
+            Density::Grid(g) => Some(g),
+            Density::Epc(_) | Density::EpcImpact(_) => None,
+        }
+    }
+
     /// The joint density p(x1, x2) over the states [`Solution::joint_states`] names.
     pub fn joint(&self) -> &dyn JointDensity {
         match &self.density {

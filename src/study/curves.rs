@@ -7,7 +7,7 @@ use super::bin_means::bin_means;
 use crate::density::JointDensity;
 use crate::mc::Grid;
 use crate::observe::{ObservableDensity, ObservableMap};
-use crate::solve::{common_grid, printable, MethodName, Quantity, Solution};
+use crate::solve::{common_grid, printable, Method, MethodName, Quantity, Solution};
 
 /// Which solution a column holds: a method, and its degree for a ladder method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -20,6 +20,21 @@ pub struct Source {
 }
 
 impl Source {
+    /// The column of a method at its settings: its name, and its degree for a ladder method.
+    ///
+    /// ```
+    /// use fpsolve::solve::{Method, MethodName};
+    /// use fpsolve::study::Source;
+    /// let grid = Source::of(Method::Grid { cells: [40, 80] });
+    /// assert_eq!(grid, Source { method: MethodName::Grid, degree: None });
+    /// ```
+    pub fn of(method: Method) -> Source {
+        Source {
+            method: method.name(),
+            degree: method.degree(),
+        }
+    }
+
     /// The column name in CSV files: `epc_n4`, `epc_impact_n4`, `grid`.
     ///
     /// ```

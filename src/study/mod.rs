@@ -9,6 +9,7 @@
 mod bin_means;
 mod curves;
 mod methods;
+mod run;
 mod warning;
 
 use rayon::prelude::*;
@@ -21,12 +22,11 @@ use crate::epc::EpcSolution;
 use crate::grid::GridReport;
 use crate::mc::ParamValue;
 use crate::model::{BindError, BoundModel, Model, Override};
-use crate::solve::{
-    Density, Method, MethodName, Problem, Quantity, QuantityMoments, Solution, SolveError,
-};
+use crate::solve::{Method, MethodName, Problem, Quantity, QuantityMoments, Solution, SolveError};
 
 pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
 pub use methods::{MethodPlan, PlanError, Refused, Skipped};
+pub use run::Run;
 pub use warning::{StudyWarning, MEAN_VELOCITY_MARGIN, MEAN_VELOCITY_RELATIVE};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
@@ -46,66 +46,6 @@ pub enum StudyError {
     NoMethod,
 }
 
-/// The outcome of a ladder method at one degree.
-#[derive(Debug)]
-pub struct DegreeResult {
-    /// The method (EPC, or EPC with the exact impact condition).
-    pub method: MethodName,
-    /// The degree n.
-    pub degree: usize,
-    /// The solution, or why there is none.
-    pub outcome: Result<Solution, SolveError>,
-    /// Moments of each state, then each observable (empty when the degree failed).
-    pub stats: Vec<QuantityMoments>,
-    /// Time of the degree's solve (closure, assembly, solver, normalisation), in milliseconds.
-    pub wall_ms: f64,
-}
-
-impl DegreeResult {
-    /// The EPC solution, if the degree converged.
-    pub fn epc(&self) -> Option<&EpcSolution> {
-        self.outcome.as_ref().ok().and_then(Solution::epc)
-    }
-
-    /// Which column its curves fill.
-    pub fn source(&self) -> Source {
-        Source {
-            method: self.method,
-            degree: Some(self.degree),
-        }
-    }
-}
-
-/// The outcome of the grid solver.
-#[derive(Debug)]
-pub struct GridRun {
-    /// Cells asked for (position, velocity).
-    pub cells: [usize; 2],
-    /// The solution, or why there is none.
-    pub outcome: Result<Solution, SolveError>,
-    /// Moments of each state, then each observable (empty when the solve failed).
-    pub stats: Vec<QuantityMoments>,
-    /// Time of the solve and of the moments, in milliseconds.
-    pub wall_ms: f64,
-}
-
-impl GridRun {
-    /// The solver's report (cells, domain, clipped mass, error estimate, timings), if it
-    /// solved.
-    pub fn report(&self) -> Option<&GridReport> {
-        match self.outcome.as_ref().ok().map(Solution::density) {
-            Some(Density::Grid(g)) => Some(&g.report),
-            _ => None,
-        }
-    }
-
-    /// The column its curves fill.
-    pub const SOURCE: Source = Source {
-        method: MethodName::Grid,
-        degree: None,
-    };
-}
-
 /// The PDF of a quantity at one degree, or why that degree has none.
 #[derive(Debug)]
 pub struct DegreePdf<'a> {
@@ -120,10 +60,9 @@ pub struct DegreePdf<'a> {
 pub struct Study {
     /// The bound model.
     pub model: BoundModel,
-    /// One result per degree asked of each ladder method, in order (EPC first).
-    pub degrees: Vec<DegreeResult>,
-    /// The grid solver's outcome, when it was asked for.
-    pub grid: Option<GridRun>,
+    /// One run per degree asked of each ladder method, in the order the methods were asked
+    /// (EPC first), then one run of each method without degrees (the grid).
+    pub runs: Vec<Run>,
     /// PDFs of the states, then of the observables (those asked by
     /// [`StudyRunner::curves_of`]).
     pub curves: Vec<PdfCurves>,
@@ -153,8 +92,8 @@ pub struct Study {
 /// ";
 /// let bound = parse_model(text, None)?.bind(&[])?;
 /// let study = StudyRunner::new(&bound).degrees(&[2, 3]).run()?;
-/// assert!(study.degrees[0].outcome.is_ok());
-/// assert!(study.degrees[1].outcome.is_err()); // an odd degree fails alone, visibly
+/// assert!(study.runs[0].outcome.is_ok());
+/// assert!(study.runs[1].outcome.is_err()); // an odd degree fails alone, visibly
 /// let y = study.curves.iter().find(|c| c.name == "y").unwrap();
 /// assert_eq!(y.x[0], 0.0); // |z| has no mass below 0: its grid starts at the barrier
 /// let at = study.pdf_at("y", &[0.5])?;
@@ -170,7 +109,7 @@ pub struct StudyRunner<'a> {
     cells: [usize; 2],
     bins: Option<&'a BinChoice<'a>>,
     curves_of: Option<Vec<String>>,
-    without_grid_curves: Vec<String>,
+    left_out: Vec<(MethodName, String)>,
 }
 
 impl<'a> StudyRunner<'a> {
@@ -184,7 +123,7 @@ impl<'a> StudyRunner<'a> {
             cells: crate::grid::DEFAULT_CELLS,
             bins: None,
             curves_of: None,
-            without_grid_curves: Vec::new(),
+            left_out: Vec::new(),
         }
     }
 
@@ -197,7 +136,7 @@ impl<'a> StudyRunner<'a> {
     /// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
     /// let problem = fpsolve::solve::Problem::new(&bound)?;
     /// let study = fpsolve::study::StudyRunner::of(&problem).degrees(&[2]).run()?;
-    /// assert_eq!(study.degrees[0].stats.len(), problem.quantities().len());
+    /// assert_eq!(study.runs[0].stats.len(), problem.quantities().len());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn of(problem: &'a Problem<'a>) -> StudyRunner<'a> {
@@ -218,7 +157,7 @@ impl<'a> StudyRunner<'a> {
     ///     .curves_of(&["y".to_string()])
     ///     .run()?;
     /// assert_eq!(study.curves.len(), 1);
-    /// assert_eq!(study.degrees[0].stats.len(), 4);
+    /// assert_eq!(study.runs[0].stats.len(), 4);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn curves_of(mut self, names: &[String]) -> Self {
@@ -226,13 +165,14 @@ impl<'a> StudyRunner<'a> {
         self
     }
 
-    /// Leaves the grid's column out of the curves of these quantities (the grid's PDFs of
-    /// observables that need level-set quadrature take minutes); its moments of them, and its
-    /// columns of every other quantity, are computed as usual.
+    /// Leaves `method`'s column out of the curves of these quantities (the grid's PDFs of
+    /// observables that need level-set quadrature take minutes: what
+    /// [`StationaryMethod::leaves_out`](crate::solve::StationaryMethod::leaves_out) says);
+    /// its moments of them, and its columns of every other quantity, are computed as usual.
     ///
     /// ```
     /// use fpsolve::solve::MethodName;
-    /// use fpsolve::study::{GridRun, StudyRunner};
+    /// use fpsolve::study::{Source, StudyRunner};
     /// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\n\
     ///             diffusion v: xi\nobserve E = v^2/2 + z^2/2\n";
     /// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
@@ -240,15 +180,17 @@ impl<'a> StudyRunner<'a> {
     ///     .degrees(&[2])
     ///     .methods(&[MethodName::Epc, MethodName::Grid])
     ///     .cells([40, 60])
-    ///     .without_grid_curves_of(&["E".to_string()])
+    ///     .without_curves_of(MethodName::Grid, &["E".to_string()])
     ///     .run()?;
     /// let curve = |name: &str| study.curves.iter().find(|c| c.name == name).unwrap();
-    /// assert!(curve("E").column(GridRun::SOURCE).is_none());
-    /// assert!(curve("z").column(GridRun::SOURCE).is_some());
+    /// let grid = Source { method: MethodName::Grid, degree: None };
+    /// assert!(curve("E").column(grid).is_none());
+    /// assert!(curve("z").column(grid).is_some());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
-    pub fn without_grid_curves_of(mut self, names: &[String]) -> Self {
-        self.without_grid_curves = names.to_vec();
+    pub fn without_curves_of(mut self, method: MethodName, names: &[String]) -> Self {
+        self.left_out
+            .extend(names.iter().map(|n| (method, n.clone())));
         self
     }
 
@@ -269,7 +211,7 @@ impl<'a> StudyRunner<'a> {
     ///
     /// ```
     /// use fpsolve::solve::MethodName;
-    /// use fpsolve::study::{StudyRunner, GridRun};
+    /// use fpsolve::study::StudyRunner;
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
     /// let study = StudyRunner::new(&bound)
@@ -277,10 +219,10 @@ impl<'a> StudyRunner<'a> {
     ///     .methods(&[MethodName::Epc, MethodName::Grid])
     ///     .cells([40, 60])
     ///     .run()?;
-    /// let grid = study.grid.as_ref().unwrap();
-    /// assert_eq!(grid.report().unwrap().cells, [40, 60]);
+    /// let grid = study.run_of(MethodName::Grid).unwrap();
+    /// assert_eq!(grid.solution().unwrap().grid().unwrap().report.cells, [40, 60]);
     /// let z = &study.curves[0];
-    /// assert!(z.column(GridRun::SOURCE).is_some() && z.columns.len() == 2);
+    /// assert!(z.column(grid.source()).is_some() && z.columns.len() == 2);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn methods(mut self, methods: &[MethodName]) -> Self {
@@ -327,7 +269,12 @@ impl<'a> StudyRunner<'a> {
             }
         };
         let quantities = problem.quantities().to_vec();
-        let with_grid = self.methods.contains(&MethodName::Grid);
+        let others: Vec<MethodName> = self
+            .methods
+            .iter()
+            .copied()
+            .filter(|m| !m.method().has_degrees())
+            .collect();
         // The observables' quadrature tables, built on a worker while the ladder solves (an
         // EPC ladder is mostly sequential, so a core is free).
         rayon::spawn(|| {
@@ -338,37 +285,37 @@ impl<'a> StudyRunner<'a> {
             ladders
                 .iter()
                 .flat_map(|&method| self.ladder(problem, method))
-                .collect::<Vec<DegreeResult>>()
+                .collect::<Vec<Run>>()
         };
         // The ladders on this thread, which is running now: handed to the pool (as the
-        // grid's partner in a join) they could wait for a worker to wake, or for the one
-        // awake to build the tables first, a millisecond or more of a job that takes ten.
-        let (mut degrees, grid) = if with_grid {
-            rayon::join(ladders, || Some(self.grid(problem)))
+        // other methods' partner in a join) they could wait for a worker to wake, or for the
+        // one awake to build the tables first, a millisecond or more of a job that takes ten.
+        let (mut runs, others) = if others.is_empty() {
+            (ladders(), Vec::new())
         } else {
-            (ladders(), None)
+            rayon::join(ladders, || {
+                others
+                    .iter()
+                    .map(|&m| self.once(problem, m))
+                    .collect::<Vec<Run>>()
+            })
         };
+        let ladder_runs = runs.len();
+        runs.extend(others);
         timeline::mark("study: ladder solved");
-        let mut solved: Vec<(Source, &Solution)> = degrees
+        let solved: Vec<(Source, &Solution)> = runs
             .iter()
-            .filter_map(|r| r.outcome.as_ref().ok().map(|s| (r.source(), s)))
+            .filter_map(|r| r.solution().map(|s| (r.source(), s)))
             .collect();
-        if let Some(Ok(s)) = grid.as_ref().map(|g| &g.outcome) {
-            solved.push((GridRun::SOURCE, s));
-        }
         let wanted = |q: &&Quantity| self.curves_of.as_ref().is_none_or(|n| n.contains(&q.name));
         // The degrees' moments and the quantities' curves are independent of each other and
         // each computed by itself, in the same order: side by side they keep both cores busy
         // (an EPC-only ladder is sequential) and give the same numbers as one after another.
         let (stats, curves) = rayon::join(
             || {
-                let stats = degrees
+                let stats = runs[..ladder_runs]
                     .par_iter()
-                    .map(|r| {
-                        r.outcome
-                            .as_ref()
-                            .map_or_else(|_| Vec::new(), Solution::all_moments)
-                    })
+                    .map(|r| r.solution().map_or_else(Vec::new, Solution::all_moments))
                     .collect::<Vec<_>>();
                 timeline::mark("study: moments done");
                 stats
@@ -378,10 +325,11 @@ impl<'a> StudyRunner<'a> {
                 let curves = wanted
                     .par_iter()
                     .map(|q| {
-                        let skip_grid = self.without_grid_curves.contains(&q.name);
                         let of_q: Vec<(Source, &Solution)> = solved
                             .iter()
-                            .filter(|(source, _)| !(skip_grid && *source == GridRun::SOURCE))
+                            .filter(|(source, _)| {
+                                !self.left_out.contains(&(source.method, q.name.clone()))
+                            })
                             .copied()
                             .collect();
                         curves::curves(q, &of_q, self.bins)
@@ -393,14 +341,13 @@ impl<'a> StudyRunner<'a> {
         );
         drop(solved);
         timeline::mark("study: done");
-        for (d, s) in degrees.iter_mut().zip(stats) {
-            d.stats = s;
+        for (r, s) in runs.iter_mut().zip(stats) {
+            r.stats = s;
         }
-        let warnings = self.warnings(problem, &degrees, grid.as_ref());
+        let warnings = self.warnings(problem, &runs);
         Ok(Study {
             model: self.model.clone(),
-            degrees,
-            grid,
+            runs,
             curves,
             quantities,
             warnings,
@@ -410,42 +357,26 @@ impl<'a> StudyRunner<'a> {
 
     /// The study's [`StudyWarning`]s: EPC's non-smooth transform (when EPC ran), then each
     /// solution's mean velocity.
-    fn warnings(
-        &self,
-        problem: &Problem,
-        degrees: &[DegreeResult],
-        grid: Option<&GridRun>,
-    ) -> Vec<StudyWarning> {
+    fn warnings(&self, problem: &Problem, runs: &[Run]) -> Vec<StudyWarning> {
         let mut out = Vec::new();
         if self.methods.contains(&MethodName::Epc) {
             out.extend(warning::non_smooth_transform(problem));
         }
-        for d in degrees {
-            if let Ok(s) = &d.outcome {
+        for r in runs {
+            if let Some(s) = r.solution() {
                 out.extend(warning::mean_velocity(
                     self.model,
-                    d.method,
-                    Some(d.degree),
+                    r.name(),
+                    r.degree(),
                     s,
-                    &d.stats,
-                ));
-            }
-        }
-        if let Some(g) = grid {
-            if let Ok(s) = &g.outcome {
-                out.extend(warning::mean_velocity(
-                    self.model,
-                    MethodName::Grid,
-                    None,
-                    s,
-                    &g.stats,
+                    &r.stats,
                 ));
             }
         }
         out
     }
 
-    fn ladder(&self, problem: &Problem, method: MethodName) -> Vec<DegreeResult> {
+    fn ladder(&self, problem: &Problem, method: MethodName) -> Vec<Run> {
         let solved = method.method().solve_degrees(problem, &self.degrees);
         solved
             .unwrap_or_default()
@@ -463,9 +394,8 @@ impl<'a> StudyRunner<'a> {
                             (None, Some(s)) => s.report.solve_ms,
                             (None, None) => 0.0,
                         });
-                DegreeResult {
-                    method,
-                    degree,
+                Run {
+                    method: method.method().settle(degree, self.cells),
                     outcome,
                     // Filled in by `run`, beside the curves.
                     stats: Vec::new(),
@@ -475,14 +405,16 @@ impl<'a> StudyRunner<'a> {
             .collect()
     }
 
-    fn grid(&self, problem: &Problem) -> GridRun {
+    /// A method without degrees, solved once with the runner's settings, with its moments.
+    fn once(&self, problem: &Problem, name: MethodName) -> Run {
         let t = Instant::now();
-        let outcome = problem.solve(Method::Grid { cells: self.cells });
+        let method = name.method().settle(0, self.cells);
+        let outcome = problem.solve(method);
         let stats = outcome
             .as_ref()
             .map_or_else(|_| Vec::new(), Solution::all_moments);
-        GridRun {
-            cells: self.cells,
+        Run {
+            method,
             outcome,
             stats,
             wall_ms: t.elapsed().as_secs_f64() * 1e3,
@@ -525,34 +457,38 @@ impl Study {
                 known: self.quantities.iter().map(|q| q.name.clone()).collect(),
             });
         }
-        let mut out = Vec::with_capacity(self.degrees.len());
-        for d in &self.degrees {
-            let pdf = match &d.outcome {
+        let mut out = Vec::new();
+        for (r, degree) in self.ladder() {
+            let pdf = match &r.outcome {
                 Ok(sol) => Ok(sol.pdf(name, x)?),
                 Err(e) => Err(e),
             };
-            out.push(DegreePdf {
-                degree: d.degree,
-                pdf,
-            });
+            out.push(DegreePdf { degree, pdf });
         }
         Ok(out)
+    }
+
+    /// The runs of ladder methods, each with its degree, in order.
+    pub fn ladder(&self) -> impl Iterator<Item = (&Run, usize)> {
+        self.runs.iter().filter_map(|r| r.degree().map(|d| (r, d)))
+    }
+
+    /// The first run of `method`, if it ran.
+    pub fn run_of(&self, method: MethodName) -> Option<&Run> {
+        self.runs.iter().find(|r| r.name() == method)
     }
 
     /// The methods run, in the order [`MethodName::ALL`] lists them.
     pub fn methods(&self) -> Vec<MethodName> {
         MethodName::ALL
             .into_iter()
-            .filter(|m| match m {
-                MethodName::Grid => self.grid.is_some(),
-                _ => self.degrees.iter().any(|d| d.method == *m),
-            })
+            .filter(|&m| self.run_of(m).is_some())
             .collect()
     }
 
     /// Whether every degree converged.
     pub fn all_converged(&self) -> bool {
-        self.degrees.iter().all(|d| d.outcome.is_ok())
+        self.ladder().all(|(r, _)| r.outcome.is_ok())
     }
 }
 
@@ -582,11 +518,12 @@ pub struct DegreeSummary<'a> {
     pub impact_solution: Option<&'a crate::epc_impact::EpcImpactSolution>,
 }
 
-/// The grid solver in a study's summary.
+/// A method without degrees (the grid) in a study's summary.
 #[derive(Debug, Serialize)]
-pub struct GridSummary<'a> {
-    /// Cells asked for (position, velocity).
-    pub cells: [usize; 2],
+pub struct RunSummary<'a> {
+    /// The settings it was asked to solve with (the grid's `cells`, position and velocity).
+    #[serde(flatten)]
+    pub settings: Method,
     /// Whether it solved.
     pub solved: bool,
     /// Why not, if it did not.
@@ -617,9 +554,10 @@ pub struct StudySummary<'a> {
     pub methods: Vec<MethodName>,
     /// One entry per degree asked of each ladder method.
     pub degrees: Vec<DegreeSummary<'a>>,
-    /// The grid solver's outcome and report, when it was run.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub grid: Option<GridSummary<'a>>,
+    /// Each method without degrees that was run, under its name (`grid`): its outcome and
+    /// report.
+    #[serde(flatten)]
+    pub once: std::collections::BTreeMap<&'static str, RunSummary<'a>>,
     /// Whether every degree converged.
     pub all_converged: bool,
     /// The study's warnings, each with its kind under `warning` (`non-smooth-transform`,
@@ -648,27 +586,34 @@ impl Study {
             interpretation: self.model.interpretation(),
             methods: self.methods(),
             degrees: self
-                .degrees
-                .iter()
-                .map(|d| DegreeSummary {
-                    method: d.method,
-                    degree: d.degree,
-                    converged: d.outcome.is_ok(),
-                    error: d.outcome.as_ref().err().map(|e| e.to_string()),
-                    solve_ms: d.wall_ms,
-                    stats: &d.stats,
-                    solution: d.epc(),
-                    impact_solution: d.outcome.as_ref().ok().and_then(Solution::epc_impact),
+                .ladder()
+                .map(|(r, degree)| DegreeSummary {
+                    method: r.name(),
+                    degree,
+                    converged: r.outcome.is_ok(),
+                    error: r.outcome.as_ref().err().map(|e| e.to_string()),
+                    solve_ms: r.wall_ms,
+                    stats: &r.stats,
+                    solution: r.epc(),
+                    impact_solution: r.solution().and_then(Solution::epc_impact),
                 })
                 .collect(),
-            grid: self.grid.as_ref().map(|g| GridSummary {
-                cells: g.cells,
-                solved: g.outcome.is_ok(),
-                error: g.outcome.as_ref().err().map(|e| e.to_string()),
-                report: g.report(),
-                wall_ms: g.wall_ms,
-                stats: &g.stats,
-            }),
+            once: self
+                .runs
+                .iter()
+                .filter(|r| r.degree().is_none())
+                .map(|r| {
+                    let summary = RunSummary {
+                        settings: r.method,
+                        solved: r.outcome.is_ok(),
+                        error: r.outcome.as_ref().err().map(|e| e.to_string()),
+                        report: r.solution().and_then(Solution::grid).map(|g| &g.report),
+                        wall_ms: r.wall_ms,
+                        stats: &r.stats,
+                    };
+                    (r.name().as_str(), summary)
+                })
+                .collect(),
             all_converged: self.all_converged(),
             warnings: &self.warnings,
             wall_ms: self.wall_ms,
