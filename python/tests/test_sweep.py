@@ -77,10 +77,11 @@ def test_agrees_with_the_cli_sweep_csv(cli, vibro, tmp_path):
     rows = list(csv.DictReader(open(out / "sweep.csv")))
     r = fpsolve.sweep(vibro, eps=[-0.3, -0.1, 0.1, 0.3], mu=0.5)
     assert [float(row["eps"]) for row in rows] == list(r.values["eps"])
-    assert [row["status"] == "converged" for row in rows] == list(r.converged("epc"))
+    assert [row["epc_status"] == "converged" for row in rows] == list(r.converged("epc"))
     for q in vibro.quantities:
         for col, stat in (("mean", "mean"), ("std_dev", "std"), ("kurtosis", "kurtosis")):
-            cli_values = [float(row[f"{q}_{col}"]) if row[f"{q}_{col}"] else math.nan for row in rows]
+            c = f"epc_{q}_{col}"
+            cli_values = [float(row[c]) if row[c] else math.nan for row in rows]
             np.testing.assert_array_equal(r.stat("epc", q, stat), cli_values)
 
 

@@ -20,6 +20,7 @@
 //! [`crate::mc::Simulation`] for Monte Carlo, [`crate::study::StudyRunner`] for several EPC
 //! degrees with their PDF curves, [`crate::sweep::Sweep`] for a parameter sweep.
 
+mod figures;
 mod grid;
 mod name;
 mod not_applicable;
@@ -37,6 +38,7 @@ use crate::grid::{GridError, GridSolver};
 use crate::model::BoundModel;
 use crate::transform::{zhuravlev_bound, Zhuravlev, ZhuravlevError};
 
+pub use figures::{EpcFigures, EpcNormalisation, Figure, SolverFigures};
 pub(crate) use grid::{common_grid, printable};
 pub use name::{MethodName, MethodNameError, MethodSet};
 pub use not_applicable::NotApplicable;

@@ -11,7 +11,7 @@ use crate::grid::GridSolution;
 use crate::observe::{moments_of_all, ObservableDensity, PointMass};
 use crate::stats::Moments;
 
-use super::{common_grid, printable, Method, Quantity, SolveError};
+use super::{common_grid, printable, EpcFigures, Method, Quantity, SolveError, SolverFigures};
 
 /// The joint density a method produced, with that method's own report (iterations,
 /// residuals, normalisation, …). More methods are to come.
@@ -210,6 +210,28 @@ impl Solution {
         match &self.density {
             Density::EpcImpact(s) => Some(s),
             Density::Epc(_) | Density::Grid(_) => None,
+        }
+    }
+
+    /// The time the method's own report gives for the solve, in milliseconds (EPC: closure,
+    /// assembly, solver and normalisation of this degree; the grid: its whole solve).
+    pub fn solve_ms(&self) -> f64 {
+        match &self.density {
+            Density::Epc(s) => {
+                let r = &s.solve;
+                r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
+            }
+            Density::EpcImpact(s) => s.report.solve_ms,
+            Density::Grid(g) => g.report.timings.total_ms,
+        }
+    }
+
+    /// The method's own figures of the solution (its report as a sweep keeps it).
+    pub fn figures(&self) -> SolverFigures {
+        match &self.density {
+            Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
+            Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
+            Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
         }
     }
 

@@ -383,17 +383,7 @@ impl<'a> StudyRunner<'a> {
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {
-                let wall_ms =
-                    outcome
-                        .as_ref()
-                        .map_or(0.0, |sol| match (sol.epc(), sol.epc_impact()) {
-                            (Some(s), _) => {
-                                let r = &s.solve;
-                                r.closure_ms + r.assembly_ms + r.solve_ms + r.normalise_ms
-                            }
-                            (None, Some(s)) => s.report.solve_ms,
-                            (None, None) => 0.0,
-                        });
+                let wall_ms = outcome.as_ref().map_or(0.0, Solution::solve_ms);
                 Run {
                     method: method.method().settle(degree, self.cells),
                     outcome,

@@ -75,10 +75,11 @@ mod shard;
 mod spec;
 mod thresholds;
 
+pub use crate::solve::{EpcFigures, EpcNormalisation, SolverFigures};
 pub use method::MethodRefusal;
 pub use outcome::{
-    EpcFigures, EpcNormalisation, MethodOutcome, PointFailure, PointOutcome, PointRefusal,
-    PointSolution, PointStats, SolverFigures, SweepPoint, SweepResult, TailThresholds,
+    MethodOutcome, PointFailure, PointOutcome, PointRefusal, PointSolution, PointStats, SweepPoint,
+    SweepResult, TailThresholds,
 };
 pub use run::Sweep;
 pub use shard::{

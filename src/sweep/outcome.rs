@@ -4,9 +4,10 @@
 use serde::Serialize;
 
 use crate::dynamics::Inadmissible;
-use crate::epc::{EpcError, EpcSolution, NormalisationKind};
+use crate::epc::EpcError;
 use crate::grid::{GridError, GridReport};
 use crate::model::number;
+use crate::solve::{EpcFigures, SolverFigures};
 use crate::solve::{MethodName, MethodSet};
 use crate::stats::Moments;
 
@@ -28,81 +29,6 @@ pub struct PointStats {
     pub tail: Vec<Option<f64>>,
 }
 
-/// How an EPC solution was reached, in numbers.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct EpcFigures {
-    /// Nonlinear-solver iterations at the target degree.
-    pub iterations: usize,
-    /// Final Galerkin residual ‖R‖ (scaled variables).
-    pub residual: f64,
-    /// The bound ‖R‖ had to reach.
-    pub residual_threshold: f64,
-    /// FPK residual indicator ∫|F|·p dx (0 for an exact solution).
-    pub fpk_residual: f64,
-    /// How the density was normalised.
-    pub normalisation: EpcNormalisation,
-}
-
-/// Where an EPC density was normalised, without the normaliser's figures: written as
-/// `plane` or `inside_ridge` in the sweep's CSV and JSON.
-///
-/// ```
-/// use fpsolve::sweep::EpcNormalisation;
-/// assert_eq!(EpcNormalisation::InsideRidge.to_string(), "inside_ridge");
-/// assert_eq!(serde_json::to_string(&EpcNormalisation::Plane).unwrap(), "\"plane\"");
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EpcNormalisation {
-    /// exp(Q) is integrable on the whole plane.
-    Plane,
-    /// exp(Q) was normalised inside the ridge around the mode.
-    InsideRidge,
-}
-
-impl From<&NormalisationKind> for EpcNormalisation {
-    fn from(kind: &NormalisationKind) -> Self {
-        match kind {
-            NormalisationKind::Plane { .. } => EpcNormalisation::Plane,
-            NormalisationKind::InsideRidge { .. } => EpcNormalisation::InsideRidge,
-        }
-    }
-}
-
-impl std::fmt::Display for EpcNormalisation {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            EpcNormalisation::Plane => "plane",
-            EpcNormalisation::InsideRidge => "inside_ridge",
-        })
-    }
-}
-
-impl EpcFigures {
-    pub(crate) fn of(sol: &EpcSolution) -> EpcFigures {
-        EpcFigures {
-            iterations: sol.solve.iterations,
-            residual: sol.solve.residual,
-            residual_threshold: sol.solve.residual_threshold,
-            fpk_residual: sol.fpk_residual,
-            normalisation: EpcNormalisation::from(&sol.normalisation.kind),
-        }
-    }
-}
-
-/// The method's own figures of a solved point.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-#[serde(untagged)]
-pub enum SolverFigures {
-    /// EPC (`epc`).
-    Epc(EpcFigures),
-    /// EPC with the exact impact condition (`epc-impact`).
-    EpcImpact(crate::epc_impact::EpcImpactReport),
-    /// The grid solver: cells, domain, clipped negative mass, discretisation-error estimate,
-    /// timings.
-    Grid(GridReport),
-}
-
 /// A point that one method solved.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PointSolution {
@@ -118,7 +44,7 @@ impl PointSolution {
     pub fn epc(&self) -> Option<&EpcFigures> {
         match &self.solver {
             SolverFigures::Epc(f) => Some(f),
-            SolverFigures::Grid(_) | SolverFigures::EpcImpact(_) => None,
+            _ => None,
         }
     }
 
@@ -126,7 +52,7 @@ impl PointSolution {
     pub fn grid(&self) -> Option<&GridReport> {
         match &self.solver {
             SolverFigures::Grid(r) => Some(r),
-            SolverFigures::Epc(_) | SolverFigures::EpcImpact(_) => None,
+            _ => None,
         }
     }
 

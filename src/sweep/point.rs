@@ -6,14 +6,11 @@ use std::time::Instant;
 use crate::model::{BoundModel, Model};
 use crate::observe::{ObservableDensity, ObservableMap};
 use crate::solve::{
-    common_grid, printable, Density, Method, MethodName, Problem, QuantityMoments, Solution,
-    SolveError,
+    common_grid, printable, Method, MethodName, Problem, QuantityMoments, Solution, SolveError,
 };
 
 use super::frontier::{Frontier, ReferenceRms};
-use super::{
-    EpcFigures, PointFailure, PointRefusal, PointSolution, PointStats, SolverFigures, SweepSpec,
-};
+use super::{PointFailure, PointRefusal, PointSolution, PointStats, SolverFigures, SweepSpec};
 
 /// A point's data before the tail thresholds are known.
 pub(super) struct Raw {
@@ -213,7 +210,6 @@ fn epc_curves(
         solutions.push(r?);
     }
     let last = solutions.last().expect("a ladder has at least one degree");
-    let sol = last.epc().expect("an EPC ladder solves by EPC");
     let moments = last.all_moments();
     let mut collected = Collected::default();
     for (q, st) in problem.quantities().iter().zip(&moments) {
@@ -244,7 +240,7 @@ fn epc_curves(
         let p = printable(target.pdf(&x));
         collected.push(st, x, p)?;
     }
-    Ok(collected.finish(SolverFigures::Epc(EpcFigures::of(sol))))
+    Ok(collected.finish(last.figures()))
 }
 
 /// Any other method through the front door: the solution's moments and its marginals on the
@@ -283,12 +279,7 @@ fn curves_of(
         }
         collected.push(st, x, p)?;
     }
-    let solver = match solution.density() {
-        Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
-        Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
-        Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
-    };
-    Ok(collected.finish(solver))
+    Ok(collected.finish(solution.figures()))
 }
 
 /// A front-door failure as the stage that failed.

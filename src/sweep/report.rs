@@ -7,31 +7,9 @@ use crate::report::{
     write_json, Cell, Curve, FigureError, LineFigure, OutputDir, ReportError, TextTable,
 };
 
-use crate::solve::MethodName;
+use crate::solve::{Figure, MethodName};
 
-use super::{PointOutcome, PointSolution, PointStats, SolverFigures, SweepResult, TAIL_MULTIPLES};
-
-/// The figures of an EPC solution in `sweep.csv`, after status, stage and message.
-const EPC_COLUMNS: [&str; 5] = [
-    "iterations",
-    "residual",
-    "residual_threshold",
-    "fpk_residual",
-    "normalisation",
-];
-/// The figures of an EPC-impact solution: as EPC's (its FPK residual includes the impact
-/// condition's), and the quadrature's change of ‖R‖ on a rule twice as fine.
-const EPC_IMPACT_COLUMNS: [&str; 6] = [
-    "iterations",
-    "residual",
-    "residual_threshold",
-    "fpk_residual",
-    "quadrature_change",
-    "normalisation",
-];
-/// The figures of a grid solution in `sweep.csv`: clipped negative mass and the estimated L1
-/// errors of the position and velocity marginals.
-const GRID_COLUMNS: [&str; 3] = ["negative_mass", "estimate_x", "estimate_v"];
+use super::{PointOutcome, PointSolution, PointStats, SweepResult, TAIL_MULTIPLES};
 
 impl SweepResult {
     /// The points every method solved (for an EPC sweep: the points that converged).
@@ -73,22 +51,17 @@ impl SweepResult {
     /// residual and normalisation; grid: clipped negative mass and the estimated L1 errors of
     /// the two marginals), then per quantity `<g>_mean`, `<g>_std_dev`, `<g>_kurtosis` and
     /// `<g>_p_gt_<k>rms` = P(|g| > k·rms) for k = 2, 3, 4 (the thresholds are in
-    /// `sweep.json`). A sweep by EPC alone has these names as they are; with any other
-    /// method every column of a block starts with its method (`grid_status`,
-    /// `epc_y_mean`, `epc_impact_y_mean`). A failed method has empty fields after its
-    /// message.
+    /// `sweep.json`). Every column of a block starts with its method (`epc_status`,
+    /// `grid_status`, `epc_y_mean`, `epc_impact_y_mean`), whichever methods were asked, so
+    /// that a column's name never depends on the others. A failed method has empty fields
+    /// after its message.
     pub fn to_csv(&self) -> String {
         self.table().to_csv()
     }
 
-    /// The prefix of a method's columns: none for a sweep by EPC alone (the columns it
-    /// always had), else the method's name with `_` for `-`.
-    fn prefix(&self, method: MethodName) -> String {
-        if self.methods.names() == [MethodName::Epc] {
-            String::new()
-        } else {
-            format!("{}_", method.as_str().replace('-', "_"))
-        }
+    /// The prefix of a method's columns: its name with `_` for `-`.
+    fn prefix(method: MethodName) -> String {
+        format!("{}_", method.as_str().replace('-', "_"))
     }
 
     /// The rows of [`to_csv`](Self::to_csv).
@@ -96,13 +69,9 @@ impl SweepResult {
         let mut header: Vec<String> = self.parameters.clone();
         let mut widths = Vec::new();
         for &method in self.methods.names() {
-            let p = self.prefix(method);
+            let p = Self::prefix(method);
             let before = header.len();
-            let own: &[&str] = match method {
-                MethodName::Epc => &EPC_COLUMNS,
-                MethodName::EpcImpact => &EPC_IMPACT_COLUMNS,
-                MethodName::Grid => &GRID_COLUMNS,
-            };
+            let own = method.method().figure_names();
             header.extend(
                 ["status", "stage", "message"]
                     .iter()
@@ -146,30 +115,11 @@ impl SweepResult {
     /// A solved method's block of a row.
     fn converged_cells(&self, s: &PointSolution) -> Vec<Cell> {
         let mut row = vec![Cell::Word("converged".into()), Cell::Empty, Cell::Empty];
-        match &s.solver {
-            SolverFigures::Epc(f) => row.extend([
-                Cell::Word(f.iterations.to_string()),
-                Cell::Number(f.residual),
-                Cell::Number(f.residual_threshold),
-                Cell::Number(f.fpk_residual),
-                Cell::Word(f.normalisation.to_string()),
-            ]),
-            SolverFigures::EpcImpact(r) => row.extend([
-                Cell::Word(r.iterations.to_string()),
-                Cell::Number(r.residual),
-                Cell::Number(r.residual_threshold),
-                r.fpk_residual.map_or(Cell::Empty, Cell::Number),
-                Cell::Number(r.quadrature_change),
-                Cell::Word(r.normalisation.to_string()),
-            ]),
-            SolverFigures::Grid(r) => {
-                let e = r.discretisation_estimate.as_ref();
-                row.extend(
-                    [Some(r.negative_mass), e.map(|e| e.x), e.map(|e| e.v)]
-                        .map(|v| v.map_or(Cell::Empty, Cell::Number)),
-                );
-            }
-        }
+        row.extend(s.solver.values().into_iter().map(|f| match f {
+            Figure::Word(w) => Cell::Word(w),
+            Figure::Number(v) => Cell::Number(v),
+            Figure::Missing => Cell::Empty,
+        }));
         for q in &self.quantities {
             let st = s.stats_of(q);
             row.extend(

@@ -65,6 +65,16 @@ impl StationaryMethod for Closure {
         )
     }
 
+    fn figure_names(&self) -> &'static [&'static str] {
+        &[
+            "iterations",
+            "residual",
+            "residual_threshold",
+            "fpk_residual",
+            "normalisation",
+        ]
+    }
+
     fn zero_reason(&self) -> &'static str {
         "beyond its ridge"
     }

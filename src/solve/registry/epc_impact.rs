@@ -56,6 +56,19 @@ impl StationaryMethod for ExactImpact {
         Some(problem.solve_epc_impact_degrees(degrees))
     }
 
+    /// As EPC's (its FPK residual includes the impact condition's), and the quadrature's
+    /// change of ‖R‖ on a rule twice as fine.
+    fn figure_names(&self) -> &'static [&'static str] {
+        &[
+            "iterations",
+            "residual",
+            "residual_threshold",
+            "fpk_residual",
+            "quadrature_change",
+            "normalisation",
+        ]
+    }
+
     fn zero_reason(&self) -> &'static str {
         "beyond its ridge"
     }

@@ -91,6 +91,12 @@ impl StationaryMethod for FiniteVolumes {
         }
     }
 
+    /// Clipped negative mass and the estimated L1 errors of the position and velocity
+    /// marginals.
+    fn figure_names(&self) -> &'static [&'static str] {
+        &["negative_mass", "estimate_x", "estimate_v"]
+    }
+
     fn zero_reason(&self) -> &'static str {
         "outside its domain"
     }

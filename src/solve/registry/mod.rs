@@ -84,6 +84,10 @@ pub trait StationaryMethod: Sync {
         None
     }
 
+    /// The names of its own figures of a solution, the columns `sweep.csv` gives them
+    /// ([`SolverFigures::values`](crate::solve::SolverFigures::values) in this order).
+    fn figure_names(&self) -> &'static [&'static str];
+
     /// Why its density is exactly 0 where another's is not (EPC is cut beyond its ridge,
     /// the grid ends at its domain).
     fn zero_reason(&self) -> &'static str;
@@ -109,6 +113,37 @@ impl MethodName {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each method's figures of a solution have one value per name it gives the sweep.
+    #[test]
+    fn figures_match_their_names() {
+        let text = "model m\nstate z, v\ndrift z: v\ndrift v: -v - z\nnoise xi: intensity 2\n\
+                    diffusion v: xi\nimpact z = -3: v -> -0.8*v\ndomain z >= -3\n";
+        let bound = crate::model::parse_model(text, None)
+            .unwrap()
+            .bind(&[])
+            .unwrap();
+        let problem = Problem::new(&bound).unwrap();
+        let mut solved = 0;
+        for name in MethodName::ALL {
+            let method = name.method();
+            if method.applies(&problem).unwrap().is_err() {
+                continue;
+            }
+            let solution = method.solve(&problem, method.settle(2, [32, 48])).unwrap();
+            assert_eq!(
+                solution.figures().values().len(),
+                method.figure_names().len(),
+                "{name}"
+            );
+            solved += 1;
+        }
+        assert_eq!(
+            solved,
+            MethodName::ALL.len(),
+            "every method applies to this model"
+        );
+    }
 
     #[test]
     fn every_name_has_its_own_method() {
