@@ -75,7 +75,8 @@ impl Mechanics {
             model: model.name().to_string(),
             reason,
         };
-        for (coefficient, e) in [("drift", &model.drift()[1]), ("drift", &model.drift()[0])] {
+        let sde = dynamics.sde();
+        for (coefficient, e) in [("drift", &sde.drift()[1]), ("drift", &sde.drift()[0])] {
             if e.contains_delta() {
                 return Err(refuse(Unsupported::DeltaTerms {
                     velocity: v.clone(),
@@ -83,7 +84,7 @@ impl Mechanics {
                 }));
             }
         }
-        if model.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
+        if sde.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
             return Err(refuse(Unsupported::DeltaTerms {
                 velocity: v.clone(),
                 coefficient: "diffusion",

@@ -62,15 +62,16 @@ impl Mechanical {
                 }
             }));
         }
-        crate::dynamics::check(model)?;
+        crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
+        let sde = dynamics.sde();
         // δ terms are dropped below only because an impact law stands for them exactly.
-        if barriers.is_empty() && model.drift()[1].contains_delta() {
+        if barriers.is_empty() && sde.drift()[1].contains_delta() {
             return Err(refuse(Unsupported::DeltaWithoutImpact {
                 velocity: v,
                 coefficient: "drift",
             }));
         }
-        if model.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
+        if sde.noise_matrix()[1].iter().any(|g| g.contains_delta()) {
             return Err(refuse(Unsupported::DeltaInDiffusion { velocity: v }));
         }
         let ito = dynamics.ito_drift().map_err(crate::fpk::FpkError::from)?;
