@@ -2,7 +2,7 @@
 public API is the pure-Python layer in fpsolve/)."""
 
 import os
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple, TypedDict, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, TypedDict, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -112,6 +112,7 @@ class _Model:
         bins: Optional[int],
         grids: Sequence[Tuple[str, float, float, int]],
         set: Optional[Mapping[str, _Value]] = None,
+        progress: Optional[Callable[[int, int], Any]] = None,
     ) -> Tuple[str, List[str], List[str]]: ...
     def simulate_shard(
         self,
@@ -161,6 +162,7 @@ def sweep_json(
     cells: Optional[Tuple[int, int]] = None,
     threads: Optional[int] = None,
     shard: Optional[Tuple[int, int]] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
 ) -> str: ...
 def merge_sweep_json(shards: Sequence[str]) -> str: ...
 def merge_mc_json(shards: Sequence[str]) -> Tuple[str, List[str], List[str]]: ...

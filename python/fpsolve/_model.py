@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _fpsolve
 from ._montecarlo import MonteCarlo, MonteCarloShard
+from ._progress import ProgressArg, callback
 from ._solution import Solution
 
 Value = Union[float, int, str]
@@ -178,6 +179,7 @@ class Model:
         shard: Optional[Tuple[int, int]] = None,
         executor: Optional["concurrent.futures.Executor"] = None,
         shards: Optional[int] = None,
+        progress: ProgressArg = None,
         **set: Value,
     ) -> Union[MonteCarlo, MonteCarloShard]:
         """Monte Carlo simulation: ``samples`` recorded samples in all (rounded up to whole
@@ -207,6 +209,11 @@ class Model:
         ``ProcessPoolExecutor``, ``distributed.Client.get_executor()``, Ray's) runs the
         ``shards`` parts (default 8, at most the run's statistics batches) on it and merges
         them: the same bits as the local run. ``params`` is the overrides as a dict.
+
+        ``progress=True`` prints the statistics batches done to stderr as the run goes (in
+        place on a terminal, every tenth in a log); a callable ``f(done, total)`` is called
+        instead (from the calling thread; an exception it raises stops the run). Local runs
+        only (not with ``shard`` or ``executor``).
         """
         set = _params(params, set)
         run = dict(
@@ -222,6 +229,9 @@ class Model:
         )
         if shard is not None and executor is not None:
             raise TypeError("simulate: give shard= (one part) or executor= (all parts), not both")
+        report = callback(progress, "Monte Carlo")
+        if report is not None and (shard is not None or executor is not None):
+            raise TypeError("simulate: progress= reports a local, unsplit run")
         if shard is not None:
             index, count = (int(k) for k in shard)
             return MonteCarloShard(self._inner.simulate_shard(index, count, **run))
@@ -235,7 +245,7 @@ class Model:
             return merge([f.result() for f in futures], strict=strict)
         if shards is not None:
             raise TypeError("simulate: shards= is the split of executor= runs; give executor=")
-        text, flags, notes = self._inner.simulate(**run)
+        text, flags, notes = self._inner.simulate(**run, progress=report)
         mc = MonteCarlo._from_json(text, flags, notes)
         mc._judge(bool(strict))
         return mc

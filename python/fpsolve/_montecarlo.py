@@ -85,6 +85,13 @@ class MonteCarlo:
 
     __slots__ = ("histograms", "report", "flags", "warnings")
 
+    @property
+    def provenance(self) -> Optional[Dict[str, Any]]:
+        """Where the run came from (as ``mc_summary.json``'s ``provenance``): fpsolve's
+        version, the schema, the time (UTC), the threads, the model's name, file and text;
+        for a merge, the merge's time."""
+        return self.report.get("provenance")
+
     def __init__(
         self,
         histograms: Dict[str, Histogram],

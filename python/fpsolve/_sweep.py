@@ -11,6 +11,7 @@ import numpy as np
 
 from . import _fpsolve
 from ._model import Model
+from ._progress import ProgressArg, callback
 from ._shard import ShardText
 
 _STATS = ("mean", "variance", "kurtosis")
@@ -50,6 +51,13 @@ class SweepResult:
 
     def __len__(self) -> int:
         return len(self._points)
+
+    @property
+    def provenance(self) -> Optional[Dict[str, Any]]:
+        """Where the result came from (``sweep.json``'s ``provenance``): fpsolve's version, the
+        schema, the command (none from Python), the time (UTC), the threads, the model's name,
+        file and text; for a merge, the merge's time and the model."""
+        return self.report.get("provenance")
 
     def _outcome(self, point: Dict[str, Any], method: str) -> Dict[str, Any]:
         for o in point["outcomes"]:
@@ -198,6 +206,7 @@ def sweep(
     shard: Optional[Tuple[int, int]] = None,
     executor: Optional["concurrent.futures.Executor"] = None,
     shards: Optional[int] = None,
+    progress: ProgressArg = None,
     **parameters: Any,
 ) -> Union[SweepResult, SweepShard]:
     """Solves ``model`` at every point of a parameter study, points in parallel.
@@ -217,6 +226,10 @@ def sweep(
     :func:`fpsolve.merge` joins. ``executor`` (any ``concurrent.futures.Executor``) solves
     ``shards`` parts (default: one per 4 points, at most 64) on it and merges them: the same
     numbers as the local run.
+
+    ``progress=True`` prints the points solved to stderr as the sweep goes (in place on a
+    terminal, every tenth in a log); a callable ``f(done, total)`` is called instead (from
+    the calling thread; an exception it raises stops the sweep). Not with ``executor``.
     """
     from ._model import _params
 
@@ -235,9 +248,14 @@ def sweep(
     args = (swept, fixed, methods, int(degree), cells_t, None if threads is None else int(threads))
     if shard is not None and executor is not None:
         raise TypeError("sweep: give shard= (one part) or executor= (all parts), not both")
+    report = callback(progress, "sweep")
+    if report is not None and executor is not None:
+        raise TypeError("sweep: progress= reports a local run; an executor's parts run elsewhere")
     if shard is not None:
         index, count = (int(k) for k in shard)
-        return SweepShard(_fpsolve.sweep_json(model._inner, *args, shard=(index, count)))
+        return SweepShard(
+            _fpsolve.sweep_json(model._inner, *args, shard=(index, count), progress=report)
+        )
     if executor is not None:
         points = 1
         for _, values in swept:
@@ -251,4 +269,4 @@ def sweep(
         return merge([f.result() for f in futures])
     if shards is not None:
         raise TypeError("sweep: shards= is the split of executor= runs; give executor=")
-    return SweepResult(json.loads(_fpsolve.sweep_json(model._inner, *args)))
+    return SweepResult(json.loads(_fpsolve.sweep_json(model._inner, *args, progress=report)))

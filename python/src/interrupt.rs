@@ -1,9 +1,11 @@
 //! Long calls from Python: the work runs on a scoped thread with the GIL released, while the
 //! calling thread polls Python's signal handlers every ~50 ms; a KeyboardInterrupt (or any
 //! exception a handler raises) sets the run's [`Cancel`] flag, waits for the worker to stop
-//! at its next check, and is re-raised. No thread outlives the call.
+//! at its next check, and is re-raised. No thread outlives the call. A caller's progress
+//! callback is called from the same poll, with the GIL, when the worker's count has moved.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Condvar, Mutex};
 use std::time::Duration;
 
@@ -14,6 +16,28 @@ use pyo3::prelude::*;
 /// How often the calling thread looks at Python's signals.
 const POLL: Duration = Duration::from_millis(50);
 
+/// How far the worker is, as it reports it (`done` of `total` units: points, batches).
+#[derive(Default)]
+pub(crate) struct Progress {
+    done: AtomicU64,
+    total: AtomicU64,
+}
+
+impl Progress {
+    /// The worker's report.
+    pub(crate) fn report(&self, done: u64, total: u64) {
+        self.total.store(total, Ordering::Relaxed);
+        self.done.store(done, Ordering::Relaxed);
+    }
+
+    fn read(&self) -> (u64, u64) {
+        (
+            self.done.load(Ordering::Relaxed),
+            self.total.load(Ordering::Relaxed),
+        )
+    }
+}
+
 /// Runs `work` with the GIL released on a worker thread, cancelling it when a Python signal
 /// handler raises; returns the work's value or the handler's exception.
 pub(crate) fn interruptible<T, F>(py: Python<'_>, work: F) -> PyResult<T>
@@ -21,14 +45,41 @@ where
     T: Send,
     F: FnOnce(&Cancel) -> T + Send,
 {
+    interruptible_reporting(py, None, |cancel, _| work(cancel))
+}
+
+/// [`interruptible`], calling `callback(done, total)` with the GIL whenever the work's
+/// [`Progress`] has moved since the last call (at most every ~50 ms, and once at the end); a
+/// callback that raises cancels the work like Ctrl-C, and its exception is the call's.
+pub(crate) fn interruptible_reporting<T, F>(
+    py: Python<'_>,
+    callback: Option<&Bound<'_, PyAny>>,
+    work: F,
+) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&Cancel, &Progress) -> T + Send,
+{
+    let progress = Progress::default();
+    let mut shown = (0, 0);
+    let mut show = || -> PyResult<()> {
+        let now = progress.read();
+        match callback {
+            Some(f) if now != shown && now.1 > 0 => {
+                shown = now;
+                f.call1(now).map(|_| ())
+            }
+            _ => Ok(()),
+        }
+    };
     let cancel = Cancel::new();
     let slot: Mutex<Option<std::thread::Result<T>>> = Mutex::new(None);
     let ready = Condvar::new();
     std::thread::scope(|scope| {
         let worker_cancel = cancel.clone();
-        let (slot_ref, ready_ref) = (&slot, &ready);
+        let (slot_ref, ready_ref, progress_ref) = (&slot, &ready, &progress);
         scope.spawn(move || {
-            let out = catch_unwind(AssertUnwindSafe(|| work(&worker_cancel)));
+            let out = catch_unwind(AssertUnwindSafe(|| work(&worker_cancel, progress_ref)));
             *slot_ref.lock().unwrap_or_else(|p| p.into_inner()) = Some(out);
             ready_ref.notify_all();
         });
@@ -43,7 +94,7 @@ where
             if done {
                 break;
             }
-            if let Err(interrupt) = py.check_signals() {
+            if let Err(interrupt) = py.check_signals().and_then(|()| show()) {
                 cancel.cancel();
                 // The scope joins the worker when it returns; wait for it without the GIL.
                 py.allow_threads(|| {
@@ -57,6 +108,7 @@ where
         }
         Ok(())
     })?;
+    show()?;
     let out = slot
         .into_inner()
         .unwrap_or_else(|p| p.into_inner())

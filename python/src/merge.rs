@@ -27,5 +27,5 @@ pub(crate) fn merge_mc_json(
     let result = py
         .allow_threads(|| merge_shards(&parts))
         .map_err(|e| errors::mc_error(py, &e))?;
-    crate::model::mc_outcome(&result)
+    crate::model::mc_outcome(&result, &fpsolve::report::Provenance::now(None))
 }

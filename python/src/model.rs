@@ -12,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{self, Asked};
-use crate::interrupt::interruptible;
+use crate::interrupt::interruptible_reporting;
 use crate::solution::PySolution;
 
 /// A validated model (`Model.load(path)`, `Model.from_text(text)`).
@@ -236,7 +236,7 @@ impl PyModel {
 
     /// Runs the Monte Carlo simulation; returns its result as JSON (the `McResult`'s serde
     /// form). Interruptible: Ctrl-C cancels the run and raises KeyboardInterrupt.
-    #[pyo3(signature = (samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None))]
+    #[pyo3(signature = (samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate(
         &self,
@@ -250,6 +250,7 @@ impl PyModel {
         bins: Option<usize>,
         grids: Vec<(String, f64, f64, usize)>,
         set: Option<&Bound<'_, PyDict>>,
+        progress: Option<Bound<'_, PyAny>>,
     ) -> PyResult<(String, Vec<String>, Vec<String>)> {
         let pool = crate::pool::thread_pool(threads)?;
         let (bound, config) = self.checked_run(
@@ -268,11 +269,12 @@ impl PyModel {
         let simulation = py
             .allow_threads(|| pool.install(|| Simulation::new(&bound, &config)))
             .map_err(|e| errors::mc_error(py, &e))?;
-        let run = interruptible(py, |cancel| {
-            pool.install(|| simulation.run_cancellable(&|_, _| {}, cancel))
+        let run = interruptible_reporting(py, progress.as_ref(), |cancel, counter| {
+            let report = |done: u64, total: u64| counter.report(done, total);
+            pool.install(|| simulation.run_cancellable(&report, cancel))
         })?;
         let result = run.map_err(|e| errors::mc_error(py, &e))?;
-        mc_outcome(&result)
+        mc_outcome(&result, &fpsolve::report::Provenance::now_bound(&bound))
     }
 
     /// Runs part `index` (from 0) of `count` of the Monte Carlo simulation (its statistics
@@ -325,14 +327,24 @@ impl PyModel {
 /// A Monte Carlo result as Python takes it: its JSON, its flags (what the CLI exits 1 for:
 /// the verdict's failures and numbers without a finite value, which the JSON carries as null,
 /// NaN in Python) and its warnings.
+/// The JSON carries `provenance` first, as `mc_summary.json` does.
 pub(crate) fn mc_outcome(
     result: &fpsolve::mc::McResult,
+    provenance: &fpsolve::report::Provenance,
 ) -> PyResult<(String, Vec<String>, Vec<String>)> {
     let undefined = fpsolve::report::undefined_fields(result).map_err(errors::bad_argument)?;
     let flags = fpsolve::job::mc_flags(result, &undefined);
     let warnings = result.warnings.iter().map(ToString::to_string).collect();
-    let json = serde_json::to_string(result).map_err(|e| errors::bad_argument(e.to_string()))?;
-    Ok((json, flags, warnings))
+    let text = |e: serde_json::Error| errors::bad_argument(e.to_string());
+    let json = serde_json::to_string(result).map_err(text)?;
+    let head = serde_json::to_string(provenance).map_err(text)?;
+    let body = json.strip_prefix('{').unwrap_or(&json);
+    let sep = if body.starts_with('}') { "" } else { "," };
+    Ok((
+        format!("{{\"provenance\":{head}{sep}{body}"),
+        flags,
+        warnings,
+    ))
 }
 
 /// The Monte Carlo configuration of `simulate`: `samples` recorded samples in all, spread over

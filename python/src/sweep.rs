@@ -9,14 +9,14 @@ use fpsolve::sweep::{merge_sweep_shards, Sweep, SweepShard, SweepSpec};
 use pyo3::prelude::*;
 
 use crate::errors;
-use crate::interrupt::interruptible;
+use crate::interrupt::interruptible_reporting;
 use crate::model::PyModel;
 
 /// Runs the sweep of `model` over `swept` (name, values; the points are their Cartesian
 /// product) with the overrides `fixed` (name, expression) at every point.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (model, swept, fixed, methods, degree, cells=None, threads=None, shard=None))]
+#[pyo3(signature = (model, swept, fixed, methods, degree, cells=None, threads=None, shard=None, progress=None))]
 pub(crate) fn sweep_json(
     py: Python<'_>,
     model: &PyModel,
@@ -27,6 +27,7 @@ pub(crate) fn sweep_json(
     cells: Option<[usize; 2]>,
     threads: Option<usize>,
     shard: Option<(u64, u64)>,
+    progress: Option<Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     let pool = crate::pool::thread_pool(threads)?;
     // The command line's `--set` arguments, so that one reader checks them (duplicates, too
@@ -59,12 +60,20 @@ pub(crate) fn sweep_json(
         // The command line's `--shard K/N` checks, with K from 0 here.
         let shard = Shard::new(index, count)
             .map_err(|e| errors::other::<errors::SweepError>(py, "shard", e.to_string()))?;
-        let part = interruptible(py, |cancel| pool.install(|| sweep.run_shard(shard, cancel)))?
-            .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
+        let part = interruptible_reporting(py, progress.as_ref(), |cancel, counter| {
+            let report = |done: u64, total: u64| counter.report(done, total);
+            let sweep = sweep.progress(&report);
+            pool.install(|| sweep.run_shard(shard, cancel))
+        })?
+        .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
         return serde_json::to_string(&part).map_err(|e| errors::bad_argument(e.to_string()));
     }
-    let result = interruptible(py, |cancel| pool.install(|| sweep.run_cancellable(cancel)))?
-        .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
+    let result = interruptible_reporting(py, progress.as_ref(), |cancel, counter| {
+        let report = |done: u64, total: u64| counter.report(done, total);
+        let sweep = sweep.progress(&report);
+        pool.install(|| sweep.run_cancellable(cancel))
+    })?
+    .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
     serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
 }
 

@@ -7,6 +7,7 @@ use crate::dynamics::Inadmissible;
 use crate::epc::EpcError;
 use crate::grid::{GridError, GridReport};
 use crate::model::number;
+use crate::report::Provenance;
 use crate::solve::{EpcFigures, SolverFigures};
 use crate::solve::{MethodName, MethodSet};
 use crate::stats::Moments;
@@ -250,6 +251,11 @@ pub struct TailThresholds {
 /// A finished sweep.
 #[derive(Clone, Debug, Serialize)]
 pub struct SweepResult {
+    /// Where the result came from: version, schema, command, time, the model's text, threads
+    /// (`None` inside a shard, whose file carries its own, and in a merge until the merge
+    /// writes its own).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
     /// The model's name.
     pub model: String,
     /// The methods every point was solved by.

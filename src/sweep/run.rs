@@ -355,6 +355,7 @@ impl<'a> Sweep<'a> {
             })
             .collect();
         SweepResult {
+            provenance: Some(crate::report::Provenance::now(Some(model))),
             model: model.name().to_string(),
             methods: self.methods.clone(),
             degree: self.degree,

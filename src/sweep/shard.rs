@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::base::cancel::{Cancel, Cancelled};
 use crate::mc::Shard;
-use crate::report::{check_finite, write_json, OutputDir, ReportError};
+use crate::report::{check_finite, write_json, OutputDir, Provenance, ReportError};
 
 use super::{PointOutcome, Sweep, SweepPoint, SweepResult};
 
@@ -107,6 +107,10 @@ pub struct SweepShard {
     points: Vec<ShardPoint>,
     /// Wall time of the shard in milliseconds.
     pub wall_ms: f64,
+    /// Where the shard came from (the `provenance` block of a JSON result; absent in files
+    /// written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<serde_json::Value>,
     /// The shard's result as computed (not in the file): checked for non-finite numbers
     /// before the file is written, as a single run's `sweep.json` is.
     #[serde(skip)]
@@ -255,6 +259,9 @@ impl SweepShard {
         let points = std::mem::take(&mut result.points);
         let wall_ms = result.wall_ms;
         result.wall_ms = 0.0;
+        // The head is the same text in every shard of one sweep: no time, no provenance
+        // (the shard file carries its own; the merge writes the merged file's).
+        let provenance = result.provenance.take();
         let json_head = serde_json::to_string_pretty(&result).expect("a sweep serialises");
         result.wall_ms = wall_ms;
         let identity = SweepIdentity {
@@ -290,6 +297,7 @@ impl SweepShard {
             json_head,
             points: entries,
             wall_ms,
+            provenance: provenance.map(|p| serde_json::to_value(p).expect("provenance serialises")),
             result: Some(Box::new(SweepResult {
                 points: typed,
                 ..result
@@ -508,7 +516,15 @@ fn join(first: &SweepShard, parts: &[&SweepShard]) -> MergedSweep {
     }
     let wall_ms: f64 = parts.iter().map(|s| s.wall_ms).sum();
     let entries: Vec<String> = points.iter().map(|p| indent(&p.json, "    ")).collect();
-    let json = splice(&first.json_head, &entries.join(",\n"), wall_ms);
+    // The merged file's provenance is the merge's (its command and time), with the model
+    // the shards were run on.
+    let mut provenance =
+        serde_json::to_value(Provenance::now(None)).expect("provenance serialises");
+    let model = first.provenance.as_ref().and_then(|p| p.get("model"));
+    if let (Some(model), Some(fields)) = (model, provenance.as_object_mut()) {
+        fields.insert("model".into(), model.clone());
+    }
+    let json = splice(&first.json_head, &entries.join(",\n"), wall_ms, &provenance);
     let methods: Vec<String> = first
         .identity
         .methods
@@ -541,18 +557,24 @@ fn indent(text: &str, by: &str) -> String {
         .join("\n")
 }
 
-/// The pretty `sweep.json` of a head without points and time, with the points' entries and
-/// the time put in: the text serde_json writes for the whole result.
-fn splice(head: &str, entries: &str, wall_ms: f64) -> String {
+/// The pretty `sweep.json` of a head without provenance, points and time, with the merge's
+/// provenance, the points' entries and the time put in: the text serde_json writes for the
+/// whole result.
+fn splice(head: &str, entries: &str, wall_ms: f64, provenance: &serde_json::Value) -> String {
     let tail = "  \"points\": [],\n  \"wall_ms\": 0.0\n}";
     let body = head
         .strip_suffix(tail)
-        .expect("a sweep's JSON ends with its points and its time");
+        .and_then(|b| b.strip_prefix("{\n"))
+        .expect("a sweep's JSON is an object ending with its points and its time");
+    let provenance = serde_json::to_string_pretty(provenance).expect("provenance serialises");
     let points = if entries.is_empty() {
         "[]".to_string()
     } else {
         format!("[\n{entries}\n  ]")
     };
     let time = serde_json::to_string(&wall_ms).expect("a time serialises");
-    format!("{body}  \"points\": {points},\n  \"wall_ms\": {time}\n}}\n")
+    format!(
+        "{{\n  \"provenance\": {},\n{body}  \"points\": {points},\n  \"wall_ms\": {time}\n}}\n",
+        indent(&provenance, "  ").trim_start()
+    )
 }

@@ -37,9 +37,15 @@ fn shards(sweep: &Sweep, count: u64) -> Vec<(String, SweepShard)> {
         .collect()
 }
 
-/// `sweep.json` text without its timings (`wall_ms`, the grid's `…_ms`: the only lines that
-/// differ between runs).
+/// `sweep.json` text without its provenance and its timings (`wall_ms`, the grid's `…_ms`:
+/// the only lines that differ between runs), keys in order; the provenance is checked to be
+/// there, with the model.
 fn untimed(json: &str) -> String {
+    let mut value: serde_json::Value = serde_json::from_str(json).unwrap();
+    let provenance = value.as_object_mut().unwrap().remove("provenance").unwrap();
+    assert!(provenance["created"].as_str().unwrap().ends_with('Z'));
+    assert_eq!(provenance["model"]["name"], value["model"]);
+    let json = serde_json::to_string_pretty(&value).unwrap();
     json.lines()
         .filter(|l| {
             let key = l.trim_start().split(':').next().unwrap_or("");
