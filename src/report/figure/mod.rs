@@ -237,31 +237,6 @@ fn padded(lo: f64, hi: f64, fraction: f64) -> (f64, f64) {
     }
 }
 
-/// The corner of the plot with the fewest data points in it, for the legend. `data` holds
-/// positions scaled to [0, 1] on both axes.
-fn emptiest_corner(data: impl Iterator<Item = (f64, f64)>) -> SeriesLabelPosition {
-    // Legend boxes take roughly the outer 40% of the width and 35% of the height.
-    let mut counts = [0usize; 4];
-    for (u, v) in data {
-        let right = u > 0.6;
-        let left = u < 0.4;
-        let top = v > 0.65;
-        let bottom = v < 0.35;
-        counts[0] += usize::from(right && top);
-        counts[1] += usize::from(left && top);
-        counts[2] += usize::from(right && bottom);
-        counts[3] += usize::from(left && bottom);
-    }
-    let best = (0..4).min_by_key(|&i| counts[i]).unwrap_or(0);
-    [
-        SeriesLabelPosition::UpperRight,
-        SeriesLabelPosition::UpperLeft,
-        SeriesLabelPosition::LowerRight,
-        SeriesLabelPosition::LowerLeft,
-    ][best]
-        .clone()
-}
-
 /// How the `i`-th curve of a figure is drawn: its colour, dash pattern and line width.
 ///
 /// Every curve of a figure gets its own (colour, dash) pair, up to the 24 pairs of 6 colours
@@ -474,7 +449,7 @@ impl PdfFigure {
                 padded(x_lo, x_hi, 0.0)
             },
         )?;
-        let lin_y = spanned("y", (y_min.min(0.0), y_max * 1.08))?;
+        let lin_lo = y_min.min(0.0);
         // Log panel, whole decades: from above the peak down to the smallest positive value
         // shown, but not much below 1e-8 of the peak. Eight decades show every tail a Monte
         // Carlo run can resolve; more would squeeze the part where methods differ.
@@ -495,15 +470,47 @@ impl PdfFigure {
             .map_err(drawing_error)?;
         let panels = body.split_evenly((1, 2));
 
-        // Linear panel, with the legend.
-        let mut lin = ChartBuilder::on(&panels[0])
-            .caption("linear scale", font_of(19, k))
-            .margin(12 * k)
-            .margin_right(24 * k)
-            .x_label_area_size(52 * k)
-            .y_label_area_size(78 * k)
-            .build_cartesian_2d(x_lo..x_hi, lin_y.0..lin_y.1)
+        // Linear panel, with the legend where it covers no data: the plot's size from a
+        // chart laid out on the panel (laying out draws nothing), then the y range grown
+        // above the data if no corner is free.
+        let lin_area = panels[0]
+            .titled("linear scale", font_of(19, k))
             .map_err(drawing_error)?;
+        let lin_chart = |top: f64| {
+            ChartBuilder::on(&lin_area)
+                .margin(12 * k)
+                .margin_right(24 * k)
+                .x_label_area_size(52 * k)
+                .y_label_area_size(78 * k)
+                .build_cartesian_2d(x_lo..x_hi, lin_lo..top)
+                .map_err(drawing_error)
+        };
+        let top = spanned("y", (lin_lo, y_max * 1.08))?.1;
+        let plot = lin_chart(top)?.plotting_area().dim_in_pixel();
+        let mut labels: Vec<&str> = self.curves.iter().map(|c| c.label.as_str()).collect();
+        labels.extend(self.points.iter().map(|p| p.label.as_str()));
+        let scaled = |c: &[f64], y: &[f64]| -> Vec<(f64, f64)> {
+            c.iter()
+                .zip(y)
+                .filter(|(_, y)| y.is_finite())
+                .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - lin_lo) / (top - lin_lo)))
+                .collect()
+        };
+        let mut runs: Vec<Vec<(f64, f64)>> =
+            self.curves.iter().map(|c| scaled(&c.x, &c.y)).collect();
+        // Monte Carlo's points and the tops of their error bars, each on its own.
+        if let Some(p) = &self.points {
+            let tops: Vec<f64> =
+                p.y.iter()
+                    .zip(&p.stderr)
+                    .map(|(y, se)| y + se.max(0.0))
+                    .collect();
+            runs.extend(scaled(&p.x, &p.y).into_iter().map(|q| vec![q]));
+            runs.extend(scaled(&p.x, &tops).into_iter().map(|q| vec![q]));
+        }
+        let placement = place::place(&runs, place::legend_size(&labels, k), plot);
+        let lin_y = spanned("y", (lin_lo, lin_lo + (top - lin_lo) * placement.grow))?;
+        let mut lin = lin_chart(lin_y.1)?;
         mesh(
             &mut lin,
             &self.variable_label,
@@ -530,18 +537,7 @@ impl PdfFigure {
                 .label(points.label.as_str());
             reference_legend(anno, k);
         }
-        let scaled = self
-            .curves
-            .iter()
-            .flat_map(|c| c.x.iter().zip(&c.y))
-            .chain(self.points.iter().flat_map(|p| p.x.iter().zip(&p.y)));
-        let corner = emptiest_corner(scaled.filter(|(_, y)| y.is_finite()).map(|(&x, &y)| {
-            (
-                (x - x_lo) / (x_hi - x_lo),
-                (y - lin_y.0) / (lin_y.1 - lin_y.0),
-            )
-        }));
-        legend(&mut lin, corner, k)?;
+        legend(&mut lin, placement.corner, k)?;
 
         // Log panel.
         let mut log = ChartBuilder::on(&panels[1])
@@ -618,14 +614,35 @@ impl LineFigure {
         let (y_lo, y_hi) = spanned("y", padded(y_lo, y_hi, 0.06))?;
 
         root.fill(&WHITE).map_err(drawing_error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&self.title, font_of(24, k))
-            .margin(14 * k)
-            .margin_right(28 * k)
-            .x_label_area_size(52 * k)
-            .y_label_area_size(86 * k)
-            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
+        let area = root
+            .titled(&self.title, font_of(24, k))
             .map_err(drawing_error)?;
+        let chart_to = |top: f64| {
+            ChartBuilder::on(&area)
+                .margin(14 * k)
+                .margin_right(28 * k)
+                .x_label_area_size(52 * k)
+                .y_label_area_size(86 * k)
+                .build_cartesian_2d(x_lo..x_hi, y_lo..top)
+                .map_err(drawing_error)
+        };
+        // The legend where it covers no data (see the PDF figure).
+        let plot = chart_to(y_hi)?.plotting_area().dim_in_pixel();
+        let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
+        let runs: Vec<Vec<(f64, f64)>> = self
+            .series
+            .iter()
+            .map(|s| {
+                s.x.iter()
+                    .zip(&s.y)
+                    .filter(|(_, y)| y.is_finite())
+                    .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - y_lo) / (y_hi - y_lo)))
+                    .collect()
+            })
+            .collect();
+        let placement = place::place(&runs, place::legend_size(&labels, k), plot);
+        let (_, y_hi) = spanned("y", (y_lo, y_lo + (y_hi - y_lo) * placement.grow))?;
+        let mut chart = chart_to(y_hi)?;
         mesh(&mut chart, &self.x_label, &self.y_label, false, k)?;
         for (i, s) in self.series.iter().enumerate() {
             let pen = Pen::nth(i, k);
@@ -643,14 +660,7 @@ impl LineFigure {
                 .label(s.label.as_str());
             pen.legend(anno);
         }
-        let corner = emptiest_corner(
-            self.series
-                .iter()
-                .flat_map(|s| s.x.iter().zip(&s.y))
-                .filter(|(_, y)| y.is_finite())
-                .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - y_lo) / (y_hi - y_lo))),
-        );
-        legend(&mut chart, corner, k)?;
+        legend(&mut chart, placement.corner, k)?;
         root.present().map_err(drawing_error)
     }
 
@@ -682,6 +692,7 @@ impl LineFigure {
 
 mod axes;
 pub(super) mod error;
+mod place;
 pub(super) mod render;
 #[cfg(test)]
 mod tests;

@@ -37,27 +37,6 @@ fn decade_labels() {
 }
 
 #[test]
-fn legend_goes_where_the_data_is_not() {
-    // A density peaked at the left edge: the upper-left corner is busy.
-    let data = (0..50).map(|i| {
-        let u = f64::from(i) / 49.0;
-        (u, (-5.0 * u).exp())
-    });
-    assert!(matches!(
-        emptiest_corner(data),
-        SeriesLabelPosition::UpperRight
-    ));
-    let rising = (0..50).map(|i| {
-        let u = f64::from(i) / 49.0;
-        (u, u)
-    });
-    assert!(matches!(
-        emptiest_corner(rising),
-        SeriesLabelPosition::UpperLeft
-    ));
-}
-
-#[test]
 fn invalid_data_is_refused_before_drawing() {
     let mut fig = PdfFigure {
         title: "t".into(),
