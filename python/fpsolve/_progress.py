@@ -32,14 +32,41 @@ class _Printer:
         sys.stderr.flush()
 
 
+class _Bar:
+    """A tqdm bar (``tqdm.auto``: a widget in a notebook), opened at the first report."""
+
+    def __init__(self, what: str, tqdm: Any) -> None:
+        self.what = what
+        self.tqdm = tqdm
+        self.bar: Any = None
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = self.tqdm(total=total, desc=self.what)
+        self.bar.update(done - self.bar.n)
+        if done >= total:
+            self.bar.close()
+
+
+def _tqdm() -> Any:
+    """``tqdm.auto.tqdm`` when tqdm is installed, else ``None``."""
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None
+    return tqdm
+
+
 def callback(progress: ProgressArg, what: str) -> Optional[Callable[[int, int], Any]]:
-    """The callable for ``progress=``: ``None``/``False`` none, ``True`` a printer to stderr,
-    a callable ``f(done, total)`` itself (called from the calling thread, at most every 50 ms
-    and once at the end; an exception it raises stops the run and is raised)."""
+    """The callable for ``progress=``: ``None``/``False`` none, ``True`` a tqdm bar when tqdm
+    is installed, else a printer to stderr, a callable ``f(done, total)`` itself (called from
+    the calling thread, at most every 50 ms and once at the end; an exception it raises stops
+    the run and is raised)."""
     if progress is None or progress is False:
         return None
     if progress is True:
-        return _Printer(what)
+        tqdm = _tqdm()
+        return _Printer(what) if tqdm is None else _Bar(what, tqdm)
     if callable(progress):
         return progress
     raise TypeError(f"progress must be None, True or a callable f(done, total), not {progress!r}")

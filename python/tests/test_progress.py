@@ -35,10 +35,35 @@ def test_a_callback_that_raises_stops_the_run(vibro):
         fpsolve.sweep(vibro, eps=[-0.2, -0.1, 0.0, 0.1, 0.2], progress=stop)
 
 
-def test_progress_true_prints_to_stderr(vibro, capfd):
+def test_progress_true_prints_to_stderr_without_tqdm(vibro, capfd, monkeypatch):
+    from fpsolve import _progress
+
+    monkeypatch.setattr(_progress, "_tqdm", lambda: None)
     fpsolve.sweep(vibro, eps=[-0.1, 0.0, 0.1], progress=True)
     err = capfd.readouterr().err
     assert "sweep: 3/3 (100%)" in err
+
+
+def test_progress_true_is_a_tqdm_bar_when_tqdm_is_installed(vibro, capfd, monkeypatch):
+    from fpsolve import _progress
+
+    bars = []
+
+    class FakeTqdm:
+        def __init__(self, total, desc):
+            self.total, self.desc, self.n, self.closed = total, desc, 0, False
+            bars.append(self)
+
+        def update(self, k):
+            self.n += k
+
+        def close(self):
+            self.closed = True
+
+    monkeypatch.setattr(_progress, "_tqdm", lambda: FakeTqdm)
+    fpsolve.sweep(vibro, eps=[-0.1, 0.0, 0.1], progress=True)
+    assert len(bars) == 1
+    assert (bars[0].desc, bars[0].total, bars[0].n, bars[0].closed) == ("sweep", 3, 3, True)
 
 
 def test_bad_progress_arguments_are_refused_before_work(vibro):
