@@ -144,6 +144,8 @@ impl LevelRate {
         let ObservableMap::SignedState { state, sign } = map else {
             unreachable!("shifted_state gives a signed state");
         };
+        // A noise-driven state first: that has no rate whatever the signs.
+        let rate = state_rate(model, state, name)?;
         // sign[a][b] is indexed by (sgn x1, sgn x2); g must not change sign with the other
         // state, or it would jump (g = z·sgn(v)) and cross levels without passing them.
         let half = |h: usize| {
@@ -160,7 +162,7 @@ impl LevelRate {
             ));
         }
         Ok(LevelRate {
-            rate: state_rate(model, state, name)?,
+            rate,
             quantity: name.to_string(),
             state,
             offset,
@@ -229,6 +231,23 @@ pub struct CrossingCurve {
     /// larger. It does not include a method's discretisation error (the grid's), which its
     /// own estimate reports.
     pub accuracy: f64,
+}
+
+impl CrossingCurve {
+    /// The curve with the relative accuracy `accuracy` where that is larger than the one it
+    /// has: a method's own error estimate (the grid's discretisation error, which
+    /// [`JointDensity::stated_accuracy`] of a grid solution does not include). A caller that
+    /// writes a grid's curve must set it, or the accuracy column claims the quadrature's.
+    ///
+    /// ```
+    /// use fpsolve::observe::CrossingCurve;
+    /// let curve = CrossingCurve { quantity: "z".into(), levels: vec![0.0], rate: vec![0.1], accuracy: 1e-9 };
+    /// assert_eq!(curve.with_accuracy(2e-3).accuracy, 2e-3);
+    /// ```
+    pub fn with_accuracy(mut self, accuracy: f64) -> CrossingCurve {
+        self.accuracy = self.accuracy.max(accuracy);
+        self
+    }
 }
 
 /// The mean up-crossing rates ν⁺(u) of `rate`'s quantity at `levels`, by Rice's formula from
