@@ -56,3 +56,31 @@ pub fn crossings_csv(curves: &[(&str, &CrossingCurve)]) -> Result<String, Crossi
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn curves_on_different_levels_are_refused() {
+        let a = CrossingCurve {
+            quantity: "z".into(),
+            levels: vec![0.0, 1.0],
+            rate: vec![0.2, 0.1],
+            accuracy: 1e-9,
+        };
+        let b = CrossingCurve {
+            levels: vec![0.0, 2.0],
+            ..a.clone()
+        };
+        assert!(matches!(
+            crossings_csv(&[("epc", &a), ("grid", &b)]),
+            Err(CrossingError::Levels { ref method, .. }) if method == "grid"
+        ));
+        assert_eq!(
+            crossings_csv(&[("epc", &a), ("grid", &a.clone().with_accuracy(1e-3))]).unwrap(),
+            "u,epc,epc_accuracy,grid,grid_accuracy\n0,0.2,0.000000001,0.2,0.001\n\
+             1,0.1,0.000000001,0.1,0.001\n"
+        );
+    }
+}

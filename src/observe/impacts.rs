@@ -180,3 +180,93 @@ pub fn impact_statistics(
         accuracy: density.stated_accuracy().max(tolerance),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::parse_model;
+    use std::f64::consts::PI;
+
+    /// Unit normal velocity, position uniform on [−1, 1]: p(±1, v) = φ(v)/2 at either wall.
+    struct Strip;
+
+    impl JointDensity for Strip {
+        fn pdf(&self, x: [f64; 2]) -> f64 {
+            if (-1.0..=1.0).contains(&x[0]) {
+                0.5 * (-x[1] * x[1] / 2.0).exp() / (2.0 * PI).sqrt()
+            } else {
+                0.0
+            }
+        }
+        fn extent(&self) -> [[f64; 2]; 2] {
+            [[-1.0, 1.0], [-12.0, 12.0]]
+        }
+    }
+
+    fn model(impact: &str, domain: &str) -> BoundModel {
+        let text = format!(
+            "model m\nstate x, v\ndrift x: v\ndrift v: -v - x\nnoise xi: intensity 1\n\
+             diffusion v: xi\n{impact}\n{domain}\n"
+        );
+        parse_model(&text, None).unwrap().bind(&[]).unwrap()
+    }
+
+    /// An upper wall is approached with v > 0; a speed-dependent restitution
+    /// r(w) = 0.9/(1 + w) dissipates ∫_{v>0} v·(1 − r(v)²)·v²/2·p(1, v) dv (Simpson here).
+    #[test]
+    fn upper_wall_with_a_speed_dependent_law() {
+        let b = model("impact x = 1: v -> -0.9*v/(1 + abs(v))", "domain x <= 1");
+        let s = impact_statistics(&Strip, &b, &b.impacts()[0], &[0.5, 2.0]).unwrap();
+        let phi = |v: f64| (-v * v / 2.0).exp() / (2.0 * PI).sqrt();
+        let rate = 0.5 / (2.0 * PI).sqrt();
+        assert!((s.rate - rate).abs() < 1e-10 * rate, "{}", s.rate);
+        let n = 20000;
+        let h = 12.0 / n as f64;
+        let f = |v: f64| {
+            let r = 0.9 / (1.0 + v);
+            v * (1.0 - r * r) * v * v / 2.0 * 0.5 * phi(v)
+        };
+        let power = (0..=n)
+            .map(|i| {
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * f(i as f64 * h)
+            })
+            .sum::<f64>()
+            * h
+            / 3.0;
+        assert!(
+            (s.mean_power - power).abs() < 1e-9 * power,
+            "{} vs {power}",
+            s.mean_power
+        );
+        // q(w) = w·p(1, w)/λ = w·φ(w)·√(2π) = w·exp(−w²/2).
+        for (w, q) in s.speeds.iter().zip(&s.speed_pdf) {
+            let exact = w * (-w * w / 2.0).exp();
+            assert!((q - exact).abs() < 1e-10 * exact, "w={w}: {q}");
+        }
+    }
+
+    #[test]
+    fn pass_through_laws_and_bad_speeds_are_refused() {
+        let b = model("impact x = 0: v -> 0.9*v", "");
+        assert!(matches!(
+            impact_statistics(&Strip, &b, &b.impacts()[0], &[]),
+            Err(CrossingError::PassThrough { .. })
+        ));
+        let b = model("impact x = -1: v -> -v", "domain x >= -1");
+        assert!(matches!(
+            impact_statistics(&Strip, &b, &b.impacts()[0], &[-1.0]),
+            Err(CrossingError::Speed { .. })
+        ));
+        // Elastic: no power, rate from the lower half.
+        let s = impact_statistics(&Strip, &b, &b.impacts()[0], &[]).unwrap();
+        assert_eq!(s.mean_power, 0.0);
+        assert!((s.rate - 0.5 / (2.0 * PI).sqrt()).abs() < 1e-10);
+    }
+}
