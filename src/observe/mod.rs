@@ -37,8 +37,12 @@
 //! (`line_moments.rs`), checked the same way at the density's rule tolerance.
 
 mod critical;
+mod crossing;
+mod crossing_csv;
+mod crossing_error;
 mod epc;
 mod fixed;
+mod impacts;
 mod level;
 mod line_moments;
 mod lines;
@@ -51,6 +55,10 @@ use rayon::prelude::*;
 use crate::density::JointDensity;
 use crate::symbolic::{simplify, Expr, Func, Symbol, SymbolicError};
 
+pub use crossing::{crossing_rate, CrossingCurve, LevelRate};
+pub use crossing_csv::{crossings_csv, crossings_file_name};
+pub use crossing_error::CrossingError;
+pub use impacts::{impact_statistics, ImpactStatistics};
 pub use moment_sums::{ObservableMoments, PointMass, POINT_MASS_FLOOR};
 pub use moments::{moments, moments_of_all};
 /// Adaptive Gauss–Kronrod quadrature, for this crate's own tests (not public API).
