@@ -1,5 +1,7 @@
-//! Sizing the rectangle: coarse solves, enlarged while the density is not negligible at an
-//! edge, then cut where it falls below `CUT` of its peak.
+//! Sizing the rectangle from where the density lives: a first guess (the energy box, the
+//! linearised scale, or a Monte Carlo pilot), then coarse solves, enlarged while the density
+//! is not negligible at an edge, cut where it falls below `CUT` of its peak, until the cut
+//! settles.
 
 use super::assemble::{assemble, solve};
 use super::error::GridError;
@@ -9,7 +11,7 @@ use super::BarrierSide;
 use crate::dynamics::BarrierKind;
 
 /// Cells of a sizing pass.
-const COARSE: [usize; 2] = [48, 64];
+const COARSE: [usize; 2] = [64, 96];
 /// The density kept: the domain ends where the coarse density falls below this fraction of
 /// its peak.
 const CUT: f64 = 1e-9;
@@ -235,44 +237,65 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
     grown.then_some(d)
 }
 
-/// The automatically sized domain, the number of passes and the peak location: coarse
-/// passes, for models whose origin gives no energy box.
+/// Which ends of the position range are walls that stay where they are (a single reflecting
+/// barrier's side), and how far a free end may move (a strip's walls).
+fn ends(problem: &Mechanical) -> ([bool; 2], [f64; 2]) {
+    match problem.barriers.as_slice() {
+        [lo, hi] => ([false, false], [lo.at, hi.at]),
+        [b] => (
+            match b.kind {
+                BarrierKind::Reflecting(BarrierSide::Above) => [true, false],
+                BarrierKind::Reflecting(BarrierSide::Below) => [false, true],
+                BarrierKind::PassThrough => [false, false],
+            },
+            [f64::NEG_INFINITY, f64::INFINITY],
+        ),
+        _ => ([false, false], [f64::NEG_INFINITY, f64::INFINITY]),
+    }
+}
+
+/// The first box of the sizing passes: the energy box where the origin is a damped rest point
+/// of a confining potential, else the linearised Gaussian scale there, else (an unstable or
+/// undamped origin, a saddle) where a short Monte Carlo pilot goes.
+fn first_guess(problem: &Mechanical) -> Result<Domain, GridError> {
+    if let Some(d) = energy_box(problem) {
+        return Ok(fit_barrier(d, problem));
+    }
+    if let Some([sx, sv]) = problem.linear_scale(0.0) {
+        let d = Domain {
+            x: [-SPAN * sx, SPAN * sx],
+            v: [-SPAN * sv, SPAN * sv],
+        };
+        return Ok(fit_barrier(d, problem));
+    }
+    Ok(fit_barrier(super::pilot::pilot_box(problem)?, problem))
+}
+
+/// The automatically sized domain, the number of passes and the peak location. From a first
+/// guess ([`first_guess`]), coarse solves, each enlarging the box where its density is not
+/// negligible at a free edge, else cutting each free side (x low, x high, and the velocity
+/// range) where the density falls below `CUT` of its peak; done when a cut moves no side by
+/// more than `SETTLED` of the box. Walls stay where they are; a strip's free end moves only
+/// inside the strip. A coarse solve that does not resolve the density (a thin ring in a wide
+/// box) is repeated on twice the cells, twice at most.
 pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), GridError> {
     let barriers = problem.barriers.as_slice();
-    let centre = 0.0;
-    let [sx, sv] = problem.linear_scale(centre).unwrap_or([1.0, 1.0]);
-    let mut x = [centre - SPAN * sx, centre + SPAN * sx];
-    let mut vmax = SPAN * sv;
-    // Which x edges are walls that stay where they are.
-    let mut fixed = [false, false];
-    if let [lo, hi] = barriers {
-        // A strip: the walls are the ends; only the velocity range is sized.
-        x = [lo.at, hi.at];
-        fixed = [true, true];
-    } else if let Some(b) = barriers.first() {
-        match b.kind {
-            BarrierKind::Reflecting(BarrierSide::Above) => {
-                x = [b.at, x[1].max(b.at + SPAN * sx)];
-                fixed[0] = true;
-            }
-            BarrierKind::Reflecting(BarrierSide::Below) => {
-                x = [x[0].min(b.at - SPAN * sx), b.at];
-                fixed[1] = true;
-            }
-            BarrierKind::PassThrough => {
-                x = [x[0].min(b.at - sx), x[1].max(b.at + sx)];
-            }
-        }
-    }
-    let mut guess = [x[0].max(centre).min(x[1]), 0.0];
+    let (fixed, limit) = ends(problem);
+    let mut d = first_guess(problem)?;
+    let mut guess = [0.5 * (d.x[0] + d.x[1]), 0.0];
+    let mut scale = 1;
     let mut worst = 0.0;
+    let mut last_cut: Option<Domain> = None;
     for pass in 1..=MAX_PASSES {
-        let domain = Domain {
-            x,
-            v: [-vmax, vmax],
+        let mesh = Mesh::new(d, COARSE[0] * scale, COARSE[1] * scale, barriers, 2);
+        let p = match solve_pinned(&mesh, problem, guess) {
+            Ok((p, _)) => p,
+            Err(GridError::Degenerate { .. } | GridError::Singular { .. }) if scale < 4 => {
+                scale *= 2;
+                continue;
+            }
+            Err(e) => return Err(e),
         };
-        let mesh = Mesh::new(domain, COARSE[0], COARSE[1], barriers, 2);
-        let (p, _) = solve_pinned(&mesh, problem, guess)?;
         guess = peak(&mesh, &p);
         let (nx, nv) = (mesh.nx, mesh.nv);
         let mut px = vec![0.0f64; nx];
@@ -285,68 +308,121 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             }
         }
         let top = px.iter().fold(0.0f64, |a, &b| a.max(b));
+        let on_wall = [
+            fixed[0] || mesh.ends_on_wall(0),
+            fixed[1] || mesh.ends_on_wall(1),
+        ];
         let edges = [px[0] / top, px[nx - 1] / top, pv[0].max(pv[nv - 1]) / top];
-        let width = x[1] - x[0];
+        let cur = mesh.domain();
+        let width = cur.x[1] - cur.x[0];
         let mut grown = false;
-        for (side, &e) in edges[..2].iter().enumerate() {
-            if e > EDGE && !fixed[side] {
-                x[side] += if side == 0 { -0.5 } else { 0.5 } * width;
+        for side in 0..2 {
+            if edges[side] > EDGE && !on_wall[side] {
+                let moved = cur.x[side] + if side == 0 { -0.5 } else { 0.5 } * width;
+                d.x[side] = moved.clamp(limit[0], limit[1]);
                 grown = true;
             }
         }
         if edges[2] > EDGE {
-            vmax *= 1.5;
+            d.v = [cur.v[0] * 1.5, cur.v[1] * 1.5];
             grown = true;
         }
         worst = edges
             .iter()
-            .zip([fixed[0], fixed[1], false])
+            .zip([on_wall[0], on_wall[1], false])
             .filter(|(_, f)| !f)
             .fold(0.0f64, |a, (e, _)| a.max(*e));
         if grown {
+            last_cut = None;
             continue;
         }
-        // Cut: keep the cells above CUT·peak and one more on each free side.
-        let mesh_x = |i: usize| mesh.x0 + i as f64 * mesh.hx;
-        let first = px.iter().position(|&a| a >= CUT * top).unwrap_or(0);
-        let last = px.iter().rposition(|&a| a >= CUT * top).unwrap_or(nx - 1);
-        let lo = if fixed[0] {
-            mesh.x0
-        } else {
-            mesh_x(first.saturating_sub(1))
-        };
-        let hi = if fixed[1] {
-            mesh.domain().x[1]
-        } else {
-            mesh_x((last + 2).min(nx))
-        };
-        let keep = (0..nv).filter(|&j| pv[j] >= CUT * top);
-        let vcut = keep
-            .map(|j| mesh.vc(j).abs() + 1.5 * mesh.hv)
-            .fold(0.0f64, f64::max);
-        let mut xr = [lo, hi];
+        // Cut each free side where the density falls below CUT of its peak (one more cell
+        // kept), as the coarse solve's tail decay says (see `reach`).
+        let face = |i: usize| mesh.x0 + i as f64 * mesh.hx;
+        let mut x = [cur.x[0], cur.x[1]];
+        if !on_wall[0] {
+            let rev: Vec<f64> = px.iter().rev().copied().collect();
+            let k = reach(&rev, top);
+            x[0] = face(nx.saturating_sub(k + 1));
+            if x[0] - limit[0] < mesh.hx {
+                x[0] = limit[0];
+            }
+        }
+        if !on_wall[1] {
+            x[1] = face((reach(&px, top) + 1).min(nx));
+            if limit[1] - x[1] < mesh.hx {
+                x[1] = limit[1];
+            }
+        }
         if let Some(b) = barriers
             .first()
             .filter(|b| b.kind == BarrierKind::PassThrough)
         {
             // A pass-through barrier stays inside, a few cells from either end.
-            xr = [
-                xr[0].min(b.at - 4.0 * mesh.hx),
-                xr[1].max(b.at + 4.0 * mesh.hx),
+            x = [
+                x[0].min(b.at - 4.0 * mesh.hx),
+                x[1].max(b.at + 4.0 * mesh.hx),
             ];
         }
-        return Ok((
-            Domain {
-                x: xr,
-                v: [-vcut.min(vmax), vcut.min(vmax)],
-            },
-            pass,
-            guess,
-        ));
+        // The velocity range is symmetric (the mesh has a face at v = 0): the farther side.
+        let half = nv / 2;
+        let upper: Vec<f64> = pv[half..].to_vec();
+        let lower: Vec<f64> = pv[..half].iter().rev().copied().collect();
+        let vcut =
+            ((reach(&upper, top).max(reach(&lower, top)) + 1) as f64 * mesh.hv).min(cur.v[1]);
+        let cut = Domain {
+            x,
+            v: [-vcut, vcut],
+        };
+        let settled = (cut.x[0] - cur.x[0]).abs().max((cut.x[1] - cur.x[1]).abs())
+            <= SETTLED * width
+            && (cut.v[1] - cur.v[1]).abs() <= SETTLED * cur.v[1];
+        if settled || pass == MAX_PASSES {
+            return Ok((cut, pass, guess));
+        }
+        last_cut = Some(cut);
+        d = cut;
     }
-    Err(GridError::DomainNotFound {
-        tries: MAX_PASSES,
-        edge: worst,
-        width: (x[1] - x[0]).max(2.0 * vmax),
-    })
+    match last_cut {
+        Some(cut) => Ok((cut, MAX_PASSES, guess)),
+        None => Err(GridError::DomainNotFound {
+            tries: MAX_PASSES,
+            edge: worst,
+            width: (d.x[1] - d.x[0]).max(d.v[1] - d.v[0]),
+        }),
+    }
 }
+
+/// How many cells of `profile` (the largest density of each row, outward from the box's
+/// middle or its lower end) a cut at `CUT`·`top` keeps: where the profile's tail, extrapolated
+/// log-linearly from the last two crossings of `TRUSTED` and `TRUSTED`², reaches the cut,
+/// but no further than the last cell above the cut. A coarse solve's values a millionth of
+/// the peak down are a few per cent off; at CUT, a billionth, its third-order scheme leaves
+/// oscillations of about that size all over the tails (the van der Pol vignette's coarse
+/// box kept ±4.2 where the density is ±3.4), so it is the decay rate, not those values,
+/// that places the cut. Exact for an exponential tail, 8 % wide for a Gaussian one.
+fn reach(profile: &[f64], top: f64) -> usize {
+    let n = profile.len();
+    let last_above = |level: f64| profile.iter().rposition(|&a| a >= level * top);
+    let Some(far) = last_above(TRUSTED * TRUSTED) else {
+        return n;
+    };
+    let near = last_above(TRUSTED).unwrap_or(0);
+    let extrapolated = if far > near {
+        // Decades per cell between the two crossings; CUT is this many decades further.
+        let rate = TRUSTED.log10().abs() / (far - near) as f64;
+        let more = (CUT.log10() - (TRUSTED * TRUSTED).log10()).abs() / rate;
+        far + more.ceil() as usize
+    } else {
+        far + 1
+    };
+    let cap = last_above(CUT).map_or(n, |k| k + 1);
+    extrapolated.min(cap).clamp(far + 1, n)
+}
+
+/// The levels below the peak (this and its square) whose crossings give a coarse tail's
+/// decay rate.
+const TRUSTED: f64 = 1e-3;
+
+/// A cut that moves no side by more than this fraction of the box ends the sizing passes.
+const SETTLED: f64 = 0.05;

@@ -52,10 +52,12 @@
 pub(crate) mod assemble;
 mod cells;
 mod domain;
+mod domain_flag;
 mod error;
 mod estimate;
 pub(crate) mod mesh;
 pub(crate) mod nested;
+mod pilot;
 pub(crate) mod problem;
 mod solution;
 #[cfg(test)]
@@ -64,10 +66,13 @@ mod strip_tests;
 use std::time::Instant;
 
 pub use cells::{Cells, CellsError};
+pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
-pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
+pub use solution::{
+    BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
+};
 
 use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
@@ -144,9 +149,12 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// Solves on `domain` instead of sizing one. The velocity range is made symmetric (the
-    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side,
-    /// two walls cut the domain to their strip.
+    /// Solves on `domain` instead of sizing one (checked by [`solve`](Self::solve): finite,
+    /// x_lo < x_hi, v_lo < 0 < v_hi). The velocity range is made symmetric (the larger of its
+    /// two ends). A reflecting barrier's side must end on the wall and a strip's ends may not
+    /// go beyond its walls ([`Unsupported::WallNotAnEnd`]); a pass-through barrier must be
+    /// inside. After the solve, [`GridReport::edges`] says whether the box cuts the density
+    /// (and the error estimate then counts the mass at its edges).
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -195,10 +203,15 @@ impl<'a> GridSolver<'a> {
     /// # Errors
     /// As [`solve`](Self::solve) before it discretises: [`GridError::Setting`] (the cells),
     /// [`GridError::Unsupported`], [`GridError::Inadmissible`], [`GridError::Derivation`],
-    /// [`GridError::Symbolic`].
+    /// [`GridError::Symbolic`]; with a [`domain`](Self::domain), [`GridError::Setting`] and
+    /// [`Unsupported::WallNotAnEnd`] for a box that is not one or does not fit the walls.
     pub fn check(&self) -> Result<(), GridError> {
         check_cells(self.cells)?;
-        Mechanical::new(self.model).map(|_| ())
+        let problem = Mechanical::new(self.model)?;
+        if let Some(d) = &self.domain {
+            check_domain(d, &problem, self.model)?;
+        }
+        Ok(())
     }
 
     /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
@@ -226,13 +239,10 @@ impl<'a> GridSolver<'a> {
         let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
-                check_domain(&d, &problem, self.model)?;
+                let d = check_domain(&d, &problem, self.model)?;
                 (d, 0, [0.5 * (d.x[0] + d.x[1]), 0.0])
             }
-            None => match domain::energy_box(&problem) {
-                Some(d) => (domain::fit_barrier(d, &problem), 1, [0.0, 0.0]),
-                None => domain::size(&problem)?,
-            },
+            None => domain::size(&problem)?,
         };
         let guess = [guess[0].clamp(domain.x[0], domain.x[1]), guess[1]];
         let domain_ms = ms(start);
@@ -267,12 +277,14 @@ impl<'a> GridSolver<'a> {
         }
         let solve_ms = ms(t) - assemble_ms;
         let negative_mass = clip(&mut p, mesh.hx * mesh.hv);
+        let edges = box_edges(&mesh, &p);
         let mut report = GridReport {
             cells: [nx, nv],
             domain: mesh.domain(),
             negative_mass,
             discretisation_estimate: None,
             domain_passes: passes,
+            edges,
             timings: GridTimings {
                 domain_ms,
                 assemble_ms,
@@ -313,9 +325,15 @@ impl<'a> GridSolver<'a> {
         }
         // The clipping moved about twice its mass (L1): the stated errors of the curves
         // include it.
+        // A box that cuts the density loses at least about its edge mass beyond the edge.
+        let cut = if edges.cuts_density {
+            edges.total_mass()
+        } else {
+            0.0
+        };
         if let Some(e) = report.discretisation_estimate.as_mut() {
-            e.x += 2.0 * negative_mass;
-            e.v += 2.0 * negative_mass;
+            e.x += 2.0 * negative_mass + cut;
+            e.v += 2.0 * negative_mass + cut;
         }
         report.timings.total_ms = ms(start);
         solution.report = report;
@@ -404,8 +422,42 @@ fn clip(p: &mut [f64], area: f64) -> f64 {
     negative / total
 }
 
+/// The mass and relative density of the outermost rows of cells on the free edges.
+fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let area = mesh.hx * mesh.hv;
+    let top = p.iter().fold(0.0f64, |a, &b| a.max(b));
+    let mut mass = [0.0f64; 4];
+    let mut peak = [0.0f64; 4];
+    let mut add = |k: usize, value: f64| {
+        mass[k] += value * area;
+        peak[k] = peak[k].max(value);
+    };
+    for j in 0..nv {
+        add(0, p[mesh.index(0, j)]);
+        add(1, p[mesh.index(nx - 1, j)]);
+    }
+    for i in 0..nx {
+        add(2, p[mesh.index(i, 0)]);
+        add(3, p[mesh.index(i, nv - 1)]);
+    }
+    for end in 0..2 {
+        if mesh.ends_on_wall(end) {
+            mass[end] = 0.0;
+            peak[end] = 0.0;
+        }
+    }
+    let relative_density = peak.map(|v| if top > 0.0 { v / top } else { 0.0 });
+    BoxEdges {
+        mass,
+        relative_density,
+        cuts_density: relative_density.iter().any(|&r| r > BoxEdges::LEVEL),
+    }
+}
+
 /// An explicit domain must be a finite, non-empty box that fits the barrier.
-fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<(), GridError> {
+/// Returns the domain with an end that is a wall up to rounding (1e−9 relative) put on it.
+fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<Domain, GridError> {
     let ok = d.x[0] < d.x[1]
         && d.v[0] < d.v[1]
         && d.v[1] > 0.0
@@ -418,18 +470,44 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
         });
     }
-    if let [lo, hi] = problem.barriers.as_slice() {
-        if !(d.x[0] < hi.at && lo.at < d.x[1]) {
-            return Err(GridError::Unsupported {
-                model: model.name().to_string(),
-                reason: Unsupported::BarrierOutsideDomain {
-                    at: if d.x[1] <= lo.at { lo.at } else { hi.at },
-                    lo: d.x[0],
-                    hi: d.x[1],
-                },
-            });
+    let refuse = |reason| GridError::Unsupported {
+        model: model.name().to_string(),
+        reason,
+    };
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+    let wall = |end: &'static str, given: f64, at: f64, relation: &'static str| {
+        refuse(Unsupported::WallNotAnEnd {
+            end,
+            given,
+            at,
+            relation,
+        })
+    };
+    let mut d = *d;
+    for b in &problem.barriers {
+        for end in &mut d.x {
+            if near(*end, b.at) {
+                *end = b.at;
+            }
         }
-        return Ok(());
+    }
+    if let [lo, hi] = problem.barriers.as_slice() {
+        if d.x[0] < lo.at && !near(d.x[0], lo.at) {
+            return Err(wall("lower", d.x[0], lo.at, "not go beyond"));
+        }
+        if d.x[1] > hi.at && !near(d.x[1], hi.at) {
+            return Err(wall("upper", d.x[1], hi.at, "not go beyond"));
+        }
+        return Ok(d);
+    }
+    match problem.barriers.first().map(|b| (b.kind, b.at)) {
+        Some((BarrierKind::Reflecting(BarrierSide::Above), at)) if !near(d.x[0], at) => {
+            return Err(wall("lower", d.x[0], at, "be"));
+        }
+        Some((BarrierKind::Reflecting(BarrierSide::Below), at)) if !near(d.x[1], at) => {
+            return Err(wall("upper", d.x[1], at, "be"));
+        }
+        _ => {}
     }
     if let Some(b) = problem.barriers.first() {
         let fits = match b.kind {
@@ -448,5 +526,5 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             });
         }
     }
-    Ok(())
+    Ok(d)
 }

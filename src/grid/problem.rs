@@ -153,6 +153,19 @@ impl Mechanical {
         Ok(Coefficients { m, b, db })
     }
 
+    /// m, b and ∂b/∂v at the points (x[p], v[p]), NaN and infinite values included (for the
+    /// pilot, which drops the trajectories that reach them).
+    pub(crate) fn eval_raw(&self, x: &[f64], v: &[f64]) -> Coefficients {
+        let n = x.len();
+        let mut out = vec![vec![0.0; n]; 3];
+        self.coefficients
+            .eval_batch(&[x, v], &mut out, &mut crate::symbolic::TapeScratch::new());
+        let db = out.pop().unwrap_or_default();
+        let b = out.pop().unwrap_or_default();
+        let m = out.pop().unwrap_or_default();
+        Coefficients { m, b, db }
+    }
+
     /// A Gaussian scale (σx, σv) from the linearisation at the origin: σv² = b/(2c),
     /// σx² = σv²/k; `None` when the origin is not a damped stable rest point.
     pub(crate) fn linear_scale(&self, centre: f64) -> Option<[f64; 2]> {
