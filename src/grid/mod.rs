@@ -269,7 +269,7 @@ impl<'a> GridSolver<'a> {
             // An automatic domain that cut into the density is enlarged and solved again.
             match domain::grow(&mesh, &p, &problem) {
                 Some(bigger) if self.domain.is_none() && passes < MAX_GROWTH => {
-                    domain = bigger;
+                    domain = domain::symmetrised(bigger, &problem);
                     passes += 1;
                 }
                 _ => break,
@@ -284,6 +284,7 @@ impl<'a> GridSolver<'a> {
             negative_mass,
             discretisation_estimate: None,
             domain_passes: passes,
+            domain_given: self.domain.is_some(),
             edges,
             timings: GridTimings {
                 domain_ms,
@@ -325,9 +326,10 @@ impl<'a> GridSolver<'a> {
         }
         // The clipping moved about twice its mass (L1): the stated errors of the curves
         // include it.
-        // A box that cuts the density loses at least about its edge mass beyond the edge.
+        // A box that cuts the density misses the mass beyond its edges; restoring unit mass
+        // moves about twice that (L1).
         let cut = if edges.cuts_density {
-            edges.total_mass()
+            2.0 * edges.beyond.iter().sum::<f64>()
         } else {
             0.0
         };
@@ -422,34 +424,53 @@ fn clip(p: &mut [f64], area: f64) -> f64 {
     negative / total
 }
 
-/// The mass and relative density of the outermost rows of cells on the free edges.
+/// The mass and relative density of the outermost rows of cells on the free edges, and the
+/// mass beyond each: the row's mass continued geometrically at the ratio of the last two
+/// rows (an upper bound for any tail that decays at least as fast as it does at the edge,
+/// as Gaussian and exponential tails do), the whole mass where the rows do not decay.
 fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
     let (nx, nv) = (mesh.nx, mesh.nv);
     let area = mesh.hx * mesh.hv;
     let top = p.iter().fold(0.0f64, |a, &b| a.max(b));
-    let mut mass = [0.0f64; 4];
+    // Per side: (mass, largest value) of the outermost row and the mass of the next one in.
+    let mut mass = [[0.0f64; 2]; 4];
     let mut peak = [0.0f64; 4];
-    let mut add = |k: usize, value: f64| {
-        mass[k] += value * area;
-        peak[k] = peak[k].max(value);
-    };
     for j in 0..nv {
-        add(0, p[mesh.index(0, j)]);
-        add(1, p[mesh.index(nx - 1, j)]);
+        for (side, i, next) in [(0, 0, 1), (1, nx - 1, nx - 2)] {
+            let value = p[mesh.index(i, j)];
+            mass[side][0] += value * area;
+            mass[side][1] += p[mesh.index(next, j)] * area;
+            peak[side] = peak[side].max(value);
+        }
     }
     for i in 0..nx {
-        add(2, p[mesh.index(i, 0)]);
-        add(3, p[mesh.index(i, nv - 1)]);
+        for (side, j, next) in [(2, 0, 1), (3, nv - 1, nv - 2)] {
+            let value = p[mesh.index(i, j)];
+            mass[side][0] += value * area;
+            mass[side][1] += p[mesh.index(i, next)] * area;
+            peak[side] = peak[side].max(value);
+        }
     }
     for end in 0..2 {
         if mesh.ends_on_wall(end) {
-            mass[end] = 0.0;
+            mass[end] = [0.0; 2];
             peak[end] = 0.0;
         }
     }
     let relative_density = peak.map(|v| if top > 0.0 { v / top } else { 0.0 });
+    let beyond = mass.map(|[last, next]| {
+        if last <= 0.0 {
+            0.0
+        } else if last < 0.99 * next {
+            let r = last / next;
+            (last * r / (1.0 - r)).min(1.0)
+        } else {
+            1.0
+        }
+    });
     BoxEdges {
-        mass,
+        mass: mass.map(|m| m[0]),
+        beyond,
         relative_density,
         cuts_density: relative_density.iter().any(|&r| r > BoxEdges::LEVEL),
     }

@@ -60,10 +60,15 @@ pub struct GridTimings {
 pub struct BoxEdges {
     /// Probability mass in the outermost row of cells along each free edge.
     pub mass: [f64; 4],
+    /// The mass estimated beyond each free edge: the outermost row's mass continued
+    /// geometrically at the ratio of the last two rows (at most 1; 1 where they do not
+    /// decay). Twice their sum is added to the error estimate when the box cuts the density.
+    pub beyond: [f64; 4],
     /// The largest density on that row, relative to the peak of the density.
     pub relative_density: [f64; 4],
     /// Whether the box cuts the density: some free edge holds more than
-    /// [`BoxEdges::LEVEL`] of the peak. Its edge mass is then added to the error estimate.
+    /// [`BoxEdges::LEVEL`] of the peak. Twice the mass beyond is then added to the error
+    /// estimate.
     pub cuts_density: bool,
 }
 
@@ -75,7 +80,9 @@ impl BoxEdges {
     /// The mass at the free edges in all.
     ///
     /// ```
-    /// let e = fpsolve::grid::BoxEdges { mass: [1e-3, 0.0, 2e-3, 0.0], relative_density: [0.0; 4], cuts_density: true };
+    /// let e = fpsolve::grid::BoxEdges {
+    ///     mass: [1e-3, 0.0, 2e-3, 0.0], beyond: [0.0; 4], relative_density: [0.0; 4], cuts_density: true,
+    /// };
     /// assert_eq!(e.total_mass(), 3e-3);
     /// ```
     pub fn total_mass(&self) -> f64 {
@@ -97,6 +104,9 @@ pub struct GridReport {
     pub discretisation_estimate: Option<DiscretisationEstimate>,
     /// How many coarse passes sized the domain.
     pub domain_passes: usize,
+    /// Whether the box was given ([`GridSolver::domain`](super::GridSolver::domain), the
+    /// command line's `--domain`) rather than sized from the density.
+    pub domain_given: bool,
     /// What the box leaves at its free edges.
     pub edges: BoxEdges,
     /// Times.
@@ -131,15 +141,15 @@ impl fmt::Display for GridReport {
                 .filter(|&k| e.relative_density[k] > BoxEdges::LEVEL)
                 .map(|k| {
                     format!(
-                        "{} ({:.1e} of the peak, mass {:.1e})",
-                        names[k], e.relative_density[k], e.mass[k]
+                        "{} ({:.1e} of the peak, mass {:.1e} at the edge, about {:.1e} beyond)",
+                        names[k], e.relative_density[k], e.mass[k], e.beyond[k]
                     )
                 })
                 .collect();
             write!(
                 f,
-                "\nwarning: the grid's box cuts the density at {}; its mass there is counted in \
-                 the error estimate (widen the box)",
+                "\nwarning: the grid's box cuts the density at {}; twice the mass beyond is \
+                 counted in the error estimate (widen the box)",
                 sides.join(", ")
             )?;
         }
