@@ -257,31 +257,37 @@ fn ends(problem: &Mechanical) -> ([bool; 2], [f64; 2]) {
 /// The first box of the sizing passes: the energy box where the origin is a damped rest point
 /// of a confining potential, else the linearised Gaussian scale there, else (an unstable or
 /// undamped origin, a saddle) where a short Monte Carlo pilot goes.
-fn first_guess(problem: &Mechanical) -> Result<Domain, GridError> {
+fn first_guess(problem: &Mechanical) -> Result<(Domain, bool), GridError> {
     if let Some(d) = energy_box(problem) {
-        return Ok(fit_barrier(d, problem));
+        return Ok((fit_barrier(d, problem), true));
     }
     if let Some([sx, sv]) = problem.linear_scale(0.0) {
         let d = Domain {
             x: [-SPAN * sx, SPAN * sx],
             v: [-SPAN * sv, SPAN * sv],
         };
-        return Ok(fit_barrier(d, problem));
+        return Ok((fit_barrier(d, problem), false));
     }
-    Ok(fit_barrier(super::pilot::pilot_box(problem)?, problem))
+    Ok((
+        fit_barrier(super::pilot::pilot_box(problem)?, problem),
+        false,
+    ))
 }
 
 /// The automatically sized domain, the number of passes and the peak location. From a first
 /// guess ([`first_guess`]), coarse solves, each enlarging the box where its density is not
 /// negligible at a free edge, else cutting each free side (x low, x high, and the velocity
 /// range) where the density falls below `CUT` of its peak; done when a cut moves no side by
-/// more than `SETTLED` of the box. Walls stay where they are; a strip's free end moves only
+/// more than `SETTLED` of the box, or at the first cut inside an energy box. Walls stay where they are; a strip's free end moves only
 /// inside the strip. A coarse solve that does not resolve the density (a thin ring in a wide
 /// box) is repeated on twice the cells, twice at most.
 pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), GridError> {
     let barriers = problem.barriers.as_slice();
     let (fixed, limit) = ends(problem);
-    let mut d = first_guess(problem)?;
+    // An energy box holds an energy-type density with room to spare (see `MARGIN`): the
+    // cut of its first coarse solve is final unless that solve asks for more room, which
+    // keeps the sizing of the paper's cases to one coarse solve.
+    let (mut d, trusted) = first_guess(problem)?;
     let mut guess = [0.5 * (d.x[0] + d.x[1]), 0.0];
     let mut scale = 1;
     let mut worst = 0.0;
@@ -298,16 +304,7 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
         };
         guess = peak(&mesh, &p);
         let (nx, nv) = (mesh.nx, mesh.nv);
-        let mut px = vec![0.0f64; nx];
-        let mut pv = vec![0.0f64; nv];
-        for i in 0..nx {
-            for j in 0..nv {
-                let a = p[mesh.index(i, j)].abs();
-                px[i] = px[i].max(a);
-                pv[j] = pv[j].max(a);
-            }
-        }
-        let top = px.iter().fold(0.0f64, |a, &b| a.max(b));
+        let (px, pv, top) = profiles(&mesh, &p);
         let on_wall = [
             fixed[0] || mesh.ends_on_wall(0),
             fixed[1] || mesh.ends_on_wall(1),
@@ -336,48 +333,11 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             last_cut = None;
             continue;
         }
-        // Cut each free side where the density falls below CUT of its peak (one more cell
-        // kept), as the coarse solve's tail decay says (see `reach`).
-        let face = |i: usize| mesh.x0 + i as f64 * mesh.hx;
-        let mut x = [cur.x[0], cur.x[1]];
-        if !on_wall[0] {
-            let rev: Vec<f64> = px.iter().rev().copied().collect();
-            let k = reach(&rev, top);
-            x[0] = face(nx.saturating_sub(k + 1));
-            if x[0] - limit[0] < mesh.hx {
-                x[0] = limit[0];
-            }
-        }
-        if !on_wall[1] {
-            x[1] = face((reach(&px, top) + 1).min(nx));
-            if limit[1] - x[1] < mesh.hx {
-                x[1] = limit[1];
-            }
-        }
-        if let Some(b) = barriers
-            .first()
-            .filter(|b| b.kind == BarrierKind::PassThrough)
-        {
-            // A pass-through barrier stays inside, a few cells from either end.
-            x = [
-                x[0].min(b.at - 4.0 * mesh.hx),
-                x[1].max(b.at + 4.0 * mesh.hx),
-            ];
-        }
-        // The velocity range is symmetric (the mesh has a face at v = 0): the farther side.
-        let half = nv / 2;
-        let upper: Vec<f64> = pv[half..].to_vec();
-        let lower: Vec<f64> = pv[..half].iter().rev().copied().collect();
-        let vcut =
-            ((reach(&upper, top).max(reach(&lower, top)) + 1) as f64 * mesh.hv).min(cur.v[1]);
-        let cut = Domain {
-            x,
-            v: [-vcut, vcut],
-        };
+        let cut = cut_from(&mesh, (&px, &pv, top), problem, on_wall);
         let settled = (cut.x[0] - cur.x[0]).abs().max((cut.x[1] - cur.x[1]).abs())
             <= SETTLED * width
             && (cut.v[1] - cur.v[1]).abs() <= SETTLED * cur.v[1];
-        if settled || pass == MAX_PASSES {
+        if settled || pass == MAX_PASSES || (trusted && pass == 1) {
             return Ok((symmetrised(cut, problem), pass, guess));
         }
         last_cut = Some(cut);
@@ -391,6 +351,101 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
             width: (d.x[1] - d.x[0]).max(d.v[1] - d.v[0]),
         }),
     }
+}
+
+/// The largest |density| of each position row and each velocity row of `p` on `mesh`, and
+/// the peak.
+fn profiles(mesh: &Mesh, p: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+    let mut px = vec![0.0f64; mesh.nx];
+    let mut pv = vec![0.0f64; mesh.nv];
+    for (i, row) in px.iter_mut().enumerate() {
+        for (j, col) in pv.iter_mut().enumerate() {
+            let a = p[mesh.index(i, j)].abs();
+            *row = row.max(a);
+            *col = col.max(a);
+        }
+    }
+    let top = px.iter().fold(0.0f64, |a, &b| a.max(b));
+    (px, pv, top)
+}
+
+/// The box `mesh`'s density (its row profiles, [`profiles`]) is cut to: each free side (not
+/// `on_wall`) where the density falls below `CUT` of its peak (see `reach`), one more cell
+/// kept; a strip's free end stays inside it, a pass-through barrier a few cells inside.
+fn cut_from(
+    mesh: &Mesh,
+    (px, pv, top): (&[f64], &[f64], f64),
+    problem: &Mechanical,
+    on_wall: [bool; 2],
+) -> Domain {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let (_, limit) = ends(problem);
+    let barriers = problem.barriers.as_slice();
+    let cur = mesh.domain();
+    // Cut each free side where the density falls below CUT of its peak (one more cell
+    // kept), as the coarse solve's tail decay says (see `reach`).
+    let face = |i: usize| mesh.x0 + i as f64 * mesh.hx;
+    let mut x = [cur.x[0], cur.x[1]];
+    if !on_wall[0] {
+        let rev: Vec<f64> = px.iter().rev().copied().collect();
+        let k = reach(&rev, top);
+        x[0] = face(nx.saturating_sub(k + 1));
+        if x[0] - limit[0] < mesh.hx {
+            x[0] = limit[0];
+        }
+    }
+    if !on_wall[1] {
+        x[1] = face((reach(px, top) + 1).min(nx));
+        if limit[1] - x[1] < mesh.hx {
+            x[1] = limit[1];
+        }
+    }
+    if let Some(b) = barriers
+        .first()
+        .filter(|b| b.kind == BarrierKind::PassThrough)
+    {
+        // A pass-through barrier stays inside, a few cells from either end.
+        x = [
+            x[0].min(b.at - 4.0 * mesh.hx),
+            x[1].max(b.at + 4.0 * mesh.hx),
+        ];
+    }
+    // The velocity range is symmetric (the mesh has a face at v = 0): the farther side.
+    let half = nv / 2;
+    let upper: Vec<f64> = pv[half..].to_vec();
+    let lower: Vec<f64> = pv[..half].iter().rev().copied().collect();
+    let vcut = ((reach(&upper, top).max(reach(&lower, top)) + 1) as f64 * mesh.hv).min(cur.v[1]);
+    Domain {
+        x,
+        v: [-vcut, vcut],
+    }
+}
+
+/// The box of a main solve whose tails end far inside its box (an edge below `CUT`² of the
+/// peak on some free side): the coarse passes' density of a weakly excited limit cycle is
+/// wider than the true one (their cells add diffusion the noise does not have), so its box
+/// is cut again from the resolved solution. `None` when no side would move in by more than
+/// a tenth of the box.
+pub(crate) fn recut(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domain> {
+    let (fixed, _) = ends(problem);
+    let on_wall = [
+        fixed[0] || mesh.ends_on_wall(0),
+        fixed[1] || mesh.ends_on_wall(1),
+    ];
+    let (px, pv, top) = profiles(mesh, p);
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let far_inside = (!on_wall[0] && px[0] < CUT * CUT * top)
+        || (!on_wall[1] && px[nx - 1] < CUT * CUT * top)
+        || pv[0].max(pv[nv - 1]) < CUT * CUT * top;
+    if !far_inside {
+        return None;
+    }
+    let cur = mesh.domain();
+    let cut = symmetrised(cut_from(mesh, (&px, &pv, top), problem, on_wall), problem);
+    let w = cur.width();
+    let moved = (cut.x[0] - cur.x[0]).abs().max((cur.x[1] - cut.x[1]).abs()) > 0.1 * w[0]
+        || cur.v[1] - cut.v[1] > 0.1 * cur.v[1];
+    moved.then_some(cut)
 }
 
 /// `d` made symmetric about x = 0 (the farther end on both sides, inside a strip's walls)
@@ -413,27 +468,31 @@ pub(crate) fn symmetrised(d: Domain, problem: &Mechanical) -> Domain {
 
 /// How many cells of `profile` (the largest density of each row, outward from the box's
 /// middle or its lower end) a cut at `CUT`·`top` keeps: where the profile's tail, extrapolated
-/// log-linearly from the last two crossings of `TRUSTED` and `TRUSTED`², reaches the cut,
-/// but no further than the last cell above the cut. A coarse solve's values a millionth of
-/// the peak down are a few per cent off; at CUT, a billionth, its third-order scheme leaves
-/// oscillations of about that size all over the tails (the van der Pol vignette's coarse
-/// box kept ±4.2 where the density is ±3.4), so it is the decay rate, not those values,
-/// that places the cut. Exact for an exponential tail, 8 % wide for a Gaussian one.
+/// log-linearly from its last crossing of `TRUSTED` and the first crossing of `TRUSTED`² after
+/// it, reaches the cut, but no further than the last cell above the cut. A coarse solve's
+/// values a millionth of the peak down are a few per cent off; further down, its third-order
+/// scheme leaves oscillations all over the tails of a thin ring (the last row above 1e−6 of
+/// the peak kept van der Pol's α = 0.02 ring in x ∈ ±6.2, its edge at 4e−25 of the peak), so
+/// it is the decay rate where the tail leaves the density, not the values beyond, that
+/// places the cut. Exact for an exponential tail, 8 % wide for a Gaussian one.
 fn reach(profile: &[f64], top: f64) -> usize {
     let n = profile.len();
     let last_above = |level: f64| profile.iter().rposition(|&a| a >= level * top);
-    let Some(far) = last_above(TRUSTED * TRUSTED) else {
+    let Some(near) = last_above(TRUSTED) else {
         return n;
     };
-    let near = last_above(TRUSTED).unwrap_or(0);
-    let extrapolated = if far > near {
-        // Decades per cell between the two crossings; CUT is this many decades further.
-        let rate = TRUSTED.log10().abs() / (far - near) as f64;
-        let more = (CUT.log10() - (TRUSTED * TRUSTED).log10()).abs() / rate;
-        far + more.ceil() as usize
-    } else {
-        far + 1
+    let Some(far) = profile[near..]
+        .iter()
+        .position(|&a| a < TRUSTED * TRUSTED * top)
+        .map(|k| near + k)
+    else {
+        // The tail never falls to TRUSTED² inside the box.
+        return n;
     };
+    // Decades per cell between the two crossings; CUT is this many decades further.
+    let rate = TRUSTED.log10().abs() / (far - near).max(1) as f64;
+    let more = (CUT.log10() - (TRUSTED * TRUSTED).log10()).abs() / rate;
+    let extrapolated = far + more.ceil() as usize;
     let cap = last_above(CUT).map_or(n, |k| k + 1);
     extrapolated.min(cap).clamp(far + 1, n)
 }

@@ -249,6 +249,7 @@ impl<'a> GridSolver<'a> {
         let t = Instant::now();
         let with_estimate = self.estimate && nx >= 16 && nv >= 16;
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
+        let mut recut = false;
         loop {
             mesh = Mesh::new(domain, nx, nv, barriers, 4);
             // The error estimate's half-cells solve runs alongside the main one, pinned
@@ -266,14 +267,22 @@ impl<'a> GridSolver<'a> {
             let solved;
             (solved, coarse) = rayon::join(main, half);
             (p, assemble_ms) = solved?;
-            // An automatic domain that cut into the density is enlarged and solved again.
-            match domain::grow(&mesh, &p, &problem) {
-                Some(bigger) if self.domain.is_none() && passes < MAX_GROWTH => {
-                    domain = domain::symmetrised(bigger, &problem);
-                    passes += 1;
-                }
-                _ => break,
+            // An automatic domain that cut into the density is enlarged and solved again;
+            // one whose density ends far inside it is cut once from this solution.
+            if self.domain.is_some() || passes >= MAX_GROWTH {
+                break;
             }
+            match domain::grow(&mesh, &p, &problem) {
+                Some(bigger) => domain = domain::symmetrised(bigger, &problem),
+                None => match domain::recut(&mesh, &p, &problem).filter(|_| !recut) {
+                    Some(smaller) => {
+                        domain = smaller;
+                        recut = true;
+                    }
+                    None => break,
+                },
+            }
+            passes += 1;
         }
         let solve_ms = ms(t) - assemble_ms;
         let negative_mass = clip(&mut p, mesh.hx * mesh.hv);
