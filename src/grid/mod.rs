@@ -436,7 +436,8 @@ fn clip(p: &mut [f64], area: f64) -> f64 {
 /// The mass and relative density of the outermost rows of cells on the free edges, and the
 /// mass beyond each: the row's mass continued geometrically at the ratio of the last two
 /// rows (an upper bound for any tail that decays at least as fast as it does at the edge,
-/// as Gaussian and exponential tails do), the whole mass where the rows do not decay.
+/// as Gaussian and exponential tails do), the whole mass where the rows do not decay at an
+/// edge that cuts the density (the row's own mass where they do not decay far below it).
 fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
     let (nx, nv) = (mesh.nx, mesh.nv);
     let area = mesh.hx * mesh.hv;
@@ -467,14 +468,19 @@ fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
         }
     }
     let relative_density = peak.map(|v| if top > 0.0 { v / top } else { 0.0 });
-    let beyond = mass.map(|[last, next]| {
+    let beyond: [f64; 4] = std::array::from_fn(|k| {
+        let [last, next] = mass[k];
         if last <= 0.0 {
             0.0
         } else if last < 0.99 * next {
             let r = last / next;
             (last * r / (1.0 - r)).min(1.0)
-        } else {
+        } else if relative_density[k] > BoxEdges::LEVEL {
             1.0
+        } else {
+            // Rows this far below the peak that do not decay are the solve's rounding:
+            // their own mass is all there is.
+            last
         }
     });
     BoxEdges {

@@ -62,7 +62,8 @@ pub struct BoxEdges {
     pub mass: [f64; 4],
     /// The mass estimated beyond each free edge: the outermost row's mass continued
     /// geometrically at the ratio of the last two rows (at most 1; 1 where they do not
-    /// decay). Twice their sum is added to the error estimate when the box cuts the density.
+    /// decay at an edge above [`BoxEdges::LEVEL`], the row's own mass below it). Twice their
+    /// sum is added to the error estimate when the box cuts the density.
     pub beyond: [f64; 4],
     /// The largest density on that row, relative to the peak of the density.
     pub relative_density: [f64; 4],
