@@ -5,9 +5,12 @@
 //!
 //! with m the Itô drift of v and b the v–v diffusion, by conservative finite volumes:
 //!
-//! * a rectangle the solver sizes itself (coarse passes from the linearised Gaussian scale,
-//!   enlarged while the density is not negligible at an edge, cut where it falls below 1e−9
-//!   of its peak), zero-flux outer boundaries;
+//! * a rectangle the solver sizes itself from where the density lives (a first guess from the
+//!   energy box, the linearised scale or a short Monte Carlo pilot; coarse solves enlarged
+//!   while the density is not negligible at an edge, cut on each free side where it falls
+//!   below 1e−9 of its peak; cut again from the main solve when its tails end far inside;
+//!   symmetric about x = 0 for a point-symmetric model), or one given
+//!   ([`GridSolver::domain`]), zero-flux outer boundaries;
 //! * advective face fluxes with third-order upwind-biased (κ = 1/3) face values in both
 //!   directions: first-order upwinding adds a numerical diffusion as large as the physical
 //!   noise of these lightly damped oscillators; the diffusion in flux form,
