@@ -80,6 +80,12 @@ struct SolveArgs {
     /// Cells of the grid solver, position and velocity: even, at least 8 each.
     #[arg(long, value_name = "NX,NV")]
     cells: Option<Cells>,
+    /// The grid solver's box instead of one sized from the density: `x=LO:HI,v=LO:HI` (or
+    /// the model's state names), the velocity's range around 0 (made symmetric); a reflecting
+    /// wall's side must end on the wall. A box that cuts the density is flagged (its edge
+    /// mass is reported and counted in the error estimate).
+    #[arg(long, value_name = "x=LO:HI,v=LO:HI", allow_hyphen_values = true)]
+    domain: Option<String>,
     #[command(flatten)]
     set: SetArgs,
     /// Output directory (default: out/<model name>).

@@ -12,6 +12,7 @@ use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::study::MethodPlan;
 
+use crate::cli::domain_flag::grid_domain;
 use crate::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
 /// The methods when `--method` is not given: the main job's ([`fpsolve::job::default_methods`],
@@ -35,11 +36,13 @@ pub(crate) fn plan_job(
     // refused here, before any work.
     // Kept for the run, which would otherwise derive it again.
     let problem = Problem::owning(bound).map_err(at_error(&path))?;
-    let bound = problem.model();
     let (methods, named) = match &args.method {
         Some(m) => (m.clone(), true),
         None => (default_methods(target, &problem)?, false),
     };
+    let domain = grid_domain(args.domain.as_deref(), &methods, problem.model())?;
+    let problem = problem.with_grid_domain(domain);
+    let bound = problem.model();
     let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
         anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())
     })?;

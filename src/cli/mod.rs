@@ -4,6 +4,7 @@
 
 pub(crate) mod allocator;
 pub(crate) mod console;
+pub(crate) mod domain_flag;
 pub(crate) mod job_plan;
 pub(crate) mod mc_flags;
 pub(crate) mod progress;

@@ -1,5 +1,7 @@
-//! Sizing the rectangle: coarse solves, enlarged while the density is not negligible at an
-//! edge, then cut where it falls below `CUT` of its peak.
+//! Sizing the rectangle from where the density lives: a first guess (the energy box, the
+//! linearised scale, or a Monte Carlo pilot), then coarse solves, enlarged while the density
+//! is not negligible at an edge, cut where it falls below `CUT` of its peak, until the cut
+//! settles.
 
 use super::assemble::{assemble, solve};
 use super::error::GridError;
@@ -9,7 +11,7 @@ use super::BarrierSide;
 use crate::dynamics::BarrierKind;
 
 /// Cells of a sizing pass.
-const COARSE: [usize; 2] = [48, 64];
+const COARSE: [usize; 2] = [64, 96];
 /// The density kept: the domain ends where the coarse density falls below this fraction of
 /// its peak.
 const CUT: f64 = 1e-9;
@@ -235,118 +237,269 @@ pub(crate) fn grow(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domai
     grown.then_some(d)
 }
 
-/// The automatically sized domain, the number of passes and the peak location: coarse
-/// passes, for models whose origin gives no energy box.
+/// Which ends of the position range are walls that stay where they are (a single reflecting
+/// barrier's side), and how far a free end may move (a strip's walls).
+fn ends(problem: &Mechanical) -> ([bool; 2], [f64; 2]) {
+    match problem.barriers.as_slice() {
+        [lo, hi] => ([false, false], [lo.at, hi.at]),
+        [b] => (
+            match b.kind {
+                BarrierKind::Reflecting(BarrierSide::Above) => [true, false],
+                BarrierKind::Reflecting(BarrierSide::Below) => [false, true],
+                BarrierKind::PassThrough => [false, false],
+            },
+            [f64::NEG_INFINITY, f64::INFINITY],
+        ),
+        _ => ([false, false], [f64::NEG_INFINITY, f64::INFINITY]),
+    }
+}
+
+/// The first box of the sizing passes: the energy box where the origin is a damped rest point
+/// of a confining potential, else the linearised Gaussian scale there, else (an unstable or
+/// undamped origin, a saddle) where a short Monte Carlo pilot goes.
+fn first_guess(problem: &Mechanical) -> Result<(Domain, bool), GridError> {
+    if let Some(d) = energy_box(problem) {
+        return Ok((fit_barrier(d, problem), true));
+    }
+    if let Some([sx, sv]) = problem.linear_scale(0.0) {
+        let d = Domain {
+            x: [-SPAN * sx, SPAN * sx],
+            v: [-SPAN * sv, SPAN * sv],
+        };
+        return Ok((fit_barrier(d, problem), false));
+    }
+    Ok((
+        fit_barrier(super::pilot::pilot_box(problem)?, problem),
+        false,
+    ))
+}
+
+/// The automatically sized domain, the number of passes and the peak location. From a first
+/// guess ([`first_guess`]), coarse solves, each enlarging the box where its density is not
+/// negligible at a free edge, else cutting each free side (x low, x high, and the velocity
+/// range) where the density falls below `CUT` of its peak; done when a cut moves no side by
+/// more than `SETTLED` of the box, or at the first cut inside an energy box. Walls stay where they are; a strip's free end moves only
+/// inside the strip. A coarse solve that does not resolve the density (a thin ring in a wide
+/// box) is repeated on twice the cells, twice at most.
 pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), GridError> {
     let barriers = problem.barriers.as_slice();
-    let centre = 0.0;
-    let [sx, sv] = problem.linear_scale(centre).unwrap_or([1.0, 1.0]);
-    let mut x = [centre - SPAN * sx, centre + SPAN * sx];
-    let mut vmax = SPAN * sv;
-    // Which x edges are walls that stay where they are.
-    let mut fixed = [false, false];
-    if let [lo, hi] = barriers {
-        // A strip: the walls are the ends; only the velocity range is sized.
-        x = [lo.at, hi.at];
-        fixed = [true, true];
-    } else if let Some(b) = barriers.first() {
-        match b.kind {
-            BarrierKind::Reflecting(BarrierSide::Above) => {
-                x = [b.at, x[1].max(b.at + SPAN * sx)];
-                fixed[0] = true;
-            }
-            BarrierKind::Reflecting(BarrierSide::Below) => {
-                x = [x[0].min(b.at - SPAN * sx), b.at];
-                fixed[1] = true;
-            }
-            BarrierKind::PassThrough => {
-                x = [x[0].min(b.at - sx), x[1].max(b.at + sx)];
-            }
-        }
-    }
-    let mut guess = [x[0].max(centre).min(x[1]), 0.0];
+    let (fixed, limit) = ends(problem);
+    // An energy box holds an energy-type density with room to spare (see `MARGIN`): the
+    // cut of its first coarse solve is final unless that solve asks for more room, which
+    // keeps the sizing of the paper's cases to one coarse solve.
+    let (mut d, trusted) = first_guess(problem)?;
+    let mut guess = [0.5 * (d.x[0] + d.x[1]), 0.0];
+    let mut scale = 1;
     let mut worst = 0.0;
+    let mut last_cut: Option<Domain> = None;
     for pass in 1..=MAX_PASSES {
-        let domain = Domain {
-            x,
-            v: [-vmax, vmax],
+        let mesh = Mesh::new(d, COARSE[0] * scale, COARSE[1] * scale, barriers, 2);
+        let p = match solve_pinned(&mesh, problem, guess) {
+            Ok((p, _)) => p,
+            Err(GridError::Degenerate { .. } | GridError::Singular { .. }) if scale < 4 => {
+                scale *= 2;
+                continue;
+            }
+            Err(e) => return Err(e),
         };
-        let mesh = Mesh::new(domain, COARSE[0], COARSE[1], barriers, 2);
-        let (p, _) = solve_pinned(&mesh, problem, guess)?;
         guess = peak(&mesh, &p);
         let (nx, nv) = (mesh.nx, mesh.nv);
-        let mut px = vec![0.0f64; nx];
-        let mut pv = vec![0.0f64; nv];
-        for i in 0..nx {
-            for j in 0..nv {
-                let a = p[mesh.index(i, j)].abs();
-                px[i] = px[i].max(a);
-                pv[j] = pv[j].max(a);
-            }
-        }
-        let top = px.iter().fold(0.0f64, |a, &b| a.max(b));
+        let (px, pv, top) = profiles(&mesh, &p);
+        let on_wall = [
+            fixed[0] || mesh.ends_on_wall(0),
+            fixed[1] || mesh.ends_on_wall(1),
+        ];
         let edges = [px[0] / top, px[nx - 1] / top, pv[0].max(pv[nv - 1]) / top];
-        let width = x[1] - x[0];
+        let cur = mesh.domain();
+        let width = cur.x[1] - cur.x[0];
         let mut grown = false;
-        for (side, &e) in edges[..2].iter().enumerate() {
-            if e > EDGE && !fixed[side] {
-                x[side] += if side == 0 { -0.5 } else { 0.5 } * width;
+        for side in 0..2 {
+            if edges[side] > EDGE && !on_wall[side] {
+                let moved = cur.x[side] + if side == 0 { -0.5 } else { 0.5 } * width;
+                d.x[side] = moved.clamp(limit[0], limit[1]);
                 grown = true;
             }
         }
         if edges[2] > EDGE {
-            vmax *= 1.5;
+            d.v = [cur.v[0] * 1.5, cur.v[1] * 1.5];
             grown = true;
         }
         worst = edges
             .iter()
-            .zip([fixed[0], fixed[1], false])
+            .zip([on_wall[0], on_wall[1], false])
             .filter(|(_, f)| !f)
             .fold(0.0f64, |a, (e, _)| a.max(*e));
         if grown {
+            last_cut = None;
             continue;
         }
-        // Cut: keep the cells above CUT·peak and one more on each free side.
-        let mesh_x = |i: usize| mesh.x0 + i as f64 * mesh.hx;
-        let first = px.iter().position(|&a| a >= CUT * top).unwrap_or(0);
-        let last = px.iter().rposition(|&a| a >= CUT * top).unwrap_or(nx - 1);
-        let lo = if fixed[0] {
-            mesh.x0
-        } else {
-            mesh_x(first.saturating_sub(1))
-        };
-        let hi = if fixed[1] {
-            mesh.domain().x[1]
-        } else {
-            mesh_x((last + 2).min(nx))
-        };
-        let keep = (0..nv).filter(|&j| pv[j] >= CUT * top);
-        let vcut = keep
-            .map(|j| mesh.vc(j).abs() + 1.5 * mesh.hv)
-            .fold(0.0f64, f64::max);
-        let mut xr = [lo, hi];
-        if let Some(b) = barriers
-            .first()
-            .filter(|b| b.kind == BarrierKind::PassThrough)
-        {
-            // A pass-through barrier stays inside, a few cells from either end.
-            xr = [
-                xr[0].min(b.at - 4.0 * mesh.hx),
-                xr[1].max(b.at + 4.0 * mesh.hx),
-            ];
+        let cut = cut_from(&mesh, (&px, &pv, top), problem, on_wall);
+        let settled = (cut.x[0] - cur.x[0]).abs().max((cut.x[1] - cur.x[1]).abs())
+            <= SETTLED * width
+            && (cut.v[1] - cur.v[1]).abs() <= SETTLED * cur.v[1];
+        if settled || pass == MAX_PASSES || (trusted && pass == 1) {
+            return Ok((symmetrised(cut, problem), pass, guess));
         }
-        return Ok((
-            Domain {
-                x: xr,
-                v: [-vcut.min(vmax), vcut.min(vmax)],
-            },
-            pass,
-            guess,
-        ));
+        last_cut = Some(cut);
+        d = cut;
     }
-    Err(GridError::DomainNotFound {
-        tries: MAX_PASSES,
-        edge: worst,
-        width: (x[1] - x[0]).max(2.0 * vmax),
-    })
+    match last_cut {
+        Some(cut) => Ok((symmetrised(cut, problem), MAX_PASSES, guess)),
+        None => Err(GridError::DomainNotFound {
+            tries: MAX_PASSES,
+            edge: worst,
+            width: (d.x[1] - d.x[0]).max(d.v[1] - d.v[0]),
+        }),
+    }
 }
+
+/// The largest |density| of each position row and each velocity row of `p` on `mesh`, and
+/// the peak.
+fn profiles(mesh: &Mesh, p: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+    let mut px = vec![0.0f64; mesh.nx];
+    let mut pv = vec![0.0f64; mesh.nv];
+    for (i, row) in px.iter_mut().enumerate() {
+        for (j, col) in pv.iter_mut().enumerate() {
+            let a = p[mesh.index(i, j)].abs();
+            *row = row.max(a);
+            *col = col.max(a);
+        }
+    }
+    let top = px.iter().fold(0.0f64, |a, &b| a.max(b));
+    (px, pv, top)
+}
+
+/// The box `mesh`'s density (its row profiles, [`profiles`]) is cut to: each free side (not
+/// `on_wall`) where the density falls below `CUT` of its peak (see `reach`), one more cell
+/// kept; a strip's free end stays inside it, a pass-through barrier a few cells inside.
+fn cut_from(
+    mesh: &Mesh,
+    (px, pv, top): (&[f64], &[f64], f64),
+    problem: &Mechanical,
+    on_wall: [bool; 2],
+) -> Domain {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let (_, limit) = ends(problem);
+    let barriers = problem.barriers.as_slice();
+    let cur = mesh.domain();
+    // Cut each free side where the density falls below CUT of its peak (one more cell
+    // kept), as the coarse solve's tail decay says (see `reach`).
+    let face = |i: usize| mesh.x0 + i as f64 * mesh.hx;
+    let mut x = [cur.x[0], cur.x[1]];
+    if !on_wall[0] {
+        let rev: Vec<f64> = px.iter().rev().copied().collect();
+        let k = reach(&rev, top);
+        x[0] = face(nx.saturating_sub(k + 1));
+        if x[0] - limit[0] < mesh.hx {
+            x[0] = limit[0];
+        }
+    }
+    if !on_wall[1] {
+        x[1] = face((reach(px, top) + 1).min(nx));
+        if limit[1] - x[1] < mesh.hx {
+            x[1] = limit[1];
+        }
+    }
+    if let Some(b) = barriers
+        .first()
+        .filter(|b| b.kind == BarrierKind::PassThrough)
+    {
+        // A pass-through barrier stays inside, a few cells from either end.
+        x = [
+            x[0].min(b.at - 4.0 * mesh.hx),
+            x[1].max(b.at + 4.0 * mesh.hx),
+        ];
+    }
+    // The velocity range is symmetric (the mesh has a face at v = 0): the farther side.
+    let half = nv / 2;
+    let upper: Vec<f64> = pv[half..].to_vec();
+    let lower: Vec<f64> = pv[..half].iter().rev().copied().collect();
+    let vcut = ((reach(&upper, top).max(reach(&lower, top)) + 1) as f64 * mesh.hv).min(cur.v[1]);
+    Domain {
+        x,
+        v: [-vcut, vcut],
+    }
+}
+
+/// The box of a main solve whose tails end far inside its box (an edge below `CUT`² of the
+/// peak on some free side): the coarse passes' density of a weakly excited limit cycle is
+/// wider than the true one (their cells add diffusion the noise does not have), so its box
+/// is cut again from the resolved solution. `None` when no side would move in by more than
+/// a tenth of the box.
+pub(crate) fn recut(mesh: &Mesh, p: &[f64], problem: &Mechanical) -> Option<Domain> {
+    let (fixed, _) = ends(problem);
+    let on_wall = [
+        fixed[0] || mesh.ends_on_wall(0),
+        fixed[1] || mesh.ends_on_wall(1),
+    ];
+    let (px, pv, top) = profiles(mesh, p);
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let far_inside = (!on_wall[0] && px[0] < CUT * CUT * top)
+        || (!on_wall[1] && px[nx - 1] < CUT * CUT * top)
+        || pv[0].max(pv[nv - 1]) < CUT * CUT * top;
+    if !far_inside {
+        return None;
+    }
+    let cur = mesh.domain();
+    let cut = symmetrised(cut_from(mesh, (&px, &pv, top), problem, on_wall), problem);
+    let w = cur.width();
+    let moved = (cut.x[0] - cur.x[0]).abs().max((cur.x[1] - cut.x[1]).abs()) > 0.1 * w[0]
+        || cur.v[1] - cut.v[1] > 0.1 * cur.v[1];
+    moved.then_some(cut)
+}
+
+/// `d` made symmetric about x = 0 (the farther end on both sides, inside a strip's walls)
+/// when the problem is point-symmetric on it ([`Mechanical::point_symmetric`]): its density is
+/// then point-symmetric, and a symmetric box keeps the discrete solution and every
+/// quadrature of it symmetric, where a box an ulp off flips the choices of an adaptive rule
+/// on one side only (the linear oscillator's mean moved by 1.1e−5 with the box's ends 2
+/// ulps apart).
+pub(crate) fn symmetrised(d: Domain, problem: &Mechanical) -> Domain {
+    let half = d.x[0].abs().max(d.x[1].abs());
+    if !problem.point_symmetric([half, d.v[0].abs().max(d.v[1].abs())]) {
+        return d;
+    }
+    let mut x = [-half, half];
+    if let [lo, hi] = problem.barriers.as_slice() {
+        x = [x[0].max(lo.at), x[1].min(hi.at)];
+    }
+    Domain { x, v: d.v }
+}
+
+/// How many cells of `profile` (the largest density of each row, outward from the box's
+/// middle or its lower end) a cut at `CUT`·`top` keeps: where the profile's tail, extrapolated
+/// log-linearly from its last crossing of `TRUSTED` and the first crossing of `TRUSTED`² after
+/// it, reaches the cut, but no further than the last cell above the cut. A coarse solve's
+/// values a millionth of the peak down are a few per cent off; further down, its third-order
+/// scheme leaves oscillations all over the tails of a thin ring (the last row above 1e−6 of
+/// the peak kept van der Pol's α = 0.02 ring in x ∈ ±6.2, its edge at 4e−25 of the peak), so
+/// it is the decay rate where the tail leaves the density, not the values beyond, that
+/// places the cut. Exact for an exponential tail, 8 % wide for a Gaussian one.
+fn reach(profile: &[f64], top: f64) -> usize {
+    let n = profile.len();
+    let last_above = |level: f64| profile.iter().rposition(|&a| a >= level * top);
+    let Some(near) = last_above(TRUSTED) else {
+        return n;
+    };
+    let Some(far) = profile[near..]
+        .iter()
+        .position(|&a| a < TRUSTED * TRUSTED * top)
+        .map(|k| near + k)
+    else {
+        // The tail never falls to TRUSTED² inside the box.
+        return n;
+    };
+    // Decades per cell between the two crossings; CUT is this many decades further.
+    let rate = TRUSTED.log10().abs() / (far - near).max(1) as f64;
+    let more = (CUT.log10() - (TRUSTED * TRUSTED).log10()).abs() / rate;
+    let extrapolated = far + more.ceil() as usize;
+    let cap = last_above(CUT).map_or(n, |k| k + 1);
+    extrapolated.min(cap).clamp(far + 1, n)
+}
+
+/// The levels below the peak (this and its square) whose crossings give a coarse tail's
+/// decay rate.
+const TRUSTED: f64 = 1e-3;
+
+/// A cut that moves no side by more than this fraction of the box ends the sizing passes.
+const SETTLED: f64 = 0.05;

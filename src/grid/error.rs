@@ -79,6 +79,19 @@ pub enum Unsupported {
         /// Where they are.
         at: Vec<f64>,
     },
+    /// A domain given explicitly whose end on a wall's side is not the wall (a reflecting
+    /// barrier is where the state's range ends; a strip's ends may be inside it, not beyond).
+    #[error("the domain's {end} end {given} of the position must {relation} the wall at {at}")]
+    WallNotAnEnd {
+        /// `lower` or `upper`.
+        end: &'static str,
+        /// The end given.
+        given: f64,
+        /// The wall.
+        at: f64,
+        /// `be` (one wall) or `not go beyond` (a strip).
+        relation: &'static str,
+    },
     /// A domain given explicitly does not contain the barrier (or, for a reflecting barrier,
     /// does not start at it on the domain's side).
     #[error("the domain {lo}..{hi} of the position does not fit the barrier at {at}")]

@@ -196,9 +196,11 @@ impl Mesh {
     }
 
     pub(crate) fn domain(&self) -> Domain {
+        // The velocity range is symmetric by construction; −v0 rather than v0 + nv·hv (an
+        // ulp off), so that a point-symmetric density's quadratures stay symmetric.
         Domain {
             x: [self.x0, self.x1],
-            v: [self.v0, self.v0 + self.nv as f64 * self.hv],
+            v: [self.v0, -self.v0],
         }
     }
 

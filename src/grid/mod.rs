@@ -5,9 +5,12 @@
 //!
 //! with m the Itô drift of v and b the v–v diffusion, by conservative finite volumes:
 //!
-//! * a rectangle the solver sizes itself (coarse passes from the linearised Gaussian scale,
-//!   enlarged while the density is not negligible at an edge, cut where it falls below 1e−9
-//!   of its peak), zero-flux outer boundaries;
+//! * a rectangle the solver sizes itself from where the density lives (a first guess from the
+//!   energy box, the linearised scale or a short Monte Carlo pilot; coarse solves enlarged
+//!   while the density is not negligible at an edge, cut on each free side where it falls
+//!   below 1e−9 of its peak; cut again from the main solve when its tails end far inside;
+//!   symmetric about x = 0 for a point-symmetric model), or one given
+//!   ([`GridSolver::domain`]), zero-flux outer boundaries;
 //! * advective face fluxes with third-order upwind-biased (κ = 1/3) face values in both
 //!   directions: first-order upwinding adds a numerical diffusion as large as the physical
 //!   noise of these lightly damped oscillators; the diffusion in flux form,
@@ -52,10 +55,12 @@
 pub(crate) mod assemble;
 mod cells;
 mod domain;
+mod domain_flag;
 mod error;
 mod estimate;
 pub(crate) mod mesh;
 pub(crate) mod nested;
+mod pilot;
 pub(crate) mod problem;
 mod solution;
 #[cfg(test)]
@@ -64,10 +69,13 @@ mod strip_tests;
 use std::time::Instant;
 
 pub use cells::{Cells, CellsError};
+pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
-pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
+pub use solution::{
+    BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
+};
 
 use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
@@ -144,9 +152,12 @@ impl<'a> GridSolver<'a> {
         self
     }
 
-    /// Solves on `domain` instead of sizing one. The velocity range is made symmetric (the
-    /// larger of its two ends); a reflecting barrier replaces the domain's end on its side,
-    /// two walls cut the domain to their strip.
+    /// Solves on `domain` instead of sizing one (checked by [`solve`](Self::solve): finite,
+    /// x_lo < x_hi, v_lo < 0 < v_hi). The velocity range is made symmetric (the larger of its
+    /// two ends). A reflecting barrier's side must end on the wall and a strip's ends may not
+    /// go beyond its walls ([`Unsupported::WallNotAnEnd`]); a pass-through barrier must be
+    /// inside. After the solve, [`GridReport::edges`] says whether the box cuts the density
+    /// (and the error estimate then counts the mass at its edges).
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -195,10 +206,15 @@ impl<'a> GridSolver<'a> {
     /// # Errors
     /// As [`solve`](Self::solve) before it discretises: [`GridError::Setting`] (the cells),
     /// [`GridError::Unsupported`], [`GridError::Inadmissible`], [`GridError::Derivation`],
-    /// [`GridError::Symbolic`].
+    /// [`GridError::Symbolic`]; with a [`domain`](Self::domain), [`GridError::Setting`] and
+    /// [`Unsupported::WallNotAnEnd`] for a box that is not one or does not fit the walls.
     pub fn check(&self) -> Result<(), GridError> {
         check_cells(self.cells)?;
-        Mechanical::new(self.model).map(|_| ())
+        let problem = Mechanical::new(self.model)?;
+        if let Some(d) = &self.domain {
+            check_domain(d, &problem, self.model)?;
+        }
+        Ok(())
     }
 
     /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
@@ -226,19 +242,17 @@ impl<'a> GridSolver<'a> {
         let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
-                check_domain(&d, &problem, self.model)?;
+                let d = check_domain(&d, &problem, self.model)?;
                 (d, 0, [0.5 * (d.x[0] + d.x[1]), 0.0])
             }
-            None => match domain::energy_box(&problem) {
-                Some(d) => (domain::fit_barrier(d, &problem), 1, [0.0, 0.0]),
-                None => domain::size(&problem)?,
-            },
+            None => domain::size(&problem)?,
         };
         let guess = [guess[0].clamp(domain.x[0], domain.x[1]), guess[1]];
         let domain_ms = ms(start);
         let t = Instant::now();
         let with_estimate = self.estimate && nx >= 16 && nv >= 16;
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
+        let mut recut = false;
         loop {
             mesh = Mesh::new(domain, nx, nv, barriers, 4);
             // The error estimate's half-cells solve runs alongside the main one, pinned
@@ -256,23 +270,34 @@ impl<'a> GridSolver<'a> {
             let solved;
             (solved, coarse) = rayon::join(main, half);
             (p, assemble_ms) = solved?;
-            // An automatic domain that cut into the density is enlarged and solved again.
-            match domain::grow(&mesh, &p, &problem) {
-                Some(bigger) if self.domain.is_none() && passes < MAX_GROWTH => {
-                    domain = bigger;
-                    passes += 1;
-                }
-                _ => break,
+            // An automatic domain that cut into the density is enlarged and solved again;
+            // one whose density ends far inside it is cut once from this solution.
+            if self.domain.is_some() || passes >= MAX_GROWTH {
+                break;
             }
+            match domain::grow(&mesh, &p, &problem) {
+                Some(bigger) => domain = domain::symmetrised(bigger, &problem),
+                None => match domain::recut(&mesh, &p, &problem).filter(|_| !recut) {
+                    Some(smaller) => {
+                        domain = smaller;
+                        recut = true;
+                    }
+                    None => break,
+                },
+            }
+            passes += 1;
         }
         let solve_ms = ms(t) - assemble_ms;
         let negative_mass = clip(&mut p, mesh.hx * mesh.hv);
+        let edges = box_edges(&mesh, &p);
         let mut report = GridReport {
             cells: [nx, nv],
             domain: mesh.domain(),
             negative_mass,
             discretisation_estimate: None,
             domain_passes: passes,
+            domain_given: self.domain.is_some(),
+            edges,
             timings: GridTimings {
                 domain_ms,
                 assemble_ms,
@@ -313,9 +338,16 @@ impl<'a> GridSolver<'a> {
         }
         // The clipping moved about twice its mass (L1): the stated errors of the curves
         // include it.
+        // A box that cuts the density misses the mass beyond its edges; restoring unit mass
+        // moves about twice that (L1).
+        let cut = if edges.cuts_density {
+            2.0 * edges.beyond.iter().sum::<f64>()
+        } else {
+            0.0
+        };
         if let Some(e) = report.discretisation_estimate.as_mut() {
-            e.x += 2.0 * negative_mass;
-            e.v += 2.0 * negative_mass;
+            e.x += 2.0 * negative_mass + cut;
+            e.v += 2.0 * negative_mass + cut;
         }
         report.timings.total_ms = ms(start);
         solution.report = report;
@@ -404,8 +436,67 @@ fn clip(p: &mut [f64], area: f64) -> f64 {
     negative / total
 }
 
+/// The mass and relative density of the outermost rows of cells on the free edges, and the
+/// mass beyond each: the row's mass continued geometrically at the ratio of the last two
+/// rows (an upper bound for any tail that decays at least as fast as it does at the edge,
+/// as Gaussian and exponential tails do), the whole mass where the rows do not decay at an
+/// edge that cuts the density (the row's own mass where they do not decay far below it).
+fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let area = mesh.hx * mesh.hv;
+    let top = p.iter().fold(0.0f64, |a, &b| a.max(b));
+    // Per side: (mass, largest value) of the outermost row and the mass of the next one in.
+    let mut mass = [[0.0f64; 2]; 4];
+    let mut peak = [0.0f64; 4];
+    for j in 0..nv {
+        for (side, i, next) in [(0, 0, 1), (1, nx - 1, nx - 2)] {
+            let value = p[mesh.index(i, j)];
+            mass[side][0] += value * area;
+            mass[side][1] += p[mesh.index(next, j)] * area;
+            peak[side] = peak[side].max(value);
+        }
+    }
+    for i in 0..nx {
+        for (side, j, next) in [(2, 0, 1), (3, nv - 1, nv - 2)] {
+            let value = p[mesh.index(i, j)];
+            mass[side][0] += value * area;
+            mass[side][1] += p[mesh.index(i, next)] * area;
+            peak[side] = peak[side].max(value);
+        }
+    }
+    for end in 0..2 {
+        if mesh.ends_on_wall(end) {
+            mass[end] = [0.0; 2];
+            peak[end] = 0.0;
+        }
+    }
+    let relative_density = peak.map(|v| if top > 0.0 { v / top } else { 0.0 });
+    let beyond: [f64; 4] = std::array::from_fn(|k| {
+        let [last, next] = mass[k];
+        if last <= 0.0 {
+            0.0
+        } else if last < 0.99 * next {
+            let r = last / next;
+            (last * r / (1.0 - r)).min(1.0)
+        } else if relative_density[k] > BoxEdges::LEVEL {
+            1.0
+        } else {
+            // Rows this far below the peak that do not decay are the solve's rounding:
+            // their own mass is all there is.
+            last
+        }
+    });
+    BoxEdges {
+        mass: mass.map(|m| m[0]),
+        beyond,
+        relative_density,
+        cuts_density: relative_density.iter().any(|&r| r > BoxEdges::LEVEL),
+    }
+}
+
 /// An explicit domain must be a finite, non-empty box that fits the barrier.
-fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<(), GridError> {
+/// Returns the domain with an end that is a wall up to rounding (1e−9 relative) put on it.
+fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<Domain, GridError> {
     let ok = d.x[0] < d.x[1]
         && d.v[0] < d.v[1]
         && d.v[1] > 0.0
@@ -418,18 +509,44 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
         });
     }
-    if let [lo, hi] = problem.barriers.as_slice() {
-        if !(d.x[0] < hi.at && lo.at < d.x[1]) {
-            return Err(GridError::Unsupported {
-                model: model.name().to_string(),
-                reason: Unsupported::BarrierOutsideDomain {
-                    at: if d.x[1] <= lo.at { lo.at } else { hi.at },
-                    lo: d.x[0],
-                    hi: d.x[1],
-                },
-            });
+    let refuse = |reason| GridError::Unsupported {
+        model: model.name().to_string(),
+        reason,
+    };
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+    let wall = |end: &'static str, given: f64, at: f64, relation: &'static str| {
+        refuse(Unsupported::WallNotAnEnd {
+            end,
+            given,
+            at,
+            relation,
+        })
+    };
+    let mut d = *d;
+    for b in &problem.barriers {
+        for end in &mut d.x {
+            if near(*end, b.at) {
+                *end = b.at;
+            }
         }
-        return Ok(());
+    }
+    if let [lo, hi] = problem.barriers.as_slice() {
+        if d.x[0] < lo.at && !near(d.x[0], lo.at) {
+            return Err(wall("lower", d.x[0], lo.at, "not go beyond"));
+        }
+        if d.x[1] > hi.at && !near(d.x[1], hi.at) {
+            return Err(wall("upper", d.x[1], hi.at, "not go beyond"));
+        }
+        return Ok(d);
+    }
+    match problem.barriers.first().map(|b| (b.kind, b.at)) {
+        Some((BarrierKind::Reflecting(BarrierSide::Above), at)) if !near(d.x[0], at) => {
+            return Err(wall("lower", d.x[0], at, "be"));
+        }
+        Some((BarrierKind::Reflecting(BarrierSide::Below), at)) if !near(d.x[1], at) => {
+            return Err(wall("upper", d.x[1], at, "be"));
+        }
+        _ => {}
     }
     if let Some(b) = problem.barriers.first() {
         let fits = match b.kind {
@@ -448,5 +565,5 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
             });
         }
     }
-    Ok(())
+    Ok(d)
 }

@@ -154,6 +154,74 @@ impl Mechanical {
         Ok(Coefficients { m, b, db })
     }
 
+    /// m, b and ∂b/∂v at the points (x[p], v[p]), NaN and infinite values included (for the
+    /// pilot, which drops the trajectories that reach them).
+    pub(crate) fn eval_raw(&self, x: &[f64], v: &[f64]) -> Coefficients {
+        let n = x.len();
+        let mut out = vec![vec![0.0; n]; 3];
+        self.coefficients
+            .eval_batch(&[x, v], &mut out, &mut crate::symbolic::TapeScratch::new());
+        let db = out.pop().unwrap_or_default();
+        let b = out.pop().unwrap_or_default();
+        let m = out.pop().unwrap_or_default();
+        Coefficients { m, b, db }
+    }
+
+    /// Whether the problem is unchanged by (x, v) → (−x, −v) on the box |x| ≤ `x`, |v| ≤ `v`:
+    /// m odd and b even there (compared on a lattice of points, to rounding), and the
+    /// barriers mirror images of each other with odd jump laws (none; one pass-through
+    /// barrier at 0; a strip [−a, a]). Its stationary density is then point-symmetric, and a
+    /// box symmetric about the origin keeps the discrete solution so (mean 0 to rounding).
+    pub(crate) fn point_symmetric(&self, [x, v]: [f64; 2]) -> bool {
+        if !(x > 0.0 && v > 0.0 && x.is_finite() && v.is_finite()) {
+            return false;
+        }
+        let odd_law = |b: &Barrier, mirror: &Barrier| {
+            [1e-3, 0.1, 0.7, 1.0, 3.0, 10.0, 1e3].iter().all(|&s| {
+                let w = s * v.max(1.0);
+                let (a, c) = (b.jump(w), mirror.jump(-w));
+                (a + c).abs() <= 1e-12 * (a.abs() + c.abs()) + 1e-300
+            })
+        };
+        let tiny = 1e-12 * x;
+        let barriers_ok = match self.barriers.as_slice() {
+            [] => true,
+            [b] => b.kind == BarrierKind::PassThrough && b.at.abs() <= tiny && odd_law(b, b),
+            [lo, hi] => (lo.at + hi.at).abs() <= tiny && odd_law(lo, hi) && odd_law(hi, lo),
+            _ => false,
+        };
+        if !barriers_ok {
+            return false;
+        }
+        // A lattice off the axes (offsets that put no point on an axis, where |x| and sgn have their kinks), and
+        // its mirror image.
+        const N: usize = 13;
+        let mut px = Vec::with_capacity(2 * N * N);
+        let mut pv = Vec::with_capacity(2 * N * N);
+        for i in 0..N {
+            for j in 0..N {
+                let a = x * ((i as f64 + 0.271_828_18) / N as f64 * 2.0 - 1.0);
+                let c = v * ((j as f64 + 0.577_215_665) / N as f64 * 2.0 - 1.0);
+                px.push(a);
+                pv.push(c);
+            }
+        }
+        let n = px.len();
+        for k in 0..n {
+            px.push(-px[k]);
+            pv.push(-pv[k]);
+        }
+        let c = self.eval_raw(&px, &pv);
+        let scale = |col: &[f64]| col.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let (ms, bs) = (scale(&c.m), scale(&c.b));
+        if !(ms.is_finite() && bs.is_finite()) {
+            return false;
+        }
+        let close =
+            |a: f64, b: f64, s: f64| (a - b).abs() <= 1e-12 * (a.abs() + b.abs()) + 1e-14 * s;
+        (0..n).all(|k| close(c.m[k], -c.m[n + k], ms) && close(c.b[k], c.b[n + k], bs))
+    }
+
     /// A Gaussian scale (σx, σv) from the linearisation at the origin: σv² = b/(2c),
     /// σx² = σv²/k; `None` when the origin is not a damped stable rest point.
     pub(crate) fn linear_scale(&self, centre: f64) -> Option<[f64; 2]> {

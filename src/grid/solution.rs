@@ -53,6 +53,44 @@ pub struct GridTimings {
     pub total_ms: f64,
 }
 
+/// What the box leaves at its free edges (the position's ends that are not walls, both ends
+/// of the velocity), in the order x low, x high, v low, v high: a box that cuts the density
+/// shows it here. A wall's side reads 0.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct BoxEdges {
+    /// Probability mass in the outermost row of cells along each free edge.
+    pub mass: [f64; 4],
+    /// The mass estimated beyond each free edge: the outermost row's mass continued
+    /// geometrically at the ratio of the last two rows (at most 1; 1 where they do not
+    /// decay at an edge above [`BoxEdges::LEVEL`], the row's own mass below it). Twice their
+    /// sum is added to the error estimate when the box cuts the density.
+    pub beyond: [f64; 4],
+    /// The largest density on that row, relative to the peak of the density.
+    pub relative_density: [f64; 4],
+    /// Whether the box cuts the density: some free edge holds more than
+    /// [`BoxEdges::LEVEL`] of the peak. Twice the mass beyond is then added to the error
+    /// estimate.
+    pub cuts_density: bool,
+}
+
+impl BoxEdges {
+    /// The edge density, relative to the peak, above which a box cuts the density (the
+    /// automatic sizing enlarges a box beyond it).
+    pub const LEVEL: f64 = 1e-6;
+
+    /// The mass at the free edges in all.
+    ///
+    /// ```
+    /// let e = fpsolve::grid::BoxEdges {
+    ///     mass: [1e-3, 0.0, 2e-3, 0.0], beyond: [0.0; 4], relative_density: [0.0; 4], cuts_density: true,
+    /// };
+    /// assert_eq!(e.total_mass(), 3e-3);
+    /// ```
+    pub fn total_mass(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+}
+
 /// How a grid solution was obtained. `Display` prints it as a short paragraph.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GridReport {
@@ -67,6 +105,11 @@ pub struct GridReport {
     pub discretisation_estimate: Option<DiscretisationEstimate>,
     /// How many coarse passes sized the domain.
     pub domain_passes: usize,
+    /// Whether the box was given ([`GridSolver::domain`](super::GridSolver::domain), the
+    /// command line's `--domain`) rather than sized from the density.
+    pub domain_given: bool,
+    /// What the box leaves at its free edges.
+    pub edges: BoxEdges,
     /// Times.
     pub timings: GridTimings,
 }
@@ -91,7 +134,27 @@ impl fmt::Display for GridReport {
                 factor(e.tail[1])
             )?;
         }
-        write!(f, "; {:.0} ms", self.timings.total_ms)
+        write!(f, "; {:.0} ms", self.timings.total_ms)?;
+        let e = &self.edges;
+        if e.cuts_density {
+            let names = ["x low", "x high", "v low", "v high"];
+            let sides: Vec<String> = (0..4)
+                .filter(|&k| e.relative_density[k] > BoxEdges::LEVEL)
+                .map(|k| {
+                    format!(
+                        "{} ({:.1e} of the peak, mass {:.1e} at the edge, about {:.1e} beyond)",
+                        names[k], e.relative_density[k], e.mass[k], e.beyond[k]
+                    )
+                })
+                .collect();
+            write!(
+                f,
+                "\nwarning: the grid's box cuts the density at {}; twice the mass beyond is \
+                 counted in the error estimate (widen the box)",
+                sides.join(", ")
+            )?;
+        }
+        Ok(())
     }
 }
 

@@ -187,6 +187,8 @@ pub struct Problem<'a> {
     own_quantities: Arc<[Quantity]>,
     /// The transform EPC solves, or why a reflecting barrier has none.
     zhuravlev: Option<Result<Zhuravlev<BoundModel>, ZhuravlevError>>,
+    /// The grid solver's box, when given (`--domain`); sized from the density otherwise.
+    grid_domain: Option<crate::grid::Domain>,
 }
 
 impl Problem<'static> {
@@ -263,7 +265,38 @@ impl<'a> Problem<'a> {
             quantities,
             own_quantities: own,
             zhuravlev,
+            grid_domain: None,
         })
+    }
+
+    /// The grid solver's box ([`GridSolver::domain`]) instead of one sized from the density;
+    /// `None` sizes it. Checked against the model's walls by [`GridSolver::check`].
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let d = fpsolve::grid::Domain { x: [-12.0, 12.0], v: [-12.0, 12.0] };
+    /// let problem = fpsolve::solve::Problem::new(&bound)?.with_grid_domain(Some(d));
+    /// assert_eq!(problem.grid_domain(), Some(d));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_grid_domain(mut self, domain: Option<crate::grid::Domain>) -> Problem<'a> {
+        self.grid_domain = domain;
+        self
+    }
+
+    /// The grid solver's box, when one was given ([`Problem::with_grid_domain`]).
+    pub fn grid_domain(&self) -> Option<crate::grid::Domain> {
+        self.grid_domain
+    }
+
+    /// The grid solver of this problem's model, with its box when one was given.
+    pub(crate) fn grid_solver(&self) -> GridSolver<'_> {
+        let solver = GridSolver::new(&self.model);
+        match self.grid_domain {
+            Some(d) => solver.domain(d),
+            None => solver,
+        }
     }
 
     /// The bound model.
@@ -309,9 +342,7 @@ impl<'a> Problem<'a> {
 
     /// Solves by the grid solver on `cells`, the model as it stands.
     pub(crate) fn solve_grid(&self, cells: [usize; 2]) -> Result<Solution, SolveError> {
-        let grid = GridSolver::new(&self.model)
-            .cells(cells[0], cells[1])
-            .solve()?;
+        let grid = self.grid_solver().cells(cells[0], cells[1]).solve()?;
         Ok(Solution::new(
             Density::Grid(Box::new(grid)),
             self.own_quantities.clone(),

@@ -66,6 +66,9 @@ impl PointSolution {
 /// What happened at one point with one method.
 #[derive(Clone, Debug, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
+// A sweep holds one outcome per point and method (hundreds at most), most of them solved:
+// the grid's report inline costs less than a box per point would.
+#[allow(clippy::large_enum_variant)]
 pub enum PointOutcome {
     /// The method solved the point (EPC: converged at the target degree).
     Converged(PointSolution),

@@ -2,7 +2,7 @@
 //! the other methods are compared with when there is no Monte Carlo run.
 
 use super::StationaryMethod;
-use crate::grid::{GridError, GridSolver};
+use crate::grid::GridError;
 use crate::observe::ObservableMap;
 use crate::solve::{Density, Method, MethodName, NotApplicable, Problem, Solution, SolveError};
 use crate::symbolic::Expr;
@@ -29,7 +29,7 @@ impl StationaryMethod for FiniteVolumes {
     }
 
     fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
-        match GridSolver::new(problem.model()).check() {
+        match problem.grid_solver().check() {
             Ok(()) => Ok(Ok(())),
             Err(GridError::Unsupported { model, reason }) => Ok(Err(NotApplicable::Grid {
                 model,
