@@ -250,6 +250,7 @@ fn main() -> ExitCode {
         let _ = writeln!(std::io::stderr(), "\ninterrupted: {abandoned}");
         std::process::exit(INTERRUPTED);
     });
+    fpsolve::report::set_command(std::env::args_os().map(|a| a.to_string_lossy().into_owned()));
     let cli = Cli::parse();
     let status = run(cli);
     fpsolve::base::timeline::mark("end");
@@ -745,7 +746,8 @@ fn simulate(
             let result = result.map_err(|e| {
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
-            let written = job::write_mc(&result, run.out()).map_err(lib)?;
+            let provenance = fpsolve::report::Provenance::now_bound(bound);
+            let written = job::write_mc(&result, &provenance, run.out()).map_err(lib)?;
             say!("{result}");
             commit_output(run, written.files.len())?;
             verdict(&result, &written)
@@ -803,7 +805,8 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
 
 fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let written = job::write_mc(result, run.out()).map_err(lib)?;
+    let written =
+        job::write_mc(result, &fpsolve::report::Provenance::now(None), run.out()).map_err(lib)?;
     say!("{result}");
     sayln!("merged {shards} shards");
     commit_output(run, written.files.len())?;

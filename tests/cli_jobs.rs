@@ -6,7 +6,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::{fpsolve, fresh_path, json, simpson};
+use common::{comparisons, fpsolve, fresh_path, json, simpson};
 
 /// Runs `fpsolve args…` and asserts that it succeeded, showing its stderr if not.
 fn succeeds(args: &[&str]) -> Output {
@@ -74,7 +74,7 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     // EPC against the grid, per degree and quantity (the states z, v and the observables y,
     // ydot); degree 4 is closer than the Gaussian closure for y (as against Monte Carlo,
     // paper Fig. 1).
-    let to_grid = summary["epc_vs_grid"].as_array().unwrap();
+    let to_grid = comparisons(&summary, "epc", "grid");
     assert_eq!(to_grid.len(), 8);
     let l1 = |q: &str, d: u64| {
         to_grid
@@ -183,17 +183,31 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         "--out",
         merged.to_str().unwrap(),
     ]);
-    for f in [
-        "mc_summary.json",
-        "mc_z.csv",
-        "mc_v.csv",
-        "mc_y.csv",
-        "mc_ydot.csv",
-    ] {
+    for f in ["mc_z.csv", "mc_v.csv", "mc_y.csv", "mc_ydot.csv"] {
         let a = std::fs::read(whole.join(f)).unwrap();
         let b = std::fs::read(merged.join(f)).unwrap();
         assert!(a == b, "{f} differs between the unsplit and the merged run");
     }
+    // The summaries are equal but for their provenance: each says which command wrote it.
+    let (mut a, mut b) = (
+        json(&whole.join("mc_summary.json")),
+        json(&merged.join("mc_summary.json")),
+    );
+    let (pa, pb) = (a["provenance"].take(), b["provenance"].take());
+    assert_eq!(
+        a, b,
+        "mc_summary.json differs between the unsplit and the merged run"
+    );
+    assert!(
+        pa["command"].as_str().unwrap().contains(" simulate "),
+        "{pa}"
+    );
+    assert!(pb["command"].as_str().unwrap().contains(" merge "), "{pb}");
+    assert!(
+        pa["model"]["text"].as_str().unwrap().starts_with("# "),
+        "{pa}"
+    );
+    assert_eq!(pa["schema_version"], 2);
 }
 
 #[test]
@@ -217,10 +231,10 @@ fn main_job_with_monte_carlo_adds_columns_and_distances() {
     );
     let summary = json(&dir.join("summary.json"));
     // Two degrees on four quantities: the states z, v and the observables y, ydot.
-    let distances = summary["epc_vs_mc"].as_array().unwrap();
+    let distances = comparisons(&summary, "epc", "mc");
     assert_eq!(distances.len(), 8);
     // The grid is compared with Monte Carlo too, on the same bins.
-    assert_eq!(summary["grid_vs_mc"].as_array().unwrap().len(), 4);
+    assert_eq!(comparisons(&summary, "grid", "mc").len(), 4);
     // Degree 4 is closer to the Monte Carlo than the Gaussian closure for y (paper, Fig. 1).
     let l1 = |d: u64| {
         distances
@@ -375,7 +389,7 @@ fn exact_elastic_columns(file: &str, methods: &str) {
         }
     }
     // The same agreement in the summary's EPC-vs-grid distances (on 100 bins).
-    let to_grid = summary["epc_vs_grid"].as_array().unwrap();
+    let to_grid = comparisons(&summary, "epc", "grid");
     for c in to_grid.iter().filter(|c| c["degree"] == 4) {
         assert!(c["l1"].as_f64().unwrap() < 2e-3, "{c}");
         assert!(
@@ -441,19 +455,19 @@ fn a_finished_monte_carlo_run_is_read_as_the_reference() {
         .collect();
     assert_eq!(column(&rows, "mc"), mc.as_slice());
     let summary = json(&job.join("summary.json"));
-    for key in ["epc_vs_mc", "grid_vs_mc", "epc_vs_grid"] {
+    for (method, reference) in [("epc", "mc"), ("grid", "mc"), ("epc", "grid")] {
         assert_eq!(
-            summary[key].as_array().unwrap().len(),
+            comparisons(&summary, method, reference).len(),
             // Four quantities (the states and the observables), two degrees.
-            8 / if key == "grid_vs_mc" { 2 } else { 1 },
-            "{key}"
+            8 / if method == "grid" { 2 } else { 1 },
+            "{method} vs {reference}"
         );
     }
+    // Nothing else is compared: the list holds exactly these three pairs.
+    assert_eq!(summary["comparisons"].as_array().unwrap().len(), 20);
     // y's comparison is on the histogram's own bins (the states come first in the list).
-    let y_to_mc = summary["grid_vs_mc"]
-        .as_array()
-        .unwrap()
-        .iter()
+    let y_to_mc = comparisons(&summary, "grid", "mc")
+        .into_iter()
         .find(|c| c["quantity"] == "y")
         .unwrap();
     assert_eq!(y_to_mc["range"], serde_json::json!([0.0, 6.0]));

@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use common::{fpsolve, json, refused, scratch};
+use common::{comparisons, fpsolve, json, refused, scratch};
 use fpsolve::report::CurveStyle;
 
 /// The first line of a CSV file.
@@ -25,15 +25,11 @@ fn model_file(tag: &str, name: &str, text: &str) -> PathBuf {
 }
 
 /// The quantities a summary's comparison list `key` holds.
-fn compared(summary: &serde_json::Value, key: &str) -> Vec<String> {
-    summary[key]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .map(|c| c["quantity"].as_str().unwrap().to_string())
-                .collect()
-        })
-        .unwrap_or_default()
+fn compared(summary: &serde_json::Value, method: &str, reference: &str) -> Vec<String> {
+    comparisons(summary, method, reference)
+        .iter()
+        .map(|c| c["quantity"].as_str().unwrap().to_string())
+        .collect()
 }
 
 /// A model with observables: the states are written and compared too (model-files.md says
@@ -64,7 +60,7 @@ fn the_main_job_writes_and_compares_the_states_beside_the_observables() {
         assert!(table.contains(&format!(", {q} on [")), "{table}");
     }
     let summary = json(&dir.join("summary.json"));
-    let to_grid = compared(&summary, "epc_vs_grid");
+    let to_grid = compared(&summary, "epc", "grid");
     for q in ["z", "v", "y", "ydot"] {
         assert!(
             to_grid.iter().any(|c| c == q),
@@ -127,7 +123,7 @@ fn a_strip_with_observables_runs_the_methods_that_apply() {
         header(&dir.join("pdf_E.csv")),
         "E,epc_impact_n2,epc_impact_n4"
     );
-    let to_grid = compared(&summary, "epc_impact_vs_grid");
+    let to_grid = compared(&summary, "epc-impact", "grid");
     assert!(to_grid.iter().any(|q| q == "y") && to_grid.iter().any(|q| q == "ydot"));
     assert!(!to_grid.iter().any(|q| q == "E"), "{to_grid:?}");
     // The grid's moments of the energy are still reported.

@@ -10,8 +10,7 @@ use approx::assert_relative_eq;
 use fpsolve::grid::{Cells, CellsError};
 use fpsolve::model::{load_model, Model, SetError};
 use fpsolve::report::OutputDir;
-use fpsolve::solve::{MethodName, MethodNameError, MethodSet};
-use fpsolve::study::NotApplicable;
+use fpsolve::solve::{MethodName, MethodNameError, MethodSet, NotApplicable};
 use fpsolve::sweep::{
     MethodRefusal, PointFailure, PointOutcome, PointSolution, Sweep, SweepError, SweepPoint,
     SweepSpec,

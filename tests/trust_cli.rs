@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{fpsolve, json, names, scratch};
+use common::{comparisons, fpsolve, json, names, scratch};
 
 /// Rows of a CSV file as numbers, with its header.
 fn csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
@@ -266,13 +266,10 @@ fn epc_and_monte_carlo_are_compared_on_bin_averages_and_the_epc_curves_are_not_c
         l1 += (row[n4_col] - row[mc_col]).abs() * width;
     }
     let summary = json(&out.join("summary.json"));
-    let c = summary["epc_vs_mc"]
-        .as_array()
-        .unwrap()
-        .iter()
+    let c = comparisons(&summary, "epc", "mc")
+        .into_iter()
         .find(|c| c["quantity"] == "y" && c["degree"] == 4)
-        .unwrap()
-        .clone();
+        .unwrap();
     assert!((c["l1"].as_f64().unwrap() - l1).abs() < 1e-9, "{c}");
     assert_eq!(c["range"][1], 2.0);
     let _ = std::fs::remove_dir_all(&root);
@@ -298,9 +295,7 @@ fn no_burn_in_still_writes_the_summary_and_the_table() {
     assert!(table.contains("EPC n = 4 vs MC"), "{table}\n{}", stderr(&o));
     assert!(out.join("summary.json").exists(), "{}", stderr(&o));
     let summary = json(&out.join("summary.json"));
-    let zero_bins: u64 = summary["epc_vs_mc"]
-        .as_array()
-        .unwrap()
+    let zero_bins: u64 = comparisons(&summary, "epc", "mc")
         .iter()
         .map(|c| c["ratio_1e5"]["bins_epc_zero"].as_u64().unwrap())
         .sum();
@@ -448,5 +443,49 @@ fn an_undefined_statistic_is_written_as_null_with_the_run_kept() {
     for f in ["pdf_w.csv", "pdf_y.csv", "pdf_y.png"] {
         assert!(out.join(f).exists(), "{f}");
     }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Issue 37, item 4: with stderr not a terminal (a batch log), a run prints plain status lines
+/// at the interval asked (`FPSOLVE_PROGRESS_EVERY`, a minute by default), and none with
+/// `--quiet`; the results are the same either way.
+#[test]
+fn a_batch_log_gets_plain_progress_lines() {
+    let root = scratch("plain-progress");
+    let run = |quiet: bool, out: &str| {
+        let mut args = vec![
+            "simulate",
+            "models/vibro_duffing.sde",
+            "--samples",
+            "2e6",
+            "--out",
+        ];
+        let dir = root.join(out);
+        let dir = dir.to_str().unwrap().to_string();
+        args.push(&dir);
+        if quiet {
+            args.push("--quiet");
+        }
+        Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+            .args(&args)
+            .env("FPSOLVE_PROGRESS_EVERY", "0.05")
+            .stderr(Stdio::piped())
+            .stdout(Stdio::piped())
+            .output()
+            .unwrap()
+    };
+    let loud = run(false, "loud");
+    let text = stderr(&loud);
+    assert!(loud.status.success(), "{text}");
+    let lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("fpsolve ["))
+        .collect();
+    assert!(!lines.is_empty(), "no status line in: {text}");
+    assert!(lines.iter().any(|l| l.contains(" parts")), "{lines:?}");
+    let quiet = run(true, "quiet");
+    assert!(!stderr(&quiet).contains("fpsolve ["), "{}", stderr(&quiet));
+    let csv = |d: &str| std::fs::read_to_string(root.join(d).join("mc_y.csv")).unwrap();
+    assert_eq!(csv("loud"), csv("quiet"));
     let _ = std::fs::remove_dir_all(&root);
 }

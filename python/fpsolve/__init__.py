@@ -20,6 +20,7 @@ from ._fpsolve import (
     GridSolveError,
     JobError,
     ModelError,
+    ModelFileNotFoundError,
     MonteCarloError,
     NoConvergenceError,
     NotApplicableError,
@@ -31,10 +32,11 @@ from ._fpsolve import (
     __version__,
 )
 from ._model import Model
-from ._montecarlo import Histogram, MonteCarlo
+from ._montecarlo import Histogram, MonteCarlo, MonteCarloShard
 from ._solution import Moments, PointMassWarning, Solution
 from ._warnings import FpsolveWarning, MonteCarloWarning
-from ._sweep import SweepResult, sweep
+from ._sweep import SweepResult, SweepShard, sweep
+from ._merge import merge
 from ._job import run_job
 
 METHODS = ("epc", "epc-impact", "grid")
@@ -48,9 +50,11 @@ __all__ = [
     "JobError",
     "Model",
     "ModelError",
+    "ModelFileNotFoundError",
     "Moments",
     "MonteCarlo",
     "MonteCarloError",
+    "MonteCarloShard",
     "MonteCarloWarning",
     "FpsolveWarning",
     "NoConvergenceError",
@@ -62,8 +66,10 @@ __all__ = [
     "SolveError",
     "SweepError",
     "SweepResult",
+    "SweepShard",
     "UnknownQuantityError",
     "__version__",
+    "merge",
     "run_job",
     "sweep",
 ]

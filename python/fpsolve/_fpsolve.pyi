@@ -17,9 +17,9 @@ class FpsolveError(Exception):
 
     kind: str
 
-class ModelError(FpsolveError):
+class ModelError(FpsolveError, ValueError):
     """A model that cannot be read, parsed or validated; ``str(e)`` is the CLI's
-    file:line:col message."""
+    file:line:col message. Also a ``ValueError``."""
 
     path: Optional[str]
     line: Optional[int]
@@ -29,6 +29,9 @@ class ModelError(FpsolveError):
 
 class ParameterError(ModelError):
     """A parameter override that is malformed or cannot be bound."""
+
+class ModelFileNotFoundError(ModelError, FileNotFoundError):
+    """A model file that does not exist (``filename``)."""
 
 class SolveError(FpsolveError):
     """A method that gave no density."""
@@ -56,7 +59,7 @@ class NotApplicableError(SolveError):
 
     reason: str
 
-class UnknownQuantityError(SolveError):
+class UnknownQuantityError(SolveError, KeyError):
     """Neither a state nor an observable: ``name``, ``known``."""
 
     name: str
@@ -110,6 +113,22 @@ class _Model:
         grids: Sequence[Tuple[str, float, float, int]],
         set: Optional[Mapping[str, _Value]] = None,
     ) -> Tuple[str, List[str], List[str]]: ...
+    def simulate_shard(
+        self,
+        index: int,
+        count: int,
+        samples: int,
+        seed: int,
+        threads: Optional[int],
+        dt: Optional[float],
+        spacing: Optional[float],
+        trajectories: Optional[int],
+        bins: Optional[int],
+        grids: Sequence[Tuple[str, float, float, int]],
+        set: Optional[Mapping[str, _Value]] = None,
+    ) -> str: ...
+    @property
+    def text(self) -> str: ...
 
 class _Solution:
     @property
@@ -141,7 +160,10 @@ def sweep_json(
     degree: int,
     cells: Optional[Tuple[int, int]] = None,
     threads: Optional[int] = None,
+    shard: Optional[Tuple[int, int]] = None,
 ) -> str: ...
+def merge_sweep_json(shards: Sequence[str]) -> str: ...
+def merge_mc_json(shards: Sequence[str]) -> Tuple[str, List[str], List[str]]: ...
 def run_job(
     model: _Model,
     out: Union[str, os.PathLike],

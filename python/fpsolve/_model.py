@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _fpsolve
-from ._montecarlo import MonteCarlo
+from ._montecarlo import MonteCarlo, MonteCarloShard
 from ._solution import Solution
 
 Value = Union[float, int, str]
@@ -36,6 +37,19 @@ def _seed(seed: Any) -> int:
     return value
 
 
+def _params(params: Optional[Mapping[str, Any]], set: Dict[str, Any]) -> Dict[str, Any]:
+    """The overrides of a call: the explicit ``params`` dict and the keyword arguments,
+    neither naming a parameter the other does."""
+    if params is None:
+        return set
+    if not isinstance(params, Mapping):
+        raise TypeError(f"params: expected a dict of overrides, got {type(params).__name__}")
+    both = sorted(set.keys() & params.keys())
+    if both:
+        raise TypeError(f"parameter {both[0]!r} given both in params and as a keyword")
+    return {**params, **set}
+
+
 def _cells(cells: Optional[Sequence[int]]) -> Optional[Tuple[int, int]]:
     if cells is None:
         return None
@@ -54,6 +68,16 @@ class Model:
 
     def __init__(self, inner: "_fpsolve._Model"):
         self._inner = inner
+
+    def __reduce__(self):
+        # By its text and the name it was read under: the unpickled model is the same model
+        # (it solves to the same bits) in any process, with no file needed there.
+        return (_from_state, (self._inner.text, self.path))
+
+    @property
+    def text(self) -> str:
+        """The model text it was parsed from (a file's content as read)."""
+        return self._inner.text
 
     @classmethod
     def load(cls, path: Union[str, os.PathLike]) -> "Model":
@@ -102,21 +126,23 @@ class Model:
         """Every name ``Solution.pdf`` takes: the states, then the observables."""
         return self.states + self.observables
 
-    def parameters(self, **set: Value) -> Dict[str, float]:
-        """The parameters' values with the overrides ``set`` applied, in declaration order."""
-        return dict(self._inner.parameters(set))
+    def parameters(self, params: Optional[Mapping[str, Value]] = None, **set: Value) -> Dict[str, float]:
+        """The parameters' values with the overrides ``params`` and ``set`` applied, in
+        declaration order."""
+        return dict(self._inner.parameters(_params(params, set)))
 
-    def check(self, **set: Value) -> str:
+    def check(self, params: Optional[Mapping[str, Value]] = None, **set: Value) -> str:
         """What ``fpsolve check`` prints: the model, its parameter values and its derived
         Fokker-Planck operator (and, for a reflecting barrier, the Zhuravlev transform EPC
         solves)."""
-        return self._inner.check(set)
+        return self._inner.check(_params(params, set))
 
     def solve(
         self,
         method: str = "epc",
         degree: int = 4,
         cells: Optional[Sequence[int]] = None,
+        params: Optional[Mapping[str, Value]] = None,
         **set: Value,
     ) -> Solution:
         """Solves the stationary FPK equation with the overrides ``set``.
@@ -124,14 +150,18 @@ class Model:
         ``method`` is ``"epc"`` (the paper's closure, the impact as a delta term),
         ``"epc-impact"`` (EPC with the exact impact condition) or ``"grid"`` (finite volumes
         on ``cells = (nx, nv)``, default (200, 400)); ``degree`` is the EPC degree (even,
-        2 to 12; every even degree up to it is solved in turn). Releases the GIL.
+        2 to 12; every even degree up to it is solved in turn). ``params`` is the
+        overrides as a dict (for names that are not identifiers or clash with a keyword of
+        this call); it and ``**set`` together may not name a parameter twice. Releases the
+        GIL.
 
         Raises :class:`NoConvergenceError`, :class:`NotNormalisableError`,
         :class:`GridSolveError`, :class:`NotApplicableError` (all :class:`SolveError`) with
         the failure's data, or :class:`ParameterError` for a bad override.
         """
+        set = _params(params, set)
         inner = self._inner.solve(method, int(degree), _cells(cells), set)
-        return Solution(inner)
+        return Solution(inner, (self, method, int(degree), _cells(cells), set))
 
     def simulate(
         self,
@@ -144,8 +174,12 @@ class Model:
         bins: Optional[int] = None,
         grids: Optional[Mapping[str, Tuple[float, float, int]]] = None,
         strict: bool = False,
+        params: Optional[Mapping[str, Value]] = None,
+        shard: Optional[Tuple[int, int]] = None,
+        executor: Optional["concurrent.futures.Executor"] = None,
+        shards: Optional[int] = None,
         **set: Value,
-    ) -> MonteCarlo:
+    ) -> Union[MonteCarlo, MonteCarloShard]:
         """Monte Carlo simulation: ``samples`` recorded samples in all (rounded up to whole
         trajectories, as ``fpsolve simulate --samples``), histograms of every state and
         observable with standard errors.
@@ -164,24 +198,57 @@ class Model:
         ``strict=True`` it raises :class:`MonteCarloError` instead. The run's other warnings
         (a resolved time-step bias above the statistical error, a few blow-ups) are warned as
         :class:`FpsolveWarning` and kept in ``warnings``.
+
+        Split runs (the command line's ``simulate --shard`` and ``merge``): ``shard=(k, n)``
+        runs only the ``k``-th (from 0) of ``n`` parts of the run's statistics batches and
+        returns a :class:`MonteCarloShard` (plain data: it pickles, and
+        :func:`fpsolve.merge` joins the ``n`` parts into the :class:`MonteCarlo` of the
+        unsplit run, bit for bit). ``executor`` (any ``concurrent.futures.Executor``: a
+        ``ProcessPoolExecutor``, ``distributed.Client.get_executor()``, Ray's) runs the
+        ``shards`` parts (default 8, at most the run's statistics batches) on it and merges
+        them: the same bits as the local run. ``params`` is the overrides as a dict.
         """
-        grid_list = [
-            (name, float(lo), float(hi), int(n)) for name, (lo, hi, n) in (grids or {}).items()
-        ]
-        text, flags, notes = self._inner.simulate(
-            int(samples),
-            _seed(seed),
-            None if threads is None else int(threads),
-            None if dt is None else float(dt),
-            None if spacing is None else float(spacing),
-            None if trajectories is None else int(trajectories),
-            None if bins is None else int(bins),
-            grid_list,
-            set,
+        set = _params(params, set)
+        run = dict(
+            samples=int(samples),
+            seed=_seed(seed),
+            threads=None if threads is None else int(threads),
+            dt=None if dt is None else float(dt),
+            spacing=None if spacing is None else float(spacing),
+            trajectories=None if trajectories is None else int(trajectories),
+            bins=None if bins is None else int(bins),
+            grids=[(name, float(lo), float(hi), int(n)) for name, (lo, hi, n) in (grids or {}).items()],
+            set=set,
         )
+        if shard is not None and executor is not None:
+            raise TypeError("simulate: give shard= (one part) or executor= (all parts), not both")
+        if shard is not None:
+            index, count = (int(k) for k in shard)
+            return MonteCarloShard(self._inner.simulate_shard(index, count, **run))
+        if executor is not None:
+            count = 8 if shards is None else int(shards)
+            if count < 1:
+                raise ValueError("shards must be at least 1")
+            futures = [executor.submit(_simulate_shard, self, run, k, count) for k in range(count)]
+            from ._merge import merge
+
+            return merge([f.result() for f in futures], strict=strict)
+        if shards is not None:
+            raise TypeError("simulate: shards= is the split of executor= runs; give executor=")
+        text, flags, notes = self._inner.simulate(**run)
         mc = MonteCarlo._from_json(text, flags, notes)
         mc._judge(bool(strict))
         return mc
 
     def __repr__(self) -> str:
         return repr(self._inner)
+
+
+def _simulate_shard(model: Model, run: Dict[str, Any], index: int, count: int) -> "MonteCarloShard":
+    """One part of a split run, for an executor's worker (a module-level function pickles)."""
+    return MonteCarloShard(model._inner.simulate_shard(index, count, **run))
+
+
+def _from_state(text: str, path: Optional[str]) -> Model:
+    """A pickled :class:`Model` back: parsed from its text, named by its path."""
+    return Model(_fpsolve._Model.from_text(text, path))

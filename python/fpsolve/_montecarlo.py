@@ -10,6 +10,7 @@ from typing import Any, Dict, Iterator, List, Optional, Tuple
 
 import numpy as np
 
+from ._shard import ShardText
 from ._warnings import FpsolveWarning, MonteCarloWarning
 
 
@@ -134,5 +135,65 @@ class MonteCarlo:
         """Recorded samples of each quantity."""
         return next(iter(self.histograms.values())).samples
 
+    def to_xarray(self) -> "xarray.Dataset":
+        """The histograms as a Dataset: for each quantity ``q`` the variables ``q`` (density)
+        and ``q_stderr`` on the dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges,
+        on the dim ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
+
+        Requires xarray (imported here only).
+        """
+        from ._fpsolve import __version__
+        from ._sweep import _optional
+
+        xr = _optional("xarray")
+        data, coords = {}, {}
+        for name, h in self.histograms.items():
+            coords[f"x_{name}"] = h.x
+            data[name] = ([f"x_{name}"], h.density)
+            data[f"{name}_stderr"] = ([f"x_{name}"], h.stderr)
+            data[f"{name}_edges"] = ([f"edge_{name}"], h.edges)
+        settings = self.report.get("settings", {})
+        attrs = {
+            "seed": int(settings.get("seed", 0)),
+            "samples": self.samples,
+            "flags": "; ".join(self.flags),
+            "fpsolve_version": __version__,
+        }
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
     def __repr__(self) -> str:
         return f"<fpsolve.MonteCarlo {self.samples} samples of {', '.join(self.histograms)}>"
+
+
+class MonteCarloShard(ShardText):
+    """One part of a split Monte Carlo run (``Model.simulate(shard=(k, n))``): the statistics
+    of its batches as plain data (the command line's ``shard_K_of_N.json`` text), which
+    pickles and which :func:`fpsolve.merge` joins with the other parts into the unsplit run's
+    :class:`MonteCarlo`, bit for bit.
+
+    ``index`` (from 0) and ``count`` say which part it is; ``json`` is the file's text
+    (``write`` puts it where ``fpsolve merge`` reads it)."""
+
+    __slots__ = ()
+
+    @property
+    def file_name(self) -> str:
+        """``shard_K_of_N.json`` (K from 1), the name ``fpsolve simulate --shard`` writes."""
+        return f"shard_{self.index + 1}_of_{self.count}.json"
+
+    def write(self, directory) -> str:
+        """Writes the part as ``directory/shard_K_of_N.json`` (what ``fpsolve merge DIR``
+        reads) and returns the path."""
+        import os
+
+        path = os.path.join(os.fspath(directory), self.file_name)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(self.json)
+        return path
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, MonteCarloShard) and other.json == self.json
+
+    def __repr__(self) -> str:
+        return f"<fpsolve.MonteCarloShard {self.index + 1} of {self.count}>"
+

@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import json
 import math
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _fpsolve
 from ._model import Model
+from ._shard import ShardText
 
 _STATS = ("mean", "variance", "kurtosis")
+
+
+def _optional(module: str) -> Any:
+    """An optional dependency, imported when first needed, with how to get it when missing."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        raise ImportError(f"this needs {module}, which is not installed: pip install {module}") from e
 
 
 class SweepResult:
@@ -87,8 +99,93 @@ class SweepResult:
                 )
         return out
 
+    def to_pandas(self) -> "pandas.DataFrame":
+        """The sweep in long form: one row per point, method and quantity, with a column per
+        swept parameter, ``method``, ``quantity``, ``converged`` and ``mean``, ``variance``,
+        ``std``, ``kurtosis`` (NaN where the point failed).
+
+        Requires pandas (imported here only).
+        """
+        pd = _optional("pandas")
+        columns: Dict[str, List[Any]] = {n: [] for n in self.values}
+        for key in ("method", "quantity", "converged", "mean", "variance", "std", "kurtosis"):
+            columns[key] = []
+        n = len(self)
+        for m in self.methods:
+            conv = self.converged(m)
+            for q in self.quantities:
+                stats = {s: self.stat(m, q, s) for s in ("mean", "variance", "std", "kurtosis")}
+                for k in range(n):
+                    for name, vals in self.values.items():
+                        columns[name].append(vals[k])
+                    columns["method"].append(m)
+                    columns["quantity"].append(q)
+                    columns["converged"].append(bool(conv[k]))
+                    for s, arr in stats.items():
+                        columns[s].append(arr[k])
+        return pd.DataFrame(columns)
+
+    def to_xarray(self) -> "xarray.Dataset":
+        """The sweep on its grid: variables ``mean``, ``variance``, ``std``, ``kurtosis`` with
+        dims ``("method", "quantity", *swept parameters)`` and ``converged`` with dims
+        ``("method", *swept parameters)``; coordinates are the swept values; ``attrs`` hold
+        ``model``, ``method`` (the methods, comma-separated), ``degree`` and
+        ``fpsolve_version``.
+
+        Requires xarray (imported here only).
+        """
+        xr = _optional("xarray")
+        names = list(self.values)
+        axes = [list(dict.fromkeys(self.values[n].tolist())) for n in names]
+        shape = tuple(len(a) for a in axes)
+        if int(np.prod(shape)) != len(self):
+            raise ValueError("the sweep's points are not the Cartesian product of its values")
+
+        def grid(a: np.ndarray) -> np.ndarray:
+            # Points run with the first parameter fastest.
+            return a.reshape(shape[::-1]).transpose(tuple(range(len(shape)))[::-1])
+
+        data = {}
+        for s in ("mean", "variance", "std", "kurtosis"):
+            data[s] = (
+                ["method", "quantity", *names],
+                np.array([[grid(self.stat(m, q, s)) for q in self.quantities] for m in self.methods]),
+            )
+        data["converged"] = (["method", *names], np.array([grid(self.converged(m)) for m in self.methods]))
+        coords = {"method": list(self.methods), "quantity": list(self.quantities)}
+        coords.update({n: np.array(a, dtype=np.float64) for n, a in zip(names, axes)})
+        attrs = {
+            "model": str(self.report.get("model", "")),
+            "method": ",".join(self.methods),
+            "degree": self.report.get("degree", ""),
+            "fpsolve_version": _fpsolve.__version__,
+        }
+        return xr.Dataset(data, coords=coords, attrs={k: v for k, v in attrs.items() if v is not None})
+
     def __repr__(self) -> str:
         return f"<fpsolve.SweepResult {len(self)} points of {', '.join(self.values)} by {', '.join(self.methods)}>"
+
+
+class SweepShard(ShardText):
+    """One part of a split sweep (``sweep(..., shard=(k, n))``): its points' results as plain
+    data (the command line's ``sweep_shard_K_of_N.json`` text), which pickles and which
+    :func:`fpsolve.merge` joins with the other parts into the unsplit sweep's
+    :class:`SweepResult`."""
+
+    __slots__ = ()
+
+    @property
+    def file_name(self) -> str:
+        """``sweep_shard_K_of_N.json`` (K from 1), the name ``fpsolve sweep --shard`` writes."""
+        return f"sweep_shard_{self.index + 1}_of_{self.count}.json"
+
+    def __repr__(self) -> str:
+        return f"<fpsolve.SweepShard {self.index + 1} of {self.count}>"
+
+
+def _sweep_shard(model: Model, args: Tuple[Any, ...], index: int, count: int) -> SweepShard:
+    """One part of a split sweep, for an executor's worker."""
+    return SweepShard(_fpsolve.sweep_json(model._inner, *args, shard=(index, count)))
 
 
 def sweep(
@@ -97,19 +194,33 @@ def sweep(
     degree: int = 4,
     cells: Union[Sequence[int], None] = None,
     threads: Optional[int] = None,
+    params: Optional[Mapping[str, Any]] = None,
+    shard: Optional[Tuple[int, int]] = None,
+    executor: Optional["concurrent.futures.Executor"] = None,
+    shards: Optional[int] = None,
     **parameters: Any,
-) -> SweepResult:
+) -> Union[SweepResult, SweepShard]:
     """Solves ``model`` at every point of a parameter study, points in parallel.
 
     A keyword whose value is a sequence or array (``eps=np.linspace(-0.3, 0.3, 13)``,
     ``mu=[0.1, 1]``) is swept (at most two, the points are their Cartesian product); a number
-    or expression string is a fixed override. ``method`` is one method or a list of them.
+    or expression string is a fixed override. ``params`` takes the same as a dict. ``method``
+    is one method or a list of them.
     A point that fails for a method is kept, with its reason (``failures``). Releases the
     GIL; Ctrl-C stops the sweep and raises KeyboardInterrupt. Raises :class:`SweepError` for
     a sweep that cannot run. ``threads`` (default: all cores) is the number of worker threads;
     the result does not depend on it (a model parameter named ``threads`` cannot be set
-    through this keyword).
+    through this keyword; use ``params``).
+
+    ``shard=(k, n)`` solves only the ``k``-th (from 0) of ``n`` runs of consecutive points
+    and returns a :class:`SweepShard` (the command line's ``sweep --shard``), which
+    :func:`fpsolve.merge` joins. ``executor`` (any ``concurrent.futures.Executor``) solves
+    ``shards`` parts (default: one per 4 points, at most 64) on it and merges them: the same
+    numbers as the local run.
     """
+    from ._model import _params
+
+    parameters = _params(params, parameters)
     swept = []
     fixed = []
     for name, value in parameters.items():
@@ -121,13 +232,23 @@ def sweep(
             swept.append((name, [float(v) for v in np.asarray(value, dtype=np.float64).ravel()]))
     methods = [method] if isinstance(method, str) else list(method)
     cells_t = None if cells is None else (int(cells[0]), int(cells[1]))
-    text = _fpsolve.sweep_json(
-        model._inner,
-        swept,
-        fixed,
-        methods,
-        int(degree),
-        cells_t,
-        None if threads is None else int(threads),
-    )
-    return SweepResult(json.loads(text))
+    args = (swept, fixed, methods, int(degree), cells_t, None if threads is None else int(threads))
+    if shard is not None and executor is not None:
+        raise TypeError("sweep: give shard= (one part) or executor= (all parts), not both")
+    if shard is not None:
+        index, count = (int(k) for k in shard)
+        return SweepShard(_fpsolve.sweep_json(model._inner, *args, shard=(index, count)))
+    if executor is not None:
+        points = 1
+        for _, values in swept:
+            points *= len(values)
+        count = min(64, max(1, points // 4)) if shards is None else int(shards)
+        if count < 1:
+            raise ValueError("shards must be at least 1")
+        futures = [executor.submit(_sweep_shard, model, args, k, count) for k in range(count)]
+        from ._merge import merge
+
+        return merge([f.result() for f in futures])
+    if shards is not None:
+        raise TypeError("sweep: shards= is the split of executor= runs; give executor=")
+    return SweepResult(json.loads(_fpsolve.sweep_json(model._inner, *args)))

@@ -13,8 +13,10 @@ use fpsolve::model::{BindError, Diagnostic, ModelError as LibModelError, SetErro
 use fpsolve::solve::SolveError as LibSolveError;
 use fpsolve::sweep::SweepError as LibSweepError;
 use pyo3::create_exception;
-use pyo3::exceptions::PyException;
+use pyo3::exceptions::{PyException, PyFileNotFoundError, PyKeyError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::sync::GILOnceCell;
+use pyo3::types::{PyDict, PyTuple, PyType};
 use pyo3::IntoPyObjectExt;
 
 create_exception!(
@@ -95,12 +97,104 @@ create_exception!(
     "The main job failed as a whole (output directory taken, …): `kind`."
 );
 
+/// The classes Python sees for the errors that are also builtin exceptions, by name: each
+/// derives from its Rust-made class above (so the hierarchy under `FpsolveError` holds) and
+/// from the builtin a caller would catch (`ModelError` from `ValueError`, a missing model file
+/// from `FileNotFoundError`, `UnknownQuantityError` from `KeyError`). Python makes them, since
+/// a class with two bases cannot be declared from Rust.
+static BUILTIN_BASED: GILOnceCell<Vec<(&'static str, Py<PyType>)>> = GILOnceCell::new();
+
+fn builtin_based(py: Python<'_>) -> PyResult<&Vec<(&'static str, Py<PyType>)>> {
+    BUILTIN_BASED.get_or_try_init(py, || {
+        let builtins = py.import("builtins")?;
+        let type_ = builtins.getattr("type")?;
+        let make = |name: &str,
+                    bases: Bound<'_, PyTuple>,
+                    doc: Bound<'_, PyAny>,
+                    plain_str: bool|
+         -> PyResult<Py<PyType>> {
+            let ns = PyDict::new(py);
+            ns.set_item("__module__", "fpsolve")?;
+            ns.set_item("__doc__", doc)?;
+            if plain_str {
+                // KeyError's str() quotes its message and OSError's shows errno and filename;
+                // these keep the message as written.
+                ns.set_item(
+                    "__str__",
+                    builtins.getattr("BaseException")?.getattr("__str__")?,
+                )?;
+            }
+            Ok(type_
+                .call1((name, bases, ns))?
+                .downcast_into::<PyType>()?
+                .unbind())
+        };
+        fn doc<'py>(t: Bound<'py, PyType>) -> PyResult<Bound<'py, PyAny>> {
+            t.getattr("__doc__")
+        }
+        let model = make(
+            "ModelError",
+            PyTuple::new(
+                py,
+                [py.get_type::<ModelError>(), py.get_type::<PyValueError>()],
+            )?,
+            doc(py.get_type::<ModelError>())?,
+            false,
+        )?;
+        let parameter = make(
+            "ParameterError",
+            PyTuple::new(
+                py,
+                [py.get_type::<ParameterError>(), model.bind(py).clone()],
+            )?,
+            doc(py.get_type::<ParameterError>())?,
+            false,
+        )?;
+        let not_found = make(
+            "ModelFileNotFoundError",
+            PyTuple::new(
+                py,
+                [model.bind(py).clone(), py.get_type::<PyFileNotFoundError>()],
+            )?,
+            "A model file that does not exist: a ModelError and a FileNotFoundError \
+             (`filename` is its path)."
+                .into_pyobject(py)?
+                .into_any(),
+            true,
+        )?;
+        let unknown = make(
+            "UnknownQuantityError",
+            PyTuple::new(
+                py,
+                [
+                    py.get_type::<UnknownQuantityError>(),
+                    py.get_type::<PyKeyError>(),
+                ],
+            )?,
+            doc(py.get_type::<UnknownQuantityError>())?,
+            true,
+        )?;
+        Ok(vec![
+            ("ModelError", model),
+            ("ParameterError", parameter),
+            ("ModelFileNotFoundError", not_found),
+            ("UnknownQuantityError", unknown),
+        ])
+    })
+}
+
+/// The class Python sees for the error named `name`: its builtin-based class, if it has one.
+fn class_of<'py>(py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyType>>> {
+    Ok(builtin_based(py)?
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| t.bind(py).clone()))
+}
+
 /// Adds the exception classes to the module.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("FpsolveError", py.get_type::<FpsolveError>())?;
-    m.add("ModelError", py.get_type::<ModelError>())?;
-    m.add("ParameterError", py.get_type::<ParameterError>())?;
     m.add("SolveError", py.get_type::<SolveError>())?;
     m.add("NoConvergenceError", py.get_type::<NoConvergenceError>())?;
     m.add(
@@ -109,16 +203,17 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("GridSolveError", py.get_type::<GridSolveError>())?;
     m.add("NotApplicableError", py.get_type::<NotApplicableError>())?;
-    m.add(
-        "UnknownQuantityError",
-        py.get_type::<UnknownQuantityError>(),
-    )?;
     m.add("MonteCarloError", py.get_type::<MonteCarloError>())?;
     m.add("SweepError", py.get_type::<SweepError>())?;
     m.add("JobError", py.get_type::<JobError>())?;
+    for (name, class) in builtin_based(py)? {
+        m.add(*name, class.bind(py))?;
+    }
     Ok(())
 }
 
+/// The error `T` (its builtin-based class where it has one) with `message`, `kind` and the
+/// attributes `attrs`.
 /// An exception of class `T` with text `message` and the attributes `attrs`; `kind` is always
 /// set.
 fn raise<T: pyo3::PyTypeInfo>(
@@ -127,7 +222,33 @@ fn raise<T: pyo3::PyTypeInfo>(
     kind: &str,
     attrs: &[(&str, PyObject)],
 ) -> PyErr {
-    let err = PyErr::new::<T, _>(message);
+    raise_as(
+        py,
+        T::NAME,
+        || PyErr::new::<T, _>(message.clone()),
+        &message,
+        kind,
+        attrs,
+    )
+}
+
+/// [`raise`] by class name: the builtin-based class named `name` if there is one, else `plain`.
+fn raise_as(
+    py: Python<'_>,
+    name: &str,
+    plain: impl FnOnce() -> PyErr,
+    message: &str,
+    kind: &str,
+    attrs: &[(&str, PyObject)],
+) -> PyErr {
+    let err = match class_of(py, name) {
+        Ok(Some(class)) => match class.call1((message,)) {
+            Ok(value) => PyErr::from_value(value),
+            Err(e) => return e,
+        },
+        Ok(None) => plain(),
+        Err(e) => return e,
+    };
     let value = err.value(py);
     let set = || -> PyResult<()> {
         value.setattr("kind", kind)?;
@@ -178,6 +299,20 @@ pub(crate) fn model_error(py: Python<'_>, e: &LibModelError, path: Option<&Path>
     if e.diagnostic().is_none() {
         // An unreadable file: the message is the error itself.
         attrs[3].1 = obj(py, e.to_string());
+    }
+    if let LibModelError::Io { path, source } = e {
+        if source.kind() == std::io::ErrorKind::NotFound {
+            attrs.push(("filename", obj(py, path.display().to_string())));
+            let text = e.to_string();
+            return raise_as(
+                py,
+                "ModelFileNotFoundError",
+                || PyErr::new::<ModelError, _>(text.clone()),
+                &text,
+                kind,
+                &attrs,
+            );
+        }
     }
     raise::<ModelError>(py, e.to_string(), kind, &attrs)
 }
@@ -236,6 +371,10 @@ pub(crate) fn solve_error(py: Python<'_>, e: &LibSolveError, asked: &Asked<'_>) 
         LibSolveError::Zhuravlev(z) => {
             let attrs = base(vec![("reason", obj(py, z.to_string()))]);
             raise::<NotApplicableError>(py, text, "zhuravlev", &attrs)
+        }
+        // The package settles each method from its own name; kept typed all the same.
+        LibSolveError::OtherSettings { .. } => {
+            raise::<SolveError>(py, text, "other_settings", &base(vec![]))
         }
     }
 }

@@ -49,7 +49,8 @@ pub(crate) fn run_job(
         method: "job",
         degree: None,
     };
-    let problem = Problem::new(&bound).map_err(|e| errors::solve_error(py, &e, &asked))?;
+    let problem = crate::pool::on_pool(py, || Problem::new(&bound))?
+        .map_err(|e| errors::solve_error(py, &e, &asked))?;
     let methods = match methods {
         Some(m) => {
             let names = m
@@ -76,8 +77,11 @@ pub(crate) fn run_job(
     let run = RunDir::begin(&out, "fpsolve (Python) run_job")
         .map_err(|e| errors::other::<errors::JobError>(py, "output", e.to_string()))?;
     let inner = &model.model;
-    let report = interruptible(py, |_cancel| Job::new(inner, &spec).run(run.out()))?
-        .map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
+    let pool = crate::pool::shared()?;
+    let report = interruptible(py, |_cancel| {
+        pool.install(|| Job::new(inner, &spec).run(run.out()))
+    })?
+    .map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
     let staging = run.out().path().to_path_buf();
     let dest = run
         .commit()

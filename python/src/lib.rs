@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 mod errors;
 mod interrupt;
 mod job;
+mod merge;
 mod model;
 mod pool;
 mod solution;
@@ -19,6 +20,8 @@ fn _fpsolve(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solution::PySolution>()?;
     m.add_function(wrap_pyfunction!(sweep::sweep_json, m)?)?;
     m.add_function(wrap_pyfunction!(job::run_job, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::merge_sweep_json, m)?)?;
+    m.add_function(wrap_pyfunction!(merge::merge_mc_json, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use fpsolve::base::limits::memory_limit_bytes;
 use fpsolve::grid::Cells;
-use fpsolve::mc::{Grid, McConfig, Simulation};
+use fpsolve::mc::{Grid, McConfig, Shard, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
 use fpsolve::solve::{Method, MethodName, Problem};
 use pyo3::prelude::*;
@@ -20,6 +20,8 @@ use crate::solution::PySolution;
 pub(crate) struct PyModel {
     pub(crate) model: Model,
     pub(crate) path: Option<PathBuf>,
+    /// The text `model` was parsed from: what a pickled model carries.
+    pub(crate) text: String,
 }
 
 /// Overrides from a dict `{name: value}`: a number, or a string holding an expression of
@@ -55,6 +57,30 @@ pub(crate) fn overrides(
 }
 
 impl PyModel {
+    /// The model bound with `set` and the run's settings, checked before any work (the
+    /// preflight `simulate` and `simulate_shard` share).
+    #[allow(clippy::too_many_arguments)]
+    fn checked_run(
+        &self,
+        py: Python<'_>,
+        samples: u64,
+        seed: u64,
+        dt: Option<f64>,
+        spacing: Option<f64>,
+        trajectories: Option<u64>,
+        bins: Option<usize>,
+        grids: &[(String, f64, f64, usize)],
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<(BoundModel, McConfig)> {
+        let bound = self.bind(py, set)?;
+        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, grids)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        config
+            .preflight(&bound)
+            .map_err(|e| errors::mc_error(py, &e))?;
+        Ok((bound, config))
+    }
+
     pub(crate) fn bind(
         &self,
         py: Python<'_>,
@@ -90,12 +116,26 @@ impl PyModel {
     /// Reads and validates the model file at `path`.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyModel> {
-        let model = py
-            .allow_threads(|| load_model(&path))
-            .map_err(|e| errors::model_error(py, &e, Some(&path)))?;
+        // `load_model` checks the file (a regular file, its size, its encoding) and reports
+        // it as the command line does; the model kept is then parsed from the text read
+        // after, so that the text a pickle carries is the model's own even if the file
+        // changed in between.
+        let read = py.allow_threads(|| {
+            load_model(&path)?;
+            let text = std::fs::read_to_string(&path).map_err(|source| {
+                fpsolve::model::ModelError::Io {
+                    path: path.clone(),
+                    source,
+                }
+            })?;
+            let model = parse_model(&text, Some(&path))?;
+            Ok((model, text))
+        });
+        let (model, text) = read.map_err(|e| errors::model_error(py, &e, Some(&path)))?;
         Ok(PyModel {
             model,
             path: Some(path),
+            text,
         })
     }
 
@@ -105,7 +145,17 @@ impl PyModel {
     fn from_text(py: Python<'_>, text: &str, path: Option<PathBuf>) -> PyResult<PyModel> {
         let model = parse_model(text, path.as_deref())
             .map_err(|e| errors::model_error(py, &e, path.as_deref()))?;
-        Ok(PyModel { model, path })
+        Ok(PyModel {
+            model,
+            path,
+            text: text.to_string(),
+        })
+    }
+
+    /// The model text.
+    #[getter]
+    fn text(&self) -> &str {
+        &self.text
     }
 
     #[getter]
@@ -156,7 +206,7 @@ impl PyModel {
     #[pyo3(signature = (set=None))]
     fn check(&self, py: Python<'_>, set: Option<&Bound<'_, PyDict>>) -> PyResult<String> {
         let bound = self.bind(py, set)?;
-        fpsolve::check::render(&self.model, &bound)
+        crate::pool::on_pool(py, || fpsolve::check::render(&self.model, &bound))?
             .map_err(|e| errors::derive_error(py, &e, self.path.as_deref()))
     }
 
@@ -176,10 +226,10 @@ impl PyModel {
             degree: (!matches!(chosen, Method::Grid { .. })).then_some(degree),
         };
         let bound = self.bind(py, set)?;
-        let solved = py.allow_threads(|| {
+        let solved = crate::pool::on_pool(py, || {
             let problem = Problem::new(&bound)?;
             problem.solve(chosen)
-        });
+        })?;
         let solution = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;
         Ok(PySolution::new(solution, method.to_string(), asked.degree))
     }
@@ -202,25 +252,66 @@ impl PyModel {
         set: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<(String, Vec<String>, Vec<String>)> {
         let pool = crate::pool::thread_pool(threads)?;
-        let bound = self.bind(py, set)?;
-        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, &grids)
+        let (bound, config) = self.checked_run(
+            py,
+            samples,
+            seed,
+            dt,
+            spacing,
+            trajectories,
+            bins,
+            &grids,
+            set,
+        )?;
+        // The pilot run that sizes the histograms is parallel too: on the pool, not rayon's
+        // global one.
+        let simulation = py
+            .allow_threads(|| pool.install(|| Simulation::new(&bound, &config)))
             .map_err(|e| errors::mc_error(py, &e))?;
-        config
-            .preflight(&bound)
-            .map_err(|e| errors::mc_error(py, &e))?;
-        let simulation = Simulation::new(&bound, &config).map_err(|e| errors::mc_error(py, &e))?;
         let run = interruptible(py, |cancel| {
             pool.install(|| simulation.run_cancellable(&|_, _| {}, cancel))
         })?;
         let result = run.map_err(|e| errors::mc_error(py, &e))?;
-        // What the CLI exits 1 for: the verdict's failures and numbers without a finite value
-        // (which the JSON below carries as null, NaN in Python).
-        let undefined = fpsolve::report::undefined_fields(&result).map_err(errors::bad_argument)?;
-        let flags = fpsolve::job::mc_flags(&result, &undefined);
-        let warnings = result.warnings.iter().map(ToString::to_string).collect();
-        let json =
-            serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))?;
-        Ok((json, flags, warnings))
+        mc_outcome(&result)
+    }
+
+    /// Runs part `index` (from 0) of `count` of the Monte Carlo simulation (its statistics
+    /// batches); returns the part as JSON (`ShardOutput`'s serde form, the command line's
+    /// `shard_K_of_N.json`), which `merge_mc_json` joins with the others.
+    #[pyo3(signature = (index, count, samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate_shard(
+        &self,
+        py: Python<'_>,
+        index: u64,
+        count: u64,
+        samples: u64,
+        seed: u64,
+        threads: Option<usize>,
+        dt: Option<f64>,
+        spacing: Option<f64>,
+        trajectories: Option<u64>,
+        bins: Option<usize>,
+        grids: Vec<(String, f64, f64, usize)>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<String> {
+        let pool = crate::pool::thread_pool(threads)?;
+        let shard = Shard::new(index, count).map_err(|e| errors::mc_error(py, &e))?;
+        let (bound, config) = self.checked_run(
+            py,
+            samples,
+            seed,
+            dt,
+            spacing,
+            trajectories,
+            bins,
+            &grids,
+            set,
+        )?;
+        let part = py
+            .allow_threads(|| pool.install(|| Simulation::new(&bound, &config)?.run_shard(shard)));
+        let part = part.map_err(|e| errors::mc_error(py, &e))?;
+        serde_json::to_string(&part).map_err(|e| errors::bad_argument(e.to_string()))
     }
 
     fn __repr__(&self) -> String {
@@ -229,6 +320,19 @@ impl PyModel {
             None => format!("<fpsolve.Model {:?}>", self.model.name()),
         }
     }
+}
+
+/// A Monte Carlo result as Python takes it: its JSON, its flags (what the CLI exits 1 for:
+/// the verdict's failures and numbers without a finite value, which the JSON carries as null,
+/// NaN in Python) and its warnings.
+pub(crate) fn mc_outcome(
+    result: &fpsolve::mc::McResult,
+) -> PyResult<(String, Vec<String>, Vec<String>)> {
+    let undefined = fpsolve::report::undefined_fields(result).map_err(errors::bad_argument)?;
+    let flags = fpsolve::job::mc_flags(result, &undefined);
+    let warnings = result.warnings.iter().map(ToString::to_string).collect();
+    let json = serde_json::to_string(result).map_err(|e| errors::bad_argument(e.to_string()))?;
+    Ok((json, flags, warnings))
 }
 
 /// The Monte Carlo configuration of `simulate`: `samples` recorded samples in all, spread over

@@ -7,6 +7,7 @@ use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntyp
 use pyo3::prelude::*;
 
 use crate::errors::{self, Asked};
+use crate::pool::on_pool;
 
 /// An array the Python side receives.
 type Array<'py> = Bound<'py, PyArrayDyn<f64>>;
@@ -91,8 +92,7 @@ impl PySolution {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         let shape = x.shape().to_vec();
         let xs = x.as_slice()?;
-        let p = py
-            .allow_threads(|| self.solution.pdf(name, xs))
+        let p = on_pool(py, || self.solution.pdf(name, xs))?
             .map_err(|e| errors::solve_error(py, &e, &self.asked()))?;
         shaped(py, p, &shape)
     }
@@ -114,19 +114,18 @@ impl PySolution {
         let shape = x1.shape().to_vec();
         let (a, b) = (x1.as_slice()?, x2.as_slice()?);
         let joint = self.solution.joint();
-        let p = py.allow_threads(|| {
+        let p = on_pool(py, || {
             a.iter()
                 .zip(b)
                 .map(|(&u, &v)| joint.pdf([u, v]))
                 .collect::<Vec<f64>>()
-        });
+        })?;
         shaped(py, p, &shape)
     }
 
     /// The PDF of `name` on the grid the reports use: `(x, p)`.
     fn marginal<'py>(&self, py: Python<'py>, name: &str) -> PyResult<(Array<'py>, Array<'py>)> {
-        let (x, p) = py
-            .allow_threads(|| self.solution.marginal(name))
+        let (x, p) = on_pool(py, || self.solution.marginal(name))?
             .map_err(|e| errors::solve_error(py, &e, &self.asked()))?;
         let n = x.len();
         Ok((shaped(py, x, &[n])?, shaped(py, p, &[n])?))
@@ -134,15 +133,14 @@ impl PySolution {
 
     /// The moments of `name` as JSON (`QuantityMoments`' serde form; NaN is null).
     fn moments_json(&self, py: Python<'_>, name: &str) -> PyResult<String> {
-        let m = py
-            .allow_threads(|| self.solution.moments(name))
+        let m = on_pool(py, || self.solution.moments(name))?
             .map_err(|e| errors::solve_error(py, &e, &self.asked()))?;
         serde_json::to_string(&m).map_err(|e| errors::bad_argument(e.to_string()))
     }
 
     /// P(quantity > a); None where the density's support does not reach `a` reliably.
     fn tail_probability(&self, py: Python<'_>, name: &str, a: f64) -> PyResult<Option<f64>> {
-        py.allow_threads(|| self.solution.tail_probability(name, a))
+        on_pool(py, || self.solution.tail_probability(name, a))?
             .map_err(|e| errors::solve_error(py, &e, &self.asked()))
     }
 

@@ -3,8 +3,9 @@
 //! which the Python layer builds arrays. Interruptible: Ctrl-C stops it between points.
 
 use fpsolve::grid::Cells;
+use fpsolve::mc::Shard;
 use fpsolve::solve::{MethodName, MethodSet};
-use fpsolve::sweep::{Sweep, SweepSpec};
+use fpsolve::sweep::{merge_sweep_shards, Sweep, SweepShard, SweepSpec};
 use pyo3::prelude::*;
 
 use crate::errors;
@@ -15,7 +16,7 @@ use crate::model::PyModel;
 /// product) with the overrides `fixed` (name, expression) at every point.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (model, swept, fixed, methods, degree, cells=None, threads=None))]
+#[pyo3(signature = (model, swept, fixed, methods, degree, cells=None, threads=None, shard=None))]
 pub(crate) fn sweep_json(
     py: Python<'_>,
     model: &PyModel,
@@ -25,6 +26,7 @@ pub(crate) fn sweep_json(
     degree: usize,
     cells: Option<[usize; 2]>,
     threads: Option<usize>,
+    shard: Option<(u64, u64)>,
 ) -> PyResult<String> {
     let pool = crate::pool::thread_pool(threads)?;
     // The command line's `--set` arguments, so that one reader checks them (duplicates, too
@@ -53,7 +55,30 @@ pub(crate) fn sweep_json(
         sweep = sweep.cells(Cells(c));
     }
     sweep.check().map_err(|e| errors::sweep_error(py, &e))?;
+    if let Some((index, count)) = shard {
+        // The command line's `--shard K/N` checks, with K from 0 here.
+        let shard = Shard::new(index, count)
+            .map_err(|e| errors::other::<errors::SweepError>(py, "shard", e.to_string()))?;
+        let part = interruptible(py, |cancel| pool.install(|| sweep.run_shard(shard, cancel)))?
+            .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
+        return serde_json::to_string(&part).map_err(|e| errors::bad_argument(e.to_string()));
+    }
     let result = interruptible(py, |cancel| pool.install(|| sweep.run_cancellable(cancel)))?
         .map_err(|e| errors::other::<errors::SweepError>(py, "cancelled", e.to_string()))?;
     serde_json::to_string(&result).map_err(|e| errors::bad_argument(e.to_string()))
+}
+
+/// Joins the parts of one split sweep (`sweep_json(..., shard=...)`'s texts, in any order)
+/// into the unsplit sweep's `sweep.json` text, as `fpsolve merge` does: checked first.
+#[pyfunction]
+pub(crate) fn merge_sweep_json(py: Python<'_>, shards: Vec<String>) -> PyResult<String> {
+    let parts = shards
+        .iter()
+        .map(|text| serde_json::from_str::<SweepShard>(text))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| errors::other::<errors::SweepError>(py, "not_a_shard", e.to_string()))?;
+    let named: Vec<(String, SweepShard)> = parts.into_iter().map(|s| (s.file_name(), s)).collect();
+    let merged = merge_sweep_shards(&named)
+        .map_err(|e| errors::other::<errors::SweepError>(py, "shard", e.to_string()))?;
+    Ok(merged.json().to_string())
 }

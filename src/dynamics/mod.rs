@@ -50,6 +50,7 @@ mod ito;
 mod jump;
 mod probe;
 mod rest;
+mod sde;
 #[cfg(test)]
 mod tests;
 
@@ -62,6 +63,7 @@ pub use inadmissible::Inadmissible;
 pub use ito::DerivationError;
 pub(crate) use ito::{diffusion, ito_drift};
 pub use jump::JumpLaw;
+pub use sde::Sde;
 
 use crate::model::BoundModel;
 use crate::symbolic::{Expr, Symbol};
@@ -102,6 +104,7 @@ pub struct Dynamics {
     diffusion: [[Expr; 2]; 2],
     form: Form,
     barriers: Barriers,
+    sde: Sde,
 }
 
 impl Dynamics {
@@ -133,6 +136,7 @@ impl Dynamics {
             diffusion: diffusion(model),
             form: form::read(model),
             barriers,
+            sde: Sde::read(model),
         })
     }
 
@@ -170,5 +174,10 @@ impl Dynamics {
     /// The barriers.
     pub fn barriers(&self) -> &Barriers {
         &self.barriers
+    }
+
+    /// The equations as written, for a method that simulates them.
+    pub fn sde(&self) -> &Sde {
+        &self.sde
     }
 }

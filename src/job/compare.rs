@@ -7,7 +7,7 @@ use crate::mc::Grid;
 use crate::study::{GridRun, PdfCurves, Source};
 
 /// What a method is compared with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Reference {
     /// The Monte Carlo histogram (run by the job or read with `--mc-from`).

@@ -21,12 +21,10 @@ use serde::Serialize;
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
 use crate::model::{Model, Override};
 use crate::report::{
-    write_json_flagging_undefined, OutputDir, PdfTable, ReportError, UndefinedField,
+    write_json_flagging_undefined, OutputDir, PdfTable, Provenance, ReportError, UndefinedField,
 };
-use crate::solve::{quantities, MethodName, MethodSet, Problem, Quantity};
-use crate::study::{
-    MethodPlan, NotApplicable, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary,
-};
+use crate::solve::{quantities, MethodName, MethodSet, NotApplicable, Problem, Quantity};
+use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
 
 pub use compare::{Comparison, Disagreement, LogRatio, Reference, DISAGREEMENT_L1};
 pub use mc_from::{McFrom, McFromError};
@@ -107,7 +105,7 @@ impl Default for JobSpec {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn default_methods(problem: &Problem) -> Result<MethodSet, crate::solve::SolveError> {
-    let names = match crate::study::applies(problem, MethodName::Epc)? {
+    let names = match MethodName::Epc.method().applies(problem)? {
         Ok(()) => vec![MethodName::Epc, MethodName::Grid],
         Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
     };
@@ -152,6 +150,7 @@ pub enum JobError {
 /// What `summary.json` holds.
 #[derive(Serialize)]
 struct Summary<'a> {
+    provenance: Provenance,
     #[serde(flatten)]
     study: StudySummary<'a>,
     #[serde(skip_serializing_if = "<[Skipped]>::is_empty")]
@@ -166,16 +165,11 @@ struct Summary<'a> {
     monte_carlo_error: Option<&'a str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     monte_carlo_wall_s: Option<f64>,
+    /// Every distance between two methods, one entry per method, degree, reference and
+    /// quantity (each entry names its `method` and `reference`): Monte Carlo's first, then
+    /// the grid's, methods in the order [`MethodName::ALL`] lists them.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_impact_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    grid_vs_mc: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_vs_grid: Vec<&'a Comparison>,
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    epc_impact_vs_grid: Vec<&'a Comparison>,
+    comparisons: Vec<&'a Comparison>,
     #[serde(skip_serializing_if = "<[Disagreement]>::is_empty")]
     disagreements: &'a [Disagreement],
     #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
@@ -417,21 +411,18 @@ fn run(
         Reference::Grid => study
             .grid
             .as_ref()
-            .and_then(|g| g.report())
-            .map(|r| r.discretisation_estimate.map_or(0.0, |e| e.x.max(e.v))),
+            .and_then(|g| g.outcome.as_ref().ok())
+            .and_then(|s| MethodName::Grid.method().error_estimate(s)),
         Reference::Mc => {
             let result = mc.as_ref().filter(|m| m.verdict().is_ok())?;
             let h = result.quantity(&c.quantity)?;
             Some(h.stderr.iter().sum::<f64>() * h.grid.width())
         }
     });
-    let pair = |method: MethodName, reference: Reference| -> Vec<&Comparison> {
-        comparisons
-            .iter()
-            .filter(|c| c.source.method == method && c.reference == reference)
-            .collect()
-    };
+    let mut listed: Vec<&Comparison> = comparisons.iter().collect();
+    listed.sort_by_key(|c| (c.reference, c.source.method));
     let summary = Summary {
+        provenance: Provenance::now(Some(model)),
         study: study.summary(),
         skipped_methods: &plan.skipped,
         skipped_curves: &plan.skipped_curves,
@@ -439,11 +430,7 @@ fn run(
         monte_carlo_from: spec.mc_from.as_ref().map(|f| f.dir.as_path()),
         monte_carlo_error: mc_error.as_deref(),
         monte_carlo_wall_s: (mc.is_some() && spec.mc.is_some()).then_some(mc_wall_s),
-        epc_vs_mc: pair(MethodName::Epc, Reference::Mc),
-        epc_impact_vs_mc: pair(MethodName::EpcImpact, Reference::Mc),
-        grid_vs_mc: pair(MethodName::Grid, Reference::Mc),
-        epc_vs_grid: pair(MethodName::Epc, Reference::Grid),
-        epc_impact_vs_grid: pair(MethodName::EpcImpact, Reference::Grid),
+        comparisons: listed,
         disagreements: &disagreements,
         unwritten: &unwritten,
     };
@@ -599,9 +586,13 @@ pub fn mc_flags(result: &McResult, undefined: &[UndefinedField]) -> Vec<String> 
 /// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
 /// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
 /// whole [`McResult`]: verdicts and warnings included, numbers without a finite value written
-/// as `null` and listed under `undefined`). A merged set of shards writes exactly what the
-/// unsplit run writes.
-pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<McFiles, ReportError> {
+/// as `null` and listed under `undefined`), with its `provenance`. A merged set of shards
+/// writes exactly what the unsplit run writes, but for the provenance (the command, the time).
+pub fn write_mc(
+    result: &McResult,
+    provenance: &Provenance,
+    out: &OutputDir,
+) -> Result<McFiles, ReportError> {
     let mut files = Vec::new();
     for q in &result.quantities {
         let table = PdfTable {
@@ -611,7 +602,17 @@ pub fn write_mc(result: &McResult, out: &OutputDir) -> Result<McFiles, ReportErr
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
     }
-    let (summary, undefined) = write_json_flagging_undefined(out, "mc_summary.json", result)?;
+    #[derive(Serialize)]
+    struct WithProvenance<'a> {
+        provenance: &'a Provenance,
+        #[serde(flatten)]
+        result: &'a McResult,
+    }
+    let (summary, undefined) = write_json_flagging_undefined(
+        out,
+        "mc_summary.json",
+        &WithProvenance { provenance, result },
+    )?;
     files.push(summary);
     Ok(McFiles { files, undefined })
 }

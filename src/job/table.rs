@@ -225,10 +225,7 @@ fn ratio(r: &LogRatio, source: Source) -> String {
         None => "undefined".into(),
     };
     if r.bins_epc_zero > 0 {
-        let why = match source.method {
-            MethodName::Grid => "outside its domain",
-            _ => "beyond its ridge",
-        };
+        let why = source.method.method().zero_reason();
         let _ = write!(
             s,
             " ({source} is 0 in {} of {} bins: {why})",

@@ -10,6 +10,7 @@ use super::record::accumulator::COUNT_COPIES;
 use super::record::histogram::{Grid, MAX_BINS};
 use crate::base::limits::MEMORY_LIMIT_BYTES;
 use crate::model::BoundModel;
+use crate::symbolic::Expr;
 /// How long to run each trajectory before recording.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -205,18 +206,22 @@ impl McConfig {
     }
 
     pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
-        self.resolve_with(model, super::compile::scheme::impact_specs(model)?)
+        let dynamics = super::compile::scheme::read(model)?;
+        let walls = super::compile::scheme::walls(&dynamics);
+        self.resolve_with(model, &dynamics, walls)
     }
 
-    /// [`McConfig::resolve`] with the impact laws `specs` in place of the model's own.
+    /// [`McConfig::resolve`] of `model` read as `dynamics`, with the impact laws `specs` (its
+    /// own, or others in their place).
     pub(super) fn resolve_with(
         &self,
         model: &BoundModel,
+        dynamics: &crate::dynamics::Dynamics,
         specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Resolved, McError> {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
-        crate::dynamics::check(model)?;
+        crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
@@ -309,10 +314,12 @@ impl McConfig {
                 format!("must lie in [0, 1], got {:?}", self.bias_fraction),
             ));
         }
-        let plan = Plan::with_impacts(model, self.scheme, specs)?;
+        let observables: Vec<Expr> = model.observables.iter().map(|o| o.expr.clone()).collect();
+        let plan = Plan::with_impacts(dynamics, &observables, self.scheme, specs)?;
         // A step the drift makes unstable blows every trajectory up, in a run that looks
         // like a hang (c = 1e6 at dt = 0.01): refused with the largest stable step.
-        if let Some(limit) = plan.step_limit([&model.states[0], &model.states[1]]) {
+        let states = dynamics.states();
+        if let Some(limit) = plan.step_limit([&states[0], &states[1]]) {
             if dt > limit.largest_dt {
                 return Err(McError::UnstableStep { dt, limit });
             }

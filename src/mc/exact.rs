@@ -116,3 +116,20 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod grid_tests {
+    use crate::mc::Grid;
+
+    /// Grids are written as numbers, exact to the last bit, and read back from numbers or from
+    /// the strings files written before (and non-finite values) use.
+    #[test]
+    fn numbers_round_trip_and_old_strings_are_read() {
+        let grid = Grid::new(-0.1 - 0.2, 1.0 / 3.0, 7).unwrap();
+        let text = serde_json::to_string(&grid).unwrap();
+        assert!(text.contains("\"lo\":-0.30000000000000004"), "{text}");
+        assert_eq!(serde_json::from_str::<Grid>(&text).unwrap(), grid);
+        let old = r#"{"lo": "-0.30000000000000004", "hi": "0.3333333333333333", "bins": 7}"#;
+        assert_eq!(serde_json::from_str::<Grid>(old).unwrap(), grid);
+    }
+}

@@ -43,7 +43,7 @@ pub struct BarrierSetting {
     /// The state that meets the barrier.
     pub state: String,
     /// Where the barrier is.
-    #[serde(with = "exact")]
+    #[serde(with = "exact::number")]
     pub at: f64,
     /// The post-impact value of the other state, printed.
     pub map: String,
@@ -74,7 +74,7 @@ pub struct RunSettings {
     /// The noise increments' distribution.
     pub increments: Increments,
     /// Time step.
-    #[serde(with = "exact")]
+    #[serde(with = "exact::number")]
     pub dt: f64,
     /// Steps between recorded samples.
     pub steps_per_sample: u64,

@@ -27,13 +27,26 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        Simulation::with_impacts(model, config, super::compile::scheme::impact_specs(model)?)
+        let dynamics = super::compile::scheme::read(model)?;
+        let walls = super::compile::scheme::walls(&dynamics);
+        Simulation::from_dynamics(model, &dynamics, config, walls)
     }
 
     /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (tests
     /// that set the walls of a strip on a barrier-free model).
+    #[cfg(test)]
     pub(crate) fn with_impacts(
         model: &BoundModel,
+        config: &McConfig,
+        specs: Vec<crate::dynamics::Barrier>,
+    ) -> Result<Simulation, McError> {
+        let dynamics = super::compile::scheme::read(model)?;
+        Simulation::from_dynamics(model, &dynamics, config, specs)
+    }
+
+    fn from_dynamics(
+        model: &BoundModel,
+        dynamics: &crate::dynamics::Dynamics,
         config: &McConfig,
         specs: Vec<crate::dynamics::Barrier>,
     ) -> Result<Simulation, McError> {
@@ -45,7 +58,7 @@ impl Simulation {
             batches,
             bias_batches,
             estimate,
-        } = config.resolve_with(model, specs)?;
+        } = config.resolve_with(model, dynamics, specs)?;
         // The run may be split into as many shards as batches: the smallest shard must fit.
         estimate.within_limits(batches)?;
         let dt = config.dt;
@@ -74,7 +87,7 @@ impl Simulation {
                 .barriers
                 .iter()
                 .map(|b| BarrierSetting {
-                    state: model.states[b.state].to_string(),
+                    state: dynamics.states()[b.state].to_string(),
                     at: b.at,
                     map: b.expr.to_string(),
                     above: b.side > 0.0,
@@ -115,12 +128,14 @@ impl Simulation {
             // beyond them: its grid ends on them, so no bin straddles a wall.
             let walls = |name: &str| {
                 let mut range = [f64::NEG_INFINITY, f64::INFINITY];
-                for law in model.impacts() {
-                    match law.side {
-                        Some(side) if model.states[law.state].as_ref() == name => match side {
-                            crate::model::BarrierSide::Above => range[0] = law.at,
-                            crate::model::BarrierSide::Below => range[1] = law.at,
-                        },
+                for wall in dynamics.barriers().iter() {
+                    match wall.side() {
+                        Some(side) if dynamics.states()[wall.state].as_ref() == name => {
+                            match side {
+                                crate::model::BarrierSide::Above => range[0] = wall.at,
+                                crate::model::BarrierSide::Below => range[1] = wall.at,
+                            }
+                        }
                         _ => {}
                     }
                 }

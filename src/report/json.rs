@@ -65,7 +65,7 @@ pub fn write_json<T: Serialize + ?Sized>(
 /// [`write_json_flagging_undefined`], listed beside the data).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct UndefinedField {
-    /// JSONPath of the field, e.g. `$.epc_vs_mc[1].max_log10_ratio_1e5`.
+    /// JSONPath of the field, e.g. `$.comparisons[1].l1`.
     pub field: String,
     /// What it was: `inf`, `-inf` or `NaN`.
     pub value: String,

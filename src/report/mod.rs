@@ -31,6 +31,7 @@ mod figure;
 mod font;
 mod json;
 mod output;
+mod provenance;
 mod run_dir;
 
 use std::path::PathBuf;
@@ -42,6 +43,7 @@ pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
 pub use json::{undefined_fields, write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;
+pub use provenance::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use run_dir::{abandon_unfinished, Abandoned, RunDir, RunDirError, MARKER};
 
 /// Why writing or reading a report file failed. Every variant names the file (or directory)

@@ -22,7 +22,9 @@
 
 mod grid;
 mod name;
+mod not_applicable;
 mod quantity;
+mod registry;
 mod solution;
 mod tail;
 
@@ -37,8 +39,10 @@ use crate::transform::{zhuravlev_bound, Zhuravlev, ZhuravlevError};
 
 pub(crate) use grid::{common_grid, printable};
 pub use name::{MethodName, MethodNameError, MethodSet};
+pub use not_applicable::NotApplicable;
 pub use quantity::{quantities, Quantity};
 pub(crate) use quantity::{quantities_of, reported, through};
+pub use registry::StationaryMethod;
 pub use solution::{Density, QuantityMoments, Solution};
 pub(crate) use tail::{tail_probability, two_sided_tail_probability};
 
@@ -68,12 +72,44 @@ pub enum Method {
     },
 }
 
+impl Method {
+    /// The method's name, without its settings.
+    ///
+    /// ```
+    /// use fpsolve::solve::{Method, MethodName};
+    /// assert_eq!(Method::Grid { cells: [40, 80] }.name(), MethodName::Grid);
+    /// ```
+    pub fn name(self) -> MethodName {
+        match self {
+            Method::Epc { .. } => MethodName::Epc,
+            Method::Grid { .. } => MethodName::Grid,
+            Method::EpcImpact { .. } => MethodName::EpcImpact,
+        }
+    }
+
+    /// The degree of a ladder method, `None` for the grid.
+    ///
+    /// ```
+    /// use fpsolve::solve::Method;
+    /// assert_eq!(Method::EpcImpact { degree: 4 }.degree(), Some(4));
+    /// assert_eq!(Method::Grid { cells: [40, 80] }.degree(), None);
+    /// ```
+    pub fn degree(self) -> Option<usize> {
+        match self {
+            Method::Epc { degree } | Method::EpcImpact { degree } => Some(degree),
+            Method::Grid { .. } => None,
+        }
+    }
+}
+
 impl std::fmt::Display for Method {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let title = self.name().method().title();
         match self {
-            Method::Epc { degree } => write!(f, "EPC n = {degree}"),
-            Method::Grid { cells } => write!(f, "grid {}×{}", cells[0], cells[1]),
-            Method::EpcImpact { degree } => write!(f, "EPC-impact n = {degree}"),
+            Method::Epc { degree } | Method::EpcImpact { degree } => {
+                write!(f, "{title} n = {degree}")
+            }
+            Method::Grid { cells } => write!(f, "{title} {}×{}", cells[0], cells[1]),
         }
     }
 }
@@ -99,6 +135,15 @@ pub enum SolveError {
     /// EPC with the exact impact condition did not give a density (or does not apply).
     #[error(transparent)]
     EpcImpact(#[from] crate::epc_impact::EpcImpactError),
+    /// A method asked to solve with another method's settings
+    /// ([`StationaryMethod::solve`]).
+    #[error("{method} cannot solve with the settings of {settings}")]
+    OtherSettings {
+        /// The method asked.
+        method: MethodName,
+        /// The settings given.
+        settings: Method,
+    },
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -247,30 +292,35 @@ impl<'a> Problem<'a> {
     /// [`SolveError::Epc`] when EPC does not converge or cannot normalise;
     /// [`SolveError::Grid`] when the grid solver refuses the model or fails.
     pub fn solve(&self, method: Method) -> Result<Solution, SolveError> {
-        match method {
-            Method::Epc { degree } => {
-                if let Some(Err(e)) = &self.zhuravlev {
-                    return Err(SolveError::Zhuravlev(e.clone()));
-                }
-                Ok(self.solution(self.epc().degree(degree).solve()?))
-            }
-            Method::Grid { cells } => {
-                let grid = GridSolver::new(&self.model)
-                    .cells(cells[0], cells[1])
-                    .solve()?;
-                Ok(Solution::new(
-                    Density::Grid(Box::new(grid)),
-                    self.own_quantities.clone(),
-                ))
-            }
-            Method::EpcImpact { degree } => {
-                let sol = crate::epc_impact::EpcImpact::new(&self.model).solve(degree)?;
-                Ok(Solution::new(
-                    Density::EpcImpact(Box::new(sol)),
-                    self.own_quantities.clone(),
-                ))
-            }
+        method.name().method().solve(self, method)
+    }
+
+    /// Solves by EPC at `degree` (through the Zhuravlev transform when there is one).
+    pub(crate) fn solve_epc(&self, degree: usize) -> Result<Solution, SolveError> {
+        if let Some(Err(e)) = &self.zhuravlev {
+            return Err(SolveError::Zhuravlev(e.clone()));
         }
+        Ok(self.solution(self.epc().degree(degree).solve()?))
+    }
+
+    /// Solves by the grid solver on `cells`, the model as it stands.
+    pub(crate) fn solve_grid(&self, cells: [usize; 2]) -> Result<Solution, SolveError> {
+        let grid = GridSolver::new(&self.model)
+            .cells(cells[0], cells[1])
+            .solve()?;
+        Ok(Solution::new(
+            Density::Grid(Box::new(grid)),
+            self.own_quantities.clone(),
+        ))
+    }
+
+    /// Solves by EPC with the exact impact condition at `degree`, the model as it stands.
+    pub(crate) fn solve_epc_impact(&self, degree: usize) -> Result<Solution, SolveError> {
+        let sol = crate::epc_impact::EpcImpact::new(&self.model).solve(degree)?;
+        Ok(Solution::new(
+            Density::EpcImpact(Box::new(sol)),
+            self.own_quantities.clone(),
+        ))
     }
 
     /// Solves by EPC at each degree asked, continuing through every lower even degree, one

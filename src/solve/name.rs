@@ -52,7 +52,7 @@ impl MethodName {
     /// assert!(MethodName::EpcImpact.has_degrees() && !MethodName::Grid.has_degrees());
     /// ```
     pub fn has_degrees(self) -> bool {
-        matches!(self, MethodName::Epc | MethodName::EpcImpact)
+        self.method().has_degrees()
     }
 }
 

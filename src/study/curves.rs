@@ -41,11 +41,7 @@ impl Source {
 impl std::fmt::Display for Source {
     /// As tables and legends say it: `EPC n = 4`, `EPC-impact n = 4`, `grid`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let name = match self.method {
-            MethodName::Epc => "EPC",
-            MethodName::EpcImpact => "EPC-impact",
-            MethodName::Grid => "grid",
-        };
+        let name = self.method.method().title();
         match self.degree {
             Some(d) => write!(f, "{name} n = {d}"),
             None => f.write_str(name),

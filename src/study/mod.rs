@@ -26,7 +26,7 @@ use crate::solve::{
 };
 
 pub use curves::{BinChoice, MethodColumn, PdfCurves, Source};
-pub use methods::{applies, MethodPlan, NotApplicable, PlanError, Refused, Skipped};
+pub use methods::{MethodPlan, PlanError, Refused, Skipped};
 pub use warning::{StudyWarning, MEAN_VELOCITY_MARGIN, MEAN_VELOCITY_RELATIVE};
 
 /// Why a study could not run at all (a failing degree is not this: it is kept in the study).
@@ -44,14 +44,6 @@ pub enum StudyError {
     /// No method was asked for.
     #[error("no method was asked for")]
     NoMethod,
-    /// A method asked for does not apply to the model.
-    #[error("{method}: {why}")]
-    NotApplicable {
-        /// The method.
-        method: MethodName,
-        /// Why.
-        why: NotApplicable,
-    },
 }
 
 /// The outcome of a ladder method at one degree.
@@ -309,20 +301,18 @@ impl<'a> StudyRunner<'a> {
     ///
     /// # Errors
     /// [`StudyError::NoMethod`], [`StudyError::NoDegree`] (a ladder method without degrees),
-    /// [`StudyError::NotApplicable`] for a ladder method not available, or
-    /// [`StudyError::Solve`] when the operator cannot be derived; a degree (or a grid solve)
+    /// or [`StudyError::Solve`] when the operator cannot be derived; a degree (or a grid solve)
     /// that fails is kept in the study.
     pub fn run(self) -> Result<Study, StudyError> {
         if self.methods.is_empty() {
             return Err(StudyError::NoMethod);
         }
-        let mut ladders = Vec::new();
-        for &method in &self.methods {
-            if let Some(solver) = methods::ladder(method) {
-                let solver = solver.map_err(|why| StudyError::NotApplicable { method, why })?;
-                ladders.push((method, solver));
-            }
-        }
+        let ladders: Vec<MethodName> = self
+            .methods
+            .iter()
+            .copied()
+            .filter(|m| m.method().has_degrees())
+            .collect();
         if !ladders.is_empty() && self.degrees.is_empty() {
             return Err(StudyError::NoDegree);
         }
@@ -347,7 +337,7 @@ impl<'a> StudyRunner<'a> {
         let ladders = || {
             ladders
                 .iter()
-                .flat_map(|&(method, solve)| self.ladder(problem, method, solve))
+                .flat_map(|&method| self.ladder(problem, method))
                 .collect::<Vec<DegreeResult>>()
         };
         // The ladders on this thread, which is running now: handed to the pool (as the
@@ -455,13 +445,10 @@ impl<'a> StudyRunner<'a> {
         out
     }
 
-    fn ladder(
-        &self,
-        problem: &Problem,
-        method: MethodName,
-        solve: methods::LadderSolver,
-    ) -> Vec<DegreeResult> {
-        solve(problem, &self.degrees)
+    fn ladder(&self, problem: &Problem, method: MethodName) -> Vec<DegreeResult> {
+        let solved = method.method().solve_degrees(problem, &self.degrees);
+        solved
+            .unwrap_or_default()
             .into_iter()
             .zip(&self.degrees)
             .map(|(outcome, &degree)| {

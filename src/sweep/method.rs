@@ -3,8 +3,7 @@
 
 use crate::grid::{check_cells, Cells, GridError};
 use crate::model::BoundModel;
-use crate::solve::{Method, MethodName, Problem};
-use crate::study::NotApplicable;
+use crate::solve::{Method, MethodName, NotApplicable, Problem};
 
 /// Why a method cannot solve the sweep's model: found before any work
 /// ([`crate::sweep::Sweep::check`]) or, when that was skipped, recorded at every point.
@@ -21,16 +20,12 @@ pub enum MethodRefusal {
 /// The method `name` with the sweep's settings: the one place a method name becomes a
 /// [`Method`].
 pub(crate) fn settle(name: MethodName, degree: usize, cells: Cells) -> Method {
-    match name {
-        MethodName::Epc => Method::Epc { degree },
-        MethodName::EpcImpact => Method::EpcImpact { degree },
-        MethodName::Grid => Method::Grid { cells: cells.0 },
-    }
+    name.method().settle(degree, cells.0)
 }
 
 /// Whether `method` (named `name`) applies to `model` (bound at one point): the structural
 /// refusals only (the model's form, the settings), as the main job decides them
-/// ([`crate::study::applies`]), not what depends on the parameter values (a point without a
+/// ([`crate::solve::StationaryMethod::applies`]), not what depends on the parameter values (a point without a
 /// stationary density fails at that point, as data).
 pub(crate) fn applies(
     model: &BoundModel,
@@ -44,7 +39,7 @@ pub(crate) fn applies(
     let Ok(problem) = Problem::new(model) else {
         return Ok(());
     };
-    match crate::study::applies(&problem, name) {
+    match name.method().applies(&problem) {
         Ok(Err(why)) => Err(MethodRefusal::NotApplicable(why)),
         _ => Ok(()),
     }

@@ -302,8 +302,10 @@ fn failure(e: SolveError, method: Method) -> PointFailure {
         }
         (SolveError::Zhuravlev(e), _) => PointFailure::Zhuravlev(e),
         (
-            e
-            @ (SolveError::Epc(_) | SolveError::EpcImpact(_) | SolveError::UnknownQuantity { .. }),
+            e @ (SolveError::Epc(_)
+            | SolveError::EpcImpact(_)
+            | SolveError::UnknownQuantity { .. }
+            | SolveError::OtherSettings { .. }),
             _,
         ) => unreachable!("{method} failed where it cannot: {e}"),
     }

@@ -196,13 +196,10 @@ impl SweepResult {
 
     /// How figures name a method: `EPC n = 4`, `grid 140×280`.
     fn method_label(&self, method: MethodName) -> String {
-        match method {
-            MethodName::Epc => format!("EPC n = {}", self.degree),
-            MethodName::EpcImpact => format!("EPC-impact n = {}", self.degree),
-            MethodName::Grid => match self.cells {
-                Some([nx, nv]) => format!("grid {nx}×{nv}"),
-                None => "grid".to_string(),
-            },
+        let m = method.method();
+        match self.cells {
+            None if !m.has_degrees() => m.title().to_string(),
+            cells => m.settle(self.degree, cells.unwrap_or_default()).to_string(),
         }
     }
 

@@ -46,6 +46,24 @@ pub fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// The entries of `summary.json`'s `comparisons` list of `method` against `reference`
+/// (`"mc"` or `"grid"`), in the list's order.
+pub fn comparisons(
+    summary: &serde_json::Value,
+    method: &str,
+    reference: &str,
+) -> Vec<serde_json::Value> {
+    summary["comparisons"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter(|c| c["method"] == method && c["reference"] == reference)
+                .cloned()
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// ∫ f over [a, b] by composite Simpson on `n` (even) intervals.
 pub fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
     let h = (b - a) / n as f64;

@@ -346,7 +346,7 @@ pub(crate) mod tests {
             .unwrap()
             .bind(&[])
             .unwrap();
-        Plan::with_impacts(&model, SchemeChoice::Auto, impact_specs(&model)?)
+        Plan::of_model(&model, SchemeChoice::Auto, impact_specs(&model)?)
     }
 
     /// The plan of a model given as text.
@@ -355,7 +355,7 @@ pub(crate) mod tests {
             .unwrap()
             .bind(&[])
             .unwrap();
-        Plan::with_impacts(&model, SchemeChoice::Auto, impact_specs(&model)?)
+        Plan::of_model(&model, SchemeChoice::Auto, impact_specs(&model)?)
     }
 
     /// The bundled models on the mechanical path (the strip's runs the form too, though its

@@ -22,6 +22,7 @@
 //!   an impact is of weak order 1 on every general scheme).
 
 use crate::dynamics::Barrier as Wall;
+use crate::dynamics::Dynamics as ModelDynamics;
 use crate::mc::compile::eval::{compile, BatchKernel};
 use crate::mc::compile::impact::{Barrier, Crossing};
 use crate::mc::compile::mech_form::MechForm;
@@ -241,58 +242,27 @@ pub(crate) fn psd_sqrt(s: &[Vec<f64>]) -> Result<Vec<f64>, McError> {
     Ok(l)
 }
 
-/// The Itô form of a model with independent unit sources: the drift (Wong–Zakai corrected
-/// for a Stratonovich model, ½ Σ_j Σ_l b̃_lj ∂_l b̃_ij, which equals the FPK operator's
-/// ½ Σ_kl S_kl G_jl ∂_j G_ik because S = L·Lᵀ) and the columns b̃ = G·L, `[row][column]`.
-fn ito_form(model: &BoundModel, l: &[f64]) -> Result<([Expr; 2], [Vec<Expr>; 2]), McError> {
-    let m = model.noise_names.len();
-    let g = &model.noise_matrix;
-    let columns: [Vec<Expr>; 2] = std::array::from_fn(|i| {
-        (0..m)
-            .map(|j| {
-                let terms: Vec<Expr> = (j..m)
-                    .filter(|&k| l[k * m + j] != 0.0)
-                    .map(|k| Expr::num(l[k * m + j]) * g[i][k].clone())
-                    .collect();
-                simplify(&Expr::sum(terms))
-            })
-            .collect()
-    });
-    let mut drift = model.drift.clone();
-    if model.interpretation == Interpretation::Stratonovich {
-        let states = [&*model.states[0], &*model.states[1]];
-        for i in 0..2 {
-            let mut terms = Vec::new();
-            for j in 0..m {
-                for (r, s) in states.iter().enumerate() {
-                    if columns[r][j].as_num() == Some(0.0) {
-                        continue;
-                    }
-                    let d = diff(&columns[i][j], s)?;
-                    if d.as_num() != Some(0.0) {
-                        terms.push(Expr::num(0.5) * columns[r][j].clone() * d);
-                    }
-                }
-            }
-            if !terms.is_empty() {
-                drift[i] = simplify(&(drift[i].clone() + Expr::sum(terms)));
-            }
-        }
-    }
-    Ok((drift, columns))
-}
-
-/// The model's barriers as the simulation takes them, from its
-/// [`Dynamics`](crate::dynamics::Dynamics).
-pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
-    use crate::dynamics::{Dynamics, DynamicsError};
-    let dynamics = Dynamics::read(model).map_err(|e| match e {
+/// The model read once ([`ModelDynamics::read`]), its errors in the simulation's terms.
+pub(crate) fn read(model: &BoundModel) -> Result<ModelDynamics, McError> {
+    use crate::dynamics::DynamicsError;
+    ModelDynamics::read(model).map_err(|e| match e {
         DynamicsError::JumpMap { source } => McError::Compile(source),
         DynamicsError::TooManyBarriers { count } => McError::Barriers {
             layout: BarrierLayout::TooMany { count },
         },
-    })?;
-    Ok(dynamics.barriers().iter().cloned().collect())
+    })
+}
+
+/// The model's barriers as the simulation takes them, from its
+/// [`Dynamics`](crate::dynamics::Dynamics).
+#[cfg(test)]
+pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
+    Ok(walls(&read(model)?))
+}
+
+/// The barriers of `dynamics`, lower first.
+pub(crate) fn walls(dynamics: &ModelDynamics) -> Vec<Wall> {
+    dynamics.barriers().iter().cloned().collect()
 }
 
 /// Checks that `specs` is a layout the simulation handles: none, one, or two on the same
@@ -323,18 +293,33 @@ fn check_layout(mut specs: Vec<Wall>) -> Result<Vec<Wall>, BarrierLayout> {
 }
 
 impl Plan {
-    /// `model` compiled with the impact laws `specs` in place of its own.
-    pub(crate) fn with_impacts(
+    /// `model` read and compiled with the impact laws `specs`, as a run compiles it.
+    #[cfg(test)]
+    pub(crate) fn of_model(
         model: &BoundModel,
         choice: SchemeChoice,
         specs: Vec<Wall>,
     ) -> Result<Plan, McError> {
+        let observables: Vec<Expr> = model.observables.iter().map(|o| o.expr.clone()).collect();
+        Plan::with_impacts(&read(model)?, &observables, choice, specs)
+    }
+
+    /// The equations of `dynamics` compiled with the impact laws `specs` (its own, or others
+    /// in their place), recording the model's `observables`.
+    pub(crate) fn with_impacts(
+        dynamics: &ModelDynamics,
+        observables: &[Expr],
+        choice: SchemeChoice,
+        specs: Vec<Wall>,
+    ) -> Result<Plan, McError> {
         let specs = check_layout(specs).map_err(|layout| McError::Barriers { layout })?;
-        let [x, v] = [&*model.states[0], &*model.states[1]];
+        let sde = dynamics.sde();
+        let [x, v] = [&*dynamics.states()[0], &*dynamics.states()[1]];
         let states = [x, v];
-        let g = &model.noise_matrix;
-        let s = &model.intensity;
-        let m = model.noise_names.len();
+        let g = sde.noise_matrix();
+        let s = sde.intensity();
+        let m = sde.noise_names().len();
+        let drift = sde.drift();
         if let Some((b, k)) = specs.iter().find_map(|b| {
             (0..m)
                 .find(|&k| !is_zero(&g[b.state][k]) && s[k][k] != 0.0)
@@ -343,17 +328,17 @@ impl Plan {
             return Err(McError::Barriers {
                 layout: BarrierLayout::NoisyState {
                     state: states[b.state].to_string(),
-                    noise: model.noise_names[k].to_string(),
+                    noise: sde.noise_names()[k].to_string(),
                 },
             });
         }
         let mechanical_barrier = specs.iter().all(|b| b.state == 0 && b.other == 1);
         let mechanical = choice == SchemeChoice::Auto
-            && is_state(&model.drift[0], v)
+            && is_state(&drift[0], v)
             && g[0].iter().all(is_zero)
             && g[1].iter().all(|e| !e.mentions(v))
             && mechanical_barrier;
-        let mut coefficients = model.drift.iter().chain(g[0].iter()).chain(g[1].iter());
+        let mut coefficients = drift.iter().chain(g[0].iter()).chain(g[1].iter());
         if specs.is_empty() {
             if let Some(e) = coefficients.find(|e| e.contains_delta()) {
                 return Err(McError::DeltaWithoutImpact {
@@ -379,7 +364,7 @@ impl Plan {
                 }
                 Expr::call(Func::Sqrt, Expr::sum(terms))
             };
-            let force = model.drift[1].clone();
+            let force = drift[1].clone();
             let slope = affine_slope(&force, v);
             let mut outputs = vec![force.clone(), sigma];
             outputs.extend(slope.iter().cloned());
@@ -395,10 +380,10 @@ impl Plan {
                 },
             )
         } else if choice == SchemeChoice::GeneralOrder1 {
-            let mut exprs = vec![model.drift[0].clone(), model.drift[1].clone()];
+            let mut exprs = vec![drift[0].clone(), drift[1].clone()];
             exprs.extend(g[0].iter().cloned());
             exprs.extend(g[1].iter().cloned());
-            let stratonovich = model.interpretation == Interpretation::Stratonovich;
+            let stratonovich = sde.interpretation() == Interpretation::Stratonovich;
             (
                 if stratonovich {
                     SchemeKind::Heun
@@ -414,7 +399,7 @@ impl Plan {
                 },
             )
         } else {
-            let (drift, columns) = ito_form(model, &sqrt_s)?;
+            let (drift, columns) = sde.unit_columns(dynamics.states(), &sqrt_s)?;
             let mut exprs = drift.to_vec();
             exprs.extend(columns[0].iter().cloned());
             exprs.extend(columns[1].iter().cloned());
@@ -467,7 +452,6 @@ impl Plan {
                 })
             })
             .collect::<Result<Vec<_>, McError>>()?;
-        let obs: Vec<Expr> = model.observables.iter().map(|o| o.expr.clone()).collect();
         let mut origin_diffusion = [[0.0; 2]; 2];
         for x0 in [-1e-9, 1e-9] {
             let at = |e: &Expr| {
@@ -490,8 +474,8 @@ impl Plan {
             kind,
             dynamics,
             barriers,
-            observables: compile(&obs, states)?,
-            drift: compile(&model.drift, states)?,
+            observables: compile(observables, states)?,
+            drift: compile(drift, states)?,
         })
     }
 

@@ -431,7 +431,13 @@ mod tests {
             burn_in_steps,
             batches,
             ..
-        } = config.resolve_with(&model, specs).unwrap();
+        } = config
+            .resolve_with(
+                &model,
+                &crate::mc::compile::scheme::read(&model).unwrap(),
+                specs,
+            )
+            .unwrap();
         let grid = |k: usize| Grid::new(-2.0 - k as f64, 1.5 + k as f64, 37 + k).unwrap();
         let st = RunSettings {
             model: model.name.clone(),

@@ -15,10 +15,10 @@ pub const MAX_BINS: usize = 10_000_000;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Grid {
     /// Left edge of the first bin.
-    #[serde(with = "exact")]
+    #[serde(with = "exact::number")]
     pub lo: f64,
     /// Right edge of the last bin.
-    #[serde(with = "exact")]
+    #[serde(with = "exact::number")]
     pub hi: f64,
     /// Number of bins (≥ 1).
     pub bins: usize,

@@ -694,7 +694,7 @@ mod tests {
         let model = vibro_impact(p).bind(&[]).unwrap();
         for choice in [SchemeChoice::Auto, SchemeChoice::General] {
             let specs = crate::mc::compile::scheme::impact_specs(&model).unwrap();
-            let plan = Plan::with_impacts(&model, choice, specs).unwrap();
+            let plan = Plan::of_model(&model, choice, specs).unwrap();
             let spread = plan.initial_spread();
             // 150 lanes: two whole chunks of the kernels' evaluation and a partial one.
             let lanes = 150;

@@ -304,7 +304,7 @@ fn orders(errs: &[[f64; 5]]) -> [f64; 5] {
 
 fn plan(choice: SchemeChoice) -> Plan {
     let model = parse_model(LINEAR, None).unwrap().bind(&[]).unwrap();
-    Plan::with_impacts(&model, choice, vec![]).unwrap()
+    Plan::of_model(&model, choice, vec![]).unwrap()
 }
 
 #[test]

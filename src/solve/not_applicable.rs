@@ -1,0 +1,73 @@
+//! Why a method does not apply to a model, found before any work: the typed refusal every
+//! method's [`applies`](super::StationaryMethod::applies) gives.
+
+use serde::Serialize;
+
+use crate::grid::Unsupported;
+
+/// Why a method does not apply to a model: found before any work. As JSON, a `reason` tag
+/// beside the variant's fields.
+///
+/// ```
+/// use fpsolve::solve::{MethodName, NotApplicable, Problem};
+/// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
+/// let problem = Problem::new(&bound)?;
+/// assert!(MethodName::Epc.method().applies(&problem)?.is_ok());
+/// assert!(matches!(MethodName::Grid.method().applies(&problem)?, Err(NotApplicable::Grid { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug, PartialEq, thiserror::Error, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum NotApplicable {
+    /// EPC (δ-term form) cannot represent the model's impact law.
+    #[error("{message}")]
+    ImpactLaw {
+        /// The law, printed.
+        law: String,
+        /// Why, in words (what EPC represents, what handles this law).
+        message: String,
+    },
+    /// The grid solver does not handle the model.
+    #[error("the grid solver cannot solve model `{model}`: {unsupported}")]
+    Grid {
+        /// The model's name.
+        model: String,
+        /// What it does not handle.
+        unsupported: Unsupported,
+    },
+    /// Not computed unless the grid is named: its PDFs of these observables (neither a state
+    /// nor ± a state on each quadrant) go through level-set quadrature of its
+    /// piecewise-bilinear density, which takes minutes where everything else takes a second.
+    /// The grid still runs: its states' PDFs and every moment are reported.
+    #[error(
+        "its PDFs of {} are not computed by default: they take minutes (level-set quadrature \
+         of a piecewise-bilinear density); its states' PDFs and the moments are reported; name \
+         the grid with --method to compute them",
+        observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+    )]
+    SlowObservables {
+        /// The observables.
+        observables: Vec<String>,
+    },
+    /// Not computed even when the grid is named: its PDFs of these observables, which have
+    /// `min`, `max`, `abs` or `sgn` of the states (kinks or jumps the level-set quadrature of
+    /// a piecewise-bilinear density resolves only by splitting panels without end: `max(z, 0)`
+    /// ran past 150 s). The grid still runs: its states' PDFs and every moment are reported.
+    #[error(
+        "its PDFs of {} are not computed: they have min, max, abs or sgn of the states, which          the level-set quadrature of its piecewise-bilinear density does not resolve in          reasonable time; its states' PDFs and the moments are reported; epc and Monte Carlo          give these PDFs",
+        observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
+    )]
+    NonSmoothObservables {
+        /// The observables.
+        observables: Vec<String>,
+    },
+    /// EPC with the exact impact condition does not handle the model.
+    #[error("EPC with the exact impact condition cannot solve model `{model}`: {unsupported}")]
+    EpcImpact {
+        /// The model's name.
+        model: String,
+        /// What it does not handle.
+        unsupported: crate::epc_impact::Unsupported,
+    },
+}

@@ -1,0 +1,71 @@
+//! EPC (the exponential-polynomial closure of the FPK equation as the model gives it) as a
+//! [`StationaryMethod`].
+
+use super::StationaryMethod;
+use crate::dynamics::ImpactForm;
+use crate::epc::EpcError;
+use crate::solve::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
+
+/// EPC: a ladder of even degrees, the Zhuravlev transform for a reflecting barrier in the
+/// model's own coordinates.
+pub(super) struct Closure;
+
+impl StationaryMethod for Closure {
+    fn name(&self) -> MethodName {
+        MethodName::Epc
+    }
+
+    fn title(&self) -> &'static str {
+        "EPC"
+    }
+
+    fn has_degrees(&self) -> bool {
+        true
+    }
+
+    fn settle(&self, degree: usize, _cells: [usize; 2]) -> Method {
+        Method::Epc { degree }
+    }
+
+    fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
+        Ok(match &problem.fpk().impact {
+            Some(ImpactForm::Unsupported { law, reason }) => Err(NotApplicable::ImpactLaw {
+                law: law.clone(),
+                message: EpcError::UnsupportedImpact {
+                    law: law.clone(),
+                    reason: reason.clone(),
+                }
+                .to_string(),
+            }),
+            _ => Ok(()),
+        })
+    }
+
+    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+        match method {
+            Method::Epc { degree } => problem.solve_epc(degree),
+            other => Err(SolveError::OtherSettings {
+                method: self.name(),
+                settings: other,
+            }),
+        }
+    }
+
+    fn solve_degrees(
+        &self,
+        problem: &Problem,
+        degrees: &[usize],
+    ) -> Option<Vec<Result<Solution, SolveError>>> {
+        Some(
+            problem
+                .solve_epc_degrees(degrees)
+                .into_iter()
+                .map(|r| r.map_err(SolveError::Epc))
+                .collect(),
+        )
+    }
+
+    fn zero_reason(&self) -> &'static str {
+        "beyond its ridge"
+    }
+}

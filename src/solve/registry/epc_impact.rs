@@ -1,0 +1,62 @@
+//! EPC with the exact impact condition ([`crate::epc_impact`]) as a [`StationaryMethod`].
+
+use super::StationaryMethod;
+use crate::epc_impact::{EpcImpact, EpcImpactError};
+use crate::solve::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
+
+/// EPC with the exact impact condition: a ladder of even degrees on the domain of the
+/// model's own coordinates.
+pub(super) struct ExactImpact;
+
+impl StationaryMethod for ExactImpact {
+    fn name(&self) -> MethodName {
+        MethodName::EpcImpact
+    }
+
+    fn title(&self) -> &'static str {
+        "EPC-impact"
+    }
+
+    fn has_degrees(&self) -> bool {
+        true
+    }
+
+    fn settle(&self, degree: usize, _cells: [usize; 2]) -> Method {
+        Method::EpcImpact { degree }
+    }
+
+    fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
+        match EpcImpact::new(problem.model()).check() {
+            Ok(()) => Ok(Ok(())),
+            Err(EpcImpactError::Unsupported { model, reason }) => {
+                Ok(Err(NotApplicable::EpcImpact {
+                    model,
+                    unsupported: reason,
+                }))
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+        match method {
+            Method::EpcImpact { degree } => problem.solve_epc_impact(degree),
+            other => Err(SolveError::OtherSettings {
+                method: self.name(),
+                settings: other,
+            }),
+        }
+    }
+
+    fn solve_degrees(
+        &self,
+        problem: &Problem,
+        degrees: &[usize],
+    ) -> Option<Vec<Result<Solution, SolveError>>> {
+        Some(problem.solve_epc_impact_degrees(degrees))
+    }
+
+    fn zero_reason(&self) -> &'static str {
+        "beyond its ridge"
+    }
+}

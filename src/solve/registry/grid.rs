@@ -1,0 +1,97 @@
+//! The finite-volume grid solver ([`crate::grid`]) as a [`StationaryMethod`]: the reference
+//! the other methods are compared with when there is no Monte Carlo run.
+
+use super::StationaryMethod;
+use crate::grid::{GridError, GridSolver};
+use crate::observe::ObservableMap;
+use crate::solve::{Density, Method, MethodName, NotApplicable, Problem, Solution, SolveError};
+use crate::symbolic::Expr;
+
+/// The grid solver: one solve on the cells asked for, with its discretisation-error
+/// estimate.
+pub(super) struct FiniteVolumes;
+
+impl StationaryMethod for FiniteVolumes {
+    fn name(&self) -> MethodName {
+        MethodName::Grid
+    }
+
+    fn title(&self) -> &'static str {
+        "grid"
+    }
+
+    fn has_degrees(&self) -> bool {
+        false
+    }
+
+    fn settle(&self, _degree: usize, cells: [usize; 2]) -> Method {
+        Method::Grid { cells }
+    }
+
+    fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
+        match GridSolver::new(problem.model()).check() {
+            Ok(()) => Ok(Ok(())),
+            Err(GridError::Unsupported { model, reason }) => Ok(Err(NotApplicable::Grid {
+                model,
+                unsupported: reason,
+            })),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Its PDFs of observables that need level-set quadrature, unless named, and of
+    /// non-smooth ones always.
+    fn leaves_out(&self, problem: &Problem, named: bool) -> Result<(), NotApplicable> {
+        let general: Vec<(&str, &Expr)> = problem
+            .quantities()
+            .iter()
+            .filter(|q| !q.is_state)
+            .filter_map(|q| match &q.map {
+                ObservableMap::General { expr, .. } => Some((q.name.as_str(), expr)),
+                _ => None,
+            })
+            .collect();
+        let rough: Vec<String> = general
+            .iter()
+            .filter(|(_, expr)| expr.has_kink())
+            .map(|(name, _)| name.to_string())
+            .collect();
+        if !rough.is_empty() {
+            return Err(NotApplicable::NonSmoothObservables { observables: rough });
+        }
+        if named || general.is_empty() {
+            Ok(())
+        } else {
+            Err(NotApplicable::SlowObservables {
+                observables: general.iter().map(|(n, _)| n.to_string()).collect(),
+            })
+        }
+    }
+
+    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+        match method {
+            Method::Grid { cells } => problem.solve_grid(cells),
+            other => Err(SolveError::OtherSettings {
+                method: self.name(),
+                settings: other,
+            }),
+        }
+    }
+
+    /// The larger of its position and velocity marginals' estimated L1 errors (0 when the
+    /// estimate was not made).
+    fn error_estimate(&self, solution: &Solution) -> Option<f64> {
+        match solution.density() {
+            Density::Grid(g) => Some(
+                g.report
+                    .discretisation_estimate
+                    .map_or(0.0, |e| e.x.max(e.v)),
+            ),
+            _ => None,
+        }
+    }
+
+    fn zero_reason(&self) -> &'static str {
+        "outside its domain"
+    }
+}

@@ -1,0 +1,125 @@
+//! The stationary methods behind one trait, and the registry that maps each name to its
+//! method: the study, the sweep, the job and the command line ask a method through
+//! [`StationaryMethod`], never by matching on its name.
+//!
+//! Adding a method: its solver in its own stage folder (beside `epc/`, `grid/`), one file
+//! here implementing [`StationaryMethod`], one [`MethodName`] variant with its spelling, one
+//! line in [`MethodName::method`], and its settings as a [`Method`] variant.
+
+mod epc;
+mod epc_impact;
+mod grid;
+
+use super::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
+
+/// A method that solves for the stationary density: what it is called, whether it applies
+/// to a model (a typed refusal before any work), and its solve, once or at a ladder of
+/// degrees.
+///
+/// ```
+/// use fpsolve::solve::{MethodName, Problem};
+/// let bound = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\n\
+///     drift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?.bind(&[])?;
+/// let problem = Problem::new(&bound)?;
+/// for name in MethodName::ALL {
+///     let method = name.method();
+///     assert_eq!(method.name(), name);
+///     if method.applies(&problem)?.is_ok() {
+///         let solution = method.solve(&problem, method.settle(2, [40, 40]))?;
+///         assert!(solution.moments("v")?.moments.variance > 0.9);
+///     }
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub trait StationaryMethod: Sync {
+    /// Its name.
+    fn name(&self) -> MethodName;
+
+    /// How tables and legends title it (`EPC`, `grid`).
+    fn title(&self) -> &'static str;
+
+    /// Whether it is solved at a ladder of degrees (`--degree`), each continued from the one
+    /// below.
+    fn has_degrees(&self) -> bool;
+
+    /// The method with a run's settings: `degree` for a ladder method, `cells` for the grid.
+    fn settle(&self, degree: usize, cells: [usize; 2]) -> Method;
+
+    /// Whether it applies to the problem's model, decided before any work (the inner
+    /// `Err`); the outer `Err` is a model it cannot even check (a coefficient that does not
+    /// compile).
+    ///
+    /// # Errors
+    /// A [`SolveError`] when the model cannot be checked.
+    fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError>;
+
+    /// What it leaves out of a run that applies (PDFs that take minutes), unless `named`
+    /// by the user; `Ok` when it leaves out nothing.
+    ///
+    /// # Errors
+    /// The [`NotApplicable`] reason for the PDFs left out.
+    fn leaves_out(&self, _problem: &Problem, _named: bool) -> Result<(), NotApplicable> {
+        Ok(())
+    }
+
+    /// Solves once with `method`'s settings (a [`Method`] of this name).
+    ///
+    /// # Errors
+    /// The method's failure, as a [`SolveError`].
+    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError>;
+
+    /// Solves at each degree asked, continuing through every lower even degree, one result
+    /// per degree in the order given; `None` for a method without degrees.
+    fn solve_degrees(
+        &self,
+        _problem: &Problem,
+        _degrees: &[usize],
+    ) -> Option<Vec<Result<Solution, SolveError>>> {
+        None
+    }
+
+    /// Its own estimated L1 error of `solution`'s marginals, when it can serve as the
+    /// reference other methods are judged against; `None` when it cannot.
+    fn error_estimate(&self, _solution: &Solution) -> Option<f64> {
+        None
+    }
+
+    /// Why its density is exactly 0 where another's is not (EPC is cut beyond its ridge,
+    /// the grid ends at its domain).
+    fn zero_reason(&self) -> &'static str;
+}
+
+impl MethodName {
+    /// The method of this name: the registry, the one place a name meets its method.
+    ///
+    /// ```
+    /// use fpsolve::solve::MethodName;
+    /// assert_eq!(MethodName::Grid.method().title(), "grid");
+    /// assert!(MethodName::Epc.method().has_degrees());
+    /// ```
+    pub fn method(self) -> &'static dyn StationaryMethod {
+        match self {
+            MethodName::Epc => &epc::Closure,
+            MethodName::EpcImpact => &epc_impact::ExactImpact,
+            MethodName::Grid => &grid::FiniteVolumes,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_has_its_own_method() {
+        for name in MethodName::ALL {
+            let method = name.method();
+            assert_eq!(method.name(), name);
+            assert_eq!(method.settle(4, [40, 80]).name(), name);
+            assert_eq!(
+                method.has_degrees(),
+                method.settle(4, [40, 80]).degree() == Some(4)
+            );
+        }
+    }
+}
