@@ -60,6 +60,7 @@ pub(crate) mod problem;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
+mod transient;
 
 use std::time::Instant;
 
@@ -68,6 +69,10 @@ pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
 pub use solution::{DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal};
+pub use transient::{
+    GridTransient, Initial, Moments, Snapshot, TransientError, TransientHistory, TransientReport,
+    INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
+};
 
 use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;

@@ -54,7 +54,12 @@ pub(crate) fn shifted(a: &SparseColMat<usize, f64>, c: f64) -> SparseColMat<usiz
     ptr.push(0);
     for col in 0..n {
         let mut diagonal = false;
-        for (&r, &v) in a.symbolic().row_idx_of_col_raw(col).iter().zip(a.val_of_col(col)) {
+        for (&r, &v) in a
+            .symbolic()
+            .row_idx_of_col_raw(col)
+            .iter()
+            .zip(a.val_of_col(col))
+        {
             if r > col && !diagonal {
                 rows.push(col);
                 vals.push(1.0);
@@ -87,13 +92,23 @@ mod tests {
     #[test]
     fn shift_and_product() {
         // A with an empty column 1 and no diagonal in column 0.
-        let t = [Triplet::new(1usize, 0usize, 2.0), Triplet::new(0, 2, 3.0), Triplet::new(2, 2, -1.0)];
+        let t = [
+            Triplet::new(1usize, 0usize, 2.0),
+            Triplet::new(0, 2, 3.0),
+            Triplet::new(2, 2, -1.0),
+        ];
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(3, 3, &t).unwrap();
         let m = shifted(&a, 0.5);
         let dense = |m: &SparseColMat<usize, f64>| {
             let mut d = [[0.0; 3]; 3];
+            #[allow(clippy::needless_range_loop)] // c is a column of m and of d
             for c in 0..3 {
-                for (&r, &v) in m.symbolic().row_idx_of_col_raw(c).iter().zip(m.val_of_col(c)) {
+                for (&r, &v) in m
+                    .symbolic()
+                    .row_idx_of_col_raw(c)
+                    .iter()
+                    .zip(m.val_of_col(c))
+                {
                     d[r][c] += v;
                 }
             }

@@ -12,7 +12,12 @@
 //!   the L-stable method damps, do not shrink the step). Its size is a weighted L1 norm of the
 //!   whole vector against `absolute + relative · ‖y‖₁` ([`Tolerance`]): for a density of cell
 //!   averages, the L1 distance the results are judged by, not a componentwise test that would
-//!   chase the far tails.
+//!   chase the far tails. By default the bound is on the error per unit time, ‖e‖/h:
+//!   the global error is then proportional to the tolerance (on y' = −1.5y half of it at
+//!   every tolerance from 1e−6 to 1e−9) and at most about the tolerance times the time
+//!   elapsed. A bound per step (`per_step`) takes longer steps but lets the global error
+//!   grow with the number of steps (117 × tol at 1e−9 over 1648 steps) and fall only as
+//!   tol^(2/3).
 //! * **Step sizes** are powers of two times the first step: a step grows (doubles or more)
 //!   only when the error would allow at least twice the step, and shrinks by powers of two on
 //!   a rejection, so that few distinct sizes occur and the factorisations of the last few are
@@ -21,17 +26,21 @@
 //!   derivatives at both ends of the step, third order, the step sizes untouched by the
 //!   output times); the interpolant is an affine combination of the two end values plus
 //!   derivative terms, so it keeps the mass too. The last step may end past the last output.
-//! * **Mass and sign.** 1ᵀA = 0 gives 1ᵀ(I − d h A) = 1ᵀ, so every stage keeps the mass to
-//!   the rounding of its solve; each output reports its mass and its negative mass (nothing
-//!   is clipped).
+//! * **Mass and sign.** 1ᵀA = 0 gives 1ᵀ(I − d h A) = 1ᵀ, so every stage keeps the mass up
+//!   to the residual of its solve; for a generator (`conserve_mass`) that residual's mass
+//!   defect is put back, so mass drifts only by the rounding of sums. Each output reports
+//!   its mass and its negative mass (nothing is clipped).
 
 mod error;
 mod generator;
 mod trbdf2;
 
 pub use error::StepError;
+#[cfg(test)]
 pub(crate) use generator::Generator;
-pub(crate) use trbdf2::{History, Output, Tolerance, TrBdf2};
+#[cfg(test)]
+pub(crate) use trbdf2::History;
+pub(crate) use trbdf2::{Tolerance, TrBdf2};
 
 #[cfg(test)]
 mod tests;

@@ -8,7 +8,10 @@ use faer::sparse::{SparseColMat, Triplet};
 use super::{Generator, StepError, Tolerance, TrBdf2};
 
 fn matrix(n: usize, entries: &[(usize, usize, f64)]) -> SparseColMat<usize, f64> {
-    let t: Vec<_> = entries.iter().map(|&(r, c, v)| Triplet::new(r, c, v)).collect();
+    let t: Vec<_> = entries
+        .iter()
+        .map(|&(r, c, v)| Triplet::new(r, c, v))
+        .collect();
     SparseColMat::try_new_from_triplets(n, n, &t).unwrap()
 }
 
@@ -58,15 +61,70 @@ fn error_at(history: &super::History, exact: impl Fn(f64) -> [f64; 2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// One step of y' = λy: the filtered embedded estimate is the true local error
+/// y₁ − e^{λh} to leading order (their ratio → −1: the estimate is the companion minus the
+/// method), and the local error is O(h³). Measured: ratio −1.035 at h = 0.4, −1.0006 at
+/// h = 0.0125; error/h³ → −0.134 (the method's constant (−3γ² + 4γ − 2)/(12(2 − γ)) · λ³).
+#[test]
+fn the_estimate_is_the_local_error() {
+    let lambda = -1.5;
+    let a = matrix(1, &[(0, 0, lambda)]);
+    let run = TrBdf2::new(&a);
+    let mut last = f64::INFINITY;
+    for h in [0.4, 0.2, 0.1, 0.05, 0.025, 0.0125] {
+        let (y1, est) = run.one_step(0.0, h, &[1.0]);
+        let truth = y1[0] - (lambda * h).exp();
+        let off = (est[0] / truth + 1.0).abs();
+        assert!(off < 0.04 && off < last, "h {h}: ratio {}", est[0] / truth);
+        last = off;
+    }
+    assert!(last < 1e-3, "{last}");
+    let gamma = 2.0 - std::f64::consts::SQRT_2;
+    let constant =
+        (-3.0 * gamma * gamma + 4.0 * gamma - 2.0) / (12.0 * (2.0 - gamma)) * lambda.powi(3);
+    let h = 1e-3;
+    let (y1, _) = run.one_step(0.0, h, &[1.0]);
+    let per_h3 = (y1[0] - (lambda * h).exp()) / h.powi(3);
+    // The method's error y₁ − y(h) is minus the truncation error C h³ y‴.
+    assert!(
+        (per_h3 / -constant - 1.0).abs() < 1e-2,
+        "{per_h3} vs {constant}"
+    );
+}
+
+/// y' = −1.5y from 2 over 0..4 (outputs inside steps): with the default control (error per
+/// unit time) the global error is proportional to the tolerance, half of it here at every
+/// tolerance from 1e−6 to 1e−9 (measured 0.4986 to 0.5000). A local tolerance per step does
+/// not bound the global error by the same number: with `per_step` the error is about the
+/// tolerance times the number of steps (measured 117·tol at 1e−9 over 1648 steps) and
+/// falls as tol^(2/3) (5.5·tol at 1e−5): both are held below.
 #[test]
 fn scalar_decay_is_exp() {
     let a = matrix(1, &[(0, 0, -1.5)]);
     let times = [0.0, 0.3, 1.0, 2.5, 4.0];
-    let h = TrBdf2::new(&a).tolerance(tol(1e-9)).run(&[2.0], 0.0, &times).unwrap();
-    assert_eq!(h.outputs.len(), times.len());
-    for o in &h.outputs {
-        let exact = 2.0 * (-1.5 * o.t).exp();
-        assert!((o.y[0] - exact).abs() < 1e-8, "t={} {} vs {exact}", o.t, o.y[0]);
+    let error = |h: &super::History| {
+        assert_eq!(h.outputs.len(), times.len());
+        h.outputs
+            .iter()
+            .map(|o| (o.y[0] - 2.0 * (-1.5 * o.t).exp()).abs())
+            .fold(0.0, f64::max)
+    };
+    for t in [1e-6, 1e-7, 1e-8, 1e-9] {
+        let h = TrBdf2::new(&a)
+            .tolerance(tol(t))
+            .run(&[2.0], 0.0, &times)
+            .unwrap();
+        let ratio = error(&h) / t;
+        assert!((0.4..0.6).contains(&ratio), "tol {t:e}: error {ratio}·tol");
+        let per_step = TrBdf2::new(&a).tolerance(tol(t)).per_step();
+        let h = per_step.run(&[2.0], 0.0, &times).unwrap();
+        let err = error(&h);
+        // The scale of the tolerance is 1 + |y| ≤ 3.
+        let steps = h.stats.accepted as f64;
+        assert!(
+            err < 3.0 * t * steps && err > t,
+            "tol {t:e}: {err:e}, {steps} steps"
+        );
     }
 }
 
@@ -104,27 +162,42 @@ fn l_stable_on_a_stiff_chain() {
     assert!((y[0] + y[1] - 1.0).abs() < 1e-15);
     // The stability function at z = −1e8: |R| < 1e-7.
     let stiff = matrix(1, &[(0, 0, -1e8)]);
-    let r = TrBdf2::new(&stiff).first_step(1.0).fixed().run(&[1.0], 0.0, &[1.0]).unwrap();
+    let r = TrBdf2::new(&stiff)
+        .first_step(1.0)
+        .fixed()
+        .run(&[1.0], 0.0, &[1.0])
+        .unwrap();
     assert!(r.outputs[0].y[0].abs() < 1e-7, "{}", r.outputs[0].y[0]);
 }
 
-/// The controlled error over 0..10 (about three periods) stays within a small multiple of
-/// the tolerance and falls with it, with few factorisations.
+/// The controlled error over 0..10 (about three periods of a lightly damped oscillator that
+/// does not contract the error), at 1001 outputs inside steps: proportional to the tolerance
+/// and below tolerance × elapsed time (measured 4.18, 4.22, 4.23 × tol: a Hermite output
+/// error, O(h⁴), would not scale with tol), with few factorisations.
 #[test]
 fn error_control_meets_the_tolerance() {
     let a = OSC.a();
-    let times: Vec<f64> = (0..=40).map(|k| 0.25 * k as f64).collect();
-    let mut last = f64::INFINITY;
+    let times: Vec<f64> = (0..=1000).map(|k| 0.01 * k as f64).collect();
+    let mut ratios = Vec::new();
     for t in [1e-4, 1e-6, 1e-8] {
-        let h = TrBdf2::new(&a).tolerance(tol(t)).run(&[1.0, 0.0], 0.0, &times).unwrap();
+        let h = TrBdf2::new(&a)
+            .tolerance(tol(t))
+            .run(&[1.0, 0.0], 0.0, &times)
+            .unwrap();
         let err = error_at(&h, |s| OSC.exact(s, [1.0, 0.0]));
-        eprintln!("tol {t:e}: error {err:.2e}, {:?}", h.stats);
         assert!(err < 10.0 * t, "tol {t:e}: error {err:e}");
-        assert!(err < last);
-        last = err;
+        ratios.push(err / t);
         assert!(h.stats.factorizations == h.stats.step_sizes);
-        assert!(h.stats.factorizations * 5 < h.stats.accepted, "{:?}", h.stats);
+        assert!(
+            h.stats.factorizations * 100 < h.stats.accepted,
+            "{:?}",
+            h.stats
+        );
     }
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(l, h), r| (l.min(*r), h.max(*r)));
+    assert!(hi / lo < 1.2, "error/tol {ratios:?}");
 }
 
 /// A 40-state generator (columns sum to zero, rates spread over six decades) keeps its mass
@@ -135,7 +208,10 @@ fn mass_is_conserved_to_rounding() {
     let mut entries = Vec::new();
     for c in 0..n {
         let mut out = 0.0;
-        for (k, r) in [(c + 1) % n, (c + 7) % n, (c + 13) % n].into_iter().enumerate() {
+        for (k, r) in [(c + 1) % n, (c + 7) % n, (c + 13) % n]
+            .into_iter()
+            .enumerate()
+        {
             let rate = 10f64.powi(((c * 3 + k) % 7) as i32 - 3);
             entries.push((r, c, rate));
             out += rate;
@@ -145,11 +221,24 @@ fn mass_is_conserved_to_rounding() {
     let a = matrix(n, &entries);
     let y0: Vec<f64> = (0..n).map(|k| if k < 5 { 0.2 } else { 0.0 }).collect();
     let times: Vec<f64> = (1..=50).map(|k| 0.2 * k as f64).collect();
-    let h = TrBdf2::new(&a).tolerance(tol(1e-7)).run(&y0, 0.0, &times).unwrap();
+    let h = TrBdf2::new(&a).tolerance(tol(1e-7)).conserve_mass();
+    let h = h.run(&y0, 0.0, &times).unwrap();
     assert!(h.stats.accepted > 100, "{:?}", h.stats);
     for o in &h.outputs {
         assert!((o.mass - 1.0).abs() < 1e-13, "t={}: mass {}", o.t, o.mass);
     }
+    // A matrix whose columns do not sum to zero is refused.
+    let leaky = matrix(2, &[(0, 0, -1.0), (1, 0, 0.5)]);
+    let refused = TrBdf2::new(&leaky)
+        .conserve_mass()
+        .run(&[1.0, 0.0], 0.0, &[1.0]);
+    assert!(matches!(
+        refused,
+        Err(StepError::Setting {
+            setting: "conserve_mass",
+            ..
+        })
+    ));
 }
 
 /// y' = −t y, y = exp(−t²/2): a generator that depends on t, factorised per stage time.
@@ -168,10 +257,18 @@ fn a_generator_that_depends_on_time() {
         }
     }
     let times = [0.5, 1.0, 2.0, 3.0];
-    let h = TrBdf2::new(&Ramp).tolerance(tol(1e-9)).run(&[1.0], 0.0, &times).unwrap();
+    let h = TrBdf2::new(&Ramp)
+        .tolerance(tol(1e-9))
+        .run(&[1.0], 0.0, &times)
+        .unwrap();
     for o in &h.outputs {
         let exact = (-o.t * o.t / 2.0).exp();
-        assert!((o.y[0] - exact).abs() < 1e-8, "t={}: {} vs {exact}", o.t, o.y[0]);
+        assert!(
+            (o.y[0] - exact).abs() < 1e-8,
+            "t={}: {} vs {exact}",
+            o.t,
+            o.y[0]
+        );
     }
 }
 
