@@ -175,6 +175,17 @@ pub(crate) fn matrix(n: usize, op: &Operator, pin: usize) -> SparseColMat<usize,
     SparseColMat::new(symbolic, vals)
 }
 
+/// The generator G of d p/dt = G p: every entry of the operator (no pinned row), duplicates
+/// summed, in compressed columns; its columns sum to zero. The transient's matrix
+/// ([`crate::grid::GridTransient`]). `None` only when the entries cannot be allocated.
+pub(crate) fn generator(n: usize, op: &Operator) -> Option<SparseColMat<usize, f64>> {
+    let all: Vec<_> = [&op.transport, &op.outflow, &op.reinjection]
+        .iter()
+        .flat_map(|p| p.iter().copied())
+        .collect();
+    SparseColMat::try_new_from_triplets(n, n, &all).ok()
+}
+
 /// Solves operator · p = 0 with the equation of cell `pin` replaced by p_pin = 1 (the rows
 /// are linearly dependent, since the columns sum to zero), then scales p to unit mass.
 pub(crate) fn solve(mesh: &Mesh, op: &Operator, pin: usize) -> Result<Vec<f64>, GridError> {

@@ -65,6 +65,7 @@ pub(crate) mod problem;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
+mod transient;
 
 use std::time::Instant;
 
@@ -75,6 +76,10 @@ pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
+};
+pub use transient::{
+    GridTransient, Initial, Moments, Snapshot, TransientError, TransientHistory, TransientReport,
+    INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
 };
 
 use crate::dynamics::BarrierKind;

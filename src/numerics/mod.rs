@@ -6,3 +6,4 @@ pub mod newton;
 pub(crate) mod poly2d;
 pub(crate) mod quadrature;
 pub(crate) mod sparse;
+pub mod timestep;

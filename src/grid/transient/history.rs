@@ -1,0 +1,150 @@
+//! The transient's outputs: per requested time, marginals, moments, mass and negative mass.
+
+use serde::Serialize;
+
+use crate::grid::mesh::{Domain, Mesh};
+use crate::grid::Marginal;
+
+/// Mean, variance and kurtosis of one state from its marginal's cell averages, with
+/// Sheppard's corrections for grouping into cells of width h (variance − h²/12, fourth
+/// moment − h²μ₂/2 + 7h⁴/240): without them a variance is h²/12 too large, which at 2 cells
+/// per standard deviation would be a 2 % error.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Moments {
+    /// E[q].
+    pub mean: f64,
+    /// E[(q − mean)²].
+    pub variance: f64,
+    /// E[(q − mean)⁴] / variance² (3 for a Gaussian).
+    pub kurtosis: f64,
+}
+
+impl Moments {
+    /// The moments of a marginal (cell averages that integrate to `mass`, which they are
+    /// divided by).
+    ///
+    /// ```
+    /// use fpsolve::grid::{Marginal, Moments};
+    /// // Two cells of width 1 holding half the mass each.
+    /// let m = Marginal { centres: vec![-0.5, 0.5], density: vec![0.5, 0.5], width: 1.0 };
+    /// let s = Moments::of(&m);
+    /// assert_eq!(s.mean, 0.0);
+    /// assert!((s.variance - (0.25 - 1.0 / 12.0)).abs() < 1e-15);
+    /// ```
+    pub fn of(marginal: &Marginal) -> Moments {
+        let h = marginal.width;
+        let cells = marginal.centres.iter().zip(&marginal.density);
+        let mass: f64 = marginal.density.iter().sum::<f64>() * h;
+        let mean = cells.clone().map(|(c, p)| c * p).sum::<f64>() * h / mass;
+        let central = |k: i32| {
+            cells
+                .clone()
+                .map(|(c, p)| (c - mean).powi(k) * p)
+                .sum::<f64>()
+                * h
+                / mass
+        };
+        let (m2, m4) = (central(2), central(4));
+        let variance = m2 - h * h / 12.0;
+        let fourth = m4 - 0.5 * h * h * m2 + 7.0 * h.powi(4) / 240.0;
+        Moments {
+            mean,
+            variance,
+            kurtosis: fourth / (variance * variance),
+        }
+    }
+}
+
+/// The density at one requested time.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Snapshot {
+    /// The time.
+    pub t: f64,
+    /// The marginal densities of the position and the velocity (as computed: negative cell
+    /// values are kept, their mass reported in `negative_mass`).
+    pub marginals: [Marginal; 2],
+    /// Moments of the position and the velocity.
+    pub moments: [Moments; 2],
+    /// ∫ p: 1 up to the rounding of the stage solves (the operator conserves mass).
+    pub mass: f64,
+    /// ∫ max(−p, 0): the scheme is not positive, so steep fronts leave small negative values;
+    /// they are reported here, never clipped.
+    pub negative_mass: f64,
+    /// The mass in the outermost cells of the box (edges that are not walls): the box's
+    /// zero-flux edges hold back what would leave it, so a value above the accuracy wanted
+    /// says the box is too small for this time.
+    pub edge_mass: f64,
+    /// The cell averages (position cell i, velocity cell j at i·nv + j) when the joint density
+    /// was requested ([`crate::grid::GridTransient::joint`]).
+    pub joint: Option<Vec<f64>>,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TransientReport {
+    /// Cells (position, velocity).
+    pub cells: [usize; 2],
+    /// The box.
+    pub domain: Domain,
+    /// The tolerance on each step's L1 error per unit time.
+    pub tolerance: f64,
+    /// Accepted steps.
+    pub accepted: usize,
+    /// Rejected steps.
+    pub rejected: usize,
+    /// Stage matrices factorised (one per distinct step size while the cache holds it).
+    pub factorizations: usize,
+    /// The initial density's mass inside the box before it was normalised.
+    pub initial_mass_inside: f64,
+    /// Largest |mass − 1| over the outputs.
+    pub mass_drift: f64,
+    /// Largest negative mass over the outputs.
+    pub negative_mass: f64,
+    /// Wall-clock time of the run, in milliseconds.
+    pub total_ms: f64,
+}
+
+/// The transient density at the requested times, from [`crate::grid::GridTransient::run`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TransientHistory {
+    /// One per requested time, in order.
+    pub snapshots: Vec<Snapshot>,
+    /// How it was obtained.
+    pub report: TransientReport,
+}
+
+/// The marginal of `axis` (0 position, 1 velocity) of cell averages `p` on `mesh`.
+pub(crate) fn marginal(mesh: &Mesh, p: &[f64], axis: usize) -> Marginal {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let (density, centres, width) = if axis == 0 {
+        let d = (0..nx).map(|i| p[i * nv..(i + 1) * nv].iter().sum::<f64>() * mesh.hv);
+        (d.collect(), (0..nx).map(|i| mesh.xc(i)).collect(), mesh.hx)
+    } else {
+        let mut d = vec![0.0; nv];
+        for row in p.chunks_exact(nv) {
+            d.iter_mut().zip(row).for_each(|(d, v)| *d += v);
+        }
+        d.iter_mut().for_each(|d| *d *= mesh.hx);
+        (d, (0..nv).map(|j| mesh.vc(j)).collect(), mesh.hv)
+    };
+    Marginal {
+        centres,
+        density,
+        width,
+    }
+}
+
+/// The mass in the cells on the box's edges, x ends that are walls left out.
+pub(crate) fn edge_mass(mesh: &Mesh, p: &[f64]) -> f64 {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let mut sum = 0.0;
+    for i in 0..nx {
+        let x_edge = (i == 0 && !mesh.ends_on_wall(0)) || (i == nx - 1 && !mesh.ends_on_wall(1));
+        for j in 0..nv {
+            if x_edge || j == 0 || j == nv - 1 {
+                sum += p[mesh.index(i, j)].abs();
+            }
+        }
+    }
+    sum * mesh.hx * mesh.hv
+}

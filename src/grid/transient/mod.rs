@@ -1,0 +1,362 @@
+//! The transient density of a time-invariant model on the grid: dp/dt = G p with G the
+//! stationary solver's finite-volume operator (transport, outflow through a barrier and its
+//! re-injection; every column sums to zero), from an initial density to the requested times,
+//! by the TR-BDF2 stepper of [`crate::numerics::timestep`].
+//!
+//! * **Box.** The one the stationary solver would size (or [`GridTransient::domain`]); the
+//!   start must have at least 1 − [`INITIAL_MASS_LOSS`] of its mass inside it, else the run
+//!   is refused ([`TransientError::InitialOutsideDomain`]): the box is not enlarged. Each
+//!   output reports the mass in the box's edge cells, where the zero-flux edges would pile up
+//!   what should leave.
+//! * **Error control.** Each step's L1 error per unit time, ‖e‖₁/h, is held below the
+//!   tolerance, so the time-stepping error at any output is about the tolerance times the
+//!   time elapsed (less once the density relaxes), and falls in proportion to the tolerance;
+//!   the spatial error is the stationary solver's.
+//! * **Reuse.** The stage matrix I − d h G is factorised once per step size (nested
+//!   dissection order, as the stationary solve), the step sizes being powers of two of the
+//!   first, so a run factorises a few times.
+//! * **Mass and sign.** Mass is conserved to the rounding of the solves and reported per
+//!   output, as is the negative mass (nothing is clipped).
+//!
+//! ```
+//! use fpsolve::grid::{GridTransient, Initial};
+//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+//! let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+//! let history = GridTransient::new(&bound)
+//!     .cells(40, 40)
+//!     .initial(Initial::Rest)
+//!     .times(vec![0.0, 1.0, 2.0])
+//!     .run()?;
+//! let s = &history.snapshots[2];
+//! assert!((s.mass - 1.0).abs() < 1e-12);
+//! // From rest the position's variance grows.
+//! assert!(s.moments[0].variance > history.snapshots[1].moments[0].variance);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod error;
+mod history;
+mod initial;
+
+use std::time::Instant;
+
+pub use error::TransientError;
+pub use history::{Moments, Snapshot, TransientHistory, TransientReport};
+pub use initial::{Initial, POINT_CELLS};
+
+use super::assemble::{assemble, generator};
+use super::mesh::Mesh;
+use super::nested::{cell_coords, nested_dissection};
+use super::problem::Mechanical;
+use super::{check_cells, check_domain, domain, Domain, GridError, DEFAULT_CELLS};
+use crate::model::BoundModel;
+use crate::numerics::timestep::{Tolerance, TrBdf2};
+
+/// The largest mass of the initial density that may lie outside the box.
+pub const INITIAL_MASS_LOSS: f64 = 1e-9;
+
+/// The tolerance used unless [`GridTransient::tolerance`] says otherwise.
+pub const TRANSIENT_TOLERANCE: f64 = 1e-4;
+
+/// The grid transient of one bound, time-invariant model: a builder, then
+/// [`GridTransient::run`].
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+/// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+/// use fpsolve::grid::{GridTransient, TransientError};
+/// let err = GridTransient::new(&bound).times(vec![2.0, 1.0]).run().unwrap_err();
+/// assert!(matches!(err, TransientError::Setting { setting: "times", .. }));
+/// ```
+#[derive(Clone, Debug)]
+pub struct GridTransient<'a> {
+    model: &'a BoundModel,
+    cells: [usize; 2],
+    domain: Option<Domain>,
+    initial: Initial,
+    times: Vec<f64>,
+    tolerance: f64,
+    joint: bool,
+}
+
+impl<'a> GridTransient<'a> {
+    /// A transient from rest on the default cells and the automatic box, tolerance
+    /// [`TRANSIENT_TOLERANCE`], no output time yet.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let _t = fpsolve::grid::GridTransient::new(&bound);
+    /// ```
+    pub fn new(model: &'a BoundModel) -> GridTransient<'a> {
+        GridTransient {
+            model,
+            cells: DEFAULT_CELLS,
+            domain: None,
+            initial: Initial::Rest,
+            times: Vec::new(),
+            tolerance: TRANSIENT_TOLERANCE,
+            joint: false,
+        }
+    }
+
+    /// Cells along the position and the velocity (as [`crate::grid::GridSolver::cells`]).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{GridError, GridTransient, TransientError};
+    /// let err = GridTransient::new(&bound).cells(41, 40).times(vec![1.0]).run().unwrap_err();
+    /// assert!(matches!(err, TransientError::Grid(GridError::Setting { setting: "cells", .. })));
+    /// ```
+    pub fn cells(mut self, nx: usize, nv: usize) -> Self {
+        self.cells = [nx, nv];
+        self
+    }
+
+    /// Runs on `domain` instead of the stationary solver's box (as
+    /// [`crate::grid::GridSolver::domain`]).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{Domain, GridTransient};
+    /// let d = Domain { x: [-8.0, 8.0], v: [-8.0, 8.0] };
+    /// let h = GridTransient::new(&bound).cells(32, 32).domain(d).times(vec![0.5]).run().unwrap();
+    /// assert_eq!(h.report.domain, d);
+    /// ```
+    pub fn domain(mut self, domain: Domain) -> Self {
+        self.domain = Some(domain);
+        self
+    }
+
+    /// Where the run starts (default [`Initial::Rest`]).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{GridTransient, Initial};
+    /// let start = Initial::Gaussian { mean: [1.0, 0.0], covariance: [[0.1, 0.0], [0.0, 0.1]] };
+    /// let h = GridTransient::new(&bound).cells(40, 40).initial(start).times(vec![0.0]).run().unwrap();
+    /// assert!((h.snapshots[0].moments[0].mean - 1.0).abs() < 1e-6);
+    /// ```
+    pub fn initial(mut self, initial: Initial) -> Self {
+        self.initial = initial;
+        self
+    }
+
+    /// The output times: finite, non-decreasing, none negative (the run starts at t = 0).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let h = fpsolve::grid::GridTransient::new(&bound).cells(32, 32).times(vec![0.0, 0.5]).run().unwrap();
+    /// assert_eq!(h.snapshots.len(), 2);
+    /// ```
+    pub fn times(mut self, times: Vec<f64>) -> Self {
+        self.times = times;
+        self
+    }
+
+    /// The L1 error each step may make per unit time (default [`TRANSIENT_TOLERANCE`]).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let h = fpsolve::grid::GridTransient::new(&bound).cells(32, 32).tolerance(1e-3)
+    ///     .times(vec![1.0]).run().unwrap();
+    /// assert_eq!(h.report.tolerance, 1e-3);
+    /// ```
+    pub fn tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+
+    /// Whether each snapshot keeps the joint density's cell averages (default off).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let h = fpsolve::grid::GridTransient::new(&bound).cells(32, 32).joint(true)
+    ///     .times(vec![1.0]).run().unwrap();
+    /// assert_eq!(h.snapshots[0].joint.as_ref().unwrap().len(), 32 * 32);
+    /// ```
+    pub fn joint(mut self, on: bool) -> Self {
+        self.joint = on;
+        self
+    }
+
+    fn check(&self) -> Result<(), TransientError> {
+        let setting = |setting, value: String, expected| TransientError::Setting {
+            setting,
+            value,
+            expected,
+        };
+        check_cells(self.cells)?;
+        let t = &self.times;
+        let ordered = !t.is_empty()
+            && t.iter().all(|t| t.is_finite() && *t >= 0.0)
+            && t.windows(2).all(|w| w[0] <= w[1]);
+        if !ordered {
+            return Err(setting(
+                "times",
+                format!("{t:?}"),
+                "at least one time; finite, non-decreasing, none negative",
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(setting(
+                "tolerance",
+                format!("{}", self.tolerance),
+                "finite, positive",
+            ));
+        }
+        match &self.initial {
+            Initial::Gaussian { mean, covariance }
+                if !initial::valid_gaussian(*mean, *covariance) =>
+            {
+                Err(setting(
+                    "initial",
+                    format!("mean {mean:?}, covariance {covariance:?}"),
+                    "a finite mean and a symmetric positive definite covariance",
+                ))
+            }
+            Initial::Point(at) if !at.iter().all(|u| u.is_finite()) => {
+                Err(setting("initial", format!("{at:?}"), "a finite point"))
+            }
+            Initial::Cells(p) if self.domain.is_none() => Err(setting(
+                "initial",
+                format!("{} cell values", p.len()),
+                "an explicit domain with cell values (so that the cells are known)",
+            )),
+            Initial::Cells(p) if p.len() != self.cells[0] * self.cells[1] => Err(setting(
+                "initial",
+                format!("{} cell values", p.len()),
+                "one value per cell",
+            )),
+            Initial::Cells(p) if !p.iter().all(|u| u.is_finite() && *u >= 0.0) => Err(setting(
+                "initial",
+                "cell values".to_string(),
+                "finite, non-negative cell values",
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The box: the one given (checked as the stationary solver checks it) or the one the
+    /// stationary solver starts from.
+    fn domain_for(&self, problem: &Mechanical) -> Result<Domain, GridError> {
+        match self.domain {
+            Some(d) => {
+                check_domain(&d, problem, self.model)?;
+                Ok(d)
+            }
+            None => match domain::energy_box(problem) {
+                Some(d) => Ok(domain::fit_barrier(d, problem)),
+                None => domain::size(problem).map(|(d, _, _)| d),
+            },
+        }
+    }
+
+    /// Runs: every setting and the initial density's fit in the box are checked before the
+    /// first step.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{Domain, GridTransient, Initial, TransientError};
+    /// let far = Initial::Point([30.0, 0.0]);
+    /// let d = Domain { x: [-8.0, 8.0], v: [-8.0, 8.0] };
+    /// let err = GridTransient::new(&bound).cells(32, 32).domain(d).initial(far)
+    ///     .times(vec![1.0]).run().unwrap_err();
+    /// assert!(matches!(err, TransientError::InitialOutsideDomain { .. }));
+    /// ```
+    ///
+    /// # Errors
+    /// [`TransientError::Setting`], [`TransientError::Grid`] (the cells, a model outside the
+    /// mechanical form, a domain that does not fit the barrier),
+    /// [`TransientError::InitialOutsideDomain`], [`TransientError::Step`].
+    pub fn run(&self) -> Result<TransientHistory, TransientError> {
+        let start = Instant::now();
+        self.check()?;
+        let problem = Mechanical::new(self.model)?;
+        let domain = self.domain_for(&problem)?;
+        let [nx, nv] = self.cells;
+        let mesh = Mesh::new(domain, nx, nv, &problem.barriers, 4);
+        let area = mesh.hx * mesh.hv;
+        let mut p0 = match self.initial.gaussian(&mesh) {
+            Some((mean, covariance)) => initial::gaussian_cells(&mesh, mean, covariance),
+            None => match &self.initial {
+                Initial::Cells(p) => p.clone(),
+                _ => unreachable!("every other start is a Gaussian"),
+            },
+        };
+        let inside = p0.iter().sum::<f64>() * area;
+        let cells_given = matches!(self.initial, Initial::Cells(_));
+        if !cells_given && (inside.is_nan() || inside < 1.0 - INITIAL_MASS_LOSS) {
+            return Err(TransientError::InitialOutsideDomain {
+                inside,
+                allowed: INITIAL_MASS_LOSS,
+                domain: mesh.domain(),
+            });
+        }
+        if !(inside.is_finite() && inside > 0.0) {
+            return Err(TransientError::Setting {
+                setting: "initial",
+                value: format!("mass {inside}"),
+                expected: "a positive mass",
+            });
+        }
+        p0.iter_mut().for_each(|p| *p /= inside);
+        let op = assemble(&mesh, &problem)?;
+        let g = generator(mesh.cells(), &op).ok_or(GridError::Singular {
+            nx,
+            nv,
+            detail: "the generator's entries could not be allocated".to_string(),
+        })?;
+        let order = nested_dissection(g.symbolic(), &cell_coords(nx, nv, false), 1);
+        let stepper = TrBdf2::new(&g)
+            .tolerance(Tolerance {
+                relative: self.tolerance,
+                absolute: 0.0,
+            })
+            .weight(area)
+            .conserve_mass()
+            .order(order);
+        let run = stepper.run(&p0, 0.0, &self.times)?;
+        let snapshots: Vec<Snapshot> = run
+            .outputs
+            .into_iter()
+            .map(|o| {
+                let marginals = [
+                    history::marginal(&mesh, &o.y, 0),
+                    history::marginal(&mesh, &o.y, 1),
+                ];
+                let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
+                Snapshot {
+                    t: o.t,
+                    edge_mass: history::edge_mass(&mesh, &o.y),
+                    marginals,
+                    moments,
+                    mass: o.mass,
+                    negative_mass: o.negative_mass,
+                    joint: self.joint.then_some(o.y),
+                }
+            })
+            .collect();
+        let worst = |f: fn(&Snapshot) -> f64| snapshots.iter().map(f).fold(0.0, f64::max);
+        let report = TransientReport {
+            cells: [nx, nv],
+            domain: mesh.domain(),
+            tolerance: self.tolerance,
+            accepted: run.stats.accepted,
+            rejected: run.stats.rejected,
+            factorizations: run.stats.factorizations,
+            initial_mass_inside: inside,
+            mass_drift: worst(|s| (s.mass - 1.0).abs()),
+            negative_mass: worst(|s| s.negative_mass),
+            total_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        Ok(TransientHistory { snapshots, report })
+    }
+}

@@ -1,0 +1,569 @@
+//! The TR-BDF2 integrator: stages, error control, the step-size levels and the cache of
+//! factorised stage matrices, outputs at requested times.
+
+use faer::sparse::SparseColMat;
+
+use super::error::StepError;
+use super::generator::{apply, shifted, Generator};
+use crate::base::cancel::Cancel;
+use crate::base::limits::memory_limit_bytes;
+use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
+use crate::numerics::sparse::pattern_lu::PatternLu;
+use crate::numerics::sparse::{Check, FactorError, Factorization};
+
+/// γ = 2 − √2: the trapezoidal stage ends at t + γh.
+const GAMMA: f64 = 2.0 - std::f64::consts::SQRT_2;
+/// The implicit coefficient of both stages, γ/2 = (1 − γ)/(2 − γ).
+const D: f64 = 1.0 - std::f64::consts::FRAC_1_SQRT_2;
+/// The explicit weights of the BDF2 stage in ESDIRK form, y₁ = y₀ + h (w f₀ + w f_γ + d f₁).
+const W: f64 = std::f64::consts::SQRT_2 / 4.0;
+/// Embedded third-order weights minus the method's (Hosea & Shampine 1996).
+const E: [f64; 3] = [(1.0 - 4.0 * W) / 3.0, 1.0 / 3.0, -2.0 * D / 3.0];
+/// Safety factor of the step-size proposal.
+const SAFETY: f64 = 0.9;
+/// When a stage solve is accepted (as the grid's stationary solve).
+const CHECK: Check = Check {
+    refine_above: 1e-14,
+    limit: 1e-12,
+};
+
+/// The error a step may make: its estimate e must satisfy
+/// ‖e‖ ≤ `absolute` + `relative` · ‖y‖ in the weighted L1 norm ‖u‖ = weight · Σ|uᵢ|
+/// (for cell averages of a density, weight = the cell's area: an L1 distance of densities).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Tolerance {
+    /// Relative to the solution's norm.
+    pub(crate) relative: f64,
+    /// Absolute.
+    pub(crate) absolute: f64,
+}
+
+/// The solution at one requested time.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Output {
+    /// The time.
+    pub(crate) t: f64,
+    /// The solution.
+    pub(crate) y: Vec<f64>,
+    /// weight · Σ yᵢ.
+    pub(crate) mass: f64,
+    /// weight · Σ max(−yᵢ, 0): negative values are reported, never clipped.
+    pub(crate) negative_mass: f64,
+}
+
+/// Counts of what a run did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Stats {
+    /// Accepted steps.
+    pub(crate) accepted: usize,
+    /// Rejected steps.
+    pub(crate) rejected: usize,
+    /// Stage matrices factorised.
+    pub(crate) factorizations: usize,
+    /// Distinct step sizes used.
+    pub(crate) step_sizes: usize,
+}
+
+/// The outputs of a run, in the order of the requested times.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct History {
+    /// One per requested time.
+    pub(crate) outputs: Vec<Output>,
+    /// What the run did.
+    pub(crate) stats: Stats,
+}
+
+/// TR-BDF2 on dy/dt = A(t) y (see the module's documentation).
+pub(crate) struct TrBdf2<'a, G: Generator> {
+    generator: &'a G,
+    tolerance: Tolerance,
+    weight: f64,
+    order: Option<Vec<usize>>,
+    first_step: Option<f64>,
+    fixed: bool,
+    per_unit_time: bool,
+    conserve: bool,
+    max_steps: usize,
+    cache: usize,
+    cancel: Option<Cancel>,
+}
+
+/// The stage vectors of one step.
+struct Work {
+    yg: Vec<f64>,
+    fg: Vec<f64>,
+    y1: Vec<f64>,
+    f1: Vec<f64>,
+    est: Vec<f64>,
+}
+
+impl Work {
+    fn new(n: usize) -> Work {
+        Work {
+            yg: vec![0.0; n],
+            fg: vec![0.0; n],
+            y1: vec![0.0; n],
+            f1: vec![0.0; n],
+            est: vec![0.0; n],
+        }
+    }
+}
+
+/// A factorised stage matrix.
+enum Stage {
+    Pattern(PatternLu),
+    Faer(FaerLu),
+}
+
+struct Entry {
+    key: (u64, u64),
+    matrix: SparseColMat<usize, f64>,
+    factor: Stage,
+    used: usize,
+}
+
+impl<'a, G: Generator> TrBdf2<'a, G> {
+    /// A stepper for `generator` at tolerance 1e-6 relative and absolute, weight 1.
+    pub(crate) fn new(generator: &'a G) -> Self {
+        TrBdf2 {
+            generator,
+            tolerance: Tolerance {
+                relative: 1e-6,
+                absolute: 1e-6,
+            },
+            weight: 1.0,
+            order: None,
+            first_step: None,
+            fixed: false,
+            per_unit_time: true,
+            conserve: false,
+            max_steps: 1_000_000,
+            cache: 3,
+            cancel: None,
+        }
+    }
+
+    pub(crate) fn tolerance(mut self, tolerance: Tolerance) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+
+    /// The weight of every component in the norms, mass and negative mass.
+    pub(crate) fn weight(mut self, weight: f64) -> Self {
+        self.weight = weight;
+        self
+    }
+
+    /// The elimination order of the stage matrices (position → column): factorised by the
+    /// pattern LU, faer's LU (COLAMD) where that fails its check. Without an order, faer's
+    /// LU alone.
+    pub(crate) fn order(mut self, order: Vec<usize>) -> Self {
+        self.order = Some(order);
+        self
+    }
+
+    /// The first step (else chosen from the norms of A³y₀).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) fn first_step(mut self, h: f64) -> Self {
+        self.first_step = Some(h);
+        self
+    }
+
+    /// Every step the first one, no error control (for convergence tests).
+    #[cfg(test)]
+    pub(crate) fn fixed(mut self) -> Self {
+        self.fixed = true;
+        self
+    }
+
+    /// Bounds each step's error itself, ‖e‖ ≤ tolerance, instead of its error per unit time
+    /// (the default): longer steps, but the global error is then about the tolerance times
+    /// the number of steps, and falls only as the tolerance's 2/3 power.
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) fn per_step(mut self) -> Self {
+        self.per_unit_time = false;
+        self
+    }
+
+    /// The generator's columns sum to zero (checked at the start: every column sum within
+    /// 1e−12 of A's largest entry, else [`StepError::Setting`]), and each stage solve keeps
+    /// the mass exactly: the exact solve has 1ᵀx = 1ᵀb (1ᵀ(I − dhA) = 1ᵀ), so the defect its
+    /// residual leaves (up to 1e−12 per output on a stiff chain) is put back in proportion
+    /// to |xᵢ|, a change within the solve's own error. Mass then drifts only by the rounding
+    /// of sums.
+    pub(crate) fn conserve_mass(mut self) -> Self {
+        self.conserve = true;
+        self
+    }
+
+    /// How many factorised stage matrices are kept (default 3).
+    // Run-control for the transient's and reliability's front ends, not wired yet.
+    #[allow(dead_code)]
+    pub(crate) fn cache(mut self, entries: usize) -> Self {
+        self.cache = entries.max(1);
+        self
+    }
+
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) fn max_steps(mut self, steps: usize) -> Self {
+        self.max_steps = steps;
+        self
+    }
+
+    // Run-control for the transient's and reliability's front ends, not wired yet.
+    #[allow(dead_code)]
+    pub(crate) fn cancel(mut self, cancel: Cancel) -> Self {
+        self.cancel = Some(cancel);
+        self
+    }
+
+    fn check(&self, y0: &[f64], t0: f64, times: &[f64]) -> Result<(), StepError> {
+        let setting = |setting, value: String, expected| StepError::Setting {
+            setting,
+            value,
+            expected,
+        };
+        let Tolerance { relative, absolute } = self.tolerance;
+        let fine = |u: f64| u.is_finite() && u >= 0.0;
+        if !(fine(relative) && fine(absolute) && relative + absolute > 0.0) {
+            return Err(setting(
+                "tolerance",
+                format!("{relative:e} relative, {absolute:e} absolute"),
+                "finite, non-negative, not both zero",
+            ));
+        }
+        if !(self.weight.is_finite() && self.weight > 0.0) {
+            return Err(setting(
+                "weight",
+                format!("{}", self.weight),
+                "finite, positive",
+            ));
+        }
+        if y0.len() != self.generator.dim() || y0.iter().any(|y| !y.is_finite()) {
+            return Err(setting(
+                "initial",
+                format!("{} values", y0.len()),
+                "one finite value per unknown",
+            ));
+        }
+        let ordered = t0.is_finite()
+            && times.iter().all(|t| t.is_finite())
+            && times.first().is_none_or(|&t| t >= t0)
+            && times.windows(2).all(|w| w[0] <= w[1]);
+        if !ordered {
+            return Err(setting(
+                "times",
+                format!("{times:?} from {t0}"),
+                "finite, non-decreasing, none before the start",
+            ));
+        }
+        if self.conserve {
+            let a = self.generator.at(t0);
+            let mut worst = (0.0f64, 0.0f64);
+            for c in 0..a.ncols() {
+                let column = a.val_of_col(c);
+                let sum: f64 = column.iter().sum();
+                let big = column.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                worst = (worst.0.max(sum.abs()), worst.1.max(big));
+            }
+            if worst.0.is_nan() || worst.0 > 1e-12 * worst.1 {
+                return Err(setting(
+                    "conserve_mass",
+                    format!(
+                        "a column sum of {:e} (largest entry {:e})",
+                        worst.0, worst.1
+                    ),
+                    "a generator whose columns sum to zero",
+                ));
+            }
+        }
+        if let Some(h) = self.first_step {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(setting("first_step", format!("{h}"), "finite, positive"));
+            }
+        }
+        Ok(())
+    }
+
+    fn norm(&self, u: &[f64]) -> f64 {
+        self.weight * u.iter().map(|v| v.abs()).sum::<f64>()
+    }
+
+    fn output(&self, t: f64, y: Vec<f64>) -> Output {
+        let mass = self.weight * y.iter().sum::<f64>();
+        let negative_mass = self.weight * y.iter().filter(|v| **v < 0.0).map(|v| -v).sum::<f64>();
+        Output {
+            t,
+            y,
+            mass,
+            negative_mass,
+        }
+    }
+
+    /// A first step whose leading error term, about h³‖A³y₀‖/12 (per unit time h²‖A³y₀‖/12),
+    /// is half the tolerance.
+    fn initial_step(&self, t0: f64, y0: &[f64], span: f64) -> f64 {
+        let a = self.generator.at(t0);
+        let (mut u, mut v) = (y0.to_vec(), vec![0.0; y0.len()]);
+        for _ in 0..3 {
+            apply(&a, &u, &mut v);
+            std::mem::swap(&mut u, &mut v);
+        }
+        let scale = self.tolerance.absolute + self.tolerance.relative * self.norm(y0);
+        let third = self.norm(&u);
+        if third > 0.0 && third.is_finite() {
+            if self.per_unit_time {
+                (6.0 * scale / third).sqrt().min(span)
+            } else {
+                (6.0 * scale / third).cbrt().min(span)
+            }
+        } else {
+            span
+        }
+    }
+
+    /// Integrates from (`t0`, `y0`) and returns y at each of `times`.
+    pub(crate) fn run(&self, y0: &[f64], t0: f64, times: &[f64]) -> Result<History, StepError> {
+        self.check(y0, t0, times)?;
+        let n = y0.len();
+        let end = times.last().copied().unwrap_or(t0);
+        let span = end - t0;
+        let mut outputs = Vec::with_capacity(times.len());
+        let mut next = 0;
+        while next < times.len() && times[next] == t0 {
+            outputs.push(self.output(t0, y0.to_vec()));
+            next += 1;
+        }
+        let mut stats = Stats::default();
+        if next == times.len() {
+            return Ok(History { outputs, stats });
+        }
+        let mut cache: Vec<Entry> = Vec::new();
+        let mut sizes: Vec<u64> = Vec::new();
+        let base = self
+            .first_step
+            .unwrap_or_else(|| self.initial_step(t0, y0, span));
+        // Steps are base·2^level, none longer than the span.
+        let mut level: i32 = 0;
+        let longest = (span / base).log2().floor() as i32;
+        let min_step = 1e-12 * span.max(t0.abs());
+        let (mut t, mut y) = (t0, y0.to_vec());
+        let mut f = vec![0.0; n];
+        apply(&self.generator.at(t0), &y, &mut f);
+        let mut work = Work::new(n);
+        while next < times.len() {
+            if stats.accepted + stats.rejected >= self.max_steps {
+                return Err(StepError::TooManySteps {
+                    time: t,
+                    steps: stats.accepted + stats.rejected,
+                });
+            }
+            if self.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+                return Err(StepError::Cancelled { time: t });
+            }
+            let h = base * 2f64.powi(level);
+            if h < min_step {
+                return Err(StepError::StepSizeTooSmall {
+                    time: t,
+                    step: h,
+                    min: min_step,
+                });
+            }
+            if !sizes.contains(&h.to_bits()) {
+                sizes.push(h.to_bits());
+            }
+            self.step(&mut cache, &mut stats, t, h, &y, &f, &mut work)?;
+            let Work { y1, f1, est, .. } = &mut work;
+            let scale = self.tolerance.absolute
+                + self.tolerance.relative * self.norm(&y).max(self.norm(y1));
+            let err = if self.per_unit_time {
+                self.norm(est) / (h * scale)
+            } else {
+                self.norm(est) / scale
+            };
+            // The estimate is O(h³): per step, or O(h²) per unit time.
+            let exponent = if self.per_unit_time { -0.5 } else { -1.0 / 3.0 };
+            let finite = err.is_finite() && y1.iter().all(|v| v.is_finite());
+            if self.fixed || (finite && err <= 1.0) {
+                stats.accepted += 1;
+                while next < times.len() && times[next] <= t + h {
+                    let s = (times[next] - t) / h;
+                    outputs.push(self.output(times[next], hermite(s, h, &y, &f, y1, f1)));
+                    next += 1;
+                }
+                t += h;
+                std::mem::swap(&mut y, y1);
+                std::mem::swap(&mut f, f1);
+                if !self.fixed {
+                    // Grow only when the error allows twice the step (h stays on its level,
+                    // and its factorisation in the cache, as long as it can).
+                    let proposal = SAFETY * err.max(1e-10).powf(exponent);
+                    let up = proposal.log2().floor().clamp(0.0, 2.0) as i32;
+                    level = (level + up).min(longest.max(level));
+                }
+            } else {
+                stats.rejected += 1;
+                let proposal = if finite {
+                    SAFETY * err.powf(exponent)
+                } else {
+                    0.25
+                };
+                let down = (-proposal.log2()).ceil().clamp(1.0, 10.0) as i32;
+                level -= down;
+            }
+        }
+        stats.step_sizes = sizes.len();
+        Ok(History { outputs, stats })
+    }
+
+    /// One step of size `h` from (`t`, `y`): y₁ and the filtered error estimate.
+    #[cfg(test)]
+    pub(crate) fn one_step(&self, t: f64, h: f64, y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut f = vec![0.0; y.len()];
+        apply(&self.generator.at(t), y, &mut f);
+        let mut work = Work::new(y.len());
+        let (mut cache, mut stats) = (Vec::new(), Stats::default());
+        self.step(&mut cache, &mut stats, t, h, y, &f, &mut work)
+            .expect("a test step solves");
+        (work.y1, work.est)
+    }
+
+    /// One step of size `h` from (`t`, `y`, `f` = A(t) y): the stages, y₁ and f₁ = A(t + h) y₁,
+    /// and the embedded error estimate filtered by (I − d h A(t + h))⁻¹, into `work`.
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &self,
+        cache: &mut Vec<Entry>,
+        stats: &mut Stats,
+        t: f64,
+        h: f64,
+        y: &[f64],
+        f: &[f64],
+        work: &mut Work,
+    ) -> Result<(), StepError> {
+        let Work {
+            yg,
+            fg,
+            y1,
+            f1,
+            est,
+        } = work;
+        // Trapezoidal stage: (I − d h A(t+γh)) y_γ = y + d h f.
+        let tg = t + GAMMA * h;
+        yg.iter_mut()
+            .zip(y)
+            .zip(f)
+            .for_each(|((o, y), f)| *o = y + D * h * f);
+        self.solve(cache, stats, h, tg, yg)?;
+        apply(&self.generator.at(tg), yg, fg);
+        // BDF2 stage: (I − d h A(t+h)) y₁ = y + w h (f + f_γ).
+        y1.iter_mut()
+            .zip(y)
+            .zip(f.iter().zip(fg.iter()))
+            .for_each(|((o, y), (f, g))| *o = y + W * h * (f + g));
+        self.solve(cache, stats, h, t + h, y1)?;
+        apply(&self.generator.at(t + h), y1, f1);
+        // The embedded estimate, filtered by (I − d h A(t+h))⁻¹.
+        for k in 0..y.len() {
+            est[k] = h * (E[0] * f[k] + E[1] * fg[k] + E[2] * f1[k]);
+        }
+        self.solve(cache, stats, h, t + h, est)
+    }
+
+    /// Solves (I − d h A(t)) x = `b` in place, factorising the matrix unless cached.
+    fn solve(
+        &self,
+        cache: &mut Vec<Entry>,
+        stats: &mut Stats,
+        h: f64,
+        t: f64,
+        b: &mut [f64],
+    ) -> Result<(), StepError> {
+        let key = (
+            h.to_bits(),
+            if self.generator.time_invariant() {
+                0
+            } else {
+                t.to_bits()
+            },
+        );
+        let clock = stats.accepted + stats.rejected;
+        let failed = |detail: String| StepError::Factorization {
+            time: t,
+            step: h,
+            detail,
+        };
+        let at = match cache.iter().position(|e| e.key == key) {
+            Some(at) => at,
+            None => {
+                let matrix = shifted(&self.generator.at(t), D * h);
+                let factor = self.factor(&matrix).map_err(|e| failed(e.to_string()))?;
+                stats.factorizations += 1;
+                if cache.len() >= self.cache {
+                    let oldest = (0..cache.len()).min_by_key(|&k| cache[k].used).unwrap_or(0);
+                    cache.swap_remove(oldest);
+                }
+                cache.push(Entry {
+                    key,
+                    matrix,
+                    factor,
+                    used: clock,
+                });
+                cache.len() - 1
+            }
+        };
+        let entry = &mut cache[at];
+        entry.used = clock;
+        let a = entry.matrix.as_ref();
+        let x = match &entry.factor {
+            Stage::Pattern(lu) => lu.checked_solve(a, b, CHECK),
+            Stage::Faer(lu) => lu.checked_solve(a, b, CHECK),
+        }
+        .or_else(|e| match &entry.factor {
+            // A pattern LU that fails on this right-hand side is replaced by faer's.
+            Stage::Pattern(_) => {
+                let lu = FaerLu::factor(a, Ordering::Colamd, memory_limit_bytes())?;
+                let x = lu.checked_solve(a, b, CHECK);
+                entry.factor = Stage::Faer(lu);
+                x.map_err(|faer| FactorError::Faer(format!("{e}; faer's LU: {faer}")))
+            }
+            Stage::Faer(_) => Err(e),
+        })
+        .map_err(|e| failed(e.to_string()))?;
+        let defect = b.iter().sum::<f64>() - x.iter().sum::<f64>();
+        b.copy_from_slice(&x);
+        if self.conserve && defect != 0.0 {
+            let total: f64 = b.iter().map(|v| v.abs()).sum();
+            if total > 0.0 {
+                b.iter_mut().for_each(|v| *v += defect * v.abs() / total);
+            }
+        }
+        Ok(())
+    }
+
+    fn factor(&self, m: &SparseColMat<usize, f64>) -> Result<Stage, FactorError> {
+        let limit = memory_limit_bytes();
+        let faer = || FaerLu::factor(m.as_ref(), Ordering::Colamd, limit).map(Stage::Faer);
+        match &self.order {
+            Some(order) => match PatternLu::factor(m.as_ref(), order.clone(), limit) {
+                Ok(lu) => Ok(Stage::Pattern(lu)),
+                Err(e @ FactorError::TooLarge { .. }) => Err(e),
+                Err(_) => faer(),
+            },
+            None => faer(),
+        }
+    }
+}
+
+/// The cubic Hermite interpolant at fraction `s` of the step of length `h` from (y, f) to
+/// (y₁, f₁).
+fn hermite(s: f64, h: f64, y: &[f64], f: &[f64], y1: &[f64], f1: &[f64]) -> Vec<f64> {
+    let (s2, s3) = (s * s, s * s * s);
+    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+    let h10 = (s3 - 2.0 * s2 + s) * h;
+    let h01 = -2.0 * s3 + 3.0 * s2;
+    let h11 = (s3 - s2) * h;
+    (0..y.len())
+        .map(|k| h00 * y[k] + h10 * f[k] + h01 * y1[k] + h11 * f1[k])
+        .collect()
+}
