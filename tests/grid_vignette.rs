@@ -1,4 +1,4 @@
-//! SDEtools' van der Pol vignette (`models/vdp_vignette.sde`: an unstable origin, a limit
+//! SDEtools' van der Pol vignette (`tests/models/vdp_vignette.sde`: an unstable origin, a limit
 //! cycle), which the grid once refused at every cell count: its box now comes from the
 //! density, holds it to 1e−9 of its peak, and its marginals match a 10⁹-sample Monte Carlo
 //! (stored in `tests/data/vdp_vignette_mc/`, with the command that made it) within the
@@ -28,7 +28,7 @@ fn histogram(name: &str) -> Vec<[f64; 3]> {
 
 #[test]
 fn the_vignette_solves_and_matches_monte_carlo() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vdp_vignette.sde");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/vdp_vignette.sde");
     let bound = load_model(&path).unwrap().bind(&[]).unwrap();
     let sol = GridSolver::new(&bound).solve().unwrap();
     let report = &sol.report;
