@@ -3,6 +3,8 @@
 //! the Duffing oscillator's separable density p_x(x)·N(0, σ_v²), and, for an elastic wall,
 //! the barrier-free density restricted to the domain (beside Monte Carlo's impact count).
 
+mod common;
+use common::simpson;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -20,15 +22,6 @@ fn bound(path: &str, set: &[(&str, f64)]) -> BoundModel {
     let model = load_model(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let overrides: Vec<Override> = set.iter().map(|(n, v)| Override::number(n, *v)).collect();
     model.bind(&overrides).unwrap()
-}
-
-/// ∫ f over [a, b] by composite Simpson with `n` (even) intervals.
-fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
-    let h = (b - a) / n as f64;
-    let inner: f64 = (1..n)
-        .map(|i| f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 })
-        .sum();
-    (f(a) + f(b) + inner) * h / 3.0
 }
 
 /// The models' f = c/(πK) = 0.2: σ_v² = 1/f = 5 for both, σ_x² = 5 for the linear one.

@@ -528,22 +528,7 @@ mod tests {
                 [[-20.0, 20.0], [-12.0 * self.sv, 12.0 * self.sv]]
             }
         }
-        let n = 20000;
-        let h = 40.0 / n as f64;
-        let norm = (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * potential(-20.0 + i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0;
+        let norm = crate::observe::quadrature::simpson(potential, -20.0, 20.0, 20000);
         let sv = 5f64.sqrt();
         let d = Duffing { norm, sv };
         let rate = LevelRate::of_state(&model("v", ""), 0).unwrap();
@@ -567,22 +552,7 @@ mod tests {
         for (u, r) in levels.iter().zip(&curve.rate) {
             let a = u / 2.0;
             // 1 − Φ(a) by Simpson on [a, a + 14].
-            let n = 4000;
-            let h = 14.0 / n as f64;
-            let tail = (0..=n)
-                .map(|i| {
-                    let w = if i == 0 || i == n {
-                        1.0
-                    } else if i % 2 == 1 {
-                        4.0
-                    } else {
-                        2.0
-                    };
-                    w * phi(a + i as f64 * h)
-                })
-                .sum::<f64>()
-                * h
-                / 3.0;
+            let tail = crate::observe::quadrature::simpson(phi, a, a + 14.0, 4000);
             let exact = phi(*u) * (phi(a) - a * tail);
             assert!((r - exact).abs() <= 1e-8 * exact, "u={u}: {r} vs {exact}");
         }

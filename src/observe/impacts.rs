@@ -220,26 +220,11 @@ mod tests {
         let phi = |v: f64| (-v * v / 2.0).exp() / (2.0 * PI).sqrt();
         let rate = 0.5 / (2.0 * PI).sqrt();
         assert!((s.rate - rate).abs() < 1e-10 * rate, "{}", s.rate);
-        let n = 20000;
-        let h = 12.0 / n as f64;
         let f = |v: f64| {
             let r = 0.9 / (1.0 + v);
             v * (1.0 - r * r) * v * v / 2.0 * 0.5 * phi(v)
         };
-        let power = (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * f(i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0;
+        let power = crate::observe::quadrature::simpson(f, 0.0, 12.0, 20000);
         assert!(
             (s.mean_power - power).abs() < 1e-9 * power,
             "{} vs {power}",

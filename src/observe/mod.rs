@@ -453,13 +453,7 @@ mod tests {
     /// Φ by integrating φ (kept independent of the code under test's quadrature).
     fn big_phi(x: f64) -> f64 {
         // Simpson on [-12, x] with many panels.
-        let (a, n) = (-12.0, 20000);
-        let h = (x - a) / n as f64;
-        let mut s = phi(a) + phi(x);
-        for i in 1..n {
-            s += phi(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        s * h / 3.0
+        quadrature::simpson(phi, -12.0, x, 20000)
     }
 
     fn states() -> [Symbol; 2] {

@@ -137,6 +137,17 @@ fn gauss_kronrod(f: &dyn Fn(&[f64], &mut [f64]), a: f64, b: f64) -> (f64, f64) {
     (k * h, ((k - g) * h).abs())
 }
 
+/// ∫ f over [a, b] by composite Simpson on `n` (even) intervals: the tests' reference rule,
+/// independent of the adaptive quadrature under test.
+#[cfg(test)]
+pub(crate) fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let h = (b - a) / n as f64;
+    let inner: f64 = (1..n)
+        .map(|i| f(a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 })
+        .sum();
+    (f(a) + f(b) + inner) * h / 3.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
