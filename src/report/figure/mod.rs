@@ -489,13 +489,7 @@ impl PdfFigure {
         let plot = lin_chart(top)?.plotting_area().dim_in_pixel();
         let mut labels: Vec<&str> = self.curves.iter().map(|c| c.label.as_str()).collect();
         labels.extend(self.points.iter().map(|p| p.label.as_str()));
-        let scaled = |c: &[f64], y: &[f64]| -> Vec<(f64, f64)> {
-            c.iter()
-                .zip(y)
-                .filter(|(_, y)| y.is_finite())
-                .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - lin_lo) / (top - lin_lo)))
-                .collect()
-        };
+        let scaled = |x: &[f64], y: &[f64]| place::scaled(x, y, (x_lo, x_hi), (lin_lo, top));
         let mut runs: Vec<Vec<(f64, f64)>> =
             self.curves.iter().map(|c| scaled(&c.x, &c.y)).collect();
         // Monte Carlo's points and the tops of their error bars, each on its own.
@@ -632,13 +626,7 @@ impl LineFigure {
         let runs: Vec<Vec<(f64, f64)>> = self
             .series
             .iter()
-            .map(|s| {
-                s.x.iter()
-                    .zip(&s.y)
-                    .filter(|(_, y)| y.is_finite())
-                    .map(|(&x, &y)| ((x - x_lo) / (x_hi - x_lo), (y - y_lo) / (y_hi - y_lo)))
-                    .collect()
-            })
+            .map(|s| place::scaled(&s.x, &s.y, (x_lo, x_hi), (y_lo, y_hi)))
             .collect();
         let placement = place::place(&runs, place::legend_size(&labels, k), plot);
         let (_, y_hi) = spanned("y", (y_lo, y_lo + (y_hi - y_lo) * placement.grow))?;

@@ -30,6 +30,16 @@ pub(super) fn legend_size(labels: &[&str], k: u32) -> (f64, f64) {
     )
 }
 
+/// The finite points of (`x`, `y`) scaled to [0, 1]² by the axes' ranges `xr` and `yr`: a
+/// run [`place`] tests.
+pub(super) fn scaled(x: &[f64], y: &[f64], xr: (f64, f64), yr: (f64, f64)) -> Vec<(f64, f64)> {
+    x.iter()
+        .zip(y)
+        .filter(|(_, y)| y.is_finite())
+        .map(|(&x, &y)| ((x - xr.0) / (xr.1 - xr.0), (y - yr.0) / (yr.1 - yr.0)))
+        .collect()
+}
+
 /// Where the legend goes, and by what factor the y range's span must grow for it.
 #[derive(Clone, Debug)]
 pub(super) struct Placement {
