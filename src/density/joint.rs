@@ -50,6 +50,33 @@ pub trait JointDensity: Sync {
             }
         }
     }
+    /// The points along axis `axis` (sorted, the extent's ends first and last) between which
+    /// p is a polynomial of degree ≤ 1 in that coordinate at every value of the other, as a
+    /// piecewise-bilinear interpolant is: a fixed Gauss rule on each piece of both axes then
+    /// integrates p times a polynomial exactly, where a composite rule that ignores the kinks
+    /// would not. `None` (the default): p is not piecewise polynomial.
+    ///
+    /// ```
+    /// use fpsolve::density::JointDensity;
+    /// /// The tent p = (1 − |x|)(1 − |v|) on [−1, 1]²: linear on each half of each axis.
+    /// struct Tent;
+    /// impl JointDensity for Tent {
+    ///     fn pdf(&self, x: [f64; 2]) -> f64 {
+    ///         (1.0 - x[0].abs()).max(0.0) * (1.0 - x[1].abs()).max(0.0)
+    ///     }
+    ///     fn extent(&self) -> [[f64; 2]; 2] {
+    ///         [[-1.0, 1.0], [-1.0, 1.0]]
+    ///     }
+    ///     fn breakpoints(&self, _axis: usize) -> Option<Vec<f64>> {
+    ///         Some(vec![-1.0, 0.0, 1.0])
+    ///     }
+    /// }
+    /// assert_eq!(Tent.breakpoints(1), Some(vec![-1.0, 0.0, 1.0]));
+    /// ```
+    fn breakpoints(&self, axis: usize) -> Option<Vec<f64>> {
+        let _ = axis;
+        None
+    }
     /// Whether p is analytic on the whole of [`JointDensity::extent`] (no cut-off, mask, wall
     /// or kink), so that its integral along a half-line from an axis to the box's edge may be
     /// taken by a fixed polynomial rule (checked by a doubling test, adaptive when that fails).

@@ -482,6 +482,51 @@ impl JointDensity for GridSolution {
         Some(self.line_integral(axis, at, range))
     }
 
+    /// The interpolant is linear between cell centres along each axis, and from the end
+    /// centres to the edges of a run (a line through two centres, or a held value, never
+    /// clipped: the line is continued only between values within a factor 2, which stays
+    /// above half the end value over the half cell to the edge): the breakpoints are the
+    /// centres and the runs' edges.
+    fn breakpoints(&self, axis: usize) -> Option<Vec<f64>> {
+        let m = &self.mesh;
+        let d = m.domain();
+        let mut out = Vec::new();
+        if axis == 0 {
+            let whole = [[0, m.nx]];
+            let runs: &[[usize; 2]] = if m.segments.is_empty() {
+                &whole
+            } else {
+                &m.segments
+            };
+            for &[s0, s1] in runs {
+                let lo = if s0 == 0 {
+                    d.x[0]
+                } else {
+                    m.x0 + s0 as f64 * m.hx
+                };
+                let hi = if s1 == m.nx {
+                    d.x[1]
+                } else {
+                    m.x0 + s1 as f64 * m.hx
+                };
+                if out.last() != Some(&lo) {
+                    out.push(lo);
+                }
+                out.extend((s0..s1).map(|i| m.xc(i)).filter(|&c| lo < c && c < hi));
+                out.push(hi);
+            }
+        } else {
+            out.push(d.v[0]);
+            out.extend(
+                (0..m.nv)
+                    .map(|j| m.vc(j))
+                    .filter(|&c| d.v[0] < c && c < d.v[1]),
+            );
+            out.push(d.v[1]);
+        }
+        Some(out)
+    }
+
     /// The domain: the density is zero outside it.
     fn extent(&self) -> [[f64; 2]; 2] {
         let d = self.domain();

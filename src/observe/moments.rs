@@ -57,39 +57,78 @@ fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
         parts = vec![(lo, 0.0), (0.0, hi)];
     }
     let mut out = Vec::new();
-    let mut panel = |a: f64, b: f64| {
-        let (c, w) = (0.5 * (a + b), b - a);
-        for (x, wt) in GL_X.iter().zip(GL_W) {
-            out.push((c - 0.5 * w * x, 0.5 * w * wt));
-            out.push((c + 0.5 * w * x, 0.5 * w * wt));
-        }
-    };
     for (a, b) in parts {
         let n = ((rule.panels as f64 * (b - a) / (hi - lo)).ceil() as usize).max(4);
         let w = (b - a) / n as f64;
         for k in 0..n {
             let (pa, pb) = (a + k as f64 * w, a + (k + 1) as f64 * w);
-            // The panel touching 0 is graded geometrically towards 0, so that a singularity of
-            // g on an axis (log|z|, |z|^−½) is integrated accurately.
-            let touches = if pa == 0.0 {
-                Some((pb, 1.0))
-            } else if pb == 0.0 {
-                Some((pa, -1.0))
+            graded_panel(pa, pb, rule.graded, &GAUSS_8, &mut out);
+        }
+    }
+    out
+}
+
+/// Gauss–Legendre rules on [−1, 1] as (node ≥ 0, weight) pairs, each node but 0 standing for
+/// ±node: 8 points, 3 points and 2 points.
+const GAUSS_8: [(f64, f64); 4] = [
+    (GL_X[0], GL_W[0]),
+    (GL_X[1], GL_W[1]),
+    (GL_X[2], GL_W[2]),
+    (GL_X[3], GL_W[3]),
+];
+const GAUSS_3: [(f64, f64); 2] = [(0.0, 8.0 / 9.0), (0.774_596_669_241_483_4, 5.0 / 9.0)];
+const GAUSS_2: [(f64, f64); 1] = [(0.577_350_269_189_625_8, 1.0)];
+
+/// Appends the nodes and weights of the Gauss rule `gauss` on the panel [pa, pb], or, for a
+/// panel with an end at 0, of the 8-point rule on `graded` geometric levels (ratio 0.2)
+/// towards 0, so that a singularity of g on an axis (log|z|, |z|^−½) is integrated
+/// accurately.
+fn graded_panel(pa: f64, pb: f64, graded: usize, gauss: &[(f64, f64)], out: &mut Vec<(f64, f64)>) {
+    let panel = |a: f64, b: f64, gauss: &[(f64, f64)], out: &mut Vec<(f64, f64)>| {
+        let (c, w) = (0.5 * (a + b), b - a);
+        for &(x, wt) in gauss {
+            if x == 0.0 {
+                out.push((c, 0.5 * w * wt));
             } else {
-                None
-            };
-            match touches {
-                Some((far, _)) => {
-                    let mut outer = far;
-                    for _ in 0..rule.graded {
-                        let inner = 0.2 * outer;
-                        panel(inner.min(outer), inner.max(outer));
-                        outer = inner;
-                    }
-                    panel(outer.min(0.0), outer.max(0.0));
-                }
-                None => panel(pa, pb),
+                out.push((c - 0.5 * w * x, 0.5 * w * wt));
+                out.push((c + 0.5 * w * x, 0.5 * w * wt));
             }
+        }
+    };
+    let far = if pa == 0.0 {
+        pb
+    } else if pb == 0.0 {
+        pa
+    } else {
+        panel(pa, pb, gauss, out);
+        return;
+    };
+    let mut outer = far;
+    for _ in 0..graded {
+        let inner = 0.2 * outer;
+        panel(inner.min(outer), inner.max(outer), &GAUSS_8, out);
+        outer = inner;
+    }
+    panel(outer.min(0.0), outer.max(0.0), &GAUSS_8, out);
+}
+
+/// Nodes and weights of a rule on the pieces between `breaks` (sorted, the axis's ends
+/// first and last) where a density is polynomial of degree ≤ 1 along the axis
+/// ([`JointDensity::breakpoints`]): `gauss` on each piece, pieces split at 0 and graded
+/// towards it as in [`axis_rule`] (where a map has its kinks and singularities). Exact for
+/// the density times any polynomial of degree up to 2·points − 2 on a piece.
+fn piece_rule(breaks: &[f64], graded: usize, gauss: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for w in breaks.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if b <= a {
+            continue;
+        }
+        if a < 0.0 && b > 0.0 {
+            graded_panel(a, 0.0, graded, gauss, &mut out);
+            graded_panel(0.0, b, graded, gauss, &mut out);
+        } else {
+            graded_panel(a, b, graded, gauss, &mut out);
         }
     }
     out
@@ -153,7 +192,32 @@ pub fn moments_of_all(
     // checked against its half (see `Quadrants::signed`); under a density smooth piecewise
     // along lines, line integrals under an outer rule (see `LineQuadrants`); the composite
     // grid for the rest, and where a fixed rule's check fails.
-    let fixed: Vec<Option<ObservableMoments>> = if density.analytic() {
+    let pieces = [density.breakpoints(0), density.breakpoints(1)];
+    let fixed: Vec<Option<ObservableMoments>> = if let [Some(b0), Some(b1)] = &pieces {
+        // Polynomial on the pieces (a grid's interpolant): a Gauss rule on every piece is
+        // exact for the states' moments, and the check rule below still tells which moments
+        // of a general map exist.
+        let fine = Grid::new(
+            density,
+            [
+                piece_rule(b0, FINE.graded, &GAUSS_3),
+                piece_rule(b1, FINE.graded, &GAUSS_3),
+            ],
+        );
+        let check = maps
+            .iter()
+            .any(|m| matches!(m, ObservableMap::General { .. }))
+            .then(|| {
+                Grid::new(
+                    density,
+                    [
+                        piece_rule(b0, CHECK.graded, &GAUSS_2),
+                        piece_rule(b1, CHECK.graded, &GAUSS_2),
+                    ],
+                )
+            });
+        return of_rules(maps, &fine, check.as_ref(), vec![None; maps.len()]);
+    } else if density.analytic() {
         let quadrants = Quadrants::new(density);
         let signed: Vec<(usize, [[f64; 2]; 2])> = maps
             .iter()
@@ -189,13 +253,34 @@ pub fn moments_of_all(
     if fixed.iter().all(Option::is_some) {
         return fixed.into_iter().flatten().collect();
     }
-    let fine = Grid::new(density, FINE);
+    let ext = density.extent();
+    let composite = |rule: Rule| {
+        Grid::new(
+            density,
+            [
+                axis_rule(ext[0][0], ext[0][1], rule),
+                axis_rule(ext[1][0], ext[1][1], rule),
+            ],
+        )
+    };
+    let fine = composite(FINE);
     // A state's moments exist for any density fpsolve normalises (exp(Q) on the plane, or cut
     // at a ridge): the second rule is only needed for general maps.
     let check = maps
         .iter()
         .any(|m| matches!(m, ObservableMap::General { .. }))
-        .then(|| Grid::new(density, CHECK));
+        .then(|| composite(CHECK));
+    of_rules(maps, &fine, check.as_ref(), fixed)
+}
+
+/// The moments of each of `maps` by the `fine` rule, those of general maps up to the order
+/// `fine` and `check` agree on, where `fixed` has none.
+fn of_rules(
+    maps: &[&ObservableMap],
+    fine: &Grid,
+    check: Option<&Grid>,
+    fixed: Vec<Option<ObservableMoments>>,
+) -> Vec<ObservableMoments> {
     // Each quantity on its own thread: its sums are its own, so the result does not depend
     // on the number of threads.
     maps.par_iter()
@@ -212,7 +297,7 @@ pub fn moments_of_all(
                 return moments_of_pairs(|| fine.nodes().map(|&(x, w)| (g(x), w)), 4);
             }
             let f = fine.samples(map);
-            let existing = match &check {
+            let existing = match check {
                 Some(check) => established(&f, &check.samples(map)),
                 None => 4,
             };
@@ -339,10 +424,10 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(density: &dyn JointDensity, rule: Rule) -> Grid {
+    /// The tensor rule of the axis rules `r1`, `r2` (each node with its weight) under
+    /// `density`.
+    fn new(density: &dyn JointDensity, [r1, r2]: [Vec<(f64, f64)>; 2]) -> Grid {
         let ext = density.extent();
-        let r1 = axis_rule(ext[0][0], ext[0][1], rule);
-        let r2 = axis_rule(ext[1][0], ext[1][1], rule);
         // Blocks of rows in parallel, kept in order: the sums over the nodes are the same, bit
         // for bit, on any number of threads.
         let x2: Vec<f64> = r2.iter().map(|r| r.0).collect();
