@@ -225,3 +225,114 @@ fn folded_observable_of_the_zhuravlev_form_counts_both_branches() {
         Err(CrossingError::NoiseDriven { .. })
     ));
 }
+
+/// Reads `crossings_<q>.csv`: the header and the rows.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| {
+                    if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        v.parse().unwrap()
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+/// The main job writes every method's Rice rate curve with, for the grid, an error bound per
+/// level that covers the exact rate at every level written (the linear oscillator:
+/// ν⁺(u) = exp(−u²/10)/(2π)), lists the noise-driven velocity as having none, and states at
+/// an elastic wall an impact rate and mean speed whose error bounds cover the exact ones.
+#[test]
+fn the_main_job_writes_crossing_rates_and_impacts_whose_errors_cover_the_exact_ones() {
+    use fpsolve::job::{Job, JobSpec};
+    use fpsolve::report::OutputDir;
+    let dir = std::env::temp_dir().join(format!("fpsolve-crossing-job-{}", std::process::id()));
+    let spec = JobSpec {
+        degrees: vec![2],
+        methods: "epc,grid".parse().unwrap(),
+        methods_named: true,
+        cells: [100, 200],
+        figures: false,
+        ..JobSpec::default()
+    };
+    let mut last = None;
+    for (file, mu) in [("models/linear.sde", 0.0), ("models/duffing.sde", 0.1)] {
+        let model = load_model(&Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
+        let report = Job::new(&model, &spec)
+            .run(&OutputDir::create(&dir).unwrap())
+            .unwrap();
+        let (header, rows) = read_csv(&dir.join("crossings_z.csv"));
+        assert_eq!(header, ["u", "epc_n2", "grid", "grid_error"]);
+        let exact = exact_rate(mu);
+        let (mut worst, mut bounded) = (0.0f64, 0);
+        let peak = rows.iter().map(|r| r[2]).fold(0.0, f64::max);
+        for row in &rows {
+            let (u, epc, grid, error) = (row[0], row[1], row[2], row[3]);
+            if mu == 0.0 {
+                // EPC at n = 2 is exact for the linear oscillator.
+                assert!((epc - exact(u)).abs() <= 1e-8 * exact(u), "EPC at {u}");
+            }
+            // No bound below 1e−5 of the peak rate (the estimate's tail level): an empty
+            // field.
+            assert_eq!(error.is_nan(), grid < 1e-5 * peak, "{file} at {u}");
+            if error.is_nan() {
+                continue;
+            }
+            bounded += 1;
+            assert!(
+                (grid - exact(u)).abs() <= error,
+                "{file}: grid at {u}: {grid} vs {} (error bound {error})",
+                exact(u)
+            );
+            worst = worst.max((grid - exact(u)).abs() / error);
+        }
+        println!(
+            "{file}: {} levels, {bounded} with a bound, worst grid error / bound {worst:.2}",
+            rows.len()
+        );
+        assert!(bounded > rows.len() / 2);
+        last = Some(report);
+    }
+    let report = last.unwrap();
+    let reasons = &report.reliability.no_crossings;
+    assert!(reasons.iter().any(|r| r.quantity == "v"), "{reasons:?}");
+
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_linear.sde");
+    let model = load_model(&path).unwrap();
+    let spec = JobSpec {
+        degrees: vec![2],
+        methods: "grid".parse().unwrap(),
+        methods_named: true,
+        cells: [100, 200],
+        figures: false,
+        ..JobSpec::default()
+    };
+    let walled = dir.join("wall");
+    let report = Job::new(&model, &spec)
+        .run(&OutputDir::create(&walled).unwrap())
+        .unwrap();
+    let (rate, speed) = elastic_wall_exact();
+    let wall = &report.reliability.impacts[0];
+    println!(
+        "impact rate {} ± {:?} (exact {rate}), mean speed {} ± {:?} (exact {speed})",
+        wall.rate, wall.rate_error, wall.mean_speed, wall.mean_speed_error
+    );
+    assert!((wall.rate - rate).abs() <= wall.rate_error.unwrap());
+    assert!((wall.mean_speed - speed).abs() <= wall.mean_speed_error.unwrap());
+    assert!(walled.join(&wall.speed_pdf_file).is_file());
+    std::fs::remove_dir_all(&dir).ok();
+}

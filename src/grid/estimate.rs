@@ -26,6 +26,13 @@ const SAFETY: f64 = 1.25;
 /// The level, relative to a marginal's peak, above which its tails are compared.
 pub const TAIL_LEVEL: f64 = 1e-5;
 
+/// The factor a difference between the fine and the half-resolution answer is scaled by
+/// to bound the fine one's error, for convergence of order `order`: Richardson's
+/// 1/(2^order − 1) times Roache's safety factor.
+pub(super) fn factor(order: f64) -> f64 {
+    SAFETY / (2f64.powf(order) - 1.0)
+}
+
 /// The estimate of `fine`'s errors from the solution `coarse` of the same problem on half the
 /// cells per axis (both clipped and of unit mass), assuming convergence of order `order`.
 pub(super) fn estimate(
@@ -33,7 +40,7 @@ pub(super) fn estimate(
     coarse: &GridSolution,
     order: f64,
 ) -> DiscretisationEstimate {
-    let factor = SAFETY / (2f64.powf(order) - 1.0);
+    let factor = factor(order);
     let d = fine.domain();
     let mut out = DiscretisationEstimate {
         x: 0.0,

@@ -315,6 +315,7 @@ impl<'a> GridSolver<'a> {
             mesh,
             density: p,
             report: report.clone(),
+            coarse: None,
         };
         if let Some((coarse, mut q, estimate_ms)) = coarse.transpose()? {
             let t = Instant::now();
@@ -327,10 +328,12 @@ impl<'a> GridSolver<'a> {
                 },
                 mesh: coarse,
                 density: q,
+                coarse: None,
             };
             report.discretisation_estimate =
                 Some(estimate::estimate(&solution, &half, ASSUMED_ORDER));
             report.timings.estimate_ms = estimate_ms + ms(t);
+            solution.coarse = Some(Box::new(half));
         }
         let tolerance = negative_mass_tolerance(report.discretisation_estimate.as_ref());
         if negative_mass.is_nan() || negative_mass > tolerance {

@@ -11,6 +11,7 @@
 mod compare;
 mod files;
 mod mc_from;
+mod reliability;
 mod table;
 
 use std::path::PathBuf;
@@ -28,6 +29,7 @@ use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunne
 
 pub use compare::{Comparison, Disagreement, LogRatio, Reference, DISAGREEMENT_L1};
 pub use mc_from::{McFrom, McFromError};
+pub use reliability::{CrossingFile, NoCrossings, ReliabilitySummary, WallImpacts};
 
 /// What a job reports PDFs of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -172,6 +174,8 @@ struct Summary<'a> {
     comparisons: Vec<&'a Comparison>,
     #[serde(skip_serializing_if = "<[Disagreement]>::is_empty")]
     disagreements: &'a [Disagreement],
+    #[serde(flatten)]
+    reliability: &'a ReliabilitySummary,
     #[serde(skip_serializing_if = "<[Unwritten]>::is_empty")]
     unwritten: &'a [Unwritten],
 }
@@ -218,6 +222,9 @@ pub struct JobReport {
     pub undefined: Vec<UndefinedField>,
     /// Result files that could not be written (listed in `summary.json` under `unwritten`).
     pub unwritten: Vec<Unwritten>,
+    /// The crossing tables and impact statistics written (`summary.json`'s `crossings`,
+    /// `no_crossings` and `impacts`).
+    pub reliability: ReliabilitySummary,
 }
 
 /// A job to run: a model and a [`JobSpec`] (the builder; [`Job::run`] writes the files and
@@ -406,7 +413,12 @@ fn run(
     let written = files::write(&study, &names, mc.as_ref(), spec.figures, out);
     let comparisons = written.comparisons;
     let mut files = written.files;
-    let unwritten = written.unwritten;
+    let mut unwritten = written.unwritten;
+    crate::base::timeline::mark("job: crossings and impacts");
+    let reliability = reliability::write(problem, &study, &names, out);
+    files.extend(reliability.files);
+    unwritten.extend(reliability.unwritten);
+    let reliability = reliability.summary;
     let disagreements = compare::disagreements(&comparisons, |c| match c.reference {
         Reference::Grid => study
             .run_of(MethodName::Grid)
@@ -431,6 +443,7 @@ fn run(
         monte_carlo_wall_s: (mc.is_some() && spec.mc.is_some()).then_some(mc_wall_s),
         comparisons: listed,
         disagreements: &disagreements,
+        reliability: &reliability,
         unwritten: &unwritten,
     };
     let (path, undefined) = write_json_flagging_undefined(out, "summary.json", &summary)?;
@@ -449,6 +462,7 @@ fn run(
         files,
         undefined,
         unwritten,
+        reliability,
     })
 }
 

@@ -25,6 +25,7 @@
 //! EPC of a vibro-impact model solves its Zhuravlev transform, whose observables (y = |z|)
 //! carry the user's position.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::lines::{half_line_moments, rule_tolerance};
@@ -226,27 +227,59 @@ pub struct CrossingCurve {
     pub levels: Vec<f64>,
     /// ν⁺(u): mean up-crossings per unit time.
     pub rate: Vec<f64>,
-    /// The relative accuracy of each rate: the accuracy the density states for itself
-    /// ([`JointDensity::stated_accuracy`]), or the line quadrature's tolerance where that is
-    /// larger. It does not include a method's discretisation error (the grid's), which its
-    /// own estimate reports.
+    /// The relative accuracy of each rate's integral: the accuracy the density states for
+    /// itself ([`JointDensity::stated_accuracy`]), or the line quadrature's tolerance where
+    /// that is larger. It does not include a method's discretisation error.
     pub accuracy: f64,
+    /// The method's own estimate of each rate's discretisation error (absolute, per level):
+    /// the grid's, set by [`CrossingCurve::with_discretisation`]; `None` for a method without
+    /// an estimate (EPC's closure error has none).
+    pub discretisation: Option<Vec<f64>>,
 }
 
 impl CrossingCurve {
-    /// The curve with the relative accuracy `accuracy` where that is larger than the one it
-    /// has: a method's own error estimate (the grid's discretisation error, which
-    /// [`JointDensity::stated_accuracy`] of a grid solution does not include). A caller that
-    /// writes a grid's curve must set it, or the accuracy column claims the quadrature's.
+    /// The curve with the method's estimate of each rate's discretisation error (absolute,
+    /// one per level; the grid's [`crate::grid::GridSolution::estimate_of_each`]).
     ///
     /// ```
     /// use fpsolve::observe::CrossingCurve;
-    /// let curve = CrossingCurve { quantity: "z".into(), levels: vec![0.0], rate: vec![0.1], accuracy: 1e-9 };
-    /// assert_eq!(curve.with_accuracy(2e-3).accuracy, 2e-3);
+    /// let curve = CrossingCurve {
+    ///     quantity: "z".into(),
+    ///     levels: vec![0.0],
+    ///     rate: vec![0.1],
+    ///     accuracy: 1e-9,
+    ///     discretisation: None,
+    /// };
+    /// let curve = curve.with_discretisation(vec![2e-4]);
+    /// assert_eq!(curve.error(), Some(vec![2e-4 + 1e-10]));
     /// ```
-    pub fn with_accuracy(mut self, accuracy: f64) -> CrossingCurve {
-        self.accuracy = self.accuracy.max(accuracy);
+    pub fn with_discretisation(mut self, errors: Vec<f64>) -> CrossingCurve {
+        self.discretisation = Some(errors);
         self
+    }
+
+    /// The bound on each rate's error (absolute): the discretisation estimate plus the
+    /// integral's accuracy; `None` without a discretisation estimate.
+    ///
+    /// ```
+    /// use fpsolve::observe::CrossingCurve;
+    /// let curve = CrossingCurve {
+    ///     quantity: "z".into(),
+    ///     levels: vec![0.0],
+    ///     rate: vec![0.1],
+    ///     accuracy: 1e-9,
+    ///     discretisation: None,
+    /// };
+    /// assert_eq!(curve.error(), None);
+    /// ```
+    pub fn error(&self) -> Option<Vec<f64>> {
+        let d = self.discretisation.as_ref()?;
+        Some(
+            d.iter()
+                .zip(&self.rate)
+                .map(|(d, r)| d + self.accuracy * r.abs())
+                .collect(),
+        )
     }
 }
 
@@ -291,8 +324,9 @@ pub fn crossing_rate(
         });
     }
     let tolerance = rule_tolerance(density);
+    // Each level on its own task: a rate does not depend on the number of threads.
     let values = levels
-        .iter()
+        .par_iter()
         .map(|&u| level_rate(density, rate, u, tolerance))
         .collect::<Result<Vec<f64>, CrossingError>>()?;
     Ok(CrossingCurve {
@@ -300,6 +334,7 @@ pub fn crossing_rate(
         levels: levels.to_vec(),
         rate: values,
         accuracy: density.stated_accuracy().max(tolerance),
+        discretisation: None,
     })
 }
 
@@ -507,6 +542,7 @@ mod tests {
             assert!((r - exact).abs() <= 1e-9 * exact, "u={u}: {r} vs {exact}");
         }
         assert_eq!(curve.accuracy, 1e-9);
+        assert_eq!(curve.error(), None);
     }
 
     /// A density separable as p_x(x)·N(0, σ_v²) (a Duffing oscillator's):

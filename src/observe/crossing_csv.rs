@@ -13,22 +13,30 @@ pub fn crossings_file_name(quantity: &str) -> String {
 }
 
 /// The CSV text of one quantity's crossing curves by several methods: a header
-/// `u,<method>,<method>_accuracy,…` and one line per level, numbers in Rust's shortest
-/// round-trip form, `\n` line ends. An empty list gives the header `u` alone.
+/// `u,<method>,…` with, after each method that estimates its discretisation error (the
+/// grid), a column `<method>_error` (the bound on each rate's error,
+/// [`CrossingCurve::error`], empty where the method states no bound); one line per level, numbers in Rust's shortest round-trip
+/// form, `\n` line ends. An empty list gives the header `u` alone.
 ///
 /// # Errors
 /// [`CrossingError::Levels`] when the curves differ in quantity or levels.
 ///
 /// ```
 /// use fpsolve::observe::{crossings_csv, CrossingCurve};
-/// let curve = CrossingCurve {
+/// let epc = CrossingCurve {
 ///     quantity: "z".into(),
 ///     levels: vec![0.0, 1.0],
 ///     rate: vec![0.25, 0.125],
 ///     accuracy: 1e-9,
+///     discretisation: None,
 /// };
-/// let text = crossings_csv(&[("grid", &curve)])?;
-/// assert_eq!(text, "u,grid,grid_accuracy\n0,0.25,0.000000001\n1,0.125,0.000000001\n");
+/// let grid = CrossingCurve { rate: vec![0.25, 0.12], ..epc.clone() }
+///     .with_discretisation(vec![0.5, 0.25]);
+/// let text = crossings_csv(&[("epc_n4", &epc), ("grid", &grid)])?;
+/// assert_eq!(
+///     text,
+///     "u,epc_n4,grid,grid_error\n0,0.25,0.25,0.50000000025\n1,0.125,0.12,0.25000000012\n"
+/// );
 /// # Ok::<(), fpsolve::observe::CrossingError>(())
 /// ```
 pub fn crossings_csv(curves: &[(&str, &CrossingCurve)]) -> Result<String, CrossingError> {
@@ -37,20 +45,37 @@ pub fn crossings_csv(curves: &[(&str, &CrossingCurve)]) -> Result<String, Crossi
         out.push('\n');
         return Ok(out);
     };
+    let mut errors = Vec::with_capacity(curves.len());
     for (method, curve) in curves {
-        if curve.quantity != first.quantity || curve.levels != first.levels {
+        if curve.quantity != first.quantity
+            || curve.levels != first.levels
+            || curve.rate.len() != first.levels.len()
+        {
             return Err(CrossingError::Levels {
                 method: method.to_string(),
                 quantity: first.quantity.clone(),
             });
         }
-        out.push_str(&format!(",{method},{method}_accuracy"));
+        out.push_str(&format!(",{method}"));
+        let error = curve.error();
+        if error.is_some() {
+            out.push_str(&format!(",{method}_error"));
+        }
+        errors.push(error);
     }
     out.push('\n');
     for (i, u) in first.levels.iter().enumerate() {
         out.push_str(&u.to_string());
-        for (_, curve) in curves {
-            out.push_str(&format!(",{},{}", curve.rate[i], curve.accuracy));
+        for ((_, curve), error) in curves.iter().zip(&errors) {
+            out.push_str(&format!(",{}", curve.rate[i]));
+            if let Some(e) = error {
+                // No bound (a level in the far tail, where the estimate is not trusted):
+                // an empty field, never a number.
+                match e[i] {
+                    e if e.is_finite() => out.push_str(&format!(",{e}")),
+                    _ => out.push(','),
+                }
+            }
         }
         out.push('\n');
     }
@@ -68,6 +93,7 @@ mod tests {
             levels: vec![0.0, 1.0],
             rate: vec![0.2, 0.1],
             accuracy: 1e-9,
+            discretisation: None,
         };
         let b = CrossingCurve {
             levels: vec![0.0, 2.0],
@@ -77,10 +103,21 @@ mod tests {
             crossings_csv(&[("epc", &a), ("grid", &b)]),
             Err(CrossingError::Levels { ref method, .. }) if method == "grid"
         ));
+        let short = CrossingCurve {
+            rate: vec![0.2],
+            ..a.clone()
+        };
+        assert!(matches!(
+            crossings_csv(&[("epc", &a), ("grid", &short)]),
+            Err(CrossingError::Levels { ref method, .. }) if method == "grid"
+        ));
         assert_eq!(
-            crossings_csv(&[("epc", &a), ("grid", &a.clone().with_accuracy(1e-3))]).unwrap(),
-            "u,epc,epc_accuracy,grid,grid_accuracy\n0,0.2,0.000000001,0.2,0.001\n\
-             1,0.1,0.000000001,0.1,0.001\n"
+            crossings_csv(&[
+                ("epc", &a),
+                ("grid", &a.clone().with_discretisation(vec![1e-3, 0.0]))
+            ])
+            .unwrap(),
+            "u,epc,grid,grid_error\n0,0.2,0.2,0.0010000002\n1,0.1,0.1,0.0000000001\n"
         );
     }
 }

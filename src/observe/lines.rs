@@ -103,6 +103,9 @@ pub(crate) fn half_line_moments<const K: usize>(
     ranges: [[f64; 2]; 2],
     tolerance: f64,
 ) -> [[f64; K]; 2] {
+    if let Some(breaks) = density.breakpoints(1 - axis) {
+        return ranges.map(|r| polynomial_line::<K>(density, axis, at, &breaks, r));
+    }
     let mut pieces = PIECES.take();
     let lines = if !meet(&ranges) {
         [0, 1].map(|h| {
@@ -138,6 +141,53 @@ pub(crate) fn half_line_moments<const K: usize>(
     };
     PIECES.set(pieces);
     lines
+}
+
+/// The moments of [`half_line_moments`] over `range` for a density linear in t between
+/// `breaks` ([`JointDensity::breakpoints`] of the line's axis): the 3-point Gauss rule on each
+/// piece (split at 0), exact for t^j times a linear function up to j = 4.
+fn polynomial_line<const K: usize>(
+    density: &dyn JointDensity,
+    axis: usize,
+    at: f64,
+    breaks: &[f64],
+    range: [f64; 2],
+) -> [f64; K] {
+    const NODES: [f64; 3] = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
+    const WEIGHTS: [f64; 3] = [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0];
+    debug_assert!(K <= 5, "3-point Gauss is exact for t^j·linear up to j = 4");
+    let mut t = Vec::with_capacity(3 * breaks.len());
+    let mut w = Vec::with_capacity(3 * breaks.len());
+    let mut piece = |a: f64, b: f64| {
+        let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
+        for (x, wt) in NODES.iter().zip(WEIGHTS) {
+            t.push(c + h * x);
+            w.push(h * wt);
+        }
+    };
+    for pair in breaks.windows(2) {
+        let (a, b) = (pair[0].max(range[0]), pair[1].min(range[1]));
+        if b <= a {
+            continue;
+        }
+        if a < 0.0 && b > 0.0 {
+            piece(a, 0.0);
+            piece(0.0, b);
+        } else {
+            piece(a, b);
+        }
+    }
+    let mut p = vec![0.0; t.len()];
+    line_values(density, axis, at, &t, &mut p);
+    let mut out = [0.0; K];
+    for ((t, w), p) in t.iter().zip(&w).zip(&p) {
+        let mut tj = 1.0;
+        for o in out.iter_mut() {
+            *o += w * tj * p;
+            tj *= t;
+        }
+    }
+    out
 }
 
 /// Whether a range is empty (gives 0).

@@ -290,6 +290,36 @@ impl<'a> Problem<'a> {
         self.grid_domain
     }
 
+    /// How quantity `name` (a state or an observable) changes in time and where its level
+    /// sets lie, in the coordinates `method`'s density is in (EPC of a model with a wall
+    /// solves its Zhuravlev form, whose observables carry the original states): what
+    /// [`crate::observe::crossing_rate`] integrates.
+    ///
+    /// # Errors
+    /// [`crate::observe::CrossingError`] for a quantity driven by noise (no finite rate) or
+    /// one whose level sets are not c ± a state.
+    ///
+    /// ```
+    /// use fpsolve::solve::{MethodName, Problem};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let problem = Problem::new(&bound)?;
+    /// assert_eq!(problem.level_rate(MethodName::Grid, "z")?.quantity(), "z");
+    /// assert!(problem.level_rate(MethodName::Grid, "v").is_err()); // noise-driven
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn level_rate(
+        &self,
+        method: MethodName,
+        name: &str,
+    ) -> Result<crate::observe::LevelRate, crate::observe::CrossingError> {
+        let model = method.method().density_model(self);
+        match model.states().iter().position(|s| s.as_ref() == name) {
+            Some(i) => crate::observe::LevelRate::of_state(model, i),
+            None => crate::observe::LevelRate::of_observable(model, name),
+        }
+    }
+
     /// The grid solver of this problem's model, with its box when one was given.
     pub(crate) fn grid_solver(&self) -> GridSolver<'_> {
         let solver = GridSolver::new(&self.model);

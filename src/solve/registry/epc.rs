@@ -15,6 +15,15 @@ impl StationaryMethod for Closure {
         MethodName::Epc
     }
 
+    /// The Zhuravlev form of a model with a wall ([`Problem::zhuravlev`]), EPC's own model
+    /// otherwise.
+    fn density_model<'p>(&self, problem: &'p Problem) -> &'p crate::model::BoundModel {
+        match problem.zhuravlev() {
+            Some(t) => &t.model,
+            None => problem.model(),
+        }
+    }
+
     fn title(&self) -> &'static str {
         "EPC"
     }

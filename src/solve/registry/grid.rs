@@ -91,6 +91,19 @@ impl StationaryMethod for FiniteVolumes {
         }
     }
 
+    /// From the half-resolution solve the error estimate made
+    /// ([`crate::grid::GridSolution::estimate_of_each`]).
+    fn estimate_derived(
+        &self,
+        solution: &Solution,
+        derive: &dyn Fn(&dyn crate::density::JointDensity) -> Vec<f64>,
+    ) -> Option<Vec<f64>> {
+        match solution.density() {
+            Density::Grid(g) => g.estimate_of_each(|s| derive(s)),
+            _ => None,
+        }
+    }
+
     /// Clipped negative mass and the estimated L1 errors of the position and velocity
     /// marginals.
     fn figure_names(&self) -> &'static [&'static str] {

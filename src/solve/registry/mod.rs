@@ -84,6 +84,24 @@ pub trait StationaryMethod: Sync {
         None
     }
 
+    /// The model whose states its density is over: the problem's own, or for EPC of a
+    /// model with a wall its Zhuravlev form (whose observables carry the original states).
+    fn density_model<'p>(&self, problem: &'p Problem) -> &'p crate::model::BoundModel {
+        problem.model()
+    }
+
+    /// Its own estimate of the discretisation error (absolute) of each number `derive`
+    /// takes from `solution`'s joint density (a crossing-rate curve, impact statistics):
+    /// the grid's from its half-resolution solve; `None` for a method without an estimate
+    /// (EPC's closure error has none).
+    fn estimate_derived(
+        &self,
+        _solution: &Solution,
+        _derive: &dyn Fn(&dyn crate::density::JointDensity) -> Vec<f64>,
+    ) -> Option<Vec<f64>> {
+        None
+    }
+
     /// The names of its own figures of a solution, the columns `sweep.csv` gives them
     /// ([`SolverFigures::values`](crate::solve::SolverFigures::values) in this order).
     fn figure_names(&self) -> &'static [&'static str];
