@@ -149,7 +149,7 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
-    /// Solve by EPC at the given degrees and write the states' marginal PDFs and summary.json.
+    /// Solve by EPC at the given degrees and write the states' marginal PDFs, their crossing rates and summary.json.
     Solve {
         /// The model file (`.sde`).
         model: PathBuf,

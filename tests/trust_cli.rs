@@ -50,6 +50,7 @@ fn a_run_replaces_the_previous_runs_files_as_a_whole() {
         names(&out),
         vec![
             fpsolve::report::MARKER.to_string(),
+            "crossings_z.csv".into(),
             "pdf_v.csv".into(),
             "pdf_z.csv".into(),
             "summary.json".into()

@@ -100,6 +100,7 @@ class _Model:
         degree: int,
         cells: Optional[Tuple[int, int]] = None,
         set: Optional[Mapping[str, _Value]] = None,
+        domain: Optional[str] = None,
     ) -> "_Solution": ...
     def simulate(
         self,

@@ -51,6 +51,20 @@ def _params(params: Optional[Mapping[str, Any]], set: Dict[str, Any]) -> Dict[st
     return {**params, **set}
 
 
+def _domain(
+    domain: Union[None, str, Mapping[str, Sequence[float]]],
+) -> Optional[str]:
+    """The grid's box as the CLI's ``--domain`` text: a string as it is, a mapping
+    ``{state: (lo, hi)}`` as ``state=lo:hi,...`` (numbers in their shortest exact form)."""
+    if domain is None or isinstance(domain, str):
+        return domain
+    parts = []
+    for name, bounds in domain.items():
+        lo, hi = bounds
+        parts.append(f"{name}={float(lo)!r}:{float(hi)!r}")
+    return ",".join(parts)
+
+
 def _cells(cells: Optional[Sequence[int]]) -> Optional[Tuple[int, int]]:
     if cells is None:
         return None
@@ -144,6 +158,7 @@ class Model:
         degree: int = 4,
         cells: Optional[Sequence[int]] = None,
         params: Optional[Mapping[str, Value]] = None,
+        domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
         **set: Value,
     ) -> Solution:
         """Solves the stationary FPK equation with the overrides ``set``.
@@ -151,7 +166,12 @@ class Model:
         ``method`` is ``"epc"`` (the paper's closure, the impact as a delta term),
         ``"epc-impact"`` (EPC with the exact impact condition) or ``"grid"`` (finite volumes
         on ``cells = (nx, nv)``, default (200, 400)); ``degree`` is the EPC degree (even,
-        2 to 12; every even degree up to it is solved in turn). ``params`` is the
+        2 to 12; every even degree up to it is solved in turn). ``domain`` fixes the grid's
+        box instead of sizing it from the density: ``{"x": (-8, 8), "v": (-10, 10)}`` or the
+        CLI's text ``"x=-8:8,v=-10:10"`` (the model's state names; the velocity's range is
+        made symmetric about 0; a reflecting wall's side must end on the wall); a box that
+        cuts the density is flagged in the report (``grid.report.edges``) and its estimate
+        grows. ``ValueError`` for a malformed box or one given to another method. ``params`` is the
         overrides as a dict (for names that are not identifiers or clash with a keyword of
         this call); it and ``**set`` together may not name a parameter twice. Releases the
         GIL.
@@ -161,8 +181,9 @@ class Model:
         the failure's data, or :class:`ParameterError` for a bad override.
         """
         set = _params(params, set)
-        inner = self._inner.solve(method, int(degree), _cells(cells), set)
-        return Solution(inner, (self, method, int(degree), _cells(cells), set))
+        box = _domain(domain)
+        inner = self._inner.solve(method, int(degree), _cells(cells), set, box)
+        return Solution(inner, (self, method, int(degree), _cells(cells), set, box))
 
     def simulate(
         self,

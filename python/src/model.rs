@@ -93,6 +93,32 @@ impl PyModel {
     }
 }
 
+/// The grid's box `text` gives (`x=LO:HI,v=LO:HI`, the model's state names), checked
+/// against the model's walls before any work, as the CLI's `--domain`; only with the grid.
+fn grid_domain(
+    text: Option<&str>,
+    method: &Method,
+    model: &BoundModel,
+) -> PyResult<Option<fpsolve::grid::Domain>> {
+    let Some(text) = text else {
+        return Ok(None);
+    };
+    if !matches!(method, Method::Grid { .. }) {
+        return Err(errors::bad_argument(format!(
+            "domain {text}: only the grid solver takes a box (method {})",
+            method.name()
+        )));
+    }
+    let [x, v] = model.states();
+    let domain = fpsolve::grid::Domain::parse_named(text, [x, v])
+        .map_err(|e| errors::bad_argument(format!("domain: {e}")))?;
+    fpsolve::grid::GridSolver::new(model)
+        .domain(domain)
+        .check()
+        .map_err(|e| errors::bad_argument(format!("domain {text}: {e}")))?;
+    Ok(Some(domain))
+}
+
 /// The method named `method` at `degree` / on `cells`.
 pub(crate) fn method(name: &str, degree: usize, cells: Option<[usize; 2]>) -> PyResult<Method> {
     let parsed: MethodName = name
@@ -210,8 +236,9 @@ impl PyModel {
             .map_err(|e| errors::derive_error(py, &e, self.path.as_deref()))
     }
 
-    /// Solves the stationary FPK equation by `method` (GIL released).
-    #[pyo3(signature = (method, degree, cells=None, set=None))]
+    /// Solves the stationary FPK equation by `method` (GIL released); `domain` is the grid's
+    /// box as `--domain` takes it (`x=LO:HI,v=LO:HI` with the model's state names).
+    #[pyo3(signature = (method, degree, cells=None, set=None, domain=None))]
     fn solve(
         &self,
         py: Python<'_>,
@@ -219,6 +246,7 @@ impl PyModel {
         degree: usize,
         cells: Option<[usize; 2]>,
         set: Option<&Bound<'_, PyDict>>,
+        domain: Option<&str>,
     ) -> PyResult<PySolution> {
         let chosen = self::method(method, degree, cells)?;
         let asked = Asked {
@@ -226,8 +254,9 @@ impl PyModel {
             degree: (!matches!(chosen, Method::Grid { .. })).then_some(degree),
         };
         let bound = self.bind(py, set)?;
+        let domain = grid_domain(domain, &chosen, &bound)?;
         let solved = crate::pool::on_pool(py, || {
-            let problem = Problem::new(&bound)?;
+            let problem = Problem::new(&bound)?.with_grid_domain(domain);
             problem.solve(chosen)
         })?;
         let solution = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;

@@ -194,3 +194,32 @@ def test_point_masses_are_data_and_a_warning():
         warnings.simplefilter("error")
         sol.pdf("m", 0.5)  # once per quantity
         sol.pdf("z", 0.5)  # states never
+
+
+def test_grid_domain_fixes_the_box_and_is_checked(linear):
+    # The linear model's states are z and v; the same box as a mapping and as the CLI's text.
+    a = linear.solve("grid", cells=(40, 80), domain={"z": (-12, 13), "v": (-12, 12)})
+    b = linear.solve("grid", cells=(40, 80), domain="z=-12:13,v=-12:12")
+    assert a.report["domain"] == {"x": [-12.0, 13.0], "v": [-12.0, 12.0]}
+    x = np.linspace(-3, 3, 7)
+    assert np.array_equal(a.pdf("z", x), b.pdf("z", x))
+    # A box that cuts the density is flagged in the report, not refused.
+    cut = linear.solve("grid", cells=(40, 80), domain={"z": (-2, 2), "v": (-12, 12)})
+    assert cut.report["edges"]["cuts_density"]
+    # Malformed boxes and a box for another method are refused before any work.
+    with pytest.raises(ValueError, match="domain"):
+        linear.solve("grid", domain="z=3:1,v=-1:1")
+    with pytest.raises(ValueError, match="domain"):
+        linear.solve("grid", domain="q=0:1,v=-1:1")
+    with pytest.raises(ValueError, match="only the grid"):
+        linear.solve("epc", domain="z=-5:5,v=-5:5")
+
+
+def test_a_solution_with_a_box_pickles(linear):
+    import pickle
+
+    sol = linear.solve("grid", cells=(40, 80), domain={"z": (-12, 13), "v": (-12, 12)})
+    back = pickle.loads(pickle.dumps(sol))
+    assert back.report["domain"] == sol.report["domain"]
+    x = np.linspace(-3, 3, 7)
+    assert np.array_equal(back.pdf("z", x), sol.pdf("z", x))

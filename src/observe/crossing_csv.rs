@@ -114,10 +114,10 @@ mod tests {
         assert_eq!(
             crossings_csv(&[
                 ("epc", &a),
-                ("grid", &a.clone().with_discretisation(vec![1e-3, 0.0]))
+                ("grid", &a.clone().with_discretisation(vec![1e-3, 0.5]))
             ])
             .unwrap(),
-            "u,epc,grid,grid_error\n0,0.2,0.2,0.0010000002\n1,0.1,0.1,0.0000000001\n"
+            "u,epc,grid,grid_error\n0,0.2,0.2,0.0010000002\n1,0.1,0.1,0.5000000001\n"
         );
     }
 }
