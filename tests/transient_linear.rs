@@ -86,15 +86,30 @@ fn l1_gaussian(m: &Marginal, mean: f64, var: f64) -> f64 {
     cells
 }
 
-const TIMES: [f64; 6] = [1.0, 2.5, 5.0, 10.0, 20.0, 40.0];
+/// The output times: the start's sharp layer (1, 2.5), two periods of the free oscillation
+/// (5, 10) and twice the damping's time scale 1/c (20). The whole history to t = 80 at 161
+/// output times is timed in `benches/transient.rs`.
+const TIMES: [f64; 5] = [1.0, 2.5, 5.0, 10.0, 20.0];
 
-fn run(model: &BoundModel, cells: [usize; 2], domain: Domain, start: Initial) -> TransientHistory {
+/// A run at `tolerance`, the stepper's L1 error per unit time: the L1 error it leaves at an
+/// output is about 4 times it (measured against a run at 1e−7 on 80x80 cells to t = 80), so
+/// each run's tolerance is set well below the spatial error it is compared at. A tolerance
+/// far below that error only buys steps: on a mesh that barely resolves the start the
+/// stepper follows its grid-scale oscillations (80x80 from the σ = 0.5 Gaussian at 2.5e-5:
+/// 3206 steps to t = 20, where the spatial L1 error is 5e-2).
+fn run(
+    model: &BoundModel,
+    cells: [usize; 2],
+    start: Initial,
+    tolerance: f64,
+    times: &[f64],
+) -> TransientHistory {
     GridTransient::new(model)
         .cells(cells[0], cells[1])
-        .domain(domain)
+        .domain(BOX)
         .initial(start)
-        .tolerance(1e-5)
-        .times(TIMES.to_vec())
+        .tolerance(tolerance)
+        .times(times.to_vec())
         .run()
         .unwrap()
 }
@@ -107,7 +122,8 @@ fn worst_l1(
     s0: [[f64; 2]; 2],
     label: &str,
 ) -> [[f64; 2]; 2] {
-    let laws = exact(m0, s0, &TIMES);
+    let times: Vec<f64> = history.snapshots.iter().map(|s| s.t).collect();
+    let laws = exact(m0, s0, &times);
     let (mut worst, mut late) = ([0.0f64; 2], [0.0f64; 2]);
     for (s, (m, cov)) in history.snapshots.iter().zip(&laws) {
         let l1 = [
@@ -140,12 +156,13 @@ const BOX: Domain = Domain {
     v: [-16.0, 16.0],
 };
 
-/// From a Gaussian off the origin (a free oscillation that spreads): the marginals follow
-/// the exact Gaussians, and halving the cells cuts the error by at least 3 (the scheme is
-/// third order in space where the density is smooth; the stepper's error is far below).
-/// Measured worst L1 (x, v): 80x80 5.4e-2, 2.1e-2; 160x160 7.1e-3, 2.1e-3 (ratios 7.6 and
-/// 10.4), the worst at t = 1-2.5 where the start (σ = 0.5, 2.5 cells) is sharpest; from
-/// t = 10 on at 160x160 at most 3.5e-4. Mass within 3e-13.
+/// From a Gaussian off the origin (a free oscillation that spreads), in its sharp first
+/// layer: the marginals follow the exact Gaussians, and halving the cells cuts the error by
+/// at least 3 (the scheme is third order in space where the density is smooth). The worst is
+/// at t = 1, where the start (σ = 0.5: 1.25 cells at 80x80, 2.5 at 160x160) is sharpest.
+/// Measured worst L1 (x, v): 80x80 5.4e-2, 2.2e-2; 160x160 7.1e-3, 2.1e-3 (at tolerance 1e-4
+/// instead of 1e-3 the same to two digits, in 967 steps instead of 211: the sharp moving
+/// start is what sets the step).
 #[test]
 fn gaussian_start_follows_the_lyapunov_equation() {
     let model = linear();
@@ -155,38 +172,49 @@ fn gaussian_start_follows_the_lyapunov_equation() {
         mean: m0,
         covariance: s0,
     };
-    let coarse = worst_l1(&run(&model, [80, 80], BOX, start.clone()), m0, s0, "80x80");
-    let fine = worst_l1(&run(&model, [160, 160], BOX, start), m0, s0, "160x160");
+    let times = [1.0, 2.5];
+    let coarse = worst_l1(
+        &run(&model, [80, 80], start.clone(), 1e-3, &times),
+        m0,
+        s0,
+        "80x80",
+    );
+    let fine = worst_l1(
+        &run(&model, [160, 160], start, 1e-3, &times),
+        m0,
+        s0,
+        "160x160",
+    );
     eprintln!("worst L1 (x, v): 80x80 {coarse:?}, 160x160 {fine:?}");
     for axis in 0..2 {
         assert!(fine[0][axis] < 1e-2, "{fine:?}");
-        assert!(fine[1][axis] < 5e-4, "{fine:?}");
         assert!(coarse[0][axis] / fine[0][axis] > 3.0, "{coarse:?} {fine:?}");
     }
 }
 
 /// From rest (a Gaussian of two cells per axis: the narrowest start the cells resolve): the
-/// exact evolution is that Gaussian's. Measured at 160x160: L1 6.8e-3 (x) at t = 1, falling
-/// to 2.6e-4 by t = 10 and 1.1e-4 by t = 40; the variances within 2.3e-4 of the Lyapunov
-/// solution at every time.
+/// exact evolution is that Gaussian's, to t = 20 (twice the damping's time scale), at
+/// 128x128 cells. Measured: L1 (x) 6.8e-3 at t = 1, 9.9e-4 at 5, 3.2e-4 at 10, 2.1e-4 at
+/// 20 (v 3.6e-4); the variances within 1.6e-3 of the Lyapunov solution; 394 steps.
 #[test]
 fn rest_start_follows_the_lyapunov_equation() {
     let model = linear();
-    let cells = [160, 160];
-    let (hx, hv) = (32.0 / 160.0, 32.0 / 160.0);
+    let cells = [128, 128];
+    let (hx, hv) = (32.0 / 128.0, 32.0 / 128.0);
     let s0 = [
         [(2.0 * hx) * (2.0f64 * hx), 0.0],
         [0.0, (2.0 * hv) * (2.0f64 * hv)],
     ];
-    let h = run(&model, cells, BOX, Initial::Rest);
-    let [worst, late] = worst_l1(&h, [0.0, 0.0], s0, "rest 160x160");
+    let h = run(&model, cells, Initial::Rest, 1e-4, &TIMES);
+    let [worst, late] = worst_l1(&h, [0.0, 0.0], s0, "rest 128x128");
     assert!(worst[0] < 1e-2 && worst[1] < 1e-2, "{worst:?}");
-    assert!(late[0] < 5e-4 && late[1] < 5e-4, "{late:?}");
+    assert!(late[0] < 1e-3 && late[1] < 1e-3, "{late:?}");
 }
 
 /// Long after the start the transient is the stationary solver's density on the same cells
 /// (both solve G p = 0 in the limit), and the mass stays 1 to rounding. Measured at 80x80:
-/// L1 3.4e-7, mass − 1 = −2.8e-13.
+/// L1 3.4e-7, mass − 1 = −2.8e-13 (at tolerance 1e-4: L1 1.8e-5, in 404 steps instead of
+/// 4105).
 #[test]
 fn long_time_limit_is_the_stationary_density() {
     let model = linear();

@@ -567,6 +567,7 @@ pub(crate) fn sweep_error(py: Python<'_>, e: &LibSweepError) -> PyErr {
         LibSweepError::Method { .. } => ("method", None, None),
         LibSweepError::Bind { .. } => ("bind", None, None),
         LibSweepError::Set(_) => ("set", None, None),
+        LibSweepError::TimeDependent { .. } => ("time_dependent", None, None),
     };
     let attrs = [("argument", obj(py, argument)), ("name", obj(py, name))];
     raise::<SweepError>(py, e.to_string(), kind, &attrs)

@@ -36,6 +36,9 @@ pub(crate) fn check_with_drift(
     model: &BoundModel,
     ito_drift: Option<&[Expr; 2]>,
 ) -> Result<(), Inadmissible> {
+    if let Some(line) = time_dependent_line(model) {
+        return Err(Inadmissible::TimeDependent { line });
+    }
     let states = model.states();
     let points = probe_points();
 
@@ -232,4 +235,23 @@ fn restoring_force(
         }
     }
     Ok(())
+}
+
+/// The first drift or diffusion line of `model` that mentions the time, named.
+fn time_dependent_line(model: &BoundModel) -> Option<String> {
+    if !model.time_dependent() {
+        return None;
+    }
+    let time = |e: &Expr| e.symbols().iter().any(|s| &**s == crate::model::TIME);
+    let states = model.states();
+    (0..2)
+        .find_map(|i| time(&model.drift()[i]).then(|| format!("drift of `{}`", states[i])))
+        .or_else(|| {
+            (0..2).find_map(|i| {
+                model.noise_matrix()[i]
+                    .iter()
+                    .any(time)
+                    .then(|| format!("diffusion of `{}`", states[i]))
+            })
+        })
 }

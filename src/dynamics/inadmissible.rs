@@ -14,6 +14,16 @@ use crate::model::number;
 /// ```
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum Inadmissible {
+    /// A drift or diffusion line depends on the time `t`: the density changes in time and a
+    /// stationary method has nothing to find.
+    #[error(
+        "no stationary density: the equations depend on the time `t` (in the {line}), so the \
+         density changes in time; only a transient solution applies"
+    )]
+    TimeDependent {
+        /// The first line that mentions `t` (`drift of `v``, `diffusion of `v``).
+        line: String,
+    },
     /// The diffusion matrix is zero everywhere: the response is deterministic and settles on
     /// a rest point or a cycle, which has no density.
     #[error(

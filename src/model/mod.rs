@@ -16,6 +16,7 @@ mod parse;
 mod print;
 pub(crate) mod set;
 mod syntax;
+mod time;
 mod validate;
 
 pub use barrier::{BarrierSide, BoundImpact, Domain, DomainBound};
@@ -28,6 +29,20 @@ pub use set::SetError;
 pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 
 use crate::symbolic::{Expr, Symbol};
+
+/// The name of time in a model file: usable in drift and diffusion lines (a periodic force
+/// `A*cos(w*t)`, a modulated noise `env(t)*xi`), reserved everywhere else, and never a
+/// parameter, state, noise or observable name. A model that mentions it is time-dependent
+/// ([`BoundModel::time_dependent`]) and has no stationary density.
+///
+/// ```
+/// let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z + cos(t)\n\
+///             noise xi: intensity 1\ndiffusion v: xi\n";
+/// let bound = fpsolve::model::parse_model(text, None).unwrap().bind(&[]).unwrap();
+/// assert!(bound.time_dependent());
+/// assert_eq!(fpsolve::model::TIME, "t");
+/// ```
+pub const TIME: &str = "t";
 
 /// A number as messages print it: the shortest text that reads back to the same value, in
 /// exponent form outside 1e-4 ≤ |v| < 1e6, so that 1e300 is never written with 300 digits.

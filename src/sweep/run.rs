@@ -131,6 +131,11 @@ impl<'a> Sweep<'a> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn check(&self) -> Result<(), SweepError> {
+        if self.model.time_dependent() {
+            return Err(SweepError::TimeDependent {
+                model: self.model.name().to_string(),
+            });
+        }
         let refused = |method: MethodName, reason: MethodRefusal| SweepError::Method {
             method,
             model: self.model.name().to_string(),

@@ -100,6 +100,15 @@ pub enum SweepError {
         #[source]
         reason: Box<super::MethodRefusal>,
     },
+    /// The model's equations depend on the time `t`: no point has a stationary density.
+    #[error(
+        "no stationary density: the equations of `{model}` depend on the time `t`, at every \
+         point of the sweep; only a transient solution applies"
+    )]
+    TimeDependent {
+        /// The model's name.
+        model: String,
+    },
     /// More than [`MAX_POINTS`] points.
     #[error("the sweep has {points} points; at most {max} are allowed")]
     TooManyPoints {

@@ -231,6 +231,15 @@ pub enum SemanticError {
         /// Which expression (`a parameter default`, `a noise intensity`, ...).
         context: &'static str,
     },
+    /// The time `t` where only drift and diffusion lines may use it.
+    #[error(
+        "the time `t` used in {context}; only drift and diffusion lines may depend on it (for \
+         a modulated noise write the envelope in the diffusion line, `diffusion v: env(t)*xi`)"
+    )]
+    TimeOutsideEquations {
+        /// Which expression (`a noise intensity`, `an observable`, ...).
+        context: &'static str,
+    },
     /// An observable's name used inside an expression.
     #[error("observable `{name}` used in {context}; observables are outputs, not inputs")]
     ObservableInExpression {

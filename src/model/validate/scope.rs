@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 
 use super::super::ast::{ExprKind, ExprNode, ProductOp, Span, SumOp};
+use super::super::TIME;
 use super::error::{fail, Result, SemanticError};
 use crate::symbolic::{Expr, Func};
 
@@ -179,6 +180,19 @@ impl<'a> Scope<'a> {
         match name {
             "pi" => return Ok(Expr::num(std::f64::consts::PI)),
             "e" => return Ok(Expr::num(std::f64::consts::E)),
+            TIME => {
+                // The equations of motion may change in time; what is fixed when the model
+                // is read (parameters, intensities, barriers) and the maps of the state
+                // (impact laws, observables, delta arguments) may not.
+                return match context {
+                    Context::Free | Context::Diffusion | Context::StateFunction("a drift") => {
+                        Ok(Expr::sym(name))
+                    }
+                    Context::Constant(what) | Context::StateFunction(what) => {
+                        fail(SemanticError::TimeOutsideEquations { context: what }, span)
+                    }
+                };
+            }
             _ => {}
         }
         if context == Context::Free {

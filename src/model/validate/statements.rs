@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use super::super::ast::{Binding, DeltaSpec, ExprNode, Ident, Span, Statement, StatementKind};
 use super::super::dependency::{walk, WalkError};
-use super::super::{Correlation, DeltaTreatment, Observable, Parameter};
+use super::super::{Correlation, DeltaTreatment, Observable, Parameter, TIME};
 use super::delta::find_delta;
 use super::error::{fail, DeltaMisuse, Result, SemanticError, MAX_PARAMETER_CHAIN};
 use super::scope::{closest, Context, Declaration, Kind, Scope};
@@ -182,6 +182,7 @@ impl<'a> Validator<'a> {
     pub(super) fn declare(&mut self, name: &'a Ident, kind: Kind, index: usize) -> Result<()> {
         let reserved = match name.name.as_str() {
             "pi" | "e" => Some("a mathematical constant"),
+            TIME => Some("the time"),
             n if Func::from_name(n).is_some() => Some("a function"),
             _ => None,
         };
