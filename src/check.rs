@@ -31,6 +31,16 @@ pub fn render(model: &Model, bound: &BoundModel) -> Result<String, FpkError> {
     for (name, value) in bound.params() {
         let _ = writeln!(out, "#   {name} = {}", number(*value));
     }
+    if bound.time_dependent() {
+        // Its operator changes in time: the stationary derivation (and its checks) do not
+        // apply, but the model itself is valid and printed.
+        let _ = writeln!(
+            out,
+            "\n# the equations depend on the time `t`: the density changes in time and there is \
+             no stationary Fokker-Planck operator to derive (stationary methods refuse this model)"
+        );
+        return Ok(out);
+    }
     let fpk = FpkOperator::derive(bound)?;
     let _ = writeln!(out, "\n# derived Fokker-Planck operator");
     commented(&mut out, &fpk);

@@ -103,3 +103,28 @@ fn stationary_commands_refuse_a_time_dependent_model_before_any_work() {
     refused("time", &["simulate", m], &words);
     refused("time", &["sweep", m, "--set", "c=0.1:0.2:2"], &words);
 }
+
+/// `fpsolve check` prints a time-dependent model (it is valid) with a note instead of the
+/// stationary operator it does not have, and exits 0.
+#[test]
+fn check_prints_a_time_dependent_model() {
+    let dir = scratch("time_dependent_check");
+    let path = dir.join("modulated.sde");
+    std::fs::write(&path, MODULATED).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(["check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("A*cos(w*t)"), "{text}");
+    assert!(
+        text.contains("the equations depend on the time `t`"),
+        "{text}"
+    );
+    assert!(!text.contains("derived Fokker-Planck operator"), "{text}");
+}
