@@ -196,6 +196,38 @@ fn the_estimate_bounds_the_error_of_every_written_curve_and_statistic() {
             assert!(ds <= est.std[axis], "{} {name}: std", case.label);
             assert!(dm <= est.mean[axis] + 1e-12, "{} {name}: mean", case.label);
             assert!(tail <= est.tail[axis], "{} {name}: tails", case.label);
+            // The moments' own error bounds (every state and observable has them).
+            let e = sol
+                .moments(name)
+                .unwrap()
+                .errors
+                .expect("the grid's moment errors");
+            assert!(
+                dm <= e.mean && ds <= e.std_dev,
+                "{} {name}: {e:?}",
+                case.label
+            );
+        }
+        // An observable: y = |z| of the Zhuravlev form, whose exact law is the position's
+        // folded about 0.
+        if case.label.starts_with("zhuravlev") {
+            let m = sol.moments("y").unwrap();
+            let (h, n) = (40.0 / 40_000.0, 40_000);
+            let (mut m1, mut m2) = (0.0, 0.0);
+            for i in 0..n {
+                let x = (i as f64 + 0.5) * h;
+                let p = 2.0 * exact(&case, 0, x) * h;
+                m1 += x * p;
+                m2 += x * x * p;
+            }
+            let std = (m2 - m1 * m1).sqrt();
+            let e = m.errors.unwrap();
+            let (dm, ds) = ((m.moments.mean - m1).abs(), (m.std_dev() - std).abs());
+            println!(
+                "{} |z|: mean {dm:.1e} ({:.1e}), std {ds:.1e} ({:.1e})",
+                case.label, e.mean, e.std_dev
+            );
+            assert!(dm <= e.mean && ds <= e.std_dev, "{}: |z| {e:?}", case.label);
         }
     }
 }

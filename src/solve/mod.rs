@@ -45,7 +45,7 @@ pub use not_applicable::NotApplicable;
 pub use quantity::{quantities, Quantity};
 pub(crate) use quantity::{quantities_of, reported, through};
 pub use registry::StationaryMethod;
-pub use solution::{Density, QuantityMoments, Solution};
+pub use solution::{Density, MomentErrors, QuantityMoments, Solution};
 pub(crate) use tail::{tail_probability, two_sided_tail_probability};
 
 /// How to solve for the stationary density. More methods are to come, so a `match` on it

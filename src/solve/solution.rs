@@ -60,6 +60,26 @@ pub struct QuantityMoments {
     /// 0 on z < 0): there g has no density, and its PDF is that of the rest, integrating to
     /// 1 − their sum. Empty for almost every observable.
     pub point_masses: Vec<PointMass>,
+    /// The method's own estimate of the discretisation errors of the mean, standard
+    /// deviation and kurtosis (the grid's, from its half-resolution solve); absent for a
+    /// method without one (EPC's closure error has no estimate).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub errors: Option<MomentErrors>,
+}
+
+/// The relative rounding error of moments summed over a quadrature's nodes, added to a
+/// method's estimate of their discretisation errors.
+const ROUNDING: f64 = 1e-12;
+
+/// Bounds on the discretisation errors of a quantity's moments, as a method estimates them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MomentErrors {
+    /// Of the mean.
+    pub mean: f64,
+    /// Of the standard deviation.
+    pub std_dev: f64,
+    /// Of the kurtosis.
+    pub kurtosis: f64,
 }
 
 impl QuantityMoments {
@@ -340,15 +360,39 @@ impl Solution {
 
     fn moments_of(&self, quantities: &[&Quantity]) -> Vec<QuantityMoments> {
         let maps: Vec<_> = quantities.iter().map(|q| &q.map).collect();
+        // The same moments under the method's other solve (the grid's half resolution): the
+        // estimate of their errors, as for the curves.
+        let derive = |d: &dyn JointDensity| -> Vec<f64> {
+            moments_of_all(d, &maps)
+                .iter()
+                .flat_map(|m| [m.moments.mean, m.moments.std_dev(), m.moments.kurtosis])
+                .collect()
+        };
+        let estimates = self
+            .method()
+            .name()
+            .method()
+            .estimate_derived(self, &derive);
         moments_of_all(self.joint(), &maps)
             .into_iter()
             .zip(quantities)
-            .map(|(m, q)| QuantityMoments {
+            .enumerate()
+            .map(|(i, (m, q))| QuantityMoments {
                 name: q.name.clone(),
                 moments: m.moments,
                 undefined_mass: m.undefined_mass,
                 existing_moments: m.existing,
                 point_masses: m.point_masses,
+                // Plus the rounding of the sums (the quadrature is exact for the
+                // interpolant): 1e−12 of each statistic's scale.
+                errors: estimates.as_ref().map(|e| {
+                    let (sd, kurt) = (m.moments.std_dev(), m.moments.kurtosis);
+                    MomentErrors {
+                        mean: e[3 * i] + ROUNDING * (m.moments.mean.abs() + sd),
+                        std_dev: e[3 * i + 1] + ROUNDING * sd,
+                        kurtosis: e[3 * i + 2] + ROUNDING * kurt.abs(),
+                    }
+                }),
             })
             .collect()
     }
