@@ -53,15 +53,19 @@
 #![warn(missing_docs)]
 
 pub(crate) mod assemble;
+mod assemble_general;
 mod cells;
 mod domain;
 mod domain_flag;
 mod error;
 mod estimate;
+mod general;
+mod general_box;
 pub(crate) mod mesh;
 pub(crate) mod nested;
 mod pilot;
 pub(crate) mod problem;
+mod read;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
@@ -86,6 +90,7 @@ use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
 use mesh::Mesh;
 use problem::Mechanical;
+use read::Problem;
 
 /// Cells (position, velocity) used unless [`GridSolver::cells`] says otherwise: on the
 /// paper's vibro-impact cases within 1e−3 (L1) of a 10⁹-sample Monte Carlo of the original
@@ -215,9 +220,9 @@ impl<'a> GridSolver<'a> {
     /// [`Unsupported::WallNotAnEnd`] for a box that is not one or does not fit the walls.
     pub fn check(&self) -> Result<(), GridError> {
         check_cells(self.cells)?;
-        let problem = Mechanical::new(self.model)?;
+        let problem = Problem::read(self.model)?;
         if let Some(d) = &self.domain {
-            check_domain(d, &problem, self.model)?;
+            problem.check_domain(d, self.model)?;
         }
         Ok(())
     }
@@ -240,17 +245,16 @@ impl<'a> GridSolver<'a> {
             Some(barriers) => {
                 let dynamics =
                     crate::dynamics::Dynamics::read(self.model).expect("a test model reads");
-                Mechanical::with_barriers(self.model, &dynamics, barriers)?
+                Problem::Mechanical(Mechanical::with_barriers(self.model, &dynamics, barriers)?)
             }
-            None => Mechanical::new(self.model)?,
+            None => Problem::read(self.model)?,
         };
-        let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
-                let d = check_domain(&d, &problem, self.model)?;
-                (d, 0, [0.5 * (d.x[0] + d.x[1]), 0.0])
+                let d = problem.check_domain(&d, self.model)?;
+                (d, 0, problem.centre(&d))
             }
-            None => domain::size(&problem)?,
+            None => problem.size()?,
         };
         let guess = [guess[0].clamp(domain.x[0], domain.x[1]), guess[1]];
         let domain_ms = ms(start);
@@ -259,7 +263,7 @@ impl<'a> GridSolver<'a> {
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
         let mut recut = false;
         loop {
-            mesh = Mesh::new(domain, nx, nv, barriers, 4);
+            mesh = problem.mesh(domain, nx, nv, 4);
             // The error estimate's half-cells solve runs alongside the main one, pinned
             // where the main one is (a solve is a function of its mesh and pin alone, so
             // the result does not depend on which finishes first); wasted only when the
@@ -268,7 +272,7 @@ impl<'a> GridSolver<'a> {
             let half = || {
                 with_estimate.then(|| {
                     let t = Instant::now();
-                    let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barriers, 2);
+                    let coarse = problem.mesh(mesh.domain(), nx / 2, nv / 2, 2);
                     domain::solve_pinned(&coarse, &problem, guess).map(|(q, _)| (coarse, q, ms(t)))
                 })
             };
@@ -280,9 +284,9 @@ impl<'a> GridSolver<'a> {
             if self.domain.is_some() || passes >= MAX_GROWTH {
                 break;
             }
-            match domain::grow(&mesh, &p, &problem) {
-                Some(bigger) => domain = domain::symmetrised(bigger, &problem),
-                None => match domain::recut(&mesh, &p, &problem).filter(|_| !recut) {
+            match problem.grow(&mesh, &p) {
+                Some(bigger) => domain = bigger,
+                None => match problem.recut(&mesh, &p).filter(|_| !recut) {
                     Some(smaller) => {
                         domain = smaller;
                         recut = true;
@@ -511,7 +515,9 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
         return Err(GridError::Setting {
             setting: "domain",
             value: format!("{d:?}"),
-            expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
+            expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi (in the mechanical \
+                       form the velocity's range must hold 0 inside: a face of the cells is \
+                       at v = 0)",
         });
     }
     let refuse = |reason| GridError::Unsupported {
