@@ -1,5 +1,9 @@
-//! A grid solver of the stationary FPK equation of a mechanical-form model (x' = v, noise in
-//! the velocity equation only):
+//! A grid solver of the stationary FPK equation of any 2-D model without δ terms. A model of
+//! general form (drift in both equations, correlated noise in both) has its own operator
+//! (`general`, `assemble_general`: the same upwind-biased advection in both directions and
+//! a corner-averaged cross diffusion) and box sizing (`general_box`: a pilot of the SDE, then
+//! each side on its own), and no impact laws; what follows describes the mechanical form
+//! (x' = v, noise in the velocity equation only), whose path is its own:
 //!
 //! 0 = −∂x(v p) − ∂v(m(x, v) p) + ½ ∂v²(b(x, v) p),
 //!
@@ -208,9 +212,13 @@ impl<'a> GridSolver<'a> {
     ///
     /// ```
     /// use fpsolve::grid::{GridError, GridSolver};
-    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    /// let general = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
     ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
-    /// assert!(matches!(GridSolver::new(&bound).check(), Err(GridError::Unsupported { .. })));
+    /// assert!(GridSolver::new(&general).check().is_ok());
+    /// let impact = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\nimpact x = 0: y -> -0.9*y\n\
+    ///     domain x >= 0\n", None).unwrap().bind(&[]).unwrap();
+    /// assert!(matches!(GridSolver::new(&impact).check(), Err(GridError::Unsupported { .. })));
     /// ```
     ///
     /// # Errors
@@ -227,15 +235,17 @@ impl<'a> GridSolver<'a> {
         Ok(())
     }
 
-    /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
-    /// models without a stationary density ([`GridError::Inadmissible`]).
+    /// Solves. Refuses models it cannot represent ([`GridError::Unsupported`]: an impact law
+    /// outside the mechanical form, δ terms without an impact law, …) and models without a
+    /// stationary density ([`GridError::Inadmissible`]).
     ///
     /// ```
     /// use fpsolve::grid::{GridError, GridSolver, Unsupported};
     /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
-    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\nimpact x = 0: y -> -0.9*y\n\
+    ///     domain x >= 0\n", None).unwrap().bind(&[]).unwrap();
     /// let err = GridSolver::new(&bound).solve().unwrap_err();
-    /// assert!(matches!(err, GridError::Unsupported { reason: Unsupported::NotMechanical { .. }, .. }));
+    /// assert!(matches!(err, GridError::Unsupported { reason: Unsupported::ImpactOfGeneralForm { .. }, .. }));
     /// ```
     pub fn solve(&self) -> Result<GridSolution, GridError> {
         let start = Instant::now();
