@@ -230,7 +230,7 @@ impl<'a> GridSolver<'a> {
         check_cells(self.cells)?;
         let problem = Problem::read(self.model)?;
         if let Some(d) = &self.domain {
-            problem.check_domain(d, self.model)?;
+            checked_domain(d, &problem, self.model)?;
         }
         Ok(())
     }
@@ -261,7 +261,7 @@ impl<'a> GridSolver<'a> {
         };
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
-                let d = problem.check_domain(&d, self.model)?;
+                let d = checked_domain(&d, &problem, self.model)?;
                 (d, 0, problem.centre(&d))
             }
             None => problem.size()?,
@@ -510,6 +510,14 @@ fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
         beyond,
         relative_density,
         cuts_density: relative_density.iter().any(|&r| r > BoxEdges::LEVEL),
+    }
+}
+
+/// A box given explicitly, checked (and, in the mechanical form, fitted to the walls).
+fn checked_domain(d: &Domain, problem: &Problem, model: &BoundModel) -> Result<Domain, GridError> {
+    match problem {
+        Problem::Mechanical(m) => check_domain(d, m, model),
+        Problem::General(_) => Problem::check_general_domain(d),
     }
 }
 

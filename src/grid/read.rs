@@ -68,24 +68,19 @@ impl Problem {
         }
     }
 
-    /// A box given explicitly, checked (and, in the mechanical form, fitted to the walls).
-    pub(crate) fn check_domain(&self, d: &Domain, model: &BoundModel) -> Result<Domain, GridError> {
-        match self {
-            Problem::Mechanical(m) => super::check_domain(d, m, model),
-            Problem::General(_) => {
-                let ok = d.x[0] < d.x[1]
-                    && d.v[0] < d.v[1]
-                    && d.x.iter().chain(&d.v).all(|u| u.is_finite());
-                if ok {
-                    Ok(*d)
-                } else {
-                    Err(GridError::Setting {
-                        setting: "domain",
-                        value: format!("{d:?}"),
-                        expected: "a finite box with x_lo < x_hi and y_lo < y_hi",
-                    })
-                }
-            }
+    /// A box given explicitly for the general form, checked: finite, each range increasing
+    /// (the mechanical form's own check, which fits it to the walls, is the solver's).
+    pub(crate) fn check_general_domain(d: &Domain) -> Result<Domain, GridError> {
+        let ok =
+            d.x[0] < d.x[1] && d.v[0] < d.v[1] && d.x.iter().chain(&d.v).all(|u| u.is_finite());
+        if ok {
+            Ok(*d)
+        } else {
+            Err(GridError::Setting {
+                setting: "domain",
+                value: format!("{d:?}"),
+                expected: "a finite box with x_lo < x_hi and y_lo < y_hi",
+            })
         }
     }
 
