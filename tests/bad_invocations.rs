@@ -208,10 +208,10 @@ fn output_directories() {
 fn methods_cells_and_monte_carlo_references() {
     let models = scratch("methods-models");
     let plain = models.join("plain.sde");
-    // Not in mechanical form (x' is not the second state): EPC applies, the grid does not.
+    // δ terms and no impact law: EPC applies (its δ-term form), the grid does not.
     std::fs::write(
         &plain,
-        "model plain\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
+        "model plain\nstate x, y\ndrift x: y\ndrift y: -0.2*y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\n\
          diffusion y: xi\n",
     )
     .unwrap();
@@ -237,13 +237,13 @@ fn methods_cells_and_monte_carlo_references() {
         &[
             "--method grid",
             "cannot solve model `plain`",
-            "mechanical form",
+            "delta(...) terms",
         ],
     );
     refused(
         "method-grid-solve",
         &["solve", plain, "--method", "epc,grid"],
-        &["--method grid", "mechanical form"],
+        &["--method grid", "delta(...) terms"],
     );
     refused(
         "cells-odd",

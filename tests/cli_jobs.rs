@@ -506,7 +506,7 @@ fn the_grid_is_skipped_with_its_reason_where_it_does_not_apply() {
     let model = root.join("plain.sde");
     std::fs::write(
         &model,
-        "model plain\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
+        "model plain\nstate x, y\ndrift x: y\ndrift y: -0.2*y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\n\
          diffusion y: xi\n",
     )
     .unwrap();
@@ -525,8 +525,8 @@ fn the_grid_is_skipped_with_its_reason_where_it_does_not_apply() {
     let skipped = &summary["skipped_methods"][0];
     assert_eq!(skipped["method"], "grid");
     assert_eq!(skipped["reason"], "grid");
-    assert_eq!(skipped["unsupported"]["kind"], "not_mechanical");
-    assert_eq!(skipped["unsupported"]["position"], "x");
+    assert_eq!(skipped["unsupported"]["kind"], "delta_without_impact");
+    assert_eq!(skipped["unsupported"]["velocity"], "y");
     let _ = std::fs::remove_dir_all(&root);
     let _ = std::fs::remove_dir_all(&dir);
 }

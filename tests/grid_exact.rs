@@ -280,9 +280,10 @@ fn zhuravlev_and_original_coordinates_agree() {
 fn unsupported_models_are_refused() {
     use fpsolve::grid::{GridError, Unsupported};
     use fpsolve::model::parse_model;
+    // Noise in the position's equation is the general form, which takes no impact law.
     let noisy_position = parse_model(
         "model m\nstate x, v\ndrift x: v\ndrift v: -v - x\nnoise a: intensity 1\n\
-         diffusion x: a\ndiffusion v: a\n",
+         diffusion x: a\ndiffusion v: a\nimpact x = 0: v -> -0.9*v\ndomain x >= 0\n",
         None,
     )
     .unwrap()
@@ -293,7 +294,7 @@ fn unsupported_models_are_refused() {
         matches!(
             err,
             GridError::Unsupported {
-                reason: Unsupported::NoiseInPosition { .. },
+                reason: Unsupported::ImpactOfGeneralForm { .. },
                 ..
             }
         ),

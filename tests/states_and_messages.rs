@@ -141,7 +141,7 @@ fn every_named_method_that_does_not_apply_is_refused_in_one_message() {
     let model = model_file(
         "not-mechanical",
         "not_mechanical",
-        "model nm\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
+        "model nm\nstate x, y\ndrift x: y\ndrift y: -0.2*y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\n\
          diffusion y: xi\n",
     );
     refused(

@@ -33,6 +33,18 @@ fn push(out: &mut Vec<Triplet<usize, usize, f64>>, row: usize, col: usize, val: 
     }
 }
 
+/// A problem the finite volumes discretise: its operator on a mesh.
+pub(crate) trait Discretise {
+    /// The operator on `mesh`.
+    fn operator(&self, mesh: &Mesh) -> Result<Operator, GridError>;
+}
+
+impl Discretise for Mechanical {
+    fn operator(&self, mesh: &Mesh) -> Result<Operator, GridError> {
+        assemble(mesh, self)
+    }
+}
+
 /// Builds the operator of `problem` on `mesh`.
 pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, GridError> {
     let (nx, nv) = (mesh.nx, mesh.nv);

@@ -3,7 +3,7 @@
 //! is not negligible at an edge, cut where it falls below `CUT` of its peak, until the cut
 //! settles.
 
-use super::assemble::{assemble, solve};
+use super::assemble::{solve, Discretise};
 use super::error::GridError;
 use super::mesh::{Domain, Mesh};
 use super::problem::Mechanical;
@@ -11,27 +11,27 @@ use super::BarrierSide;
 use crate::dynamics::BarrierKind;
 
 /// Cells of a sizing pass.
-const COARSE: [usize; 2] = [64, 96];
+pub(super) const COARSE: [usize; 2] = [64, 96];
 /// The density kept: the domain ends where the coarse density falls below this fraction of
 /// its peak.
-const CUT: f64 = 1e-9;
+pub(super) const CUT: f64 = 1e-9;
 /// An edge holding more than this fraction of the peak is moved out.
-const EDGE: f64 = 1e-6;
+pub(super) const EDGE: f64 = 1e-6;
 /// Passes before giving up.
-const MAX_PASSES: usize = 12;
+pub(super) const MAX_PASSES: usize = 12;
 /// The first box: this many linearised standard deviations either side.
 const SPAN: f64 = 8.0;
 
 /// Solves on `mesh` pinned at the cell holding `guess`, again at the largest value when the
 /// first pin falls where the density is negligible (the pin fixes the scale, so it must
 /// not sit in the tail).
-pub(crate) fn solve_pinned(
+pub(crate) fn solve_pinned<P: Discretise>(
     mesh: &Mesh,
-    problem: &Mechanical,
+    problem: &P,
     guess: [f64; 2],
 ) -> Result<(Vec<f64>, f64), GridError> {
     let t = std::time::Instant::now();
-    let op = assemble(mesh, problem)?;
+    let op = problem.operator(mesh)?;
     let assemble_ms = t.elapsed().as_secs_f64() * 1e3;
     let cell =
         |u: f64, lo: f64, h: f64, n: usize| ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1);
@@ -355,7 +355,7 @@ pub(crate) fn size(problem: &Mechanical) -> Result<(Domain, usize, [f64; 2]), Gr
 
 /// The largest |density| of each position row and each velocity row of `p` on `mesh`, and
 /// the peak.
-fn profiles(mesh: &Mesh, p: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
+pub(super) fn profiles(mesh: &Mesh, p: &[f64]) -> (Vec<f64>, Vec<f64>, f64) {
     let mut px = vec![0.0f64; mesh.nx];
     let mut pv = vec![0.0f64; mesh.nv];
     for (i, row) in px.iter_mut().enumerate() {
@@ -475,7 +475,7 @@ pub(crate) fn symmetrised(d: Domain, problem: &Mechanical) -> Domain {
 /// the peak kept van der Pol's α = 0.02 ring in x ∈ ±6.2, its edge at 4e−25 of the peak), so
 /// it is the decay rate where the tail leaves the density, not the values beyond, that
 /// places the cut. Exact for an exponential tail, 8 % wide for a Gaussian one.
-fn reach(profile: &[f64], top: f64) -> usize {
+pub(super) fn reach(profile: &[f64], top: f64) -> usize {
     let n = profile.len();
     let last_above = |level: f64| profile.iter().rposition(|&a| a >= level * top);
     let Some(near) = last_above(TRUSTED) else {
@@ -502,4 +502,4 @@ fn reach(profile: &[f64], top: f64) -> usize {
 const TRUSTED: f64 = 1e-3;
 
 /// A cut that moves no side by more than this fraction of the box ends the sizing passes.
-const SETTLED: f64 = 0.05;
+pub(super) const SETTLED: f64 = 0.05;

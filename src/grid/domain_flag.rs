@@ -27,7 +27,7 @@ pub enum DomainError {
         /// The model's velocity.
         velocity: String,
     },
-    /// A range that is not finite or not increasing, or a velocity range without 0 inside.
+    /// A range that is not finite or not increasing.
     #[error("`{name}={lo}:{hi}`: {expected}")]
     Range {
         /// The state.
@@ -43,7 +43,9 @@ pub enum DomainError {
 
 impl Domain {
     /// Parses `x=a:b,v=c:d` (either order; `x` and `v` or the model's own state names
-    /// `position`, `velocity`): finite ends, a < b, c < 0 < d.
+    /// `position`, `velocity`): finite ends, a < b, c < d. Whether the box suits the model
+    /// (a mechanical form's velocity range holds 0; the walls) is the solver's check,
+    /// [`GridSolver::check`](super::GridSolver::check), which knows the model's form.
     ///
     /// ```
     /// use fpsolve::grid::{Domain, DomainError};
@@ -96,9 +98,6 @@ impl Domain {
             }
             if lo >= hi {
                 return Err(range("the lower end must be below the upper end"));
-            }
-            if axis == 1 && !(lo < 0.0 && 0.0 < hi) {
-                return Err(range("the velocity's range must hold 0 inside"));
             }
             *slot = Some([lo, hi]);
         }

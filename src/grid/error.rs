@@ -79,6 +79,17 @@ pub enum Unsupported {
         /// Where they are.
         at: Vec<f64>,
     },
+    /// An impact law on a model that is not of the mechanical form: the grid re-injects the
+    /// flux leaving through a wall at the mapped velocity, which needs x' = v.
+    #[error(
+        "the model has an impact law but not the mechanical form x' = v ({form}); the grid \
+         solver treats impacts only in that form: Monte Carlo (`fpsolve simulate MODEL`, or \
+         `--mc` in the main job) solves this model, and EPC (`--method epc`) where it applies"
+    )]
+    ImpactOfGeneralForm {
+        /// Why the form is not mechanical, in words.
+        form: String,
+    },
     /// A domain given explicitly whose end on a wall's side is not the wall (a reflecting
     /// barrier is where the state's range ends; a strip's ends may be inside it, not beyond).
     #[error("the domain's {end} end {given} of the position must {relation} the wall at {at}")]

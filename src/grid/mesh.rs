@@ -57,6 +57,9 @@ pub(crate) struct Mesh {
     x1: f64,
     pub(crate) hx: f64,
     pub(crate) v0: f64,
+    /// The upper end of the second state's range: −v0 for the mechanical form (its velocity
+    /// range is symmetric), any end above v0 for a general model.
+    v1: f64,
     pub(crate) hv: f64,
     /// Runs of x-cells [start, end) between walls; reconstruction never crosses a wall.
     pub(crate) segments: Vec<[usize; 2]>,
@@ -141,6 +144,7 @@ impl Mesh {
             x1: x[1],
             hx: (x[1] - x[0]) / nx as f64,
             v0: -vmax,
+            v1: vmax,
             hv,
             segments,
             exits,
@@ -182,9 +186,29 @@ impl Mesh {
             x1: x[1],
             hx: (x[1] - x[0]) / nx as f64,
             v0: -vmax,
+            v1: vmax,
             hv: 2.0 * vmax / nv as f64,
             segments: vec![[0, nx]],
             exits,
+        }
+    }
+
+    /// Uniform cells on `domain` as given, for a model of general form: no walls, and no
+    /// face at 0 in the second state (it is not a velocity whose sign decides a flux
+    /// direction), so its range need not be symmetric.
+    pub(crate) fn general(domain: Domain, nx: usize, nv: usize) -> Mesh {
+        let [v0, v1] = domain.v;
+        Mesh {
+            nx,
+            nv,
+            x0: domain.x[0],
+            x1: domain.x[1],
+            hx: (domain.x[1] - domain.x[0]) / nx as f64,
+            v0,
+            v1,
+            hv: (v1 - v0) / nv as f64,
+            segments: vec![[0, nx]],
+            exits: Vec::new(),
         }
     }
 
@@ -196,11 +220,12 @@ impl Mesh {
     }
 
     pub(crate) fn domain(&self) -> Domain {
-        // The velocity range is symmetric by construction; −v0 rather than v0 + nv·hv (an
-        // ulp off), so that a point-symmetric density's quadratures stay symmetric.
+        // The mechanical velocity range is symmetric by construction; v1 = −v0 rather than
+        // v0 + nv·hv (an ulp off), so that a point-symmetric density's quadratures stay
+        // symmetric.
         Domain {
             x: [self.x0, self.x1],
-            v: [self.v0, -self.v0],
+            v: [self.v0, self.v1],
         }
     }
 

@@ -1,5 +1,9 @@
-//! A grid solver of the stationary FPK equation of a mechanical-form model (x' = v, noise in
-//! the velocity equation only):
+//! A grid solver of the stationary FPK equation of any 2-D model without δ terms. A model of
+//! general form (drift in both equations, correlated noise in both) has its own operator
+//! (`general`, `assemble_general`: the same upwind-biased advection in both directions and
+//! a corner-averaged cross diffusion) and box sizing (`general_box`: a pilot of the SDE, then
+//! each side on its own), and no impact laws; what follows describes the mechanical form
+//! (x' = v, noise in the velocity equation only), whose path is its own:
 //!
 //! 0 = −∂x(v p) − ∂v(m(x, v) p) + ½ ∂v²(b(x, v) p),
 //!
@@ -53,15 +57,19 @@
 #![warn(missing_docs)]
 
 pub(crate) mod assemble;
+mod assemble_general;
 mod cells;
 mod domain;
 mod domain_flag;
 mod error;
 mod estimate;
+mod general;
+mod general_box;
 pub(crate) mod mesh;
 pub(crate) mod nested;
 mod pilot;
 pub(crate) mod problem;
+mod read;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
@@ -86,6 +94,7 @@ use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
 use mesh::Mesh;
 use problem::Mechanical;
+use read::Problem;
 
 /// Cells (position, velocity) used unless [`GridSolver::cells`] says otherwise: on the
 /// paper's vibro-impact cases within 1e−3 (L1) of a 10⁹-sample Monte Carlo of the original
@@ -203,9 +212,13 @@ impl<'a> GridSolver<'a> {
     ///
     /// ```
     /// use fpsolve::grid::{GridError, GridSolver};
-    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    /// let general = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
     ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
-    /// assert!(matches!(GridSolver::new(&bound).check(), Err(GridError::Unsupported { .. })));
+    /// assert!(GridSolver::new(&general).check().is_ok());
+    /// let impact = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\nimpact x = 0: y -> -0.9*y\n\
+    ///     domain x >= 0\n", None).unwrap().bind(&[]).unwrap();
+    /// assert!(matches!(GridSolver::new(&impact).check(), Err(GridError::Unsupported { .. })));
     /// ```
     ///
     /// # Errors
@@ -215,22 +228,24 @@ impl<'a> GridSolver<'a> {
     /// [`Unsupported::WallNotAnEnd`] for a box that is not one or does not fit the walls.
     pub fn check(&self) -> Result<(), GridError> {
         check_cells(self.cells)?;
-        let problem = Mechanical::new(self.model)?;
+        let problem = Problem::read(self.model)?;
         if let Some(d) = &self.domain {
-            check_domain(d, &problem, self.model)?;
+            checked_domain(d, &problem, self.model)?;
         }
         Ok(())
     }
 
-    /// Solves. Refuses models outside the mechanical form ([`GridError::Unsupported`]) and
-    /// models without a stationary density ([`GridError::Inadmissible`]).
+    /// Solves. Refuses models it cannot represent ([`GridError::Unsupported`]: an impact law
+    /// outside the mechanical form, δ terms without an impact law, …) and models without a
+    /// stationary density ([`GridError::Inadmissible`]).
     ///
     /// ```
     /// use fpsolve::grid::{GridError, GridSolver, Unsupported};
     /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
-    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None).unwrap().bind(&[]).unwrap();
+    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\nimpact x = 0: y -> -0.9*y\n\
+    ///     domain x >= 0\n", None).unwrap().bind(&[]).unwrap();
     /// let err = GridSolver::new(&bound).solve().unwrap_err();
-    /// assert!(matches!(err, GridError::Unsupported { reason: Unsupported::NotMechanical { .. }, .. }));
+    /// assert!(matches!(err, GridError::Unsupported { reason: Unsupported::ImpactOfGeneralForm { .. }, .. }));
     /// ```
     pub fn solve(&self) -> Result<GridSolution, GridError> {
         let start = Instant::now();
@@ -240,17 +255,16 @@ impl<'a> GridSolver<'a> {
             Some(barriers) => {
                 let dynamics =
                     crate::dynamics::Dynamics::read(self.model).expect("a test model reads");
-                Mechanical::with_barriers(self.model, &dynamics, barriers)?
+                Problem::Mechanical(Mechanical::with_barriers(self.model, &dynamics, barriers)?)
             }
-            None => Mechanical::new(self.model)?,
+            None => Problem::read(self.model)?,
         };
-        let barriers = problem.barriers.as_slice();
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
-                let d = check_domain(&d, &problem, self.model)?;
-                (d, 0, [0.5 * (d.x[0] + d.x[1]), 0.0])
+                let d = checked_domain(&d, &problem, self.model)?;
+                (d, 0, problem.centre(&d))
             }
-            None => domain::size(&problem)?,
+            None => problem.size()?,
         };
         let guess = [guess[0].clamp(domain.x[0], domain.x[1]), guess[1]];
         let domain_ms = ms(start);
@@ -259,7 +273,7 @@ impl<'a> GridSolver<'a> {
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
         let mut recut = false;
         loop {
-            mesh = Mesh::new(domain, nx, nv, barriers, 4);
+            mesh = problem.mesh(domain, nx, nv, 4);
             // The error estimate's half-cells solve runs alongside the main one, pinned
             // where the main one is (a solve is a function of its mesh and pin alone, so
             // the result does not depend on which finishes first); wasted only when the
@@ -268,7 +282,7 @@ impl<'a> GridSolver<'a> {
             let half = || {
                 with_estimate.then(|| {
                     let t = Instant::now();
-                    let coarse = Mesh::new(mesh.domain(), nx / 2, nv / 2, barriers, 2);
+                    let coarse = problem.mesh(mesh.domain(), nx / 2, nv / 2, 2);
                     domain::solve_pinned(&coarse, &problem, guess).map(|(q, _)| (coarse, q, ms(t)))
                 })
             };
@@ -280,9 +294,9 @@ impl<'a> GridSolver<'a> {
             if self.domain.is_some() || passes >= MAX_GROWTH {
                 break;
             }
-            match domain::grow(&mesh, &p, &problem) {
-                Some(bigger) => domain = domain::symmetrised(bigger, &problem),
-                None => match domain::recut(&mesh, &p, &problem).filter(|_| !recut) {
+            match problem.grow(&mesh, &p) {
+                Some(bigger) => domain = bigger,
+                None => match problem.recut(&mesh, &p).filter(|_| !recut) {
                     Some(smaller) => {
                         domain = smaller;
                         recut = true;
@@ -502,6 +516,14 @@ fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
     }
 }
 
+/// A box given explicitly, checked (and, in the mechanical form, fitted to the walls).
+fn checked_domain(d: &Domain, problem: &Problem, model: &BoundModel) -> Result<Domain, GridError> {
+    match problem {
+        Problem::Mechanical(m) => check_domain(d, m, model),
+        Problem::General(_) => Problem::check_general_domain(d),
+    }
+}
+
 /// An explicit domain must be a finite, non-empty box that fits the barrier.
 /// Returns the domain with an end that is a wall up to rounding (1e−9 relative) put on it.
 fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<Domain, GridError> {
@@ -514,7 +536,9 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
         return Err(GridError::Setting {
             setting: "domain",
             value: format!("{d:?}"),
-            expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi",
+            expected: "a finite box with x_lo < x_hi and v_lo < 0 < v_hi (in the mechanical \
+                       form the velocity's range must hold 0 inside: a face of the cells is \
+                       at v = 0)",
         });
     }
     let refuse = |reason| GridError::Unsupported {

@@ -270,7 +270,7 @@ fn classify(barrier: &Barrier) -> Option<bool> {
 }
 
 /// A jump map that does not compile, as the grid solver reports it.
-fn jump_map_error(model: &BoundModel, e: DynamicsError) -> GridError {
+pub(super) fn jump_map_error(model: &BoundModel, e: DynamicsError) -> GridError {
     match e {
         DynamicsError::JumpMap { source } => GridError::Symbolic {
             what: "the jump map".into(),

@@ -10,8 +10,8 @@ use crate::grid::Unsupported;
 ///
 /// ```
 /// use fpsolve::solve::{MethodName, NotApplicable, Problem};
-/// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
-///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
+/// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: y\n\
+///     drift y: -y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
 /// let problem = Problem::new(&bound)?;
 /// assert!(MethodName::Epc.method().applies(&problem)?.is_ok());
 /// assert!(matches!(MethodName::Grid.method().applies(&problem)?, Err(NotApplicable::Grid { .. })));

@@ -93,8 +93,8 @@ impl MethodPlan {
     /// ```
     /// use fpsolve::solve::{MethodName, Problem};
     /// use fpsolve::study::{MethodPlan, PlanError};
-    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: -x + y\n\
-    ///     drift y: -y\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
+    /// let bound = fpsolve::model::parse_model("model m\nstate x, y\ndrift x: y\n\
+    ///     drift y: -y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?.bind(&[])?;
     /// let problem = Problem::new(&bound)?;
     /// let plan = MethodPlan::new(&problem, &"epc,grid".parse()?, false)?;
     /// assert_eq!(plan.run, [MethodName::Epc]);

@@ -1,0 +1,105 @@
+//! The model as the grid solves it: the mechanical form (its own path, with walls, the energy
+//! box and a symmetric velocity range) or the general form (drift and correlated noise in
+//! both equations, no walls), read once and dispatched to by the solver.
+
+use super::assemble::{Discretise, Operator};
+use super::error::GridError;
+use super::general::General;
+use super::mesh::{Domain, Mesh};
+use super::problem::Mechanical;
+use super::{domain, general_box};
+use crate::dynamics::{Dynamics, Form};
+use crate::model::BoundModel;
+
+/// A model the grid solves.
+#[derive(Clone, Debug)]
+pub(crate) enum Problem {
+    /// x' = v, noise in the velocity equation only.
+    Mechanical(Mechanical),
+    /// Any other 2-D system without an impact law.
+    General(General),
+}
+
+impl Problem {
+    /// Reads `model`: its mechanical form, else its general form, else why the grid
+    /// cannot solve it.
+    pub(crate) fn read(model: &BoundModel) -> Result<Problem, GridError> {
+        let dynamics =
+            Dynamics::read(model).map_err(|e| super::problem::jump_map_error(model, e))?;
+        match dynamics.form() {
+            Form::Mechanical => Ok(Problem::Mechanical(Mechanical::with_barriers(
+                model,
+                &dynamics,
+                dynamics.barriers(),
+            )?)),
+            Form::General { why } => Ok(Problem::General(General::new(model, &dynamics, why)?)),
+        }
+    }
+
+    /// The cells on `domain` (`align`: see [`Mesh::new`]).
+    pub(crate) fn mesh(&self, domain: Domain, nx: usize, nv: usize, align: usize) -> Mesh {
+        match self {
+            Problem::Mechanical(m) => Mesh::new(domain, nx, nv, &m.barriers, align),
+            Problem::General(_) => Mesh::general(domain, nx, nv),
+        }
+    }
+
+    /// The box sized from the density, the coarse passes it took and the density's peak.
+    pub(crate) fn size(&self) -> Result<(Domain, usize, [f64; 2]), GridError> {
+        match self {
+            Problem::Mechanical(m) => domain::size(m),
+            Problem::General(g) => general_box::size(g),
+        }
+    }
+
+    /// A main solve's box enlarged where it cuts the density; `None` when it does not.
+    pub(crate) fn grow(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+        match self {
+            Problem::Mechanical(m) => domain::grow(mesh, p, m).map(|d| domain::symmetrised(d, m)),
+            Problem::General(_) => general_box::grow(mesh, p),
+        }
+    }
+
+    /// A main solve's box cut where its tails end far inside it; `None` when it need not be.
+    pub(crate) fn recut(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+        match self {
+            Problem::Mechanical(m) => domain::recut(mesh, p, m),
+            Problem::General(_) => general_box::recut(mesh, p),
+        }
+    }
+
+    /// A box given explicitly for the general form, checked: finite, each range increasing
+    /// (the mechanical form's own check, which fits it to the walls, is the solver's).
+    pub(crate) fn check_general_domain(d: &Domain) -> Result<Domain, GridError> {
+        let ok =
+            d.x[0] < d.x[1] && d.v[0] < d.v[1] && d.x.iter().chain(&d.v).all(|u| u.is_finite());
+        if ok {
+            Ok(*d)
+        } else {
+            Err(GridError::Setting {
+                setting: "domain",
+                value: format!("{d:?}"),
+                expected: "a finite box with x_lo < x_hi and y_lo < y_hi",
+            })
+        }
+    }
+
+    /// Where to pin the solve on a box given explicitly: its middle (at v = 0 in the
+    /// mechanical form). A pin that falls where the density is negligible is moved to the
+    /// peak ([`domain::solve_pinned`]).
+    pub(crate) fn centre(&self, d: &Domain) -> [f64; 2] {
+        match self {
+            Problem::Mechanical(_) => [0.5 * (d.x[0] + d.x[1]), 0.0],
+            Problem::General(_) => [0.5 * (d.x[0] + d.x[1]), 0.5 * (d.v[0] + d.v[1])],
+        }
+    }
+}
+
+impl Discretise for Problem {
+    fn operator(&self, mesh: &Mesh) -> Result<Operator, GridError> {
+        match self {
+            Problem::Mechanical(m) => m.operator(mesh),
+            Problem::General(g) => g.operator(mesh),
+        }
+    }
+}
