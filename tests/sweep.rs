@@ -477,7 +477,7 @@ fn a_failure_is_recorded_per_method() {
 /// [`Sweep::check`] (which refuses it before any work: `refusals_are_typed_and_exit_2_…`).
 #[test]
 fn a_run_that_skipped_the_check_records_the_refusal_at_every_point() {
-    let model = fpsolve::model::parse_model(NOT_MECHANICAL, None).unwrap();
+    let model = fpsolve::model::parse_model(GRID_REFUSED, None).unwrap();
     let spec = SweepSpec::parse(&args(&["c=0.5,1"])).unwrap();
     let result = Sweep::new(&model, &spec)
         .methods("epc,grid".parse().unwrap())
@@ -551,9 +551,10 @@ fn fpsolve_cli(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
-/// Noise in the position's equation too: not the grid solver's mechanical form.
-const NOT_MECHANICAL: &str = "model odd\nparam c = 1\nstate x, v\ndrift x: v\n\
-    drift v: -c*v - x\nnoise xi: intensity 1\ndiffusion x: xi\ndiffusion v: xi\n";
+/// The paper's δ-term impact damping without an impact law: EPC solves it, the grid (which
+/// treats impacts exactly, by an `impact` statement) refuses it.
+const GRID_REFUSED: &str = "model odd\nparam c = 1\nstate x, v\ndrift x: v\n\
+    drift v: -c*v - x - 0.1*v*abs(v)*delta(x)\nnoise xi: intensity 1\ndiffusion v: xi\n";
 
 /// What the library says of a sweep's `--method` and `--cells` texts, taken in the command
 /// line's order: the method set, the cells, then [`Sweep::check`] against the model.
@@ -614,7 +615,7 @@ fn refusals_are_typed_and_exit_2_before_any_work() {
     let root = std::env::temp_dir().join(format!("fpsolve-sweep-cli-{}", std::process::id()));
     std::fs::create_dir_all(&root).unwrap();
     let odd = root.join("odd.sde");
-    std::fs::write(&odd, NOT_MECHANICAL).unwrap();
+    std::fs::write(&odd, GRID_REFUSED).unwrap();
     let odd = odd.to_str().unwrap();
     let (linear_sde, vibro_sde) = ("models/linear.sde", "models/vibro_duffing.sde");
     let cases = [
@@ -674,7 +675,7 @@ fn refusals_are_typed_and_exit_2_before_any_work() {
             names: &["--cells", "grid"],
         },
         Refusal {
-            tag: "not-mechanical",
+            tag: "grid-refused",
             model: odd,
             set: "c=0.5,1",
             method: "epc,grid",
@@ -685,7 +686,7 @@ fn refusals_are_typed_and_exit_2_before_any_work() {
                     Some(NotApplicable::Grid { .. })
                 )
             },
-            names: &["--method grid", "noise `xi`"],
+            names: &["--method grid", "delta(...) terms"],
         },
         Refusal {
             // EPC with the exact impact condition takes the impact law itself: the

@@ -122,8 +122,8 @@ impl<'a> Sweep<'a> {
     ///
     /// ```
     /// use fpsolve::sweep::{Sweep, SweepError, SweepSpec};
-    /// // x' = −c·x + y: not the mechanical form x' = v the grid solver needs.
-    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate x, y\ndrift x: -c*x + y\ndrift y: -y\nnoise xi: intensity 1\ndiffusion x: xi\n", None)?;
+    /// // δ-term impact damping without an impact law: EPC solves it, the grid refuses it.
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate x, y\ndrift x: y\ndrift y: -c*y - x - 0.1*y*abs(y)*delta(x)\nnoise xi: intensity 1\ndiffusion y: xi\n", None)?;
     /// let spec = SweepSpec::parse(&["c=0.5,1".into()])?;
     /// assert!(Sweep::new(&model, &spec).check().is_ok()); // EPC applies
     /// let err = Sweep::new(&model, &spec).methods("epc,grid".parse()?).check().unwrap_err();
