@@ -60,6 +60,7 @@ mod error;
 mod estimate;
 pub(crate) mod mesh;
 pub(crate) mod nested;
+mod passage;
 mod pilot;
 pub(crate) mod problem;
 mod solution;
@@ -74,6 +75,7 @@ pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
+pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN_SAFE_MASS};
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
 };

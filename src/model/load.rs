@@ -101,7 +101,7 @@ pub fn parse_expr(source: &str) -> Result<Expr, ModelError> {
     lower_free(&node).map_err(|l| semantic_error(source, None, *l))
 }
 
-fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> ModelError {
+pub(super) fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> ModelError {
     ModelError::Syntax(Diagnostic::new(
         source,
         path,
@@ -111,7 +111,7 @@ fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> Mod
     ))
 }
 
-fn semantic_error(source: &str, path: Option<&str>, located: Located) -> ModelError {
+pub(super) fn semantic_error(source: &str, path: Option<&str>, located: Located) -> ModelError {
     let Located { error, span } = located;
     let diagnostic = Diagnostic::new(source, path, span, error.to_string(), error.help());
     match error {

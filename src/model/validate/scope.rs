@@ -35,6 +35,8 @@ pub(super) enum Context {
     StateFunction(&'static str),
     /// States, parameters and noise sources: `diffusion` lines.
     Diffusion,
+    /// States, observables and parameters: the quantity of a `safe` line.
+    SafeQuantity,
     /// Anything; names are left for binding to resolve (`--set` values).
     Free,
 }
@@ -154,6 +156,10 @@ impl<'a> Scope<'a> {
                     "a diffusion",
                     matches!(decl.kind, Kind::Parameter | Kind::State | Kind::Noise),
                 ),
+                Context::SafeQuantity => (
+                    "a safe set",
+                    matches!(decl.kind, Kind::Parameter | Kind::State | Kind::Observable),
+                ),
                 Context::Free => ("", true),
             };
             if !allowed {
@@ -187,6 +193,7 @@ impl<'a> Scope<'a> {
         let usable: &[Kind] = match context {
             Context::Constant(_) => &[Kind::Parameter],
             Context::StateFunction(_) => &[Kind::Parameter, Kind::State],
+            Context::SafeQuantity => &[Kind::Parameter, Kind::State, Kind::Observable],
             _ => &[Kind::Parameter, Kind::State, Kind::Noise],
         };
         let suggestion = self.suggest(name, usable);
