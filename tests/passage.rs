@@ -199,3 +199,77 @@ fn damped_oscillator_against_monte_carlo() {
     println!("grid T {:.4} vs MC {mc:.4} ± {se:.4}", g.mean_at_start);
     assert!((g.mean_at_start - mc).abs() < 4.0 * se + 0.02 * mc);
 }
+
+/// A `safe` line may name observables (their definitions are substituted) and parameters.
+#[test]
+fn the_safe_line_reads_observables_and_parameters() {
+    let text = "model m\nparam c = 0.1, e0 = 3\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+                noise xi: intensity 1\ndiffusion v: xi\nobserve energy = v^2/2 + z^2/2\n\
+                safe energy < e0\n";
+    let model = fpsolve::model::parse_model(text, None).unwrap();
+    let bound = model.bind(&[]).unwrap();
+    let safe = model.safe().unwrap().bind(&bound).unwrap();
+    assert_eq!(safe.upper, Some(3.0));
+    assert_eq!(safe.quantity_at([1.0, 2.0]), 2.5);
+    assert!(safe.contains([1.0, 2.0]) && !safe.contains([2.0, 2.0]));
+    // `--safe` replaces it; its errors point into the flag's text.
+    let err = model.with_safe("-1 < z < 2 +").unwrap_err();
+    assert_eq!(err.line(), Some(1));
+    assert!(err.to_string().contains("--safe"), "{err}");
+    let empty = model.with_safe("2 < z < 1").unwrap();
+    assert!(empty.safe().unwrap().bind(&bound).is_err());
+}
+
+fn fpsolve(args: &[&str]) -> (Option<i32>, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
+    (out.status.code(), text)
+}
+
+/// `fpsolve passage` refuses a start outside the set and a model without one (exit 2), and
+/// writes R(t) from 1 down with the mean in summary.json.
+#[test]
+fn the_passage_command_checks_then_writes() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(z) < 2", "--start", "3,0"]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("not inside the safe set"), "{text}");
+    let (code, text) = fpsolve(&["passage", model]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("no safe set"), "{text}");
+    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(w) < 2"]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("--safe:1:5"), "{text}");
+    let dir = std::env::temp_dir().join(format!("fpsolve_passage_{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, text) = fpsolve(&[
+        "passage",
+        model,
+        "--safe",
+        "abs(z) < 2",
+        "--cells",
+        "40,40",
+        "--times",
+        "0:20:5",
+        "--out",
+        out,
+        "--quiet",
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    assert_eq!(rows[0][1], 1.0);
+    assert!(rows[4][1] < rows[1][1]);
+    let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    assert!(summary.contains("\"mean_at_start\""), "{summary}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

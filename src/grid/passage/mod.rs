@@ -265,7 +265,7 @@ impl<'a> GridPassage<'a> {
             .collect();
         let safe_mass = inside.iter().sum::<f64>() * area;
         let safe_cells = safe.iter().filter(|s| **s).count();
-        if !(safe_mass >= MIN_SAFE_MASS) || safe_cells == 0 {
+        if safe_mass.is_nan() || safe_mass < MIN_SAFE_MASS || safe_cells == 0 {
             return Err(PassageError::NoProbability {
                 safe: self.safe.text.clone(),
                 mass: safe_mass,
