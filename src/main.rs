@@ -208,6 +208,17 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
+    /// First passage out of the model's safe set (or --safe) on the grid: the mean time and
+    /// its second moment from --start and from the stationary density in the set, and R(t)
+    /// with the first-passage-time density at --times. Writes passage.csv and summary.json.
+    Passage {
+        /// The model file (`.sde`).
+        model: PathBuf,
+        #[command(flatten)]
+        args: cli::passage::PassageArgs,
+        #[command(flatten)]
+        quiet: QuietArg,
+    },
     /// Merge the shard files of `simulate --shard` (or of `sweep --shard`) found in the given
     /// directories.
     Merge {
@@ -404,6 +415,7 @@ enum Plan {
         quiet: bool,
     },
     MergeSweep(Box<fpsolve::sweep::MergedSweep>, PathBuf),
+    Passage(Box<cli::passage::PassagePlan>),
     Merge {
         result: Box<McResult>,
         shards: usize,
@@ -431,6 +443,9 @@ fn plan(cli: Cli) -> Result<Planned> {
                 model: m,
                 bound,
             }
+        }
+        Some(Command::Passage { model, args, .. }) => {
+            Plan::Passage(Box::new(cli::passage::plan(model, args)?))
         }
         Some(Command::Solve { model, solve }) => {
             plan_job(model, &solve, None, None, Target::States)?
@@ -619,6 +634,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             }
         }
         Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
+        Plan::Passage(plan) => Ok(cli::passage::run(*plan)?),
         Plan::Merge {
             result,
             shards,

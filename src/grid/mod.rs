@@ -67,6 +67,7 @@ mod general;
 mod general_box;
 pub(crate) mod mesh;
 pub(crate) mod nested;
+mod passage;
 mod pilot;
 pub(crate) mod problem;
 mod read;
@@ -82,6 +83,7 @@ pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::TAIL_LEVEL;
 pub use mesh::Domain;
+pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN_SAFE_MASS};
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
 };

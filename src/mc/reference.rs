@@ -37,6 +37,7 @@ fn oscillator(name: &str, params: Vec<Parameter>, force: Expr, noise: Expr) -> M
         impacts: vec![],
         domain: None,
         observables: vec![],
+        safe: None,
         delta: DeltaTreatment::Exact,
         origin: None,
     }

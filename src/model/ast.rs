@@ -198,6 +198,20 @@ pub enum StatementKind {
     Observe(Vec<Binding>),
     /// `delta: exact` or `delta: gaussian(width)`.
     Delta(DeltaSpec),
+    /// `safe abs(z) < 2.5`, `safe -2 < z < 3`: the safe set of a first-passage problem.
+    Safe(SafeSpec),
+}
+
+/// The safe set as written: a quantity (a function of states, observables and parameters)
+/// with a lower bound, an upper bound, or both.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SafeSpec {
+    /// The quantity bounded.
+    pub quantity: ExprNode,
+    /// Its lower bound, if any.
+    pub lower: Option<DomainLimit>,
+    /// Its upper bound, if any.
+    pub upper: Option<DomainLimit>,
 }
 
 /// A parsed model file: its statements in order.

@@ -530,6 +530,7 @@ mod tests {
             impacts: vec![],
             domain: None,
             observables: vec![],
+            safe: None,
             delta: DeltaTreatment::Exact,
             origin: None,
         }

@@ -101,7 +101,7 @@ pub fn parse_expr(source: &str) -> Result<Expr, ModelError> {
     lower_free(&node).map_err(|l| semantic_error(source, None, *l))
 }
 
-fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> ModelError {
+pub(super) fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> ModelError {
     ModelError::Syntax(Diagnostic::new(
         source,
         path,
@@ -111,7 +111,7 @@ fn syntax_error(source: &str, path: Option<&str>, failure: SyntaxFailure) -> Mod
     ))
 }
 
-fn semantic_error(source: &str, path: Option<&str>, located: Located) -> ModelError {
+pub(super) fn semantic_error(source: &str, path: Option<&str>, located: Located) -> ModelError {
     let Located { error, span } = located;
     let diagnostic = Diagnostic::new(source, path, span, error.to_string(), error.help());
     match error {
@@ -140,4 +140,46 @@ fn encoding_error(bytes: &[u8], error: std::str::Utf8Error, path: &str) -> Model
         message,
         Some("re-save the file as UTF-8".into()),
     ))
+}
+
+impl super::Model {
+    /// The safe set from the model's `safe` line (or [`Model::with_safe`](Self::with_safe)),
+    /// if any.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+    /// assert!(fpsolve::model::load_model(&path).unwrap().safe().is_none());
+    /// ```
+    pub fn safe(&self) -> Option<&super::SafeSet> {
+        self.safe.as_ref()
+    }
+
+    /// The model with the safe set `text` (`abs(z) < 2.5`, `-2 < z < 3`; what follows
+    /// `safe` on a model line) in place of its own. Names are checked against the model's;
+    /// errors point into `text`, shown as `--safe`.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let safe = model.with_safe("abs(z) < 2").unwrap();
+    /// assert_eq!(safe.safe().unwrap().text, "abs(z) < 2");
+    /// let err = model.with_safe("abs(q) < 2").unwrap_err();
+    /// assert_eq!((err.line(), err.column()), (Some(1), Some(5)));
+    /// ```
+    ///
+    /// # Errors
+    /// A [`ModelError`](super::ModelError): a syntax error, an unknown name, a quantity
+    /// without a state, a bound that is not a constant.
+    pub fn with_safe(&self, text: &str) -> Result<super::Model, super::ModelError> {
+        let shown = Some("--safe");
+        let spec = super::parse::parse_lone_safe(text).map_err(|f| syntax_error(text, shown, f))?;
+        let source = self.origin.as_ref().map_or("", |o| o.source.as_str());
+        // The model's own text parsed once more for its declarations: it was valid when read.
+        let ast = super::parse::parse_file(source).map_err(|f| syntax_error(source, None, f))?;
+        let safe = super::validate::validate_safe(&ast, source, &spec, text, &self.observables)
+            .map_err(|l| semantic_error(text, shown, *l))?;
+        let mut out = self.clone();
+        out.safe = Some(safe);
+        Ok(out)
+    }
 }

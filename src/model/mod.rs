@@ -14,6 +14,7 @@ mod error;
 mod load;
 mod parse;
 mod print;
+mod safe;
 pub(crate) mod set;
 mod syntax;
 mod time;
@@ -25,6 +26,7 @@ pub use diagnostic::Diagnostic;
 pub use error::ModelError;
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
+pub use safe::{BoundSafe, SafeError, SafeSet};
 pub use set::SetError;
 pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 
@@ -214,6 +216,8 @@ pub struct Model {
     pub(crate) domain: Option<Domain>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
+    /// The `safe` line (or a `--safe` value), if any.
+    pub(crate) safe: Option<SafeSet>,
     /// Where the model was read from, for locating errors found when it is bound (`None` for
     /// models built in code).
     pub(crate) origin: Option<std::sync::Arc<Origin>>,

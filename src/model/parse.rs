@@ -10,8 +10,8 @@ use pest::pratt_parser::{Assoc, Op, PrattParser};
 use pest::Parser;
 
 use super::ast::{
-    Binding, DeltaSpec, DomainLimit, ExprKind, ExprNode, Ident, ModelAst, ProductOp, Span,
-    Statement, StatementKind, SumOp,
+    Binding, DeltaSpec, DomainLimit, ExprKind, ExprNode, Ident, ModelAst, ProductOp, SafeSpec,
+    Span, Statement, StatementKind, SumOp,
 };
 use super::syntax::{Rule, SdeParser, SyntaxFailure};
 use super::Interpretation;
@@ -186,6 +186,7 @@ fn content(pair: Pair<'_, Rule>) -> impl Iterator<Item = Pair<'_, Rule>> {
                 | Rule::kw_domain
                 | Rule::kw_delta
                 | Rule::kw_gaussian
+                | Rule::kw_safe
         )
     })
 }
@@ -275,6 +276,7 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
             map: parts.expr(),
         },
         Rule::domain_stmt => build_domain(parts.next()),
+        Rule::safe_stmt => StatementKind::Safe(build_safe(parts.next())),
         _ => {
             let spec = parts.next();
             StatementKind::Delta(match spec.as_rule() {
@@ -287,6 +289,55 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
         kind,
         span,
         keyword,
+    }
+}
+
+/// `safe LOW < q < HIGH`, `safe q < HIGH` or `safe q > LOW`.
+fn build_safe(pair: Pair<'_, Rule>) -> SafeSpec {
+    let range = pair.as_rule() == Rule::safe_range;
+    let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
+    let limit = |op: &Pair<'_, Rule>, at: Pair<'_, Rule>| DomainLimit {
+        strict: !op.as_str().ends_with('='),
+        at: build_expr(at),
+    };
+    let at = parts.pop().expect("the grammar's bound");
+    let op = parts.pop().expect("the grammar's comparison");
+    let quantity = build_expr(parts.pop().expect("the grammar's quantity"));
+    let bound = Some(limit(&op, at));
+    if range {
+        let lower_op = parts.pop().expect("the grammar's `<`");
+        let lower_at = parts.pop().expect("the grammar's lower bound");
+        return SafeSpec {
+            quantity,
+            lower: Some(limit(&lower_op, lower_at)),
+            upper: bound,
+        };
+    }
+    let (lower, upper) = match op.as_rule() {
+        Rule::above => (bound, None),
+        _ => (None, bound),
+    };
+    SafeSpec {
+        quantity,
+        lower,
+        upper,
+    }
+}
+
+/// Parses a lone safe set (a `--safe` value).
+pub(crate) fn parse_lone_safe(source: &str) -> Result<SafeSpec, SyntaxFailure> {
+    check_limits(source)?;
+    let pairs = SdeParser::parse(Rule::lone_safe, source).map_err(SyntaxFailure::from_pest)?;
+    match pairs
+        .into_iter()
+        .find(|p| matches!(p.as_rule(), Rule::safe_range | Rule::safe_bound))
+    {
+        Some(p) => Ok(build_safe(p)),
+        // The grammar makes this unreachable; an error is still better than a panic.
+        None => Err(SyntaxFailure {
+            span: Span::new(0, 0),
+            message: "expected a safe set".into(),
+        }),
     }
 }
 

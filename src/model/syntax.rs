@@ -82,7 +82,7 @@ fn describe_rule(rule: &Rule) -> String {
     let s = match rule {
         Rule::statement => {
             "a statement (model, param, state, drift, noise, correlate, diffusion, \
-             interpretation, impact, domain, observe or delta)"
+             interpretation, impact, domain, observe, delta or safe)"
         }
         Rule::EOI => "end of line",
         Rule::expr | Rule::operand | Rule::paren | Rule::call | Rule::number => "an expression",
@@ -99,6 +99,9 @@ fn describe_rule(rule: &Rule) -> String {
         Rule::below => "`<=` or `<`",
         Rule::domain_range | Rule::domain_bound => {
             "`STATE >= BOUND`, `STATE <= BOUND` or `LOW <= STATE <= HIGH`"
+        }
+        Rule::safe_range | Rule::safe_bound => {
+            "`QUANTITY < BOUND`, `QUANTITY > BOUND` or `LOW < QUANTITY < HIGH`"
         }
         Rule::lparen => "`(`",
         Rule::rparen => "`)`",

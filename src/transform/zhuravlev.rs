@@ -313,6 +313,8 @@ pub fn zhuravlev(model: &Model) -> Result<Zhuravlev<Model>, ZhuravlevError> {
         domain: None,
         observables: t.observables,
         delta: model.delta_treatment(),
+        // A safe set is written in the original states; first passage is solved there.
+        safe: None,
         origin: None,
     };
     Ok(Zhuravlev {

@@ -240,6 +240,12 @@ pub enum SemanticError {
         /// Which expression (`a noise intensity`, `an observable`, ...).
         context: &'static str,
     },
+    /// A `safe` quantity that depends on no state: the set would hold everything or nothing.
+    #[error("the safe set's quantity `{text}` depends on no state")]
+    SafeWithoutState {
+        /// The quantity as written.
+        text: String,
+    },
     /// An observable's name used inside an expression.
     #[error("observable `{name}` used in {context}; observables are outputs, not inputs")]
     ObservableInExpression {

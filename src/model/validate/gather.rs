@@ -78,6 +78,8 @@ impl Validator<'_> {
                 } => self.domain(&mut g, st, state, [lower, upper])?,
                 StatementKind::Observe(bindings) => self.observe(&mut g, bindings)?,
                 StatementKind::Delta(spec) => g.delta = self.delta(spec)?,
+                // Lowered after every observable is known (`Validator::safe_set`).
+                StatementKind::Safe(_) => {}
             }
         }
         Ok(g)

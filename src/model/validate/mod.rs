@@ -11,12 +11,13 @@ mod delta;
 mod error;
 mod gather;
 mod noise;
+mod safe;
 mod scope;
 mod statements;
 #[cfg(test)]
 mod tests;
 
-use super::ast::{Binding, ExprNode, Ident, ModelAst, Span};
+use super::ast::{Binding, ExprNode, Ident, ModelAst, SafeSpec, Span, StatementKind};
 use super::{Domain, ImpactLaw, Model, Origin};
 use crate::symbolic::{Expr, Symbol};
 pub(crate) use error::Located;
@@ -24,6 +25,20 @@ use error::{fail, Result};
 pub use error::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 pub(crate) use scope::lower_free;
 use scope::{line_of, Scope};
+
+/// Lowers a `--safe` value (`spec`, parsed from `text`) against the names of the model
+/// file `ast` (read from `source`); errors point into `text`.
+pub(crate) fn validate_safe(
+    ast: &ModelAst,
+    source: &str,
+    spec: &SafeSpec,
+    text: &str,
+    observables: &[super::Observable],
+) -> Result<super::SafeSet> {
+    let mut v = Validator::new(ast, source);
+    v.declare_all()?;
+    v.safe_set(spec, text, observables)
+}
 
 /// Validates a parsed model file and builds the [`Model`]; `path` is what error messages
 /// about its bound values will show.
@@ -76,6 +91,13 @@ impl<'a> Validator<'a> {
         let noise_matrix = self.noise_matrix(g.diffusion)?;
         self.domain_agrees(g.domain.as_ref(), &g.impacts, &states)?;
         self.check_parameter_graph(&params)?;
+        let safe = match self.ast.statements.iter().find_map(|st| match &st.kind {
+            StatementKind::Safe(spec) => Some(spec),
+            _ => None,
+        }) {
+            Some(spec) => Some(self.safe_set(spec, self.source, &g.observables)?),
+            None => None,
+        };
 
         let spans = g.spans;
         let domain_span = g.domain.as_ref().map(|(_, span, _)| *span);
@@ -93,6 +115,7 @@ impl<'a> Validator<'a> {
             domain: g.domain.map(|(d, ..)| d),
             observables: g.observables,
             delta: g.delta,
+            safe,
             origin: Some(std::sync::Arc::new(Origin {
                 source: self.source.to_string(),
                 path: self.path.map(str::to_string),

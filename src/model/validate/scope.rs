@@ -36,6 +36,8 @@ pub(super) enum Context {
     StateFunction(&'static str),
     /// States, parameters and noise sources: `diffusion` lines.
     Diffusion,
+    /// States, observables and parameters: the quantity of a `safe` line.
+    SafeQuantity,
     /// Anything; names are left for binding to resolve (`--set` values).
     Free,
 }
@@ -155,6 +157,10 @@ impl<'a> Scope<'a> {
                     "a diffusion",
                     matches!(decl.kind, Kind::Parameter | Kind::State | Kind::Noise),
                 ),
+                Context::SafeQuantity => (
+                    "a safe set",
+                    matches!(decl.kind, Kind::Parameter | Kind::State | Kind::Observable),
+                ),
                 Context::Free => ("", true),
             };
             if !allowed {
@@ -191,6 +197,12 @@ impl<'a> Scope<'a> {
                     Context::Constant(what) | Context::StateFunction(what) => {
                         fail(SemanticError::TimeOutsideEquations { context: what }, span)
                     }
+                    Context::SafeQuantity => fail(
+                        SemanticError::TimeOutsideEquations {
+                            context: "a safe line",
+                        },
+                        span,
+                    ),
                 };
             }
             _ => {}
@@ -201,6 +213,7 @@ impl<'a> Scope<'a> {
         let usable: &[Kind] = match context {
             Context::Constant(_) => &[Kind::Parameter],
             Context::StateFunction(_) => &[Kind::Parameter, Kind::State],
+            Context::SafeQuantity => &[Kind::Parameter, Kind::State, Kind::Observable],
             _ => &[Kind::Parameter, Kind::State, Kind::Noise],
         };
         let suggestion = self.suggest(name, usable);

@@ -130,6 +130,7 @@ impl<'a> Validator<'a> {
                 StatementKind::Interpretation(_) => "interpretation",
                 StatementKind::Domain { .. } => "domain",
                 StatementKind::Delta(_) => "delta",
+                StatementKind::Safe(_) => "safe",
                 _ => continue,
             };
             if let Some(first) = seen.get(keyword) {

@@ -1,0 +1,412 @@
+//! First passage out of a safe set on the grid (issue 35): the mean first-passage time and
+//! its second moment from the backward (Pontryagin) equations L*T = −1, L*T₂ = −2T on the
+//! transpose of the killed finite-volume generator, and the reliability R(t) = P(T > t) with
+//! the first-passage-time density −R′(t) from the forward equation with killing, time-stepped
+//! by the crate's TR-BDF2 (mass not conserved: the lost mass is the failure probability).
+//!
+//! * **Cells.** Those whose centre is inside the safe set; the rest are removed (absorbing).
+//!   Where the boundary is crossed along x the absorption is at outflow faces only (no
+//!   diffusion in x; see `killed`). When the safe set bounds the position alone, the box is
+//!   moved and stretched (by less than a cell) so that its bounds fall on cell faces.
+//! * **Impacts** act as in the stationary operator (outflow through the barrier and its
+//!   re-injection), on the safe cells.
+//! * **Consistency.** The forward and backward problems use one matrix and its transpose,
+//!   so ∫₀^∞ R dt from a start density equals the start's average of T to the solves'
+//!   rounding; over a finite horizon the difference is the tail R(t_end)/λ.
+//! * **Stationary average.** T averaged over the grid's stationary density (same cells,
+//!   impacts, box) restricted to the safe set and renormalised.
+//!
+//! ```
+//! use fpsolve::grid::GridPassage;
+//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+//! let model = fpsolve::model::load_model(&path)?.with_safe("abs(z) < 2")?;
+//! let bound = model.bind(&[])?;
+//! let safe = model.safe().unwrap().bind(&bound)?;
+//! let p = GridPassage::new(&bound, &safe).cells(40, 40).times(vec![0.0, 5.0, 10.0]).run()?;
+//! assert!(p.mean_at_start > 0.0 && p.second_at_start > p.mean_at_start.powi(2));
+//! assert_eq!(p.reliability[0], 1.0);
+//! assert!(p.reliability[2] < p.reliability[1]);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod align;
+mod error;
+mod killed;
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+pub use error::PassageError;
+
+use super::assemble::assemble;
+use super::domain;
+use super::mesh::Mesh;
+use super::nested::{cell_coords, nested_dissection};
+use super::problem::Mechanical;
+use super::{check_cells, check_domain, Domain, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
+use crate::base::limits::memory_limit_bytes;
+use crate::model::{BoundModel, BoundSafe};
+use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
+use crate::numerics::sparse::{Check, Factorization};
+use crate::numerics::timestep::{Tolerance, TrBdf2};
+
+/// The least stationary probability a safe set must hold on the grid.
+pub const MIN_SAFE_MASS: f64 = 1e-9;
+
+/// When a backward solve is accepted (as the stationary solve's check).
+const CHECK: Check = Check {
+    refine_above: 1e-14,
+    limit: 1e-12,
+};
+
+/// A first-passage problem on the grid: a builder, then [`GridPassage::run`].
+#[derive(Clone, Debug)]
+pub struct GridPassage<'a> {
+    model: &'a BoundModel,
+    safe: &'a BoundSafe,
+    cells: [usize; 2],
+    domain: Option<Domain>,
+    start: [f64; 2],
+    times: Vec<f64>,
+    tolerance: f64,
+}
+
+/// What [`GridPassage::run`] found.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassageSolution {
+    /// E[T] from the start (T interpolated bilinearly between cell centres).
+    pub mean_at_start: f64,
+    /// E[T²] from the start.
+    pub second_at_start: f64,
+    /// E[T] from the start cell's point mass: the forward run's start, so that
+    /// ∫R dt = `mean_from_start_cell` (up to the horizon's tail).
+    pub mean_from_start_cell: f64,
+    /// E[T] with the start drawn from the stationary density restricted to the safe set.
+    pub mean_stationary: f64,
+    /// E[T²] likewise.
+    pub second_stationary: f64,
+    /// The stationary probability of the safe set (on the grid).
+    pub safe_mass: f64,
+    /// The output times.
+    pub times: Vec<f64>,
+    /// R(t) = P(T > t) at each time (from the start cell).
+    pub reliability: Vec<f64>,
+    /// The first-passage-time density −R′(t) at each time.
+    pub pdf: Vec<f64>,
+    /// ∫ R dt from 0 to the last time (trapezoid on the outputs' R and R′, i.e. the cubic
+    /// Hermite rule), for the consistency check against `mean_from_start_cell`.
+    pub integral_of_reliability: f64,
+    /// Settings and costs.
+    pub report: PassageReport,
+}
+
+/// How a [`PassageSolution`] was computed.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassageReport {
+    /// Cells (x, v).
+    pub cells: [usize; 2],
+    /// The box.
+    pub domain: Domain,
+    /// Cells inside the safe set.
+    pub safe_cells: usize,
+    /// The start.
+    pub start: [f64; 2],
+    /// The safe set as written.
+    pub safe: String,
+    /// The stepper's tolerance.
+    pub tolerance: f64,
+    /// Accepted and rejected steps, factorisations of the forward run.
+    pub steps: [usize; 3],
+    /// Wall time, ms.
+    pub total_ms: f64,
+}
+
+impl<'a> GridPassage<'a> {
+    /// A problem on the default cells and the stationary solver's first box, from rest,
+    /// tolerance [`TRANSIENT_TOLERANCE`], no output time (the mean times only).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = fpsolve::model::load_model(&path).unwrap().with_safe("z < 3").unwrap();
+    /// # let bound = model.bind(&[]).unwrap();
+    /// let safe = model.safe().unwrap().bind(&bound).unwrap();
+    /// let _p = fpsolve::grid::GridPassage::new(&bound, &safe);
+    /// ```
+    pub fn new(model: &'a BoundModel, safe: &'a BoundSafe) -> GridPassage<'a> {
+        GridPassage {
+            model,
+            safe,
+            cells: DEFAULT_CELLS,
+            domain: None,
+            start: [0.0, 0.0],
+            times: Vec::new(),
+            tolerance: TRANSIENT_TOLERANCE,
+        }
+    }
+
+    /// Cells along x and v (as [`crate::grid::GridSolver::cells`]).
+    pub fn cells(mut self, nx: usize, nv: usize) -> Self {
+        self.cells = [nx, nv];
+        self
+    }
+
+    /// The box (as [`crate::grid::GridSolver::domain`]) instead of the automatic one.
+    pub fn domain(mut self, domain: Domain) -> Self {
+        self.domain = Some(domain);
+        self
+    }
+
+    /// The start (x, v); default rest (0, 0).
+    pub fn start(mut self, start: [f64; 2]) -> Self {
+        self.start = start;
+        self
+    }
+
+    /// Output times of R(t): finite, non-decreasing, none negative.
+    pub fn times(mut self, times: Vec<f64>) -> Self {
+        self.times = times;
+        self
+    }
+
+    /// The forward run's L1 error per unit time.
+    pub fn tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+
+    fn check(&self) -> Result<(), PassageError> {
+        let setting = |setting, value: String, expected| PassageError::Setting {
+            setting,
+            value,
+            expected,
+        };
+        check_cells(self.cells)?;
+        let t = &self.times;
+        if !(t.iter().all(|t| t.is_finite() && *t >= 0.0) && t.windows(2).all(|w| w[0] <= w[1])) {
+            return Err(setting(
+                "times",
+                format!("{t:?}"),
+                "finite, non-decreasing, none negative",
+            ));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(setting(
+                "tolerance",
+                format!("{}", self.tolerance),
+                "finite, positive",
+            ));
+        }
+        let [x, v] = self.start;
+        if !(x.is_finite() && v.is_finite()) {
+            return Err(setting("start", format!("{x},{v}"), "a finite point"));
+        }
+        if !self.safe.contains(self.start) {
+            return Err(PassageError::StartOutside {
+                x,
+                v,
+                safe: self.safe.text.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Solves: every setting, the start and the safe set's probability are checked before
+    /// the backward and forward solves.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = fpsolve::model::load_model(&path).unwrap().with_safe("z < 1").unwrap();
+    /// # let bound = model.bind(&[]).unwrap();
+    /// # let safe = model.safe().unwrap().bind(&bound).unwrap();
+    /// use fpsolve::grid::{GridPassage, PassageError};
+    /// let err = GridPassage::new(&bound, &safe).start([2.0, 0.0]).run().unwrap_err();
+    /// assert!(matches!(err, PassageError::StartOutside { .. }));
+    /// ```
+    ///
+    /// # Errors
+    /// [`PassageError::Setting`], [`PassageError::StartOutside`],
+    /// [`PassageError::StartOutsideBox`], [`PassageError::NoProbability`],
+    /// [`PassageError::Grid`], [`PassageError::Singular`], [`PassageError::Step`].
+    pub fn run(&self) -> Result<PassageSolution, PassageError> {
+        let started = Instant::now();
+        self.check()?;
+        let problem = Mechanical::new(self.model)?;
+        let box_ = match self.domain {
+            Some(d) => {
+                check_domain(&d, &problem, self.model)?;
+                d
+            }
+            None => match domain::energy_box(&problem) {
+                Some(d) => domain::fit_barrier(d, &problem),
+                None => domain::size(&problem)?.0,
+            },
+        };
+        let [nx, nv] = self.cells;
+        let box_ = align::aligned(box_, nx, &problem, self.safe, self.model);
+        let mesh = Mesh::new(box_, nx, nv, &problem.barriers, 4);
+        let d = mesh.domain();
+        let [x, v] = self.start;
+        if !(d.x[0] <= x && x <= d.x[1] && d.v[0] <= v && v <= d.v[1]) {
+            return Err(PassageError::StartOutsideBox { x, v, domain: d });
+        }
+        let n = mesh.cells();
+        let safe: Vec<bool> = (0..n)
+            .map(|c| {
+                let (i, j) = (c / nv, c % nv);
+                self.safe.contains([mesh.xc(i), mesh.vc(j)])
+            })
+            .collect();
+        let area = mesh.hx * mesh.hv;
+        // The stationary density on the same cells, for the average and the safe set's mass.
+        let (p, _) = domain::solve_pinned(&mesh, &problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
+        let inside: Vec<f64> = (0..n)
+            .map(|c| if safe[c] { p[c].max(0.0) } else { 0.0 })
+            .collect();
+        let safe_mass = inside.iter().sum::<f64>() * area;
+        let safe_cells = safe.iter().filter(|s| **s).count();
+        if safe_mass.is_nan() || safe_mass < MIN_SAFE_MASS || safe_cells == 0 {
+            return Err(PassageError::NoProbability {
+                safe: self.safe.text.clone(),
+                mass: safe_mass,
+                cells: safe_cells,
+            });
+        }
+        let op = assemble(&mesh, &problem)?;
+        let k = killed::killed(&mesh, &problem, &op, &safe)?;
+        let m = k.cells.len();
+        let singular = |detail: String| PassageError::Singular { nx, nv, detail };
+        let lu = FaerLu::factor(k.backward.as_ref(), Ordering::Colamd, memory_limit_bytes())
+            .map_err(|e| singular(e.to_string()))?;
+        let t1 = lu
+            .checked_solve(k.backward.as_ref(), &vec![-1.0; m], CHECK)
+            .map_err(|e| singular(e.to_string()))?;
+        let rhs: Vec<f64> = t1.iter().map(|t| -2.0 * t).collect();
+        let t2 = lu
+            .checked_solve(k.backward.as_ref(), &rhs, CHECK)
+            .map_err(|e| singular(e.to_string()))?;
+        let full = |t: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|c| {
+                    let s = k.index[c];
+                    if s == usize::MAX {
+                        0.0
+                    } else {
+                        t[s]
+                    }
+                })
+                .collect()
+        };
+        let (big1, big2) = (full(&t1), full(&t2));
+        let average =
+            |t: &[f64]| inside.iter().zip(t).map(|(p, t)| p * t).sum::<f64>() * area / safe_mass;
+        let start_cell = cell_of(&mesh, self.start);
+        let start_safe = k.index[start_cell];
+        if start_safe == usize::MAX {
+            // The start is inside the set but its cell's centre is not: the cells do not
+            // resolve the set near the start.
+            return Err(PassageError::StartOutside {
+                x,
+                v,
+                safe: format!("{} (on the grid's cells)", self.safe.text),
+            });
+        }
+        let (reliability, pdf, steps) = if self.times.is_empty() {
+            (Vec::new(), Vec::new(), [0; 3])
+        } else {
+            let mut p0 = vec![0.0; m];
+            p0[start_safe] = 1.0 / area;
+            let coords: Vec<[u32; 2]> = {
+                let all = cell_coords(nx, nv, false);
+                k.cells.iter().map(|&c| all[c]).collect()
+            };
+            let order = nested_dissection(k.forward.symbolic(), &coords, 1);
+            let run = TrBdf2::new(&k.forward)
+                .tolerance(Tolerance {
+                    relative: self.tolerance,
+                    absolute: 0.0,
+                })
+                .weight(area)
+                .order(order)
+                .run(&p0, 0.0, &self.times)?;
+            let mut ky = vec![0.0; m];
+            let (mut r, mut f) = (Vec::new(), Vec::new());
+            for o in &run.outputs {
+                apply(&k.forward, &o.y, &mut ky);
+                r.push(o.y.iter().sum::<f64>() * area);
+                f.push(-ky.iter().sum::<f64>() * area);
+            }
+            let s = &run.stats;
+            (r, f, [s.accepted, s.rejected, s.factorizations])
+        };
+        let integral = hermite_integral(&self.times, &reliability, &pdf);
+        Ok(PassageSolution {
+            mean_at_start: bilinear(&mesh, &big1, self.start),
+            second_at_start: bilinear(&mesh, &big2, self.start),
+            mean_from_start_cell: t1[start_safe],
+            mean_stationary: average(&big1),
+            second_stationary: average(&big2),
+            safe_mass,
+            times: self.times.clone(),
+            reliability,
+            pdf,
+            integral_of_reliability: integral,
+            report: PassageReport {
+                cells: [nx, nv],
+                domain: d,
+                safe_cells,
+                start: self.start,
+                safe: self.safe.text.clone(),
+                tolerance: self.tolerance,
+                steps,
+                total_ms: started.elapsed().as_secs_f64() * 1e3,
+            },
+        })
+    }
+}
+
+/// The cell holding `at` (clamped to the mesh).
+fn cell_of(mesh: &Mesh, at: [f64; 2]) -> usize {
+    let cell =
+        |u: f64, lo: f64, h: f64, n: usize| ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1);
+    mesh.index(
+        cell(at[0], mesh.x0, mesh.hx, mesh.nx),
+        cell(at[1], mesh.v0, mesh.hv, mesh.nv),
+    )
+}
+
+/// Bilinear interpolation of cell-centre values at `at` (the nearest centres at the edges).
+fn bilinear(mesh: &Mesh, f: &[f64], at: [f64; 2]) -> f64 {
+    let coord = |u: f64, lo: f64, h: f64, n: usize| {
+        let s = ((u - lo) / h - 0.5).clamp(0.0, (n - 1) as f64);
+        let i = (s.floor() as usize).min(n.saturating_sub(2));
+        (i, s - i as f64)
+    };
+    let (i, a) = coord(at[0], mesh.x0, mesh.hx, mesh.nx);
+    let (j, b) = coord(at[1], mesh.v0, mesh.hv, mesh.nv);
+    let g = |i: usize, j: usize| f[mesh.index(i, j)];
+    (1.0 - a) * ((1.0 - b) * g(i, j) + b * g(i, j + 1))
+        + a * ((1.0 - b) * g(i + 1, j) + b * g(i + 1, j + 1))
+}
+
+/// out = A y.
+fn apply(a: &faer::sparse::SparseColMat<usize, f64>, y: &[f64], out: &mut [f64]) {
+    out.iter_mut().for_each(|o| *o = 0.0);
+    for (c, &yc) in y.iter().enumerate() {
+        let rows = a.symbolic().row_idx_of_col_raw(c);
+        for (&r, &v) in rows.iter().zip(a.val_of_col(c)) {
+            out[r] += v * yc;
+        }
+    }
+}
+
+/// ∫ R dt over the outputs by the cubic Hermite rule (values and derivatives −pdf at both
+/// ends of each interval), fourth order in the outputs' spacing.
+fn hermite_integral(t: &[f64], r: &[f64], pdf: &[f64]) -> f64 {
+    (1..t.len())
+        .map(|k| {
+            let h = t[k] - t[k - 1];
+            0.5 * h * (r[k - 1] + r[k]) + h * h / 12.0 * (-pdf[k - 1] + pdf[k])
+        })
+        .sum()
+}

@@ -1,0 +1,275 @@
+//! First passage on the grid (issue 35): the backward and forward solves agree, the
+//! lightly damped linear oscillator of the issue against an independent Monte Carlo with an
+//! exact transition, and the model language's `safe` line.
+
+use fpsolve::grid::{GridPassage, PassageSolution};
+use fpsolve::model::{load_model, Override};
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+fn linear(c: f64, safe: &str) -> (fpsolve::model::Model, Vec<Override>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    let model = load_model(&path).unwrap().with_safe(safe).unwrap();
+    (model, vec![Override::number("c", c)])
+}
+
+fn passage(c: f64, safe: &str, cells: [usize; 2], times: Vec<f64>) -> PassageSolution {
+    let (model, set) = linear(c, safe);
+    let bound = model.bind(&set).unwrap();
+    let s = model.safe().unwrap().bind(&bound).unwrap();
+    GridPassage::new(&bound, &s)
+        .cells(cells[0], cells[1])
+        .times(times)
+        .tolerance(1e-5)
+        .run()
+        .unwrap()
+}
+
+/// The forward run with killing and the backward solve use one matrix and its transpose, so
+/// ∫₀^H R dt plus the tail beyond H equals the start cell's mean time; the tail is below
+/// R(H)·(mean time) for a decay at least as fast as the exponential of that mean.
+#[test]
+fn forward_reliability_integrates_to_the_backward_mean() {
+    let (c, safe) = (1.0, "abs(z) < 1.2");
+    let mean = passage(c, safe, [60, 80], vec![]).mean_from_start_cell;
+    let horizon = 12.0 * mean;
+    let times: Vec<f64> = (0..=600).map(|k| horizon * k as f64 / 600.0).collect();
+    let p = passage(c, safe, [60, 80], times);
+    let tail = p.reliability.last().unwrap() * mean;
+    let gap = (p.integral_of_reliability - p.mean_from_start_cell).abs();
+    println!(
+        "mean {mean:.6}, ∫R {:.6}, R(H) {:.2e}, gap {gap:.2e}",
+        p.integral_of_reliability,
+        p.reliability.last().unwrap()
+    );
+    assert!(gap < tail + 2e-3 * mean, "gap {gap:e}, tail {tail:e}");
+    // R falls from 1; the third-order scheme is not positivity-preserving, so from a point
+    // start in one cell R rose by 1.4e-3 and its density dipped to -6.4e-3 (c = 1, 60x80).
+    assert!((p.reliability[0] - 1.0).abs() < 1e-12);
+    let rise = p
+        .reliability
+        .windows(2)
+        .fold(0.0f64, |m, w| m.max(w[1] - w[0]));
+    let dip = p.pdf.iter().fold(0.0f64, |m, f| m.max(-f));
+    println!("largest rise of R {rise:.2e}, largest negative density {dip:.2e}");
+    assert!(rise < 3e-3 && dip < 1.5e-2, "rise {rise:e}, dip {dip:e}");
+    assert!(p.second_at_start > p.mean_at_start.powi(2));
+}
+
+/// One step of the exact transition of x' = v, v' = −c v − x + ξ (2πK = 1): mean map e^{Ah}
+/// and the covariance ∫₀^h e^{As} B Bᵀ e^{Aᵀs} ds, both by many RK4 substeps of their ODEs.
+fn exact_step(c: f64, h: f64) -> ([[f64; 2]; 2], [[f64; 3]; 1]) {
+    let a = [[0.0, 1.0], [-1.0, -c]];
+    let mul = |m: [[f64; 2]; 2], n: [[f64; 2]; 2]| {
+        let mut o = [[0.0; 2]; 2];
+        for i in 0..2 {
+            for j in 0..2 {
+                o[i][j] = m[i][0] * n[0][j] + m[i][1] * n[1][j];
+            }
+        }
+        o
+    };
+    let tr = |m: [[f64; 2]; 2]| [[m[0][0], m[1][0]], [m[0][1], m[1][1]]];
+    let add = |m: [[f64; 2]; 2], n: [[f64; 2]; 2], s: f64| {
+        [
+            [m[0][0] + s * n[0][0], m[0][1] + s * n[0][1]],
+            [m[1][0] + s * n[1][0], m[1][1] + s * n[1][1]],
+        ]
+    };
+    // Φ' = AΦ; P' = AP + PAᵀ + BBᵀ with BBᵀ = diag(0, 1).
+    let f_phi = |p: [[f64; 2]; 2]| mul(a, p);
+    let f_p = |p: [[f64; 2]; 2]| {
+        let q = add(mul(a, p), mul(p, tr(a)), 1.0);
+        add(q, [[0.0, 0.0], [0.0, 1.0]], 1.0)
+    };
+    let rk4 = |y: [[f64; 2]; 2], f: &dyn Fn([[f64; 2]; 2]) -> [[f64; 2]; 2], d: f64| {
+        let k1 = f(y);
+        let k2 = f(add(y, k1, d / 2.0));
+        let k3 = f(add(y, k2, d / 2.0));
+        let k4 = f(add(y, k3, d));
+        let s = add(add(k1, k4, 1.0), add(k2, k3, 1.0), 2.0);
+        add(y, s, d / 6.0)
+    };
+    let (mut phi, mut p) = ([[1.0, 0.0], [0.0, 1.0]], [[0.0; 2]; 2]);
+    let sub = 1000;
+    for _ in 0..sub {
+        phi = rk4(phi, &f_phi, h / sub as f64);
+        p = rk4(p, &f_p, h / sub as f64);
+    }
+    // Cholesky of P: l11, l21, l22.
+    let l11 = p[0][0].sqrt();
+    let l21 = p[1][0] / l11;
+    let l22 = (p[1][1] - l21 * l21).sqrt();
+    (phi, [[l11, l21, l22]])
+}
+
+fn normal(rng: &mut Xoshiro256PlusPlus) -> f64 {
+    // Box–Muller, one of the pair.
+    let u1: f64 = 1.0 - rng.random::<f64>();
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// Monte Carlo of the first exit from |x| < u from rest, on the exact Gaussian transition
+/// over steps of h; between two steps the path is the cubic Hermite interpolant of (x, v) at
+/// both ends (x is C¹), whose maximum of |x| decides a crossing inside the step, located by
+/// bisection. Returns (mean, its standard error, E[T²]).
+fn monte_carlo(c: f64, u: f64, h: f64, paths: usize, seed: u64) -> (f64, f64, f64) {
+    let (phi, [[l11, l21, l22]]) = exact_step(c, h);
+    let (mut s1, mut s2) = (0.0, 0.0);
+    for path in 0..paths {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(
+            seed ^ (path as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
+        let (mut x, mut v, mut t) = (0.0f64, 0.0f64, 0.0f64);
+        loop {
+            let (z1, z2) = (normal(&mut rng), normal(&mut rng));
+            let xn = phi[0][0] * x + phi[0][1] * v + l11 * z1;
+            let vn = phi[1][0] * x + phi[1][1] * v + l21 * z1 + l22 * z2;
+            let herm = |s: f64| {
+                let (s2, s3) = (s * s, s * s * s);
+                (2.0 * s3 - 3.0 * s2 + 1.0) * x
+                    + (s3 - 2.0 * s2 + s) * h * v
+                    + (-2.0 * s3 + 3.0 * s2) * xn
+                    + (s3 - s2) * h * vn
+            };
+            let out = |s: f64| herm(s).abs() >= u;
+            // The first sample (of 16) of the interpolant outside, then bisection.
+            if let Some(k) = (1..=16).find(|k| out(*k as f64 / 16.0)) {
+                let (mut a, mut b) = ((k - 1) as f64 / 16.0, k as f64 / 16.0);
+                for _ in 0..40 {
+                    let m = 0.5 * (a + b);
+                    if out(m) {
+                        b = m;
+                    } else {
+                        a = m;
+                    }
+                }
+                let tau = t + b * h;
+                s1 += tau;
+                s2 += tau * tau;
+                break;
+            }
+            x = xn;
+            v = vn;
+            t += h;
+        }
+    }
+    let n = paths as f64;
+    let mean = s1 / n;
+    let var = s2 / n - mean * mean;
+    (mean, (var / n).sqrt(), s2 / n)
+}
+
+/// The issue's case: ζ = 0.05 (c = 0.1, k = 1), barrier |x| = 2.5σ with σ² = πK/(ck) = 5,
+/// start at rest. The grid at two resolutions beside a Monte Carlo of 1e5 paths on the exact
+/// transition: the finer grid within 3 standard errors plus 1 %.
+#[test]
+#[ignore = "about a minute: cargo test --release --test passage -- --ignored"]
+fn lightly_damped_oscillator_against_monte_carlo() {
+    let c = 0.1;
+    let u = 2.5 * 5f64.sqrt();
+    let safe = format!("abs(z) < {u}");
+    let coarse = passage(c, &safe, [100, 200], vec![]);
+    let fine = passage(c, &safe, [200, 400], vec![]);
+    let (mc, se, mc2) = monte_carlo(c, u, 0.05, 100_000, 35);
+    println!(
+        "grid 100x200: T {:.4}, T2 {:.2}; 200x400: T {:.4}, T2 {:.2}, stationary-start T {:.4}; \
+         MC 1e5: T {mc:.4} ± {se:.4}, T2 {mc2:.2}",
+        coarse.mean_at_start,
+        coarse.second_at_start,
+        fine.mean_at_start,
+        fine.second_at_start,
+        fine.mean_stationary
+    );
+    assert!(
+        (fine.mean_at_start - mc).abs() < 3.0 * se + 0.01 * mc,
+        "grid {} vs MC {mc} ± {se}",
+        fine.mean_at_start
+    );
+}
+
+/// A strongly damped case (c = 1) small enough to run always: grid at 80x160 against 2e4
+/// Monte Carlo paths within 4 standard errors plus 2 %.
+#[test]
+fn damped_oscillator_against_monte_carlo() {
+    let (c, u) = (1.0, 1.2);
+    let g = passage(c, &format!("abs(z) < {u}"), [80, 160], vec![]);
+    let (mc, se, _) = monte_carlo(c, u, 0.02, 20_000, 7);
+    println!("grid T {:.4} vs MC {mc:.4} ± {se:.4}", g.mean_at_start);
+    assert!((g.mean_at_start - mc).abs() < 4.0 * se + 0.02 * mc);
+}
+
+/// A `safe` line may name observables (their definitions are substituted) and parameters.
+#[test]
+fn the_safe_line_reads_observables_and_parameters() {
+    let text = "model m\nparam c = 0.1, e0 = 3\nstate z, v\ndrift z: v\ndrift v: -c*v - z\n\
+                noise xi: intensity 1\ndiffusion v: xi\nobserve energy = v^2/2 + z^2/2\n\
+                safe energy < e0\n";
+    let model = fpsolve::model::parse_model(text, None).unwrap();
+    let bound = model.bind(&[]).unwrap();
+    let safe = model.safe().unwrap().bind(&bound).unwrap();
+    assert_eq!(safe.upper, Some(3.0));
+    assert_eq!(safe.quantity_at([1.0, 2.0]), 2.5);
+    assert!(safe.contains([1.0, 2.0]) && !safe.contains([2.0, 2.0]));
+    // `--safe` replaces it; its errors point into the flag's text.
+    let err = model.with_safe("-1 < z < 2 +").unwrap_err();
+    assert_eq!(err.line(), Some(1));
+    assert!(err.to_string().contains("--safe"), "{err}");
+    let empty = model.with_safe("2 < z < 1").unwrap();
+    assert!(empty.safe().unwrap().bind(&bound).is_err());
+}
+
+fn fpsolve(args: &[&str]) -> (Option<i32>, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stderr).into_owned() + &String::from_utf8_lossy(&out.stdout);
+    (out.status.code(), text)
+}
+
+/// `fpsolve passage` refuses a start outside the set and a model without one (exit 2), and
+/// writes R(t) from 1 down with the mean in summary.json.
+#[test]
+fn the_passage_command_checks_then_writes() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(z) < 2", "--start", "3,0"]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("not inside the safe set"), "{text}");
+    let (code, text) = fpsolve(&["passage", model]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("no safe set"), "{text}");
+    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(w) < 2"]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("--safe:1:5"), "{text}");
+    let dir = std::env::temp_dir().join(format!("fpsolve_passage_{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, text) = fpsolve(&[
+        "passage",
+        model,
+        "--safe",
+        "abs(z) < 2",
+        "--cells",
+        "40,40",
+        "--times",
+        "0:20:5",
+        "--out",
+        out,
+        "--quiet",
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    assert_eq!(rows[0][1], 1.0);
+    assert!(rows[4][1] < rows[1][1]);
+    let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    assert!(summary.contains("\"mean_at_start\""), "{summary}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
