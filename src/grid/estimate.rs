@@ -14,24 +14,14 @@
 //! order at least 1. Without the safety factor the velocity's standard deviation under the
 //! Zhuravlev form with r = 1 is 1.1 times its estimate (it converges at order 1 there).
 
-use super::solution::{DiscretisationEstimate, GridSolution};
+use super::solution::{richardson_factor, DiscretisationEstimate, GridSolution, SAFETY};
 
 /// Evaluation points per cell of the fine mesh along an axis: the midpoint rule on the
 /// piecewise-linear difference of two curves is then within a few per cent of its integral.
 const POINTS_PER_CELL: usize = 8;
 
-/// Roache's safety factor of the grid convergence index for a known order.
-const SAFETY: f64 = 1.25;
-
 /// The level, relative to a marginal's peak, above which its tails are compared.
 pub const TAIL_LEVEL: f64 = 1e-5;
-
-/// The factor a difference between the fine and the half-resolution answer is scaled by
-/// to bound the fine one's error, for convergence of order `order`: Richardson's
-/// 1/(2^order − 1) times Roache's safety factor.
-pub(super) fn factor(order: f64) -> f64 {
-    SAFETY / (2f64.powf(order) - 1.0)
-}
 
 /// The estimate of `fine`'s errors from the solution `coarse` of the same problem on half the
 /// cells per axis (both clipped and of unit mass), assuming convergence of order `order`.
@@ -40,7 +30,7 @@ pub(super) fn estimate(
     coarse: &GridSolution,
     order: f64,
 ) -> DiscretisationEstimate {
-    let factor = factor(order);
+    let factor = richardson_factor(order);
     let d = fine.domain();
     let mut out = DiscretisationEstimate {
         x: 0.0,

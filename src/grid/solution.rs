@@ -191,6 +191,16 @@ pub struct GridSolution {
     pub(crate) coarse: Option<Box<GridSolution>>,
 }
 
+/// Roache's safety factor of the grid convergence index for a known order.
+pub(super) const SAFETY: f64 = 1.25;
+
+/// The factor a difference between the fine and the half-resolution answer is scaled by
+/// to bound the fine one's error, for convergence of order `order`: Richardson's
+/// 1/(2^order − 1) times Roache's safety factor.
+pub(super) fn richardson_factor(order: f64) -> f64 {
+    SAFETY / (2f64.powf(order) - 1.0)
+}
+
 impl GridSolution {
     /// The estimated discretisation error of a number `f` derives from the density (a
     /// crossing rate, an impact rate, a moment), as the error estimate takes it for the
@@ -237,7 +247,7 @@ impl GridSolution {
             0.0
         };
         let renormalised = 2.0 * self.report.negative_mass + cut;
-        let factor = super::estimate::factor(order);
+        let factor = richardson_factor(order);
         Some(
             fine.iter()
                 .zip(&half)
