@@ -398,28 +398,43 @@ impl GridSolution {
             let (j0, j1, tv) = bracket(at, m.v0, m.hv, [0, m.nv]);
             let (f0, f1) = (|i: usize| self.cell(i, j0), |i: usize| self.cell(i, j1));
             let columns: [(f64, &dyn Fn(usize) -> f64); 2] = [(1.0 - tv, &f0), (tv, &f1)];
-            let whole = [[0, m.nx]];
-            let runs: &[[usize; 2]] = if m.segments.is_empty() {
-                &whole
-            } else {
-                &m.segments
-            };
-            runs.iter()
-                .map(|&[s0, s1]| {
-                    let lo = if s0 == 0 {
-                        d.x[0]
-                    } else {
-                        m.x0 + s0 as f64 * m.hx
-                    };
-                    let hi = if s1 == m.nx {
-                        d.x[1]
-                    } else {
-                        m.x0 + s1 as f64 * m.hx
-                    };
-                    run_integral(&columns, m.x0, m.hx, [s0, s1], [lo, hi], [a, b], true)
+            self.runs()
+                .into_iter()
+                .map(|(cells, edges)| {
+                    run_integral(&columns, m.x0, m.hx, cells, edges, [a, b], true)
                 })
                 .sum()
         }
+    }
+}
+
+impl GridSolution {
+    /// The runs of cells in x the interpolant does not cross (one, or two either side of a
+    /// barrier), each with its edges: the domain's ends or the barrier's face.
+    fn runs(&self) -> Vec<([usize; 2], [f64; 2])> {
+        let m = &self.mesh;
+        let d = m.domain();
+        let whole = [[0, m.nx]];
+        let runs: &[[usize; 2]] = if m.segments.is_empty() {
+            &whole
+        } else {
+            &m.segments
+        };
+        runs.iter()
+            .map(|&[s0, s1]| {
+                let lo = if s0 == 0 {
+                    d.x[0]
+                } else {
+                    m.x0 + s0 as f64 * m.hx
+                };
+                let hi = if s1 == m.nx {
+                    d.x[1]
+                } else {
+                    m.x0 + s1 as f64 * m.hx
+                };
+                ([s0, s1], [lo, hi])
+            })
+            .collect()
     }
 }
 
@@ -559,23 +574,7 @@ impl JointDensity for GridSolution {
         let d = m.domain();
         let mut out = Vec::new();
         if axis == 0 {
-            let whole = [[0, m.nx]];
-            let runs: &[[usize; 2]] = if m.segments.is_empty() {
-                &whole
-            } else {
-                &m.segments
-            };
-            for &[s0, s1] in runs {
-                let lo = if s0 == 0 {
-                    d.x[0]
-                } else {
-                    m.x0 + s0 as f64 * m.hx
-                };
-                let hi = if s1 == m.nx {
-                    d.x[1]
-                } else {
-                    m.x0 + s1 as f64 * m.hx
-                };
+            for ([s0, s1], [lo, hi]) in self.runs() {
                 if out.last() != Some(&lo) {
                     out.push(lo);
                 }
