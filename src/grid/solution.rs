@@ -222,24 +222,30 @@ impl GridSolution {
     ///     .solve().unwrap().estimate_of(at_origin).is_none());
     /// ```
     pub fn estimate_of(&self, f: impl Fn(&GridSolution) -> f64) -> Option<f64> {
-        self.estimate_of_each(|s| vec![f(s)]).map(|e| e[0])
+        self.estimate_of_each(&[f(self)], |s| vec![f(s)])
+            .map(|e| e[0])
     }
 
     /// [`GridSolution::estimate_of`] for each of the numbers `f` derives at once (a curve:
-    /// its values at a set of levels).
+    /// its values at a set of levels), given their values `fine` on this solution (which the
+    /// caller has already computed: only the half-resolution solve is evaluated).
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
     /// let sol = fpsolve::grid::GridSolver::new(&bound).cells(80, 160).solve().unwrap();
     /// let on_axis = |s: &fpsolve::grid::GridSolution| vec![s.pdf(0.0, 0.0), s.pdf(1.0, 0.0)];
-    /// let errors = sol.estimate_of_each(on_axis).unwrap();
+    /// let errors = sol.estimate_of_each(&on_axis(&sol), on_axis).unwrap();
     /// assert_eq!(errors.len(), 2);
     /// ```
-    pub fn estimate_of_each(&self, f: impl Fn(&GridSolution) -> Vec<f64>) -> Option<Vec<f64>> {
+    pub fn estimate_of_each(
+        &self,
+        fine: &[f64],
+        f: impl Fn(&GridSolution) -> Vec<f64>,
+    ) -> Option<Vec<f64>> {
         let coarse = self.coarse.as_deref()?;
         let order = self.report.discretisation_estimate.as_ref()?.order;
-        let (fine, half) = (f(self), f(coarse));
+        let half = f(coarse);
         let edges = &self.report.edges;
         let cut = if edges.cuts_density {
             2.0 * edges.beyond.iter().sum::<f64>()

@@ -173,7 +173,7 @@ fn crossing_text(
             crossing_rate(d, &rate, levels)
                 .map_or_else(|_| vec![f64::NAN; levels.len()], |c| c.rate)
         };
-        let curve = match method.estimate_derived(solution, &derive) {
+        let curve = match method.estimate_derived(solution, &curve.rate, &derive) {
             Some(errors) => {
                 // As for the PDF's tails, the estimate is trusted only where the rate is at
                 // least TAIL_LEVEL of its peak (below, the half-resolution solve's far tail
@@ -272,12 +272,14 @@ fn impacts(problem: &Problem, study: &Study, out: &OutputDir, written: &mut Writ
                 impact_statistics(d, model, impact, &[])
                     .map_or_else(|_| vec![f64::NAN; 3], |s| scalars(&s))
             };
-            let errors = method.estimate_derived(solution, &derive).map(|e| {
-                e.iter()
-                    .zip(scalars(&stats))
-                    .map(|(e, v)| e + stats.accuracy * v.abs())
-                    .collect::<Vec<f64>>()
-            });
+            let errors = method
+                .estimate_derived(solution, &scalars(&stats), &derive)
+                .map(|e| {
+                    e.iter()
+                        .zip(scalars(&stats))
+                        .map(|(e, v)| e + stats.accuracy * v.abs())
+                        .collect::<Vec<f64>>()
+                });
             let label = run.source().label();
             table.columns.push((label.clone(), stats.speed_pdf.clone()));
             rows.push(WallImpacts {

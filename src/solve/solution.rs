@@ -360,21 +360,23 @@ impl Solution {
 
     fn moments_of(&self, quantities: &[&Quantity]) -> Vec<QuantityMoments> {
         let maps: Vec<_> = quantities.iter().map(|q| &q.map).collect();
-        // The same moments under the method's other solve (the grid's half resolution): the
-        // estimate of their errors, as for the curves.
-        let derive = |d: &dyn JointDensity| -> Vec<f64> {
-            moments_of_all(d, &maps)
-                .iter()
+        // Mean, std and kurtosis of every quantity, as the estimate takes them.
+        let statistics = |all: &[crate::observe::ObservableMoments]| -> Vec<f64> {
+            all.iter()
                 .flat_map(|m| [m.moments.mean, m.moments.std_dev(), m.moments.kurtosis])
                 .collect()
         };
+        let all = moments_of_all(self.joint(), &maps);
+        // The same statistics under the method's other solve (the grid's half resolution):
+        // the estimate of their errors, as for the curves.
+        let derive = |d: &dyn JointDensity| statistics(&moments_of_all(d, &maps));
+        let values = statistics(&all);
         let estimates = self
             .method()
             .name()
             .method()
-            .estimate_derived(self, &derive);
-        moments_of_all(self.joint(), &maps)
-            .into_iter()
+            .estimate_derived(self, &values, &derive);
+        all.into_iter()
             .zip(quantities)
             .enumerate()
             .map(|(i, (m, q))| QuantityMoments {

@@ -44,7 +44,7 @@ use super::domain;
 use super::mesh::Mesh;
 use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
-use super::{check_cells, check_domain, Domain, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
+use super::{check_cells, Domain, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
 use crate::base::limits::memory_limit_bytes;
 use crate::model::{BoundModel, BoundSafe};
 use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
@@ -232,16 +232,7 @@ impl<'a> GridPassage<'a> {
         let started = Instant::now();
         self.check()?;
         let problem = Mechanical::new(self.model)?;
-        let box_ = match self.domain {
-            Some(d) => {
-                check_domain(&d, &problem, self.model)?;
-                d
-            }
-            None => match domain::energy_box(&problem) {
-                Some(d) => domain::fit_barrier(d, &problem),
-                None => domain::size(&problem)?.0,
-            },
-        };
+        let box_ = super::transient::starting_box(self.domain, &problem, self.model)?;
         let [nx, nv] = self.cells;
         let box_ = align::aligned(box_, nx, &problem, self.safe, self.model);
         let mesh = Mesh::new(box_, nx, nv, &problem.barriers, 4);

@@ -79,6 +79,25 @@ pub struct GridTransient<'a> {
     joint: bool,
 }
 
+/// The box of a time-marching problem on the grid (the transient, first passage): `given`
+/// (checked as the stationary solver checks it) or the one the stationary solver starts from.
+pub(in crate::grid) fn starting_box(
+    given: Option<Domain>,
+    problem: &Mechanical,
+    model: &BoundModel,
+) -> Result<Domain, GridError> {
+    match given {
+        Some(d) => {
+            check_domain(&d, problem, model)?;
+            Ok(d)
+        }
+        None => match domain::energy_box(problem) {
+            Some(d) => Ok(domain::fit_barrier(d, problem)),
+            None => domain::size(problem).map(|(d, _, _)| d),
+        },
+    }
+}
+
 impl<'a> GridTransient<'a> {
     /// A transient from rest on the default cells and the automatic box, tolerance
     /// [`TRANSIENT_TOLERANCE`], no output time yet.
@@ -247,19 +266,9 @@ impl<'a> GridTransient<'a> {
         }
     }
 
-    /// The box: the one given (checked as the stationary solver checks it) or the one the
-    /// stationary solver starts from.
+    /// The box: see [`starting_box`].
     fn domain_for(&self, problem: &Mechanical) -> Result<Domain, GridError> {
-        match self.domain {
-            Some(d) => {
-                check_domain(&d, problem, self.model)?;
-                Ok(d)
-            }
-            None => match domain::energy_box(problem) {
-                Some(d) => Ok(domain::fit_barrier(d, problem)),
-                None => domain::size(problem).map(|(d, _, _)| d),
-            },
-        }
+        starting_box(self.domain, problem, self.model)
     }
 
     /// Runs: every setting and the initial density's fit in the box are checked before the

@@ -96,10 +96,11 @@ impl StationaryMethod for FiniteVolumes {
     fn estimate_derived(
         &self,
         solution: &Solution,
+        values: &[f64],
         derive: &dyn Fn(&dyn crate::density::JointDensity) -> Vec<f64>,
     ) -> Option<Vec<f64>> {
         match solution.density() {
-            Density::Grid(g) => g.estimate_of_each(|s| derive(s)),
+            Density::Grid(g) => g.estimate_of_each(values, |s| derive(s)),
             _ => None,
         }
     }

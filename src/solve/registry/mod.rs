@@ -91,12 +91,14 @@ pub trait StationaryMethod: Sync {
     }
 
     /// Its own estimate of the discretisation error (absolute) of each number `derive`
-    /// takes from `solution`'s joint density (a crossing-rate curve, impact statistics):
+    /// takes from `solution`'s joint density (a crossing-rate curve, impact statistics),
+    /// given their `values` on `solution` (already computed by the caller):
     /// the grid's from its half-resolution solve; `None` for a method without an estimate
     /// (EPC's closure error has none).
     fn estimate_derived(
         &self,
         _solution: &Solution,
+        _values: &[f64],
         _derive: &dyn Fn(&dyn crate::density::JointDensity) -> Vec<f64>,
     ) -> Option<Vec<f64>> {
         None
