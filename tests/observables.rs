@@ -499,3 +499,93 @@ fn moments_that_diverge_are_undefined_not_numbers() {
         .note()
         .is_none());
 }
+
+/// The grid's PDFs of maps, from level-set quadrature of its piecewise-bilinear density cut at
+/// its pieces and at the maps' kinks, against the exact PDFs of the linear oscillator (z, v
+/// independent N(0, 5)): a smooth map with a minimum (the energy, Exp(mean 5)), a kinked one
+/// (|z + v|, half-normal of variance 10), one with a point mass and a kinked level set
+/// (max(z, 0) + v) and one singular at 0 (v², a scaled χ², compared away from 0). The L1
+/// distance over each curve's levels stays below the grid's own estimated L1 error of its
+/// marginals: the joint density's error, pushed forward, is of that size.
+#[test]
+fn the_grid_pdfs_of_smooth_kinked_and_singular_maps_are_exact_to_its_error() {
+    let text = LINEAR.replace(
+        "observe energy",
+        "observe absum = abs(z + v), clip = max(z, 0) + v, energy",
+    );
+    let bound = parse_model(&text, None).unwrap().bind(&[]).unwrap();
+    let grid = fpsolve::grid::GridSolver::new(&bound)
+        .cells(100, 200)
+        .solve()
+        .unwrap();
+    let estimate = grid.report.discretisation_estimate.unwrap();
+    let bound_l1 = estimate.x.max(estimate.v);
+    let maps: Vec<(String, ObservableMap)> = bound
+        .observables()
+        .iter()
+        .map(|o| {
+            (
+                o.name.to_string(),
+                ObservableMap::classify(&o.expr, bound.states()),
+            )
+        })
+        .collect();
+    let s2: f64 = 5.0;
+    let normal = |u: f64, var: f64| (-u * u / (2.0 * var)).exp() / (2.0 * PI * var).sqrt();
+    // Φ(x) for the clipped sum, by Simpson from far in the left tail.
+    let cdf = |x: f64| simpson(&|t| normal(t, 1.0), -12.0, x, 4000);
+    type Exact<'a> = Box<dyn Fn(f64) -> f64 + 'a>;
+    let cases: [(&str, [f64; 2], Exact); 4] = [
+        ("energy", [0.0, 60.0], Box::new(|u| (-u / 5.0).exp() / 5.0)),
+        (
+            "absum",
+            [0.0, 25.0],
+            Box::new(|u| 2.0 * normal(u, 2.0 * s2)),
+        ),
+        (
+            "clip",
+            [-15.0, 20.0],
+            Box::new(|u| 0.5 * normal(u, s2) + normal(u, 2.0 * s2) * cdf(u / (2.0 * s2).sqrt())),
+        ),
+        (
+            "vsq",
+            [0.5, 100.0],
+            Box::new(|u| (-u / 10.0).exp() / (2.0 * PI * 5.0 * u).sqrt()),
+        ),
+    ];
+    for (name, [lo, hi], exact) in cases {
+        let n = 400;
+        let u: Vec<f64> = (0..=n)
+            .map(|k| lo + (hi - lo) * k as f64 / n as f64)
+            .collect();
+        let p = ObservableDensity::new(&grid, map(&maps, name)).pdf(&u);
+        let d: Vec<f64> = u
+            .iter()
+            .zip(&p)
+            .map(|(&u, p)| (p - exact(u)).abs())
+            .collect();
+        assert!(d.iter().all(|d| d.is_finite()), "{name}: {p:?}");
+        let h = (hi - lo) / n as f64;
+        let l1 = h * (d.iter().sum::<f64>() - 0.5 * (d[0] + d[n]));
+        eprintln!("{name}: L1 {l1:.2e} against the estimate {bound_l1:.2e}");
+        assert!(
+            l1 < bound_l1,
+            "{name}: L1 {l1:e} above the estimate {bound_l1:e}"
+        );
+    }
+}
+
+/// |z + v| folds the plane along z + v = 0, where it takes its least value 0 on a whole line
+/// with no critical point: no line of the quadrature crosses that level set, and p(0) once
+/// came out 0. It is the one-sided limit, 2·φ(0) of the sum's variance 10 (EPC's degree 2 is
+/// exact here).
+#[test]
+fn a_folded_map_has_its_limit_at_the_fold() {
+    let text = LINEAR.replace("observe energy", "observe absum = abs(z + v), energy");
+    let (sol, maps) = pipeline(&text, 2);
+    let p = ObservableDensity::new(&sol, map(&maps, "absum")).pdf(&[0.0, 1.0, -1e-3]);
+    let half_normal = |u: f64| 2.0 * (-u * u / 20.0).exp() / (2.0 * PI * 10.0).sqrt();
+    assert_rel("p(0)", p[0], half_normal(0.0), 1e-6);
+    assert_rel("p(1)", p[1], half_normal(1.0), 1e-6);
+    assert_eq!(p[2], 0.0);
+}

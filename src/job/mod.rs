@@ -366,8 +366,7 @@ fn run(
         .iter()
         .filter(|s| s.method == MethodName::Grid)
         .flat_map(|s| match &s.why {
-            NotApplicable::SlowObservables { observables }
-            | NotApplicable::NonSmoothObservables { observables } => observables.clone(),
+            NotApplicable::JumpingObservables { observables } => observables.clone(),
             _ => Vec::new(),
         })
         .collect();

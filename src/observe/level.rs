@@ -29,7 +29,7 @@
 //!   inverse-power singularity, which the quadrature resolves with reduced accuracy.
 
 use super::critical::{in_component, Critical, CriticalSearch, Kind};
-use super::quadrature::integrate_panels;
+use super::quadrature::{integrate_panels, integrate_panels_by, Rule};
 use super::{JointDensity, ObservableMap};
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicError, Tape};
 
@@ -39,6 +39,9 @@ const M: i32 = 8;
 const GRID: usize = 129;
 /// Relative tolerance of the adaptive quadrature over the lines.
 const REL_TOL: f64 = 1e-10;
+/// Relative tolerance of that quadrature for a piecewise density, whose panels are cut at its
+/// pieces (the grid's own error is 1e−6 of the density or more, so 1e−8 is ample).
+const PIECEWISE_REL_TOL: f64 = 1e-8;
 
 /// The co-area method, prepared for one observable under one joint density.
 pub(crate) struct LevelSet {
@@ -55,6 +58,8 @@ pub(crate) struct LevelSet {
     cmax: Vec<f64>,
     /// Spread of g over the support (max − min), the scale of "g − u is zero".
     gscale: f64,
+    /// The least and greatest g at the bracketing grid's nodes where the density is positive.
+    range: [f64; 2],
     critical: Vec<Critical>,
     /// The kink curves {h = 0} of g off the axes: one level set per argument h of an `abs` or
     /// `sgn` in g that is not ± a state (those are the axes, handled directly).
@@ -238,6 +243,7 @@ impl LevelSet {
             }
         }
         let mut set = LevelSet {
+            range: [lo, hi],
             tape,
             ext,
             lo: grid_lo,
@@ -274,8 +280,20 @@ impl LevelSet {
             .collect()
     }
 
-    /// p_g(u).
+    /// p_g(u). At an end of g's range that g takes on a curve without a critical point (the
+    /// fold of |h| at h = 0, as |z + v| at 0) the level set is that curve, which no line
+    /// crosses: its value is the one-sided limit, p_g a hair inside the range.
     pub(crate) fn pdf(&self, density: &dyn JointDensity, u: f64) -> f64 {
+        let p = self.pdf_at(density, u);
+        let [lo, hi] = self.range;
+        if p != 0.0 || (u > lo && u < hi) {
+            return p;
+        }
+        let hair = 1e-9 * self.gscale;
+        self.pdf_at(density, if u <= lo { u + hair } else { u - hair })
+    }
+
+    fn pdf_at(&self, density: &dyn JointDensity, u: f64) -> f64 {
         let width = (self.ext[0][1] - self.ext[0][0]).max(self.ext[1][1] - self.ext[1][0]);
         let mut total = 0.0;
         let mut excluded: Vec<&Critical> = Vec::new();
@@ -331,6 +349,22 @@ impl LevelSet {
                 self.kink_corners(k, &lines[a], a, u, axis_breaks, &mut scratch);
             }
         }
+        // A piecewise density (the grid's interpolant) has kinks along the lines of its
+        // pieces: across them (x_a = c) the line sum kinks in s, and where the level set
+        // crosses the other family's lines (x_b = c) the density along it kinks. Both are
+        // break points, so that every panel's integrand is smooth; only the lines near the
+        // level set are looked at.
+        let pieces = [0, 1].map(|a| self.near_level(a, u, density.breakpoints(a)));
+        for a in 0..2 {
+            let b = 1 - a;
+            breaks[a].extend_from_slice(&pieces[a]);
+            for &c in &pieces[b] {
+                let mut roots = [0.0; 2 * GRID];
+                let count = self.line_roots(b, c, u, &mut roots, &mut scratch);
+                breaks[a].extend_from_slice(&roots[..count]);
+            }
+        }
+        let piecewise = pieces.iter().any(|p| !p.is_empty());
         for (a, axis_breaks) in breaks.iter().enumerate() {
             let [lo, hi] = self.ext[a];
             let mut edges: Vec<f64> = (0..=16)
@@ -346,9 +380,44 @@ impl LevelSet {
                 let mut scratch = scratch.borrow_mut();
                 self.line_sum(density, a, s, u, &excluded, &mut scratch)
             };
-            total += integrate_panels(&f, &edges, REL_TOL);
+            total += if piecewise {
+                let batch = |t: &[f64], out: &mut [f64]| {
+                    for (o, &t) in out.iter_mut().zip(t) {
+                        *o = f(t);
+                    }
+                };
+                integrate_panels_by(Rule::Kronrod7, &batch, &edges, PIECEWISE_REL_TOL)
+            } else {
+                integrate_panels(&f, &edges, REL_TOL)
+            };
         }
         total
+    }
+
+    /// Of `lines` (x_a = c, sorted), those in a column of the bracketing grid where some cell
+    /// may hold the level u (none when `lines` is `None`).
+    fn near_level(&self, a: usize, u: f64, lines: Option<Vec<f64>>) -> Vec<f64> {
+        let Some(lines) = lines else {
+            return Vec::new();
+        };
+        let n = GRID - 1;
+        let active: Vec<bool> = (0..n)
+            .map(|i| {
+                (0..n).any(|j| {
+                    let k = if a == 0 { i * n + j } else { j * n + i };
+                    u >= self.cmin[k] && u <= self.cmax[k]
+                })
+            })
+            .collect();
+        lines
+            .into_iter()
+            .filter(|&c| {
+                let i = ((c - self.lo[a]) / self.h[a]).floor();
+                // A line on a column's edge belongs to both columns.
+                let near = |i: f64| i >= 0.0 && (i as usize) < n && active[i as usize];
+                near(i) || near(i - 1.0)
+            })
+            .collect()
     }
 
     /// g at the roots of the kink curve {h = 0} of `kink` on every grid line x_a = s_i (the

@@ -234,7 +234,7 @@ enum Method {
         sign: [[f64; 2]; 2],
         offset: f64,
     },
-    Level(level::LevelSet),
+    Level(Box<level::LevelSet>),
     /// The observable could not be compiled (e.g. a constant `log(-1)`): NaN everywhere.
     Undefined(SymbolicError),
 }
@@ -255,7 +255,7 @@ impl<'a> ObservableDensity<'a> {
                     offset,
                 },
                 _ => match level::LevelSet::new(density, expr, states) {
-                    Ok(l) => Method::Level(l),
+                    Ok(l) => Method::Level(Box::new(l)),
                     Err(e) => Method::Undefined(e),
                 },
             },
@@ -279,6 +279,12 @@ impl<'a> ObservableDensity<'a> {
             Method::Level(l) => u.par_iter().map(|&u| l.pdf(self.density, u)).collect(),
             Method::Undefined(_) => vec![f64::NAN; u.len()],
         }
+    }
+
+    /// Whether the joint density is piecewise (it has [`JointDensity::breakpoints`], as the
+    /// grid's interpolant has): its PDFs of maps then kink where level sets meet its pieces.
+    pub(crate) fn piecewise(&self) -> bool {
+        (0..2).any(|a| self.density.breakpoints(a).is_some())
     }
 
     /// The values where the density is infinite, sorted: the map's saddle and degenerate

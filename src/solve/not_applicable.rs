@@ -36,29 +36,19 @@ pub enum NotApplicable {
         /// What it does not handle.
         unsupported: Unsupported,
     },
-    /// Not computed unless the grid is named: its PDFs of these observables (neither a state
-    /// nor ± a state on each quadrant) go through level-set quadrature of its
-    /// piecewise-bilinear density, which takes minutes where everything else takes a second.
-    /// The grid still runs: its states' PDFs and every moment are reported.
+    /// Not computed unless the grid is named: its PDFs of these observables, which have `sgn`
+    /// of the states (a jump across a curve of the plane). Maps with kinks (`abs`, `min`,
+    /// `max`) and smooth maps are computed, by level-set quadrature cut at the pieces of its
+    /// piecewise-bilinear density and at the kinks, and checked against exact answers; a
+    /// jump has no such check yet. The grid still runs: its states' PDFs and every moment are
+    /// reported.
     #[error(
-        "its PDFs of {} are not computed by default: they take minutes (level-set quadrature \
-         of a piecewise-bilinear density); its states' PDFs and the moments are reported; name \
-         the grid with --method to compute them",
+        "its PDFs of {} are not computed by default: they have sgn of the states (a jump), on \
+         which its level-set quadrature is not checked; its states' PDFs and the moments are \
+         reported; name the grid with --method to compute them",
         observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
     )]
-    SlowObservables {
-        /// The observables.
-        observables: Vec<String>,
-    },
-    /// Not computed even when the grid is named: its PDFs of these observables, which have
-    /// `min`, `max`, `abs` or `sgn` of the states (kinks or jumps the level-set quadrature of
-    /// a piecewise-bilinear density resolves only by splitting panels without end: `max(z, 0)`
-    /// ran past 150 s). The grid still runs: its states' PDFs and every moment are reported.
-    #[error(
-        "its PDFs of {} are not computed: they have min, max, abs or sgn of the states, which          the level-set quadrature of its piecewise-bilinear density does not resolve in          reasonable time; its states' PDFs and the moments are reported; epc and Monte Carlo          give these PDFs",
-        observables.iter().map(|o| format!("`{o}`")).collect::<Vec<_>>().join(", ")
-    )]
-    NonSmoothObservables {
+    JumpingObservables {
         /// The observables.
         observables: Vec<String>,
     },

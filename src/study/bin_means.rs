@@ -24,30 +24,48 @@ const SLIVER: f64 = 1e-8;
 
 /// Relative tolerance of the graded quadrature of a singular bin.
 const REL_TOL: f64 = 1e-11;
+/// The same for a piecewise density (the grid's interpolant), whose PDF of a map kinks
+/// wherever the level set meets a line of its pieces: a tighter tolerance would only chase
+/// those kinks, far below the density's own error (1e−6 of it or more).
+const PIECEWISE_REL_TOL: f64 = 1e-8;
 
 /// Bins within this many bin widths of a singular value are integrated adaptively: the
 /// 4-point rule's error on a bin k widths away from u^(−1/2) is about (4k + 2)^(−8) of its
 /// mass (2e−10 at 4 widths, 2e−12 at 8), above the 1e−10 a comparison needs.
 const NEAR_BINS: f64 = 16.0;
+/// The same for a piecewise density: 2 widths away the 4-point rule's error, 1e−7 of the
+/// bin's mass, is below the density's own.
+const PIECEWISE_NEAR_BINS: f64 = 2.0;
 
 /// The density averaged over each bin of `grid`.
 pub(super) fn bin_means(density: &ObservableDensity, grid: &Grid) -> Vec<f64> {
+    let (rel, near) = if density.piecewise() {
+        (PIECEWISE_REL_TOL, PIECEWISE_NEAR_BINS)
+    } else {
+        (REL_TOL, NEAR_BINS)
+    };
     bin_means_with(
         &|x: &[f64]| density.pdf(x),
         &density.singular_values(),
         grid,
+        (rel, near),
     )
 }
 
 /// [`bin_means`] of the density `pdf` (evaluated at many points at a time), infinite at the
-/// values `singular`.
-fn bin_means_with(pdf: &dyn Fn(&[f64]) -> Vec<f64>, singular: &[f64], grid: &Grid) -> Vec<f64> {
+/// values `singular`, singular bins to relative tolerance `rel`.
+fn bin_means_with(
+    pdf: &dyn Fn(&[f64]) -> Vec<f64>,
+    singular: &[f64],
+    grid: &Grid,
+    (rel, near_bins): (f64, f64),
+) -> Vec<f64> {
     let (lo, w) = (grid.lo, grid.width());
     let edge = |b: usize| lo + b as f64 * w;
     let near = |b: usize| {
         singular
             .iter()
-            .any(|&c| c >= edge(b) - NEAR_BINS * w && c <= edge(b + 1) + NEAR_BINS * w)
+            .any(|&c| c >= edge(b) - near_bins * w && c <= edge(b + 1) + near_bins * w)
     };
     let smooth: Vec<usize> = (0..grid.bins).filter(|&b| !near(b)).collect();
     let nodes: Vec<f64> = smooth
@@ -70,7 +88,7 @@ fn bin_means_with(pdf: &dyn Fn(&[f64]) -> Vec<f64>, singular: &[f64], grid: &Gri
     let sliver = SLIVER * (grid.hi - grid.lo);
     for b in (0..grid.bins).filter(|&b| near(b)) {
         let (a, z) = (edge(b), edge(b + 1));
-        means[b] = singular_integral(pdf, [a, z], singular, sliver) / w;
+        means[b] = singular_integral(pdf, [a, z], singular, sliver, rel) / w;
     }
     means
 }
@@ -87,6 +105,7 @@ fn singular_integral(
     [a, b]: [f64; 2],
     singular: &[f64],
     sliver: f64,
+    rel: f64,
 ) -> f64 {
     let w = b - a;
     let close: Vec<f64> = singular
@@ -118,7 +137,7 @@ fn singular_integral(
         |p: &[f64]| on.iter().any(|&s| p[0] == s || p[1] == s) && p[1] - p[0] <= 1.001 * sliver;
     let flush = |run: &mut Vec<f64>, total: &mut f64| {
         if run.len() >= 2 {
-            *total += integrate_panels_batch(&batch, run, REL_TOL);
+            *total += integrate_panels_batch(&batch, run, rel);
         }
         run.clear();
     };
@@ -217,7 +236,7 @@ mod tests {
         // that starts before it and one that starts a little after it.
         for (lo, hi) in [(0.0, 30.0), (-0.7, 25.0), (0.01, 20.0)] {
             let grid = Grid::new(lo, hi, 100).unwrap();
-            let means = bin_means_with(&chi2(s), &[0.0], &grid);
+            let means = bin_means_with(&chi2(s), &[0.0], &grid, (REL_TOL, NEAR_BINS));
             for (b, m) in means.iter().enumerate() {
                 let (a, z) = (
                     lo + b as f64 * grid.width(),
@@ -260,7 +279,7 @@ mod tests {
             }
         };
         let grid = Grid::new(-2.0, 3.0, 50).unwrap();
-        let means = bin_means_with(&pdf, &[c], &grid);
+        let means = bin_means_with(&pdf, &[c], &grid, (REL_TOL, NEAR_BINS));
         for (b, m) in means.iter().enumerate() {
             let (a, z) = (
                 -2.0 + b as f64 * grid.width(),
@@ -279,8 +298,8 @@ mod tests {
     fn smooth_bins_keep_the_four_point_rule() {
         let gauss = |u: &[f64]| -> Vec<f64> { u.iter().map(|&u| (-u * u / 2.0).exp()).collect() };
         let grid = Grid::new(-5.0, 5.0, 40).unwrap();
-        let plain = bin_means_with(&gauss, &[], &grid);
-        let with_far = bin_means_with(&gauss, &[100.0], &grid);
+        let plain = bin_means_with(&gauss, &[], &grid, (REL_TOL, NEAR_BINS));
+        let with_far = bin_means_with(&gauss, &[100.0], &grid, (REL_TOL, NEAR_BINS));
         assert_eq!(plain, with_far);
         let w = grid.width();
         let c = -5.0 + 0.5 * w;

@@ -5,7 +5,7 @@ use super::StationaryMethod;
 use crate::grid::GridError;
 use crate::observe::ObservableMap;
 use crate::solve::{Density, Method, MethodName, NotApplicable, Problem, Solution, SolveError};
-use crate::symbolic::Expr;
+use crate::symbolic::{Expr, Func};
 
 /// The grid solver: one solve on the cells asked for, with its discretisation-error
 /// estimate.
@@ -39,31 +39,23 @@ impl StationaryMethod for FiniteVolumes {
         }
     }
 
-    /// Its PDFs of observables that need level-set quadrature, unless named, and of
-    /// non-smooth ones always.
+    /// Its PDFs of observables with a jump (`sgn` of the states), unless named: the level-set
+    /// quadrature of its piecewise density is checked on smooth and kinked maps only.
     fn leaves_out(&self, problem: &Problem, named: bool) -> Result<(), NotApplicable> {
-        let general: Vec<(&str, &Expr)> = problem
+        let jumping: Vec<String> = problem
             .quantities()
             .iter()
             .filter(|q| !q.is_state)
             .filter_map(|q| match &q.map {
-                ObservableMap::General { expr, .. } => Some((q.name.as_str(), expr)),
+                ObservableMap::General { expr, .. } if has_jump(expr) => Some(q.name.clone()),
                 _ => None,
             })
             .collect();
-        let rough: Vec<String> = general
-            .iter()
-            .filter(|(_, expr)| expr.has_kink())
-            .map(|(name, _)| name.to_string())
-            .collect();
-        if !rough.is_empty() {
-            return Err(NotApplicable::NonSmoothObservables { observables: rough });
-        }
-        if named || general.is_empty() {
+        if named || jumping.is_empty() {
             Ok(())
         } else {
-            Err(NotApplicable::SlowObservables {
-                observables: general.iter().map(|(n, _)| n.to_string()).collect(),
+            Err(NotApplicable::JumpingObservables {
+                observables: jumping,
             })
         }
     }
@@ -114,4 +106,11 @@ impl StationaryMethod for FiniteVolumes {
     fn zero_reason(&self) -> &'static str {
         "outside its domain"
     }
+}
+
+/// Whether `expr` has `sgn` of anything: a jump across a curve of the plane.
+fn has_jump(expr: &Expr) -> bool {
+    let mut found = false;
+    expr.walk(&mut |e| found |= matches!(e, Expr::Call(Func::Sgn, _)));
+    found
 }
