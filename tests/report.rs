@@ -82,6 +82,7 @@ fn comparison_figure() -> PdfFigure {
         .collect();
     PdfFigure {
         title: "Duffing oscillator: PDF of displacement".into(),
+        subtitle: String::new(),
         variable_label: "x₁".into(),
         curves: vec![
             Curve {
@@ -284,6 +285,7 @@ fn pdf_figure_of_a_one_sided_density_without_points() {
     with_gap[40..50].fill(f64::NAN);
     let figure = PdfFigure {
         title: "Vibro-impact oscillator: PDF of y = |x₁|".into(),
+        subtitle: String::new(),
         variable_label: "y".into(),
         curves: vec![
             Curve {

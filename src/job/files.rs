@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::compare::{against_grid, compare, Comparison, Reference};
 use super::{mc_columns, Unwritten};
 use crate::mc::McResult;
-use crate::report::{Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
+use crate::report::{short_number, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
 use crate::study::{Source, Study};
 
 /// What writing the per-quantity files gave.
@@ -145,6 +145,13 @@ fn write_quantity(
     if figures && !curve.x.is_empty() {
         let figure = PdfFigure {
             title: format!("{}: PDF of {name}", study.model.name()),
+            subtitle: study
+                .model
+                .params()
+                .iter()
+                .map(|(p, v)| format!("{p} = {}", short_number(*v)))
+                .collect::<Vec<_>>()
+                .join(", "),
             variable_label: name.to_string(),
             curves: curve
                 .columns
@@ -156,7 +163,7 @@ fn write_quantity(
                 })
                 .collect(),
             points: mc_q.map(|q| Points {
-                label: "Monte Carlo".into(),
+                label: format!("Monte Carlo, {} samples", short_number(q.samples as f64)),
                 x: q.grid.centers(),
                 y: q.density.clone(),
                 stderr: q.stderr.clone(),

@@ -123,3 +123,15 @@ pub enum ReportError {
         source: FigureError,
     },
 }
+
+/// A number for a legend or title: at most four significant digits, no trailing zeros, in
+/// exponent form outside [1e−4, 1e6) (`{}` of an f64 writes every digit of 1e56).
+///
+/// ```
+/// assert_eq!(fpsolve::report::short_number(0.15915494309189535), "0.1592");
+/// assert_eq!(fpsolve::report::short_number(4.0e9), "4e9");
+/// ```
+pub fn short_number(v: f64) -> String {
+    let rounded: f64 = format!("{v:.3e}").parse().unwrap_or(v);
+    crate::model::number(rounded)
+}

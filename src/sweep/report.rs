@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use crate::report::{
-    write_json, Cell, Curve, FigureError, LineFigure, OutputDir, ReportError, TextTable,
+    short_number, write_json, Cell, Curve, FigureError, LineFigure, OutputDir, ReportError,
+    TextTable,
 };
 
 use crate::solve::{Figure, MethodName};
@@ -236,8 +237,10 @@ impl SweepResult {
                                 .and_then(|s| s.tail.get(k).copied().flatten())
                                 .map_or(f64::NAN, |p| if p > 0.0 { p.log10() } else { f64::NAN })
                         });
-                        let label =
-                            join_label(&format!("a = {}", short(*a)), &self.series_method(method));
+                        let label = join_label(
+                            &format!("a = {}", short_number(*a)),
+                            &self.series_method(method),
+                        );
                         series.push(Curve {
                             label: join_label(&label, group_label),
                             x,
@@ -273,7 +276,7 @@ impl SweepResult {
         self.parameters
             .iter()
             .zip(&point.values)
-            .map(|(n, v)| format!("{n} = {}", short(*v)))
+            .map(|(n, v)| format!("{n} = {}", short_number(*v)))
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -294,7 +297,7 @@ impl SweepResult {
         }
         groups
             .into_iter()
-            .map(|(v, idx)| (format!("{second} = {}", short(v)), idx))
+            .map(|(v, idx)| (format!("{second} = {}", short_number(v)), idx))
             .collect()
     }
 
@@ -352,11 +355,4 @@ fn join_label(a: &str, b: &str) -> String {
     } else {
         format!("{a}, {b}")
     }
-}
-
-/// A number for a legend or title: at most four significant digits, no trailing zeros, in
-/// exponent form outside [1e−4, 1e6) (`{}` of an f64 writes every digit of 1e56).
-fn short(v: f64) -> String {
-    let rounded: f64 = format!("{v:.3e}").parse().unwrap_or(v);
-    crate::model::number(rounded)
 }

@@ -47,6 +47,7 @@ pub struct Points {
 /// let gauss = |x: f64| (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt();
 /// let figure = PdfFigure {
 ///     title: "Duffing oscillator, PDF of displacement".into(),
+///     subtitle: "c = 0.1, K = 0.1592".into(),
 ///     variable_label: "y".into(),
 ///     curves: vec![Curve { label: "exact".into(), x: x.clone(), y: x.iter().map(|&v| gauss(v)).collect() }],
 ///     points: Some(Points {
@@ -64,6 +65,8 @@ pub struct Points {
 pub struct PdfFigure {
     /// Title above both panels.
     pub title: String,
+    /// A smaller line under the title (the model's parameters); none when empty.
+    pub subtitle: String,
     /// Name of the variable on the horizontal axis, e.g. `y` or `dy/dt`.
     pub variable_label: String,
     /// Densities drawn as lines, each with its own colour and dash pattern.
@@ -468,6 +471,12 @@ impl PdfFigure {
             .margin(8 * k, 0, 0, 0)
             .titled(&self.title, font_of(26, k).color(&BLACK))
             .map_err(drawing_error)?;
+        let body = if self.subtitle.is_empty() {
+            body
+        } else {
+            body.titled(&self.subtitle, font_of(17, k).color(&BLACK))
+                .map_err(drawing_error)?
+        };
         let panels = body.split_evenly((1, 2));
 
         // Linear panel, with the legend where it covers no data: the plot's size from a

@@ -40,6 +40,7 @@ fn decade_labels() {
 fn invalid_data_is_refused_before_drawing() {
     let mut fig = PdfFigure {
         title: "t".into(),
+        subtitle: String::new(),
         variable_label: "y".into(),
         curves: vec![Curve {
             label: "a".into(),
