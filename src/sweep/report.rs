@@ -12,6 +12,12 @@ use crate::solve::{Figure, MethodName};
 
 use super::{PointOutcome, PointSolution, PointStats, SweepResult, TAIL_MULTIPLES};
 
+/// The smallest tail probability a sweep's tail figure draws (`sweep.csv` keeps every value):
+/// below it no method is checked (Monte Carlo's 1e9 samples resolve about 1e−8, the grid's
+/// tails are checked to 1e−10 of the peak, EPC's tails are its closure's guess), and a
+/// figure reaching 1e−44 only squeezes the part where methods can be compared.
+const TAIL_FLOOR: f64 = 1e-10;
+
 impl SweepResult {
     /// The points every method solved (for an EPC sweep: the points that converged).
     pub fn converged(&self) -> usize {
@@ -235,7 +241,13 @@ impl SweepResult {
                         let (x, y) = self.column(indices, method, |sol| {
                             sol.stats_of(q)
                                 .and_then(|s| s.tail.get(k).copied().flatten())
-                                .map_or(f64::NAN, |p| if p > 0.0 { p.log10() } else { f64::NAN })
+                                .map_or(f64::NAN, |p| {
+                                    if p >= TAIL_FLOOR {
+                                        p.log10()
+                                    } else {
+                                        f64::NAN
+                                    }
+                                })
                         });
                         let label = join_label(
                             &format!("a = {}", short_number(*a)),
@@ -259,7 +271,10 @@ impl SweepResult {
                         self.methods_label()
                     ),
                     x_label: x_label.clone(),
-                    y_label: format!("log10 P(|{q}| > a)"),
+                    y_label: format!(
+                        "log10 P(|{q}| > a), shown down to {}",
+                        short_number(TAIL_FLOOR)
+                    ),
                     series,
                 },
             ));
