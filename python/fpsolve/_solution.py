@@ -96,8 +96,34 @@ class Solution:
         return tuple(self._inner.quantities)
 
     def pdf(self, name: str, x: ArrayLike) -> Union[float, np.ndarray]:
-        """The PDF of ``name`` at ``x``: an array of ``x``'s shape (float64), or a float for a
-        scalar ``x``. Releases the GIL."""
+        """The PDF of a state or observable.
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+        x : array_like
+            Where to evaluate it, any shape.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            An array of ``x``'s shape (float64), or a float for a scalar ``x``.
+
+        Raises
+        ------
+        UnknownQuantityError
+            ``name`` is not a state or observable (a ``KeyError``).
+
+        Warns
+        -----
+        PointMassWarning
+            Once per quantity that takes some values with positive probability.
+
+        Notes
+        -----
+        Releases the GIL.
+        """
         arr = np.asarray(x, dtype=np.float64)
         p = self._inner.pdf(name, np.ascontiguousarray(arr.reshape(-1)))
         self._warn_point_masses(name)
@@ -131,23 +157,59 @@ class Solution:
         return tuple(self._inner.joint_states)
 
     def joint(self, x1: ArrayLike, x2: ArrayLike) -> Union[float, np.ndarray]:
-        """The joint density at (x1, x2) of the states named by :attr:`joint_states`,
-        broadcast together (e.g. a meshgrid); a float for scalars. For the δ-term EPC of a
-        model in its own coordinates these are the Zhuravlev states, not the model's: use
-        :meth:`pdf` for the model's states."""
+        """The joint density of the states named by :attr:`joint_states`.
+
+        Parameters
+        ----------
+        x1, x2 : array_like
+            The two coordinates, broadcast together (e.g. a meshgrid).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The density, of the broadcast shape; a float for scalars.
+
+        Notes
+        -----
+        For the δ-term EPC of a model in its own coordinates these are the Zhuravlev states,
+        not the model's: use :meth:`pdf` for the model's states.
+        """
         a, b = np.broadcast_arrays(np.asarray(x1, dtype=np.float64), np.asarray(x2, dtype=np.float64))
         shape = a.shape
         p = self._inner.joint(np.ascontiguousarray(a.reshape(-1)), np.ascontiguousarray(b.reshape(-1)))
         return float(p[0]) if len(shape) == 0 else p.reshape(shape)
 
     def marginal(self, name: str) -> Tuple[np.ndarray, np.ndarray]:
-        """``(x, p)``: the PDF of ``name`` on the grid the command line's reports use."""
+        """The PDF of ``name`` on the grid the command line's reports use.
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+
+        Returns
+        -------
+        x, p : numpy.ndarray
+            The grid and the PDF on it.
+        """
         out = self._inner.marginal(name)
         self._warn_point_masses(name)
         return out
 
     def moments(self, name: str) -> Moments:
-        """Mean, variance, kurtosis and raw moments E[g^k], k <= 4, of ``name``."""
+        """The moments of a state or observable, from the joint density directly.
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+
+        Returns
+        -------
+        Moments
+            Mean, variance, kurtosis and raw moments E[g^k], k <= 4; a moment that does not
+            exist is NaN.
+        """
         d = json.loads(self._inner.moments_json(name))
         return Moments(
             name=d["name"],
@@ -176,9 +238,25 @@ class Solution:
         return curve
 
     def logpdf(self, name: str, x: ArrayLike) -> Union[float, np.ndarray]:
-        """log of the PDF of ``name`` at ``x`` (vectorised, like :meth:`pdf`), from its marginal
-        curve (:meth:`marginal`, computed once per quantity): log p interpolated through the
-        three nearest grid points (log-linearly next to a zero of the curve).
+        """The log of the PDF of ``name`` at ``x``.
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+        x : array_like
+            Where to evaluate it, any shape.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            Of ``x``'s shape, or a float for a scalar ``x``; ``-inf`` outside the support.
+
+        Notes
+        -----
+        From the marginal curve (:meth:`marginal`, computed once per quantity): log p
+        interpolated through the three nearest grid points (log-linearly next to a zero of
+        the curve).
 
         Beyond the curve's grid: where the curve ends in a decaying tail (below 1e-6 of its
         peak) the last cell's exponential decay is continued (the rule :meth:`tail_probability`
@@ -191,7 +269,23 @@ class Solution:
         return float(out[0]) if arr.ndim == 0 else out.reshape(arr.shape)
 
     def cdf(self, name: str, x: ArrayLike) -> Union[float, np.ndarray]:
-        """P(name <= x) (vectorised): the continuous part from the marginal curve, integrated
+        """The cumulative distribution P(name <= x).
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+        x : array_like
+            Where to evaluate it, any shape.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            Of ``x``'s shape, or a float for a scalar ``x``.
+
+        Notes
+        -----
+        The continuous part from the marginal curve, integrated
         cell by cell with the log-linear rule of :meth:`tail_probability` and normalised by
         the curve's own mass, plus every point mass at or below ``x`` (the CDF jumps there).
         Its accuracy is the curve's quadrature: about 1e-4 relative in a far tail of the
@@ -209,14 +303,44 @@ class Solution:
         return float(out[0]) if arr.ndim == 0 else out.reshape(arr.shape)
 
     def sf(self, name: str, x: ArrayLike) -> Union[float, np.ndarray]:
-        """P(name > x) (vectorised), computed as :meth:`cdf` is (not as ``1 - cdf``, so that
-        small upper tails keep their digits); same caveats beyond the curve's grid."""
+        """The survival function P(name > x).
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+        x : array_like
+            Where to evaluate it, any shape.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            Of ``x``'s shape, or a float for a scalar ``x``.
+
+        Notes
+        -----
+        Computed as :meth:`cdf` is (not as ``1 - cdf``, so that small upper tails keep their
+        digits); the same caveats beyond the curve's grid.
+        """
         arr = np.asarray(x, dtype=np.float64)
         out = self._curve(name).sf(arr.reshape(-1))
         return float(out[0]) if arr.ndim == 0 else out.reshape(arr.shape)
 
     def tail_probability(self, name: str, a: float) -> Optional[float]:
-        """P(name > a), or None where the density's support does not reliably reach ``a``."""
+        """The tail probability P(name > a), as the command line reports it.
+
+        Parameters
+        ----------
+        name : str
+            A state or observable of the model.
+        a : float
+            The level.
+
+        Returns
+        -------
+        float or None
+            None where the density's support does not reliably reach ``a``.
+        """
         return self._inner.tail_probability(name, float(a))
 
     @property
