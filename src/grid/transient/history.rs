@@ -92,8 +92,15 @@ pub struct TransientReport {
     pub accepted: usize,
     /// Rejected steps.
     pub rejected: usize,
-    /// Stage matrices factorised (one per distinct step size while the cache holds it).
+    /// Stage matrices factorised: one per distinct step size while the cache holds it for a
+    /// time-invariant model; one per step size and stage time (two per step) for a
+    /// time-dependent one.
     pub factorizations: usize,
+    /// Whether the model's coefficients depend on the time (the operator is then assembled
+    /// anew at every stage time).
+    pub time_dependent: bool,
+    /// Times the operator was assembled (1 for a time-invariant model).
+    pub assemblies: usize,
     /// The initial density's mass inside the box before it was normalised.
     pub initial_mass_inside: f64,
     /// Largest |mass − 1| over the outputs.
