@@ -5,6 +5,8 @@
 //! far below what the tests compare; and the L1 distance of a marginal's cell averages to a
 //! Gaussian's.
 
+#![allow(dead_code)] // each test file uses its own subset
+
 use fpsolve::grid::Marginal;
 
 /// Mean and covariance at each of `times` (non-decreasing), from (m0, s0) at t = 0, for

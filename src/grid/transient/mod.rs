@@ -297,6 +297,26 @@ impl<'a> GridTransient<'a> {
             .run(p0, 0.0, &self.times)
     }
 
+    /// Each observable of the model at the mesh's cell centres.
+    fn observable_values(&self, mesh: &Mesh) -> Result<Vec<Vec<f64>>, GridError> {
+        let observables = self.model.observables();
+        if observables.is_empty() {
+            return Ok(Vec::new());
+        }
+        let states = self.model.states();
+        let exprs: Vec<_> = observables.iter().map(|o| o.expr.clone()).collect();
+        let tape = crate::symbolic::Tape::compile(
+            &exprs,
+            &[&*states[0], &*states[1]],
+            crate::symbolic::DeltaPolicy::Zero,
+        )
+        .map_err(|source| GridError::Symbolic {
+            what: "the observables".to_string(),
+            source,
+        })?;
+        Ok(history::observable_values(mesh, &tape, exprs.len()))
+    }
+
     /// The box: see [`starting_box`].
     fn domain_for(&self, problem: &Mechanical) -> Result<Domain, GridError> {
         starting_box(self.domain, problem, self.model)
@@ -377,10 +397,15 @@ impl<'a> GridTransient<'a> {
             })?;
             (self.step(&g, &g, area, &p0)?, 1)
         };
+        let observed = self.observable_values(&mesh)?;
         let snapshots: Vec<Snapshot> = run
             .outputs
             .into_iter()
             .map(|o| {
+                let observables = observed
+                    .iter()
+                    .map(|q| Moments::weighted(q, &o.y))
+                    .collect();
                 let marginals = [
                     history::marginal(&mesh, &o.y, 0),
                     history::marginal(&mesh, &o.y, 1),
@@ -391,6 +416,7 @@ impl<'a> GridTransient<'a> {
                     edge_mass: history::edge_mass(&mesh, &o.y),
                     marginals,
                     moments,
+                    observables,
                     mass: o.mass,
                     negative_mass: o.negative_mass,
                     joint: self.joint.then_some(o.y),
