@@ -219,6 +219,17 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
+    /// The density as it evolves in time on the grid, from the model's `initial` line (or
+    /// --initial; rest without either) to --times. Writes moments_vs_t.csv,
+    /// pdf_<state>_t.csv and summary.json.
+    Transient {
+        /// The model file (`.sde`).
+        model: PathBuf,
+        #[command(flatten)]
+        args: cli::transient::TransientArgs,
+        #[command(flatten)]
+        quiet: QuietArg,
+    },
     /// Merge the shard files of `simulate --shard` (or of `sweep --shard`) found in the given
     /// directories.
     Merge {
@@ -416,6 +427,7 @@ enum Plan {
     },
     MergeSweep(Box<fpsolve::sweep::MergedSweep>, PathBuf),
     Passage(Box<cli::passage::PassagePlan>),
+    Transient(Box<cli::transient::TransientPlan>),
     Merge {
         result: Box<McResult>,
         shards: usize,
@@ -446,6 +458,9 @@ fn plan(cli: Cli) -> Result<Planned> {
         }
         Some(Command::Passage { model, args, .. }) => {
             Plan::Passage(Box::new(cli::passage::plan(model, args)?))
+        }
+        Some(Command::Transient { model, args, .. }) => {
+            Plan::Transient(Box::new(cli::transient::plan(model, args)?))
         }
         Some(Command::Solve { model, solve }) => {
             plan_job(model, &solve, None, None, Target::States)?
@@ -635,6 +650,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
         }
         Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
         Plan::Passage(plan) => Ok(cli::passage::run(*plan)?),
+        Plan::Transient(plan) => Ok(cli::transient::run(*plan)?),
         Plan::Merge {
             result,
             shards,

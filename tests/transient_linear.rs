@@ -8,8 +8,11 @@
 
 use std::path::Path;
 
-use fpsolve::grid::{Domain, GridSolver, GridTransient, Initial, Marginal, TransientHistory};
+mod transient_exact;
+
+use fpsolve::grid::{Domain, GridSolver, GridTransient, Initial, TransientHistory};
 use fpsolve::model::{load_model, BoundModel};
+use transient_exact::{l1_gaussian, lyapunov};
 
 fn linear() -> BoundModel {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -23,67 +26,7 @@ const INTENSITY: f64 = 1.0;
 
 /// Mean and covariance at each of `times`, from (m0, s0) at t = 0.
 fn exact(m0: [f64; 2], s0: [[f64; 2]; 2], times: &[f64]) -> Vec<([f64; 2], [[f64; 2]; 2])> {
-    let a = [[0.0, 1.0], [-K, -C]];
-    // State: m (2) and Σ's three distinct entries (xx, xv, vv).
-    let rhs = |y: [f64; 5]| {
-        let [m0, m1, sxx, sxv, svv] = y;
-        [
-            a[0][0] * m0 + a[0][1] * m1,
-            a[1][0] * m0 + a[1][1] * m1,
-            2.0 * (a[0][0] * sxx + a[0][1] * sxv),
-            a[0][0] * sxv + a[0][1] * svv + a[1][0] * sxx + a[1][1] * sxv,
-            2.0 * (a[1][0] * sxv + a[1][1] * svv) + INTENSITY,
-        ]
-    };
-    let add = |y: [f64; 5], k: [f64; 5], s: f64| std::array::from_fn(|i| y[i] + s * k[i]);
-    let mut y = [m0[0], m0[1], s0[0][0], s0[0][1], s0[1][1]];
-    let (mut t, dt) = (0.0f64, 1e-3f64);
-    let mut out = Vec::new();
-    for &target in times {
-        while t < target - 1e-12 {
-            let h = dt.min(target - t);
-            let k1 = rhs(y);
-            let k2 = rhs(add(y, k1, h / 2.0));
-            let k3 = rhs(add(y, k2, h / 2.0));
-            let k4 = rhs(add(y, k3, h));
-            y = std::array::from_fn(|i| {
-                y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-            });
-            t += h;
-        }
-        out.push(([y[0], y[1]], [[y[2], y[3]], [y[3], y[4]]]));
-    }
-    out
-}
-
-/// L1 between a marginal's cell averages and the cell averages of N(mean, var) (8-point
-/// Gauss–Legendre on each cell).
-fn l1_gaussian(m: &Marginal, mean: f64, var: f64) -> f64 {
-    const NODES: [(f64, f64); 4] = [
-        (0.183_434_642_495_65, 0.362_683_783_378_362),
-        (0.525_532_409_916_329, 0.313_706_645_877_887),
-        (0.796_666_477_413_627, 0.222_381_034_453_374),
-        (0.960_289_856_497_536, 0.101_228_536_290_376),
-    ];
-    let pdf = |u: f64| {
-        (-(u - mean).powi(2) / (2.0 * var)).exp() / (2.0 * std::f64::consts::PI * var).sqrt()
-    };
-    let h = m.width;
-    let cells: f64 = m
-        .centres
-        .iter()
-        .zip(&m.density)
-        .map(|(c, p)| {
-            let avg: f64 = NODES
-                .iter()
-                .map(|(t, w)| w * (pdf(c + t * h / 2.0) + pdf(c - t * h / 2.0)))
-                .sum::<f64>()
-                / 2.0;
-            (p - avg).abs() * h
-        })
-        .sum();
-    // The exact mass outside the box counts as error too (it is below 1e−12 here).
-    cells
+    lyapunov(C, K, |_| INTENSITY, m0, s0, times)
 }
 
 /// The output times: the start's sharp layer (1, 2.5), two periods of the free oscillation

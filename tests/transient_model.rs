@@ -128,3 +128,78 @@ fn check_prints_a_time_dependent_model() {
     );
     assert!(!text.contains("derived Fokker-Planck operator"), "{text}");
 }
+
+/// The `initial` line: rest, a point, a Gaussian (any order of the states, parameters
+/// allowed), bound to numbers; the grid starts from it.
+#[test]
+fn initial_lines_are_read_and_bound() {
+    use fpsolve::grid::Initial;
+    use fpsolve::model::{InitialError, InitialSpec, InitialState, Override};
+    let line = |l: &str| {
+        format!(
+            "{}param s = 0.5\n{l}\n",
+            with("noise xi: intensity 1\ndiffusion v: xi")
+        )
+    };
+    let start = |l: &str| {
+        let model = parse_model(&line(l), None).unwrap();
+        let bound = model.bind(&[]).unwrap();
+        model.initial().map(|i| i.bind(&bound).unwrap())
+    };
+    assert_eq!(start("initial rest"), Some(InitialState::Rest));
+    assert_eq!(
+        start("initial point v = -1, z = 2*s"),
+        Some(InitialState::Point([1.0, -1.0]))
+    );
+    let gaussian = start("initial gaussian mean z = 1, v = 0 cov s^2, 0.1, 0.1, 1");
+    assert_eq!(
+        gaussian,
+        Some(InitialState::Gaussian {
+            mean: [1.0, 0.0],
+            covariance: [[0.25, 0.1], [0.1, 1.0]]
+        })
+    );
+    assert_eq!(
+        Initial::from(gaussian.unwrap()),
+        Initial::Gaussian {
+            mean: [1.0, 0.0],
+            covariance: [[0.25, 0.1], [0.1, 1.0]]
+        }
+    );
+    assert_eq!(start("# none"), None);
+    // A covariance that depends on a parameter is checked when bound.
+    let model = parse_model(
+        &line("initial gaussian mean z = 0, v = 0 cov s, 0, 0, 1"),
+        None,
+    )
+    .unwrap();
+    let bound = model.bind(&[Override::number("s", -1.0)]).unwrap();
+    let err = model.initial().unwrap().bind(&bound).unwrap_err();
+    assert!(matches!(err, InitialError::Covariance { .. }), "{err}");
+    assert!(err.to_string().contains("not positive definite"), "{err}");
+    assert!(matches!(
+        model.initial(),
+        Some(InitialSpec::Gaussian { .. })
+    ));
+    // Twice is refused where the second is.
+    let err = parse_model(&line("initial rest\ninitial rest"), None).unwrap_err();
+    assert!(matches!(
+        err.semantic(),
+        Some(SemanticError::DuplicateStatement {
+            keyword: "initial",
+            ..
+        })
+    ));
+}
+
+/// The stationary methods ignore the `initial` line: the same stationary answer with it.
+#[test]
+fn the_stationary_checks_ignore_the_initial_line() {
+    let plain = with("noise xi: intensity 1\ndiffusion v: xi");
+    let started = format!("{plain}initial point z = 3, v = 0\n");
+    let a = parse_model(&plain, None).unwrap().bind(&[]).unwrap();
+    let b = parse_model(&started, None).unwrap().bind(&[]).unwrap();
+    assert_eq!(check(&a), Ok(()));
+    assert_eq!(check(&b), Ok(()));
+    assert_eq!(a.drift(), b.drift());
+}

@@ -12,3 +12,4 @@ pub(crate) mod progress;
 pub(crate) mod sweep_flags;
 #[cfg(test)]
 mod tests;
+pub(crate) mod transient;

@@ -129,7 +129,8 @@ fn parse_pair(s: &str) -> Result<[f64; 2]> {
     }
 }
 
-fn parse_times(s: &str) -> Result<Vec<f64>> {
+/// `FIRST:LAST:COUNT`, evenly spaced (shared with `fpsolve transient`).
+pub(crate) fn parse_times(s: &str) -> Result<Vec<f64>> {
     let parts: Vec<&str> = s.split(':').collect();
     let [a, b, n] = parts.as_slice() else {
         return Err(anyhow!("`{s}`: expected FIRST:LAST:COUNT"));

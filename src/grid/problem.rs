@@ -18,6 +18,10 @@ pub(crate) struct Mechanical {
     coefficients: Tape,
     /// None, one, or two reflecting walls bounding a strip (lower first).
     pub(crate) barriers: Vec<Barrier>,
+    /// Whether the coefficients depend on the time [`crate::model::TIME`] (the tape's third
+    /// variable), and the time they are evaluated at ([`Mechanical::at_time`]).
+    time_dependent: bool,
+    now: f64,
 }
 
 /// Coefficients at a batch of points.
@@ -34,11 +38,49 @@ impl Mechanical {
         Mechanical::with_barriers(model, &dynamics, dynamics.barriers())
     }
 
+    /// [`Mechanical::new`] for a transient: a model whose drift or diffusion mentions the
+    /// time is accepted (evaluated at t = 0 until [`Mechanical::at_time`]), and the checks
+    /// that only a stationary density needs are skipped for it; the mechanical form, the
+    /// barriers and the δ terms are checked as for any model.
+    pub(crate) fn transient(model: &BoundModel) -> Result<Self, GridError> {
+        let dynamics = Dynamics::read(model).map_err(|e| jump_map_error(model, e))?;
+        Mechanical::build(
+            model,
+            &dynamics,
+            dynamics.barriers(),
+            !model.time_dependent(),
+        )
+    }
+
+    /// Whether the coefficients depend on the time.
+    pub(crate) fn time_dependent(&self) -> bool {
+        self.time_dependent
+    }
+
+    /// The same problem with its coefficients evaluated at time `t` (a no-op for a
+    /// time-invariant one).
+    pub(crate) fn at_time(&self, t: f64) -> Mechanical {
+        Mechanical {
+            now: t,
+            ..self.clone()
+        }
+    }
+
     /// [`Mechanical::new`] with the barriers `barriers` in place of the model's own.
     pub(crate) fn with_barriers(
         model: &BoundModel,
         dynamics: &Dynamics,
         barriers: &Barriers,
+    ) -> Result<Self, GridError> {
+        Mechanical::build(model, dynamics, barriers, true)
+    }
+
+    /// The problem; `admit` runs the stationary admissibility checks.
+    fn build(
+        model: &BoundModel,
+        dynamics: &Dynamics,
+        barriers: &Barriers,
+        admit: bool,
     ) -> Result<Self, GridError> {
         let states = dynamics.states();
         let (x, v) = (states[0].to_string(), states[1].to_string());
@@ -62,7 +104,9 @@ impl Mechanical {
                 }
             }));
         }
-        crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
+        if admit {
+            crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
+        }
         let sde = dynamics.sde();
         // δ terms are dropped below only because an impact law stands for them exactly.
         if barriers.is_empty() && sde.drift()[1].contains_delta() {
@@ -82,8 +126,10 @@ impl Mechanical {
             what: format!("d b_{v}{v} / d{v}"),
             source,
         })?;
-        let vars = [x.as_str(), v.as_str()];
-        let coefficients = Tape::compile(&[m, b, db.without_deltas()], &vars, DeltaPolicy::Zero)
+        let time_dependent = model.time_dependent();
+        let vars = [x.as_str(), v.as_str(), crate::model::TIME];
+        let vars = &vars[..if time_dependent { 3 } else { 2 }];
+        let coefficients = Tape::compile(&[m, b, db.without_deltas()], vars, DeltaPolicy::Zero)
             .map_err(|source| GridError::Symbolic {
                 what: format!("the drift and diffusion of `{v}`"),
                 source,
@@ -129,15 +175,29 @@ impl Mechanical {
         Ok(Mechanical {
             coefficients,
             barriers,
+            time_dependent,
+            now: 0.0,
         })
+    }
+
+    /// The tape's outputs at the points, at the time [`Mechanical::at_time`] set.
+    fn eval_all(&self, x: &[f64], v: &[f64]) -> Vec<Vec<f64>> {
+        let mut out = vec![vec![0.0; x.len()]; 3];
+        let mut scratch = crate::symbolic::TapeScratch::new();
+        if self.time_dependent {
+            let t = vec![self.now; x.len()];
+            self.coefficients
+                .eval_batch(&[x, v, &t], &mut out, &mut scratch);
+        } else {
+            self.coefficients
+                .eval_batch(&[x, v], &mut out, &mut scratch);
+        }
+        out
     }
 
     /// m, b and ∂b/∂v at the points (x[p], v[p]).
     pub(crate) fn eval(&self, x: &[f64], v: &[f64]) -> Result<Coefficients, GridError> {
-        let n = x.len();
-        let mut out = vec![vec![0.0; n]; 3];
-        self.coefficients
-            .eval_batch(&[x, v], &mut out, &mut crate::symbolic::TapeScratch::new());
+        let mut out = self.eval_all(x, v);
         let db = out.pop().unwrap_or_default();
         let b = out.pop().unwrap_or_default();
         let m = out.pop().unwrap_or_default();
@@ -157,10 +217,7 @@ impl Mechanical {
     /// m, b and ∂b/∂v at the points (x[p], v[p]), NaN and infinite values included (for the
     /// pilot, which drops the trajectories that reach them).
     pub(crate) fn eval_raw(&self, x: &[f64], v: &[f64]) -> Coefficients {
-        let n = x.len();
-        let mut out = vec![vec![0.0; n]; 3];
-        self.coefficients
-            .eval_batch(&[x, v], &mut out, &mut crate::symbolic::TapeScratch::new());
+        let mut out = self.eval_all(x, v);
         let db = out.pop().unwrap_or_default();
         let b = out.pop().unwrap_or_default();
         let m = out.pop().unwrap_or_default();

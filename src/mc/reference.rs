@@ -38,6 +38,7 @@ fn oscillator(name: &str, params: Vec<Parameter>, force: Expr, noise: Expr) -> M
         domain: None,
         observables: vec![],
         safe: None,
+        initial: None,
         delta: DeltaTreatment::Exact,
         origin: None,
     }

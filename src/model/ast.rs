@@ -200,6 +200,26 @@ pub enum StatementKind {
     Delta(DeltaSpec),
     /// `safe abs(z) < 2.5`, `safe -2 < z < 3`: the safe set of a first-passage problem.
     Safe(SafeSpec),
+    /// `initial rest`, `initial point ...`, `initial gaussian mean ... cov ...`.
+    Initial(InitialAst),
+}
+
+/// Where a transient starts, as written.
+#[derive(Clone, Debug, PartialEq)]
+pub enum InitialAst {
+    /// `rest`.
+    Rest,
+    /// `point z = 1, v = 0`.
+    Point(Vec<Binding>),
+    /// `gaussian mean z = 0, v = 0 cov 1, 0, 0, 1`.
+    Gaussian {
+        /// The mean of each state.
+        mean: Vec<Binding>,
+        /// The covariance's entries, row by row.
+        covariance: Vec<ExprNode>,
+        /// The span of the entries.
+        span: Span,
+    },
 }
 
 /// The safe set as written: a quantity (a function of states, observables and parameters)

@@ -531,6 +531,7 @@ mod tests {
             domain: None,
             observables: vec![],
             safe: None,
+            initial: None,
             delta: DeltaTreatment::Exact,
             origin: None,
         }

@@ -182,4 +182,33 @@ impl super::Model {
         out.safe = Some(safe);
         Ok(out)
     }
+
+    /// The model with the initial state `text` (what follows `initial` on a model line:
+    /// `rest`, `point z = 1, v = 0`, `gaussian mean z = 0, v = 0 cov 1, 0, 0, 1`), in place
+    /// of its own; errors point into `text`, shown as `--initial`.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// let started = model.with_initial("point z = 1, v = 0").unwrap();
+    /// assert!(started.initial().is_some());
+    /// let err = model.with_initial("point q = 1, v = 0").unwrap_err();
+    /// assert!(err.to_string().contains("`q` is not a state"), "{err}");
+    /// ```
+    ///
+    /// # Errors
+    /// A [`super::ModelError`] located in `text`.
+    pub fn with_initial(&self, text: &str) -> Result<super::Model, super::ModelError> {
+        let shown = Some("--initial");
+        let spec =
+            super::parse::parse_lone_initial(text).map_err(|f| syntax_error(text, shown, f))?;
+        let source = self.origin.as_ref().map_or("", |o| o.source.as_str());
+        // The model's own text parsed once more for its declarations: it was valid when read.
+        let ast = super::parse::parse_file(source).map_err(|f| syntax_error(source, None, f))?;
+        let initial = super::validate::validate_initial(&ast, source, &spec, text)
+            .map_err(|l| semantic_error(text, shown, *l))?;
+        let mut out = self.clone();
+        out.initial = Some(initial);
+        Ok(out)
+    }
 }

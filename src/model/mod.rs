@@ -11,6 +11,7 @@ mod bind_error;
 mod dependency;
 mod diagnostic;
 mod error;
+mod initial;
 mod load;
 mod parse;
 mod print;
@@ -24,6 +25,7 @@ pub use barrier::{BarrierSide, BoundImpact, Domain, DomainBound};
 pub use bind::{BindError, BoundModel, Override};
 pub use diagnostic::Diagnostic;
 pub use error::ModelError;
+pub use initial::{InitialError, InitialSpec, InitialState};
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
 pub use safe::{BoundSafe, SafeError, SafeSet};
@@ -218,6 +220,8 @@ pub struct Model {
     pub(crate) delta: DeltaTreatment,
     /// The `safe` line (or a `--safe` value), if any.
     pub(crate) safe: Option<SafeSet>,
+    /// The `initial` line, if any (transients only; the stationary methods ignore it).
+    pub(crate) initial: Option<InitialSpec>,
     /// Where the model was read from, for locating errors found when it is bound (`None` for
     /// models built in code).
     pub(crate) origin: Option<std::sync::Arc<Origin>>,

@@ -10,8 +10,8 @@ use pest::pratt_parser::{Assoc, Op, PrattParser};
 use pest::Parser;
 
 use super::ast::{
-    Binding, DeltaSpec, DomainLimit, ExprKind, ExprNode, Ident, ModelAst, ProductOp, SafeSpec,
-    Span, Statement, StatementKind, SumOp,
+    Binding, DeltaSpec, DomainLimit, ExprKind, ExprNode, Ident, InitialAst, ModelAst, ProductOp,
+    SafeSpec, Span, Statement, StatementKind, SumOp,
 };
 use super::syntax::{Rule, SdeParser, SyntaxFailure};
 use super::Interpretation;
@@ -187,6 +187,11 @@ fn content(pair: Pair<'_, Rule>) -> impl Iterator<Item = Pair<'_, Rule>> {
                 | Rule::kw_delta
                 | Rule::kw_gaussian
                 | Rule::kw_safe
+                | Rule::kw_initial
+                | Rule::kw_point
+                | Rule::kw_start_gaussian
+                | Rule::kw_mean
+                | Rule::kw_cov
         )
     })
 }
@@ -277,6 +282,7 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
         },
         Rule::domain_stmt => build_domain(parts.next()),
         Rule::safe_stmt => StatementKind::Safe(build_safe(parts.next())),
+        Rule::initial_stmt => StatementKind::Initial(build_initial(parts.next())),
         _ => {
             let spec = parts.next();
             StatementKind::Delta(match spec.as_rule() {
@@ -289,6 +295,34 @@ fn build_statement(pair: Pair<'_, Rule>) -> Statement {
         kind,
         span,
         keyword,
+    }
+}
+
+/// `rest`, `point BINDINGS` or `gaussian mean BINDINGS cov ENTRIES`.
+fn build_initial(pair: Pair<'_, Rule>) -> InitialAst {
+    match pair.as_rule() {
+        Rule::initial_point => {
+            InitialAst::Point(Parts::new(pair).rest().map(build_binding).collect())
+        }
+        Rule::initial_gaussian => {
+            let (mut mean, mut covariance) = (Vec::new(), Vec::new());
+            for part in Parts::new(pair).rest() {
+                match part.as_rule() {
+                    Rule::binding => mean.push(build_binding(part)),
+                    _ => covariance.push(build_expr(part)),
+                }
+            }
+            let span = match (covariance.first(), covariance.last()) {
+                (Some(a), Some(b)) => a.span.to(b.span),
+                _ => Span::new(0, 0),
+            };
+            InitialAst::Gaussian {
+                mean,
+                covariance,
+                span,
+            }
+        }
+        _ => InitialAst::Rest,
     }
 }
 
@@ -321,6 +355,25 @@ fn build_safe(pair: Pair<'_, Rule>) -> SafeSpec {
         quantity,
         lower,
         upper,
+    }
+}
+
+/// Parses a lone initial state (an `--initial` value).
+pub(crate) fn parse_lone_initial(source: &str) -> Result<InitialAst, SyntaxFailure> {
+    check_limits(source)?;
+    let pairs = SdeParser::parse(Rule::lone_initial, source).map_err(SyntaxFailure::from_pest)?;
+    match pairs.into_iter().find(|p| {
+        matches!(
+            p.as_rule(),
+            Rule::kw_rest | Rule::initial_point | Rule::initial_gaussian
+        )
+    }) {
+        Some(p) => Ok(build_initial(p)),
+        // The grammar makes this unreachable; an error is still better than a panic.
+        None => Err(SyntaxFailure {
+            span: Span::new(0, 0),
+            message: "expected an initial state".into(),
+        }),
     }
 }
 

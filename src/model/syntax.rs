@@ -82,7 +82,7 @@ fn describe_rule(rule: &Rule) -> String {
     let s = match rule {
         Rule::statement => {
             "a statement (model, param, state, drift, noise, correlate, diffusion, \
-             interpretation, impact, domain, observe, delta or safe)"
+             interpretation, impact, domain, observe, delta, safe or initial)"
         }
         Rule::EOI => "end of line",
         Rule::expr | Rule::operand | Rule::paren | Rule::call | Rule::number => "an expression",
@@ -111,6 +111,13 @@ fn describe_rule(rule: &Rule) -> String {
         Rule::exact => "`exact`",
         Rule::kw_gaussian | Rule::gaussian => "`gaussian(width)`",
         Rule::kw_model => "`model`",
+        Rule::kw_rest => "`rest`",
+        Rule::kw_point | Rule::initial_point => "`point STATE = VALUE, ...`",
+        Rule::kw_start_gaussian | Rule::initial_gaussian => {
+            "`gaussian mean STATE = VALUE, ... cov XX, XV, VX, VV`"
+        }
+        Rule::kw_mean => "`mean`",
+        Rule::kw_cov => "`cov`",
         other => return format!("{other:?}"),
     };
     s.to_string()

@@ -313,8 +313,10 @@ pub fn zhuravlev(model: &Model) -> Result<Zhuravlev<Model>, ZhuravlevError> {
         domain: None,
         observables: t.observables,
         delta: model.delta_treatment(),
-        // A safe set is written in the original states; first passage is solved there.
+        // A safe set and an initial state are written in the original states; first
+        // passage and transients are solved there.
         safe: None,
+        initial: None,
         origin: None,
     };
     Ok(Zhuravlev {

@@ -65,6 +65,10 @@ pub struct Snapshot {
     pub marginals: [Marginal; 2],
     /// Moments of the position and the velocity.
     pub moments: [Moments; 2],
+    /// Moments of each of the model's observables, in its order: the density's cell
+    /// averages times the observable at the cell centres (the midpoint rule, second order
+    /// in the cell size; no grouping correction).
+    pub observables: Vec<Moments>,
     /// ∫ p: 1 up to the rounding of the stage solves (the operator conserves mass).
     pub mass: f64,
     /// ∫ max(−p, 0): the scheme is not positive, so steep fronts leave small negative values;
@@ -92,8 +96,15 @@ pub struct TransientReport {
     pub accepted: usize,
     /// Rejected steps.
     pub rejected: usize,
-    /// Stage matrices factorised (one per distinct step size while the cache holds it).
+    /// Stage matrices factorised: one per distinct step size while the cache holds it for a
+    /// time-invariant model; one per step size and stage time (two per step) for a
+    /// time-dependent one.
     pub factorizations: usize,
+    /// Whether the model's coefficients depend on the time (the operator is then assembled
+    /// anew at every stage time).
+    pub time_dependent: bool,
+    /// Times the operator was assembled (1 for a time-invariant model).
+    pub assemblies: usize,
     /// The initial density's mass inside the box before it was normalised.
     pub initial_mass_inside: f64,
     /// Largest |mass − 1| over the outputs.
@@ -111,6 +122,51 @@ pub struct TransientHistory {
     pub snapshots: Vec<Snapshot>,
     /// How it was obtained.
     pub report: TransientReport,
+}
+
+impl Moments {
+    /// The moments of values `q` weighted by `w` (normalised by their sum).
+    pub(crate) fn weighted(q: &[f64], w: &[f64]) -> Moments {
+        let mass: f64 = w.iter().sum();
+        let mean = q.iter().zip(w).map(|(q, w)| q * w).sum::<f64>() / mass;
+        let central = |k: i32| {
+            q.iter()
+                .zip(w)
+                .map(|(q, w)| (q - mean).powi(k) * w)
+                .sum::<f64>()
+                / mass
+        };
+        let variance = central(2);
+        Moments {
+            mean,
+            variance,
+            kurtosis: central(4) / (variance * variance),
+        }
+    }
+}
+
+/// The values of the compiled observables `tape` at every cell centre of `mesh`, one vector
+/// per observable (cell index i·nv + j).
+pub(crate) fn observable_values(
+    mesh: &Mesh,
+    tape: &crate::symbolic::Tape,
+    count: usize,
+) -> Vec<Vec<f64>> {
+    let n = mesh.cells();
+    let (mut x, mut v) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..mesh.nx {
+        for j in 0..mesh.nv {
+            x.push(mesh.xc(i));
+            v.push(mesh.vc(j));
+        }
+    }
+    let mut out = vec![vec![0.0; n]; count];
+    tape.eval_batch(
+        &[&x, &v],
+        &mut out,
+        &mut crate::symbolic::TapeScratch::new(),
+    );
+    out
 }
 
 /// The marginal of `axis` (0 position, 1 velocity) of cell averages `p` on `mesh`.

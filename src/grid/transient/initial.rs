@@ -120,3 +120,21 @@ pub(crate) fn gaussian_cells(mesh: &Mesh, mean: [f64; 2], c: [[f64; 2]; 2]) -> V
     }
     p
 }
+
+impl From<crate::model::InitialState> for Initial {
+    /// The grid's start for a model's `initial` line.
+    ///
+    /// ```
+    /// use fpsolve::grid::Initial;
+    /// use fpsolve::model::InitialState;
+    /// assert_eq!(Initial::from(InitialState::Point([1.0, 0.0])), Initial::Point([1.0, 0.0]));
+    /// ```
+    fn from(s: crate::model::InitialState) -> Initial {
+        use crate::model::InitialState;
+        match s {
+            InitialState::Rest => Initial::Rest,
+            InitialState::Point(at) => Initial::Point(at),
+            InitialState::Gaussian { mean, covariance } => Initial::Gaussian { mean, covariance },
+        }
+    }
+}

@@ -1,7 +1,14 @@
-//! The transient density of a time-invariant model on the grid: dp/dt = G p with G the
-//! stationary solver's finite-volume operator (transport, outflow through a barrier and its
-//! re-injection; every column sums to zero), from an initial density to the requested times,
-//! by the TR-BDF2 stepper of [`crate::numerics::timestep`].
+//! The transient density on the grid: dp/dt = G(t) p with G the stationary solver's
+//! finite-volume operator (transport, outflow through a barrier and its re-injection; every
+//! column sums to zero), from an initial density to the requested times, by the TR-BDF2
+//! stepper of [`crate::numerics::timestep`].
+//!
+//! * **Time in the model.** A model whose drift or diffusion mentions the time `t`
+//!   (modulated noise, a periodic force) has its operator assembled anew at every stage
+//!   time the stepper needs, and each stage matrix factorised for its own time (two per
+//!   step); see `operator.rs` for why no split A₀ + Σ f_k(t) A_k is used. Such a model
+//!   needs an explicit [`GridTransient::domain`] (the automatic box is sized from a
+//!   stationary law), and the checks that only a stationary density needs are skipped.
 //!
 //! * **Box.** The one the stationary solver would size (or [`GridTransient::domain`]); the
 //!   start must have at least 1 − [`INITIAL_MASS_LOSS`] of its mass inside it, else the run
@@ -12,9 +19,9 @@
 //!   tolerance, so the time-stepping error at any output is about the tolerance times the
 //!   time elapsed (less once the density relaxes), and falls in proportion to the tolerance;
 //!   the spatial error is the stationary solver's.
-//! * **Reuse.** The stage matrix I − d h G is factorised once per step size (nested
-//!   dissection order, as the stationary solve), the step sizes being powers of two of the
-//!   first, so a run factorises a few times.
+//! * **Reuse.** For a time-invariant model the stage matrix I − d h G is factorised once per
+//!   step size (nested dissection order, as the stationary solve), the step sizes being
+//!   powers of two of the first, so a run factorises a few times.
 //! * **Mass and sign.** Mass is conserved to the rounding of the solves and reported per
 //!   output, as is the negative mass (nothing is clipped).
 //!
@@ -37,6 +44,7 @@
 mod error;
 mod history;
 mod initial;
+mod operator;
 
 use std::time::Instant;
 
@@ -50,7 +58,8 @@ use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
 use super::{check_cells, check_domain, domain, Domain, GridError, DEFAULT_CELLS};
 use crate::model::BoundModel;
-use crate::numerics::timestep::{Tolerance, TrBdf2};
+use crate::numerics::timestep::{Generator, History, StepError, Tolerance, TrBdf2};
+use operator::TimeOperator;
 
 /// The largest mass of the initial density that may lie outside the box.
 pub const INITIAL_MASS_LOSS: f64 = 1e-9;
@@ -58,7 +67,7 @@ pub const INITIAL_MASS_LOSS: f64 = 1e-9;
 /// The tolerance used unless [`GridTransient::tolerance`] says otherwise.
 pub const TRANSIENT_TOLERANCE: f64 = 1e-4;
 
-/// The grid transient of one bound, time-invariant model: a builder, then
+/// The grid transient of one bound model: a builder, then
 /// [`GridTransient::run`].
 ///
 /// ```
@@ -266,6 +275,48 @@ impl<'a> GridTransient<'a> {
         }
     }
 
+    /// Runs the stepper on `generator` from `p0`, the stage matrices ordered by nested
+    /// dissection of `pattern`'s cells.
+    fn step<G: Generator>(
+        &self,
+        generator: &G,
+        pattern: &faer::sparse::SparseColMat<usize, f64>,
+        area: f64,
+        p0: &[f64],
+    ) -> Result<History, StepError> {
+        let [nx, nv] = self.cells;
+        let order = nested_dissection(pattern.symbolic(), &cell_coords(nx, nv, false), 1);
+        TrBdf2::new(generator)
+            .tolerance(Tolerance {
+                relative: self.tolerance,
+                absolute: 0.0,
+            })
+            .weight(area)
+            .conserve_mass()
+            .order(order)
+            .run(p0, 0.0, &self.times)
+    }
+
+    /// Each observable of the model at the mesh's cell centres.
+    fn observable_values(&self, mesh: &Mesh) -> Result<Vec<Vec<f64>>, GridError> {
+        let observables = self.model.observables();
+        if observables.is_empty() {
+            return Ok(Vec::new());
+        }
+        let states = self.model.states();
+        let exprs: Vec<_> = observables.iter().map(|o| o.expr.clone()).collect();
+        let tape = crate::symbolic::Tape::compile(
+            &exprs,
+            &[&*states[0], &*states[1]],
+            crate::symbolic::DeltaPolicy::Zero,
+        )
+        .map_err(|source| GridError::Symbolic {
+            what: "the observables".to_string(),
+            source,
+        })?;
+        Ok(history::observable_values(mesh, &tape, exprs.len()))
+    }
+
     /// The box: see [`starting_box`].
     fn domain_for(&self, problem: &Mechanical) -> Result<Domain, GridError> {
         starting_box(self.domain, problem, self.model)
@@ -292,7 +343,15 @@ impl<'a> GridTransient<'a> {
     pub fn run(&self) -> Result<TransientHistory, TransientError> {
         let start = Instant::now();
         self.check()?;
-        let problem = Mechanical::new(self.model)?;
+        let problem = Mechanical::transient(self.model)?;
+        if problem.time_dependent() && self.domain.is_none() {
+            return Err(TransientError::Setting {
+                setting: "domain",
+                value: "none".to_string(),
+                expected: "an explicit domain for a model whose coefficients depend on the \
+                           time (the automatic box is sized from a stationary law)",
+            });
+        }
         let domain = self.domain_for(&problem)?;
         let [nx, nv] = self.cells;
         let mesh = Mesh::new(domain, nx, nv, &problem.barriers, 4);
@@ -321,26 +380,32 @@ impl<'a> GridTransient<'a> {
             });
         }
         p0.iter_mut().for_each(|p| *p /= inside);
-        let op = assemble(&mesh, &problem)?;
-        let g = generator(mesh.cells(), &op).ok_or(GridError::Singular {
-            nx,
-            nv,
-            detail: "the generator's entries could not be allocated".to_string(),
-        })?;
-        let order = nested_dissection(g.symbolic(), &cell_coords(nx, nv, false), 1);
-        let stepper = TrBdf2::new(&g)
-            .tolerance(Tolerance {
-                relative: self.tolerance,
-                absolute: 0.0,
-            })
-            .weight(area)
-            .conserve_mass()
-            .order(order);
-        let run = stepper.run(&p0, 0.0, &self.times)?;
+        let (run, assemblies) = if problem.time_dependent() {
+            let op = TimeOperator::new(&mesh, &problem);
+            // The pattern at mid-span (at t = 0 a modulated noise may vanish, and with it
+            // the diffusion's entries); the order is geometric, so any time's pattern serves.
+            let t_mid = 0.5 * self.times.last().copied().unwrap_or(0.0);
+            let g = op.assemble(t_mid)?;
+            let run = self.step(&op, &g, area, &p0)?;
+            (run, op.assemblies())
+        } else {
+            let op = assemble(&mesh, &problem)?;
+            let g = generator(mesh.cells(), &op).ok_or(GridError::Singular {
+                nx,
+                nv,
+                detail: "the generator's entries could not be allocated".to_string(),
+            })?;
+            (self.step(&g, &g, area, &p0)?, 1)
+        };
+        let observed = self.observable_values(&mesh)?;
         let snapshots: Vec<Snapshot> = run
             .outputs
             .into_iter()
             .map(|o| {
+                let observables = observed
+                    .iter()
+                    .map(|q| Moments::weighted(q, &o.y))
+                    .collect();
                 let marginals = [
                     history::marginal(&mesh, &o.y, 0),
                     history::marginal(&mesh, &o.y, 1),
@@ -351,6 +416,7 @@ impl<'a> GridTransient<'a> {
                     edge_mass: history::edge_mass(&mesh, &o.y),
                     marginals,
                     moments,
+                    observables,
                     mass: o.mass,
                     negative_mass: o.negative_mass,
                     joint: self.joint.then_some(o.y),
@@ -365,6 +431,8 @@ impl<'a> GridTransient<'a> {
             accepted: run.stats.accepted,
             rejected: run.stats.rejected,
             factorizations: run.stats.factorizations,
+            time_dependent: problem.time_dependent(),
+            assemblies,
             initial_mass_inside: inside,
             mass_drift: worst(|s| (s.mass - 1.0).abs()),
             negative_mass: worst(|s| s.negative_mass),

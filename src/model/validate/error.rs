@@ -246,6 +246,31 @@ pub enum SemanticError {
         /// The quantity as written.
         text: String,
     },
+    /// An `initial` line names something that is not a state.
+    #[error("`{name}` is not a state: the initial state gives a value to each of `{first}` and `{second}`")]
+    InitialNotAState {
+        /// The name given.
+        name: String,
+        /// The first state.
+        first: String,
+        /// The second state.
+        second: String,
+    },
+    /// An `initial` line gives a state twice, or not at all.
+    #[error("the initial state gives {count} value(s) for state `{state}`; it needs exactly one")]
+    InitialStateCount {
+        /// The state.
+        state: String,
+        /// How many values were given.
+        count: usize,
+    },
+    /// An initial covariance that does not have four entries, or is not symmetric positive
+    /// definite.
+    #[error("initial covariance: {reason}")]
+    InitialCovariance {
+        /// What is wrong.
+        reason: String,
+    },
     /// An observable's name used inside an expression.
     #[error("observable `{name}` used in {context}; observables are outputs, not inputs")]
     ObservableInExpression {

@@ -80,6 +80,8 @@ impl Validator<'_> {
                 StatementKind::Delta(spec) => g.delta = self.delta(spec)?,
                 // Lowered after every observable is known (`Validator::safe_set`).
                 StatementKind::Safe(_) => {}
+                // Lowered after the states are known (`Validator::initial`).
+                StatementKind::Initial(_) => {}
             }
         }
         Ok(g)

@@ -10,6 +10,7 @@
 mod delta;
 mod error;
 mod gather;
+mod initial;
 mod noise;
 mod safe;
 mod scope;
@@ -38,6 +39,20 @@ pub(crate) fn validate_safe(
     let mut v = Validator::new(ast, source);
     v.declare_all()?;
     v.safe_set(spec, text, observables)
+}
+
+/// Lowers an `--initial` value (`spec`, parsed from `text`) against the states of the model
+/// file `ast` (`source`).
+pub(crate) fn validate_initial(
+    ast: &ModelAst,
+    source: &str,
+    spec: &super::ast::InitialAst,
+    text: &str,
+) -> Result<super::InitialSpec> {
+    let mut v = Validator::new(ast, source);
+    v.declare_all()?;
+    let states = v.state_pair()?;
+    v.initial(spec, &states, text)
 }
 
 /// Validates a parsed model file and builds the [`Model`]; `path` is what error messages
@@ -99,6 +114,14 @@ impl<'a> Validator<'a> {
             None => None,
         };
 
+        let initial = match self.ast.statements.iter().find_map(|st| match &st.kind {
+            StatementKind::Initial(spec) => Some(spec),
+            _ => None,
+        }) {
+            Some(spec) => Some(self.initial(spec, &states, self.source)?),
+            None => None,
+        };
+
         let spans = g.spans;
         let domain_span = g.domain.as_ref().map(|(_, span, _)| *span);
         Ok(Model {
@@ -116,6 +139,7 @@ impl<'a> Validator<'a> {
             observables: g.observables,
             delta: g.delta,
             safe,
+            initial,
             origin: Some(std::sync::Arc::new(Origin {
                 source: self.source.to_string(),
                 path: self.path.map(str::to_string),

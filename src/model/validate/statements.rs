@@ -131,6 +131,7 @@ impl<'a> Validator<'a> {
                 StatementKind::Domain { .. } => "domain",
                 StatementKind::Delta(_) => "delta",
                 StatementKind::Safe(_) => "safe",
+                StatementKind::Initial(_) => "initial",
                 _ => continue,
             };
             if let Some(first) = seen.get(keyword) {

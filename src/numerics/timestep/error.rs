@@ -53,6 +53,15 @@ pub enum StepError {
         /// Why each factorisation failed.
         detail: String,
     },
+    /// The operator A(t) could not be built at a stage time (a coefficient not finite
+    /// there).
+    #[error("the operator at t = {time} could not be built: {detail}")]
+    Operator {
+        /// Where.
+        time: f64,
+        /// Why.
+        detail: String,
+    },
     /// The run's cancel flag was set.
     #[error("cancelled at t = {time}")]
     Cancelled {

@@ -5,6 +5,8 @@ use std::borrow::Cow;
 
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 
+use super::error::StepError;
+
 /// A linear operator A(t) in compressed columns. A time-invariant one (a matrix) is
 /// factorised once per step size; one that depends on t once per step size and stage time.
 pub(crate) trait Generator {
@@ -12,8 +14,8 @@ pub(crate) trait Generator {
     fn dim(&self) -> usize;
     /// Whether A is the same at every t.
     fn time_invariant(&self) -> bool;
-    /// A at time `t`.
-    fn at(&self, t: f64) -> Cow<'_, SparseColMat<usize, f64>>;
+    /// A at time `t`, or why it could not be built there ([`StepError::Operator`]).
+    fn at(&self, t: f64) -> Result<Cow<'_, SparseColMat<usize, f64>>, StepError>;
 }
 
 impl Generator for SparseColMat<usize, f64> {
@@ -25,8 +27,8 @@ impl Generator for SparseColMat<usize, f64> {
         true
     }
 
-    fn at(&self, _t: f64) -> Cow<'_, SparseColMat<usize, f64>> {
-        Cow::Borrowed(self)
+    fn at(&self, _t: f64) -> Result<Cow<'_, SparseColMat<usize, f64>>, StepError> {
+        Ok(Cow::Borrowed(self))
     }
 }
 

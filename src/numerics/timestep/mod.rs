@@ -36,9 +36,7 @@ mod generator;
 mod trbdf2;
 
 pub use error::StepError;
-#[cfg(test)]
 pub(crate) use generator::Generator;
-#[cfg(test)]
 pub(crate) use trbdf2::History;
 pub(crate) use trbdf2::{Tolerance, TrBdf2};
 

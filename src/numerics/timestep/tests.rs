@@ -252,8 +252,8 @@ fn a_generator_that_depends_on_time() {
         fn time_invariant(&self) -> bool {
             false
         }
-        fn at(&self, t: f64) -> Cow<'_, SparseColMat<usize, f64>> {
-            Cow::Owned(matrix(1, &[(0, 0, -t)]))
+        fn at(&self, t: f64) -> Result<Cow<'_, SparseColMat<usize, f64>>, StepError> {
+            Ok(Cow::Owned(matrix(1, &[(0, 0, -t)])))
         }
     }
     let times = [0.5, 1.0, 2.0, 3.0];

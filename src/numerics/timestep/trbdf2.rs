@@ -258,7 +258,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
             ));
         }
         if self.conserve {
-            let a = self.generator.at(t0);
+            let a = self.generator.at(t0)?;
             let mut worst = (0.0f64, 0.0f64);
             for c in 0..a.ncols() {
                 let column = a.val_of_col(c);
@@ -302,8 +302,8 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
 
     /// A first step whose leading error term, about h³‖A³y₀‖/12 (per unit time h²‖A³y₀‖/12),
     /// is half the tolerance.
-    fn initial_step(&self, t0: f64, y0: &[f64], span: f64) -> f64 {
-        let a = self.generator.at(t0);
+    fn initial_step(&self, t0: f64, y0: &[f64], span: f64) -> Result<f64, StepError> {
+        let a = self.generator.at(t0)?;
         let (mut u, mut v) = (y0.to_vec(), vec![0.0; y0.len()]);
         for _ in 0..3 {
             apply(&a, &u, &mut v);
@@ -311,7 +311,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
         }
         let scale = self.tolerance.absolute + self.tolerance.relative * self.norm(y0);
         let third = self.norm(&u);
-        if third > 0.0 && third.is_finite() {
+        Ok(if third > 0.0 && third.is_finite() {
             if self.per_unit_time {
                 (6.0 * scale / third).sqrt().min(span)
             } else {
@@ -319,7 +319,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
             }
         } else {
             span
-        }
+        })
     }
 
     /// Integrates from (`t0`, `y0`) and returns y at each of `times`.
@@ -340,16 +340,17 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
         }
         let mut cache: Vec<Entry> = Vec::new();
         let mut sizes: Vec<u64> = Vec::new();
-        let base = self
-            .first_step
-            .unwrap_or_else(|| self.initial_step(t0, y0, span));
+        let base = match self.first_step {
+            Some(h) => h,
+            None => self.initial_step(t0, y0, span)?,
+        };
         // Steps are base·2^level, none longer than the span.
         let mut level: i32 = 0;
         let longest = (span / base).log2().floor() as i32;
         let min_step = 1e-12 * span.max(t0.abs());
         let (mut t, mut y) = (t0, y0.to_vec());
         let mut f = vec![0.0; n];
-        apply(&self.generator.at(t0), &y, &mut f);
+        apply(&*self.generator.at(t0)?, &y, &mut f);
         let mut work = Work::new(n);
         while next < times.len() {
             if stats.accepted + stats.rejected >= self.max_steps {
@@ -420,7 +421,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
     #[cfg(test)]
     pub(crate) fn one_step(&self, t: f64, h: f64, y: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let mut f = vec![0.0; y.len()];
-        apply(&self.generator.at(t), y, &mut f);
+        apply(&self.generator.at(t).expect("a test operator"), y, &mut f);
         let mut work = Work::new(y.len());
         let (mut cache, mut stats) = (Vec::new(), Stats::default());
         self.step(&mut cache, &mut stats, t, h, y, &f, &mut work)
@@ -455,14 +456,14 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
             .zip(f)
             .for_each(|((o, y), f)| *o = y + D * h * f);
         self.solve(cache, stats, h, tg, yg)?;
-        apply(&self.generator.at(tg), yg, fg);
+        apply(&*self.generator.at(tg)?, yg, fg);
         // BDF2 stage: (I − d h A(t+h)) y₁ = y + w h (f + f_γ).
         y1.iter_mut()
             .zip(y)
             .zip(f.iter().zip(fg.iter()))
             .for_each(|((o, y), (f, g))| *o = y + W * h * (f + g));
         self.solve(cache, stats, h, t + h, y1)?;
-        apply(&self.generator.at(t + h), y1, f1);
+        apply(&*self.generator.at(t + h)?, y1, f1);
         // The embedded estimate, filtered by (I − d h A(t+h))⁻¹.
         for k in 0..y.len() {
             est[k] = h * (E[0] * f[k] + E[1] * fg[k] + E[2] * f1[k]);
@@ -496,7 +497,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
         let at = match cache.iter().position(|e| e.key == key) {
             Some(at) => at,
             None => {
-                let matrix = shifted(&self.generator.at(t), D * h);
+                let matrix = shifted(&*self.generator.at(t)?, D * h);
                 let factor = self.factor(&matrix).map_err(|e| failed(e.to_string()))?;
                 stats.factorizations += 1;
                 if cache.len() >= self.cache {

@@ -1,0 +1,145 @@
+//! `fpsolve transient`: a small run on the linear oscillator from a Gaussian `--initial`
+//! writes its files with the exact law's moments; every bad flag is refused before any work
+//! (exit 2, no output directory).
+
+mod common;
+mod transient_exact;
+
+use std::path::Path;
+
+use common::{fpsolve, fresh_path, json, names};
+use transient_exact::lyapunov;
+
+fn linear() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models/linear.sde")
+        .display()
+        .to_string()
+}
+
+/// 64x64 cells of 0.25 on [-8, 8]², from N((1, 0), 0.25 I) to t = 2: the moments file
+/// holds the states and the observables (`y = z`, `ydot = v`), its variances those of the
+/// Lyapunov equation within 1 %, and the summary the run's counts with the provenance.
+#[test]
+fn a_small_run_writes_moments_pdfs_and_summary() {
+    let out = fresh_path("transient_cli");
+    let o = fpsolve(&[
+        "transient",
+        &linear(),
+        "--times",
+        "0:2:5",
+        "--cells",
+        "64,64",
+        "--domain",
+        "z=-8:8,v=-8:8",
+        "--tol",
+        "1e-3",
+        "--initial",
+        "gaussian mean z = 1, v = 0 cov 0.25, 0, 0, 0.25",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let files = names(&out);
+    for f in [
+        "moments_vs_t.csv",
+        "pdf_v_t.csv",
+        "pdf_z_t.csv",
+        "summary.json",
+    ] {
+        assert!(files.iter().any(|n| n == f), "{f} not in {files:?}");
+    }
+    let moments = std::fs::read_to_string(out.join("moments_vs_t.csv")).unwrap();
+    let mut lines = moments.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header[..4], ["t", "z_mean", "z_variance", "z_kurtosis"]);
+    assert!(header.contains(&"ydot_variance"), "{header:?}");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|u| u.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 5);
+    let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+    let exact = lyapunov(
+        0.1,
+        1.0,
+        |_| 1.0,
+        [1.0, 0.0],
+        [[0.25, 0.0], [0.0, 0.25]],
+        &times,
+    );
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for (r, (m, cov)) in rows.iter().zip(&exact) {
+        let (zv, vv) = (r[col("z_variance")], r[col("v_variance")]);
+        eprintln!(
+            "t={}: var z {zv:.5} (exact {:.5}), v {vv:.5} ({:.5}), mean z {:.5} ({:.5})",
+            r[0],
+            cov[0][0],
+            cov[1][1],
+            r[col("z_mean")],
+            m[0]
+        );
+        assert!((zv / cov[0][0] - 1.0).abs() < 1e-2, "{r:?} {cov:?}");
+        assert!((vv / cov[1][1] - 1.0).abs() < 1e-2, "{r:?} {cov:?}");
+        assert!((r[col("z_mean")] - m[0]).abs() < 1e-2);
+        // The observable y = z by the midpoint rule: the same up to the grouping term h²/12.
+        assert!((r[col("y_variance")] - zv - 0.25 * 0.25 / 12.0).abs() < 1e-3);
+    }
+    let pdf = std::fs::read_to_string(out.join("pdf_z_t.csv")).unwrap();
+    assert!(pdf.starts_with("t,x,grid\n"));
+    assert_eq!(pdf.lines().count(), 1 + 5 * 64);
+    let s = json(&out.join("summary.json"));
+    assert_eq!(s["method"], "grid");
+    assert_eq!(s["grid"]["cells"][0], 64);
+    assert!(s["grid"]["factorizations"].as_u64().unwrap() >= 1);
+    assert_eq!(s["grid"]["time_dependent"], false);
+    assert_eq!(s["outputs"].as_array().unwrap().len(), 5);
+    assert!(s["provenance"]["model"]["text"]
+        .as_str()
+        .unwrap()
+        .contains("model linear"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Bad flags: exit 2 with the reason, nothing written.
+#[test]
+fn bad_flags_are_refused_before_any_work() {
+    let model = linear();
+    let modulated = fresh_path("transient_cli_modulated.sde");
+    std::fs::write(
+        &modulated,
+        "model m\nstate z, v\ndrift z: v\ndrift v: -0.5*v - z\nnoise xi: intensity 1\n\
+         diffusion v: 4*(exp(-0.5*t) - exp(-t))*xi\n",
+    )
+    .unwrap();
+    let cases: [(&[&str], &str); 7] = [
+        (&["--times", "0:1:3", "--method", "mc"], "not yet"),
+        (&["--times", "0:1:3", "--method", "epc"], "expected `grid`"),
+        (&["--times", "1:0:3"], "--times"),
+        (&["--times", "0:1:3", "--tol", "0"], "--tol"),
+        (&["--times", "0:1:3", "--cells", "41,40"], "--cells"),
+        (
+            &["--times", "0:1:3", "--initial", "point q = 1, v = 0"],
+            "`q` is not a state",
+        ),
+        (
+            &["--times", "0:1:3", "--domain", "z=3:1,v=-1:1"],
+            "--domain",
+        ),
+    ];
+    for (args, what) in cases {
+        let out = fresh_path("transient_cli_refused");
+        let mut all = vec!["transient", &model];
+        all.extend_from_slice(args);
+        all.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        let o = fpsolve(&all);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(what), "{args:?}: `{what}` not in {stderr}");
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+    let o = fpsolve(&["transient", modulated.to_str().unwrap(), "--times", "0:1:3"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--domain: required"), "{stderr}");
+}
