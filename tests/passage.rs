@@ -287,7 +287,7 @@ fn passage_monte_carlo_agrees_with_the_exact_transition_and_the_grid() {
     let safe = model.safe().unwrap().bind(&bound).unwrap();
     let times = vec![1.0, 3.0, 6.0, 10.0];
     let run = fpsolve::mc::McPassage::new(&bound, &safe)
-        .paths(8192)
+        .paths(4096)
         .dt(0.02)
         .horizon(200.0)
         .times(times.clone())
