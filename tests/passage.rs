@@ -273,3 +273,138 @@ fn the_passage_command_checks_then_writes() {
     assert!(summary.contains("\"mean_at_start\""), "{summary}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// fpsolve's own first-passage Monte Carlo (`McPassage`, the stationary kernel's steps with
+/// the exit located in the step) against the independent exact-transition Monte Carlo above
+/// and the grid, on the strongly damped case: the means within 4 combined standard errors
+/// plus the estimated time-step bias, R(t) within its 95 % band (widened by the grid's
+/// 2 %) at a few times, the seed reproducing the exit statistics bit for bit.
+#[test]
+fn passage_monte_carlo_agrees_with_the_exact_transition_and_the_grid() {
+    let (c, u) = (1.0, 1.2);
+    let (model, set) = linear(c, &format!("abs(z) < {u}"));
+    let bound = model.bind(&set).unwrap();
+    let safe = model.safe().unwrap().bind(&bound).unwrap();
+    let times = vec![1.0, 3.0, 6.0, 10.0];
+    let run = fpsolve::mc::McPassage::new(&bound, &safe)
+        .paths(4096)
+        .dt(0.02)
+        .horizon(200.0)
+        .times(times.clone())
+        .seed(11);
+    let r = run.run().unwrap();
+    assert_eq!((r.censored, r.blowups), (0, 0));
+    let m = r.mean.unwrap();
+    let (exact, se, _) = monte_carlo(c, u, 0.02, 8_000, 7);
+    let g = passage(c, &format!("abs(z) < {u}"), [80, 160], times.clone());
+    println!(
+        "McPassage T {:.4} ± {:.4} (bias {:.4} ± {:.4}), Var T {:.3} ± {:.3}; exact-transition MC \
+         {exact:.4} ± {se:.4}; grid {:.4}",
+        m.value,
+        m.stderr,
+        r.bias.value,
+        r.bias.stderr,
+        r.variance.unwrap().value,
+        r.variance.unwrap().stderr,
+        g.mean_at_start
+    );
+    let tol = 4.0 * m.stderr.hypot(se) + r.bias.value.abs() + 2.0 * r.bias.stderr;
+    assert!((m.value - exact).abs() < tol, "{} vs {exact}", m.value);
+    assert!((m.value - g.mean_at_start).abs() < 4.0 * m.stderr + 0.02 * g.mean_at_start);
+    for (k, t) in times.iter().enumerate() {
+        let (lo, hi, grid) = (r.reliability_lo[k], r.reliability_hi[k], g.reliability[k]);
+        println!(
+            "t {t}: MC R {:.4} [{lo:.4}, {hi:.4}], grid {grid:.4}",
+            r.reliability[k]
+        );
+        assert!(lo - 0.02 <= grid && grid <= hi + 0.02, "t {t}: grid {grid}");
+    }
+    let again = run.run().unwrap();
+    assert_eq!(again.mean, r.mean);
+    assert_eq!(again.reliability, r.reliability);
+}
+
+/// Censored paths: the mean is not reported, only its lower bound, and R at the horizon is
+/// the censored fraction.
+#[test]
+fn passage_monte_carlo_flags_censoring() {
+    let (model, set) = linear(1.0, "abs(z) < 1");
+    let bound = model.bind(&set).unwrap();
+    let safe = model.safe().unwrap().bind(&bound).unwrap();
+    let r = fpsolve::mc::McPassage::new(&bound, &safe)
+        .paths(256)
+        .dt(0.02)
+        .horizon(3.0)
+        .times(vec![3.0])
+        .run()
+        .unwrap();
+    println!(
+        "censored {} of {}, min(T, 3) {:.4}",
+        r.censored, r.paths, r.mean_lower_bound.value
+    );
+    assert!(r.censored > 0 && r.censored < r.paths);
+    assert!(r.mean.is_none() && r.variance.is_none());
+    assert_eq!(r.reliability[0], r.censored_fraction);
+    assert!(r.mean_lower_bound.value < 3.0);
+}
+
+/// `--method mc`'s flags are checked before any work (exit 2, naming the flag); a run of both
+/// methods writes the Monte Carlo's columns beside the grid's and the distance in standard
+/// errors.
+#[test]
+fn the_passage_command_runs_monte_carlo_beside_the_grid() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let base = ["passage", model, "--safe", "abs(z) < 1.2", "--set", "c=1"];
+    for (flags, says) in [
+        (&["--paths", "1"][..], "--paths"),
+        (&["--dt=-1"][..], "--dt"),
+        (&["--horizon", "nan"][..], "--horizon"),
+        (&["--seed", "x"][..], "--seed"),
+        (&["--method", "mc"][..], "--horizon"),
+        (&["--method", "grid,pde"][..], "--method"),
+    ] {
+        let args: Vec<&str> = base.iter().chain(flags).copied().collect();
+        let (code, text) = fpsolve(&args);
+        assert_eq!(code, Some(2), "{flags:?}: {text}");
+        assert!(text.contains(says), "{flags:?}: {text}");
+    }
+    let dir = std::env::temp_dir().join(format!("fpsolve_passage_mc_{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let args: Vec<&str> = base
+        .iter()
+        .chain(&[
+            "--cells",
+            "40,60",
+            "--times",
+            "0:6:4",
+            "--paths",
+            "512",
+            "--dt",
+            "0.02",
+            "--horizon",
+            "100",
+            "--out",
+            out,
+            "--quiet",
+        ])
+        .copied()
+        .collect();
+    let (code, text) = fpsolve(&args);
+    assert_eq!(code, Some(0), "{text}");
+    let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
+    assert!(
+        csv.starts_with("t,R_grid,pdf_grid,R_mc,R_mc_lo95,R_mc_hi95\n"),
+        "{csv}"
+    );
+    assert_eq!(csv.lines().count(), 5);
+    let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    for key in [
+        "\"mc\"",
+        "\"censored_fraction\"",
+        "\"grid_vs_mc_se\"",
+        "\"bias\"",
+    ] {
+        assert!(summary.contains(key), "{key}: {summary}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,12 +1,14 @@
-//! `fpsolve passage MODEL`: first passage out of the safe set on the grid. Flags are read
-//! and checked (the model, `--safe`, the start inside the set, the times, the cells) before
-//! any solve; writes `passage.csv` and `summary.json`.
+//! `fpsolve passage MODEL`: first passage out of the safe set on the grid and by Monte Carlo.
+//! Flags are read and checked (the model, `--safe`, the start inside the set, the times, the
+//! cells, the methods and the Monte Carlo's paths, dt, horizon and seed) before any solve;
+//! writes `passage.csv` and `summary.json`.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use fpsolve::grid::{Cells, GridPassage, PassageSolution};
+use fpsolve::mc::{McPassage, McPassageResult};
 use fpsolve::model::{BoundModel, BoundSafe, Model};
 use fpsolve::report::write_json;
 use serde::Serialize;
@@ -26,9 +28,22 @@ pub(crate) struct PassageArgs {
     /// Cells of the grid, position and velocity (default 200,400).
     #[arg(long, value_name = "NX,NV")]
     cells: Option<Cells>,
-    /// Methods: `grid` only so far.
-    #[arg(long, value_name = "M,...", default_value = "grid")]
+    /// Methods: `grid`, `mc` or both (default `grid,mc`).
+    #[arg(long, value_name = "M,...", default_value = "grid,mc")]
     method: String,
+    /// Monte Carlo paths (default 10000).
+    #[arg(long, value_name = "N", default_value_t = 10_000)]
+    paths: u64,
+    /// Monte Carlo time step (default 0.01; the bias estimate runs again at 2·dt).
+    #[arg(long, value_name = "DT", default_value_t = 0.01)]
+    dt: f64,
+    /// Monte Carlo horizon, paths still inside then are censored (default: the last of
+    /// --times, else 20 times the grid's mean time).
+    #[arg(long, value_name = "T")]
+    horizon: Option<f64>,
+    /// Monte Carlo seed (default 1).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
     /// Output directory (default: out/<model name>_passage).
@@ -45,17 +60,29 @@ pub(crate) struct PassagePlan {
     start: [f64; 2],
     times: Vec<f64>,
     cells: [usize; 2],
+    grid: bool,
+    mc: Option<McSettings>,
     out: PathBuf,
+}
+
+/// The Monte Carlo's checked settings.
+struct McSettings {
+    paths: u64,
+    dt: f64,
+    horizon: Option<f64>,
+    seed: u64,
 }
 
 /// Reads and checks everything before any solve.
 pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
-    if args.method.split(',').any(|m| m.trim() != "grid") {
+    let methods: Vec<&str> = args.method.split(',').map(str::trim).collect();
+    if methods.is_empty() || methods.iter().any(|m| !matches!(*m, "grid" | "mc")) {
         return Err(anyhow!(
-            "--method {}: only `grid` is available for first passage (Monte Carlo is not yet)",
+            "--method {}: expected `grid`, `mc` or `grid,mc`",
             args.method
         ));
     }
+    let grid = methods.contains(&"grid");
     let (model, _, _) = crate::load(&path, &args.set)?;
     let model = match &args.safe {
         Some(text) => model.with_safe(text).map_err(crate::lib)?,
@@ -95,6 +122,40 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
     };
     let cells = args.cells.unwrap_or_default().0;
     fpsolve::grid::check_cells(cells).map_err(|e| anyhow::Error::new(e).context("--cells"))?;
+    let mc = methods.contains(&"mc").then_some(McSettings {
+        paths: args.paths,
+        dt: args.dt,
+        horizon: args.horizon.or_else(|| times.last().copied()),
+        seed: args.seed,
+    });
+    if let Some(m) = &mc {
+        if m.horizon.is_none() && !grid {
+            return Err(anyhow!(
+                "--method mc: give --horizon or --times (without the grid there is no mean \
+                 time to set the horizon from)"
+            ));
+        }
+        // Every setting checked now, before any work (a placeholder horizon when it comes
+        // from the grid's mean time).
+        McPassage::new(&bound, &safe)
+            .paths(m.paths)
+            .dt(m.dt)
+            .horizon(m.horizon.unwrap_or(1.0))
+            .seed(m.seed)
+            .start(start)
+            .check()
+            .map_err(|e| {
+                let flag = match &e {
+                    fpsolve::mc::McError::BadSetting { name, .. } => format!("--{name}"),
+                    _ => "--method mc".into(),
+                };
+                crate::lib(e).context(flag)
+            })?;
+    } else if args.horizon.is_some() {
+        return Err(anyhow!(
+            "--horizon: only the Monte Carlo uses it (--method mc)"
+        ));
+    }
     let out = args
         .out
         .unwrap_or_else(|| Path::new("out").join(format!("{}_passage", model.name())));
@@ -106,6 +167,8 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
         start,
         times,
         cells,
+        grid,
+        mc,
         out,
     })
 }
@@ -165,30 +228,88 @@ struct Summary<'a> {
     model_file: String,
     safe: &'a str,
     start: [f64; 2],
-    grid: &'a PassageSolution,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    grid: Option<&'a PassageSolution>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mc: Option<&'a McPassageResult>,
+    /// (Monte Carlo mean − grid mean) / the Monte Carlo's standard error; null when either
+    /// is missing or paths were censored (the Monte Carlo mean is then only a lower bound).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    grid_vs_mc_se: Option<Option<f64>>,
 }
 
 /// Solves and writes the output directory.
 pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     let run = crate::begin_output(&plan.out)?;
-    let solution = GridPassage::new(&plan.bound, &plan.safe)
-        .cells(plan.cells[0], plan.cells[1])
-        .start(plan.start)
-        .times(plan.times.clone())
-        .run()
-        .map_err(|e| anyhow::Error::new(e).context(plan.path.display().to_string()))?;
-    let mut csv = String::from("t,R_grid,pdf_grid\n");
-    for ((t, r), f) in solution
-        .times
-        .iter()
-        .zip(&solution.reliability)
-        .zip(&solution.pdf)
-    {
-        csv.push_str(&format!("{t},{r},{f}\n"));
+    let grid = if plan.grid {
+        Some(
+            GridPassage::new(&plan.bound, &plan.safe)
+                .cells(plan.cells[0], plan.cells[1])
+                .start(plan.start)
+                .times(plan.times.clone())
+                .run()
+                .map_err(|e| anyhow::Error::new(e).context(plan.path.display().to_string()))?,
+        )
+    } else {
+        None
+    };
+    let mc = match &plan.mc {
+        None => None,
+        Some(m) => {
+            // R(t) on the grid's output times when the grid ran.
+            let times = grid
+                .as_ref()
+                .map_or(plan.times.clone(), |g| g.times.clone());
+            let horizon = m
+                .horizon
+                .or_else(|| grid.as_ref().map(|g| 20.0 * g.mean_at_start))
+                .expect("checked in plan: a horizon, --times or the grid");
+            let r = McPassage::new(&plan.bound, &plan.safe)
+                .paths(m.paths)
+                .dt(m.dt)
+                .horizon(horizon)
+                .seed(m.seed)
+                .start(plan.start)
+                .times(times)
+                .run()
+                .map_err(|e| crate::lib(e).context(plan.path.display().to_string()))?;
+            Some(r)
+        }
+    };
+    let times = grid
+        .as_ref()
+        .map(|g| g.times.clone())
+        .or_else(|| mc.as_ref().map(|m| m.times.clone()))
+        .unwrap_or_default();
+    let mut header = vec!["t"];
+    if grid.is_some() {
+        header.extend(["R_grid", "pdf_grid"]);
+    }
+    if mc.is_some() {
+        header.extend(["R_mc", "R_mc_lo95", "R_mc_hi95"]);
+    }
+    let mut csv = header.join(",") + "\n";
+    for (k, t) in times.iter().enumerate() {
+        let mut row = vec![t.to_string()];
+        if let Some(g) = &grid {
+            row.extend([g.reliability[k].to_string(), g.pdf[k].to_string()]);
+        }
+        if let Some(m) = &mc {
+            row.extend([
+                m.reliability[k].to_string(),
+                m.reliability_lo[k].to_string(),
+                m.reliability_hi[k].to_string(),
+            ]);
+        }
+        csv.push_str(&(row.join(",") + "\n"));
     }
     run.out()
         .write_atomic("passage.csv", csv.as_bytes())
         .map_err(crate::lib)?;
+    let distance = match (&grid, &mc) {
+        (Some(g), Some(m)) => Some(m.mean.map(|e| (e.value - g.mean_at_start) / e.stderr)),
+        _ => None,
+    };
     let summary = Summary {
         fpsolve: env!("CARGO_PKG_VERSION"),
         command: crate::command_line(),
@@ -196,17 +317,48 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
         model_file: plan.path.display().to_string(),
         safe: &plan.safe.text,
         start: plan.start,
-        grid: &solution,
+        grid: grid.as_ref(),
+        mc: mc.as_ref(),
+        grid_vs_mc_se: distance,
     };
     write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
-    crate::cli::console::sayln!(
-        "mean first-passage time from ({}, {}): {:.6} (grid {}x{}); stationary start: {:.6}",
-        plan.start[0],
-        plan.start[1],
-        solution.mean_at_start,
-        plan.cells[0],
-        plan.cells[1],
-        solution.mean_stationary
-    );
+    if let Some(g) = &grid {
+        crate::cli::console::sayln!(
+            "mean first-passage time from ({}, {}): {:.6} (grid {}x{}); stationary start: {:.6}",
+            plan.start[0],
+            plan.start[1],
+            g.mean_at_start,
+            plan.cells[0],
+            plan.cells[1],
+            g.mean_stationary
+        );
+    }
+    if let Some(m) = &mc {
+        match m.mean {
+            Some(e) => crate::cli::console::sayln!(
+                "Monte Carlo: mean {:.6} ± {:.6} (SE, {} paths, dt {}; time-step bias {:.2e} ± {:.1e})",
+                e.value,
+                e.stderr,
+                m.paths,
+                m.dt,
+                m.bias.value,
+                m.bias.stderr
+            ),
+            None => crate::cli::console::sayln!(
+                "Monte Carlo: {:.1} % of paths censored at the horizon {}: the mean is at least \
+                 {:.6} ± {:.6} (a lower bound, not the mean)",
+                100.0 * m.censored_fraction,
+                m.horizon,
+                m.mean_lower_bound.value,
+                m.mean_lower_bound.stderr
+            ),
+        }
+        if m.blowups > 0 {
+            crate::cli::console::sayln!(
+                "warning: {} Monte Carlo paths blew up and are left out",
+                m.blowups
+            );
+        }
+    }
     crate::commit_output(run, 2)
 }

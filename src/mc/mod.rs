@@ -38,6 +38,7 @@ mod config;
 mod error;
 mod exact;
 mod kernel;
+mod passage;
 mod record;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
@@ -63,6 +64,10 @@ pub use config::{
 };
 pub use error::{BarrierLayout, DigestPart, McError, ShardDefect};
 pub use kernel::rng::Increments;
+pub use passage::{
+    McPassage, McPassageResult, PassageBias, PassageEstimate, MAX_PASSAGE_PATHS, MAX_PASSAGE_STEPS,
+    PASSAGE_LANES,
+};
 pub use record::batch::BlowUp;
 pub use record::histogram::{
     Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias, MAX_BINS,

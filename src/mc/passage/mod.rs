@@ -1,0 +1,329 @@
+//! First passage by Monte Carlo (issue 35, item 4): paths from a start point until they
+//! leave a safe set, integrated by the stationary run's kernel and impacts
+//! ([`BatchState::advance`], one step at a time), the exit time located within its step,
+//! censoring at a horizon.
+//!
+//! The safe set is tested within every step on the cubic Hermite interpolant of the position
+//! (C¹ between impacts) and the linear one of the velocity, at four points; the exit time is
+//! interpolated linearly between the last point inside and the first outside. Batches of [`PASSAGE_LANES`] paths run in parallel (rayon) and are collected in
+//! batch order, each path with its own random stream: a seed gives the same exit times
+//! whatever the number of threads. The time-step bias is estimated as for stationary runs:
+//! the first quarter of the batches (at least two) again at 2·dt.
+
+mod summary;
+
+use rayon::prelude::*;
+
+use super::compile::scheme::{read, walls, Plan, SchemeChoice};
+use super::config::bad;
+use super::error::McError;
+use super::kernel::rng::Increments;
+use super::step::state::BatchState;
+use crate::model::{BoundModel, BoundSafe};
+
+pub use summary::{McPassageResult, PassageBias, PassageEstimate};
+
+/// Paths per batch (one random stream each, one task of the thread pool).
+pub const PASSAGE_LANES: usize = 64;
+
+/// At most this many paths in one run.
+pub const MAX_PASSAGE_PATHS: u64 = 100_000_000;
+
+/// At most this many time steps per path (the horizon over dt).
+pub const MAX_PASSAGE_STEPS: f64 = 1e9;
+
+/// A Monte Carlo first-passage run: the model, its safe set and the settings.
+///
+/// ```
+/// use fpsolve::mc::McPassage;
+/// use fpsolve::model::{load_model, Override};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+/// let model = load_model(path.as_ref()).unwrap().with_safe("abs(z) < 1").unwrap();
+/// let bound = model.bind(&[Override::number("c", 1.0)]).unwrap();
+/// let safe = model.safe().unwrap().bind(&bound).unwrap();
+/// let run = McPassage::new(&bound, &safe).paths(256).dt(0.01).horizon(200.0).seed(3);
+/// let r = run.run().unwrap();
+/// assert_eq!(r.censored, 0);
+/// let mean = r.mean.unwrap();
+/// assert!(mean.value > 0.0 && mean.stderr > 0.0);
+/// ```
+pub struct McPassage<'a> {
+    model: &'a BoundModel,
+    safe: &'a BoundSafe,
+    start: [f64; 2],
+    dt: f64,
+    horizon: f64,
+    paths: u64,
+    seed: u64,
+    times: Vec<f64>,
+    increments: Increments,
+}
+
+impl<'a> McPassage<'a> {
+    /// A run of `model` out of `safe` from rest, 10 000 paths, dt = 0.01, horizon 1000,
+    /// seed 1.
+    pub fn new(model: &'a BoundModel, safe: &'a BoundSafe) -> McPassage<'a> {
+        McPassage {
+            model,
+            safe,
+            start: [0.0, 0.0],
+            dt: 0.01,
+            horizon: 1000.0,
+            paths: 10_000,
+            seed: 1,
+            times: Vec::new(),
+            increments: Increments::default(),
+        }
+    }
+
+    /// The start (position, velocity).
+    pub fn start(mut self, start: [f64; 2]) -> Self {
+        self.start = start;
+        self
+    }
+
+    /// The time step.
+    pub fn dt(mut self, dt: f64) -> Self {
+        self.dt = dt;
+        self
+    }
+
+    /// The horizon: paths still inside then are censored.
+    pub fn horizon(mut self, horizon: f64) -> Self {
+        self.horizon = horizon;
+        self
+    }
+
+    /// The number of paths.
+    pub fn paths(mut self, paths: u64) -> Self {
+        self.paths = paths;
+        self
+    }
+
+    /// The seed of the random streams.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// The times of R(t) (default: 101 from 0 to the horizon).
+    pub fn times(mut self, times: Vec<f64>) -> Self {
+        self.times = times;
+        self
+    }
+
+    /// The random increments (three-point by default, as stationary runs).
+    pub fn increments(mut self, increments: Increments) -> Self {
+        self.increments = increments;
+        self
+    }
+
+    /// Checks the settings and the start without running anything.
+    ///
+    /// ```
+    /// # use fpsolve::mc::McPassage;
+    /// # use fpsolve::model::{load_model, Override};
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// # let model = load_model(path.as_ref()).unwrap().with_safe("abs(z) < 1").unwrap();
+    /// # let bound = model.bind(&[Override::number("c", 1.0)]).unwrap();
+    /// # let safe = model.safe().unwrap().bind(&bound).unwrap();
+    /// assert!(McPassage::new(&bound, &safe).paths(1).check().is_err());
+    /// assert!(McPassage::new(&bound, &safe).dt(-1.0).check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<(), McError> {
+        let (dt, h) = (self.dt, self.horizon);
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(bad(
+                "horizon",
+                format!("must be a positive number, got {h:?}"),
+            ));
+        }
+        if h / dt > MAX_PASSAGE_STEPS {
+            return Err(bad(
+                "horizon",
+                format!("{h} over dt = {dt} is more than {MAX_PASSAGE_STEPS:e} steps per path"),
+            ));
+        }
+        let min = 2 * PASSAGE_LANES as u64;
+        if !(min..=MAX_PASSAGE_PATHS).contains(&self.paths) {
+            return Err(bad(
+                "paths",
+                format!(
+                    "must lie in {min}..={MAX_PASSAGE_PATHS} (two batches of {PASSAGE_LANES} \
+                     at least, for error bars), got {}",
+                    self.paths
+                ),
+            ));
+        }
+        if self.times.iter().any(|t| !(t.is_finite() && *t >= 0.0)) {
+            return Err(bad("times", "must be finite and non-negative".into()));
+        }
+        if !self.safe.contains(self.start) {
+            return Err(bad(
+                "start",
+                format!(
+                    "({}, {}) is not inside the safe set `{}`",
+                    self.start[0], self.start[1], self.safe.text
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Runs the paths at dt and the bias estimate's at 2·dt; the statistics of the exit
+    /// times.
+    pub fn run(&self) -> Result<McPassageResult, McError> {
+        self.check()?;
+        let dynamics = read(self.model)?;
+        let observables: Vec<_> = self
+            .model
+            .observables
+            .iter()
+            .map(|o| o.expr.clone())
+            .collect();
+        let plan = Plan::with_impacts(
+            &dynamics,
+            &observables,
+            SchemeChoice::Auto,
+            walls(&dynamics),
+        )?;
+        let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
+        let coarse_batches = (batches / 4).max(2).min(batches);
+        let fine = self.exit_times(&plan, batches, self.dt);
+        let coarse = self.exit_times(&plan, coarse_batches, 2.0 * self.dt);
+        let times = if self.times.is_empty() {
+            (0..=100).map(|k| self.horizon * k as f64 / 100.0).collect()
+        } else {
+            self.times.clone()
+        };
+        let n_coarse = coarse.len();
+        Ok(McPassageResult::new(
+            summary::Run {
+                exits: &fine,
+                coarse: &coarse,
+                coarse_fine: &fine[..n_coarse.min(fine.len())],
+                horizon: self.horizon,
+                dt: self.dt,
+                seed: self.seed,
+            },
+            times,
+        ))
+    }
+
+    /// The exit times of the paths of `batches` batches at step `h` (`f64::INFINITY`:
+    /// censored at the horizon; NaN: blew up), in path order.
+    fn exit_times(&self, plan: &Plan, batches: u64, h: f64) -> Vec<f64> {
+        let per: Vec<Vec<f64>> = (0..batches)
+            .into_par_iter()
+            .map(|k| {
+                let first = k * PASSAGE_LANES as u64;
+                let lanes = self.paths.saturating_sub(first).min(PASSAGE_LANES as u64) as usize;
+                self.batch(plan, first, lanes, h)
+            })
+            .collect();
+        per.concat()
+    }
+
+    /// One batch: paths `first..first + lanes` from the start until they leave.
+    fn batch(&self, plan: &Plan, first: u64, lanes: usize, h: f64) -> Vec<f64> {
+        let spread = plan.initial_spread();
+        let mut b = BatchState::new(plan, &spread, self.seed, first, lanes, self.increments);
+        b.x.fill(self.start[0]);
+        b.v.fill(self.start[1]);
+        let q0 = self.safe.quantity_at(self.start);
+        let mut prev = vec![(self.start, q0); lanes];
+        let mut exit = vec![f64::INFINITY; lanes];
+        let mut alive = lanes;
+        let steps = (self.horizon / h).ceil() as u64;
+        for n in 0..steps {
+            b.advance(plan, 1, h);
+            for i in 0..lanes {
+                if exit[i] != f64::INFINITY {
+                    continue;
+                }
+                let end = [b.x[i], b.v[i]];
+                let q1 = self.safe.quantity_at(end);
+                if q1.is_nan() || !end[0].is_finite() || !end[1].is_finite() {
+                    exit[i] = f64::NAN;
+                    alive -= 1;
+                    continue;
+                }
+                let Some(s) = self.left_within(prev[i], (end, q1), h) else {
+                    prev[i] = (end, q1);
+                    continue;
+                };
+                let t = (n as f64 + s) * h;
+                // A path that leaves after the horizon within the last step is censored.
+                exit[i] = if t <= self.horizon {
+                    t
+                } else {
+                    f64::NEG_INFINITY
+                };
+                alive -= 1;
+            }
+            if alive == 0 {
+                break;
+            }
+        }
+        exit.iter_mut()
+            .filter(|t| **t == f64::NEG_INFINITY)
+            .for_each(|t| *t = f64::INFINITY);
+        exit
+    }
+
+    /// Whether the path left the set within a step from `a` to `b` (states and quantity;
+    /// `a` inside) and where (in [0, 1]). Between the ends the position is the cubic Hermite
+    /// interpolant of the positions and velocities (the position is C¹ between impacts) and
+    /// the velocity linear, sampled at [`SUBSTEPS`] points: an excursion out and back within
+    /// a step is caught, which testing the ends alone would miss (a bias of order √dt in
+    /// the mean time). The exit is interpolated linearly between the last sample inside and
+    /// the first outside.
+    fn left_within(&self, a: ([f64; 2], f64), b: ([f64; 2], f64), h: f64) -> Option<f64> {
+        let ([x0, v0], q0) = a;
+        let ([x1, v1], q1) = b;
+        let mut last = (0.0, q0);
+        for k in 1..=SUBSTEPS {
+            let s = k as f64 / SUBSTEPS as f64;
+            let q = if k == SUBSTEPS {
+                q1
+            } else {
+                let (s2, s3) = (s * s, s * s * s);
+                let x = (2.0 * s3 - 3.0 * s2 + 1.0) * x0
+                    + (s3 - 2.0 * s2 + s) * h * v0
+                    + (-2.0 * s3 + 3.0 * s2) * x1
+                    + (s3 - s2) * h * v1;
+                self.safe.quantity_at([x, v0 + s * (v1 - v0)])
+            };
+            if !self.safe.inside(q) {
+                let f = self.fraction(last.1, q);
+                return Some(last.0 + f / SUBSTEPS as f64);
+            }
+            last = (s, q);
+        }
+        None
+    }
+
+    /// Where between two samples the quantity, `q0` (inside) at the first and `q1`
+    /// (outside) at the second, reached the bound it crossed, linearly interpolated (in
+    /// [0, 1]).
+    fn fraction(&self, q0: f64, q1: f64) -> f64 {
+        let bound = match (self.safe.lower, self.safe.upper) {
+            (_, Some(b)) if q1 >= b => b,
+            (Some(a), _) => a,
+            (None, Some(b)) => b,
+            (None, None) => return 1.0,
+        };
+        let d = q1 - q0;
+        if d == 0.0 || d.is_nan() {
+            1.0
+        } else {
+            ((bound - q0) / d).clamp(0.0, 1.0)
+        }
+    }
+}
+
+/// Samples of the interpolated path per step at which the safe set is tested.
+const SUBSTEPS: usize = 4;
