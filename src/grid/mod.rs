@@ -74,6 +74,7 @@ mod read;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
+mod tolerance;
 mod transient;
 
 use std::time::Instant;
@@ -87,6 +88,7 @@ pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
 };
+pub use tolerance::{Shortfall, ToleranceOutcome, MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES};
 pub use transient::{
     GridTransient, Initial, Moments, Snapshot, TransientError, TransientHistory, TransientReport,
     INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
@@ -133,6 +135,8 @@ pub struct GridSolver<'a> {
     domain: Option<Domain>,
     barriers: Option<crate::dynamics::Barriers>,
     estimate: bool,
+    tolerance: Option<f64>,
+    cells_given: bool,
 }
 
 impl<'a> GridSolver<'a> {
@@ -150,6 +154,8 @@ impl<'a> GridSolver<'a> {
             domain: None,
             barriers: None,
             estimate: true,
+            tolerance: None,
+            cells_given: false,
         }
     }
 
@@ -165,6 +171,36 @@ impl<'a> GridSolver<'a> {
     /// ```
     pub fn cells(mut self, nx: usize, nv: usize) -> Self {
         self.cells = [nx, nv];
+        self.cells_given = true;
+        self
+    }
+
+    /// Chooses the cells itself and refines until the discretisation estimate (the larger
+    /// of the two marginals' L1 estimates, clipped mass and mass beyond the box included) is
+    /// at most `l1`. It starts at a quarter of [`DEFAULT_CELLS`] per axis and predicts each
+    /// next resolution from the convergence the solves so far show (order 1 until two solves
+    /// give one), aiming below the tolerance with a margin; each solve sizes its own box
+    /// unless [`domain`](Self::domain) fixed it. Exclusive with [`cells`](Self::cells)
+    /// ([`GridError::Setting`]). A tolerance not reached within [`MAX_TOLERANCE_CELLS`] or
+    /// [`MAX_TOLERANCE_SOLVES`] is not an error: the solution with the smallest estimate is
+    /// returned, and its [`GridReport::tolerance`] says `reached: false` and why (the
+    /// report's `Display` prints a warning).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{GridError, GridSolver};
+    /// let sol = GridSolver::new(&bound).tolerance(1e-2).solve()?;
+    /// let outcome = sol.report.tolerance.as_ref().unwrap();
+    /// assert!(outcome.reached && outcome.achieved <= 1e-2);
+    /// let e = sol.report.discretisation_estimate.as_ref().unwrap();
+    /// assert!(e.x.max(e.v) <= 1e-2);
+    /// let both = GridSolver::new(&bound).cells(40, 80).tolerance(1e-3).solve().unwrap_err();
+    /// assert!(matches!(both, GridError::Setting { setting: "tolerance", .. }));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tolerance(mut self, l1: f64) -> Self {
+        self.tolerance = Some(l1);
         self
     }
 
@@ -229,6 +265,9 @@ impl<'a> GridSolver<'a> {
     /// [`GridError::Symbolic`]; with a [`domain`](Self::domain), [`GridError::Setting`] and
     /// [`Unsupported::WallNotAnEnd`] for a box that is not one or does not fit the walls.
     pub fn check(&self) -> Result<(), GridError> {
+        if let Some(tol) = self.tolerance {
+            self.check_tolerance(tol)?;
+        }
         check_cells(self.cells)?;
         let problem = Problem::read(self.model)?;
         if let Some(d) = &self.domain {
@@ -250,6 +289,9 @@ impl<'a> GridSolver<'a> {
     /// assert!(matches!(err, GridError::Unsupported { reason: Unsupported::ImpactOfGeneralForm { .. }, .. }));
     /// ```
     pub fn solve(&self) -> Result<GridSolution, GridError> {
+        if let Some(tol) = self.tolerance {
+            return self.solve_to(tol);
+        }
         let start = Instant::now();
         let [nx, nv] = self.cells;
         check_cells(self.cells)?;
@@ -319,6 +361,7 @@ impl<'a> GridSolver<'a> {
             domain_passes: passes,
             domain_given: self.domain.is_some(),
             edges,
+            tolerance: None,
             timings: GridTimings {
                 domain_ms,
                 assemble_ms,
@@ -376,6 +419,107 @@ impl<'a> GridSolver<'a> {
         report.timings.total_ms = ms(start);
         solution.report = report;
         Ok(solution)
+    }
+
+    /// A tolerance is positive and finite, and excludes [`cells`](Self::cells).
+    fn check_tolerance(&self, tol: f64) -> Result<(), GridError> {
+        tolerance::check_tolerance(tol)?;
+        if self.cells_given {
+            return Err(GridError::Setting {
+                setting: "tolerance",
+                value: format!("{tol} with cells {}x{}", self.cells[0], self.cells[1]),
+                expected: "either cells or a tolerance, not both (cells fix the resolution)",
+            });
+        }
+        Ok(())
+    }
+
+    /// [`solve`](Self::solve) with the cells chosen for the tolerance `tol`.
+    fn solve_to(&self, tol: f64) -> Result<GridSolution, GridError> {
+        use tolerance::{achieved, next_cells, observed_order, NextCells};
+        self.check_tolerance(tol)?;
+        let start = Instant::now();
+        let mut cells = tolerance::first_cells();
+        let mut solves: Vec<([usize; 2], f64)> = Vec::new();
+        let mut best: Option<GridSolution> = None;
+        let mut last_error = None;
+        let mut order = ASSUMED_ORDER;
+        let mut not_falling = 0;
+        let shortfall = loop {
+            let one = GridSolver {
+                cells,
+                tolerance: None,
+                cells_given: true,
+                estimate: true,
+                ..self.clone()
+            };
+            let mut cut = 0.0;
+            let e = match one.solve() {
+                Ok(sol) => {
+                    let e = achieved(&sol);
+                    if sol.report.edges.cuts_density {
+                        cut = 2.0 * sol.report.edges.beyond.iter().sum::<f64>();
+                    }
+                    if best.as_ref().is_none_or(|b| e <= achieved(b)) {
+                        best = Some(sol);
+                    }
+                    e
+                }
+                // Too coarse to resolve the density: refine like any other miss.
+                Err(err @ GridError::NegativeMass { .. }) => {
+                    last_error = Some(err);
+                    f64::INFINITY
+                }
+                Err(err) => return Err(err),
+            };
+            solves.push((cells, e));
+            if e <= tol {
+                break None;
+            }
+            // Mass beyond a given box stays beyond it at any cells.
+            if self.domain.is_some() && cut > tol {
+                break Some(Shortfall::BoxCuts { cut });
+            }
+            if solves.len() >= MAX_TOLERANCE_SOLVES {
+                break Some(Shortfall::SolveLimit {
+                    solves: solves.len(),
+                });
+            }
+            if let [.., (c1, e1), (c2, e2)] = solves[..] {
+                if e1.is_finite() && e2.is_finite() {
+                    order = observed_order(c1[0], e1, c2[0], e2);
+                    not_falling = if e2 >= e1 { not_falling + 1 } else { 0 };
+                    if not_falling >= 2 {
+                        break Some(Shortfall::Stalled);
+                    }
+                }
+            }
+            match next_cells(cells, e, tol, order) {
+                NextCells::Free(next) | NextCells::Capped(next) => cells = next,
+                NextCells::AtLimit => {
+                    break Some(Shortfall::CellLimit {
+                        limit: MAX_TOLERANCE_CELLS,
+                    })
+                }
+            }
+        };
+        let Some(mut sol) = best else {
+            return Err(last_error.expect("every solve failed with negative mass"));
+        };
+        let got = achieved(&sol);
+        sol.report.tolerance = Some(ToleranceOutcome {
+            asked: tol,
+            achieved: got,
+            reached: got <= tol,
+            shortfall: if got <= tol {
+                None
+            } else {
+                shortfall.or(Some(Shortfall::Stalled))
+            },
+            solves,
+        });
+        sol.report.timings.total_ms = ms(start);
+        Ok(sol)
     }
 }
 

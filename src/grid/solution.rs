@@ -110,8 +110,12 @@ pub struct GridReport {
     pub domain_given: bool,
     /// What the box leaves at its free edges.
     pub edges: BoxEdges,
-    /// Times.
+    /// Times (`total_ms` covers every solve of a tolerance).
     pub timings: GridTimings,
+    /// What a solve on request ([`GridSolver::tolerance`](super::GridSolver::tolerance))
+    /// achieved; `None` for fixed cells.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<super::ToleranceOutcome>,
 }
 
 impl fmt::Display for GridReport {
@@ -135,6 +139,27 @@ impl fmt::Display for GridReport {
             )?;
         }
         write!(f, "; {:.0} ms", self.timings.total_ms)?;
+        if let Some(t) = &self.tolerance {
+            let tries: Vec<String> = t
+                .solves
+                .iter()
+                .map(|(c, e)| format!("{}x{} ({e:.1e})", c[0], c[1]))
+                .collect();
+            write!(
+                f,
+                "; cells chosen for L1 tolerance {:.1e} after {}",
+                t.asked,
+                tries.join(", ")
+            )?;
+            if let Some(why) = &t.shortfall {
+                write!(
+                    f,
+                    "\nwarning: the grid did not reach the L1 tolerance {:.1e}: achieved {:.1e} \
+                     on {}x{} cells; {why}",
+                    t.asked, t.achieved, self.cells[0], self.cells[1]
+                )?;
+            }
+        }
         let e = &self.edges;
         if e.cuts_density {
             let names = ["x low", "x high", "v low", "v high"];

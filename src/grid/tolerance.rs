@@ -1,0 +1,192 @@
+//! Accuracy on request: the cells chosen and refined until the discretisation estimate
+//! (the larger of the two marginals' L1 estimates, clipped mass and mass beyond the box
+//! included) is below a tolerance ([`GridSolver::tolerance`](super::GridSolver::tolerance)).
+
+use serde::Serialize;
+
+use super::{GridError, GridSolution, DEFAULT_CELLS, MAX_ASPECT};
+
+/// The most cells (position × velocity) a solve on request may use: the sparse LU's fill
+/// grows faster than the cell count, and 720×1440 cells keep one factorisation (and its
+/// half-resolution partner) within about 2 GB on the velocity-fastest ordering.
+pub const MAX_TOLERANCE_CELLS: usize = 720 * 1440;
+
+/// How many solves a tolerance may take before it is reported as not reached.
+pub const MAX_TOLERANCE_SOLVES: usize = 6;
+
+/// The first cells tried: a quarter of the default per axis, the default's aspect.
+const FIRST_CELLS: [usize; 2] = [DEFAULT_CELLS[0] / 4, DEFAULT_CELLS[1] / 4];
+
+/// The next solve aims at this fraction of the tolerance, so that a prediction a little
+/// optimistic about the order still lands below it.
+const MARGIN: f64 = 0.6;
+
+/// The orders a prediction may use: below 0.5 the refinement would explode, above 3 it
+/// would trust a lucky pair of solves more than the scheme (third-order faces, first-order
+/// at walls and corners).
+const ORDER_RANGE: [f64; 2] = [0.5, 3.0];
+
+/// What a solve on request achieved, in the solution's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ToleranceOutcome {
+    /// The L1 tolerance asked.
+    pub asked: f64,
+    /// The achieved estimate: the larger of the two marginals' L1 estimates.
+    pub achieved: f64,
+    /// Whether `achieved` is at most `asked`.
+    pub reached: bool,
+    /// Why not, when not reached.
+    pub shortfall: Option<Shortfall>,
+    /// The cells of every solve, in order, with its estimate.
+    pub solves: Vec<([usize; 2], f64)>,
+}
+
+/// Why a tolerance was not reached: the solution returned is the best within the limits,
+/// and every output flags it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, thiserror::Error)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Shortfall {
+    /// The cells needed exceed [`MAX_TOLERANCE_CELLS`].
+    #[error("the cells it needs exceed the limit of {limit} cells (memory of the sparse LU)")]
+    CellLimit {
+        /// The limit.
+        limit: usize,
+    },
+    /// [`MAX_TOLERANCE_SOLVES`] solves did not get there.
+    #[error("{solves} solves did not reach it")]
+    SolveLimit {
+        /// The solves made.
+        solves: usize,
+    },
+    /// The box was given and cuts the density: the mass beyond it, which more cells do not
+    /// bring back, alone exceeds the tolerance.
+    #[error(
+        "the given box cuts the density: twice the mass beyond it ({cut:.1e}) alone exceeds it"
+    )]
+    BoxCuts {
+        /// Twice the mass beyond the box (its share of the estimate).
+        cut: f64,
+    },
+    /// The estimate stopped falling with more cells (a box that cuts the density, or clipped
+    /// mass, sets a floor finer cells do not lower).
+    #[error(
+        "the estimate stopped falling with more cells (floor: mass beyond the box or clipped)"
+    )]
+    Stalled,
+}
+
+/// The larger of the two marginals' L1 estimates of a solution (infinite without one).
+pub(super) fn achieved(sol: &GridSolution) -> f64 {
+    sol.report
+        .discretisation_estimate
+        .as_ref()
+        .map_or(f64::INFINITY, |e| e.x.max(e.v))
+}
+
+/// Checks a tolerance: finite and positive.
+pub(super) fn check_tolerance(tol: f64) -> Result<(), GridError> {
+    if tol.is_finite() && tol > 0.0 {
+        Ok(())
+    } else {
+        Err(GridError::Setting {
+            setting: "tolerance",
+            value: format!("{tol}"),
+            expected: "a positive, finite L1 tolerance",
+        })
+    }
+}
+
+/// The cells of the next solve after `cells` gave `estimate`: the factor per axis that
+/// brings the estimate to `MARGIN × tol` at convergence order `order`, at least 1.25
+/// (a smaller step costs a solve for little), at most 4, even counts, the aspect kept.
+/// `None` when even the capped factor leaves the cells at the limit already.
+pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64) -> NextCells {
+    let factor = if estimate.is_finite() {
+        (estimate / (MARGIN * tol))
+            .powf(1.0 / order)
+            .clamp(1.25, 4.0)
+    } else {
+        2.0
+    };
+    let even = |n: usize| -> usize { ((n as f64 * factor / 2.0).ceil() as usize * 2).max(16) };
+    let mut next = [even(cells[0]), even(cells[1])];
+    let total = |c: [usize; 2]| c[0] * c[1];
+    if total(next) > MAX_TOLERANCE_CELLS {
+        // Scale down to the limit, keeping the aspect.
+        let s = (MAX_TOLERANCE_CELLS as f64 / total(next) as f64).sqrt();
+        next = [next[0], next[1]].map(|n| ((n as f64 * s / 2.0).floor() as usize * 2).max(16));
+        if next[0] <= cells[0] && next[1] <= cells[1] {
+            return NextCells::AtLimit;
+        }
+        return NextCells::Capped(next);
+    }
+    debug_assert!(next[0].max(next[1]) <= MAX_ASPECT * next[0].min(next[1]));
+    NextCells::Free(next)
+}
+
+/// The next cells, or why there are none.
+#[derive(Debug, PartialEq)]
+pub(super) enum NextCells {
+    /// Cells as predicted.
+    Free([usize; 2]),
+    /// Cells cut to the limit.
+    Capped([usize; 2]),
+    /// The current cells are the limit already.
+    AtLimit,
+}
+
+/// The convergence order two solves show: estimates e1 at n1 and e2 at n2 cells per axis,
+/// within [`ORDER_RANGE`]; the lower end when the estimate did not fall.
+pub(super) fn observed_order(n1: usize, e1: f64, n2: usize, e2: f64) -> f64 {
+    let order = (e1 / e2).ln() / (n2 as f64 / n1 as f64).ln();
+    if order.is_finite() {
+        order.clamp(ORDER_RANGE[0], ORDER_RANGE[1])
+    } else {
+        ORDER_RANGE[0]
+    }
+}
+
+/// The first cells, or the given ones if a caller fixed a start.
+pub(super) fn first_cells() -> [usize; 2] {
+    FIRST_CELLS
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn next_cells_aims_below_the_tolerance_at_the_observed_order() {
+        // Estimate 4e-3 wanted 1e-3 at order 2: factor sqrt(4 / 0.6) = 2.58.
+        match next_cells([50, 100], 4e-3, 1e-3, 2.0) {
+            NextCells::Free(c) => assert_eq!(c, [130, 260]),
+            other => panic!("{other:?}"),
+        }
+        // A tiny step is raised to 1.25.
+        assert_eq!(
+            next_cells([100, 200], 6.1e-4, 1e-3, 2.0),
+            NextCells::Free([126, 250])
+        );
+        // Beyond the limit: capped, then at the limit.
+        assert!(matches!(
+            next_cells([600, 1200], 1.0, 1e-4, 1.0),
+            NextCells::Capped(_)
+        ));
+        assert_eq!(next_cells([720, 1440], 1.0, 1e-4, 1.0), NextCells::AtLimit);
+    }
+
+    #[test]
+    fn observed_order_is_clamped() {
+        assert!((observed_order(50, 4e-3, 100, 1e-3) - 2.0).abs() < 1e-12);
+        assert_eq!(observed_order(50, 1e-3, 100, 2e-3), 0.5);
+        assert_eq!(observed_order(50, 1e-3, 100, 1e-9), 3.0);
+    }
+
+    #[test]
+    fn tolerance_must_be_positive_and_finite() {
+        assert!(check_tolerance(1e-3).is_ok());
+        for bad in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+            assert!(check_tolerance(bad).is_err());
+        }
+    }
+}
