@@ -46,7 +46,7 @@ fn check(case: &ExactCase, tol: f64) {
     let bound = case.bind();
     let sol = GridSolver::new(&bound).tolerance(tol).solve().unwrap();
     let outcome = sol.report.tolerance.clone().unwrap();
-    let e = sol.report.discretisation_estimate.clone().unwrap();
+    let e = sol.report.discretisation_estimate.unwrap();
     let l1 = [curve_l1(&sol, case, 0), curve_l1(&sol, case, 1)];
     println!(
         "{} tol {tol:.0e}: cells {:?}, estimate {:.2e} {:.2e}, true L1 {:.2e} {:.2e}, solves {:?}",

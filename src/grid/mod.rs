@@ -436,10 +436,10 @@ impl<'a> GridSolver<'a> {
 
     /// [`solve`](Self::solve) with the cells chosen for the tolerance `tol`.
     fn solve_to(&self, tol: f64) -> Result<GridSolution, GridError> {
-        use tolerance::{achieved, next_cells, observed_order, NextCells};
+        use tolerance::{next_cells, observed_order, NextCells};
         self.check_tolerance(tol)?;
         let start = Instant::now();
-        let mut cells = tolerance::first_cells();
+        let mut cells = FIRST_CELLS;
         let mut solves: Vec<([usize; 2], f64)> = Vec::new();
         let mut best: Option<GridSolution> = None;
         let mut last_error = None;
@@ -585,6 +585,10 @@ pub fn check_cells(cells: [usize; 2]) -> Result<(), GridError> {
     }
     Ok(())
 }
+
+/// The first cells a solve on request ([`GridSolver::tolerance`]) tries: a quarter of the
+/// default per axis, the default's aspect.
+const FIRST_CELLS: [usize; 2] = [DEFAULT_CELLS[0] / 4, DEFAULT_CELLS[1] / 4];
 
 /// How many times one axis's cell count may exceed the other's.
 pub const MAX_ASPECT: usize = 64;
@@ -744,4 +748,13 @@ fn check_domain(d: &Domain, problem: &Mechanical, model: &BoundModel) -> Result<
         }
     }
     Ok(d)
+}
+
+/// The larger of the two marginals' L1 estimates of a solution (infinite without one): what a
+/// tolerance is held to.
+fn achieved(sol: &GridSolution) -> f64 {
+    sol.report
+        .discretisation_estimate
+        .as_ref()
+        .map_or(f64::INFINITY, |e| e.x.max(e.v))
 }

@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::{GridError, GridSolution, DEFAULT_CELLS, MAX_ASPECT};
+use super::error::GridError;
 
 /// The most cells (position × velocity) a solve on request may use: the sparse LU's fill
 /// grows faster than the cell count, and 720×1440 cells keep one factorisation (and its
@@ -13,9 +13,6 @@ pub const MAX_TOLERANCE_CELLS: usize = 720 * 1440;
 
 /// How many solves a tolerance may take before it is reported as not reached.
 pub const MAX_TOLERANCE_SOLVES: usize = 6;
-
-/// The first cells tried: a quarter of the default per axis, the default's aspect.
-const FIRST_CELLS: [usize; 2] = [DEFAULT_CELLS[0] / 4, DEFAULT_CELLS[1] / 4];
 
 /// The next solve aims at this fraction of the tolerance, so that a prediction a little
 /// optimistic about the order still lands below it.
@@ -75,14 +72,6 @@ pub enum Shortfall {
     Stalled,
 }
 
-/// The larger of the two marginals' L1 estimates of a solution (infinite without one).
-pub(super) fn achieved(sol: &GridSolution) -> f64 {
-    sol.report
-        .discretisation_estimate
-        .as_ref()
-        .map_or(f64::INFINITY, |e| e.x.max(e.v))
-}
-
 /// Checks a tolerance: finite and positive.
 pub(super) fn check_tolerance(tol: f64) -> Result<(), GridError> {
     if tol.is_finite() && tol > 0.0 {
@@ -120,7 +109,6 @@ pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64)
         }
         return NextCells::Capped(next);
     }
-    debug_assert!(next[0].max(next[1]) <= MAX_ASPECT * next[0].min(next[1]));
     NextCells::Free(next)
 }
 
@@ -144,11 +132,6 @@ pub(super) fn observed_order(n1: usize, e1: f64, n2: usize, e2: f64) -> f64 {
     } else {
         ORDER_RANGE[0]
     }
-}
-
-/// The first cells, or the given ones if a caller fixed a start.
-pub(super) fn first_cells() -> [usize; 2] {
-    FIRST_CELLS
 }
 
 #[cfg(test)]
