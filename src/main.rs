@@ -671,6 +671,19 @@ fn load(path: &Path, set: &[String]) -> Result<(Model, Vec<Override>, BoundModel
     Ok((model, overrides, bound))
 }
 
+/// [`load`], with the model amended before it is bound (a `--safe` or `--initial` line given
+/// on the command line), so that the bound model is the amended one.
+fn load_amended(
+    path: &Path,
+    set: &[String],
+    amend: impl FnOnce(Model) -> Result<Model>,
+) -> Result<(Model, BoundModel)> {
+    let (model, overrides, _) = load(path, set)?;
+    let model = amend(model)?;
+    let bound = model.bind(&overrides).map_err(at_error(path))?;
+    Ok((model, bound))
+}
+
 fn check(path: &Path, model: &Model, bound: &BoundModel) -> Result<()> {
     let text = fpsolve::check::render(model, bound).map_err(at_error(path))?;
     say!("{text}");

@@ -133,7 +133,12 @@ fn pipeline(text: &str, n: usize) -> (EpcSolution, Vec<(String, ObservableMap)>)
     let bound = model.bind(&[]).unwrap();
     let fpk = FpkOperator::derive(&bound).unwrap();
     let sol = Epc::new(&fpk).degree(n).solve().unwrap();
-    let maps = bound
+    (sol, maps_by_name(&bound))
+}
+
+/// A bound model's observables' maps by name.
+fn maps_by_name(bound: &fpsolve::model::BoundModel) -> Vec<(String, ObservableMap)> {
+    bound
         .observables()
         .iter()
         .map(|o| {
@@ -142,8 +147,7 @@ fn pipeline(text: &str, n: usize) -> (EpcSolution, Vec<(String, ObservableMap)>)
                 ObservableMap::classify(&o.expr, bound.states()),
             )
         })
-        .collect();
-    (sol, maps)
+        .collect()
 }
 
 fn map<'a>(maps: &'a [(String, ObservableMap)], name: &str) -> &'a ObservableMap {
@@ -520,16 +524,7 @@ fn the_grid_pdfs_of_smooth_kinked_and_singular_maps_are_exact_to_its_error() {
         .unwrap();
     let estimate = grid.report.discretisation_estimate.unwrap();
     let bound_l1 = estimate.x.max(estimate.v);
-    let maps: Vec<(String, ObservableMap)> = bound
-        .observables()
-        .iter()
-        .map(|o| {
-            (
-                o.name.to_string(),
-                ObservableMap::classify(&o.expr, bound.states()),
-            )
-        })
-        .collect();
+    let maps = maps_by_name(&bound);
     let s2: f64 = 5.0;
     let normal = |u: f64, var: f64| (-u * u / (2.0 * var)).exp() / (2.0 * PI * var).sqrt();
     // Φ(x) for the clipped sum, by Simpson from far in the left tail.

@@ -83,17 +83,10 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
         ));
     }
     let grid = methods.contains(&"grid");
-    let (model, _, _) = crate::load(&path, &args.set)?;
-    let model = match &args.safe {
-        Some(text) => model.with_safe(text).map_err(crate::lib)?,
-        None => model,
-    };
-    let overrides = args
-        .set
-        .iter()
-        .map(|s| s.parse().map_err(crate::lib))
-        .collect::<Result<Vec<_>>>()?;
-    let bound = model.bind(&overrides).map_err(crate::at_error(&path))?;
+    let (model, bound) = crate::load_amended(&path, &args.set, |model| match &args.safe {
+        Some(text) => model.with_safe(text).map_err(crate::lib),
+        None => Ok(model),
+    })?;
     let safe = model
         .safe()
         .ok_or_else(|| {

@@ -71,17 +71,10 @@ pub(crate) fn plan(path: PathBuf, args: TransientArgs) -> Result<TransientPlan> 
         }
     }
     let times = super::passage::parse_times(&args.times).context("--times")?;
-    let (model, _, _) = crate::load(&path, &args.set)?;
-    let model = match &args.initial {
-        Some(text) => model.with_initial(text).map_err(crate::lib)?,
-        None => model,
-    };
-    let overrides = args
-        .set
-        .iter()
-        .map(|s| s.parse().map_err(crate::lib))
-        .collect::<Result<Vec<_>>>()?;
-    let bound = model.bind(&overrides).map_err(crate::at_error(&path))?;
+    let (model, bound) = crate::load_amended(&path, &args.set, |model| match &args.initial {
+        Some(text) => model.with_initial(text).map_err(crate::lib),
+        None => Ok(model),
+    })?;
     let (initial, initial_text) = match model.initial() {
         None => (Initial::Rest, "rest".to_string()),
         Some(spec) => {
