@@ -66,6 +66,9 @@ pub(crate) struct LevelSet {
     kinks: Vec<LevelSet>,
     /// Per kink curve and axis, g at its roots on every grid line ([`LevelSet::kink_lines`]).
     kink_lines: Vec<[Vec<Vec<f64>>; 2]>,
+    /// The lines of the density's pieces per axis ([`JointDensity::breakpoints`]), read once:
+    /// none for a smooth density.
+    pieces: [Option<Vec<f64>>; 2],
 }
 
 /// The bracketing grid and the density sampled on it: the same for an observable and its
@@ -115,6 +118,7 @@ impl LevelSet {
     ) -> Result<LevelSet, SymbolicError> {
         let grid = Sampled::new(density);
         let mut set = LevelSet::bare(density, expr, states, &grid, true)?;
+        set.pieces = [0, 1].map(|a| density.breakpoints(a));
         let mut args: Vec<Expr> = Vec::new();
         expr.walk(&mut |e| {
             if let Expr::Call(Func::Abs | Func::Sgn, a) = e {
@@ -254,6 +258,7 @@ impl LevelSet {
             critical: Vec::new(),
             kinks: Vec::new(),
             kink_lines: Vec::new(),
+            pieces: [None, None],
         };
         if with_critical {
             let search = CriticalSearch {
@@ -354,7 +359,7 @@ impl LevelSet {
         // crosses the other family's lines (x_b = c) the density along it kinks. Both are
         // break points, so that every panel's integrand is smooth; only the lines near the
         // level set are looked at.
-        let pieces = [0, 1].map(|a| self.near_level(a, u, density.breakpoints(a)));
+        let pieces = [0, 1].map(|a| self.near_level(a, u));
         for a in 0..2 {
             let b = 1 - a;
             breaks[a].extend_from_slice(&pieces[a]);
@@ -394,10 +399,10 @@ impl LevelSet {
         total
     }
 
-    /// Of `lines` (x_a = c, sorted), those in a column of the bracketing grid where some cell
-    /// may hold the level u (none when `lines` is `None`).
-    fn near_level(&self, a: usize, u: f64, lines: Option<Vec<f64>>) -> Vec<f64> {
-        let Some(lines) = lines else {
+    /// Of the density's piece lines x_a = c, those in a column of the bracketing grid where
+    /// some cell may hold the level u (none for a smooth density).
+    fn near_level(&self, a: usize, u: f64) -> Vec<f64> {
+        let Some(lines) = &self.pieces[a] else {
             return Vec::new();
         };
         let n = GRID - 1;
@@ -410,7 +415,8 @@ impl LevelSet {
             })
             .collect();
         lines
-            .into_iter()
+            .iter()
+            .copied()
             .filter(|&c| {
                 let i = ((c - self.lo[a]) / self.h[a]).floor();
                 // A line on a column's edge belongs to both columns.
