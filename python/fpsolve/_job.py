@@ -19,15 +19,44 @@ def run_job(
     **set: Any,
 ) -> Dict[str, Any]:
     """Runs what ``fpsolve MODEL --out OUT`` runs (without Monte Carlo) and writes the same
-    files (``pdf_<state>.csv`` and ``pdf_<observable>.csv``, ``summary.json``, figures) the
-    same way: staged, then moved into place whole.
+    files the same way: staged, then moved into place whole.
 
-    ``methods`` defaults to EPC and the grid, with EPC-impact where EPC cannot use the impact
-    law, each only where it applies; named methods must all apply (else
-    :class:`NotApplicableError`, naming every one that does not). Returns ``{"table": the table the
-    command line prints, "files": paths written, "flags": what is flagged (the reasons the
-    command line would exit 1)}``. Ctrl-C is honoured once the job finishes (nothing is
-    written then).
+    Parameters
+    ----------
+    model : Model, str or os.PathLike
+        The model, or its file.
+    out : str or os.PathLike
+        The output directory (replaced as a whole; one holding foreign files is refused).
+    methods : sequence of str, optional
+        Default: EPC and the grid, with EPC-impact where EPC cannot use the impact law, each
+        only where it applies. Named methods must all apply.
+    degrees : sequence of int
+        The EPC degrees.
+    cells : (int, int), optional
+        The grid's cells (default (200, 400)).
+    figures : bool
+        Draw the figures (png and svg) beside the CSV files.
+    **set : number or str
+        Parameter overrides by keyword.
+
+    Returns
+    -------
+    dict
+        ``{"table": the table the command line prints, "files": paths written, "flags": what
+        is flagged (the reasons the command line would exit 1)}``. The files are
+        ``pdf_<state>.csv``, ``pdf_<observable>.csv``, ``summary.json``, crossing rates and
+        figures.
+
+    Raises
+    ------
+    NotApplicableError
+        A named method does not apply (every one that does not is named).
+    JobError
+        The output directory cannot be used, or the job cannot run.
+    KeyboardInterrupt
+        Ctrl-C: the call returns within 0.1 s; the job in progress finishes unseen in the
+        background, and nothing of it is written (the output directory stays locked until
+        it ends).
     """
     if not isinstance(model, Model):
         model = Model.load(model)

@@ -98,15 +98,53 @@ class Model:
     def load(cls, path: Union[str, os.PathLike]) -> "Model":
         """Reads and validates the model file at ``path``.
 
-        Raises :class:`ModelError` (``.path``, ``.line``, ``.column``, ``.message``) with the
-        command line's file:line:col message when the file cannot be read or is not a valid
-        model.
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The model file (``.sde``).
+
+        Returns
+        -------
+        Model
+            The model, validated (every expression parsed, every name declared).
+
+        Raises
+        ------
+        ModelFileNotFoundError
+            The file does not exist (also a ``FileNotFoundError``).
+        ModelError
+            The file cannot be read or is not a valid model: ``.path``, ``.line``,
+            ``.column``, ``.message``, and the command line's file:line:col message.
+
+        Examples
+        --------
+        >>> model = fpsolve.Model.load("models/duffing.sde")  # doctest: +SKIP
+        >>> model.states                                      # doctest: +SKIP
+        ('z', 'v')
         """
         return cls(_fpsolve._Model.load(os.fspath(path)))
 
     @classmethod
     def from_text(cls, text: str, path: Optional[str] = None) -> "Model":
-        """Parses and validates model text; ``path`` only names it in error messages."""
+        """Parses and validates model text.
+
+        Parameters
+        ----------
+        text : str
+            The model, as a model file holds it.
+        path : str, optional
+            Only names the text in error messages (and ``Model.path``).
+
+        Returns
+        -------
+        Model
+            The model, validated.
+
+        Raises
+        ------
+        ModelError
+            The text is not a valid model (``.line``, ``.column``, ``.message``).
+        """
         return cls(_fpsolve._Model.from_text(text, path))
 
     @property
@@ -142,14 +180,50 @@ class Model:
         return self.states + self.observables
 
     def parameters(self, params: Optional[Mapping[str, Value]] = None, **set: Value) -> Dict[str, float]:
-        """The parameters' values with the overrides ``params`` and ``set`` applied, in
-        declaration order."""
+        """The parameters' values with overrides applied.
+
+        Parameters
+        ----------
+        params : mapping of str to number or str, optional
+            Overrides as a dict (for names that are not identifiers or clash with a keyword).
+        **set : number or str
+            Overrides by keyword: a number (NumPy scalars too) or an expression string.
+
+        Returns
+        -------
+        dict of str to float
+            Every parameter's value, in declaration order.
+
+        Raises
+        ------
+        ParameterError
+            An unknown parameter, a value that is not a real number, or a name given twice.
+        """
         return dict(self._inner.parameters(_params(params, set)))
 
     def check(self, params: Optional[Mapping[str, Value]] = None, **set: Value) -> str:
-        """What ``fpsolve check`` prints: the model, its parameter values and its derived
-        Fokker-Planck operator (and, for a reflecting barrier, the Zhuravlev transform EPC
-        solves)."""
+        """What ``fpsolve check`` prints.
+
+        Parameters
+        ----------
+        params : mapping of str to number or str, optional
+            Overrides as a dict.
+        **set : number or str
+            Overrides by keyword.
+
+        Returns
+        -------
+        str
+            The model, its parameter values and its derived Fokker-Planck operator (and, for
+            a reflecting barrier, the Zhuravlev transform EPC solves).
+
+        Raises
+        ------
+        ParameterError
+            A bad override.
+        ModelError
+            The operator cannot be derived for these values.
+        """
         return self._inner.check(_params(params, set))
 
     def solve(
@@ -161,24 +235,58 @@ class Model:
         domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
         **set: Value,
     ) -> Solution:
-        """Solves the stationary FPK equation with the overrides ``set``.
+        """Solves the stationary Fokker-Planck equation.
 
-        ``method`` is ``"epc"`` (the paper's closure, the impact as a delta term),
-        ``"epc-impact"`` (EPC with the exact impact condition) or ``"grid"`` (finite volumes
-        on ``cells = (nx, nv)``, default (200, 400)); ``degree`` is the EPC degree (even,
-        2 to 12; every even degree up to it is solved in turn). ``domain`` fixes the grid's
-        box instead of sizing it from the density: ``{"x": (-8, 8), "v": (-10, 10)}`` or the
-        CLI's text ``"x=-8:8,v=-10:10"`` (the model's state names; the velocity's range is
-        made symmetric about 0; a reflecting wall's side must end on the wall); a box that
-        cuts the density is flagged in the report (``grid.report.edges``) and its estimate
-        grows. ``ValueError`` for a malformed box or one given to another method. ``params`` is the
-        overrides as a dict (for names that are not identifiers or clash with a keyword of
-        this call); it and ``**set`` together may not name a parameter twice. Releases the
-        GIL.
+        Parameters
+        ----------
+        method : {"epc", "epc-impact", "grid"}
+            ``"epc"``: the paper's exponential-polynomial closure (the impact as a delta
+            term); ``"epc-impact"``: EPC with the exact impact condition; ``"grid"``: finite
+            volumes with an estimate of their own error.
+        degree : int
+            The EPC degree (even, 2 to 12; every even degree up to it is solved in turn).
+            Not used by the grid.
+        cells : (int, int), optional
+            The grid's cells ``(nx, nv)``; default (200, 400).
+        params : mapping of str to number or str, optional
+            Overrides as a dict (for names that are not identifiers or clash with a keyword
+            of this call); it and ``**set`` together may not name a parameter twice.
+        domain : str or mapping of str to (float, float), optional
+            Fixes the grid's box instead of sizing it from the density:
+            ``{"x": (-8, 8), "v": (-10, 10)}`` or the command line's text
+            ``"x=-8:8,v=-10:10"`` (the model's state names; the velocity's range is made
+            symmetric about 0; a reflecting wall's side must end on the wall). A box that cuts
+            the density is flagged in the report (``grid.report.edges``) and its estimate
+            grows.
+        **set : number or str
+            Parameter overrides by keyword.
 
-        Raises :class:`NoConvergenceError`, :class:`NotNormalisableError`,
-        :class:`GridSolveError`, :class:`NotApplicableError` (all :class:`SolveError`) with
-        the failure's data, or :class:`ParameterError` for a bad override.
+        Returns
+        -------
+        Solution
+            The density, asked by state or observable name.
+
+        Raises
+        ------
+        NoConvergenceError, NotNormalisableError, GridSolveError, NotApplicableError
+            The method failed or does not apply (all :class:`SolveError`, with the failure's
+            data).
+        ParameterError
+            A bad override.
+        ValueError
+            A malformed box, or a box given to another method than the grid.
+        KeyboardInterrupt
+            Ctrl-C: the call returns within 0.1 s; a solve in progress finishes unseen in the
+            background and is dropped.
+
+        Notes
+        -----
+        Releases the GIL.
+
+        Examples
+        --------
+        >>> sol = model.solve("grid", cells=(100, 200))  # doctest: +SKIP
+        >>> sol.moments("z").variance                    # doctest: +SKIP
         """
         set = _params(params, set)
         box = _domain(domain)
@@ -203,38 +311,79 @@ class Model:
         progress: ProgressArg = None,
         **set: Value,
     ) -> Union[MonteCarlo, MonteCarloShard]:
-        """Monte Carlo simulation: ``samples`` recorded samples in all (rounded up to whole
-        trajectories, as ``fpsolve simulate --samples``), histograms of every state and
-        observable with standard errors.
+        """Monte Carlo simulation of the model: histograms of every state and observable with
+        standard errors, judged for stationarity, blow-ups and time-step bias.
 
-        ``seed`` is the command line's ``--seed`` (default 1, as there: the same seed gives the
-        same bits as ``fpsolve simulate``); ``None`` draws a fresh one from the operating
-        system, and a ``numpy.random.Generator`` or ``SeedSequence`` gives one of its draws
-        (SPEC 7); the seed used is ``mc.report["settings"]["seed"]``. ``grids`` maps a quantity to its histogram grid ``(lo, hi, bins)`` (the others are
-        chosen from a pilot run); ``threads`` defaults to the cores available. The result
-        does not depend on ``threads``. Releases the GIL; Ctrl-C stops the run and raises
-        KeyboardInterrupt. Raises :class:`MonteCarloError` for a run refused or failed.
+        Parameters
+        ----------
+        samples : int
+            Recorded samples in all, rounded up to whole trajectories (as ``fpsolve simulate
+            --samples``).
+        seed : int, None, numpy.random.Generator or numpy.random.SeedSequence
+            The command line's ``--seed`` (default 1, as there: the same seed gives the same
+            bits as ``fpsolve simulate``); ``None`` draws a fresh one from the operating
+            system; a ``Generator`` or ``SeedSequence`` gives one of its draws (SPEC 7). The
+            seed used is ``mc.report["settings"]["seed"]``.
+        threads : int, optional
+            Worker threads (default: the cores available). The result does not depend on it.
+        dt : float, optional
+            The time step (default 0.01, as ``--dt``); the time-step bias is estimated from
+            batches rerun at 2·dt.
+        spacing : float, optional
+            Time between recorded samples of a trajectory (default 0.1).
+        trajectories : int, optional
+            Independent trajectories (default 4096, rounded up to whole SIMD lanes).
+        bins : int, optional
+            Bins of each histogram whose grid is not in ``grids`` (default 100).
+        grids : mapping of str to (float, float, int), optional
+            A quantity's histogram grid ``(lo, hi, bins)``; the others are chosen from a
+            pilot run.
+        strict : bool
+            Raise :class:`MonteCarloError` for a flagged run instead of warning.
+        params : mapping of str to number or str, optional
+            Overrides as a dict.
+        shard : (int, int), optional
+            ``(k, n)``: run only the ``k``-th (from 0) of ``n`` parts of the run's statistics
+            batches and return a :class:`MonteCarloShard` (plain data: it pickles;
+            :func:`fpsolve.merge` joins the ``n`` parts into the unsplit run, bit for bit).
+        executor : concurrent.futures.Executor, optional
+            Runs ``shards`` parts on it (a ``ProcessPoolExecutor``,
+            ``distributed.Client.get_executor()``, Ray's) and merges them: the same bits as
+            the local run.
+        shards : int, optional
+            The parts of an ``executor`` run (default 8, at most the run's batches).
+        progress : bool or callable, optional
+            ``True`` prints the batches done to stderr as the run goes (a tqdm bar when tqdm
+            is installed); a callable ``f(done, total)`` is called instead, from the calling
+            thread (an exception it raises stops the run). Local runs only.
+        **set : number or str
+            Parameter overrides by keyword.
 
-        A run that finished but is flagged (too many blow-ups, not stationary, numbers
-        without a finite value: what ``fpsolve simulate`` exits 1 for) warns
-        :class:`MonteCarloWarning` and lists why in the result's ``flags``; with
-        ``strict=True`` it raises :class:`MonteCarloError` instead. The run's other warnings
-        (a resolved time-step bias above the statistical error, a few blow-ups) are warned as
-        :class:`FpsolveWarning` and kept in ``warnings``.
+        Returns
+        -------
+        MonteCarlo or MonteCarloShard
+            The run (a :class:`MonteCarloShard` with ``shard``).
 
-        Split runs (the command line's ``simulate --shard`` and ``merge``): ``shard=(k, n)``
-        runs only the ``k``-th (from 0) of ``n`` parts of the run's statistics batches and
-        returns a :class:`MonteCarloShard` (plain data: it pickles, and
-        :func:`fpsolve.merge` joins the ``n`` parts into the :class:`MonteCarlo` of the
-        unsplit run, bit for bit). ``executor`` (any ``concurrent.futures.Executor``: a
-        ``ProcessPoolExecutor``, ``distributed.Client.get_executor()``, Ray's) runs the
-        ``shards`` parts (default 8, at most the run's statistics batches) on it and merges
-        them: the same bits as the local run. ``params`` is the overrides as a dict.
+        Raises
+        ------
+        MonteCarloError
+            The run was refused or failed; or, with ``strict=True``, it is flagged.
+        KeyboardInterrupt
+            Ctrl-C: the run stops at its next batch.
 
-        ``progress=True`` prints the statistics batches done to stderr as the run goes (in
-        place on a terminal, every tenth in a log); a callable ``f(done, total)`` is called
-        instead (from the calling thread; an exception it raises stops the run). Local runs
-        only (not with ``shard`` or ``executor``).
+        Warns
+        -----
+        MonteCarloWarning
+            The run finished but is flagged (too many blow-ups, not stationary, numbers
+            without a finite value: what ``fpsolve simulate`` exits 1 for); the reasons are
+            in the result's ``flags``.
+        FpsolveWarning
+            The run's other warnings (a resolved time-step bias above the statistical
+            error, a few blow-ups), also kept in ``warnings``.
+
+        Notes
+        -----
+        Releases the GIL.
         """
         set = _params(params, set)
         run = dict(

@@ -143,11 +143,20 @@ class MonteCarlo:
         return next(iter(self.histograms.values())).samples
 
     def to_xarray(self) -> "xarray.Dataset":
-        """The histograms as a Dataset: for each quantity ``q`` the variables ``q`` (density)
-        and ``q_stderr`` on the dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges,
-        on the dim ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and ``fpsolve_version``.
+        """The histograms as an xarray Dataset.
 
-        Requires xarray (imported here only).
+        Returns
+        -------
+        xarray.Dataset
+            For each quantity ``q``: the variables ``q`` (density) and ``q_stderr`` on the
+            dim ``x_q`` (its bin centres), and ``q_edges`` (the bin edges, on the dim
+            ``edge_q``); ``attrs`` hold ``seed``, ``samples``, ``flags`` and
+            ``fpsolve_version``.
+
+        Raises
+        ------
+        ImportError
+            xarray is not installed (it is imported here only).
         """
         from ._fpsolve import __version__
         from ._sweep import _optional
@@ -189,8 +198,18 @@ class MonteCarloShard(ShardText):
         return f"shard_{self.index + 1}_of_{self.count}.json"
 
     def write(self, directory) -> str:
-        """Writes the part as ``directory/shard_K_of_N.json`` (what ``fpsolve merge DIR``
-        reads) and returns the path."""
+        """Writes the part where ``fpsolve merge DIR`` reads it.
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            An existing directory.
+
+        Returns
+        -------
+        str
+            The path written, ``directory/shard_K_of_N.json``.
+        """
         import os
 
         path = os.path.join(os.fspath(directory), self.file_name)

@@ -66,13 +66,51 @@ class SweepResult:
         raise KeyError(f"method {method!r} was not in the sweep (it ran {', '.join(self.methods)})")
 
     def converged(self, method: str) -> np.ndarray:
-        """True at the points ``method`` solved."""
+        """Where ``method`` solved the point.
+
+        Parameters
+        ----------
+        method : str
+            One of the sweep's ``methods``.
+
+        Returns
+        -------
+        numpy.ndarray of bool
+            One entry per point, in the sweep's order (the first parameter fastest).
+
+        Raises
+        ------
+        KeyError
+            ``method`` was not in the sweep.
+        """
         return np.array(
             [self._outcome(p, method)["status"] == "converged" for p in self._points], dtype=bool
         )
 
     def stat(self, method: str, quantity: str, stat: str = "mean") -> np.ndarray:
-        """``stat`` of ``quantity`` under ``method`` at every point (NaN where it failed)."""
+        """One statistic of one quantity under one method at every point.
+
+        Parameters
+        ----------
+        method : str
+            One of the sweep's ``methods``.
+        quantity : str
+            A state or observable of the model.
+        stat : {"mean", "variance", "std", "kurtosis"}
+            The statistic.
+
+        Returns
+        -------
+        numpy.ndarray of float
+            One entry per point, NaN where the point failed or the moment does not exist.
+
+        Raises
+        ------
+        KeyError
+            An unknown method or quantity.
+        ValueError
+            An unknown statistic.
+        """
         if quantity not in self.quantities:
             raise KeyError(f"{quantity!r} is not a quantity of the sweep ({', '.join(self.quantities)})")
         key = "variance" if stat == "std" else stat
@@ -89,9 +127,25 @@ class SweepResult:
         return np.sqrt(out) if stat == "std" else out
 
     def failures(self, method: str) -> List[Dict[str, Any]]:
-        """The points ``method`` did not solve: ``{"values": {...}, "status": ..., "stage": ...,
-        "message": ...}``, status ``"failed"``, or ``"refused"`` (stage ``"admissibility"``) for
-        a point without a stationary density, which no method was asked to solve."""
+        """The points ``method`` did not solve, with why.
+
+        Parameters
+        ----------
+        method : str
+            One of the sweep's ``methods``.
+
+        Returns
+        -------
+        list of dict
+            ``{"values": {...}, "status": ..., "stage": ..., "message": ...}`` per failed
+            point: status ``"failed"``, or ``"refused"`` (stage ``"admissibility"``) for a
+            point without a stationary density, which no method was asked to solve.
+
+        Raises
+        ------
+        KeyError
+            ``method`` was not in the sweep.
+        """
         names = list(self.values)
         out = []
         for p in self._points:
@@ -108,11 +162,19 @@ class SweepResult:
         return out
 
     def to_pandas(self) -> "pandas.DataFrame":
-        """The sweep in long form: one row per point, method and quantity, with a column per
-        swept parameter, ``method``, ``quantity``, ``converged`` and ``mean``, ``variance``,
-        ``std``, ``kurtosis`` (NaN where the point failed).
+        """The sweep in long form.
 
-        Requires pandas (imported here only).
+        Returns
+        -------
+        pandas.DataFrame
+            One row per point, method and quantity: a column per swept parameter, ``method``,
+            ``quantity``, ``converged`` and ``mean``, ``variance``, ``std``, ``kurtosis`` (NaN
+            where the point failed).
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed (it is imported here only).
         """
         pd = _optional("pandas")
         columns: Dict[str, List[Any]] = {n: [] for n in self.values}
@@ -134,13 +196,22 @@ class SweepResult:
         return pd.DataFrame(columns)
 
     def to_xarray(self) -> "xarray.Dataset":
-        """The sweep on its grid: variables ``mean``, ``variance``, ``std``, ``kurtosis`` with
-        dims ``("method", "quantity", *swept parameters)`` and ``converged`` with dims
-        ``("method", *swept parameters)``; coordinates are the swept values; ``attrs`` hold
-        ``model``, ``method`` (the methods, comma-separated), ``degree`` and
-        ``fpsolve_version``.
+        """The sweep on its grid of swept values.
 
-        Requires xarray (imported here only).
+        Returns
+        -------
+        xarray.Dataset
+            Variables ``mean``, ``variance``, ``std``, ``kurtosis`` with dims ``("method",
+            "quantity", *swept parameters)`` and ``converged`` with dims ``("method", *swept
+            parameters)``; coordinates are the swept values; ``attrs`` hold ``model``,
+            ``method`` (the methods, comma-separated), ``degree`` and ``fpsolve_version``.
+
+        Raises
+        ------
+        ImportError
+            xarray is not installed (it is imported here only).
+        ValueError
+            The points are not the Cartesian product of the swept values.
         """
         xr = _optional("xarray")
         names = list(self.values)
@@ -211,25 +282,59 @@ def sweep(
 ) -> Union[SweepResult, SweepShard]:
     """Solves ``model`` at every point of a parameter study, points in parallel.
 
-    A keyword whose value is a sequence or array (``eps=np.linspace(-0.3, 0.3, 13)``,
-    ``mu=[0.1, 1]``) is swept (at most two, the points are their Cartesian product); a number
-    or expression string is a fixed override. ``params`` takes the same as a dict. ``method``
-    is one method or a list of them.
-    A point that fails for a method is kept, with its reason (``failures``). Releases the
-    GIL; Ctrl-C stops the sweep and raises KeyboardInterrupt. Raises :class:`SweepError` for
-    a sweep that cannot run. ``threads`` (default: all cores) is the number of worker threads;
-    the result does not depend on it (a model parameter named ``threads`` cannot be set
-    through this keyword; use ``params``).
+    Parameters
+    ----------
+    model : Model
+        The model.
+    method : str or sequence of str
+        One method (``"epc"``, ``"epc-impact"``, ``"grid"``) or a list of them.
+    degree : int
+        The EPC degree.
+    cells : (int, int), optional
+        The grid's cells at every point (default (200, 400)).
+    threads : int, optional
+        Worker threads (default: all cores); the result does not depend on it. A model
+        parameter named ``threads`` is set through ``params``.
+    params : mapping of str to value, optional
+        The same as ``**parameters``, as a dict.
+    shard : (int, int), optional
+        ``(k, n)``: solve only the ``k``-th (from 0) of ``n`` runs of consecutive points and
+        return a :class:`SweepShard` (the command line's ``sweep --shard``), which
+        :func:`fpsolve.merge` joins.
+    executor : concurrent.futures.Executor, optional
+        Solves ``shards`` parts on it and merges them: the same numbers as the local run.
+    shards : int, optional
+        The parts of an ``executor`` run (default: one per 4 points, at most 64).
+    progress : bool or callable, optional
+        ``True`` prints the points solved to stderr as the sweep goes (a tqdm bar when tqdm
+        is installed); a callable ``f(done, total)`` is called instead, from the calling
+        thread (an exception it raises stops the sweep). Not with ``executor``.
+    **parameters : sequence, number or str
+        A sequence or array (``eps=np.linspace(-0.3, 0.3, 13)``, ``mu=[0.1, 1]``) is swept (at
+        most two; the points are their Cartesian product, the first fastest); a number or
+        expression string is a fixed override.
 
-    ``shard=(k, n)`` solves only the ``k``-th (from 0) of ``n`` runs of consecutive points
-    and returns a :class:`SweepShard` (the command line's ``sweep --shard``), which
-    :func:`fpsolve.merge` joins. ``executor`` (any ``concurrent.futures.Executor``) solves
-    ``shards`` parts (default: one per 4 points, at most 64) on it and merges them: the same
-    numbers as the local run.
+    Returns
+    -------
+    SweepResult or SweepShard
+        Every point's statistics per method (a :class:`SweepShard` with ``shard``). A point
+        that fails for a method is kept, with its reason (``failures``).
 
-    ``progress=True`` prints the points solved to stderr as the sweep goes (in place on a
-    terminal, every tenth in a log); a callable ``f(done, total)`` is called instead (from
-    the calling thread; an exception it raises stops the sweep). Not with ``executor``.
+    Raises
+    ------
+    SweepError
+        The sweep cannot run (no swept parameter, an unknown one, more than two, ...).
+    KeyboardInterrupt
+        Ctrl-C: the sweep stops between points.
+
+    Notes
+    -----
+    Releases the GIL.
+
+    Examples
+    --------
+    >>> res = fpsolve.sweep(model, method=["epc", "grid"], mu=np.linspace(0.1, 1, 10))  # doctest: +SKIP
+    >>> res.to_pandas()                                                                  # doctest: +SKIP
     """
     from ._model import _params
 

@@ -3,13 +3,18 @@
 //! exception a handler raises) sets the run's [`Cancel`] flag, waits for the worker to stop
 //! at its next check, and is re-raised. No thread outlives the call. A caller's progress
 //! callback is called from the same poll, with the GIL, when the worker's count has moved.
+//!
+//! Work that has no cancellation points (a grid solve is one sparse factorisation) runs
+//! [`abandonable`]: on an interrupt the call returns at once and the worker, detached, finishes
+//! on its own and drops its result.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Condvar, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 use fpsolve::base::cancel::Cancel;
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::panic::PanicException;
 use pyo3::prelude::*;
 
@@ -39,16 +44,7 @@ impl Progress {
 }
 
 /// Runs `work` with the GIL released on a worker thread, cancelling it when a Python signal
-/// handler raises; returns the work's value or the handler's exception.
-pub(crate) fn interruptible<T, F>(py: Python<'_>, work: F) -> PyResult<T>
-where
-    T: Send,
-    F: FnOnce(&Cancel) -> T + Send,
-{
-    interruptible_reporting(py, None, |cancel, _| work(cancel))
-}
-
-/// [`interruptible`], calling `callback(done, total)` with the GIL whenever the work's
+/// handler raises, and calls `callback(done, total)` with the GIL whenever the work's
 /// [`Progress`] has moved since the last call (at most every ~50 ms, and once at the end); a
 /// callback that raises cancels the work like Ctrl-C, and its exception is the call's.
 pub(crate) fn interruptible_reporting<T, F>(
@@ -113,12 +109,54 @@ where
         .into_inner()
         .unwrap_or_else(|p| p.into_inner())
         .expect("the worker stored its result before the scope ended");
-    out.map_err(|panic| {
-        let text = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "a panic in fpsolve".to_string());
-        PanicException::new_err(text)
-    })
+    out.map_err(panic_error)
+}
+
+/// Runs `work` with the GIL released on a detached thread while the calling thread polls
+/// Python's signal handlers every ~50 ms; a handler's exception (KeyboardInterrupt) is returned
+/// at once, within one poll, and the worker is left to finish by itself: its result (and
+/// whatever it owns, e.g. a staging directory, cleaned up on drop) is dropped then. For work
+/// without cancellation points, whose only way to stop early is not to be waited for.
+pub(crate) fn abandonable<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce() -> T + Send + 'static,
+{
+    type Slot<T> = (Mutex<Option<std::thread::Result<T>>>, Condvar);
+    let slot: Arc<Slot<T>> = Arc::new((Mutex::new(None), Condvar::new()));
+    let worker_slot = Arc::clone(&slot);
+    std::thread::Builder::new()
+        .name("fpsolve-call".into())
+        .spawn(move || {
+            let out = catch_unwind(AssertUnwindSafe(work));
+            let (value, ready) = &*worker_slot;
+            // Stored even when the caller is gone (interrupted): dropped with the last Arc.
+            *value.lock().unwrap_or_else(|p| p.into_inner()) = Some(out);
+            ready.notify_all();
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a worker thread: {e}")))?;
+    loop {
+        let done = py.allow_threads(|| {
+            let (value, ready) = &*slot;
+            let guard = value.lock().unwrap_or_else(|p| p.into_inner());
+            let (mut guard, _) = ready
+                .wait_timeout_while(guard, POLL, |s| s.is_none())
+                .unwrap_or_else(|p| p.into_inner());
+            guard.take()
+        });
+        match done {
+            Some(out) => return out.map_err(panic_error),
+            None => py.check_signals()?,
+        }
+    }
+}
+
+/// A worker's panic as Python's `PanicException`, with the panic's message.
+fn panic_error(panic: Box<dyn std::any::Any + Send>) -> PyErr {
+    let text = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic in fpsolve".to_string());
+    PanicException::new_err(text)
 }

@@ -10,7 +10,7 @@ use fpsolve::study::MethodPlan;
 use pyo3::prelude::*;
 
 use crate::errors::{self, Asked};
-use crate::interrupt::interruptible;
+use crate::interrupt::abandonable;
 use crate::model::{overrides, PyModel};
 
 /// What the main job did: the table the command line prints, the files written, and what in
@@ -76,12 +76,15 @@ pub(crate) fn run_job(
     };
     let run = RunDir::begin(&out, "fpsolve (Python) run_job")
         .map_err(|e| errors::other::<errors::JobError>(py, "output", e.to_string()))?;
-    let inner = &model.model;
+    let inner = model.model.clone();
     let pool = crate::pool::shared()?;
-    let report = interruptible(py, |_cancel| {
-        pool.install(|| Job::new(inner, &spec).run(run.out()))
-    })?
-    .map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
+    // Ctrl-C returns at once; the abandoned job finishes unseen and its staging directory goes
+    // with it (nothing is committed).
+    let (run, report) = abandonable(py, move || {
+        let report = pool.install(|| Job::new(&inner, &spec).run(run.out()));
+        (run, report)
+    })?;
+    let report = report.map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;
     let staging = run.out().path().to_path_buf();
     let dest = run
         .commit()

@@ -12,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{self, Asked};
-use crate::interrupt::interruptible_reporting;
+use crate::interrupt::{abandonable, interruptible_reporting};
 use crate::solution::PySolution;
 
 /// A validated model (`Model.load(path)`, `Model.from_text(text)`).
@@ -255,9 +255,14 @@ impl PyModel {
         };
         let bound = self.bind(py, set)?;
         let domain = grid_domain(domain, &chosen, &bound)?;
-        let solved = crate::pool::on_pool(py, || {
-            let problem = Problem::new(&bound)?.with_grid_domain(domain);
-            problem.solve(chosen)
+        // A grid solve is one factorisation with no point to stop at: Ctrl-C returns at once
+        // and the solve finishes unseen.
+        let pool = crate::pool::shared()?;
+        let solved = abandonable(py, move || {
+            pool.install(|| {
+                let problem = Problem::new(&bound)?.with_grid_domain(domain);
+                problem.solve(chosen)
+            })
         })?;
         let solution = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;
         Ok(PySolution::new(solution, method.to_string(), asked.degree))

@@ -124,6 +124,50 @@ def test_ctrl_c_stops_a_sweep(vibro, python_sigint):
     assert latency < 1.0, f"KeyboardInterrupt {latency:.2f} s after Ctrl-C"
 
 
+def _interrupt_after(seconds, fired):
+    def interrupt():
+        fired.append(time.monotonic())
+        _thread.interrupt_main()
+
+    timer = threading.Timer(seconds, interrupt)
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_returns_from_a_long_grid_solve(vibro, python_sigint):
+    # One factorisation of half a million cells, seconds of work with no point to stop at: the
+    # call returns at the next poll and the solve finishes unseen.
+    fired = []
+    timer = _interrupt_after(0.3, fired)
+    with pytest.raises(KeyboardInterrupt):
+        vibro.solve("grid", cells=(500, 1000))
+    latency = time.monotonic() - fired[0]
+    timer.join()
+    assert latency < 0.5, f"KeyboardInterrupt {latency:.2f} s after Ctrl-C"
+
+
+def test_ctrl_c_returns_from_run_job_and_writes_nothing(vibro, python_sigint, tmp_path):
+    out = tmp_path / "job"
+    fired = []
+    timer = _interrupt_after(0.3, fired)
+    with pytest.raises(KeyboardInterrupt):
+        fpsolve.run_job(vibro, out, methods=["grid"], cells=(500, 1000), figures=False)
+    latency = time.monotonic() - fired[0]
+    timer.join()
+    assert latency < 0.5, f"KeyboardInterrupt {latency:.2f} s after Ctrl-C"
+    # The abandoned job ends by itself and removes its staging directory: nothing of it is
+    # ever put in place.
+    deadline = time.monotonic() + 120
+    def staged():
+        return [p.name for p in tmp_path.iterdir() if "partial" in p.name]
+
+    while staged() and time.monotonic() < deadline:
+        assert not out.exists()
+        time.sleep(0.1)
+    assert not out.exists()
+    assert staged() == []
+
+
 def test_sigint_to_a_python_process(tmp_path):
     script = tmp_path / "long.py"
     script.write_text(
