@@ -183,7 +183,16 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         "--out",
         merged.to_str().unwrap(),
     ]);
-    for f in ["mc_z.csv", "mc_v.csv", "mc_y.csv", "mc_ydot.csv"] {
+    // The merge draws the figures the unsplit run draws, to the byte.
+    for f in [
+        "mc_z.csv",
+        "mc_v.csv",
+        "mc_y.csv",
+        "mc_ydot.csv",
+        "mc_y.png",
+        "mc_y.svg",
+        "mc_ydot.png",
+    ] {
         let a = std::fs::read(whole.join(f)).unwrap();
         let b = std::fs::read(merged.join(f)).unwrap();
         assert!(a == b, "{f} differs between the unsplit and the merged run");

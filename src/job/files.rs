@@ -9,7 +9,9 @@ use rayon::prelude::*;
 use super::compare::{against_grid, compare, Comparison, Reference};
 use super::{mc_columns, Unwritten};
 use crate::mc::McResult;
-use crate::report::{short_number, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError};
+use crate::report::{
+    count_text, short_number, Curve, OutputDir, PdfFigure, PdfTable, Points, ReportError,
+};
 use crate::study::{Source, Study};
 
 /// What writing the per-quantity files gave.
@@ -163,7 +165,7 @@ fn write_quantity(
                 })
                 .collect(),
             points: mc_q.map(|q| Points {
-                label: format!("Monte Carlo, {} samples", short_number(q.samples as f64)),
+                label: format!("Monte Carlo, {} samples", count_text(q.samples)),
                 x: q.grid.centers(),
                 y: q.density.clone(),
                 stderr: q.stderr.clone(),

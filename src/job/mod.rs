@@ -22,7 +22,8 @@ use serde::Serialize;
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
 use crate::model::{Model, Override};
 use crate::report::{
-    write_json_flagging_undefined, OutputDir, PdfTable, Provenance, ReportError, UndefinedField,
+    count_text, short_number, write_json_flagging_undefined, OutputDir, PdfFigure, PdfTable,
+    Points, Provenance, ReportError, UndefinedField,
 };
 use crate::solve::{quantities, MethodName, MethodSet, NotApplicable, Problem, Quantity};
 use crate::study::{MethodPlan, PlanError, Skipped, Study, StudyError, StudyRunner, StudySummary};
@@ -570,13 +571,20 @@ pub struct McFiles {
     /// Numbers of `mc_summary.json` that have no finite value (written there as `null` and
     /// listed under `undefined`).
     pub undefined: Vec<UndefinedField>,
+    /// The figures that could not be drawn, each with why (the numbers are written all the
+    /// same; [`McFiles::flags`] lists them).
+    pub unwritten: Vec<Unwritten>,
 }
 
 impl McFiles {
-    /// What the files flag, one line each: the result's verdict failures and the numbers
-    /// that have no finite value. Empty when the result can be used as it stands.
+    /// What the files flag, one line each: the result's verdict failures, the numbers
+    /// that have no finite value and the figures not drawn. Empty when the result can be used as it stands.
     pub fn flags(&self, result: &McResult) -> Vec<String> {
-        mc_flags(result, &self.undefined)
+        let mut out = mc_flags(result, &self.undefined);
+        for u in &self.unwritten {
+            out.push(format!("{} was not written: {}", u.file, u.error));
+        }
+        out
     }
 }
 
@@ -596,7 +604,8 @@ pub fn mc_flags(result: &McResult, undefined: &[UndefinedField]) -> Vec<String> 
 
 /// Writes a Monte Carlo result alone (`fpsolve simulate`, `fpsolve merge`):
 /// `mc_<quantity>.csv` (bin centre, `mc`, `mc_stderr`, and `mc_bias`, `mc_bias_stderr` when
-/// the time-step bias was estimated) per state and observable, and `mc_summary.json` (the
+/// the time-step bias was estimated) and its figure `mc_<quantity>.png/.svg` per state and
+/// observable, and `mc_summary.json` (the
 /// whole [`McResult`]: verdicts and warnings included, numbers without a finite value written
 /// as `null` and listed under `undefined`), with its `provenance`. A merged set of shards
 /// writes exactly what the unsplit run writes, but for the provenance (the command, the time).
@@ -606,6 +615,7 @@ pub fn write_mc(
     out: &OutputDir,
 ) -> Result<McFiles, ReportError> {
     let mut files = Vec::new();
+    let mut unwritten = Vec::new();
     for q in &result.quantities {
         let table = PdfTable {
             variable: q.name.clone(),
@@ -613,6 +623,14 @@ pub fn write_mc(
             columns: mc_columns(q),
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
+        // A figure that cannot be drawn costs no number: noted, the run's files still written.
+        match mc_figure(result, q).write(out, &format!("mc_{}", q.name)) {
+            Ok(w) => files.extend([w.png, w.svg]),
+            Err(e) => unwritten.push(Unwritten {
+                file: format!("mc_{}.png/.svg", q.name),
+                error: e.to_string(),
+            }),
+        }
     }
     #[derive(Serialize)]
     struct WithProvenance<'a> {
@@ -626,7 +644,34 @@ pub fn write_mc(
         &WithProvenance { provenance, result },
     )?;
     files.push(summary);
-    Ok(McFiles { files, undefined })
+    Ok(McFiles {
+        files,
+        undefined,
+        unwritten,
+    })
+}
+
+/// A histogram drawn as the main job draws Monte Carlo beside the other methods: points with
+/// their standard errors, linear and log panels, the model's parameters under the title.
+fn mc_figure(result: &McResult, q: &crate::mc::QuantityHistogram) -> PdfFigure {
+    PdfFigure {
+        title: format!("{}: Monte Carlo PDF of {}", result.settings.model, q.name),
+        subtitle: result
+            .settings
+            .params
+            .iter()
+            .map(|p| format!("{} = {}", p.name, short_number(p.value)))
+            .collect::<Vec<_>>()
+            .join(", "),
+        variable_label: q.name.clone(),
+        curves: Vec::new(),
+        points: Some(Points {
+            label: format!("Monte Carlo, {} samples", count_text(q.samples)),
+            x: q.grid.centers(),
+            y: q.density.clone(),
+            stderr: q.stderr.clone(),
+        }),
+    }
 }
 
 /// A histogram's columns: `mc`, `mc_stderr`, and the time-step bias estimate of each bin

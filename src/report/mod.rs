@@ -124,6 +124,22 @@ pub enum ReportError {
     },
 }
 
+/// A count for a legend or title, exact: [`short_number`]'s form when it says the same number
+/// (`6e8`), every digit otherwise (`401408`, never a rounded `401400`).
+///
+/// ```
+/// assert_eq!(fpsolve::report::count_text(600_000_000), "6e8");
+/// assert_eq!(fpsolve::report::count_text(401_408), "401408");
+/// ```
+pub fn count_text(n: u64) -> String {
+    let short = short_number(n as f64);
+    // Counts beyond 2^53 are not exact as f64: every digit then.
+    match short.parse::<f64>() {
+        Ok(v) if n < (1 << 53) && v == n as f64 => short,
+        _ => n.to_string(),
+    }
+}
+
 /// A number for a legend or title: at most four significant digits, no trailing zeros, in
 /// exponent form outside [1e−4, 1e6) (`{}` of an f64 writes every digit of 1e56).
 ///
