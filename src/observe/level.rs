@@ -37,6 +37,9 @@ use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func, Symbol, SymbolicE
 const M: i32 = 8;
 /// Grid points per axis of the bracketing grid.
 const GRID: usize = 129;
+/// Cells per run of [`LevelSet::blocks`]; divides GRID − 1.
+const BLOCK: usize = 8;
+const _: () = assert!((GRID - 1) % BLOCK == 0);
 /// Relative tolerance of the adaptive quadrature over the lines.
 const REL_TOL: f64 = 1e-10;
 /// Relative tolerance of that quadrature for a piecewise density, whose panels are cut at its
@@ -51,11 +54,15 @@ pub(crate) struct LevelSet {
     /// The bracketing grid's first node and spacing per axis.
     lo: [f64; 2],
     h: [f64; 2],
-    /// Per cell (i, j), `i·(GRID − 1) + j`: min and max of g over its corners, widened by the
-    /// local curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
+    /// Per axis a, the cells of each column x_a ∈ [s_i, s_i+1] in order along it (cell (i, j)
+    /// at `i·(GRID − 1) + j` for a = 0, cell (j, i) there for a = 1, so that a line's cells
+    /// are contiguous): min and max of g over the cell's corners, widened by the local
+    /// curvature (−∞, +∞ when g is undefined at some corners but not all; +∞, −∞ when
     /// undefined at all).
-    cmin: Vec<f64>,
-    cmax: Vec<f64>,
+    bounds: [Vec<[f64; 2]>; 2],
+    /// The same bounds over runs of [`BLOCK`] consecutive cells of a column: a line skips a
+    /// run whose cells cannot hold the level in one test.
+    blocks: [Vec<[f64; 2]>; 2],
     /// Spread of g over the support (max − min), the scale of "g − u is zero".
     gscale: f64,
     /// The least and greatest g at the bracketing grid's nodes where the density is positive.
@@ -220,8 +227,10 @@ impl LevelSet {
                 curv[i * n + j] = if v.is_finite() { v } else { f64::INFINITY };
             }
         }
-        let mut cmin = vec![0.0; (n - 1) * (n - 1)];
-        let mut cmax = vec![0.0; (n - 1) * (n - 1)];
+        let mut bounds = [
+            vec![[0.0; 2]; (n - 1) * (n - 1)],
+            vec![[0.0; 2]; (n - 1) * (n - 1)],
+        ];
         for i in 0..n - 1 {
             for j in 0..n - 1 {
                 let corners = [
@@ -242,18 +251,29 @@ impl LevelSet {
                     ),
                     _ => (f64::NEG_INFINITY, f64::INFINITY),
                 };
-                cmin[i * (n - 1) + j] = a;
-                cmax[i * (n - 1) + j] = b;
+                bounds[0][i * (n - 1) + j] = [a, b];
+                bounds[1][j * (n - 1) + i] = [a, b];
             }
         }
+        let blocks = bounds.each_ref().map(|cells| {
+            cells
+                .chunks(BLOCK)
+                .map(|run| {
+                    run.iter()
+                        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &[a, b]| {
+                            [lo.min(a), hi.max(b)]
+                        })
+                })
+                .collect()
+        });
         let mut set = LevelSet {
             range: [lo, hi],
             tape,
             ext,
             lo: grid_lo,
             h,
-            cmin,
-            cmax,
+            bounds,
+            blocks,
             gscale,
             critical: Vec::new(),
             kinks: Vec::new(),
@@ -344,9 +364,9 @@ impl LevelSet {
         for (a, axis_breaks) in breaks.iter_mut().enumerate() {
             let b = 1 - a;
             if self.ext[b][0] < 0.0 && self.ext[b][1] > 0.0 {
-                let mut roots = [0.0; 2 * GRID];
-                let count = self.line_roots(b, 0.0, u, &mut roots, &mut scratch);
-                axis_breaks.extend_from_slice(&roots[..count]);
+                let mut roots = Vec::new();
+                self.line_roots(b, 0.0, u, &mut roots, &mut scratch);
+                axis_breaks.extend_from_slice(&roots);
             }
         }
         for (k, lines) in self.kinks.iter().zip(&self.kink_lines) {
@@ -363,10 +383,10 @@ impl LevelSet {
         for a in 0..2 {
             let b = 1 - a;
             breaks[a].extend_from_slice(&pieces[a]);
+            let mut roots = Vec::new();
             for &c in &pieces[b] {
-                let mut roots = [0.0; 2 * GRID];
-                let count = self.line_roots(b, c, u, &mut roots, &mut scratch);
-                breaks[a].extend_from_slice(&roots[..count]);
+                self.line_roots(b, c, u, &mut roots, &mut scratch);
+                breaks[a].extend_from_slice(&roots);
             }
         }
         let piecewise = pieces.iter().any(|p| !p.is_empty());
@@ -378,12 +398,12 @@ impl LevelSet {
                 .collect();
             edges.sort_by(f64::total_cmp);
             edges.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * (hi - lo));
-            // `integrate_panels` takes a `Fn`: the tape's working memory is shared through a
-            // `RefCell`, so that no line allocates.
-            let scratch = std::cell::RefCell::new(Vec::new());
+            // `integrate_panels` takes a `Fn`: the roots' buffer and the tape's working memory
+            // are shared through a `RefCell`, so that no line allocates.
+            let buffers = std::cell::RefCell::new((Vec::new(), Vec::new()));
             let f = |s: f64| {
-                let mut scratch = scratch.borrow_mut();
-                self.line_sum(density, a, s, u, &excluded, &mut scratch)
+                let (roots, scratch) = &mut *buffers.borrow_mut();
+                self.line_sum(density, a, s, u, &excluded, (roots, scratch))
             };
             total += if piecewise {
                 let batch = |t: &[f64], out: &mut [f64]| {
@@ -406,13 +426,9 @@ impl LevelSet {
             return Vec::new();
         };
         let n = GRID - 1;
-        let active: Vec<bool> = (0..n)
-            .map(|i| {
-                (0..n).any(|j| {
-                    let k = if a == 0 { i * n + j } else { j * n + i };
-                    u >= self.cmin[k] && u <= self.cmax[k]
-                })
-            })
+        let active: Vec<bool> = self.bounds[a]
+            .chunks(n)
+            .map(|column| column.iter().any(|&[lo, hi]| u >= lo && u <= hi))
             .collect();
         lines
             .iter()
@@ -429,13 +445,13 @@ impl LevelSet {
     /// g at the roots of the kink curve {h = 0} of `kink` on every grid line x_a = s_i (the
     /// j-th root t_j of h on the line, in order): independent of u, so computed once.
     fn kink_lines(&self, kink: &LevelSet, a: usize) -> Vec<Vec<f64>> {
-        let mut roots = [0.0; 2 * GRID];
+        let mut roots = Vec::new();
         let mut scratch = Vec::new();
         (0..GRID)
             .map(|i| {
                 let s = self.lo[a] + i as f64 * self.h[a];
-                let n = kink.line_roots(a, s, 0.0, &mut roots, &mut scratch);
-                roots[..n]
+                kink.line_roots(a, s, 0.0, &mut roots, &mut scratch);
+                roots
                     .iter()
                     .map(|&t| self.eval(a, s, t, &mut scratch).1.g)
                     .collect()
@@ -456,7 +472,7 @@ impl LevelSet {
         out: &mut Vec<f64>,
         scratch: &mut Vec<f64>,
     ) {
-        let mut roots = [0.0; 2 * GRID];
+        let mut roots = Vec::new();
         let s_of = |i: usize| self.lo[a] + i as f64 * self.h[a];
         for i in 1..GRID {
             let (prev, next) = (&lines[i - 1], &lines[i]);
@@ -513,12 +529,11 @@ impl LevelSet {
         s: f64,
         u: f64,
         excluded: &[&Critical],
-        scratch: &mut Vec<f64>,
+        (roots, scratch): (&mut Vec<f64>, &mut Vec<f64>),
     ) -> f64 {
-        let mut roots = [0.0; 2 * GRID];
-        let count = self.line_roots(a, s, u, &mut roots, scratch);
+        self.line_roots(a, s, u, roots, scratch);
         let mut total = 0.0;
-        for &t in &roots[..count] {
+        for &t in roots.iter() {
             let (x, v) = self.eval(a, s, t, scratch);
             if v.along == 0.0 || !v.along.is_finite() || !v.across.is_finite() {
                 continue;
@@ -533,36 +548,41 @@ impl LevelSet {
         total
     }
 
-    /// The roots t of g = u on the line x_a = s, into `out`; returns how many.
+    /// The roots t of g = u on the line x_a = s, into `out` (emptied first); returns how many.
     fn line_roots(
         &self,
         a: usize,
         s: f64,
         u: f64,
-        out: &mut [f64; 2 * GRID],
+        out: &mut Vec<f64>,
         scratch: &mut Vec<f64>,
     ) -> usize {
+        out.clear();
         let b = 1 - a;
         let n = GRID;
         let ia = (((s - self.lo[a]) / self.h[a]).floor().max(0.0) as usize).min(n - 2);
         let t_of = |j: usize| self.lo[b] + j as f64 * self.h[b];
-        let mut vals: [Option<Val>; GRID] = [None; GRID];
-        let mut count = 0;
-        for jb in 0..n - 1 {
-            let k = if a == 0 {
-                ia * (n - 1) + jb
-            } else {
-                jb * (n - 1) + ia
-            };
-            if !(u >= self.cmin[k] && u <= self.cmax[k]) {
+        let column = &self.bounds[a][ia * (n - 1)..(ia + 1) * (n - 1)];
+        let runs = &self.blocks[a][ia * (n - 1) / BLOCK..(ia + 1) * (n - 1) / BLOCK];
+        // g at the last node evaluated: the cells are visited in order, so a cell's left node
+        // is the previous cell's right one when both hold the level.
+        let mut last: Option<(usize, Val)> = None;
+        let cells = runs
+            .iter()
+            .enumerate()
+            .filter(|(_, &[lo, hi])| u >= lo && u <= hi)
+            .flat_map(|(r, _)| r * BLOCK..(r + 1) * BLOCK);
+        for jb in cells {
+            let [lo, hi] = column[jb];
+            if !(u >= lo && u <= hi) {
                 continue;
             }
-            for j in [jb, jb + 1] {
-                if vals[j].is_none() {
-                    vals[j] = Some(self.eval(a, s, t_of(j), scratch).1);
-                }
-            }
-            let (va, vb) = (vals[jb].unwrap(), vals[jb + 1].unwrap());
+            let va = match last {
+                Some((j, v)) if j == jb => v,
+                _ => self.eval(a, s, t_of(jb), scratch).1,
+            };
+            let vb = self.eval(a, s, t_of(jb + 1), scratch).1;
+            last = Some((jb + 1, vb));
             let mut roots = [f64::NAN; 2];
             self.cell_roots(
                 a,
@@ -573,12 +593,9 @@ impl LevelSet {
                 &mut roots,
                 scratch,
             );
-            for t in roots.into_iter().filter(|t| !t.is_nan()) {
-                out[count] = t;
-                count += 1;
-            }
+            out.extend(roots.into_iter().filter(|t| !t.is_nan()));
         }
-        count
+        out.len()
     }
 
     /// The roots of g = u in the cell [ta, tb] of the line x_a = s (at most two).
