@@ -39,7 +39,7 @@ const M: i32 = 8;
 const GRID: usize = 129;
 /// Cells per run of [`LevelSet::blocks`]; divides GRID − 1.
 const BLOCK: usize = 8;
-const _: () = assert!((GRID - 1) % BLOCK == 0);
+const _: () = assert!((GRID - 1).is_multiple_of(BLOCK));
 /// Relative tolerance of the adaptive quadrature over the lines.
 const REL_TOL: f64 = 1e-10;
 /// Relative tolerance of that quadrature for a piecewise density, whose panels are cut at its
