@@ -17,6 +17,7 @@ mod table;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::mc::{merge_shards, Grid, McConfig, McError, McResult, Shard, Simulation};
@@ -623,8 +624,16 @@ pub fn write_mc(
             columns: mc_columns(q),
         };
         files.push(table.write_csv(out, &format!("mc_{}.csv", q.name))?);
-        // A figure that cannot be drawn costs no number: noted, the run's files still written.
-        match mc_figure(result, q).write(out, &format!("mc_{}", q.name)) {
+    }
+    // The figures side by side (each drawn and written by itself), listed in the quantities'
+    // order. A figure that cannot be drawn costs no number: noted, the files still written.
+    let figures: Vec<_> = result
+        .quantities
+        .par_iter()
+        .map(|q| mc_figure(result, q).write(out, &format!("mc_{}", q.name)))
+        .collect();
+    for (q, figure) in result.quantities.iter().zip(figures) {
+        match figure {
             Ok(w) => files.extend([w.png, w.svg]),
             Err(e) => unwritten.push(Unwritten {
                 file: format!("mc_{}.png/.svg", q.name),
