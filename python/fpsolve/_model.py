@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
+import warnings
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -12,6 +13,7 @@ from . import _fpsolve
 from ._montecarlo import MonteCarlo, MonteCarloShard
 from ._progress import ProgressArg, callback
 from ._solution import Solution
+from ._warnings import FpsolveWarning
 
 Value = Union[float, int, str]
 """A parameter override: a number, or an expression of numbers, ``pi``, ``e`` and other
@@ -159,6 +161,7 @@ class Model:
         cells: Optional[Sequence[int]] = None,
         params: Optional[Mapping[str, Value]] = None,
         domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
+        tol: Optional[float] = None,
         **set: Value,
     ) -> Solution:
         """Solves the stationary FPK equation with the overrides ``set``.
@@ -171,7 +174,13 @@ class Model:
         CLI's text ``"x=-8:8,v=-10:10"`` (the model's state names; the velocity's range is
         made symmetric about 0; a reflecting wall's side must end on the wall); a box that
         cuts the density is flagged in the report (``grid.report.edges``) and its estimate
-        grows. ``ValueError`` for a malformed box or one given to another method. ``params`` is the
+        grows. ``ValueError`` for a malformed box or one given to another method. ``tol`` asks
+        the grid for an accuracy instead of cells (``--tol``): it chooses and refines its cells
+        until its estimated L1 error of both marginals is at most ``tol`` (0 < tol <= 0.5);
+        ``report["tolerance"]`` holds ``asked``, ``achieved``, ``reached``, ``shortfall`` and
+        the ``solves`` made (cells, estimate); not reached, the best solve is returned and a
+        :class:`FpsolveWarning` says so. ``ValueError`` for a bad ``tol``, one with ``cells``
+        or with another method. ``params`` is the
         overrides as a dict (for names that are not identifiers or clash with a keyword of
         this call); it and ``**set`` together may not name a parameter twice. Releases the
         GIL.
@@ -182,8 +191,11 @@ class Model:
         """
         set = _params(params, set)
         box = _domain(domain)
-        inner = self._inner.solve(method, int(degree), _cells(cells), set, box)
-        return Solution(inner, (self, method, int(degree), _cells(cells), set, box))
+        tol = None if tol is None else float(tol)
+        inner = self._inner.solve(method, int(degree), _cells(cells), set, box, tol)
+        solution = Solution(inner, (self, method, int(degree), _cells(cells), set, box, tol))
+        _warn_shortfall(solution, tol)
+        return solution
 
     def simulate(
         self,
@@ -283,3 +295,18 @@ def _simulate_shard(model: Model, run: Dict[str, Any], index: int, count: int) -
 def _from_state(text: str, path: Optional[str]) -> Model:
     """A pickled :class:`Model` back: parsed from its text, named by its path."""
     return Model(_fpsolve._Model.from_text(text, path))
+
+
+def _warn_shortfall(solution: Solution, tol: Optional[float]) -> None:
+    """A grid tolerance not reached is said, not silent: the solution is the best solve."""
+    if tol is None:
+        return
+    outcome = solution.report.get("tolerance") or {}
+    if not outcome.get("reached", True):
+        why = (outcome.get("shortfall") or {}).get("kind", "not reached")
+        warnings.warn(
+            f"the grid did not reach the L1 tolerance {tol:.1e}: achieved "
+            f"{outcome.get('achieved'):.1e} ({why})",
+            FpsolveWarning,
+            stacklevel=3,
+        )
