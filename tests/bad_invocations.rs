@@ -291,6 +291,76 @@ fn methods_cells_and_monte_carlo_references() {
     let _ = std::fs::remove_dir_all(models);
 }
 
+/// `--tol` (the grid's L1 tolerance) out of range, with `--cells`, or without the grid among
+/// the methods, on `solve` and the main job; `sweep --domain` malformed or without the grid.
+#[test]
+fn tolerances_and_sweep_boxes() {
+    for (tag, tol, msg) in [
+        ("tol-zero", "0", "above 0 and at most 0.5"),
+        ("tol-neg", "-1e-3", "above 0 and at most 0.5"),
+        ("tol-nan", "NaN", "above 0 and at most 0.5"),
+        ("tol-inf", "inf", "above 0 and at most 0.5"),
+        ("tol-big", "0.6", "above 0 and at most 0.5"),
+        ("tol-text", "tight", "invalid value 'tight'"),
+    ] {
+        refused(tag, &[LINEAR, "--tol", tol], &["--tol", msg]);
+        refused(
+            &format!("{tag}-solve"),
+            &["solve", LINEAR, "--method", "grid", "--tol", tol],
+            &["--tol", msg],
+        );
+    }
+    refused(
+        "tol-cells",
+        &[LINEAR, "--tol", "1e-3", "--cells", "40,80"],
+        &["--tol", "--cells", "give one"],
+    );
+    refused(
+        "tol-cells-solve",
+        &[
+            "solve", LINEAR, "--method", "grid", "--tol", "1e-3", "--cells", "40,80",
+        ],
+        &["--tol", "--cells", "give one"],
+    );
+    refused(
+        "tol-no-grid",
+        &[LINEAR, "--method", "epc", "--tol", "1e-3"],
+        &["--tol", "not among the methods"],
+    );
+    refused(
+        "tol-no-grid-solve",
+        &["solve", LINEAR, "--tol", "1e-3"],
+        &["--tol", "not among the methods (epc)"],
+    );
+    let sweep = ["sweep", LINEAR, "--set", "c=0.1,0.2"];
+    for (tag, extra, msg) in [
+        (
+            "sweep-domain-no-grid",
+            vec!["--domain", "z=-9:9,v=-9:9"],
+            vec!["--domain", "not among the methods"],
+        ),
+        (
+            "sweep-domain-syntax",
+            vec!["--method", "grid", "--domain", "z=-9..9"],
+            vec!["--domain"],
+        ),
+        (
+            "sweep-domain-name",
+            vec!["--method", "grid", "--domain", "q=-9:9,v=-9:9"],
+            vec!["--domain"],
+        ),
+        (
+            "sweep-domain-empty",
+            vec!["--method", "grid", "--domain", "z=9:-9,v=-9:9"],
+            vec!["--domain"],
+        ),
+    ] {
+        let mut args = sweep.to_vec();
+        args.extend(extra);
+        refused(tag, &args, &msg);
+    }
+}
+
 /// A vector-extension cap (`FPSOLVE_SIMD`) that names no extension is refused before any
 /// work, whatever the command.
 #[test]

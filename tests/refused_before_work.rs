@@ -80,3 +80,32 @@ fn thin_meshes_are_refused_by_every_command_that_takes_cells() {
         );
     }
 }
+
+/// `--tol` asks the grid for an accuracy: a model the grid cannot solve (δ-term impact damping
+/// without an impact law: the main job's methods are EPC alone) refuses it before any work,
+/// as does a tolerance outside (0, 0.5].
+#[test]
+fn a_tolerance_the_grid_cannot_serve_is_refused_before_work() {
+    let dir = common::scratch("tol-refused-model");
+    let plain = dir.join("plain.sde");
+    std::fs::write(
+        &plain,
+        "model plain\nstate x, y\ndrift x: y\ndrift y: -0.2*y - x - 0.1*y*abs(y)*delta(x)\n\
+         noise xi: intensity 1\ndiffusion y: xi\n",
+    )
+    .unwrap();
+    let plain = plain.to_str().unwrap();
+    refused("tol-delta", &[plain, "--tol", "1e-3"], &["--tol", "grid"]);
+    refused(
+        "tol-delta-solve",
+        &["solve", plain, "--method", "grid", "--tol", "1e-3"],
+        &["--method grid", "delta(...) terms"],
+    );
+    let vibro = model("vibro_duffing.sde");
+    refused(
+        "tol-range",
+        &[&vibro, "--tol", "0.75"],
+        &["--tol", "at most 0.5"],
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}

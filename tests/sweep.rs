@@ -601,7 +601,7 @@ fn not_applicable(v: &Verdict, method: MethodName) -> Option<&NotApplicable> {
             method: m, reason, ..
         }) if *m == method => match &**reason {
             MethodRefusal::NotApplicable(why) => Some(why),
-            MethodRefusal::Cells(_) => None,
+            MethodRefusal::Cells(_) | MethodRefusal::Domain { .. } => None,
         },
         _ => None,
     }
@@ -746,4 +746,118 @@ fn refusals_are_typed_and_exit_2_before_any_work() {
         "{bad}"
     );
     std::fs::remove_dir_all(&root).unwrap();
+}
+
+/// `sweep --domain`: the box `solve --domain` takes, used at every point (each point's grid
+/// report says it was given), and refused before any work when it does not fit the model's
+/// wall at a point or when the grid is not among the methods.
+#[test]
+fn a_domain_is_used_at_every_point_and_checked_before_work() {
+    let root = std::env::temp_dir().join(format!("fpsolve-sweep-domain-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let out = root.join("out");
+    let out_s = out.to_str().unwrap();
+    let run = fpsolve_cli(&[
+        "sweep",
+        "models/linear.sde",
+        "--set",
+        "c=0.2,0.4",
+        "--method",
+        "grid",
+        "--cells",
+        "40,80",
+        "--domain",
+        "z=-9:9,v=-8:9",
+        "--out",
+        out_s,
+        "--quiet",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    let points = json["points"].as_array().unwrap();
+    assert_eq!(points.len(), 2);
+    for p in points {
+        let grid = &p["outcomes"][0];
+        let report = serde_json::to_string(grid).unwrap();
+        // The velocity range made symmetric, as `solve` does.
+        assert!(report.contains("\"domain_given\":true"), "{report}");
+        assert!(report.contains("[-9.0,9.0]"), "{report}");
+    }
+    // The library: the same box through the builder, Var v = S/(2c) = 0.5/c to the grid's
+    // accuracy at each point.
+    let model = linear();
+    let spec = SweepSpec::parse(&args(&["c=0.2,0.4"])).unwrap();
+    let d = fpsolve::grid::Domain {
+        x: [-9.0, 9.0],
+        v: [-9.0, 9.0],
+    };
+    let result = Sweep::new(&model, &spec)
+        .methods("grid".parse().unwrap())
+        .cells(Cells([40, 80]))
+        .grid_domain(d)
+        .run();
+    for point in &result.points {
+        let s = point.solution(MethodName::Grid).unwrap();
+        assert_eq!(s.grid().unwrap().domain, d);
+        let var = s.stats_of("v").unwrap().moments.variance;
+        assert_relative_eq!(var, 0.5 / point.values[0], max_relative = 2e-2);
+    }
+    // A wall at y = 0 (domain y >= 0): the box's lower end must be on it, at every point.
+    let wall =
+        load_model(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_impact_duffing.sde"))
+            .unwrap();
+    let spec = SweepSpec::parse(&args(&["eps=0.1,0.2"])).unwrap();
+    let off_wall = fpsolve::grid::Domain {
+        x: [-1.0, 6.0],
+        v: [-10.0, 10.0],
+    };
+    let err = Sweep::new(&wall, &spec)
+        .methods("grid".parse().unwrap())
+        .grid_domain(off_wall)
+        .check()
+        .unwrap_err();
+    assert!(
+        matches!(
+            &err,
+            SweepError::Method { method: MethodName::Grid, reason, .. }
+                if matches!(**reason, MethodRefusal::Domain { .. })
+        ),
+        "{err}"
+    );
+    for (tag, extra, words) in [
+        (
+            "wall",
+            vec!["--method", "grid", "--domain", "y=-1:6,ydot=-10:10"],
+            vec!["the box at eps=0.1", "lower"],
+        ),
+        (
+            "no-grid",
+            vec!["--domain", "y=0:6,ydot=-10:10"],
+            vec!["--domain", "not among the methods"],
+        ),
+    ] {
+        let out = root.join(tag);
+        let mut a = vec![
+            "sweep",
+            "models/vibro_impact_duffing.sde",
+            "--set",
+            "eps=0.1,0.2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(extra);
+        let run = fpsolve_cli(&a);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{tag}: {stderr}");
+        for w in words {
+            assert!(stderr.contains(w), "{tag}: {stderr}");
+        }
+        assert!(!out.exists(), "{tag}: output written");
+    }
+    let _ = std::fs::remove_dir_all(&root);
 }

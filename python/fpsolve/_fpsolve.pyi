@@ -101,6 +101,7 @@ class _Model:
         cells: Optional[Tuple[int, int]] = None,
         set: Optional[Mapping[str, _Value]] = None,
         domain: Optional[str] = None,
+        tol: Optional[float] = None,
     ) -> "_Solution": ...
     def simulate(
         self,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import os
+import warnings
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -12,6 +13,7 @@ from . import _fpsolve
 from ._montecarlo import MonteCarlo, MonteCarloShard
 from ._progress import ProgressArg, callback
 from ._solution import Solution
+from ._warnings import FpsolveWarning
 
 Value = Union[float, int, str]
 """A parameter override: a number, or an expression of numbers, ``pi``, ``e`` and other
@@ -233,6 +235,7 @@ class Model:
         cells: Optional[Sequence[int]] = None,
         params: Optional[Mapping[str, Value]] = None,
         domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
+        tol: Optional[float] = None,
         **set: Value,
     ) -> Solution:
         """Solves the stationary Fokker-Planck equation.
@@ -258,6 +261,13 @@ class Model:
             symmetric about 0; a reflecting wall's side must end on the wall). A box that cuts
             the density is flagged in the report (``grid.report.edges``) and its estimate
             grows.
+        tol : float, optional
+            Asks the grid for an accuracy instead of cells (the command line's ``--tol``): it
+            chooses and refines its cells until its estimated L1 error of both marginals is at
+            most ``tol`` (0 < tol <= 0.5). ``report["tolerance"]`` holds ``asked``,
+            ``achieved``, ``reached``, ``shortfall`` and the ``solves`` made (cells,
+            estimate); not reached, the best solve is returned and a :class:`FpsolveWarning`
+            says so.
         **set : number or str
             Parameter overrides by keyword.
 
@@ -274,7 +284,8 @@ class Model:
         ParameterError
             A bad override.
         ValueError
-            A malformed box, or a box given to another method than the grid.
+            A malformed box, or a box given to another method than the grid; a bad ``tol``,
+            one with ``cells`` or with another method.
         KeyboardInterrupt
             Ctrl-C: the call returns within 0.1 s; a solve in progress finishes unseen in the
             background and is dropped.
@@ -290,8 +301,11 @@ class Model:
         """
         set = _params(params, set)
         box = _domain(domain)
-        inner = self._inner.solve(method, int(degree), _cells(cells), set, box)
-        return Solution(inner, (self, method, int(degree), _cells(cells), set, box))
+        tol = None if tol is None else float(tol)
+        inner = self._inner.solve(method, int(degree), _cells(cells), set, box, tol)
+        solution = Solution(inner, (self, method, int(degree), _cells(cells), set, box, tol))
+        _warn_shortfall(solution, tol)
+        return solution
 
     def simulate(
         self,
@@ -432,3 +446,18 @@ def _simulate_shard(model: Model, run: Dict[str, Any], index: int, count: int) -
 def _from_state(text: str, path: Optional[str]) -> Model:
     """A pickled :class:`Model` back: parsed from its text, named by its path."""
     return Model(_fpsolve._Model.from_text(text, path))
+
+
+def _warn_shortfall(solution: Solution, tol: Optional[float]) -> None:
+    """A grid tolerance not reached is said, not silent: the solution is the best solve."""
+    if tol is None:
+        return
+    outcome = solution.report.get("tolerance") or {}
+    if not outcome.get("reached", True):
+        why = (outcome.get("shortfall") or {}).get("kind", "not reached")
+        warnings.warn(
+            f"the grid did not reach the L1 tolerance {tol:.1e}: achieved "
+            f"{outcome.get('achieved'):.1e} ({why})",
+            FpsolveWarning,
+            stacklevel=3,
+        )

@@ -68,7 +68,7 @@ class Solution:
         self._inner = inner
         self._report: Optional[Dict[str, Any]] = None
         self._checked: set = set()
-        # (model, method, degree, cells, overrides, domain): what solved it, for pickling.
+        # (model, method, degree, cells, overrides, domain, tol): what solved it, for pickling.
         self._recipe = recipe
         self._curves: Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, float, Tuple]] = {}
 
@@ -511,7 +511,9 @@ class _Curve:
 def _unpickle_solution(recipe: Tuple[Any, ...], report: Dict[str, Any]) -> Solution:
     """A pickled :class:`Solution` back: solved again from its recipe (bit-identical), with
     the original's report."""
-    model, method, degree, cells, overrides, domain = recipe
-    solution = model.solve(method, degree=degree, cells=cells, params=overrides, domain=domain)
+    model, method, degree, cells, overrides, domain, *tol = recipe
+    solution = model.solve(
+        method, degree=degree, cells=cells, params=overrides, domain=domain, tol=(tol or [None])[0]
+    )
     solution._report = report
     return solution

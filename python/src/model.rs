@@ -119,6 +119,28 @@ fn grid_domain(
     Ok(Some(domain))
 }
 
+/// The grid's L1 tolerance `tol=` asks (issue 34), checked as the command line's `--tol`:
+/// 0 < tol <= 0.5, not with `cells`, only for the grid. The grid then chooses its cells and
+/// its report's `tolerance` says what it achieved.
+fn grid_tolerance(tol: Option<f64>, cells: Option<[usize; 2]>, method: &str) -> PyResult<Option<f64>> {
+    let Some(tol) = tol else {
+        return Ok(None);
+    };
+    fpsolve::grid::check_tolerance(tol)
+        .map_err(|e| errors::bad_argument(format!("tol: {e}")))?;
+    if let Some([nx, nv]) = cells {
+        return Err(errors::bad_argument(format!(
+            "tol {tol} with cells ({nx}, {nv}): give one (the tolerance chooses the cells)"
+        )));
+    }
+    if !matches!(method.parse(), Ok(MethodName::Grid)) {
+        return Err(errors::bad_argument(format!(
+            "tol {tol}: only the grid solver takes a tolerance (method {method})"
+        )));
+    }
+    Ok(Some(tol))
+}
+
 /// The method named `method` at `degree` / on `cells`.
 pub(crate) fn method(name: &str, degree: usize, cells: Option<[usize; 2]>) -> PyResult<Method> {
     let parsed: MethodName = name
@@ -237,8 +259,10 @@ impl PyModel {
     }
 
     /// Solves the stationary FPK equation by `method` (GIL released); `domain` is the grid's
-    /// box as `--domain` takes it (`x=LO:HI,v=LO:HI` with the model's state names).
-    #[pyo3(signature = (method, degree, cells=None, set=None, domain=None))]
+    /// box as `--domain` takes it (`x=LO:HI,v=LO:HI` with the model's state names); `tol` the
+    /// grid's L1 tolerance as `--tol` takes it (see [`grid_tolerance`]).
+    #[pyo3(signature = (method, degree, cells=None, set=None, domain=None, tol=None))]
+    #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
         py: Python<'_>,
@@ -247,7 +271,9 @@ impl PyModel {
         cells: Option<[usize; 2]>,
         set: Option<&Bound<'_, PyDict>>,
         domain: Option<&str>,
+        tol: Option<f64>,
     ) -> PyResult<PySolution> {
+        let tol = grid_tolerance(tol, cells, method)?;
         let chosen = self::method(method, degree, cells)?;
         let asked = Asked {
             method,
@@ -256,11 +282,13 @@ impl PyModel {
         let bound = self.bind(py, set)?;
         let domain = grid_domain(domain, &chosen, &bound)?;
         // A grid solve is one factorisation with no point to stop at: Ctrl-C returns at once
-        // and the solve finishes unseen.
+        // and the solve finishes unseen (a tolerance's solves too).
         let pool = crate::pool::shared()?;
         let solved = abandonable(py, move || {
             pool.install(|| {
-                let problem = Problem::new(&bound)?.with_grid_domain(domain);
+                let problem = Problem::new(&bound)?
+                    .with_grid_domain(domain)
+                    .with_grid_tolerance(tol);
                 problem.solve(chosen)
             })
         })?;

@@ -12,7 +12,7 @@ use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
 use fpsolve::study::MethodPlan;
 
-use crate::cli::domain_flag::grid_domain;
+use crate::cli::domain_flag::{grid_domain, grid_tolerance};
 use crate::{at_error, default_out, flag, lib, load, read_input, Plan, SolveArgs};
 
 /// The methods when `--method` is not given: the main job's ([`fpsolve::job::default_methods`],
@@ -41,7 +41,8 @@ pub(crate) fn plan_job(
         None => (default_methods(target, &problem)?, false),
     };
     let domain = grid_domain(args.domain.as_deref(), &methods, problem.model())?;
-    let problem = problem.with_grid_domain(domain);
+    let tol = grid_tolerance(args.tol, args.cells, &methods)?;
+    let problem = problem.with_grid_domain(domain).with_grid_tolerance(tol);
     let bound = problem.model();
     let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
         anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())
@@ -53,7 +54,15 @@ pub(crate) fn plan_job(
         Some(c) => c,
         None => Cells(DEFAULT_CELLS),
     };
-    if plan.run.contains(&MethodName::Grid) {
+    // The main job skips a grid that does not apply; a tolerance asked of it is refused.
+    if let (Some(tol), false) = (tol, plan.run.contains(&MethodName::Grid)) {
+        let why = plan.skipped.iter().find(|s| s.method == MethodName::Grid);
+        match why {
+            Some(s) => bail!("--tol {tol}: the grid solver does not apply: {}", s.why),
+            None => bail!("--tol {tol}: the grid solver does not run"),
+        }
+    }
+    if plan.run.contains(&MethodName::Grid) && tol.is_none() {
         cells
             .within(memory_limit_bytes())
             .map_err(flag("--cells"))?;

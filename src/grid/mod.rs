@@ -88,7 +88,10 @@ pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
 };
-pub use tolerance::{Shortfall, ToleranceOutcome, MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES};
+pub use tolerance::{
+    check_tolerance, Shortfall, ToleranceOutcome, MAX_TOLERANCE, MAX_TOLERANCE_CELLS,
+    MAX_TOLERANCE_SOLVES,
+};
 pub use transient::{
     GridTransient, Initial, Moments, Snapshot, TransientError, TransientHistory, TransientReport,
     INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,

@@ -72,15 +72,32 @@ pub enum Shortfall {
     Stalled,
 }
 
-/// Checks a tolerance: finite and positive.
-pub(super) fn check_tolerance(tol: f64) -> Result<(), GridError> {
-    if tol.is_finite() && tol > 0.0 {
+/// The loosest L1 tolerance that may be asked: two densities are at most 2 apart in L1,
+/// and an answer allowed to be a quarter of that away says nothing about the density.
+pub const MAX_TOLERANCE: f64 = 0.5;
+
+/// Checks an L1 tolerance: positive and at most [`MAX_TOLERANCE`] (NaN and infinity
+/// refused), what [`GridSolver::tolerance`](super::GridSolver::tolerance) and the front
+/// ends' `--tol`/`tol=` check before any work.
+///
+/// ```
+/// use fpsolve::grid::{check_tolerance, GridError};
+/// assert!(check_tolerance(1e-4).is_ok());
+/// for bad in [0.0, -1e-3, 0.6, f64::NAN, f64::INFINITY] {
+///     assert!(matches!(check_tolerance(bad), Err(GridError::Setting { setting: "tolerance", .. })));
+/// }
+/// ```
+///
+/// # Errors
+/// [`GridError::Setting`] naming the tolerance.
+pub fn check_tolerance(tol: f64) -> Result<(), GridError> {
+    if tol.is_finite() && tol > 0.0 && tol <= MAX_TOLERANCE {
         Ok(())
     } else {
         Err(GridError::Setting {
             setting: "tolerance",
             value: format!("{tol}"),
-            expected: "a positive, finite L1 tolerance",
+            expected: "an L1 tolerance above 0 and at most 0.5",
         })
     }
 }
@@ -168,7 +185,8 @@ mod tests {
     #[test]
     fn tolerance_must_be_positive_and_finite() {
         assert!(check_tolerance(1e-3).is_ok());
-        for bad in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+        assert!(check_tolerance(0.5).is_ok());
+        for bad in [0.0, -1e-3, 0.51, f64::NAN, f64::INFINITY] {
             assert!(check_tolerance(bad).is_err());
         }
     }

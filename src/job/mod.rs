@@ -489,6 +489,7 @@ pub fn flags(report: &JobReport) -> Vec<String> {
     if let Some(e) = &report.mc_error {
         out.push(format!("Monte Carlo: {e}"));
     }
+    out.extend(tolerance_shortfalls(&report.study));
     out.extend(defect_notes(&report.study));
     let warnings = report.study.warnings.iter();
     out.extend(warnings.filter(|w| w.flags()).map(|w| w.to_string()));
@@ -506,6 +507,23 @@ pub fn flags(report: &JobReport) -> Vec<String> {
     }
     out.extend(undefined_flag("summary.json", &report.undefined));
     out
+}
+
+/// One line per grid solve whose L1 tolerance (`--tol`) was not reached: its best solve was
+/// written, with the estimate it achieved, and flags the run.
+fn tolerance_shortfalls(study: &Study) -> Vec<String> {
+    study
+        .runs
+        .iter()
+        .filter_map(|r| r.solution()?.grid()?.report.tolerance.as_ref())
+        .filter_map(|t| {
+            let why = t.shortfall.as_ref()?;
+            Some(format!(
+                "grid: the L1 tolerance {:.1e} was not reached (estimate {:.1e}): {why}",
+                t.asked, t.achieved
+            ))
+        })
+        .collect()
 }
 
 /// The line that flags the numbers of `file` that have no finite value (`None` when there

@@ -189,6 +189,8 @@ pub struct Problem<'a> {
     zhuravlev: Option<Result<Zhuravlev<BoundModel>, ZhuravlevError>>,
     /// The grid solver's box, when given (`--domain`); sized from the density otherwise.
     grid_domain: Option<crate::grid::Domain>,
+    /// The grid solver's L1 tolerance, when asked (`--tol`): it then chooses its cells.
+    grid_tolerance: Option<f64>,
 }
 
 impl Problem<'static> {
@@ -266,6 +268,7 @@ impl<'a> Problem<'a> {
             own_quantities: own,
             zhuravlev,
             grid_domain: None,
+            grid_tolerance: None,
         })
     }
 
@@ -288,6 +291,31 @@ impl<'a> Problem<'a> {
     /// The grid solver's box, when one was given ([`Problem::with_grid_domain`]).
     pub fn grid_domain(&self) -> Option<crate::grid::Domain> {
         self.grid_domain
+    }
+
+    /// The grid solver's L1 tolerance ([`GridSolver::tolerance`]): it then chooses and
+    /// refines its own cells, and the cells of [`Method::Grid`] are not used; `None` solves
+    /// on those cells. Checked by [`GridSolver::check`] (0 < tol ≤ 0.5).
+    ///
+    /// ```
+    /// use fpsolve::solve::{Density, Method, Problem};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let problem = Problem::new(&bound)?.with_grid_tolerance(Some(1e-2));
+    /// assert_eq!(problem.grid_tolerance(), Some(1e-2));
+    /// let sol = problem.solve(Method::Grid { cells: [200, 400] })?;
+    /// let Density::Grid(g) = sol.density() else { unreachable!() };
+    /// assert!(g.report.tolerance.as_ref().unwrap().reached);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn with_grid_tolerance(mut self, tol: Option<f64>) -> Problem<'a> {
+        self.grid_tolerance = tol;
+        self
+    }
+
+    /// The grid solver's L1 tolerance, when one was asked ([`Problem::with_grid_tolerance`]).
+    pub fn grid_tolerance(&self) -> Option<f64> {
+        self.grid_tolerance
     }
 
     /// How quantity `name` (a state or an observable) changes in time and where its level
@@ -320,11 +348,15 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// The grid solver of this problem's model, with its box when one was given.
+    /// The grid solver of this problem's model, with its box and tolerance when given.
     pub(crate) fn grid_solver(&self) -> GridSolver<'_> {
         let solver = GridSolver::new(&self.model);
-        match self.grid_domain {
+        let solver = match self.grid_domain {
             Some(d) => solver.domain(d),
+            None => solver,
+        };
+        match self.grid_tolerance {
+            Some(tol) => solver.tolerance(tol),
             None => solver,
         }
     }
@@ -370,9 +402,15 @@ impl<'a> Problem<'a> {
         Ok(self.solution(self.epc().degree(degree).solve()?))
     }
 
-    /// Solves by the grid solver on `cells`, the model as it stands.
+    /// Solves by the grid solver on `cells` (on the cells it chooses when a tolerance was
+    /// asked), the model as it stands.
     pub(crate) fn solve_grid(&self, cells: [usize; 2]) -> Result<Solution, SolveError> {
-        let grid = self.grid_solver().cells(cells[0], cells[1]).solve()?;
+        let solver = self.grid_solver();
+        let solver = match self.grid_tolerance {
+            Some(_) => solver,
+            None => solver.cells(cells[0], cells[1]),
+        };
+        let grid = solver.solve()?;
         Ok(Solution::new(
             Density::Grid(Box::new(grid)),
             self.own_quantities.clone(),

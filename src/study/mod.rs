@@ -511,7 +511,8 @@ pub struct DegreeSummary<'a> {
 /// A method without degrees (the grid) in a study's summary.
 #[derive(Debug, Serialize)]
 pub struct RunSummary<'a> {
-    /// The settings it was asked to solve with (the grid's `cells`, position and velocity).
+    /// The settings it solved with (the grid's `cells`, position and velocity: those a
+    /// tolerance chose when one was asked; those asked when it did not solve).
     #[serde(flatten)]
     pub settings: Method,
     /// Whether it solved.
@@ -594,7 +595,8 @@ impl Study {
                 .filter(|r| r.degree().is_none())
                 .map(|r| {
                     let summary = RunSummary {
-                        settings: r.method,
+                        // The cells solved on: a tolerance chooses its own.
+                        settings: r.solution().map_or(r.method, Solution::method),
                         solved: r.outcome.is_ok(),
                         error: r.outcome.as_ref().err().map(|e| e.to_string()),
                         report: r.solution().and_then(Solution::grid).map(|g| &g.report),

@@ -15,6 +15,15 @@ pub enum MethodRefusal {
     /// The grid's cells are out of range.
     #[error(transparent)]
     Cells(GridError),
+    /// The grid's box ([`crate::sweep::Sweep::grid_domain`]) is not one, or does not fit the
+    /// model's walls at a point (the values named).
+    #[error("the box at {at}: {error}")]
+    Domain {
+        /// The point's values, `name=value` comma-separated.
+        at: String,
+        /// Why.
+        error: GridError,
+    },
 }
 
 /// The method `name` with the sweep's settings: the one place a method name becomes a

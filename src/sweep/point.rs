@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::grid::Domain;
 use crate::model::{BoundModel, Model};
 use crate::observe::{ObservableDensity, ObservableMap};
 use crate::solve::{
@@ -78,6 +79,7 @@ pub(super) fn solve_point(
     index: usize,
     values: Vec<f64>,
     settled: &[(MethodName, Method)],
+    domain: Option<Domain>,
     frontier: &Frontier,
 ) -> Raw {
     let start = Instant::now();
@@ -96,7 +98,7 @@ pub(super) fn solve_point(
                     by_epc(bound, *degree, (k == 0).then_some((frontier, index)))
                 }
                 (Ok(bound), method) => {
-                    let (outcome, rms) = by_method(bound, *method);
+                    let (outcome, rms) = by_method(bound, *method, domain);
                     (outcome, ReferenceRms::Known(rms))
                 }
             };
@@ -243,13 +245,15 @@ fn epc_curves(
     Ok(collected.finish(last.figures()))
 }
 
-/// Any other method through the front door: the solution's moments and its marginals on the
-/// report grid.
+/// Any other method through the front door (the grid on the box `domain` when given): the
+/// solution's moments and its marginals on the report grid.
 pub(super) fn by_method(
     bound: &BoundModel,
     method: Method,
+    domain: Option<Domain>,
 ) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
-    let solution = match Problem::new(bound).and_then(|p| p.solve(method)) {
+    let solved = Problem::new(bound).and_then(|p| p.with_grid_domain(domain).solve(method));
+    let solution = match solved {
         Ok(s) => s,
         Err(e) => return (Err(failure(e, method)), None),
     };

@@ -7,7 +7,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::base::cancel::{Cancel, Cancelled};
-use crate::grid::Cells;
+use crate::grid::{Cells, Domain, GridSolver};
 use crate::model::Model;
 use crate::solve::{
     quantities_of, reported, two_sided_tail_probability, Method, MethodName, MethodSet, Problem,
@@ -34,6 +34,7 @@ pub struct Sweep<'a> {
     methods: MethodSet,
     degree: usize,
     cells: Cells,
+    domain: Option<Domain>,
     progress: &'a (dyn Fn(u64, u64) + Sync),
 }
 
@@ -46,6 +47,7 @@ impl<'a> Sweep<'a> {
             methods: MethodSet::new(vec![MethodName::Epc]).expect("one method is a set"),
             degree: 4,
             cells: Cells::default(),
+            domain: None,
             progress: &|_, _| {},
         }
     }
@@ -87,6 +89,29 @@ impl<'a> Sweep<'a> {
     /// The grid solver's cells (default [`crate::grid::DEFAULT_CELLS`]).
     pub fn cells(mut self, cells: Cells) -> Self {
         self.cells = cells;
+        self
+    }
+
+    /// The grid solver's box at every point ([`GridSolver::domain`], `--domain`) instead of
+    /// one sized from each point's density; checked by [`Sweep::check`] at every point that
+    /// binds (a wall that moves with a parameter must stay an end of the box).
+    ///
+    /// ```
+    /// use fpsolve::grid::{Cells, Domain};
+    /// use fpsolve::solve::MethodName;
+    /// use fpsolve::sweep::{Sweep, SweepSpec};
+    /// let model = fpsolve::model::parse_model("model m\nparam c = 1\nstate z, v\ndrift z: v\ndrift v: -c*v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?;
+    /// let spec = SweepSpec::parse(&["c=0.5,1".into()])?;
+    /// let d = Domain { x: [-9.0, 9.0], v: [-9.0, 9.0] };
+    /// let sweep = Sweep::new(&model, &spec).methods("grid".parse()?).cells(Cells([40, 40])).grid_domain(d);
+    /// sweep.check()?;
+    /// for point in &sweep.run().points {
+    ///     assert_eq!(point.solution(MethodName::Grid).unwrap().grid().unwrap().domain, d);
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn grid_domain(mut self, domain: Domain) -> Self {
+        self.domain = Some(domain);
         self
     }
 
@@ -156,6 +181,10 @@ impl<'a> Sweep<'a> {
             for (name, method) in settled {
                 applies(&bound, name, method).map_err(|r| refused(name, r))?;
             }
+        }
+        if let Some(d) = self.domain {
+            self.check_domain(d)
+                .map_err(|r| refused(MethodName::Grid, r))?;
         }
         Ok(())
     }
@@ -240,7 +269,15 @@ impl<'a> Sweep<'a> {
                             frontier.passed(i);
                             Raw::refused(all[i].clone(), refusal.clone())
                         }
-                        None => solve_point(model, spec, i, all[i].clone(), &settled, &frontier),
+                        None => solve_point(
+                            model,
+                            spec,
+                            i,
+                            all[i].clone(),
+                            &settled,
+                            self.domain,
+                            &frontier,
+                        ),
                     };
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                     progress(k, total);
@@ -254,7 +291,15 @@ impl<'a> Sweep<'a> {
                 None => known(i),
             };
             let method = settled[k].1;
-            thresholds::reference(model, spec, &all, indices, method, known, cancel)
+            thresholds::reference(
+                model,
+                spec,
+                &all,
+                indices,
+                (method, self.domain),
+                known,
+                cancel,
+            )
         };
         // The points before this range (a shard's) are walked on one core while the others
         // solve; then the range's own points, from what they computed (see
@@ -287,6 +332,34 @@ impl<'a> Sweep<'a> {
             return Err(Cancelled);
         }
         Ok((raw, reference))
+    }
+
+    /// The box `d` at every point that binds with a stationary density: a box, fitting the
+    /// model's walls there (they may move with a parameter).
+    fn check_domain(&self, d: Domain) -> Result<(), MethodRefusal> {
+        for values in self.spec.points() {
+            let Ok(bound) = self.model.bind(&self.spec.overrides_at(&values)) else {
+                continue;
+            };
+            if crate::dynamics::check(&bound).is_err() {
+                continue;
+            }
+            GridSolver::new(&bound)
+                .domain(d)
+                .check()
+                .map_err(|error| MethodRefusal::Domain {
+                    at: self
+                        .spec
+                        .swept
+                        .iter()
+                        .zip(&values)
+                        .map(|(s, v)| format!("{}={v}", s.name))
+                        .collect::<Vec<_>>()
+                        .join(","),
+                    error,
+                })?;
+        }
+        Ok(())
     }
 
     /// Each method with the sweep's settings.

@@ -20,6 +20,7 @@
 use std::ops::Range;
 
 use crate::base::cancel::Cancel;
+use crate::grid::Domain;
 use crate::model::Model;
 use crate::solve::Method;
 
@@ -38,11 +39,17 @@ pub(super) struct Reference {
 
 /// The reference values of point `values` by `method`, solved here: as the point's own
 /// ladder (EPC) or the point's own solve (any other method) computes them.
-fn solved_rms(model: &Model, spec: &SweepSpec, values: &[f64], method: Method) -> Option<Vec<f64>> {
+/// The grid on the box `domain` when given.
+fn solved_rms(
+    model: &Model,
+    spec: &SweepSpec,
+    values: &[f64],
+    (method, domain): (Method, Option<Domain>),
+) -> Option<Vec<f64>> {
     let bound = model.bind(&spec.overrides_at(values)).ok()?;
     match method {
         Method::Epc { degree } => epc_reference_rms(&bound, degree),
-        other => by_method(&bound, other).1,
+        other => by_method(&bound, other, domain).1,
     }
 }
 
@@ -55,7 +62,7 @@ pub(super) fn reference(
     spec: &SweepSpec,
     points: &[Vec<f64>],
     indices: Range<usize>,
-    method: Method,
+    method: (Method, Option<Domain>),
     known: impl Fn(usize) -> ReferenceRms,
     cancel: &Cancel,
 ) -> Option<Reference> {
@@ -94,7 +101,7 @@ mod tests {
         let model = linear();
         let spec = SweepSpec::parse(&["S=-1,-2,1,2".to_string()]).unwrap();
         let points = spec.points();
-        let method = Method::Epc { degree: 4 };
+        let method = (Method::Epc { degree: 4 }, None);
         let solved = |i: usize| solved_rms(&model, &spec, &points[i], method);
         // Points 0 and 1 do not bind; point 2 is the reference (var z = S/(2c) = 2.5).
         let scratch = reference(
