@@ -122,12 +122,15 @@ fn grid_domain(
 /// The grid's L1 tolerance `tol=` asks (issue 34), checked as the command line's `--tol`:
 /// 0 < tol <= 0.5, not with `cells`, only for the grid. The grid then chooses its cells and
 /// its report's `tolerance` says what it achieved.
-fn grid_tolerance(tol: Option<f64>, cells: Option<[usize; 2]>, method: &str) -> PyResult<Option<f64>> {
+fn grid_tolerance(
+    tol: Option<f64>,
+    cells: Option<[usize; 2]>,
+    method: &str,
+) -> PyResult<Option<f64>> {
     let Some(tol) = tol else {
         return Ok(None);
     };
-    fpsolve::grid::check_tolerance(tol)
-        .map_err(|e| errors::bad_argument(format!("tol: {e}")))?;
+    fpsolve::grid::check_tolerance(tol).map_err(|e| errors::bad_argument(format!("tol: {e}")))?;
     if let Some([nx, nv]) = cells {
         return Err(errors::bad_argument(format!(
             "tol {tol} with cells ({nx}, {nv}): give one (the tolerance chooses the cells)"
