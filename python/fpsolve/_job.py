@@ -55,8 +55,8 @@ def run_job(
         The output directory cannot be used, or the job cannot run.
     KeyboardInterrupt
         Ctrl-C: the call returns within 0.1 s; the job in progress finishes unseen in the
-        background, and nothing of it is written (the output directory stays locked until
-        it ends).
+        background, and nothing of it is written (the output directory stays locked, and
+        fpsolve's worker threads busy, until it ends).
     """
     if not isinstance(model, Model):
         model = Model.load(model)

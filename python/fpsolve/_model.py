@@ -288,7 +288,8 @@ class Model:
             one with ``cells`` or with another method.
         KeyboardInterrupt
             Ctrl-C: the call returns within 0.1 s; a solve in progress finishes unseen in the
-            background and is dropped.
+            background and is dropped (it keeps fpsolve's worker threads until then: the
+            next call waits for them).
 
         Notes
         -----
