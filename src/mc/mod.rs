@@ -48,6 +48,7 @@ mod shard;
 mod simulation;
 mod stats;
 mod step;
+mod transient;
 
 #[cfg(test)]
 pub(crate) mod strip_tests;
@@ -78,6 +79,11 @@ pub use shard::digest::ShardDigest;
 pub use shard::index::Shard;
 pub use shard::part::{merge_named, merge_shards, ShardOutput};
 pub use simulation::Simulation;
+pub use transient::{
+    McDensity, McSnapshot, McStateMoments, McTransient, McTransientError, McTransientHistory,
+    McTransientSettings, MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, TRANSIENT_LANES,
+    WALL_SDS,
+};
 pub use stats::impacts::ImpactStats;
 pub use stats::result::McResult;
 pub use stats::verdict::{
