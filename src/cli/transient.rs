@@ -13,7 +13,7 @@ use clap::Args;
 use fpsolve::grid::{Cells, Domain, GridTransient, Initial, TransientHistory, TRANSIENT_TOLERANCE};
 use fpsolve::mc::{McTransient, McTransientHistory};
 use fpsolve::model::{BoundModel, InitialState, Model};
-use fpsolve::report::{write_json, Provenance};
+use fpsolve::report::{write_json_flagging_undefined, Provenance};
 use serde::Serialize;
 
 /// The flags of `fpsolve transient`.
@@ -86,7 +86,11 @@ pub(crate) fn plan(path: PathBuf, args: TransientArgs) -> Result<TransientPlan> 
         match m {
             "grid" => grid = true,
             "mc" => mc = true,
-            other => return Err(anyhow!("--method {other}: expected `grid`, `mc` or `grid,mc`")),
+            other => {
+                return Err(anyhow!(
+                    "--method {other}: expected `grid`, `mc` or `grid,mc`"
+                ))
+            }
         }
     }
     let times = super::passage::parse_times(&args.times).context("--times")?;
@@ -345,7 +349,10 @@ fn pdf_csv(h: &Histories, axis: usize) -> String {
     csv.push('\n');
     for (k, t) in h.times().iter().enumerate() {
         let grid = h.grid.as_ref().map(|g| &g.snapshots[k].marginals[axis]);
-        let mc = h.mc.as_ref().and_then(|m| m.snapshots[k].densities.as_ref()).map(|d| &d[axis]);
+        let mc =
+            h.mc.as_ref()
+                .and_then(|m| m.snapshots[k].densities.as_ref())
+                .map(|d| &d[axis]);
         let centres = match (grid, mc) {
             (Some(g), _) => g.centres.clone(),
             (None, Some(m)) => m.grid.centers(),
@@ -372,7 +379,12 @@ fn in_se(a: f64, b: f64, se: f64) -> Option<f64> {
 }
 
 /// Grid against MC at output `k`, per state.
-fn distances(states: &[String], g: &TransientHistory, m: &McTransientHistory, k: usize) -> Vec<Distance> {
+fn distances(
+    states: &[String],
+    g: &TransientHistory,
+    m: &McTransientHistory,
+    k: usize,
+) -> Vec<Distance> {
     let (gs, ms) = (&g.snapshots[k], &m.snapshots[k]);
     states
         .iter()
@@ -402,7 +414,9 @@ fn distances(states: &[String], g: &TransientHistory, m: &McTransientHistory, k:
 }
 
 /// Steps and writes the output directory.
-pub(crate) fn run(plan: TransientPlan) -> Result<()> {
+/// Runs the plan and writes every output; returns what is flagged (exit 1 with the files
+/// written), empty for a sound run.
+pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
     let run = crate::begin_output(&plan.out)?;
     let at = |e: anyhow::Error| e.context(plan.path.display().to_string());
     let grid = if plan.grid {
@@ -444,6 +458,7 @@ pub(crate) fn run(plan: TransientPlan) -> Result<()> {
         }
         None => None,
     };
+    let flags: Vec<String> = mc.as_ref().and_then(stuck).into_iter().collect();
     let h = Histories { grid, mc };
     let write = |name: &str, text: String| {
         run.out()
@@ -505,9 +520,38 @@ pub(crate) fn run(plan: TransientPlan) -> Result<()> {
         }),
         outputs,
     };
-    write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
+    // A moment that does not exist (the kurtosis of a point start, whose variance is 0) is
+    // written as null and listed under `undefined`, never a lost run.
+    let (_, undefined) =
+        write_json_flagging_undefined(run.out(), "summary.json", &summary).map_err(crate::lib)?;
+    if !undefined.is_empty() {
+        crate::cli::console::sayln!(
+            "note: {} numbers of summary.json have no finite value (null there, listed under `undefined`), e.g. {}",
+            undefined.len(),
+            undefined[0].field
+        );
+    }
     say(&h, &states[0]);
-    crate::commit_output(run, 2 + states.len() + figures)
+    crate::commit_output(run, 2 + states.len() + figures)?;
+    Ok(flags)
+}
+
+/// A Monte Carlo ensemble that never left a point start: every trajectory still there at a
+/// later output time (both states' variances exactly 0). The sampled drift and noise vanish
+/// at the start: sgn(0) = 0 in a Zhuravlev form, whose noise is sgn(z)·ξ, keeps a start at
+/// rest at rest, while the grid's operator (sgn(z)² = 1 almost everywhere) does not.
+fn stuck(h: &McTransientHistory) -> Option<String> {
+    let s = h
+        .snapshots
+        .iter()
+        .find(|s| s.t > 0.0 && s.moments.iter().all(|m| m.variance.value == 0.0))?;
+    Some(format!(
+        "Monte Carlo: every trajectory is still at its start at t = {} (both states' variances \
+         are 0): the sampled drift and noise vanish there (e.g. sgn(0) = 0 in a Zhuravlev \
+         form, whose noise is sgn(z)*xi); its numbers are not the law's. Start beside it, e.g. \
+         --initial 'point z = 1e-6, v = 0'",
+        s.t
+    ))
 }
 
 /// The bins of a grid marginal's cells.

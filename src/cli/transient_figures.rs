@@ -34,7 +34,10 @@ pub(crate) fn write(
             series.push(Curve {
                 label: format!("grid σ({q})"),
                 x: times.clone(),
-                y: g.snapshots.iter().map(|s| s.moments[a].variance.sqrt()).collect(),
+                y: g.snapshots
+                    .iter()
+                    .map(|s| s.moments[a].variance.sqrt())
+                    .collect(),
             });
         }
         if let Some(m) = mc {

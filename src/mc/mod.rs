@@ -79,14 +79,14 @@ pub use shard::digest::ShardDigest;
 pub use shard::index::Shard;
 pub use shard::part::{merge_named, merge_shards, ShardOutput};
 pub use simulation::Simulation;
-pub use transient::{
-    McDensity, McSnapshot, McStateMoments, McTransient, McTransientError, McTransientHistory,
-    McTransientSettings, MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, TRANSIENT_LANES,
-    WALL_SDS,
-};
 pub use stats::impacts::ImpactStats;
 pub use stats::result::McResult;
 pub use stats::verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,
+};
+pub use transient::{
+    McDensity, McSnapshot, McStateMoments, McTransient, McTransientError, McTransientHistory,
+    McTransientSettings, MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, TRANSIENT_LANES,
+    WALL_SDS,
 };

@@ -44,7 +44,6 @@
 mod error;
 mod history;
 mod initial;
-mod moments;
 mod operator;
 
 use std::time::Instant;
@@ -440,12 +439,7 @@ impl<'a> GridTransient<'a> {
                     history::marginal(&mesh, &o.y, 0),
                     history::marginal(&mesh, &o.y, 1),
                 ];
-                // As the stationary solver reads its density (see `moments.rs`).
-                let interpolant = moments::as_solution(&mesh, &o.y);
-                let moments = [
-                    moments::state_moments(&interpolant, 0),
-                    moments::state_moments(&interpolant, 1),
-                ];
+                let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
                 Snapshot {
                     t: o.t,
                     edge_mass: history::edge_mass(&mesh, &o.y),

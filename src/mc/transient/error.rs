@@ -36,7 +36,8 @@ pub enum McTransientError {
     #[error(
         "the initial law's mean lies {sds:.3} standard deviations on the model's side of the \
          wall at {state} = {at} (at least {} needed, so that under 1e-9 of it lies beyond): give \
-         a start on the model's side", crate::mc::WALL_SDS
+         a start on the model's side",
+        crate::mc::WALL_SDS
     )]
     StartBeyondWall {
         /// The signed distance of the start's mean from the wall, in its standard deviations

@@ -287,7 +287,10 @@ impl<'a> McTransient<'a> {
             ));
         }
         if let Some(bins) = &self.bins {
-            if !bins.iter().all(|g| g.lo < g.hi && g.bins >= 1 && g.hi.is_finite()) {
+            if !bins
+                .iter()
+                .all(|g| g.lo < g.hi && g.bins >= 1 && g.hi.is_finite())
+            {
                 return Err(setting(
                     "bins",
                     format!("{bins:?}"),
@@ -339,10 +342,9 @@ impl<'a> McTransient<'a> {
         let (mean, sd) = match self.initial {
             InitialState::Rest => ([0.0, 0.0], [0.0, 0.0]),
             InitialState::Point(p) => (p, [0.0, 0.0]),
-            InitialState::Gaussian { mean, covariance } => (
-                mean,
-                [covariance[0][0].sqrt(), covariance[1][1].sqrt()],
-            ),
+            InitialState::Gaussian { mean, covariance } => {
+                (mean, [covariance[0][0].sqrt(), covariance[1][1].sqrt()])
+            }
         };
         for b in &plan.barriers {
             if b.crossing != Crossing::Reflects {

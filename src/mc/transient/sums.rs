@@ -185,7 +185,11 @@ mod tests {
         // A uniform law: kurtosis 1.8.
         assert!((kurt.value - 1.8).abs() < 0.1, "{}", kurt.value);
         let se = (v / n).sqrt();
-        assert!(mean.stderr > 0.2 * se && mean.stderr < 5.0 * se, "{} {se}", mean.stderr);
+        assert!(
+            mean.stderr > 0.2 * se && mean.stderr < 5.0 * se,
+            "{} {se}",
+            mean.stderr
+        );
         // The same batches at both steps: no bias, exactly.
         let b = bias(&batches, &batches, 1);
         assert!(b.iter().all(|e| e.value == 0.0 && e.stderr == 0.0), "{b:?}");
