@@ -664,7 +664,17 @@ fn execute(plan: Plan) -> Result<(), Failure> {
         }
         Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
         Plan::Passage(plan) => Ok(cli::passage::run(*plan)?),
-        Plan::Transient(plan) => Ok(cli::transient::run(*plan)?),
+        Plan::Transient(plan) => {
+            let flags = cli::transient::run(*plan)?;
+            if flags.is_empty() {
+                Ok(())
+            } else {
+                Err(Failure::Flagged(format!(
+                    "error: the run finished and its files were written, but:\n  {}",
+                    flags.join("\n  ")
+                )))
+            }
+        }
         Plan::Merge {
             result,
             shards,

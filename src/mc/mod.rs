@@ -48,6 +48,7 @@ mod shard;
 mod simulation;
 mod stats;
 mod step;
+mod transient;
 
 #[cfg(test)]
 pub(crate) mod strip_tests;
@@ -83,4 +84,9 @@ pub use stats::result::McResult;
 pub use stats::verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,
+};
+pub use transient::{
+    McDensity, McSnapshot, McStateMoments, McTransient, McTransientError, McTransientHistory,
+    McTransientSettings, MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, TRANSIENT_LANES,
+    WALL_SDS,
 };

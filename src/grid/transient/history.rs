@@ -5,10 +5,9 @@ use serde::Serialize;
 use crate::grid::mesh::{Domain, Mesh};
 use crate::grid::Marginal;
 
-/// Mean, variance and kurtosis of one state from its marginal's cell averages, with
-/// Sheppard's corrections for grouping into cells of width h (variance − h²/12, fourth
-/// moment − h²μ₂/2 + 7h⁴/240): without them a variance is h²/12 too large, which at 2 cells
-/// per standard deviation would be a 2 % error.
+/// Mean, variance and kurtosis of one quantity. A [`Snapshot`]'s state moments are those of
+/// the density's interpolant (as the stationary solver's); [`Moments::of`] is the other
+/// estimator, from a marginal's cell averages with Sheppard's corrections.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Moments {
     /// E[q].
@@ -21,7 +20,9 @@ pub struct Moments {
 
 impl Moments {
     /// The moments of a marginal (cell averages that integrate to `mass`, which they are
-    /// divided by).
+    /// divided by), with Sheppard's corrections for grouping into cells of width h
+    /// (variance − h²/12, fourth moment − h²μ₂/2 + 7h⁴/240). On a smooth density this is h²/4
+    /// below the interpolant's variance that the transient and the stationary solver report.
     ///
     /// ```
     /// use fpsolve::grid::{Marginal, Moments};
@@ -63,7 +64,10 @@ pub struct Snapshot {
     /// The marginal densities of the position and the velocity (as computed: negative cell
     /// values are kept, their mass reported in `negative_mass`).
     pub marginals: [Marginal; 2],
-    /// Moments of the position and the velocity.
+    /// Moments of the position and the velocity, as the stationary solver defines them: the
+    /// exact moments of the interpolant [`crate::grid::GridSolution::pdf`] of the cell
+    /// averages (negative values clipped, mass restored), so that the long-time limit reads
+    /// the stationary solver's numbers on the same cells and box.
     pub moments: [Moments; 2],
     /// Moments of each of the model's observables, in its order: the density's cell
     /// averages times the observable at the cell centres (the midpoint rule, second order

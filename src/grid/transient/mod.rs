@@ -218,7 +218,7 @@ impl<'a> GridTransient<'a> {
         self
     }
 
-    fn check(&self) -> Result<(), TransientError> {
+    fn check_settings(&self) -> Result<(), TransientError> {
         let setting = |setting, value: String, expected| TransientError::Setting {
             setting,
             value,
@@ -322,27 +322,30 @@ impl<'a> GridTransient<'a> {
         starting_box(self.domain, problem, self.model)
     }
 
-    /// Runs: every setting and the initial density's fit in the box are checked before the
-    /// first step.
+    /// Checks every setting, the model, the box and the initial density's fit in it, as
+    /// [`GridTransient::run`] does before its first step, and returns the box (sized as the
+    /// run would size it): a front end calls it before it touches any output.
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
     /// use fpsolve::grid::{Domain, GridTransient, Initial, TransientError};
-    /// let far = Initial::Point([30.0, 0.0]);
     /// let d = Domain { x: [-8.0, 8.0], v: [-8.0, 8.0] };
-    /// let err = GridTransient::new(&bound).cells(32, 32).domain(d).initial(far)
-    ///     .times(vec![1.0]).run().unwrap_err();
-    /// assert!(matches!(err, TransientError::InitialOutsideDomain { .. }));
+    /// let run = GridTransient::new(&bound).cells(32, 32).domain(d).times(vec![1.0]);
+    /// assert_eq!(run.check().unwrap(), d);
+    /// let far = run.initial(Initial::Point([30.0, 0.0])).check().unwrap_err();
+    /// assert!(matches!(far, TransientError::InitialOutsideDomain { .. }));
     /// ```
     ///
     /// # Errors
-    /// [`TransientError::Setting`], [`TransientError::Grid`] (the cells, a model outside the
-    /// mechanical form, a domain that does not fit the barrier),
-    /// [`TransientError::InitialOutsideDomain`], [`TransientError::Step`].
-    pub fn run(&self) -> Result<TransientHistory, TransientError> {
-        let start = Instant::now();
-        self.check()?;
+    /// As [`GridTransient::run`] before its first step.
+    pub fn check(&self) -> Result<Domain, TransientError> {
+        self.prepare().map(|(_, mesh, _, _)| mesh.domain())
+    }
+
+    /// The problem, the mesh, the initial cell averages (not yet normalised) and their mass.
+    fn prepare(&self) -> Result<(Mechanical, Mesh, Vec<f64>, f64), TransientError> {
+        self.check_settings()?;
         let problem = Mechanical::transient(self.model)?;
         if problem.time_dependent() && self.domain.is_none() {
             return Err(TransientError::Setting {
@@ -356,7 +359,7 @@ impl<'a> GridTransient<'a> {
         let [nx, nv] = self.cells;
         let mesh = Mesh::new(domain, nx, nv, &problem.barriers, 4);
         let area = mesh.hx * mesh.hv;
-        let mut p0 = match self.initial.gaussian(&mesh) {
+        let p0 = match self.initial.gaussian(&mesh) {
             Some((mean, covariance)) => initial::gaussian_cells(&mesh, mean, covariance),
             None => match &self.initial {
                 Initial::Cells(p) => p.clone(),
@@ -379,6 +382,32 @@ impl<'a> GridTransient<'a> {
                 expected: "a positive mass",
             });
         }
+        Ok((problem, mesh, p0, inside))
+    }
+
+    /// Runs: every setting and the initial density's fit in the box are checked before the
+    /// first step.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::grid::{Domain, GridTransient, Initial, TransientError};
+    /// let far = Initial::Point([30.0, 0.0]);
+    /// let d = Domain { x: [-8.0, 8.0], v: [-8.0, 8.0] };
+    /// let err = GridTransient::new(&bound).cells(32, 32).domain(d).initial(far)
+    ///     .times(vec![1.0]).run().unwrap_err();
+    /// assert!(matches!(err, TransientError::InitialOutsideDomain { .. }));
+    /// ```
+    ///
+    /// # Errors
+    /// [`TransientError::Setting`], [`TransientError::Grid`] (the cells, a model outside the
+    /// mechanical form, a domain that does not fit the barrier),
+    /// [`TransientError::InitialOutsideDomain`], [`TransientError::Step`].
+    pub fn run(&self) -> Result<TransientHistory, TransientError> {
+        let start = Instant::now();
+        let (problem, mesh, mut p0, inside) = self.prepare()?;
+        let [nx, nv] = self.cells;
+        let area = mesh.hx * mesh.hv;
         p0.iter_mut().for_each(|p| *p /= inside);
         let (run, assemblies) = if problem.time_dependent() {
             let op = TimeOperator::new(&mesh, &problem);

@@ -578,7 +578,7 @@ impl BatchState {
     }
 
     /// A standard normal from lane `i`'s own generator (Box–Muller on two draws).
-    fn lane_normal(&mut self, i: usize) -> f64 {
+    pub(crate) fn lane_normal(&mut self, i: usize) -> f64 {
         let a = self.rng.next_lane(i);
         let b = self.rng.next_lane(i);
         let u1 = ((a >> 11) as f64 + 0.5) / 9_007_199_254_740_992.0;
