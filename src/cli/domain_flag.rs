@@ -17,14 +17,9 @@ pub(crate) fn grid_domain(
     methods: &MethodSet,
     model: &BoundModel,
 ) -> Result<Option<Domain>> {
-    let Some(text) = text else {
+    let Some(domain) = parsed(text, methods, model.states())? else {
         return Ok(None);
     };
-    if !methods.contains(MethodName::Grid) {
-        bail!("--domain {text}: the grid solver is not among the methods ({methods})");
-    }
-    let [x, v] = model.states();
-    let domain = Domain::parse_named(text, [x, v]).map_err(flag("--domain"))?;
     GridSolver::new(model)
         .domain(domain)
         .check()
@@ -61,13 +56,22 @@ pub(crate) fn sweep_domain(
     methods: &MethodSet,
     model: &Model,
 ) -> Result<Option<Domain>> {
+    parsed(text, methods, model.states())
+}
+
+/// `--domain`'s text read with the model's state names, the grid among `methods`.
+fn parsed(
+    text: Option<&str>,
+    methods: &MethodSet,
+    [x, v]: &[std::sync::Arc<str>; 2],
+) -> Result<Option<Domain>> {
     let Some(text) = text else {
         return Ok(None);
     };
     if !methods.contains(MethodName::Grid) {
         bail!("--domain {text}: the grid solver is not among the methods ({methods})");
     }
-    let [x, v] = model.states();
-    let domain = Domain::parse_named(text, [x, v]).map_err(flag("--domain"))?;
-    Ok(Some(domain))
+    Ok(Some(
+        Domain::parse_named(text, [x, v]).map_err(flag("--domain"))?,
+    ))
 }
