@@ -177,5 +177,10 @@ fn a_monte_carlo_ensemble_stuck_at_its_start_is_flagged() {
     assert!(stderr.contains("still at its start"), "{stderr}");
     assert!(out.join("moments_vs_t.csv").is_file());
     let (o, _) = run(&["--initial", "point z = 1e-6, v = 0"]);
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
