@@ -536,21 +536,15 @@ pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
     Ok(flags)
 }
 
-/// A Monte Carlo ensemble that never left a point start: every trajectory still there at a
-/// later output time (both states' variances exactly 0). The sampled drift and noise vanish
-/// at the start: sgn(0) = 0 in a Zhuravlev form, whose noise is sgn(z)·ξ, keeps a start at
-/// rest at rest, while the grid's operator (sgn(z)² = 1 almost everywhere) does not.
+/// The flag of a Monte Carlo ensemble stuck at its point start
+/// ([`McTransientHistory::stuck_at_start`]).
 fn stuck(h: &McTransientHistory) -> Option<String> {
-    let s = h
-        .snapshots
-        .iter()
-        .find(|s| s.t > 0.0 && s.moments.iter().all(|m| m.variance.value == 0.0))?;
+    let t = h.stuck_at_start()?;
     Some(format!(
-        "Monte Carlo: every trajectory is still at its start at t = {} (both states' variances \
+        "Monte Carlo: every trajectory is still at its start at t = {t} (both states' variances \
          are 0): the sampled drift and noise vanish there (e.g. sgn(0) = 0 in a Zhuravlev \
          form, whose noise is sgn(z)*xi); its numbers are not the law's. Start beside it, e.g. \
-         --initial 'point z = 1e-6, v = 0'",
-        s.t
+         --initial 'point z = 1e-6, v = 0'"
     ))
 }
 

@@ -426,9 +426,19 @@ impl LevelSet {
             return Vec::new();
         };
         let n = GRID - 1;
-        let active: Vec<bool> = self.bounds[a]
-            .chunks(n)
-            .map(|column| column.iter().any(|&[lo, hi]| u >= lo && u <= hi))
+        // A column holds the level when one of its cells does: first the runs' bounds.
+        let active: Vec<bool> = self.blocks[a]
+            .chunks(n / BLOCK)
+            .zip(self.bounds[a].chunks(n))
+            .map(|(runs, column)| {
+                runs.iter().enumerate().any(|(r, &[lo, hi])| {
+                    u >= lo
+                        && u <= hi
+                        && column[r * BLOCK..(r + 1) * BLOCK]
+                            .iter()
+                            .any(|&[lo, hi]| u >= lo && u <= hi)
+                })
+            })
             .collect();
         lines
             .iter()

@@ -150,6 +150,31 @@ pub struct McTransientHistory {
     pub settings: McTransientSettings,
 }
 
+impl McTransientHistory {
+    /// The first output time after 0 at which every trajectory is still exactly at its
+    /// start (both states' variances 0): the sampled drift and noise vanish at a point start,
+    /// as sgn(0) = 0 does to a Zhuravlev form's noise sgn(z)·ξ at rest, and the ensemble's
+    /// numbers are not the law's. `None` for an ensemble that moved.
+    ///
+    /// ```
+    /// use fpsolve::mc::McTransient;
+    /// use fpsolve::model::{load_model, InitialState};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/vibro_duffing.sde");
+    /// let model = load_model(path.as_ref())?.bind(&[])?;
+    /// let run = |start| McTransient::new(&model).initial(start).times(vec![0.0, 1.0])
+    ///     .trajectories(256).run();
+    /// assert_eq!(run(InitialState::Rest)?.stuck_at_start(), Some(1.0));
+    /// assert_eq!(run(InitialState::Point([1e-6, 0.0]))?.stuck_at_start(), None);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn stuck_at_start(&self) -> Option<f64> {
+        self.snapshots
+            .iter()
+            .find(|s| s.t > 0.0 && s.moments.iter().all(|m| m.variance.value == 0.0))
+            .map(|s| s.t)
+    }
+}
+
 /// What one pass over a set of batches collects.
 struct Pass {
     /// Per batch (in batch order), per time, per state: its power sums.
@@ -287,10 +312,7 @@ impl<'a> McTransient<'a> {
             ));
         }
         if let Some(bins) = &self.bins {
-            if !bins
-                .iter()
-                .all(|g| g.lo < g.hi && g.bins >= 1 && g.hi.is_finite())
-            {
+            if !bins.iter().all(Grid::well_formed) {
                 return Err(setting(
                     "bins",
                     format!("{bins:?}"),
@@ -447,18 +469,18 @@ impl<'a> McTransient<'a> {
             paired_counts: self.empty_counts(),
             blown_up: vec![0; self.times.len()],
         };
-        let mut parts: Vec<(u64, Pass)> = (0..batches)
+        // `collect` keeps the batches' order, whichever thread ran each.
+        let parts: Vec<Pass> = (0..batches)
             .into_par_iter()
             .map(|k| {
                 let mut p = empty();
                 let sums = self.batch(plan, k, dt, &mut p, k < pairs);
                 p.sums.push(sums);
-                (k, p)
+                p
             })
             .collect();
-        parts.sort_by_key(|(k, _)| *k);
         let mut out = empty();
-        for (_, p) in parts {
+        for p in parts {
             out.sums.extend(p.sums);
             add_counts(&mut out.counts, &p.counts);
             add_counts(&mut out.paired_counts, &p.paired_counts);
@@ -498,12 +520,16 @@ impl<'a> McTransient<'a> {
             lanes,
             Increments::default(),
         );
+        let factor = match self.initial {
+            InitialState::Gaussian { mean, covariance } => cholesky(mean, covariance),
+            _ => None,
+        };
         for i in 0..lanes {
             let p = match self.initial {
                 InitialState::Rest => [0.0, 0.0],
                 InitialState::Point(p) => p,
-                InitialState::Gaussian { mean, covariance } => {
-                    let l = cholesky(mean, covariance).expect("checked in plan");
+                InitialState::Gaussian { mean, .. } => {
+                    let l = factor.expect("checked in plan");
                     let (z0, z1) = (b.lane_normal(i), b.lane_normal(i));
                     [mean[0] + l[0] * z0, mean[1] + l[1] * z0 + l[2] * z1]
                 }
