@@ -223,10 +223,10 @@ impl From<InitialState> for InitialJson {
 }
 
 #[derive(Serialize)]
-struct Output {
+struct Output<'a> {
     t: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
-    grid: Option<GridOutput>,
+    grid: Option<GridOutput<'a>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     mc: Option<McOutput>,
     /// (grid − MC)/MC's standard error of each state's mean, variance and kurtosis (null
@@ -236,10 +236,13 @@ struct Output {
 }
 
 #[derive(Serialize)]
-struct GridOutput {
+struct GridOutput<'a> {
     mass: f64,
     negative_mass: f64,
     edge_mass: f64,
+    /// The estimated errors of the output's numbers (from the run on half the cells).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    estimate: Option<&'a fpsolve::grid::SnapshotErrors>,
 }
 
 #[derive(Serialize)]
@@ -277,7 +280,7 @@ struct Summary<'a> {
     grid: Option<&'a fpsolve::grid::TransientReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     mc: Option<McSummary<'a>>,
-    outputs: Vec<Output>,
+    outputs: Vec<Output<'a>>,
 }
 
 /// The two methods' histories (either may be absent).
@@ -303,9 +306,16 @@ fn moments_csv(model: &BoundModel, h: &Histories) -> String {
     let mut names = states.clone();
     names.extend(model.observables().iter().map(|o| o.name.to_string()));
     let mut csv = String::from("t");
+    let errors = h
+        .grid
+        .as_ref()
+        .is_some_and(|g| g.report.estimate_cells.is_some());
     if h.grid.is_some() {
         for q in &names {
             let _ = write!(csv, ",{q}_mean,{q}_variance,{q}_kurtosis");
+            if errors {
+                let _ = write!(csv, ",{q}_mean_err,{q}_variance_err,{q}_kurtosis_err");
+            }
         }
     }
     if h.mc.is_some() {
@@ -320,8 +330,13 @@ fn moments_csv(model: &BoundModel, h: &Histories) -> String {
         let _ = write!(csv, "{t}");
         if let Some(g) = &h.grid {
             let s = &g.snapshots[k];
-            for m in s.moments.iter().chain(&s.observables) {
+            let e = s.estimate.as_ref();
+            let errs = e.map(|e| e.moments.iter().chain(&e.observables).collect::<Vec<_>>());
+            for (i, m) in s.moments.iter().chain(&s.observables).enumerate() {
                 let _ = write!(csv, ",{},{},{}", m.mean, m.variance, m.kurtosis);
+                if let Some(e) = errs.as_ref().map(|e| e[i]) {
+                    let _ = write!(csv, ",{},{},{}", e.mean, e.variance, e.kurtosis);
+                }
             }
         }
         if let Some(mc) = &h.mc {
@@ -489,6 +504,7 @@ pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
                     mass: s.mass,
                     negative_mass: s.negative_mass,
                     edge_mass: s.edge_mass,
+                    estimate: s.estimate.as_ref(),
                 }
             }),
             mc: h.mc.as_ref().map(|m| {
@@ -532,6 +548,11 @@ pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
         );
     }
     say(&h, &states[0]);
+    if let Some(g) = &h.grid {
+        for line in uncertain_variances(g, &states) {
+            crate::cli::console::sayln!("{line}");
+        }
+    }
     crate::commit_output(run, 2 + states.len() + figures)?;
     Ok(flags)
 }
@@ -552,6 +573,43 @@ fn stuck(h: &McTransientHistory) -> Option<String> {
 fn bins_of(m: &fpsolve::grid::Marginal) -> Result<fpsolve::mc::Grid, fpsolve::mc::McError> {
     let lo = m.centres[0] - 0.5 * m.width;
     fpsolve::mc::Grid::new(lo, lo + m.width * m.centres.len() as f64, m.centres.len())
+}
+
+/// The relative error estimate of a state's variance above which the console warns (the
+/// numbers and their errors are in `moments_vs_t.csv` whatever they are).
+const UNCERTAIN_VARIANCE: f64 = 0.05;
+
+/// A warning per state whose grid variance has an estimated error above
+/// [`UNCERTAIN_VARIANCE`] of itself at some output after the start, at its worst output.
+fn uncertain_variances(g: &TransientHistory, states: &[String]) -> Vec<String> {
+    states
+        .iter()
+        .enumerate()
+        .filter_map(|(a, q)| {
+            let relative = |s: &fpsolve::grid::Snapshot| {
+                let e = s.estimate.as_ref()?.moments[a].variance;
+                let r = e / s.moments[a].variance.abs();
+                (s.t > 0.0 && r.is_finite()).then_some(r)
+            };
+            let (worst, r) = g
+                .snapshots
+                .iter()
+                .filter_map(|s| relative(s).map(|r| (s, r)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))?;
+            (r > UNCERTAIN_VARIANCE).then(|| {
+                format!(
+                    "warning: the grid's variance of {q} at t = {} is {:.4} with an estimated \
+                     error of {:.0} % (from the run on half the cells): the cells do not resolve \
+                     the density yet (a point start is a Gaussian {} cells wide); finer --cells \
+                     or a Gaussian --initial narrow it",
+                    worst.t,
+                    worst.moments[a].variance,
+                    100.0 * r,
+                    fpsolve::grid::POINT_CELLS
+                )
+            })
+        })
+        .collect()
 }
 
 /// One line per method on the console.

@@ -82,7 +82,7 @@ use std::time::Instant;
 pub use cells::{Cells, CellsError};
 pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
-pub use estimate::TAIL_LEVEL;
+pub use estimate::{CURVE_ORDERS, TAIL_LEVEL};
 pub use mesh::Domain;
 pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN_SAFE_MASS};
 pub use solution::{
@@ -93,8 +93,8 @@ pub use tolerance::{
     MAX_TOLERANCE_SOLVES,
 };
 pub use transient::{
-    GridTransient, Initial, Moments, Snapshot, TransientError, TransientHistory, TransientReport,
-    INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
+    GridTransient, Initial, Moments, Snapshot, SnapshotErrors, TransientError, TransientHistory,
+    TransientReport, INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
 };
 
 use crate::dynamics::BarrierKind;
@@ -180,9 +180,10 @@ impl<'a> GridSolver<'a> {
 
     /// Chooses the cells itself and refines until the discretisation estimate (the larger
     /// of the two marginals' L1 estimates, clipped mass and mass beyond the box included) is
-    /// at most `l1`. It starts at a quarter of [`DEFAULT_CELLS`] per axis and predicts each
-    /// next resolution from the convergence the solves so far show (order 1 until two solves
-    /// give one), aiming below the tolerance with a margin; each solve sizes its own box
+    /// at most `l1`. It starts at 64×128 cells and predicts each next resolution from the
+    /// order of convergence the last solve's curves show (its half and quarter solves, see
+    /// [`DiscretisationEstimate::curve_order`]), aiming below the tolerance with a margin,
+    /// in counts that are multiples of 4; each solve sizes its own box
     /// unless [`domain`](Self::domain) fixed it. Exclusive with [`cells`](Self::cells)
     /// ([`GridError::Setting`]). A tolerance not reached within [`MAX_TOLERANCE_CELLS`] or
     /// [`MAX_TOLERANCE_SOLVES`] is not an error: the solution with the smallest estimate is
@@ -317,6 +318,9 @@ impl<'a> GridSolver<'a> {
         let domain_ms = ms(start);
         let t = Instant::now();
         let with_estimate = self.estimate && nx >= 16 && nv >= 16;
+        // A third solve on a quarter of the cells gives the estimate the order of convergence
+        // the curves show (about a sixteenth of the main solve's work).
+        let with_quarter = with_estimate && quarter_cells(self.cells).is_some();
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
         let mut recut = false;
         loop {
@@ -329,8 +333,13 @@ impl<'a> GridSolver<'a> {
             let half = || {
                 with_estimate.then(|| {
                     let t = Instant::now();
-                    let coarse = problem.mesh(mesh.domain(), nx / 2, nv / 2, 2);
-                    domain::solve_pinned(&coarse, &problem, guess).map(|(q, _)| (coarse, q, ms(t)))
+                    let solve = |n: usize| {
+                        let coarse = problem.mesh(mesh.domain(), nx / n, nv / n, 4 / n);
+                        domain::solve_pinned(&coarse, &problem, guess).map(|(q, _)| (coarse, q))
+                    };
+                    let (half, quarter) =
+                        rayon::join(|| solve(2), || with_quarter.then(|| solve(4)));
+                    Ok::<_, GridError>((half?, quarter.transpose()?, ms(t)))
                 })
             };
             let solved;
@@ -379,21 +388,29 @@ impl<'a> GridSolver<'a> {
             report: report.clone(),
             coarse: None,
         };
-        if let Some((coarse, mut q, estimate_ms)) = coarse.transpose()? {
+        if let Some(((coarse, q), quarter, estimate_ms)) = coarse.transpose()? {
             let t = Instant::now();
-            let negative_mass = clip(&mut q, coarse.hx * coarse.hv);
-            let half = GridSolution {
-                report: GridReport {
-                    cells: [coarse.nx, coarse.nv],
-                    negative_mass,
-                    ..report.clone()
-                },
-                mesh: coarse,
-                density: q,
-                coarse: None,
+            let clipped = |mesh: Mesh, mut q: Vec<f64>| {
+                let negative_mass = clip(&mut q, mesh.hx * mesh.hv);
+                GridSolution {
+                    report: GridReport {
+                        cells: [mesh.nx, mesh.nv],
+                        negative_mass,
+                        ..report.clone()
+                    },
+                    mesh,
+                    density: q,
+                    coarse: None,
+                }
             };
-            report.discretisation_estimate =
-                Some(estimate::estimate(&solution, &half, ASSUMED_ORDER));
+            let half = clipped(coarse, q);
+            let quarter = quarter.map(|(mesh, q)| clipped(mesh, q));
+            report.discretisation_estimate = Some(estimate::estimate(
+                &solution,
+                &half,
+                quarter.as_ref(),
+                ASSUMED_ORDER,
+            ));
             report.timings.estimate_ms = estimate_ms + ms(t);
             solution.coarse = Some(Box::new(half));
         }
@@ -439,7 +456,7 @@ impl<'a> GridSolver<'a> {
 
     /// [`solve`](Self::solve) with the cells chosen for the tolerance `tol`.
     fn solve_to(&self, tol: f64) -> Result<GridSolution, GridError> {
-        use tolerance::{next_cells, observed_order, NextCells};
+        use tolerance::{next_cells, NextCells};
         self.check_tolerance(tol)?;
         let start = Instant::now();
         let mut cells = FIRST_CELLS;
@@ -460,6 +477,10 @@ impl<'a> GridSolver<'a> {
             let e = match one.solve() {
                 Ok(sol) => {
                     let e = achieved(&sol);
+                    // The next cells aim at the order this solve's curves show.
+                    if let Some(est) = &sol.report.discretisation_estimate {
+                        order = est.curve_order[0].min(est.curve_order[1]);
+                    }
                     if sol.report.edges.cuts_density {
                         cut = 2.0 * sol.report.edges.beyond.iter().sum::<f64>();
                     }
@@ -488,9 +509,8 @@ impl<'a> GridSolver<'a> {
                     solves: solves.len(),
                 });
             }
-            if let [.., (c1, e1), (c2, e2)] = solves[..] {
+            if let [.., (_, e1), (_, e2)] = solves[..] {
                 if e1.is_finite() && e2.is_finite() {
-                    order = observed_order(c1[0], e1, c2[0], e2);
                     not_falling = if e2 >= e1 { not_falling + 1 } else { 0 };
                     if not_falling >= 2 {
                         break Some(Shortfall::Stalled);
@@ -546,7 +566,7 @@ pub const NEGATIVE_MASS_TOLERANCE: f64 = 1e-3;
 /// assert_eq!(negative_mass_tolerance(None), NEGATIVE_MASS_TOLERANCE);
 /// let e = DiscretisationEstimate {
 ///     x: 0.2, v: 0.24, mean: [0.0; 2], std: [0.0; 2], tail: [0.0; 2], tail_level: 1e-5,
-///     coarse_cells: [100, 200], order: 1.0,
+///     coarse_cells: [100, 200], order: 1.0, curve_order: [1.0; 2], quarter_cells: None,
 /// };
 /// assert_eq!(negative_mass_tolerance(Some(&e)), 0.12);
 /// ```
@@ -589,9 +609,20 @@ pub fn check_cells(cells: [usize; 2]) -> Result<(), GridError> {
     Ok(())
 }
 
-/// The first cells a solve on request ([`GridSolver::tolerance`]) tries: a quarter of the
-/// default per axis, the default's aspect.
-const FIRST_CELLS: [usize; 2] = [DEFAULT_CELLS[0] / 4, DEFAULT_CELLS[1] / 4];
+/// The cells of the quarter solve that gives the error estimate its observed order: a
+/// quarter of `cells` per axis when both divide by 4 and give at least 16 cells (coarser,
+/// the quarter solve is too far from the asymptotic range to say anything about the order).
+fn quarter_cells(cells: [usize; 2]) -> Option<[usize; 2]> {
+    cells
+        .iter()
+        .all(|&n| n % 4 == 0 && n / 4 >= 16)
+        .then(|| cells.map(|n| n / 4))
+}
+
+/// The first cells a solve on request ([`GridSolver::tolerance`]) tries: about a third of
+/// the default per axis, the default's aspect, the fewest with a quarter solve (16×32) to
+/// show the order the next cells aim at.
+const FIRST_CELLS: [usize; 2] = [64, 128];
 
 /// How many times one axis's cell count may exceed the other's.
 pub const MAX_ASPECT: usize = 64;

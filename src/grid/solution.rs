@@ -33,8 +33,15 @@ pub struct DiscretisationEstimate {
     pub tail_level: f64,
     /// The cells of the coarse solve, (position, velocity).
     pub coarse_cells: [usize; 2],
-    /// The convergence order assumed.
+    /// The convergence order assumed for the moments, the tails and every number derived from
+    /// the density ([`GridSolution::estimate_of`]).
     pub order: f64,
+    /// The convergence order the L1 estimates `x` and `v` take: the order the fine, half and
+    /// quarter solves show, within [`CURVE_ORDERS`](super::CURVE_ORDERS), or `order`
+    /// without a quarter solve (cells not a multiple of 4, or fewer than 64 on an axis).
+    pub curve_order: [f64; 2],
+    /// The cells of the quarter solve, when there was one.
+    pub quarter_cells: Option<[usize; 2]>,
 }
 
 /// Wall-clock times of a solve, in milliseconds.

@@ -18,11 +18,6 @@ pub const MAX_TOLERANCE_SOLVES: usize = 6;
 /// optimistic about the order still lands below it.
 const MARGIN: f64 = 0.6;
 
-/// The orders a prediction may use: below 0.5 the refinement would explode, above 3 it
-/// would trust a lucky pair of solves more than the scheme (third-order faces, first-order
-/// at walls and corners).
-const ORDER_RANGE: [f64; 2] = [0.5, 3.0];
-
 /// What a solve on request achieved, in the solution's report.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ToleranceOutcome {
@@ -104,7 +99,8 @@ pub fn check_tolerance(tol: f64) -> Result<(), GridError> {
 
 /// The cells of the next solve after `cells` gave `estimate`: the factor per axis that
 /// brings the estimate to `MARGIN × tol` at convergence order `order`, at least 1.25
-/// (a smaller step costs a solve for little), at most 4, even counts, the aspect kept.
+/// (a smaller step costs a solve for little), at most 4, counts that are multiples of 4
+/// (so that the solve has the quarter solve of its observed order), the aspect kept.
 /// `None` when even the capped factor leaves the cells at the limit already.
 pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64) -> NextCells {
     let factor = if estimate.is_finite() {
@@ -114,13 +110,13 @@ pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64)
     } else {
         2.0
     };
-    let even = |n: usize| -> usize { ((n as f64 * factor / 2.0).ceil() as usize * 2).max(16) };
-    let mut next = [even(cells[0]), even(cells[1])];
+    let by4 = |n: usize| -> usize { ((n as f64 * factor / 4.0).ceil() as usize * 4).max(64) };
+    let mut next = [by4(cells[0]), by4(cells[1])];
     let total = |c: [usize; 2]| c[0] * c[1];
     if total(next) > MAX_TOLERANCE_CELLS {
         // Scale down to the limit, keeping the aspect.
         let s = (MAX_TOLERANCE_CELLS as f64 / total(next) as f64).sqrt();
-        next = [next[0], next[1]].map(|n| ((n as f64 * s / 2.0).floor() as usize * 2).max(16));
+        next = [next[0], next[1]].map(|n| ((n as f64 * s / 4.0).floor() as usize * 4).max(64));
         if next[0] <= cells[0] && next[1] <= cells[1] {
             return NextCells::AtLimit;
         }
@@ -140,17 +136,6 @@ pub(super) enum NextCells {
     AtLimit,
 }
 
-/// The convergence order two solves show: estimates e1 at n1 and e2 at n2 cells per axis,
-/// within [`ORDER_RANGE`]; the lower end when the estimate did not fall.
-pub(super) fn observed_order(n1: usize, e1: f64, n2: usize, e2: f64) -> f64 {
-    let order = (e1 / e2).ln() / (n2 as f64 / n1 as f64).ln();
-    if order.is_finite() {
-        order.clamp(ORDER_RANGE[0], ORDER_RANGE[1])
-    } else {
-        ORDER_RANGE[0]
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -159,13 +144,13 @@ mod tests {
     fn next_cells_aims_below_the_tolerance_at_the_observed_order() {
         // Estimate 4e-3 wanted 1e-3 at order 2: factor sqrt(4 / 0.6) = 2.58.
         match next_cells([50, 100], 4e-3, 1e-3, 2.0) {
-            NextCells::Free(c) => assert_eq!(c, [130, 260]),
+            NextCells::Free(c) => assert_eq!(c, [132, 260]),
             other => panic!("{other:?}"),
         }
         // A tiny step is raised to 1.25.
         assert_eq!(
             next_cells([100, 200], 6.1e-4, 1e-3, 2.0),
-            NextCells::Free([126, 250])
+            NextCells::Free([128, 252])
         );
         // Beyond the limit: capped, then at the limit.
         assert!(matches!(
@@ -173,13 +158,6 @@ mod tests {
             NextCells::Capped(_)
         ));
         assert_eq!(next_cells([720, 1440], 1.0, 1e-4, 1.0), NextCells::AtLimit);
-    }
-
-    #[test]
-    fn observed_order_is_clamped() {
-        assert!((observed_order(50, 4e-3, 100, 1e-3) - 2.0).abs() < 1e-12);
-        assert_eq!(observed_order(50, 1e-3, 100, 2e-3), 0.5);
-        assert_eq!(observed_order(50, 1e-3, 100, 1e-9), 3.0);
     }
 
     #[test]

@@ -64,10 +64,9 @@ pub struct Snapshot {
     /// The marginal densities of the position and the velocity (as computed: negative cell
     /// values are kept, their mass reported in `negative_mass`).
     pub marginals: [Marginal; 2],
-    /// Moments of the position and the velocity, as the stationary solver defines them: the
-    /// exact moments of the interpolant [`crate::grid::GridSolution::pdf`] of the cell
-    /// averages (negative values clipped, mass restored), so that the long-time limit reads
-    /// the stationary solver's numbers on the same cells and box.
+    /// Moments of the position and the velocity, from the marginals' cell averages with
+    /// Sheppard's corrections ([`Moments::of`]): exact to O(h⁴) on a smooth density, where
+    /// the stationary solver's moments of its interpolant read the variance h²/4 higher.
     pub moments: [Moments; 2],
     /// Moments of each of the model's observables, in its order: the density's cell
     /// averages times the observable at the cell centres (the midpoint rule, second order
@@ -85,6 +84,76 @@ pub struct Snapshot {
     /// The cell averages (position cell i, velocity cell j at i·nv + j) when the joint density
     /// was requested ([`crate::grid::GridTransient::joint`]).
     pub joint: Option<Vec<f64>>,
+    /// The discretisation error of this output's numbers, from the run on half the cells
+    /// (`None` when [`crate::grid::GridTransient::estimate`] is off or the cells are too few
+    /// to halve).
+    pub estimate: Option<SnapshotErrors>,
+}
+
+/// The estimated error of one output's numbers: the same number from a second run on half
+/// the cells per axis (its point start, a Gaussian of [`crate::grid::POINT_CELLS`] of its
+/// own cells, twice as wide) differs by both runs' errors, scaled by 1.25 as the stationary
+/// solver's estimate at order 1 ([`crate::grid::DiscretisationEstimate`]). It covers the
+/// finite-volume error and a point start's smear over the cells, which dominates early
+/// outputs on coarse cells; not the time-stepping's error, which is its own tolerance
+/// ([`crate::grid::GridTransient::tolerance`]), added to the L1 errors only.
+///
+/// ```
+/// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+/// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+/// use fpsolve::grid::{Domain, GridTransient};
+/// let d = Domain { x: [-8.0, 8.0], v: [-8.0, 8.0] };
+/// let h = GridTransient::new(&bound).cells(40, 40).domain(d).times(vec![1.0]).run().unwrap();
+/// let e = h.snapshots[0].estimate.as_ref().unwrap();
+/// assert!(e.moments[1].variance > 0.0 && e.l1[1] > 0.0);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SnapshotErrors {
+    /// Estimated absolute errors of each state's mean, variance and kurtosis (NaN where the
+    /// moment has no value, as a point start's kurtosis).
+    pub moments: [Moments; 2],
+    /// Likewise for each observable, in the model's order.
+    pub observables: Vec<Moments>,
+    /// Estimated L1 error of each state's marginal cell averages, compared on the half
+    /// run's cells, plus the time-stepping's tolerance times the time elapsed.
+    pub l1: [f64; 2],
+}
+
+impl SnapshotErrors {
+    /// The errors of `fine` estimated from `half`, the same output of the run on half the
+    /// cells, with `factor` (Richardson's and the safety factor) and the time-stepping's
+    /// L1 error `stepping`.
+    pub(crate) fn between(fine: &Snapshot, half: &Snapshot, factor: f64, stepping: f64) -> Self {
+        let diff = |a: &Moments, b: &Moments| Moments {
+            mean: factor * (a.mean - b.mean).abs(),
+            variance: factor * (a.variance - b.variance).abs(),
+            kurtosis: factor * (a.kurtosis - b.kurtosis).abs(),
+        };
+        let l1 = |axis: usize| {
+            let (f, c) = (&fine.marginals[axis], &half.marginals[axis]);
+            let paired = f.density.chunks_exact(2).map(|p| 0.5 * (p[0] + p[1]));
+            factor
+                * paired
+                    .zip(&c.density)
+                    .map(|(a, b)| (a - b).abs())
+                    .sum::<f64>()
+                * c.width
+                + stepping
+        };
+        SnapshotErrors {
+            moments: [
+                diff(&fine.moments[0], &half.moments[0]),
+                diff(&fine.moments[1], &half.moments[1]),
+            ],
+            observables: fine
+                .observables
+                .iter()
+                .zip(&half.observables)
+                .map(|(a, b)| diff(a, b))
+                .collect(),
+            l1: [l1(0), l1(1)],
+        }
+    }
 }
 
 /// What a run did.
@@ -111,6 +180,8 @@ pub struct TransientReport {
     pub assemblies: usize,
     /// The initial density's mass inside the box before it was normalised.
     pub initial_mass_inside: f64,
+    /// The cells of the run on half the cells that the outputs' error estimates come from.
+    pub estimate_cells: Option<[usize; 2]>,
     /// Largest |mass − 1| over the outputs.
     pub mass_drift: f64,
     /// Largest negative mass over the outputs.

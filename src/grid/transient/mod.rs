@@ -49,7 +49,7 @@ mod operator;
 use std::time::Instant;
 
 pub use error::TransientError;
-pub use history::{Moments, Snapshot, TransientHistory, TransientReport};
+pub use history::{Moments, Snapshot, SnapshotErrors, TransientHistory, TransientReport};
 pub use initial::{Initial, POINT_CELLS};
 
 use super::assemble::{assemble, generator};
@@ -86,6 +86,7 @@ pub struct GridTransient<'a> {
     times: Vec<f64>,
     tolerance: f64,
     joint: bool,
+    estimate: bool,
 }
 
 /// The box of a time-marching problem on the grid (the transient, first passage): `given`
@@ -125,6 +126,7 @@ impl<'a> GridTransient<'a> {
             times: Vec::new(),
             tolerance: TRANSIENT_TOLERANCE,
             joint: false,
+            estimate: true,
         }
     }
 
@@ -218,6 +220,23 @@ impl<'a> GridTransient<'a> {
         self
     }
 
+    /// Whether every output gets its discretisation-error estimate ([`SnapshotErrors`]) from
+    /// a second run on half the cells, alongside the main one (default on; about a fifth
+    /// of the main run's work; off, or below 16 cells on an axis, the outputs' `estimate`
+    /// is `None`).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let h = fpsolve::grid::GridTransient::new(&bound).cells(32, 32).estimate(false)
+    ///     .times(vec![1.0]).run().unwrap();
+    /// assert!(h.snapshots[0].estimate.is_none() && h.report.estimate_cells.is_none());
+    /// ```
+    pub fn estimate(mut self, on: bool) -> Self {
+        self.estimate = on;
+        self
+    }
+
     fn check_settings(&self) -> Result<(), TransientError> {
         let setting = |setting, value: String, expected| TransientError::Setting {
             setting,
@@ -275,17 +294,80 @@ impl<'a> GridTransient<'a> {
         }
     }
 
-    /// Runs the stepper on `generator` from `p0`, the stage matrices ordered by nested
-    /// dissection of `pattern`'s cells.
+    /// Steps `p0` (of unit mass) on `mesh` to the output times; with the operator's
+    /// assembly count.
+    fn march(
+        &self,
+        problem: &Mechanical,
+        mesh: &Mesh,
+        p0: &[f64],
+    ) -> Result<(History, usize), TransientError> {
+        if problem.time_dependent() {
+            let op = TimeOperator::new(mesh, problem);
+            // The pattern at mid-span (at t = 0 a modulated noise may vanish, and with it
+            // the diffusion's entries); the order is geometric, so any time's pattern serves.
+            let t_mid = 0.5 * self.times.last().copied().unwrap_or(0.0);
+            let g = op.assemble(t_mid)?;
+            let run = self.step(&op, &g, mesh, p0)?;
+            Ok((run, op.assemblies()))
+        } else {
+            let op = assemble(mesh, problem)?;
+            let g = generator(mesh.cells(), &op).ok_or(GridError::Singular {
+                nx: mesh.nx,
+                nv: mesh.nv,
+                detail: "the generator's entries could not be allocated".to_string(),
+            })?;
+            Ok((self.step(&g, &g, mesh, p0)?, 1))
+        }
+    }
+
+    /// The outputs of a run on `mesh`, with the observables' values `observed` at its cell
+    /// centres; the joint cell averages kept when `joint`.
+    fn snapshots(
+        &self,
+        mesh: &Mesh,
+        run: History,
+        observed: &[Vec<f64>],
+        joint: bool,
+    ) -> Vec<Snapshot> {
+        run.outputs
+            .into_iter()
+            .map(|o| {
+                let observables = observed
+                    .iter()
+                    .map(|q| Moments::weighted(q, &o.y))
+                    .collect();
+                let marginals = [
+                    history::marginal(mesh, &o.y, 0),
+                    history::marginal(mesh, &o.y, 1),
+                ];
+                let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
+                Snapshot {
+                    t: o.t,
+                    edge_mass: history::edge_mass(mesh, &o.y),
+                    marginals,
+                    moments,
+                    observables,
+                    mass: o.mass,
+                    negative_mass: o.negative_mass,
+                    joint: joint.then_some(o.y),
+                    estimate: None,
+                }
+            })
+            .collect()
+    }
+
+    /// Runs the stepper on `generator` from `p0` on `mesh`, the stage matrices ordered by
+    /// nested dissection of `pattern`'s cells.
     fn step<G: Generator>(
         &self,
         generator: &G,
         pattern: &faer::sparse::SparseColMat<usize, f64>,
-        area: f64,
+        mesh: &Mesh,
         p0: &[f64],
     ) -> Result<History, StepError> {
-        let [nx, nv] = self.cells;
-        let order = nested_dissection(pattern.symbolic(), &cell_coords(nx, nv, false), 1);
+        let area = mesh.hx * mesh.hv;
+        let order = nested_dissection(pattern.symbolic(), &cell_coords(mesh.nx, mesh.nv, false), 1);
         TrBdf2::new(generator)
             .tolerance(Tolerance {
                 relative: self.tolerance,
@@ -407,66 +489,75 @@ impl<'a> GridTransient<'a> {
         let start = Instant::now();
         let (problem, mesh, mut p0, inside) = self.prepare()?;
         let [nx, nv] = self.cells;
-        let area = mesh.hx * mesh.hv;
         p0.iter_mut().for_each(|p| *p /= inside);
-        let (run, assemblies) = if problem.time_dependent() {
-            let op = TimeOperator::new(&mesh, &problem);
-            // The pattern at mid-span (at t = 0 a modulated noise may vanish, and with it
-            // the diffusion's entries); the order is geometric, so any time's pattern serves.
-            let t_mid = 0.5 * self.times.last().copied().unwrap_or(0.0);
-            let g = op.assemble(t_mid)?;
-            let run = self.step(&op, &g, area, &p0)?;
-            (run, op.assemblies())
-        } else {
-            let op = assemble(&mesh, &problem)?;
-            let g = generator(mesh.cells(), &op).ok_or(GridError::Singular {
-                nx,
-                nv,
-                detail: "the generator's entries could not be allocated".to_string(),
-            })?;
-            (self.step(&g, &g, area, &p0)?, 1)
-        };
+        // The error estimate's run on half the cells, alongside the main one; its start is
+        // this run's start on its own cells (a point twice as wide), so that the difference
+        // holds the start's smear too.
+        let half = (self.estimate && nx >= 16 && nv >= 16).then(|| {
+            let half = Mesh::new(mesh.domain(), nx / 2, nv / 2, &problem.barriers, 2);
+            let q0 = match self.initial.gaussian(&half) {
+                Some((mean, covariance)) => initial::gaussian_cells(&half, mean, covariance),
+                None => coarsened(&mesh, &p0),
+            };
+            (half, q0)
+        });
+        let (main, coarse) = rayon::join(
+            || self.march(&problem, &mesh, &p0),
+            || {
+                half.as_ref().map(|(half, q0)| {
+                    let mass = q0.iter().sum::<f64>() * half.hx * half.hv;
+                    let q0: Vec<f64> = q0.iter().map(|q| q / mass).collect();
+                    self.march(&problem, half, &q0)
+                })
+            },
+        );
+        let (run, assemblies) = main?;
+        let stats = run.stats.clone();
         let observed = self.observable_values(&mesh)?;
-        let snapshots: Vec<Snapshot> = run
-            .outputs
-            .into_iter()
-            .map(|o| {
-                let observables = observed
-                    .iter()
-                    .map(|q| Moments::weighted(q, &o.y))
-                    .collect();
-                let marginals = [
-                    history::marginal(&mesh, &o.y, 0),
-                    history::marginal(&mesh, &o.y, 1),
-                ];
-                let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
-                Snapshot {
-                    t: o.t,
-                    edge_mass: history::edge_mass(&mesh, &o.y),
-                    marginals,
-                    moments,
-                    observables,
-                    mass: o.mass,
-                    negative_mass: o.negative_mass,
-                    joint: self.joint.then_some(o.y),
+        let mut snapshots = self.snapshots(&mesh, run, &observed, self.joint);
+        let estimate_cells = match (coarse.transpose()?, &half) {
+            (Some((coarse, _)), Some((half, _))) => {
+                let observed = self.observable_values(half)?;
+                let coarse = self.snapshots(half, coarse, &observed, false);
+                let factor = super::solution::richardson_factor(super::ASSUMED_ORDER);
+                for (s, c) in snapshots.iter_mut().zip(&coarse) {
+                    let stepping = self.tolerance * s.t;
+                    s.estimate = Some(SnapshotErrors::between(s, c, factor, stepping));
                 }
-            })
-            .collect();
+                Some([half.nx, half.nv])
+            }
+            _ => None,
+        };
         let worst = |f: fn(&Snapshot) -> f64| snapshots.iter().map(f).fold(0.0, f64::max);
         let report = TransientReport {
             cells: [nx, nv],
             domain: mesh.domain(),
             tolerance: self.tolerance,
-            accepted: run.stats.accepted,
-            rejected: run.stats.rejected,
-            factorizations: run.stats.factorizations,
+            accepted: stats.accepted,
+            rejected: stats.rejected,
+            factorizations: stats.factorizations,
             time_dependent: problem.time_dependent(),
             assemblies,
             initial_mass_inside: inside,
+            estimate_cells,
             mass_drift: worst(|s| (s.mass - 1.0).abs()),
             negative_mass: worst(|s| s.negative_mass),
             total_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         Ok(TransientHistory { snapshots, report })
     }
+}
+
+/// Cell averages `p` on `mesh` averaged over 2×2 blocks: the same density on half the cells
+/// per axis (the half mesh of the error estimate nests in `mesh`).
+fn coarsened(mesh: &Mesh, p: &[f64]) -> Vec<f64> {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let (hx, hv) = (nx / 2, nv / 2);
+    let mut q = vec![0.0; hx * hv];
+    for i in 0..2 * hx {
+        for j in 0..2 * hv {
+            q[(i / 2) * hv + j / 2] += 0.25 * p[i * nv + j];
+        }
+    }
+    q
 }
