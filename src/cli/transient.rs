@@ -549,7 +549,10 @@ pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
     }
     say(&h, &states[0]);
     if let Some(g) = &h.grid {
-        for line in uncertain_variances(g, &states) {
+        for line in uncertain_variances(g, &states)
+            .into_iter()
+            .chain(unresolved_marginals(g, &states))
+        {
             crate::cli::console::sayln!("{line}");
         }
     }
@@ -608,6 +611,30 @@ fn uncertain_variances(g: &TransientHistory, states: &[String]) -> Vec<String> {
                     fpsolve::grid::POINT_CELLS
                 )
             })
+        })
+        .collect()
+}
+
+/// A warning per state whose grid marginal is not resolved at some output after the start
+/// (its L1 estimate at or above [`fpsolve::grid::UNRESOLVED_L1`]), naming the last such time.
+fn unresolved_marginals(g: &TransientHistory, states: &[String]) -> Vec<String> {
+    states
+        .iter()
+        .enumerate()
+        .filter_map(|(a, q)| {
+            let last = g.snapshots.iter().rev().find(|s| {
+                s.t > 0.0
+                    && s.estimate
+                        .as_ref()
+                        .is_some_and(|e| e.l1[a] >= fpsolve::grid::UNRESOLVED_L1)
+            })?;
+            Some(format!(
+                "warning: the grid's marginal of {q} is not resolved by the cells up to t = {} \
+                 (estimated L1 error {:.2} there: a number, not a bound); its curves before \
+                 then are not the law's",
+                last.t,
+                last.estimate.as_ref().map_or(f64::NAN, |e| e.l1[a])
+            ))
         })
         .collect()
 }

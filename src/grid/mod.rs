@@ -94,7 +94,7 @@ pub use tolerance::{
 };
 pub use transient::{
     GridTransient, Initial, Moments, Snapshot, SnapshotErrors, TransientError, TransientHistory,
-    TransientReport, INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE,
+    TransientReport, INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE, UNRESOLVED_L1,
 };
 
 use crate::dynamics::BarrierKind;

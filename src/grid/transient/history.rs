@@ -115,9 +115,16 @@ pub struct SnapshotErrors {
     /// Likewise for each observable, in the model's order.
     pub observables: Vec<Moments>,
     /// Estimated L1 error of each state's marginal cell averages, compared on the half
-    /// run's cells, plus the time-stepping's tolerance times the time elapsed.
+    /// run's cells, plus the time-stepping's tolerance times the time elapsed. At
+    /// [`UNRESOLVED_L1`] or above it says the marginal is not resolved at all rather than
+    /// bounding its error (L1 distances saturate at 2, so the difference of two unresolved
+    /// runs no longer grows with the cell size).
     pub l1: [f64; 2],
 }
+
+/// The L1 error estimate of a transient marginal at or above which the marginal is not
+/// resolved by the cells (see [`SnapshotErrors::l1`]).
+pub const UNRESOLVED_L1: f64 = 0.25;
 
 impl SnapshotErrors {
     /// The errors of `fine` estimated from `half`, the same output of the run on half the

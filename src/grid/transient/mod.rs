@@ -49,7 +49,9 @@ mod operator;
 use std::time::Instant;
 
 pub use error::TransientError;
-pub use history::{Moments, Snapshot, SnapshotErrors, TransientHistory, TransientReport};
+pub use history::{
+    Moments, Snapshot, SnapshotErrors, TransientHistory, TransientReport, UNRESOLVED_L1,
+};
 pub use initial::{Initial, POINT_CELLS};
 
 use super::assemble::{assemble, generator};
