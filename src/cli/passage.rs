@@ -299,6 +299,20 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     run.out()
         .write_atomic("passage.csv", csv.as_bytes())
         .map_err(crate::lib)?;
+    let mut files = 2;
+    if let Some([qx, qv]) = grid.as_ref().and_then(|g| g.quasi_stationary.as_ref()) {
+        let states = plan.bound.states();
+        for (q, name) in [(qx, &states[0]), (qv, &states[1])] {
+            let mut csv = format!("{name},quasi_stationary\n");
+            for (x, p) in q.centres.iter().zip(&q.density) {
+                csv.push_str(&format!("{x},{p}\n"));
+            }
+            run.out()
+                .write_atomic(&format!("quasi_stationary_{name}.csv"), csv.as_bytes())
+                .map_err(crate::lib)?;
+            files += 1;
+        }
+    }
     let distance = match (&grid, &mc) {
         (Some(g), Some(m)) => Some(m.mean.map(|e| (e.value - g.mean_at_start) / e.stderr)),
         _ => None,
@@ -325,6 +339,18 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             plan.cells[1],
             g.mean_stationary
         );
+        match &g.decay {
+            fpsolve::grid::DecayOutcome::Found(d) => crate::cli::console::sayln!(
+                "slowest decay: R(t) ~ {:.6} exp(-{:.6e} t) beyond the transients (1/lambda \
+                 {:.6}; quasi-stationary density in quasi_stationary_*.csv)",
+                d.amplitude,
+                d.rate,
+                1.0 / d.rate
+            ),
+            fpsolve::grid::DecayOutcome::NotFound { reason } => {
+                crate::cli::console::sayln!("slowest decay: not found ({reason})")
+            }
+        }
     }
     if let Some(m) = &mc {
         match m.mean {
@@ -353,5 +379,5 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             );
         }
     }
-    crate::commit_output(run, 2)
+    crate::commit_output(run, files)
 }

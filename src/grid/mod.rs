@@ -84,7 +84,10 @@ pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::{CURVE_ORDERS, TAIL_LEVEL};
 pub use mesh::Domain;
-pub use passage::{GridPassage, PassageError, PassageReport, PassageSolution, MIN_SAFE_MASS};
+pub use passage::{
+    Decay, DecayFailure, DecayOutcome, GridPassage, PassageError, PassageReport, PassageSolution,
+    DECAY_RESIDUAL, MAX_DECAY_ITERATIONS, MIN_SAFE_MASS,
+};
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
 };

@@ -30,6 +30,7 @@
 //! ```
 
 mod align;
+mod decay;
 mod error;
 mod killed;
 
@@ -37,6 +38,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+pub use decay::{Decay, DecayFailure, DECAY_RESIDUAL, MAX_DECAY_ITERATIONS};
 pub use error::PassageError;
 
 use super::assemble::assemble;
@@ -44,7 +46,7 @@ use super::domain;
 use super::mesh::Mesh;
 use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
-use super::{check_cells, Domain, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
+use super::{check_cells, Domain, Marginal, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
 use crate::base::limits::memory_limit_bytes;
 use crate::model::{BoundModel, BoundSafe};
 use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
@@ -97,8 +99,28 @@ pub struct PassageSolution {
     /// ∫ R dt from 0 to the last time (trapezoid on the outputs' R and R′, i.e. the cubic
     /// Hermite rule), for the consistency check against `mean_from_start_cell`.
     pub integral_of_reliability: f64,
+    /// The slowest decay of the survival probability, R(t) ≈ A e^{−λt} beyond the horizon,
+    /// or why it was not found.
+    pub decay: DecayOutcome,
+    /// The quasi-stationary density's marginals (position, velocity), when the decay was
+    /// found: the law of the paths not yet absorbed, long after the start.
+    #[serde(skip)]
+    pub quasi_stationary: Option<[Marginal; 2]>,
     /// Settings and costs.
     pub report: PassageReport,
+}
+
+/// The slowest decay, or why it is not reported.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum DecayOutcome {
+    /// Found.
+    Found(Decay),
+    /// Not found (the mean times and R(t) stand without it).
+    NotFound {
+        /// Why.
+        reason: DecayFailure,
+    },
 }
 
 /// How a [`PassageSolution`] was computed.
@@ -330,6 +352,16 @@ impl<'a> GridPassage<'a> {
             let s = &run.stats;
             (r, f, [s.accepted, s.rejected, s.factorizations])
         };
+        let density: Vec<f64> = k.cells.iter().map(|&c| inside[c]).collect();
+        let (decay, quasi_stationary) =
+            match decay::decay(&lu, &k.forward, &k.backward, density, &t1, start_safe) {
+                Ok((d, phi)) => {
+                    let p = full(&phi);
+                    let marginal = |axis: usize| quasi_marginal(&mesh, &p, axis);
+                    (DecayOutcome::Found(d), Some([marginal(0), marginal(1)]))
+                }
+                Err(reason) => (DecayOutcome::NotFound { reason }, None),
+            };
         let integral = hermite_integral(&self.times, &reliability, &pdf);
         Ok(PassageSolution {
             mean_at_start: bilinear(&mesh, &big1, self.start),
@@ -342,6 +374,8 @@ impl<'a> GridPassage<'a> {
             reliability,
             pdf,
             integral_of_reliability: integral,
+            decay,
+            quasi_stationary,
             report: PassageReport {
                 cells: [nx, nv],
                 domain: d,
@@ -353,6 +387,28 @@ impl<'a> GridPassage<'a> {
                 total_ms: started.elapsed().as_secs_f64() * 1e3,
             },
         })
+    }
+}
+
+/// The marginal density of `axis` of cell weights `p` (summing to 1) on `mesh`.
+fn quasi_marginal(mesh: &Mesh, p: &[f64], axis: usize) -> Marginal {
+    let (nx, nv) = (mesh.nx, mesh.nv);
+    let (n, h) = if axis == 0 {
+        (nx, mesh.hx)
+    } else {
+        (nv, mesh.hv)
+    };
+    let mut density = vec![0.0; n];
+    for (c, w) in p.iter().enumerate() {
+        density[if axis == 0 { c / nv } else { c % nv }] += w / h;
+    }
+    let centres = (0..n)
+        .map(|k| if axis == 0 { mesh.xc(k) } else { mesh.vc(k) })
+        .collect();
+    Marginal {
+        centres,
+        density,
+        width: h,
     }
 }
 
