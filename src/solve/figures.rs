@@ -84,7 +84,7 @@ pub enum SolverFigures {
     EpcImpact(EpcImpactReport),
     /// The grid solver: cells, domain, clipped negative mass, discretisation-error estimate,
     /// timings.
-    Grid(GridReport),
+    Grid(Box<GridReport>),
 }
 
 /// One of a method's figures as a table cell holds it.

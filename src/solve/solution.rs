@@ -250,7 +250,7 @@ impl Solution {
     pub fn figures(&self) -> SolverFigures {
         match &self.density {
             Density::Epc(s) => SolverFigures::Epc(EpcFigures::of(s)),
-            Density::Grid(g) => SolverFigures::Grid(g.report.clone()),
+            Density::Grid(g) => SolverFigures::Grid(Box::new(g.report.clone())),
             Density::EpcImpact(s) => SolverFigures::EpcImpact(s.report.clone()),
         }
     }

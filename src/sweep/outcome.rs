@@ -52,7 +52,7 @@ impl PointSolution {
     /// The grid solver's report, when the grid solver solved the point.
     pub fn grid(&self) -> Option<&GridReport> {
         match &self.solver {
-            SolverFigures::Grid(r) => Some(r),
+            SolverFigures::Grid(r) => Some(r.as_ref()),
             _ => None,
         }
     }

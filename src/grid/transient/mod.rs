@@ -514,7 +514,7 @@ impl<'a> GridTransient<'a> {
             },
         );
         let (run, assemblies) = main?;
-        let stats = run.stats.clone();
+        let stats = run.stats;
         let observed = self.observable_values(&mesh)?;
         let mut snapshots = self.snapshots(&mesh, run, &observed, self.joint);
         let estimate_cells = match (coarse.transpose()?, &half) {
