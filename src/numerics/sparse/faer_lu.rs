@@ -184,16 +184,7 @@ impl Factorization for FaerLu {
     }
 
     fn solve_in_place(&self, b: &mut [f64]) {
-        let n = self.col_fwd.len();
-        let mut work = Mat::<f64>::zeros(n, 1);
-        self.lu.solve_in_place_with_conj(
-            PermRef::new_checked(&self.row_fwd, &self.row_inv, n),
-            PermRef::new_checked(&self.col_fwd, &self.col_inv, n),
-            Conj::No,
-            MatMut::from_column_major_slice_mut(b, n, 1),
-            self.par,
-            work.as_mut(),
-        );
+        self.solve_either(b, false);
     }
 }
 
@@ -202,16 +193,29 @@ impl FaerLu {
     /// transposed system (the first-passage solver's backward operator Kᵀ is factorised,
     /// and its forward K's solves for the quasi-stationary density come from it).
     pub(crate) fn solve_transpose_in_place(&self, b: &mut [f64]) {
+        self.solve_either(b, true);
+    }
+
+    /// A x = b, or Aᵀ x = b when `transpose`, in place.
+    fn solve_either(&self, b: &mut [f64], transpose: bool) {
         let n = self.col_fwd.len();
         let mut work = Mat::<f64>::zeros(n, 1);
-        self.lu.solve_transpose_in_place_with_conj(
-            PermRef::new_checked(&self.row_fwd, &self.row_inv, n),
-            PermRef::new_checked(&self.col_fwd, &self.col_inv, n),
-            Conj::No,
-            MatMut::from_column_major_slice_mut(b, n, 1),
-            self.par,
-            work.as_mut(),
-        );
+        let row = PermRef::new_checked(&self.row_fwd, &self.row_inv, n);
+        let col = PermRef::new_checked(&self.col_fwd, &self.col_inv, n);
+        let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
+        if transpose {
+            self.lu.solve_transpose_in_place_with_conj(
+                row,
+                col,
+                Conj::No,
+                rhs,
+                self.par,
+                work.as_mut(),
+            );
+        } else {
+            self.lu
+                .solve_in_place_with_conj(row, col, Conj::No, rhs, self.par, work.as_mut());
+        }
     }
 }
 
