@@ -379,5 +379,21 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             );
         }
     }
+    if let Some(Some(d)) = distance {
+        if d.abs() > DISAGREE_SE {
+            crate::cli::console::sayln!(
+                "warning: the grid's mean first-passage time is {:.1} standard errors from Monte \
+                 Carlo's (more than {DISAGREE_SE}); the grid states no error of its own for it: \
+                 compare a finer --cells, and Monte Carlo at a smaller --dt",
+                d
+            );
+        }
+    }
     crate::commit_output(run, files)
 }
+
+/// How many Monte Carlo standard errors apart the grid's and Monte Carlo's mean
+/// first-passage times may be before the console warns (measured: the grid converges about
+/// 1 % below two independent Monte Carlo codes on the lightly damped linear oscillator and
+/// the paper's case 1, 3 to 6 standard errors at 1e5 paths).
+const DISAGREE_SE: f64 = 3.0;
