@@ -56,6 +56,40 @@ fn forward_reliability_integrates_to_the_backward_mean() {
     assert!(p.second_at_start > p.mean_at_start.powi(2));
 }
 
+/// The mean times' estimated errors (from the solve on half the cells) cover their distance
+/// to a solve on four times the cells per axis.
+#[test]
+fn the_estimate_covers_the_mean_times_error() {
+    let (c, safe) = (1.0, "abs(z) < 1.2");
+    let coarse = passage(c, safe, [60, 80], vec![]);
+    let fine = passage(c, safe, [240, 320], vec![]);
+    let e = coarse
+        .errors
+        .as_ref()
+        .expect("the estimate is on by default");
+    let pairs = [
+        (coarse.mean_at_start, fine.mean_at_start, e.mean_at_start),
+        (
+            coarse.mean_stationary,
+            fine.mean_stationary,
+            e.mean_stationary,
+        ),
+        (
+            coarse.second_at_start,
+            fine.second_at_start,
+            e.second_at_start,
+        ),
+    ];
+    for (a, b, stated) in pairs {
+        println!(
+            "60x80 {a:.6}, 240x320 {b:.6}: error {:.2e}, stated {stated:.2e}",
+            (a - b).abs()
+        );
+        assert!((a - b).abs() <= stated, "{a} vs {b}: stated {stated}");
+    }
+    assert_eq!(coarse.report.estimate_cells, Some([30, 40]));
+}
+
 /// The slowest decay of the killed generator: the forward and backward iterations find one
 /// λ, the mean passage time from the quasi-stationary law is 1/λ (exponential passage from
 /// it), and the stepped R(t) at late times is A e^{−λt}, each to the accuracy of the
@@ -433,7 +467,7 @@ fn the_passage_command_runs_monte_carlo_beside_the_grid() {
     assert_eq!(code, Some(0), "{text}");
     let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
     assert!(
-        csv.starts_with("t,R_grid,pdf_grid,R_mc,R_mc_lo95,R_mc_hi95\n"),
+        csv.starts_with("t,R_grid,pdf_grid,R_grid_err,R_mc,R_mc_lo95,R_mc_hi95\n"),
         "{csv}"
     );
     assert_eq!(csv.lines().count(), 5);

@@ -275,8 +275,15 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
         .or_else(|| mc.as_ref().map(|m| m.times.clone()))
         .unwrap_or_default();
     let mut header = vec!["t"];
+    let r_errors = grid
+        .as_ref()
+        .and_then(|g| g.errors.as_ref())
+        .map(|e| &e.reliability);
     if grid.is_some() {
         header.extend(["R_grid", "pdf_grid"]);
+        if r_errors.is_some() {
+            header.push("R_grid_err");
+        }
     }
     if mc.is_some() {
         header.extend(["R_mc", "R_mc_lo95", "R_mc_hi95"]);
@@ -286,6 +293,9 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
         let mut row = vec![t.to_string()];
         if let Some(g) = &grid {
             row.extend([g.reliability[k].to_string(), g.pdf[k].to_string()]);
+            if let Some(e) = r_errors {
+                row.push(e[k].to_string());
+            }
         }
         if let Some(m) = &mc {
             row.extend([
@@ -330,14 +340,21 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     };
     write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
     if let Some(g) = &grid {
+        let pm = |e: Option<f64>| e.map_or(String::new(), |e| format!(" ± {e:.2e}"));
+        let e = g.errors.as_ref();
         crate::cli::console::sayln!(
-            "mean first-passage time from ({}, {}): {:.6} (grid {}x{}); stationary start: {:.6}",
+            "mean first-passage time from ({}, {}): {:.6}{} (grid {}x{}{}); stationary start: {:.6}{}",
             plan.start[0],
             plan.start[1],
             g.mean_at_start,
+            pm(e.map(|e| e.mean_at_start)),
             plan.cells[0],
             plan.cells[1],
-            g.mean_stationary
+            g.report
+                .estimate_cells
+                .map_or(String::new(), |c| format!(", errors from {}x{}", c[0], c[1])),
+            g.mean_stationary,
+            pm(e.map(|e| e.mean_stationary))
         );
         match &g.decay {
             fpsolve::grid::DecayOutcome::Found(d) => crate::cli::console::sayln!(
@@ -379,21 +396,23 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             );
         }
     }
-    if let Some(Some(d)) = distance {
-        if d.abs() > DISAGREE_SE {
+    if let (Some(g), Some(Some(e))) = (&grid, mc.as_ref().map(|m| m.mean)) {
+        let gap = (e.value - g.mean_at_start).abs();
+        let stated = g.errors.as_ref().map_or(0.0, |e| e.mean_at_start);
+        if gap > DISAGREE_SE * e.stderr + stated {
             crate::cli::console::sayln!(
-                "warning: the grid's mean first-passage time is {:.1} standard errors from Monte \
-                 Carlo's (more than {DISAGREE_SE}); the grid states no error of its own for it: \
-                 compare a finer --cells, and Monte Carlo at a smaller --dt",
-                d
+                "warning: the grid's mean first-passage time is {gap:.3e} from Monte Carlo's, more \
+                 than {DISAGREE_SE} standard errors ({:.2e}) plus the grid's estimated error \
+                 ({stated:.2e}): compare a finer --cells, and Monte Carlo at a smaller --dt",
+                e.stderr
             );
         }
     }
     crate::commit_output(run, files)
 }
 
-/// How many Monte Carlo standard errors apart the grid's and Monte Carlo's mean
-/// first-passage times may be before the console warns (measured: the grid converges about
-/// 1 % below two independent Monte Carlo codes on the lightly damped linear oscillator and
-/// the paper's case 1, 3 to 6 standard errors at 1e5 paths).
+/// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
+/// Monte Carlo's mean first-passage times may be apart before the console warns (measured:
+/// the grid converges about 1 % below two independent Monte Carlo codes on the lightly damped
+/// linear oscillator and the paper's case 1, 3 to 6 standard errors at 1e5 paths).
 const DISAGREE_SE: f64 = 3.0;

@@ -85,8 +85,8 @@ pub use error::{GridError, Unsupported};
 pub use estimate::{CURVE_ORDERS, TAIL_LEVEL};
 pub use mesh::Domain;
 pub use passage::{
-    Decay, DecayFailure, DecayOutcome, GridPassage, PassageError, PassageReport, PassageSolution,
-    DECAY_RESIDUAL, MAX_DECAY_ITERATIONS, MIN_SAFE_MASS,
+    Decay, DecayFailure, DecayOutcome, GridPassage, PassageError, PassageErrors, PassageReport,
+    PassageSolution, DECAY_RESIDUAL, MAX_DECAY_ITERATIONS, MIN_SAFE_MASS,
 };
 pub use solution::{
     BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
