@@ -2,6 +2,7 @@
 
 use serde::Serialize;
 
+use super::solution::Marginal;
 use super::BarrierSide;
 use crate::dynamics::{Barrier, BarrierKind};
 
@@ -244,6 +245,32 @@ impl Mesh {
 
     pub(crate) fn vc(&self, j: usize) -> f64 {
         self.v0 + (j as f64 + 0.5) * self.hv
+    }
+
+    /// The marginal of `axis` (0 position, 1 velocity) of cell averages `p` (velocity
+    /// fastest) on these cells.
+    pub(crate) fn marginal(&self, p: &[f64], axis: usize) -> Marginal {
+        let (nx, nv) = (self.nx, self.nv);
+        let (density, centres, width) = match axis {
+            0 => {
+                let d = (0..nx).map(|i| p[i * nv..(i + 1) * nv].iter().sum::<f64>() * self.hv);
+                (d.collect(), (0..nx).map(|i| self.xc(i)).collect(), self.hx)
+            }
+            1 => {
+                let mut d = vec![0.0; nv];
+                for row in p.chunks_exact(nv) {
+                    d.iter_mut().zip(row).for_each(|(d, v)| *d += v);
+                }
+                d.iter_mut().for_each(|d| *d *= self.hx);
+                (d, (0..nv).map(|j| self.vc(j)).collect(), self.hv)
+            }
+            _ => panic!("axis {axis} of a two-state model"),
+        };
+        Marginal {
+            centres,
+            density,
+            width,
+        }
     }
 
     /// The segment holding x-cell `i`.

@@ -332,31 +332,7 @@ impl GridSolution {
     /// assert!((mass - 1.0).abs() < 1e-12);
     /// ```
     pub fn marginal(&self, axis: usize) -> Marginal {
-        let m = &self.mesh;
-        let (n, other, h, ho) = match axis {
-            0 => (m.nx, m.nv, m.hx, m.hv),
-            1 => (m.nv, m.nx, m.hv, m.hx),
-            _ => panic!("axis {axis} of a two-state model"),
-        };
-        let density = (0..n)
-            .map(|a| {
-                let s: f64 = (0..other)
-                    .map(|b| match axis {
-                        0 => self.cell(a, b),
-                        _ => self.cell(b, a),
-                    })
-                    .sum();
-                s * ho
-            })
-            .collect();
-        let centres = (0..n)
-            .map(|a| if axis == 0 { m.xc(a) } else { m.vc(a) })
-            .collect();
-        Marginal {
-            centres,
-            density,
-            width: h,
-        }
+        self.mesh.marginal(&self.density, axis)
     }
 
     /// The joint density at (x, v): bilinear between cell centres, never across the barrier

@@ -326,12 +326,15 @@ impl<'a> GridPassage<'a> {
     pub fn run(&self) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
         self.check()?;
+        let problem = Mechanical::new(self.model)?;
+        let box_ = super::transient::starting_box(self.domain, &problem, self.model)?;
         let [nx, nv] = self.cells;
-        // The error estimate's solve on half the cells, alongside (the same problem: its box
+        // The error estimate's solve on half the cells, alongside (the same problem and box,
         // aligned to its own cells); its failure leaves the numbers without an estimate.
+        let at = |cells| self.solve_at(&problem, box_, cells);
         let (fine, half) = rayon::join(
-            || self.solve_at(self.cells),
-            || (self.estimate && nx >= 16 && nv >= 16).then(|| self.solve_at([nx / 2, nv / 2])),
+            || at(self.cells),
+            || (self.estimate && nx >= 16 && nv >= 16).then(|| at([nx / 2, nv / 2])),
         );
         let mut fine = fine?;
         if let Some(Ok(half)) = half {
@@ -342,13 +345,17 @@ impl<'a> GridPassage<'a> {
         Ok(fine)
     }
 
-    /// The solution on `cells`, settings checked.
-    fn solve_at(&self, cells: [usize; 2]) -> Result<PassageSolution, PassageError> {
+    /// The solution on `cells` of `problem` in `box_` (aligned here to the cells), settings
+    /// checked.
+    fn solve_at(
+        &self,
+        problem: &Mechanical,
+        box_: Domain,
+        cells: [usize; 2],
+    ) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
-        let problem = Mechanical::new(self.model)?;
-        let box_ = super::transient::starting_box(self.domain, &problem, self.model)?;
         let [nx, nv] = cells;
-        let box_ = align::aligned(box_, nx, &problem, self.safe, self.model);
+        let box_ = align::aligned(box_, nx, problem, self.safe, self.model);
         let mesh = Mesh::new(box_, nx, nv, &problem.barriers, 4);
         let d = mesh.domain();
         let [x, v] = self.start;
@@ -364,7 +371,7 @@ impl<'a> GridPassage<'a> {
             .collect();
         let area = mesh.hx * mesh.hv;
         // The stationary density on the same cells, for the average and the safe set's mass.
-        let (p, _) = domain::solve_pinned(&mesh, &problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
+        let (p, _) = domain::solve_pinned(&mesh, problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
         let inside: Vec<f64> = (0..n)
             .map(|c| if safe[c] { p[c].max(0.0) } else { 0.0 })
             .collect();
@@ -377,8 +384,8 @@ impl<'a> GridPassage<'a> {
                 cells: safe_cells,
             });
         }
-        let op = assemble(&mesh, &problem)?;
-        let k = killed::killed(&mesh, &problem, &op, &safe)?;
+        let op = assemble(&mesh, problem)?;
+        let k = killed::killed(&mesh, problem, &op, &safe)?;
         let m = k.cells.len();
         let singular = |detail: String| PassageError::Singular { nx, nv, detail };
         let lu = FaerLu::factor(k.backward.as_ref(), Ordering::Colamd, memory_limit_bytes())
@@ -448,9 +455,10 @@ impl<'a> GridPassage<'a> {
         let (decay, quasi_stationary) =
             match decay::decay(&lu, &k.forward, &k.backward, density, &t1, start_safe) {
                 Ok((d, phi)) => {
-                    let p = full(&phi);
-                    let marginal = |axis: usize| quasi_marginal(&mesh, &p, axis);
-                    (DecayOutcome::Found(d), Some([marginal(0), marginal(1)]))
+                    // φ sums to 1 over the cells: its cell averages are φ / area.
+                    let p: Vec<f64> = full(&phi).iter().map(|w| w / area).collect();
+                    let q = [mesh.marginal(&p, 0), mesh.marginal(&p, 1)];
+                    (DecayOutcome::Found(d), Some(q))
                 }
                 Err(reason) => (DecayOutcome::NotFound { reason }, None),
             };
@@ -481,28 +489,6 @@ impl<'a> GridPassage<'a> {
                 total_ms: started.elapsed().as_secs_f64() * 1e3,
             },
         })
-    }
-}
-
-/// The marginal density of `axis` of cell weights `p` (summing to 1) on `mesh`.
-fn quasi_marginal(mesh: &Mesh, p: &[f64], axis: usize) -> Marginal {
-    let (nx, nv) = (mesh.nx, mesh.nv);
-    let (n, h) = if axis == 0 {
-        (nx, mesh.hx)
-    } else {
-        (nv, mesh.hv)
-    };
-    let mut density = vec![0.0; n];
-    for (c, w) in p.iter().enumerate() {
-        density[if axis == 0 { c / nv } else { c % nv }] += w / h;
-    }
-    let centres = (0..n)
-        .map(|k| if axis == 0 { mesh.xc(k) } else { mesh.vc(k) })
-        .collect();
-    Marginal {
-        centres,
-        density,
-        width: h,
     }
 }
 

@@ -251,27 +251,6 @@ pub(crate) fn observable_values(
     out
 }
 
-/// The marginal of `axis` (0 position, 1 velocity) of cell averages `p` on `mesh`.
-pub(crate) fn marginal(mesh: &Mesh, p: &[f64], axis: usize) -> Marginal {
-    let (nx, nv) = (mesh.nx, mesh.nv);
-    let (density, centres, width) = if axis == 0 {
-        let d = (0..nx).map(|i| p[i * nv..(i + 1) * nv].iter().sum::<f64>() * mesh.hv);
-        (d.collect(), (0..nx).map(|i| mesh.xc(i)).collect(), mesh.hx)
-    } else {
-        let mut d = vec![0.0; nv];
-        for row in p.chunks_exact(nv) {
-            d.iter_mut().zip(row).for_each(|(d, v)| *d += v);
-        }
-        d.iter_mut().for_each(|d| *d *= mesh.hx);
-        (d, (0..nv).map(|j| mesh.vc(j)).collect(), mesh.hv)
-    };
-    Marginal {
-        centres,
-        density,
-        width,
-    }
-}
-
 /// The mass in the cells on the box's edges, x ends that are walls left out.
 pub(crate) fn edge_mass(mesh: &Mesh, p: &[f64]) -> f64 {
     let (nx, nv) = (mesh.nx, mesh.nv);

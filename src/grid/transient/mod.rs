@@ -339,10 +339,7 @@ impl<'a> GridTransient<'a> {
                     .iter()
                     .map(|q| Moments::weighted(q, &o.y))
                     .collect();
-                let marginals = [
-                    history::marginal(mesh, &o.y, 0),
-                    history::marginal(mesh, &o.y, 1),
-                ];
+                let marginals = [mesh.marginal(&o.y, 0), mesh.marginal(&o.y, 1)];
                 let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
                 Snapshot {
                     t: o.t,
