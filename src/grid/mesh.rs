@@ -2,9 +2,19 @@
 
 use serde::Serialize;
 
-use super::solution::Marginal;
 use super::BarrierSide;
 use crate::dynamics::{Barrier, BarrierKind};
+
+/// A marginal density on the cells of one axis.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Marginal {
+    /// Cell centres.
+    pub centres: Vec<f64>,
+    /// Cell-average densities (they integrate to one).
+    pub density: Vec<f64>,
+    /// The cell width.
+    pub width: f64,
+}
 
 /// The rectangle [x_lo, x_hi] × [v_lo, v_hi] the density is computed on.
 ///

@@ -83,14 +83,12 @@ pub use cells::{Cells, CellsError};
 pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::{CURVE_ORDERS, TAIL_LEVEL};
-pub use mesh::Domain;
+pub use mesh::{Domain, Marginal};
 pub use passage::{
     Decay, DecayFailure, DecayOutcome, GridPassage, PassageError, PassageErrors, PassageReport,
     PassageSolution, DECAY_RESIDUAL, MAX_DECAY_ITERATIONS, MIN_SAFE_MASS,
 };
-pub use solution::{
-    BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings, Marginal,
-};
+pub use solution::{BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings};
 pub use tolerance::{
     check_tolerance, Shortfall, ToleranceOutcome, MAX_TOLERANCE, MAX_TOLERANCE_CELLS,
     MAX_TOLERANCE_SOLVES,

@@ -5,7 +5,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use super::mesh::{Domain, Mesh};
+use super::mesh::{Domain, Marginal, Mesh};
 use crate::density::JointDensity;
 
 /// The discretisation error of what a solution writes, estimated from a second solve on half
@@ -197,17 +197,6 @@ fn factor(log10: f64) -> String {
     } else {
         "unbounded (a hole in the coarse solution)".to_string()
     }
-}
-
-/// A marginal density on the cells of one axis.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Marginal {
-    /// Cell centres.
-    pub centres: Vec<f64>,
-    /// Cell-average densities (they integrate to one).
-    pub density: Vec<f64>,
-    /// The cell width.
-    pub width: f64,
 }
 
 /// The stationary density on a grid of cells, from [`crate::grid::GridSolver::solve`].
