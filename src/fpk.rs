@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::dynamics::{self, ImpactForm, Inadmissible};
+use crate::dynamics::{Dynamics, ImpactForm, Inadmissible};
 use crate::model::{BoundModel, DeltaTreatment, Diagnostic};
 use crate::symbolic::{diff, sift, simplify, DeltaLine, DeltaSplit, Expr, Symbol, SymbolicError};
 
@@ -44,7 +44,7 @@ pub struct FpkOperator {
     pub b: [[DeltaSplit; 2]; 2],
     /// What EPC makes of the model's impact law (`None` without one): the operator above
     /// represents an impact only through a Zhuravlev term in the drift, so any other law is
-    /// recorded here for EPC to refuse ([`dynamics::impact_form`]).
+    /// recorded here for EPC to refuse ([`crate::dynamics::impact_form`]).
     pub impact: Option<ImpactForm>,
     /// How the Galerkin integrals treat the operator's δ terms: the model's `delta:` line
     /// (sifting by default), recorded by [`FpkOperator::derive`] so that a solver needs
@@ -84,7 +84,7 @@ pub enum FpkError {
         expr: String,
     },
     /// The model has no stationary density (an impact that adds energy, no damping, no
-    /// noise, …): refused before anything is derived, see [`dynamics::check`].
+    /// noise, …): refused before anything is derived, see [`crate::dynamics::check`].
     #[error(transparent)]
     Inadmissible(#[from] Inadmissible),
     /// One of the errors above, at the line of the model file that causes it (`Display`: the
@@ -180,7 +180,7 @@ fn ctx<T>(what: impl Into<String>, r: Result<T, SymbolicError>) -> Result<T, Fpk
 
 impl FpkOperator {
     /// Derives the operator of a bound model and checks that the model can have a
-    /// stationary density at all ([`dynamics::check`]): an operator exists only for models
+    /// stationary density at all ([`crate::dynamics::check`]): an operator exists only for models
     /// whose stationary FPK equation is worth solving.
     ///
     /// ```
@@ -193,23 +193,41 @@ impl FpkOperator {
     /// assert!(matches!(FpkOperator::derive(&undamped), Err(FpkError::Inadmissible(_))));
     /// ```
     pub fn derive(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+        FpkOperator::of(&Dynamics::read(model))
+    }
+
+    /// [`FpkOperator::derive`] from a model already read: the operator of
+    /// `dynamics.model()`, from the reading every method shares.
+    ///
+    /// ```
+    /// use fpsolve::fpk::FpkOperator;
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
+    /// assert_eq!(FpkOperator::of(&dynamics)?, FpkOperator::derive(&bound)?);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`FpkOperator::derive`].
+    pub fn of(dynamics: &Dynamics) -> Result<FpkOperator, FpkError> {
+        let model = dynamics.model();
         let states = model.states();
-        let g = model.noise_matrix();
-        for (i, row) in g.iter().enumerate() {
+        let sde = dynamics.sde();
+        for (i, row) in sde.noise_matrix().iter().enumerate() {
             for (k, e) in row.iter().enumerate() {
                 if e.contains_delta() {
                     return Err(FpkError::DeltaInNoise {
                         state: states[i].to_string(),
-                        noise: model.noise_names()[k].to_string(),
+                        noise: sde.noise_names()[k].to_string(),
                         expr: e.to_string(),
                     });
                 }
             }
         }
         // The symbolic derivation first: a term with no meaning is the more specific error.
-        let operator = FpkOperator::derive_unchecked(model).map_err(|e| locate(model, e))?;
-        // The check reuses the operator's Itô drift instead of deriving it again.
-        dynamics::check_with_drift(model, Some(&operator.drift))?;
+        let operator = FpkOperator::unchecked_of(dynamics).map_err(|e| locate(model, e))?;
+        dynamics.admissible()?;
         Ok(operator)
     }
 
@@ -227,10 +245,17 @@ impl FpkOperator {
     /// assert!(FpkOperator::derive_unchecked(&b).is_ok());
     /// ```
     pub fn derive_unchecked(model: &BoundModel) -> Result<FpkOperator, FpkError> {
+        FpkOperator::unchecked_of(&Dynamics::read(model))
+    }
+
+    /// [`FpkOperator::derive_unchecked`] from a model already read.
+    fn unchecked_of(dynamics: &Dynamics) -> Result<FpkOperator, FpkError> {
+        let model = dynamics.model();
         let states = model.states().clone();
         // b = G S Gᵀ
-        let diffusion = crate::dynamics::diffusion(model);
-        let (wong_zakai, drift) = crate::dynamics::ito_drift(model)?;
+        let diffusion = dynamics.diffusion().clone();
+        let drift = dynamics.ito_drift()?.clone();
+        let wong_zakai = dynamics.wong_zakai()?.clone();
         let name = |i: usize| states[i].to_string();
         // A0 = −Σ_i ∂_i m_i + ½ Σ_ij ∂_i∂_j b_ij
         let mut a0_terms = Vec::new();
@@ -280,7 +305,7 @@ impl FpkOperator {
             a0,
             a,
             b,
-            impact: dynamics::impact_form(model),
+            impact: dynamics.impact_form().cloned(),
             delta_treatment: model.delta_treatment(),
         })
     }

@@ -418,7 +418,7 @@ enum Plan {
     },
     Simulate {
         path: PathBuf,
-        bound: BoundModel,
+        dynamics: Box<fpsolve::dynamics::Dynamics>,
         config: McConfig,
         shard: Option<Shard>,
         out: PathBuf,
@@ -488,7 +488,8 @@ fn plan(cli: Cli) -> Result<Planned> {
             let flags = McFlags::parse(&mc_args, &samples, "--samples")?;
             // Settings checked and the cost estimated; the limits apply to what this process
             // runs (one shard of N on a cluster).
-            let estimate = flags.config.estimate(&bound).map_err(at(&model))?;
+            let dynamics = Box::new(fpsolve::dynamics::Dynamics::read(&bound));
+            let estimate = flags.config.estimate_of(&dynamics).map_err(at(&model))?;
             let shard: Option<Shard> = match shard.as_deref() {
                 Some(spec) => {
                     let part: Shard = spec
@@ -512,7 +513,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             Plan::Simulate {
                 out: default_out(out, &m),
                 path: model,
-                bound,
+                dynamics,
                 config: flags.config,
                 shard,
                 quiet: quiet.quiet,
@@ -636,12 +637,12 @@ fn execute(plan: Plan) -> Result<(), Failure> {
         } => main_job(&path, &model, &problem, &spec, &out, quiet),
         Plan::Simulate {
             path,
-            bound,
+            dynamics,
             config,
             shard,
             out,
             quiet,
-        } => simulate(&path, &bound, &config, shard, &out, quiet),
+        } => simulate(&path, &dynamics, &config, shard, &out, quiet),
         Plan::Sweep {
             model,
             spec,
@@ -793,7 +794,7 @@ fn main_job(
 
 fn simulate(
     path: &Path,
-    bound: &BoundModel,
+    dynamics: &fpsolve::dynamics::Dynamics,
     config: &McConfig,
     shard: Option<Shard>,
     dir: &Path,
@@ -803,7 +804,7 @@ fn simulate(
         Some(shard) => {
             // Shards of one run share a directory: each adds its own file, atomically.
             let out = OutputDir::create(dir).map_err(flag("--out"))?;
-            let sim = Simulation::new(bound, config).map_err(at(path))?;
+            let sim = Simulation::reading(dynamics, config).map_err(at(path))?;
             let part = sim.run_shard(shard).map_err(lib)?;
             let name = format!("shard_{}_of_{}.json", shard.index + 1, shard.count);
             let file = write_json(&out, &name, &part).map_err(lib)?;
@@ -812,7 +813,7 @@ fn simulate(
         }
         None => {
             let run = begin_output(dir)?;
-            let sim = Simulation::new(bound, config).map_err(at(path))?;
+            let sim = Simulation::reading(dynamics, config).map_err(at(path))?;
             let bar = Bar::new(quiet);
             bar.stage("Monte Carlo");
             let result = sim.run_with_progress(&|done, total| bar.advance(done, total));
@@ -821,7 +822,7 @@ fn simulate(
             let result = result.map_err(|e| {
                 Failure::Flagged(format!("error: {}: Monte Carlo: {e}", path.display()))
             })?;
-            let provenance = fpsolve::report::Provenance::now_bound(bound);
+            let provenance = fpsolve::report::Provenance::now_bound(dynamics.model());
             let written = job::write_mc(&result, &provenance, run.out()).map_err(lib)?;
             say!("{result}");
             commit_output(run, written.files.len())?;

@@ -240,10 +240,10 @@ fn a_failing_degree_is_reported_per_point() {
                 assert!(
                     matches!(
                         f,
-                        PointFailure::Solve {
-                            error: fpsolve::epc::EpcError::Degree { .. },
-                            ..
-                        }
+                        PointFailure::Method { error, .. } if matches!(
+                            error.as_ref(),
+                            fpsolve::solve::SolveError::Epc(fpsolve::epc::EpcError::Degree { .. })
+                        )
                     ),
                     "{f}"
                 );
@@ -440,10 +440,13 @@ fn a_failure_is_recorded_per_method() {
     assert_eq!(second.outcomes[0].method, MethodName::Epc);
     assert!(matches!(
         second.outcome(MethodName::Epc),
-        Some(PointOutcome::Failed(PointFailure::Solve {
-            degree: 99,
-            error: fpsolve::epc::EpcError::Degree { .. }
-        }))
+        Some(PointOutcome::Failed(PointFailure::Method {
+            method: fpsolve::solve::Method::Epc { degree: 99 },
+            error
+        })) if matches!(
+            error.as_ref(),
+            fpsolve::solve::SolveError::Epc(fpsolve::epc::EpcError::Degree { .. })
+        )
     ));
     let grid = second
         .solution(MethodName::Grid)

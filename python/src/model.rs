@@ -149,17 +149,16 @@ pub(crate) fn method(name: &str, degree: usize, cells: Option<[usize; 2]>) -> Py
     let parsed: MethodName = name
         .parse()
         .map_err(|e: fpsolve::solve::MethodNameError| errors::bad_argument(e.to_string()))?;
-    Ok(match parsed {
-        MethodName::Epc => Method::Epc { degree },
-        MethodName::EpcImpact => Method::EpcImpact { degree },
-        MethodName::Grid => {
-            let cells = Cells(cells.unwrap_or(fpsolve::grid::DEFAULT_CELLS));
-            cells
-                .within(memory_limit_bytes())
-                .map_err(|e| errors::bad_argument(format!("cells: {e}")))?;
-            Method::Grid { cells: cells.0 }
-        }
-    })
+    let method = parsed
+        .method()
+        .settle(degree, cells.unwrap_or(fpsolve::grid::DEFAULT_CELLS));
+    // The grid's cells must fit in memory, checked before any work.
+    if let Method::Grid { cells } = method {
+        Cells(cells)
+            .within(memory_limit_bytes())
+            .map_err(|e| errors::bad_argument(format!("cells: {e}")))?;
+    }
+    Ok(method)
 }
 
 #[pymethods]

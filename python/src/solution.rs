@@ -2,7 +2,7 @@
 //! evaluated over NumPy arrays with the GIL released; marginals, moments, coefficients and the
 //! typed report (the library's serde form, as JSON text the Python layer reads).
 
-use fpsolve::solve::{Density, Solution};
+use fpsolve::solve::Solution;
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
@@ -147,10 +147,9 @@ impl PySolution {
     /// The exponents (i, j) and coefficients a_ij of Q(x1, x2) = Σ a_ij x1^i x2^j (EPC and
     /// EPC-impact); a NotApplicableError for the grid, which has none.
     fn coefficients(&self, py: Python<'_>) -> PyResult<Coefficients> {
-        match self.solution.density() {
-            Density::Epc(s) => Ok((s.exponents.clone(), s.coefficients.clone())),
-            Density::EpcImpact(s) => Ok((s.exponents.clone(), s.coefficients.clone())),
-            _ => Err(errors::other::<errors::NotApplicableError>(
+        match self.solution.polynomial() {
+            Some((exponents, coefficients)) => Ok((exponents.to_vec(), coefficients.to_vec())),
+            None => Err(errors::other::<errors::NotApplicableError>(
                 py,
                 "no_coefficients",
                 format!(
@@ -164,13 +163,9 @@ impl PySolution {
     /// The typed outcome as JSON: the EPC solution (coefficients, σ, iterations, residual,
     /// normalisation, timings, moments), the EPC-impact solution, or the grid's report.
     fn report_json(&self) -> PyResult<String> {
-        let text = match self.solution.density() {
-            Density::Epc(s) => serde_json::to_string(s.as_ref()),
-            Density::EpcImpact(s) => serde_json::to_string(s.as_ref()),
-            Density::Grid(s) => serde_json::to_string(&s.report),
-            _ => return Err(errors::bad_argument("a solution of an unknown kind")),
-        };
-        text.map_err(|e| errors::bad_argument(e.to_string()))
+        self.solution
+            .report_json()
+            .map_err(|e| errors::bad_argument(e.to_string()))
     }
 
     fn __repr__(&self) -> String {

@@ -2,8 +2,9 @@
 //! checked against its walls before any work; `--tol L1`: its accuracy, checked likewise.
 
 use anyhow::{bail, Result};
+use fpsolve::dynamics::Dynamics;
 use fpsolve::grid::{check_tolerance, Cells, Domain, GridSolver};
-use fpsolve::model::{BoundModel, Model};
+use fpsolve::model::Model;
 use fpsolve::solve::{MethodName, MethodSet};
 
 use crate::flag;
@@ -15,12 +16,12 @@ use crate::flag;
 pub(crate) fn grid_domain(
     text: Option<&str>,
     methods: &MethodSet,
-    model: &BoundModel,
+    dynamics: &Dynamics,
 ) -> Result<Option<Domain>> {
-    let Some(domain) = parsed(text, methods, model.states())? else {
+    let Some(domain) = parsed(text, methods, dynamics.states())? else {
         return Ok(None);
     };
-    GridSolver::new(model)
+    GridSolver::reading(dynamics)
         .domain(domain)
         .check()
         .map_err(flag("--domain"))?;

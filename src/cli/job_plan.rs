@@ -40,7 +40,7 @@ pub(crate) fn plan_job(
         Some(m) => (m.clone(), true),
         None => (default_methods(target, &problem)?, false),
     };
-    let domain = grid_domain(args.domain.as_deref(), &methods, problem.model())?;
+    let domain = grid_domain(args.domain.as_deref(), &methods, problem.dynamics())?;
     let tol = grid_tolerance(args.tol, args.cells, &methods)?;
     let problem = problem.with_grid_domain(domain).with_grid_tolerance(tol);
     let bound = problem.model();
@@ -68,7 +68,7 @@ pub(crate) fn plan_job(
             .map_err(flag("--cells"))?;
     }
     if let Some(config) = &mc {
-        config.preflight(bound).map_err(lib)?;
+        config.preflight_of(problem.dynamics()).map_err(lib)?;
     }
     let mc_from = match mc_from {
         Some(dir) => {

@@ -22,7 +22,7 @@ pub enum Form {
 /// let text = "model m\nstate x, y\ndrift x: -x + y\ndrift y: -y\n\
 ///             noise xi: intensity 1\ndiffusion y: xi\n";
 /// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
-/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound)?;
+/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
 /// use fpsolve::dynamics::{Form, NotMechanical};
 /// assert!(matches!(dynamics.form(), Form::General { why: NotMechanical::Rate { .. } }));
 /// # Ok::<(), Box<dyn std::error::Error>>(())

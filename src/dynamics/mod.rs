@@ -64,9 +64,12 @@ pub use ito::DerivationError;
 pub(crate) use ito::{diffusion, ito_drift};
 pub use jump::JumpLaw;
 pub use sde::Sde;
+#[cfg(test)]
+pub(crate) use tests::reads_of;
 
 use crate::model::BoundModel;
-use crate::symbolic::{Expr, Symbol};
+use crate::symbolic::Expr;
+use std::sync::{Arc, OnceLock};
 
 /// Why a bound model could not be read.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -87,62 +90,83 @@ pub enum DynamicsError {
 
 /// A bound model read once for every method.
 ///
+/// Reading cannot fail: what a method may refuse (a jump map that does not compile, an Itô
+/// correction with no meaning, a model with no stationary density) is kept as an outcome and
+/// returned by the accessor that needs it, so that each method refuses with its own earlier
+/// reasons first.
+///
 /// ```
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
 /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
-/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound)?;
+/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
 /// assert_eq!(dynamics.form(), &fpsolve::dynamics::Form::Mechanical);
 /// assert!(dynamics.ito_drift().is_ok());
+/// assert!(dynamics.admissible().is_ok());
+/// assert_eq!(dynamics.model(), &bound);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Clone, Debug)]
 pub struct Dynamics {
-    states: [Symbol; 2],
-    /// The Wong–Zakai correction and the Itô drift, or why they have no meaning (kept, not
-    /// returned, so that a method refuses with its own earlier reasons first).
+    /// The model read (shared: a reading travels with what it read).
+    model: Arc<BoundModel>,
+    /// The Wong–Zakai correction and the Itô drift, or why they have no meaning.
     ito: Result<([Expr; 2], [Expr; 2]), DerivationError>,
     diffusion: [[Expr; 2]; 2],
     form: Form,
-    barriers: Barriers,
+    /// The barriers, or why their laws could not be read.
+    barriers: Result<Barriers, DynamicsError>,
+    /// How EPC's operator knows the impact law (`None` without one).
+    impact: Option<ImpactForm>,
     sde: Sde,
+    /// Whether a stationary density can exist ([`check`]), decided on first use: a
+    /// transient or a homotopy member never asks.
+    admissible: OnceLock<Result<(), Inadmissible>>,
 }
 
 impl Dynamics {
     /// Reads `model`.
-    ///
-    /// # Errors
-    /// [`DynamicsError`] when an impact law's map does not compile.
-    pub fn read(model: &BoundModel) -> Result<Dynamics, DynamicsError> {
+    pub fn read(model: &BoundModel) -> Dynamics {
+        #[cfg(test)]
+        tests::count_read(model);
         let states = model.states();
         let vars = [&*states[0], &*states[1]];
-        let mut walls = Vec::with_capacity(model.impacts().len());
-        for law in model.impacts() {
-            walls.push(
-                Barrier::read(law, &vars).map_err(|source| DynamicsError::JumpMap { source })?,
-            );
-        }
-        // Binding sorts two laws lower first and gives them the sides of a strip.
-        let count = walls.len();
-        let mut walls = walls.into_iter();
-        let barriers = match (walls.next(), walls.next(), count) {
-            (None, _, _) => Barriers::None,
-            (Some(one), None, _) => Barriers::One(one),
-            (Some(lo), Some(hi), 2) => Barriers::Strip { lo, hi },
-            _ => return Err(DynamicsError::TooManyBarriers { count }),
-        };
-        Ok(Dynamics {
-            states: states.clone(),
+        Dynamics {
+            model: Arc::new(model.clone()),
             ito: ito_drift(model),
             diffusion: diffusion(model),
             form: form::read(model),
-            barriers,
+            barriers: read_barriers(model, &vars),
+            impact: impact_form(model),
             sde: Sde::read(model),
-        })
+            admissible: OnceLock::new(),
+        }
+    }
+
+    /// The model read.
+    pub fn model(&self) -> &BoundModel {
+        &self.model
+    }
+
+    /// Whether the model can have a non-degenerate stationary density ([`check`], decided
+    /// once per reading).
+    ///
+    /// # Errors
+    /// The [`Inadmissible`] reason.
+    pub fn admissible(&self) -> Result<(), Inadmissible> {
+        self.admissible
+            .get_or_init(|| check_with_drift(&self.model, self.ito_drift().ok()))
+            .clone()
+    }
+
+    /// How EPC's operator knows the impact law: the Zhuravlev term in the drift, or why the
+    /// law cannot be used (`None` for a model without one; see [`impact_form`]).
+    pub fn impact_form(&self) -> Option<&ImpactForm> {
+        self.impact.as_ref()
     }
 
     /// The states (position and velocity in the mechanical form).
-    pub fn states(&self) -> &[Symbol; 2] {
-        &self.states
+    pub fn states(&self) -> &[crate::symbolic::Symbol; 2] {
+        self.model.states()
     }
 
     /// The Itô drift m = f + Wong–Zakai correction, simplified.
@@ -172,12 +196,33 @@ impl Dynamics {
     }
 
     /// The barriers.
-    pub fn barriers(&self) -> &Barriers {
-        &self.barriers
+    ///
+    /// # Errors
+    /// [`DynamicsError`] when an impact law's map does not compile or there are more laws
+    /// than the walls of a strip.
+    pub fn barriers(&self) -> Result<&Barriers, DynamicsError> {
+        self.barriers.as_ref().map_err(Clone::clone)
     }
 
     /// The equations as written, for a method that simulates them.
     pub fn sde(&self) -> &Sde {
         &self.sde
+    }
+}
+
+/// The barriers of `model`, its laws' maps compiled over `vars`.
+fn read_barriers(model: &BoundModel, vars: &[&str; 2]) -> Result<Barriers, DynamicsError> {
+    let mut walls = Vec::with_capacity(model.impacts().len());
+    for law in model.impacts() {
+        walls.push(Barrier::read(law, vars).map_err(|source| DynamicsError::JumpMap { source })?);
+    }
+    // Binding sorts two laws lower first and gives them the sides of a strip.
+    let count = walls.len();
+    let mut walls = walls.into_iter();
+    match (walls.next(), walls.next(), count) {
+        (None, _, _) => Ok(Barriers::None),
+        (Some(one), None, _) => Ok(Barriers::One(one)),
+        (Some(lo), Some(hi), 2) => Ok(Barriers::Strip { lo, hi }),
+        _ => Err(DynamicsError::TooManyBarriers { count }),
     }
 }

@@ -11,7 +11,7 @@ use crate::symbolic::{diff, simplify, Expr, Symbol, SymbolicError};
 /// ```
 /// let bound = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\n\
 ///     drift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?.bind(&[])?;
-/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound)?;
+/// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
 /// let sde = dynamics.sde();
 /// assert_eq!(sde.drift()[0].to_string(), "v");
 /// assert_eq!(sde.intensity(), [vec![2.0]]);

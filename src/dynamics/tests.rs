@@ -5,6 +5,24 @@ use crate::mc::{BurnIn, Grid, McConfig, Simulation};
 use crate::model::{load_model, parse_model, BoundModel, Model, Override};
 use std::path::Path;
 
+/// How many times each model (by name) was read, for tests that a run reads its model once.
+static READS: std::sync::Mutex<Vec<(String, usize)>> = std::sync::Mutex::new(Vec::new());
+
+/// Counts one [`Dynamics::read`] of `model`.
+pub(super) fn count_read(model: &BoundModel) {
+    let mut reads = READS.lock().unwrap_or_else(|e| e.into_inner());
+    match reads.iter_mut().find(|(n, _)| *n == model.name) {
+        Some((_, k)) => *k += 1,
+        None => reads.push((model.name.clone(), 1)),
+    }
+}
+
+/// How many times a model named `name` was read so far (give each test its own name).
+pub(crate) fn reads_of(name: &str) -> usize {
+    let reads = READS.lock().unwrap_or_else(|e| e.into_inner());
+    reads.iter().find(|(n, _)| n == name).map_or(0, |(_, k)| *k)
+}
+
 fn model_file(name: &str) -> Model {
     load_model(
         &Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -410,9 +428,9 @@ fn dynamics_reads_barriers_diffusion_and_form() {
         "xi",
         "impact z = 1: v -> -0.8*v\nimpact z = -1: v -> -0.8*v\n",
     );
-    let d = Dynamics::read(&bind(&strip, &[])).unwrap();
-    let Barriers::Strip { lo, hi } = d.barriers() else {
-        panic!("two walls read as {:?}", d.barriers());
+    let d = Dynamics::read(&bind(&strip, &[]));
+    let Barriers::Strip { lo, hi } = d.barriers().unwrap() else {
+        panic!("two walls read as {:?}", d.barriers().unwrap());
     };
     assert_eq!((lo.at(), hi.at()), (-1.0, 1.0));
     assert_eq!(
@@ -424,12 +442,12 @@ fn dynamics_reads_barriers_diffusion_and_form() {
         BarrierKind::Reflecting(crate::model::BarrierSide::Below)
     );
     assert_eq!(lo.jump(-2.0), 1.6);
-    assert_eq!(d.barriers().len(), 2);
+    assert_eq!(d.barriers().unwrap().len(), 2);
 
     let zhuravlev = bind(&model_file("vibro_duffing.sde"), &[]);
-    let d = Dynamics::read(&zhuravlev).unwrap();
-    let Barriers::One(b) = d.barriers() else {
-        panic!("one law read as {:?}", d.barriers());
+    let d = Dynamics::read(&zhuravlev);
+    let Barriers::One(b) = d.barriers().unwrap() else {
+        panic!("one law read as {:?}", d.barriers().unwrap());
     };
     assert_eq!(b.kind(), BarrierKind::PassThrough);
     assert_eq!(b.side(), None);
@@ -441,10 +459,10 @@ fn dynamics_reads_barriers_diffusion_and_form() {
     let src = "model m\nstate x, y\ndrift x: -x + y\ndrift y: -y\nnoise xi: intensity 1\n\
                diffusion x: xi\n";
     let general = parse_model(src, None).unwrap().bind(&[]).unwrap();
-    let d = Dynamics::read(&general).unwrap();
+    let d = Dynamics::read(&general);
     assert!(matches!(
         d.form(),
         Form::General { why: NotMechanical::Rate { position, .. } } if position == "x"
     ));
-    assert!(d.barriers().is_empty());
+    assert!(d.barriers().unwrap().is_empty());
 }

@@ -2,7 +2,7 @@
 //! Itô drift m of v and the v–v diffusion b, compiled to one tape), and its reflecting walls.
 
 use super::error::{EpcImpactError, Unsupported};
-use crate::dynamics::{Barrier, Dynamics, DynamicsError};
+use crate::dynamics::{Barrier, Barriers, Dynamics, DynamicsError};
 use crate::model::BoundModel;
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Tape, TapeScratch};
 
@@ -52,8 +52,9 @@ pub(crate) struct Mechanics {
 
 impl Mechanics {
     /// Reads the mechanical form of `model` and its barriers, or says why it has none.
-    pub(crate) fn new(model: &BoundModel) -> Result<Mechanics, EpcImpactError> {
-        let dynamics = Dynamics::read(model).map_err(|e| match e {
+    pub(crate) fn new(dynamics: &Dynamics) -> Result<Mechanics, EpcImpactError> {
+        let model = dynamics.model();
+        let barriers = dynamics.barriers().map_err(|e| match e {
             DynamicsError::JumpMap { source } => EpcImpactError::Symbolic {
                 what: "the jump map".into(),
                 source,
@@ -90,11 +91,7 @@ impl Mechanics {
                 coefficient: "diffusion",
             }));
         }
-        if dynamics
-            .barriers()
-            .iter()
-            .any(|b| b.state() != 0 || b.other() != 1)
-        {
+        if barriers.iter().any(|b| b.state() != 0 || b.other() != 1) {
             return Err(refuse(Unsupported::ImpactNotOnPosition {
                 position: x,
                 velocity: v,
@@ -102,8 +99,7 @@ impl Mechanics {
         }
         // A model without a stationary density is refused before the form is read.
         let drift = dynamics.ito_drift().map_err(crate::fpk::FpkError::from)?;
-        crate::dynamics::check_with_drift(model, Some(drift))
-            .map_err(crate::fpk::FpkError::from)?;
+        dynamics.admissible().map_err(crate::fpk::FpkError::from)?;
         // This method's reading of the form is stricter than the grid's (`Form`): the Itô
         // rate of the position must be v and the position's diffusion entries must vanish
         // as expressions (the grid asks that no source with an intensity of its own drives x).
@@ -139,7 +135,7 @@ impl Mechanics {
             let ddb = simplify(&diff(&db, &v).ok()?);
             Tape::compile(&[dm, db, ddb], &vars, DeltaPolicy::Reject).ok()
         })();
-        let barriers = walls(model, &dynamics)?;
+        let barriers = walls(model, barriers)?;
         Ok(Mechanics {
             coefficients,
             derivatives,
@@ -184,9 +180,9 @@ impl Mechanics {
 
 /// The model's barriers as reflecting walls; a law without a side either stops the motion
 /// (`v -> 0`) or passes through (the Zhuravlev form): this method solves neither.
-fn walls(model: &BoundModel, dynamics: &Dynamics) -> Result<Vec<Wall>, EpcImpactError> {
+fn walls(model: &BoundModel, barriers: &Barriers) -> Result<Vec<Wall>, EpcImpactError> {
     let mut out = Vec::new();
-    for barrier in dynamics.barriers().iter() {
+    for barrier in barriers.iter() {
         let printed = format!("{:#}", barrier.law().map());
         let Some(side) = barrier.side() else {
             let law = format!("impact at {}: v -> {printed}", barrier.at());

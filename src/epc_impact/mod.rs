@@ -87,11 +87,13 @@ pub use error::{Divergence, EpcImpactError, Unsupported};
 pub use rule::Window;
 pub use solution::{DomainBarrier, EpcImpactReport, EpcImpactSolution, Normalisation};
 
+use crate::dynamics::Dynamics;
 use crate::epc::{Epc, EpcError, StartPoint, MAX_DEGREE};
 use crate::model::BoundModel;
 use crate::numerics::newton::pad;
 use mechanics::{Mechanics, Wall};
 use rule::System;
+use std::borrow::Cow;
 
 /// Gauss–Legendre panels per axis of the first rule (8 nodes each).
 ///
@@ -139,6 +141,8 @@ const RIDGE_EDGE_MARGIN: f64 = 3.0;
 #[derive(Clone, Debug)]
 pub struct EpcImpact<'a> {
     model: &'a BoundModel,
+    /// The model's reading when the caller has one ([`EpcImpact::reading`]).
+    dynamics: Option<&'a Dynamics>,
     tolerance: f64,
     panels: [usize; 2],
     ridge_threshold: f64,
@@ -179,10 +183,29 @@ impl<'a> EpcImpact<'a> {
     pub fn new(model: &'a BoundModel) -> EpcImpact<'a> {
         EpcImpact {
             model,
+            dynamics: None,
             tolerance: 1e-10,
             panels: DEFAULT_PANELS,
             ridge_threshold: crate::epc::DEFAULT_RIDGE_THRESHOLD,
             barriers: None,
+        }
+    }
+
+    /// The problem of a model already read (its model is `dynamics.model()`): the reading
+    /// is used instead of a new one.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/models/grid_impact_duffing.sde");
+    /// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
+    /// let sol = fpsolve::epc_impact::EpcImpact::reading(&dynamics).solve(2)?;
+    /// assert_eq!(sol.degree, 2);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn reading(dynamics: &'a Dynamics) -> EpcImpact<'a> {
+        EpcImpact {
+            dynamics: Some(dynamics),
+            ..EpcImpact::new(dynamics.model())
         }
     }
 
@@ -257,13 +280,21 @@ impl<'a> EpcImpact<'a> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn check(&self) -> Result<(), EpcImpactError> {
-        self.mechanics().map(|_| ())
+        self.mechanics(&self.dynamics()).map(|_| ())
+    }
+
+    /// The model's reading: the caller's, else a new one.
+    fn dynamics(&self) -> Cow<'a, Dynamics> {
+        match self.dynamics {
+            Some(d) => Cow::Borrowed(d),
+            None => Cow::Owned(Dynamics::read(self.model)),
+        }
     }
 
     /// The model's mechanical form with its barriers (the injected ones, if any), checked to
     /// be none, one, or a strip.
-    fn mechanics(&self) -> Result<Mechanics, EpcImpactError> {
-        let mut mech = Mechanics::new(self.model)?;
+    fn mechanics(&self, dynamics: &Dynamics) -> Result<Mechanics, EpcImpactError> {
+        let mut mech = Mechanics::new(dynamics)?;
         if let Some(b) = &self.barriers {
             mech.barriers = b.clone();
         }
@@ -353,10 +384,11 @@ impl<'a> EpcImpact<'a> {
 
     /// The mechanics, the closure's scales and exponent, and the first box.
     fn prepare(&self) -> Result<Prepared, EpcImpactError> {
-        let mech = self.mechanics()?;
+        let dynamics = self.dynamics();
+        let mech = self.mechanics(&dynamics)?;
         // The Gaussian closure of the model without its barrier gives the scales and the
         // first start.
-        let mut fpk = crate::fpk::FpkOperator::derive(self.model)?;
+        let mut fpk = crate::fpk::FpkOperator::of(&dynamics)?;
         fpk.impact = None;
         let gauss = Epc::new(&fpk).degree(2).solve()?;
         let closure = gauss.closure.clone().ok_or(EpcError::Closure {

@@ -38,7 +38,7 @@ fn exact_q(exps: &[(usize, usize)]) -> Vec<f64> {
 #[test]
 fn the_exact_elastic_density_is_a_root() {
     let model = caughey_ma("impact x = -0.5: v -> -v\ndomain x >= -0.5");
-    let base = Mechanics::new(&model).unwrap();
+    let base = Mechanics::new(&crate::dynamics::Dynamics::read(&model)).unwrap();
     let sigma = [2.0, 2.0];
     for (barriers, x) in [
         (

@@ -301,7 +301,7 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let set = [crate::model::Override::number("r", r)];
         let b = crate::model::load_model(&path).unwrap().bind(&set).unwrap();
-        let problem = Mechanical::new(&b).unwrap();
+        let problem = Mechanical::new(&crate::dynamics::Dynamics::read(&b)).unwrap();
         let d = Domain {
             x: [-6.0, 6.0],
             v: [-9.0, 9.0],

@@ -138,7 +138,7 @@ mod tests {
 
     fn operator(text: &str) -> (Mesh, Operator) {
         let bound = parse_model(text, None).unwrap().bind(&[]).unwrap();
-        let dynamics = Dynamics::read(&bound).unwrap();
+        let dynamics = Dynamics::read(&bound);
         let Form::General { why } = dynamics.form() else {
             panic!("not general")
         };

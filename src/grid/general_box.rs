@@ -251,7 +251,7 @@ mod tests {
 
     fn general(text: &str) -> General {
         let bound = parse_model(text, None).unwrap().bind(&[]).unwrap();
-        let dynamics = Dynamics::read(&bound).unwrap();
+        let dynamics = Dynamics::read(&bound);
         let Form::General { why } = dynamics.form() else {
             panic!("not general")
         };

@@ -135,6 +135,8 @@ pub use crate::model::BarrierSide;
 #[derive(Clone, Debug)]
 pub struct GridSolver<'a> {
     model: &'a BoundModel,
+    /// The model's reading when the caller has one ([`GridSolver::reading`]).
+    dynamics: Option<&'a crate::dynamics::Dynamics>,
     cells: [usize; 2],
     domain: Option<Domain>,
     barriers: Option<crate::dynamics::Barriers>,
@@ -154,12 +156,39 @@ impl<'a> GridSolver<'a> {
     pub fn new(model: &'a BoundModel) -> GridSolver<'a> {
         GridSolver {
             model,
+            dynamics: None,
             cells: DEFAULT_CELLS,
             domain: None,
             barriers: None,
             estimate: true,
             tolerance: None,
             cells_given: false,
+        }
+    }
+
+    /// [`GridSolver::new`] of a model already read (its model is `dynamics.model()`): the
+    /// reading is used instead of a new one.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
+    /// let sol = fpsolve::grid::GridSolver::reading(&dynamics).cells(40, 80).solve()?;
+    /// assert!((sol.mass() - 1.0).abs() < 1e-9);
+    /// # Ok::<(), fpsolve::grid::GridError>(())
+    /// ```
+    pub fn reading(dynamics: &'a crate::dynamics::Dynamics) -> GridSolver<'a> {
+        GridSolver {
+            dynamics: Some(dynamics),
+            ..GridSolver::new(dynamics.model())
+        }
+    }
+
+    /// The model's reading: the caller's, else a new one.
+    fn dynamics(&self) -> std::borrow::Cow<'a, crate::dynamics::Dynamics> {
+        match self.dynamics {
+            Some(d) => std::borrow::Cow::Borrowed(d),
+            None => std::borrow::Cow::Owned(crate::dynamics::Dynamics::read(self.model)),
         }
     }
 
@@ -274,7 +303,7 @@ impl<'a> GridSolver<'a> {
             self.check_tolerance(tol)?;
         }
         check_cells(self.cells)?;
-        let problem = Problem::read(self.model)?;
+        let problem = Problem::read(&self.dynamics())?;
         if let Some(d) = &self.domain {
             checked_domain(d, &problem, self.model)?;
         }
@@ -300,13 +329,12 @@ impl<'a> GridSolver<'a> {
         let start = Instant::now();
         let [nx, nv] = self.cells;
         check_cells(self.cells)?;
+        let dynamics = self.dynamics();
         let problem = match &self.barriers {
             Some(barriers) => {
-                let dynamics =
-                    crate::dynamics::Dynamics::read(self.model).expect("a test model reads");
                 Problem::Mechanical(Mechanical::with_barriers(self.model, &dynamics, barriers)?)
             }
-            None => Problem::read(self.model)?,
+            None => Problem::read(&dynamics)?,
         };
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {

@@ -145,7 +145,7 @@ mod tests {
         .unwrap()
         .bind(&[])
         .unwrap();
-        let p = Mechanical::new(&bound).unwrap();
+        let p = Mechanical::new(&crate::dynamics::Dynamics::read(&bound)).unwrap();
         let d = pilot_box(&p).unwrap();
         assert!(d.x[0] < -2.0 && d.x[1] > 2.0 && d.v[1] > 2.7, "{d:?}");
         assert!(d.x[1] < 8.0 && d.v[1] < 10.0, "{d:?}");

@@ -33,23 +33,20 @@ pub(crate) struct Coefficients {
 
 impl Mechanical {
     /// Reads the mechanical form of `model`, or says why it has none.
-    pub(crate) fn new(model: &BoundModel) -> Result<Self, GridError> {
-        let dynamics = Dynamics::read(model).map_err(|e| jump_map_error(model, e))?;
-        Mechanical::with_barriers(model, &dynamics, dynamics.barriers())
+    pub(crate) fn new(dynamics: &Dynamics) -> Result<Self, GridError> {
+        let model = dynamics.model();
+        let barriers = dynamics.barriers().map_err(|e| jump_map_error(model, e))?;
+        Mechanical::with_barriers(model, dynamics, barriers)
     }
 
     /// [`Mechanical::new`] for a transient: a model whose drift or diffusion mentions the
     /// time is accepted (evaluated at t = 0 until [`Mechanical::at_time`]), and the checks
     /// that only a stationary density needs are skipped for it; the mechanical form, the
     /// barriers and the δ terms are checked as for any model.
-    pub(crate) fn transient(model: &BoundModel) -> Result<Self, GridError> {
-        let dynamics = Dynamics::read(model).map_err(|e| jump_map_error(model, e))?;
-        Mechanical::build(
-            model,
-            &dynamics,
-            dynamics.barriers(),
-            !model.time_dependent(),
-        )
+    pub(crate) fn transient(dynamics: &Dynamics) -> Result<Self, GridError> {
+        let model = dynamics.model();
+        let barriers = dynamics.barriers().map_err(|e| jump_map_error(model, e))?;
+        Mechanical::build(model, dynamics, barriers, !model.time_dependent())
     }
 
     /// Whether the coefficients depend on the time.
@@ -105,7 +102,7 @@ impl Mechanical {
             }));
         }
         if admit {
-            crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
+            dynamics.admissible()?;
         }
         let sde = dynamics.sde();
         // δ terms are dropped below only because an impact law stands for them exactly.

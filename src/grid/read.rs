@@ -9,7 +9,6 @@ use super::mesh::{Domain, Mesh};
 use super::problem::Mechanical;
 use super::{domain, general_box};
 use crate::dynamics::{Dynamics, Form};
-use crate::model::BoundModel;
 
 /// A model the grid solves.
 #[derive(Clone, Debug)]
@@ -21,18 +20,18 @@ pub(crate) enum Problem {
 }
 
 impl Problem {
-    /// Reads `model`: its mechanical form, else its general form, else why the grid
-    /// cannot solve it.
-    pub(crate) fn read(model: &BoundModel) -> Result<Problem, GridError> {
-        let dynamics =
-            Dynamics::read(model).map_err(|e| super::problem::jump_map_error(model, e))?;
+    /// Takes the model `dynamics` read: its mechanical form, else its general form, else why
+    /// the grid cannot solve it.
+    pub(crate) fn read(dynamics: &Dynamics) -> Result<Problem, GridError> {
+        let model = dynamics.model();
+        let barriers = dynamics
+            .barriers()
+            .map_err(|e| super::problem::jump_map_error(model, e))?;
         match dynamics.form() {
             Form::Mechanical => Ok(Problem::Mechanical(Mechanical::with_barriers(
-                model,
-                &dynamics,
-                dynamics.barriers(),
+                model, dynamics, barriers,
             )?)),
-            Form::General { why } => Ok(Problem::General(General::new(model, &dynamics, why)?)),
+            Form::General { why } => Ok(Problem::General(General::new(model, dynamics, why)?)),
         }
     }
 

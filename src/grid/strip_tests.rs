@@ -43,7 +43,7 @@ fn solve(r: f64, n: usize, sized: bool) -> GridSolution {
 #[test]
 fn both_walls_conserve_mass() {
     let model = OSCILLATOR.model().bind(&[]).unwrap();
-    let dynamics = Dynamics::read(&model).unwrap();
+    let dynamics = Dynamics::read(&model);
     let problem = Mechanical::with_barriers(&model, &dynamics, &walls(0.9)).unwrap();
     let d = Domain {
         x: [-3.0, 3.0],

@@ -402,7 +402,7 @@ fn run(
         }
         let t = Instant::now();
         // A Monte Carlo failure does not cost the other results: it is recorded beside them.
-        match simulate(&study, &config, progress) {
+        match simulate(problem.dynamics(), &config, progress) {
             Ok(result) => mc = Some(result),
             Err(e) => mc_error = Some(e.to_string()),
         }
@@ -565,11 +565,11 @@ fn defect_notes(study: &Study) -> Vec<String> {
 /// Runs the Monte Carlo in consecutive shards so that progress can be shown; merging the
 /// shards gives exactly the unsplit result (the statistics batches are the unit of both).
 fn simulate(
-    study: &Study,
+    dynamics: &crate::dynamics::Dynamics,
     config: &McConfig,
     progress: &dyn Progress,
 ) -> Result<McResult, McError> {
-    let sim = Simulation::new(&study.model, config)?;
+    let sim = Simulation::reading(dynamics, config)?;
     let batches = sim.settings().batches;
     let threads = rayon::current_num_threads() as u64;
     // Enough batches per part to keep every thread busy, at most 50 parts.
@@ -764,5 +764,42 @@ mod tests {
         assert_eq!(variance(Some(&same), "same").to_bits(), fresh.to_bits());
         assert_eq!(variance(Some(&other), "other").to_bits(), fresh.to_bits());
         std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    /// The job reads its model once for every method it runs (EPC's operator, EPC-impact,
+    /// the grid and the Monte Carlo run take the problem's reading); only EPC's Zhuravlev
+    /// transform, another model, is read on its own.
+    #[test]
+    fn a_job_reads_its_model_once() {
+        let model = crate::model::parse_model(
+            "model read_once_job\nstate z, v\ndrift z: v\ndrift v: -v - z\n\
+             noise xi: intensity 2\ndiffusion v: xi\nimpact z = -3: v -> -0.8*v\n\
+             domain z >= -3\n",
+            None,
+        )
+        .unwrap();
+        let spec = JobSpec {
+            degrees: vec![2],
+            methods: "epc,epc-impact,grid".parse().unwrap(),
+            methods_named: true,
+            cells: [32, 48],
+            mc: Some(McConfig {
+                trajectories: 256,
+                ..McConfig::default()
+            }),
+            ..JobSpec::default()
+        };
+        let out =
+            std::env::temp_dir().join(format!("fpsolve-job-read-once-{}", std::process::id()));
+        let problem = Problem::owning(model.bind(&[]).unwrap()).unwrap();
+        let report = Job::new(&model, &spec)
+            .problem(&problem)
+            .run(&OutputDir::create(&out).unwrap())
+            .unwrap();
+        std::fs::remove_dir_all(&out).unwrap();
+        assert_eq!(report.study.runs.len(), 3);
+        assert!(report.study.runs.iter().all(|r| r.outcome.is_ok()));
+        assert!(report.mc.is_some(), "{:?}", report.mc_error);
+        assert_eq!(crate::dynamics::reads_of("read_once_job"), 1);
     }
 }

@@ -182,7 +182,28 @@ impl McConfig {
     /// assert!(matches!(forever.preflight(&model), Err(McError::TooLong { .. })));
     /// ```
     pub fn preflight(&self, model: &BoundModel) -> Result<RunEstimate, McError> {
-        let estimate = self.estimate(model)?;
+        self.preflight_of(&crate::dynamics::Dynamics::read(model))
+    }
+
+    /// [`McConfig::preflight`] of a model already read.
+    ///
+    /// ```
+    /// use fpsolve::mc::McConfig;
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let model = fpsolve::model::load_model(path.as_ref())?.bind(&[])?;
+    /// let dynamics = fpsolve::dynamics::Dynamics::read(&model);
+    /// let config = McConfig::default();
+    /// assert_eq!(config.preflight_of(&dynamics)?, config.preflight(&model)?);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`McConfig::preflight`].
+    pub fn preflight_of(
+        &self,
+        dynamics: &crate::dynamics::Dynamics,
+    ) -> Result<RunEstimate, McError> {
+        let estimate = self.estimate_of(dynamics)?;
         estimate.within_limits(1)?;
         Ok(estimate)
     }
@@ -202,13 +223,21 @@ impl McConfig {
     /// assert!(estimate.within_limits(estimate.batches).is_ok());
     /// ```
     pub fn estimate(&self, model: &BoundModel) -> Result<RunEstimate, McError> {
-        Ok(self.resolve(model)?.estimate)
+        self.estimate_of(&crate::dynamics::Dynamics::read(model))
     }
 
-    pub(super) fn resolve(&self, model: &BoundModel) -> Result<Resolved, McError> {
-        let dynamics = super::compile::scheme::read(model)?;
-        let walls = super::compile::scheme::walls(&dynamics);
-        self.resolve_with(model, &dynamics, walls)
+    /// [`McConfig::estimate`] of a model already read.
+    ///
+    /// # Errors
+    /// As [`McConfig::estimate`].
+    pub fn estimate_of(
+        &self,
+        dynamics: &crate::dynamics::Dynamics,
+    ) -> Result<RunEstimate, McError> {
+        let walls = super::compile::scheme::walls(dynamics)?;
+        Ok(self
+            .resolve_with(dynamics.model(), dynamics, walls)?
+            .estimate)
     }
 
     /// [`McConfig::resolve`] of `model` read as `dynamics`, with the impact laws `specs` (its

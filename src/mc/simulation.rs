@@ -27,9 +27,30 @@ impl Simulation {
     /// Compiles `model`, checks `config`, fixes the burn-in and the histogram grids (running
     /// the pilot if some grid is not given).
     pub fn new(model: &BoundModel, config: &McConfig) -> Result<Simulation, McError> {
-        let dynamics = super::compile::scheme::read(model)?;
-        let walls = super::compile::scheme::walls(&dynamics);
-        Simulation::from_dynamics(model, &dynamics, config, walls)
+        Simulation::reading(&crate::dynamics::Dynamics::read(model), config)
+    }
+
+    /// [`Simulation::new`] of a model already read (its model is `dynamics.model()`).
+    ///
+    /// ```
+    /// use fpsolve::mc::{McConfig, Simulation};
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let model = fpsolve::model::load_model(path.as_ref())?.bind(&[])?;
+    /// let dynamics = fpsolve::dynamics::Dynamics::read(&model);
+    /// let config = McConfig { trajectories: 256, ..McConfig::default() };
+    /// let sim = Simulation::reading(&dynamics, &config)?;
+    /// assert_eq!(sim.settings().model, "linear");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Simulation::new`].
+    pub fn reading(
+        dynamics: &crate::dynamics::Dynamics,
+        config: &McConfig,
+    ) -> Result<Simulation, McError> {
+        let walls = super::compile::scheme::walls(dynamics)?;
+        Simulation::from_dynamics(dynamics.model(), dynamics, config, walls)
     }
 
     /// [`Simulation::new`] with the impact laws `specs` in place of the model's own (tests
@@ -128,7 +149,7 @@ impl Simulation {
             // beyond them: its grid ends on them, so no bin straddles a wall.
             let walls = |name: &str| {
                 let mut range = [f64::NEG_INFINITY, f64::INFINITY];
-                for wall in dynamics.barriers().iter() {
+                for wall in dynamics.barriers().iter().flat_map(|b| b.iter()) {
                     match wall.side() {
                         Some(side) if dynamics.states()[wall.state].as_ref() == name => {
                             match side {

@@ -623,7 +623,11 @@ fn histograms_over_the_memory_limit_are_refused_before_allocation() {
 fn the_run_says_which_evaluator_it_gets() {
     let evaluator = |name: &str| {
         let model = bundled(name, &[]);
-        let resolved = McConfig::default().resolve(&model).unwrap();
+        let dynamics = crate::dynamics::Dynamics::read(&model);
+        let walls = compile::scheme::walls(&dynamics).unwrap();
+        let resolved = McConfig::default()
+            .resolve_with(&model, &dynamics, walls)
+            .unwrap();
         compile::scheme::Evaluator::of(&resolved.plan, McConfig::default().increments)
     };
     assert_eq!(

@@ -32,6 +32,7 @@ mod tail;
 use std::borrow::Cow;
 use std::sync::Arc;
 
+use crate::dynamics::Dynamics;
 use crate::epc::{Epc, EpcError};
 use crate::fpk::{FpkError, FpkOperator};
 use crate::grid::{GridError, GridSolver};
@@ -45,7 +46,7 @@ pub use not_applicable::NotApplicable;
 pub use quantity::{quantities, Quantity};
 pub(crate) use quantity::{quantities_of, reported, through};
 pub use registry::StationaryMethod;
-pub use solution::{Density, MomentErrors, QuantityMoments, Solution};
+pub use solution::{Density, MomentErrors, Polynomial, QuantityMoments, Solution};
 pub(crate) use tail::{tail_probability, two_sided_tail_probability};
 
 /// How to solve for the stationary density. More methods are to come, so a `match` on it
@@ -179,6 +180,8 @@ pub enum SolveError {
 pub struct Problem<'a> {
     /// Borrowed ([`Problem::new`]) or owned ([`Problem::owning`]).
     model: Cow<'a, BoundModel>,
+    /// The model read once, for every method ([`Problem::dynamics`]).
+    dynamics: Dynamics,
     /// The operator EPC solves: of the Zhuravlev transform when there is one.
     fpk: FpkOperator,
     /// The quantities of EPC's solutions (maps of the transformed states when transformed).
@@ -217,9 +220,9 @@ impl Problem<'static> {
 /// written when the model itself is refused for a reason (its law `v -> -1.2*v`, its states
 /// and parameters, rather than the transform's `v_ -> 1.2*v_`): the user wrote that model.
 /// Only computed on failure, so a solvable model pays nothing for it.
-fn in_own_terms(model: &BoundModel, error: FpkError) -> FpkError {
+fn in_own_terms(dynamics: &Dynamics, error: FpkError) -> FpkError {
     match error {
-        FpkError::Inadmissible(_) => match crate::dynamics::check(model) {
+        FpkError::Inadmissible(_) => match dynamics.admissible() {
             Err(own) => FpkError::Inadmissible(own),
             Ok(()) => error,
         },
@@ -251,18 +254,21 @@ impl<'a> Problem<'a> {
 
     fn derive(bound: Cow<'a, BoundModel>) -> Result<Problem<'a>, SolveError> {
         let model = bound.as_ref();
+        let dynamics = Dynamics::read(model);
         let own: Arc<[Quantity]> = quantities(model).into();
         let reflecting = matches!(model.impacts(), [law] if law.side.is_some());
         let zhuravlev = reflecting.then(|| zhuravlev_bound(model));
         let (fpk, quantities) = match &zhuravlev {
+            // The transform is another model: EPC's operator is read from it.
             Some(Ok(t)) => (
-                FpkOperator::derive(&t.model).map_err(|e| in_own_terms(model, e))?,
+                FpkOperator::derive(&t.model).map_err(|e| in_own_terms(&dynamics, e))?,
                 through(&t.model, model.observables().len()).into(),
             ),
-            _ => (FpkOperator::derive(model)?, own.clone()),
+            _ => (FpkOperator::of(&dynamics)?, own.clone()),
         };
         Ok(Problem {
             model: bound,
+            dynamics,
             fpk,
             quantities,
             own_quantities: own,
@@ -350,7 +356,7 @@ impl<'a> Problem<'a> {
 
     /// The grid solver of this problem's model, with its box and tolerance when given.
     pub(crate) fn grid_solver(&self) -> GridSolver<'_> {
-        let solver = GridSolver::new(&self.model);
+        let solver = GridSolver::reading(&self.dynamics);
         let solver = match self.grid_domain {
             Some(d) => solver.domain(d),
             None => solver,
@@ -364,6 +370,19 @@ impl<'a> Problem<'a> {
     /// The bound model.
     pub fn model(&self) -> &BoundModel {
         &self.model
+    }
+
+    /// The model read once: what every method of this problem reads it through.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let problem = fpsolve::solve::Problem::new(&bound)?;
+    /// assert_eq!(problem.dynamics().model(), &bound);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn dynamics(&self) -> &Dynamics {
+        &self.dynamics
     }
 
     /// The FPK operator EPC solves: the model's, or its Zhuravlev transform's (see
@@ -419,7 +438,7 @@ impl<'a> Problem<'a> {
 
     /// Solves by EPC with the exact impact condition at `degree`, the model as it stands.
     pub(crate) fn solve_epc_impact(&self, degree: usize) -> Result<Solution, SolveError> {
-        let sol = crate::epc_impact::EpcImpact::new(&self.model).solve(degree)?;
+        let sol = crate::epc_impact::EpcImpact::reading(&self.dynamics).solve(degree)?;
         Ok(Solution::new(
             Density::EpcImpact(Box::new(sol)),
             self.own_quantities.clone(),
@@ -441,7 +460,7 @@ impl<'a> Problem<'a> {
     /// [`crate::epc_impact::EpcImpact::solve_degrees`]). The model is solved as written, in
     /// its own coordinates.
     pub fn solve_epc_impact_degrees(&self, degrees: &[usize]) -> Vec<Result<Solution, SolveError>> {
-        crate::epc_impact::EpcImpact::new(&self.model)
+        crate::epc_impact::EpcImpact::reading(&self.dynamics)
             .solve_degrees(degrees)
             .into_iter()
             .map(|r| {

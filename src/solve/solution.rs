@@ -155,6 +155,9 @@ impl QuantityMoments {
     }
 }
 
+/// The exponents (i, j) and the coefficients a_ij of a polynomial Σ a_ij x1^i x2^j.
+pub type Polynomial<'a> = (&'a [(usize, usize)], &'a [f64]);
+
 impl Solution {
     pub(crate) fn new(density: Density, quantities: Arc<[Quantity]>) -> Solution {
         let mut states = quantities
@@ -261,6 +264,50 @@ impl Solution {
         match &self.density {
             Density::Grid(g) => Some(g),
             Density::Epc(_) | Density::EpcImpact(_) => None,
+        }
+    }
+
+    /// The exponents (i, j) and coefficients a_ij of the exponent Q(x1, x2) = Σ a_ij x1^i x2^j
+    /// of p = C·exp(Q), for a method whose density is one (EPC, EPC-impact); `None` for a
+    /// density on cells.
+    ///
+    /// ```
+    /// use fpsolve::solve::{solve, Method};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let (exponents, coefficients) = solve(&bound, Method::Epc { degree: 2 })?.polynomial().unwrap();
+    /// assert_eq!(exponents.len(), coefficients.len());
+    /// assert!(solve(&bound, Method::Grid { cells: [40, 80] })?.polynomial().is_none());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn polynomial(&self) -> Option<Polynomial<'_>> {
+        match &self.density {
+            Density::Epc(s) => Some((&s.exponents, &s.coefficients)),
+            Density::EpcImpact(s) => Some((&s.exponents, &s.coefficients)),
+            Density::Grid(_) => None,
+        }
+    }
+
+    /// The method's own account of the solve as JSON: the EPC solution (coefficients, σ,
+    /// iterations, residual, normalisation, timings, moments), the EPC-impact solution, or
+    /// the grid's report.
+    ///
+    /// # Errors
+    /// When serialisation fails (it does not for the solutions the methods return).
+    ///
+    /// ```
+    /// use fpsolve::solve::{solve, Method};
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// let json = solve(&bound, Method::Grid { cells: [40, 80] })?.report_json()?;
+    /// assert!(json.contains("\"cells\""));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn report_json(&self) -> serde_json::Result<String> {
+        match &self.density {
+            Density::Epc(s) => serde_json::to_string(s.as_ref()),
+            Density::EpcImpact(s) => serde_json::to_string(s.as_ref()),
+            Density::Grid(g) => serde_json::to_string(&g.report),
         }
     }
 

@@ -4,12 +4,11 @@
 use serde::Serialize;
 
 use crate::dynamics::Inadmissible;
-use crate::epc::EpcError;
-use crate::grid::{GridError, GridReport};
+use crate::grid::GridReport;
 use crate::model::number;
 use crate::report::Provenance;
 use crate::solve::{EpcFigures, SolverFigures};
-use crate::solve::{MethodName, MethodSet};
+use crate::solve::{Method, MethodName, MethodSet, SolveError};
 use crate::stats::Moments;
 
 use super::MethodRefusal;
@@ -115,27 +114,16 @@ pub enum PointFailure {
     /// The FPK operator could not be derived.
     #[error(transparent)]
     Derive(crate::fpk::FpkError),
-    /// EPC failed at `degree` (degree 2 failing is why the target degree has no solution
-    /// either).
-    #[error("degree {degree}: {error}")]
-    Solve {
-        /// The first degree that failed.
-        degree: usize,
+    /// A method failed (or found no stationary density at this point): `method` with the
+    /// settings it failed at (for a ladder method, the first degree that failed: degree 2
+    /// failing is why the target degree has no solution either).
+    #[error("{}", method_failure(method, error))]
+    Method {
+        /// The method and the settings it failed at.
+        method: Method,
         /// Why.
         #[source]
-        error: EpcError,
-    },
-    /// The grid solver failed (or found no stationary density at this point).
-    #[error(transparent)]
-    Grid(GridError),
-    /// EPC with the exact impact condition failed at a degree.
-    #[error("degree {degree}: {error}")]
-    EpcImpact {
-        /// The degree that failed (the target degree, or a lower one on the way).
-        degree: usize,
-        /// Why.
-        #[source]
-        error: crate::epc_impact::EpcImpactError,
+        error: Box<SolveError>,
     },
     /// The Zhuravlev transform EPC solves a reflecting barrier through could not be derived.
     #[error(transparent)]
@@ -177,13 +165,19 @@ impl PointFailure {
         match self {
             PointFailure::Bind(_) => "bind",
             PointFailure::Derive(_) => "fpk",
-            PointFailure::Solve { .. } => "epc",
-            PointFailure::Grid(_) => "grid",
-            PointFailure::EpcImpact { .. } => "epc-impact",
+            PointFailure::Method { method, .. } => method.name().as_str(),
             PointFailure::Zhuravlev(_) => "fpk",
             PointFailure::Refused(_) => "method",
             PointFailure::NoCurve { .. } | PointFailure::NotFinite { .. } => "statistics",
         }
+    }
+}
+
+/// A method's failure as `sweep.csv` words it: the degree first for a ladder method.
+fn method_failure(method: &Method, error: &SolveError) -> String {
+    match method.degree() {
+        Some(degree) => format!("degree {degree}: {error}"),
+        None => error.to_string(),
     }
 }
 

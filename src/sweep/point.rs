@@ -84,21 +84,28 @@ pub(super) fn solve_point(
 ) -> Raw {
     let start = Instant::now();
     let bound = model.bind(&spec.overrides_at(&values));
+    // One problem (one reading of the model) for every method at the point.
+    let problem = bound
+        .as_ref()
+        .map(|b| Problem::new(b).map(|p| p.with_grid_domain(domain)));
     let methods = settled
         .iter()
         .enumerate()
         .map(|(k, (name, method))| {
             let t = Instant::now();
-            let (outcome, reference) = match (&bound, method) {
+            let (outcome, reference) = match (&problem, method) {
                 (Err(e), _) => (
-                    Err(PointFailure::Bind(e.clone())),
+                    Err(PointFailure::Bind((*e).clone())),
                     ReferenceRms::Known(None),
                 ),
-                (Ok(bound), Method::Epc { degree }) => {
-                    by_epc(bound, *degree, (k == 0).then_some((frontier, index)))
+                (Ok(Err(e)), method) => {
+                    (Err(failure(e.clone(), *method)), ReferenceRms::Known(None))
                 }
-                (Ok(bound), method) => {
-                    let (outcome, rms) = by_method(bound, *method, domain);
+                (Ok(Ok(problem)), Method::Epc { degree }) => {
+                    by_epc(problem, *degree, (k == 0).then_some((frontier, index)))
+                }
+                (Ok(Ok(problem)), method) => {
+                    let (outcome, rms) = by_method(problem, *method);
                     (outcome, ReferenceRms::Known(rms))
                 }
             };
@@ -140,19 +147,19 @@ fn ladder(degree: usize) -> Vec<usize> {
 }
 
 /// Every degree of the point's EPC ladder, each solution or its failure.
-fn epc_ladder(
-    bound: &BoundModel,
-    degree: usize,
-) -> Result<(Problem<'_>, Vec<Result<Solution, PointFailure>>), PointFailure> {
-    let problem = Problem::new(bound).map_err(|e| failure(e, Method::Epc { degree }))?;
+fn epc_ladder(problem: &Problem, degree: usize) -> Vec<Result<Solution, PointFailure>> {
     let degrees = ladder(degree);
-    let solved = problem
+    problem
         .solve_epc_degrees(&degrees)
         .into_iter()
         .zip(&degrees)
-        .map(|(r, &degree)| r.map_err(|error| PointFailure::Solve { degree, error }))
-        .collect();
-    Ok((problem, solved))
+        .map(|(r, &degree)| {
+            r.map_err(|error| PointFailure::Method {
+                method: Method::Epc { degree },
+                error: Box::new(error.into()),
+            })
+        })
+        .collect()
 }
 
 /// √E\[g²\] per quantity under the degree-2 EPC solution at a point (the reference the tail
@@ -161,7 +168,8 @@ fn epc_ladder(
 /// exactly as [`by_epc`] solves it, so the degree-2 solution is bit for bit the one a point
 /// reports beside its target degree.
 pub(super) fn epc_reference_rms(bound: &BoundModel, degree: usize) -> Option<Vec<f64>> {
-    let (problem, solved) = epc_ladder(bound, degree).ok()?;
+    let problem = Problem::new(bound).ok()?;
+    let solved = epc_ladder(&problem, degree);
     let first = solved.first()?.as_ref().ok()?;
     let rms = rms_of(&first.all_moments(), problem.quantities().len());
     epc_curves(&problem, solved).ok()?;
@@ -171,14 +179,11 @@ pub(super) fn epc_reference_rms(bound: &BoundModel, degree: usize) -> Option<Vec
 /// EPC at `degree`, continued from degree 2, and the reference values of the degree-2
 /// solution when `reference` (the frontier and this point's index) wants them.
 fn by_epc(
-    bound: &BoundModel,
+    problem: &Problem,
     degree: usize,
     reference: Option<(&Frontier, usize)>,
 ) -> (Result<PointCurves, PointFailure>, ReferenceRms) {
-    let (problem, solved) = match epc_ladder(bound, degree) {
-        Ok(ladder) => ladder,
-        Err(failure) => return (Err(failure), ReferenceRms::Known(None)),
-    };
+    let solved = epc_ladder(problem, degree);
     let rms = match (solved.first(), reference) {
         (Some(Ok(first)), Some((frontier, index))) if frontier.wants(index) => {
             ReferenceRms::Known(rms_of(&first.all_moments(), problem.quantities().len()))
@@ -186,7 +191,7 @@ fn by_epc(
         (Some(Ok(_)), _) => ReferenceRms::Unknown,
         (_, _) => ReferenceRms::Known(None),
     };
-    let curves = epc_curves(&problem, solved);
+    let curves = epc_curves(problem, solved);
     // Only a point that succeeded sets the thresholds: a degree-2 solution whose target
     // degree failed would set them from a point the sweep reports as failed.
     let rms = if curves.is_ok() {
@@ -245,15 +250,13 @@ fn epc_curves(
     Ok(collected.finish(last.figures()))
 }
 
-/// Any other method through the front door (the grid on the box `domain` when given): the
+/// Any other method through the front door (the grid on the problem's box when given): the
 /// solution's moments and its marginals on the report grid.
 pub(super) fn by_method(
-    bound: &BoundModel,
+    problem: &Problem,
     method: Method,
-    domain: Option<Domain>,
 ) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
-    let solved = Problem::new(bound).and_then(|p| p.with_grid_domain(domain).solve(method));
-    let solution = match solved {
+    let solution = match problem.solve(method) {
         Ok(s) => s,
         Err(e) => return (Err(failure(e, method)), None),
     };
@@ -288,21 +291,13 @@ fn curves_of(
 
 /// A front-door failure as the stage that failed.
 fn failure(e: SolveError, method: Method) -> PointFailure {
-    match (e, method) {
-        (SolveError::Fpk(e), _) => PointFailure::Derive(e),
-        (SolveError::Epc(error), Method::Epc { degree }) => PointFailure::Solve { degree, error },
-        (SolveError::Grid(e), _) => PointFailure::Grid(e),
-        (SolveError::EpcImpact(error), Method::EpcImpact { degree }) => {
-            PointFailure::EpcImpact { degree, error }
-        }
-        (SolveError::Zhuravlev(e), _) => PointFailure::Zhuravlev(e),
-        (
-            e @ (SolveError::Epc(_)
-            | SolveError::EpcImpact(_)
-            | SolveError::UnknownQuantity { .. }
-            | SolveError::OtherSettings { .. }),
-            _,
-        ) => unreachable!("{method} failed where it cannot: {e}"),
+    match e {
+        SolveError::Fpk(e) => PointFailure::Derive(e),
+        SolveError::Zhuravlev(e) => PointFailure::Zhuravlev(e),
+        error => PointFailure::Method {
+            method,
+            error: Box::new(error),
+        },
     }
 }
 

@@ -341,10 +341,11 @@ impl<'a> Sweep<'a> {
             let Ok(bound) = self.model.bind(&self.spec.overrides_at(&values)) else {
                 continue;
             };
-            if crate::dynamics::check(&bound).is_err() {
+            let dynamics = crate::dynamics::Dynamics::read(&bound);
+            if dynamics.admissible().is_err() {
                 continue;
             }
-            GridSolver::new(&bound)
+            GridSolver::reading(&dynamics)
                 .domain(d)
                 .check()
                 .map_err(|error| MethodRefusal::Domain {

@@ -22,7 +22,7 @@ use std::ops::Range;
 use crate::base::cancel::Cancel;
 use crate::grid::Domain;
 use crate::model::Model;
-use crate::solve::Method;
+use crate::solve::{Method, Problem};
 
 use super::frontier::ReferenceRms;
 use super::point::{by_method, epc_reference_rms};
@@ -49,7 +49,9 @@ fn solved_rms(
     let bound = model.bind(&spec.overrides_at(values)).ok()?;
     match method {
         Method::Epc { degree } => epc_reference_rms(&bound, degree),
-        other => by_method(&bound, other, domain).1,
+        other => Problem::new(&bound)
+            .ok()
+            .and_then(|p| by_method(&p.with_grid_domain(domain), other).1),
     }
 }
 

@@ -242,27 +242,30 @@ pub(crate) fn psd_sqrt(s: &[Vec<f64>]) -> Result<Vec<f64>, McError> {
     Ok(l)
 }
 
-/// The model read once ([`ModelDynamics::read`]), its errors in the simulation's terms.
+/// The model read once ([`ModelDynamics::read`]), its barriers checked to be readable.
 pub(crate) fn read(model: &BoundModel) -> Result<ModelDynamics, McError> {
-    use crate::dynamics::DynamicsError;
-    ModelDynamics::read(model).map_err(|e| match e {
-        DynamicsError::JumpMap { source } => McError::Compile(source),
-        DynamicsError::TooManyBarriers { count } => McError::Barriers {
-            layout: BarrierLayout::TooMany { count },
-        },
-    })
+    let dynamics = ModelDynamics::read(model);
+    walls(&dynamics)?;
+    Ok(dynamics)
 }
 
 /// The model's barriers as the simulation takes them, from its
 /// [`Dynamics`](crate::dynamics::Dynamics).
 #[cfg(test)]
 pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
-    Ok(walls(&read(model)?))
+    walls(&read(model)?)
 }
 
-/// The barriers of `dynamics`, lower first.
-pub(crate) fn walls(dynamics: &ModelDynamics) -> Vec<Wall> {
-    dynamics.barriers().iter().cloned().collect()
+/// The barriers of `dynamics`, lower first; the reading's errors in the simulation's terms.
+pub(crate) fn walls(dynamics: &ModelDynamics) -> Result<Vec<Wall>, McError> {
+    use crate::dynamics::DynamicsError;
+    match dynamics.barriers() {
+        Ok(barriers) => Ok(barriers.iter().cloned().collect()),
+        Err(DynamicsError::JumpMap { source }) => Err(McError::Compile(source)),
+        Err(DynamicsError::TooManyBarriers { count }) => Err(McError::Barriers {
+            layout: BarrierLayout::TooMany { count },
+        }),
+    }
 }
 
 /// Checks that `specs` is a layout the simulation handles: none, one, or two on the same

@@ -188,7 +188,7 @@ impl<'a> McPassage<'a> {
             &dynamics,
             &observables,
             SchemeChoice::Auto,
-            walls(&dynamics),
+            walls(&dynamics)?,
         )?;
         let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
         let coarse_batches = (batches / 4).max(2).min(batches);

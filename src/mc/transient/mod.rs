@@ -347,7 +347,7 @@ impl<'a> McTransient<'a> {
             &dynamics,
             &observables,
             SchemeChoice::Auto,
-            walls(&dynamics),
+            walls(&dynamics)?,
         )?;
         let states = dynamics.states();
         if let Some(limit) = plan.step_limit([&states[0], &states[1]]) {

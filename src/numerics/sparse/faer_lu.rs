@@ -239,7 +239,7 @@ pub(crate) mod tests {
     ) -> (Mesh, SparseColMat<usize, f64>, usize) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
         let b = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
-        let problem = Mechanical::new(&b).unwrap();
+        let problem = Mechanical::new(&crate::dynamics::Dynamics::read(&b)).unwrap();
         let x = if file.contains("impact") {
             [0.0, 9.9645]
         } else {
@@ -267,7 +267,7 @@ pub(crate) mod tests {
         ] {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
             let b = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
-            let problem = Mechanical::new(&b).unwrap();
+            let problem = Mechanical::new(&crate::dynamics::Dynamics::read(&b)).unwrap();
             let d = Domain {
                 x: [-6.0, 6.0],
                 v: [-9.0, 9.0],

@@ -26,7 +26,7 @@ impl StationaryMethod for ExactImpact {
     }
 
     fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
-        match EpcImpact::new(problem.model()).check() {
+        match EpcImpact::reading(problem.dynamics()).check() {
             Ok(()) => Ok(Ok(())),
             Err(EpcImpactError::Unsupported { model, reason }) => {
                 Ok(Err(NotApplicable::EpcImpact {
