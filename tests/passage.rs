@@ -90,6 +90,38 @@ fn the_estimate_covers_the_mean_times_error() {
     assert_eq!(coarse.report.estimate_cells, Some([30, 40]));
 }
 
+/// The paper's case 1 in its own coordinates (a reflecting wall at y = 0, safe y < 3) and in
+/// its Zhuravlev form (a pass-through barrier at z = 0, safe |z| < 3) is one first-passage
+/// problem: the two grids agree to within their stated errors and to 0.2 %. (Before the
+/// Zhuravlev form's bounds were put on faces its set ended at |z| = 2.989 at every count of
+/// cells and its mean time was 1.2 % short: 29.85 against 30.21 at 100×200.)
+#[test]
+fn the_paper_case_is_one_problem_in_both_coordinates() {
+    let run = |file: &str, safe: &str| {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("models")
+            .join(file);
+        let model = load_model(&path).unwrap().with_safe(safe).unwrap();
+        let bound = model.bind(&[]).unwrap();
+        let s = model.safe().unwrap().bind(&bound).unwrap();
+        GridPassage::new(&bound, &s)
+            .cells(100, 200)
+            .start([1e-6, 0.0])
+            .run()
+            .unwrap()
+    };
+    let own = run("vibro_impact_duffing.sde", "y < 3");
+    let zhuravlev = run("vibro_duffing.sde", "abs(z) < 3");
+    let (a, b) = (own.mean_at_start, zhuravlev.mean_at_start);
+    let stated = own.errors.as_ref().unwrap().mean_at_start
+        + zhuravlev.errors.as_ref().unwrap().mean_at_start;
+    println!("own {a:.5}, Zhuravlev {b:.5}, stated {stated:.3e}");
+    assert!((a - b).abs() <= stated, "{a} vs {b}: stated {stated}");
+    assert!((a / b - 1.0).abs() < 2e-3, "{a} vs {b}");
+    let (a, b) = (own.mean_stationary, zhuravlev.mean_stationary);
+    assert!((a / b - 1.0).abs() < 2e-3, "stationary start: {a} vs {b}");
+}
+
 /// The slowest decay of the killed generator: the forward and backward iterations find one
 /// λ, the mean passage time from the quasi-stationary law is 1/λ (exponential passage from
 /// it), and the stepped R(t) at late times is A e^{−λt}, each to the accuracy of the
@@ -237,7 +269,7 @@ fn monte_carlo(c: f64, u: f64, h: f64, paths: usize, seed: u64) -> (f64, f64, f6
 
 /// The case: ζ = 0.05 (c = 0.1, k = 1), barrier |x| = 2.5σ with σ² = πK/(ck) = 5,
 /// start at rest. The grid at two resolutions beside a Monte Carlo of 1e5 paths on the exact
-/// transition: the finer grid within 3 standard errors plus 1 %.
+/// transition: the finer grid within 3 standard errors plus its stated error.
 #[test]
 #[ignore = "about a minute: cargo test --release --test passage -- --ignored"]
 fn lightly_damped_oscillator_against_monte_carlo() {
@@ -256,9 +288,12 @@ fn lightly_damped_oscillator_against_monte_carlo() {
         fine.second_at_start,
         fine.mean_stationary
     );
+    // Within 3 standard errors plus the grid's own stated error (no allowance beyond: an
+    // independent Monte Carlo of 1.6e6 paths gives 175.10 ± 0.13, the grid 175.24 at 400×800).
+    let stated = fine.errors.as_ref().unwrap().mean_at_start;
     assert!(
-        (fine.mean_at_start - mc).abs() < 3.0 * se + 0.01 * mc,
-        "grid {} vs MC {mc} ± {se}",
+        (fine.mean_at_start - mc).abs() < 3.0 * se + stated,
+        "grid {} ± {stated} vs MC {mc} ± {se}",
         fine.mean_at_start
     );
 }

@@ -356,7 +356,7 @@ impl<'a> GridPassage<'a> {
         let started = Instant::now();
         let [nx, nv] = cells;
         let box_ = align::aligned(box_, nx, problem, self.safe, self.model);
-        let mesh = Mesh::new(box_, nx, nv, &problem.barriers, 4);
+        let mesh = Mesh::new(box_, nx, nv, &problem.barriers, align::MESH_ALIGN);
         let d = mesh.domain();
         let [x, v] = self.start;
         if !(d.x[0] <= x && x <= d.x[1] && d.v[0] <= v && v <= d.v[1]) {
