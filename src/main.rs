@@ -440,7 +440,8 @@ enum Plan {
     Transient(Box<cli::transient::TransientPlan>),
     Merge {
         result: Box<McResult>,
-        shards: usize,
+        /// The parts' `provenance` blocks (the model, the threads they ran with).
+        parts: Vec<Option<serde_json::Value>>,
         out: PathBuf,
     },
 }
@@ -535,7 +536,7 @@ fn plan(cli: Cli) -> Result<Planned> {
             let result = merge_named(&shards).map_err(lib)?;
             Plan::Merge {
                 result: Box::new(result),
-                shards: shards.len(),
+                parts: shards.into_iter().map(|(_, s)| s.provenance).collect(),
                 out,
             }
         }
@@ -676,11 +677,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
                 )))
             }
         }
-        Plan::Merge {
-            result,
-            shards,
-            out,
-        } => merge(&result, shards, &out),
+        Plan::Merge { result, parts, out } => merge(&result, &parts, &out),
     }
 }
 
@@ -879,12 +876,18 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<(String, ShardOutput)>> {
     Ok(shards)
 }
 
-fn merge(result: &McResult, shards: usize, out: &Path) -> Result<(), Failure> {
+/// Writes a merged Monte Carlo run, with the merge's provenance: its command and time, the
+/// model and threads of the `parts` (their `provenance` blocks).
+fn merge(
+    result: &McResult,
+    parts: &[Option<serde_json::Value>],
+    out: &Path,
+) -> Result<(), Failure> {
     let run = begin_output(out)?;
-    let written =
-        job::write_mc(result, &fpsolve::report::Provenance::now(None), run.out()).map_err(lib)?;
+    let provenance = fpsolve::report::Provenance::merged(parts.iter().map(Option::as_ref));
+    let written = job::write_mc(result, &provenance, run.out()).map_err(lib)?;
     say!("{result}");
-    sayln!("merged {shards} shards");
+    sayln!("merged {} shards", parts.len());
     commit_output(run, written.files.len())?;
     verdict(result, &written)
 }

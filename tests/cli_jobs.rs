@@ -34,6 +34,18 @@ fn header(path: &Path) -> String {
     text.lines().next().unwrap().to_string()
 }
 
+/// Asserts that the JSON file at `path` opens with its `provenance` block: the first member
+/// of its top-level object, as written (a parse would not keep the order).
+fn opens_with_provenance(path: &Path) {
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(
+        text.starts_with("{\n  \"provenance\": {\n"),
+        "{} does not open with its provenance: {}",
+        path.display(),
+        text.lines().take(3).collect::<Vec<_>>().join("\n")
+    );
+}
+
 #[test]
 fn main_job_writes_observable_pdfs_summary_and_figures() {
     let (dir, table) = run_into("main", &["models/vibro_duffing.sde", "--quiet"]);
@@ -44,6 +56,7 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     for f in ["pdf_y.png", "pdf_y.svg", "pdf_ydot.png", "pdf_ydot.svg"] {
         assert!(std::fs::metadata(dir.join(f)).unwrap().len() > 1000, "{f}");
     }
+    opens_with_provenance(&dir.join("summary.json"));
     let summary = json(&dir.join("summary.json"));
     assert_eq!(summary["all_converged"], true);
     let degrees = summary["degrees"].as_array().unwrap();
@@ -174,9 +187,10 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         succeeds(&args);
     };
     run(&[], &whole);
-    run(&["--shard", "1/3"], &parts);
-    run(&["--shard", "2/3"], &parts);
-    run(&["--shard", "3/3"], &parts);
+    // The parts on one thread each: the merge says so.
+    run(&["--shard", "1/3", "--threads", "1"], &parts);
+    run(&["--shard", "2/3", "--threads", "1"], &parts);
+    run(&["--shard", "3/3", "--threads", "1"], &parts);
     succeeds(&[
         "merge",
         parts.to_str().unwrap(),
@@ -217,6 +231,18 @@ fn shards_merge_to_exactly_the_unsplit_run() {
         "{pa}"
     );
     assert_eq!(pa["schema_version"], 2);
+    // Each part and both summaries open with their provenance; the part's is its own run's
+    // (one thread, the model), and the merge states the parts' model and threads.
+    opens_with_provenance(&whole.join("mc_summary.json"));
+    opens_with_provenance(&merged.join("mc_summary.json"));
+    let part = parts.join("shard_2_of_3.json");
+    opens_with_provenance(&part);
+    let part = json(&part)["provenance"].take();
+    assert!(part["command"].as_str().unwrap().contains(" --shard 2/3 "));
+    assert_eq!(part["threads"], 1, "{part}");
+    assert_eq!(part["model"], pa["model"], "{part}");
+    assert_eq!(pb["model"], pa["model"], "{pb}");
+    assert_eq!(pb["threads"], 1, "{pb}");
 }
 
 #[test]

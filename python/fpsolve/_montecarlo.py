@@ -88,8 +88,14 @@ class MonteCarlo:
     @property
     def provenance(self) -> Optional[Dict[str, Any]]:
         """Where the run came from (as ``mc_summary.json``'s ``provenance``): fpsolve's
-        version, the schema, the time (UTC), the threads, the model's name, file and text;
-        for a merge, the merge's time."""
+        version, the schema, the time (UTC), the worker ``threads``, the ``model``'s name,
+        file and text; no ``command`` (none from Python). The seed is
+        ``report["settings"]["seed"]``.
+
+        A merged run (``fpsolve.merge``, or ``simulate(executor=...)``, which merges its
+        parts) states the merge's time, the parts' model, and as ``threads`` the threads each
+        part ran with (the most, when they differ; the merging process's for parts that do
+        not say, such as shard files of an older fpsolve)."""
         return self.report.get("provenance")
 
     def __init__(
@@ -188,9 +194,18 @@ class MonteCarloShard(ShardText):
     :class:`MonteCarlo`, bit for bit.
 
     ``index`` (from 0) and ``count`` say which part it is; ``json`` is the file's text
-    (``write`` puts it where ``fpsolve merge`` reads it)."""
+    (``write`` puts it where ``fpsolve merge`` reads it), which opens with the part's
+    ``provenance`` (the model, the threads it ran with; absent in files of an older
+    fpsolve)."""
 
     __slots__ = ()
+
+    @property
+    def provenance(self) -> Optional[Dict[str, Any]]:
+        """Where the part came from: fpsolve's version, the schema, the time (UTC), the worker
+        ``threads`` it ran with, the ``model``'s name, file and text (None for a shard file of
+        an older fpsolve)."""
+        return json.loads(self.json).get("provenance")
 
     @property
     def file_name(self) -> str:

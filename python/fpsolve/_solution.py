@@ -355,6 +355,13 @@ class Solution:
     def report(self) -> Dict[str, Any]:
         """The typed outcome as a dict (the library's serde form; a non-finite number is None).
 
+        It opens with ``provenance``, where the solution came from, as in ``summary.json``
+        and :attr:`SweepResult.provenance`: ``fpsolve_version``, ``schema_version``,
+        ``created`` (when it was solved, UTC, ISO 8601), ``threads`` (the worker threads it
+        was solved with) and ``model`` (``name``, ``file`` when it was loaded from one, and
+        its whole ``text``); no ``command`` (none from Python), no seed (a solve has none).
+        A pickled solution keeps its original report, provenance included.
+
         EPC: ``solve`` (iterations, residual, residual_threshold, timings in ms),
         ``normalisation`` (plane or inside a ridge, with its depth), ``fpk_residual``,
         ``exponents``, ``coefficients``, ``sigma``, ``moments`` of the states. EPC-impact: its
@@ -363,6 +370,11 @@ class Solution:
         if self._report is None:
             self._report = json.loads(self._inner.report_json())
         return self._report
+
+    @property
+    def provenance(self) -> Dict[str, Any]:
+        """Where the solution came from: ``report["provenance"]`` (see :attr:`report`)."""
+        return self.report["provenance"]
 
     def __repr__(self) -> str:
         return repr(self._inner)

@@ -55,8 +55,11 @@ class SweepResult:
     @property
     def provenance(self) -> Optional[Dict[str, Any]]:
         """Where the result came from (``sweep.json``'s ``provenance``): fpsolve's version, the
-        schema, the command (none from Python), the time (UTC), the threads, the model's name,
-        file and text; for a merge, the merge's time and the model."""
+        schema, the command (none from Python), the time (UTC), the worker threads, the
+        model's name, file and text. A merged sweep (``fpsolve.merge``, or
+        ``sweep(executor=...)``, which merges its parts) states the merge's time, the parts'
+        model, and as ``threads`` the threads each part ran with (the most, when they
+        differ)."""
         return self.report.get("provenance")
 
     def _outcome(self, point: Dict[str, Any], method: str) -> Dict[str, Any]:

@@ -2,6 +2,7 @@
 //! merge of `ShardOutput`s (the command line's `fpsolve merge`).
 
 use fpsolve::mc::{merge_shards, ShardOutput};
+use fpsolve::report::Provenance;
 use pyo3::prelude::*;
 
 use crate::errors;
@@ -24,8 +25,12 @@ pub(crate) fn merge_mc_json(
                 format!("not a Monte Carlo shard: {e}"),
             )
         })?;
-    let result = py
-        .allow_threads(|| merge_shards(&parts))
-        .map_err(|e| errors::mc_error(py, &e))?;
-    crate::model::mc_outcome(&result, &fpsolve::report::Provenance::now(None))
+    // The merge's provenance states the parts' model and the threads they ran with (the
+    // shared pool's when no part says).
+    let (result, provenance) = crate::pool::on_pool(py, || {
+        let provenance = Provenance::merged(parts.iter().map(|p| p.provenance.as_ref()));
+        merge_shards(&parts).map(|r| (r, provenance))
+    })?
+    .map_err(|e| errors::mc_error(py, &e))?;
+    crate::model::mc_outcome(&result, &provenance)
 }

@@ -288,14 +288,21 @@ impl PyModel {
         let pool = crate::pool::shared()?;
         let solved = abandonable(py, move || {
             pool.install(|| {
+                // Made on the pool, so that it states the pool's threads.
+                let provenance = fpsolve::report::Provenance::now_bound(&bound);
                 let problem = Problem::new(&bound)?
                     .with_grid_domain(domain)
                     .with_grid_tolerance(tol);
-                problem.solve(chosen)
+                problem.solve(chosen).map(|s| (s, provenance))
             })
         })?;
-        let solution = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;
-        Ok(PySolution::new(solution, method.to_string(), asked.degree))
+        let (solution, provenance) = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;
+        Ok(PySolution::new(
+            solution,
+            method.to_string(),
+            asked.degree,
+            provenance,
+        ))
     }
 
     /// Runs the Monte Carlo simulation; returns its result as JSON (the `McResult`'s serde
@@ -330,20 +337,27 @@ impl PyModel {
         )?;
         // The pilot run that sizes the histograms is parallel too: on the pool, not rayon's
         // global one.
-        let simulation = py
-            .allow_threads(|| pool.install(|| Simulation::new(&bound, &config)))
+        let (simulation, provenance) = py
+            .allow_threads(|| {
+                pool.install(|| {
+                    // Made on the pool, so that it states the pool's threads.
+                    let provenance = fpsolve::report::Provenance::now_bound(&bound);
+                    Simulation::new(&bound, &config).map(|s| (s, provenance))
+                })
+            })
             .map_err(|e| errors::mc_error(py, &e))?;
         let run = interruptible_reporting(py, progress.as_ref(), |cancel, counter| {
             let report = |done: u64, total: u64| counter.report(done, total);
             pool.install(|| simulation.run_cancellable(&report, cancel))
         })?;
         let result = run.map_err(|e| errors::mc_error(py, &e))?;
-        mc_outcome(&result, &fpsolve::report::Provenance::now_bound(&bound))
+        mc_outcome(&result, &provenance)
     }
 
     /// Runs part `index` (from 0) of `count` of the Monte Carlo simulation (its statistics
     /// batches); returns the part as JSON (`ShardOutput`'s serde form, the command line's
-    /// `shard_K_of_N.json`), which `merge_mc_json` joins with the others.
+    /// `shard_K_of_N.json`, with its provenance: the model and the threads it ran with), which
+    /// `merge_mc_json` joins with the others.
     #[pyo3(signature = (index, count, samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate_shard(
@@ -401,14 +415,22 @@ pub(crate) fn mc_outcome(
     let warnings = result.warnings.iter().map(ToString::to_string).collect();
     let text = |e: serde_json::Error| errors::bad_argument(e.to_string());
     let json = serde_json::to_string(result).map_err(text)?;
-    let head = serde_json::to_string(provenance).map_err(text)?;
-    let body = json.strip_prefix('{').unwrap_or(&json);
-    let sep = if body.starts_with('}') { "" } else { "," };
     Ok((
-        format!("{{\"provenance\":{head}{sep}{body}"),
+        provenance_first(provenance, &json).map_err(text)?,
         flags,
         warnings,
     ))
+}
+
+/// The JSON object `json` with `provenance` put in as its first member.
+pub(crate) fn provenance_first(
+    provenance: &fpsolve::report::Provenance,
+    json: &str,
+) -> Result<String, serde_json::Error> {
+    let head = serde_json::to_string(provenance)?;
+    let body = json.strip_prefix('{').unwrap_or(json);
+    let sep = if body.starts_with('}') { "" } else { "," };
+    Ok(format!("{{\"provenance\":{head}{sep}{body}"))
 }
 
 /// The Monte Carlo configuration of `simulate`: `samples` recorded samples in all, spread over

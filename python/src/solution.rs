@@ -2,6 +2,7 @@
 //! evaluated over NumPy arrays with the GIL released; marginals, moments, coefficients and the
 //! typed report (the library's serde form, as JSON text the Python layer reads).
 
+use fpsolve::report::Provenance;
 use fpsolve::solve::Solution;
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -21,14 +22,22 @@ pub(crate) struct PySolution {
     solution: Solution,
     method: String,
     degree: Option<usize>,
+    /// Where it came from: made when it was solved, on the pool it was solved on.
+    provenance: Provenance,
 }
 
 impl PySolution {
-    pub(crate) fn new(solution: Solution, method: String, degree: Option<usize>) -> PySolution {
+    pub(crate) fn new(
+        solution: Solution,
+        method: String,
+        degree: Option<usize>,
+        provenance: Provenance,
+    ) -> PySolution {
         PySolution {
             solution,
             method,
             degree,
+            provenance,
         }
     }
 
@@ -160,11 +169,14 @@ impl PySolution {
         }
     }
 
-    /// The typed outcome as JSON: the EPC solution (coefficients, σ, iterations, residual,
-    /// normalisation, timings, moments), the EPC-impact solution, or the grid's report.
+    /// The typed outcome as JSON, opening with its `provenance` (version, schema, time,
+    /// threads, the model's name, file and text): the EPC solution (coefficients, σ,
+    /// iterations, residual, normalisation, timings, moments), the EPC-impact solution, or
+    /// the grid's report.
     fn report_json(&self) -> PyResult<String> {
         self.solution
             .report_json()
+            .and_then(|json| crate::model::provenance_first(&self.provenance, &json))
             .map_err(|e| errors::bad_argument(e.to_string()))
     }
 

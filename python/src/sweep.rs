@@ -87,7 +87,8 @@ pub(crate) fn merge_sweep_json(py: Python<'_>, shards: Vec<String>) -> PyResult<
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| errors::other::<errors::SweepError>(py, "not_a_shard", e.to_string()))?;
     let named: Vec<(String, SweepShard)> = parts.into_iter().map(|s| (s.file_name(), s)).collect();
-    let merged = merge_sweep_shards(&named)
+    // On the shared pool: the merge's provenance states the parts' threads, or the pool's.
+    let merged = crate::pool::on_pool(py, || merge_sweep_shards(&named))?
         .map_err(|e| errors::other::<errors::SweepError>(py, "shard", e.to_string()))?;
     Ok(merged.json().to_string())
 }

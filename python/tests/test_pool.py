@@ -241,3 +241,46 @@ def test_errors_come_back_from_a_worker_with_their_class_and_data(linear):
             ex.submit(_bad_override, linear).result(timeout=TIMEOUT_S)
     assert info.value.kind == "bind" and isinstance(info.value, ValueError)
     assert "nope" in str(info.value)
+
+
+def _without_provenance(report):
+    return {k: v for k, v in report.items() if k != "provenance"}
+
+
+def test_a_merged_run_states_the_parts_model_and_threads(linear):
+    kw = dict(samples=8000, trajectories=1024, seed=7, c=0.5)
+    local = linear.simulate(threads=1, **kw)
+    parts = [linear.simulate(shard=(k, 3), threads=1, **kw) for k in range(3)]
+    for p in parts:
+        assert p.json.startswith('{"provenance":')
+        assert p.provenance["threads"] == 1
+        assert p.provenance["model"] == local.provenance["model"]
+    merged = fpsolve.merge([pickle.loads(pickle.dumps(p)) for p in parts])
+    # Only the provenance differs from the local run: its time, and nothing else here.
+    assert _without_provenance(merged.report) == _without_provenance(local.report)
+    assert list(merged.report)[0] == "provenance"
+    p, q = merged.provenance, local.provenance
+    assert p["model"]["name"] == "linear" and p["model"]["text"] == linear.text
+    assert p["model"] == q["model"] and p["model"]["file"] == str(MODELS / "linear.sde")
+    assert p["threads"] == q["threads"] == 1
+    assert set(p) == set(q) == {"fpsolve_version", "schema_version", "created", "threads", "model"}
+
+
+def test_executor_runs_state_the_model_and_the_threads_their_parts_ran_with(linear):
+    kw = dict(samples=8000, trajectories=1024, seed=3, c=0.5)
+    values = dict(c=[0.4, 0.6, 0.8, 1.0])
+    local = linear.simulate(**kw)
+    local_sweep = fpsolve.sweep(linear, "epc", degree=2, **values)
+    ctx = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(2, mp_context=ctx) as ex:
+        remote = linear.simulate(executor=ex, shards=4, threads=1, **kw)
+        remote_sweep = fpsolve.sweep(linear, "epc", degree=2, executor=ex, shards=2, threads=1, **values)
+    # The numbers are the local run's bits; the provenance names the model and one thread.
+    assert _without_provenance(remote.report) == _without_provenance(local.report)
+    for result, alone in ((remote, local), (remote_sweep, local_sweep)):
+        p = result.provenance
+        assert p["model"] == alone.provenance["model"], p
+        assert p["model"]["text"] == linear.text
+        assert p["threads"] == 1, p
+        assert set(p) == set(alone.provenance)
+    assert np.array_equal(remote_sweep.stat("epc", "z", "variance"), local_sweep.stat("epc", "z", "variance"))

@@ -1,6 +1,9 @@
 """progress= on long calls (a sweep's points, a Monte Carlo run's batches) and the provenance
 a result carries."""
 
+import json
+import pickle
+
 import pytest
 
 import fpsolve
@@ -84,3 +87,32 @@ def test_results_carry_their_provenance(vibro, linear):
     mc = linear.simulate(samples=100_000)
     assert mc.provenance["model"]["name"] == "linear"
     assert mc.provenance["created"].endswith("Z")
+
+
+def test_a_solutions_report_opens_with_its_provenance(vibro, linear):
+    sol = vibro.solve("epc", degree=4)
+    r = sol.report
+    assert list(r)[0] == "provenance"
+    p = sol.provenance
+    assert p is r["provenance"]
+    sweep = fpsolve.sweep(vibro, eps=[0.0, 0.1])
+    # The keys of SweepResult.provenance: no command from Python, no seed (a solve has none).
+    assert set(p) == set(sweep.provenance) == {
+        "fpsolve_version", "schema_version", "created", "threads", "model"
+    }
+    assert p["fpsolve_version"] == fpsolve.__version__
+    assert p["schema_version"] == sweep.provenance["schema_version"] and p["created"].endswith("Z")
+    assert isinstance(p["threads"], int) and p["threads"] >= 1
+    assert p["model"] == sweep.provenance["model"]
+    assert p["model"]["text"] == vibro.text and p["model"]["file"].endswith("vibro_duffing.sde")
+    # The rest of the report is the solution's as before.
+    assert r["degree"] == 4 and r["solve"]["iterations"] >= 1
+    grid = linear.solve("grid", cells=(24, 48), c=0.5)
+    assert list(grid.report)[0] == "provenance" and grid.provenance["model"]["name"] == "linear"
+    assert "cells" in json.dumps(grid.report)
+    # A model made from text has no file; a pickled solution keeps its provenance.
+    text_model = fpsolve.Model.from_text(linear.text)
+    q = text_model.solve("epc", degree=2).provenance["model"]
+    assert "file" not in q and q["text"] == linear.text and q["name"] == "linear"
+    back = pickle.loads(pickle.dumps(sol))
+    assert back.report == sol.report and back.provenance == p

@@ -12,6 +12,7 @@ use super::shard::part::ShardOutput;
 use super::stats::result::{finalize_run, McResult};
 use crate::base::cancel::Cancel;
 use crate::model::BoundModel;
+use crate::report::{ModelSource, Provenance};
 
 /// Half-width of an automatic grid, in pilot standard deviations.
 const GRID_HALF_WIDTH_SDS: f64 = 6.0;
@@ -21,6 +22,8 @@ const GRID_HALF_WIDTH_SDS: f64 = 6.0;
 pub struct Simulation {
     plan: Plan,
     settings: RunSettings,
+    /// The model's name, file and text, for the provenance of its shards.
+    source: ModelSource,
 }
 
 impl Simulation {
@@ -173,7 +176,11 @@ impl Simulation {
                 }
             }
         }
-        Ok(Simulation { plan, settings })
+        Ok(Simulation {
+            plan,
+            settings,
+            source: ModelSource::of_bound(model),
+        })
     }
 
     /// The resolved settings (scheme, burn-in, grids, …).
@@ -259,7 +266,10 @@ impl Simulation {
     }
 
     /// Runs one shard of the simulation (its statistics batches, and those of them in the
-    /// bias estimate's range again at 2·dt); see [`merge_shards`](super::merge_shards).
+    /// bias estimate's range again at 2·dt); see [`merge_shards`](super::merge_shards). The
+    /// part carries its `provenance`: the model's name, file and text and the threads it ran
+    /// with (those of the pool it is called on), which a merge reports
+    /// ([`Provenance::merged`]).
     pub fn run_shard(&self, shard: Shard) -> Result<ShardOutput, McError> {
         let st = &self.settings;
         if shard.count == 0 || shard.index >= shard.count || shard.count > st.batches {
@@ -283,7 +293,10 @@ impl Simulation {
             &Cancel::new(),
         )
         .expect("a run whose flag nobody holds is never cancelled");
-        ShardOutput::sealed(st.clone(), shard, batches, coarse)
+        let mut part = ShardOutput::sealed(st.clone(), shard, batches, coarse)?;
+        let provenance = Provenance::now_of(self.source.clone());
+        part.provenance = Some(serde_json::to_value(provenance).expect("provenance serialises"));
+        Ok(part)
     }
 }
 

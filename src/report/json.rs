@@ -109,6 +109,9 @@ pub fn undefined_fields<T: Serialize + ?Sized>(value: &T) -> Result<Vec<Undefine
 /// instead of losing the run. Returns the path and the list (empty when every number is
 /// finite). For results that must be read back exactly (shard files), use [`write_json`].
 ///
+/// The members of every object are written in the order of their names, but for a
+/// top-level `provenance`, which opens the file.
+///
 /// ```
 /// use fpsolve::report::{write_json_flagging_undefined, OutputDir};
 ///
@@ -122,6 +125,12 @@ pub fn undefined_fields<T: Serialize + ?Sized>(value: &T) -> Result<Vec<Undefine
 /// assert_eq!(undefined[0].field, "$.kurtosis");
 /// let text = std::fs::read_to_string(path).unwrap();
 /// assert!(text.contains("\"kurtosis\": null") && text.contains("\"undefined\""));
+///
+/// #[derive(serde::Serialize)]
+/// struct Summary { mean: f64, provenance: &'static str }
+/// let (path, _) = write_json_flagging_undefined(&dir, "s.json", &Summary { mean: 0.4, provenance: "here" })?;
+/// let text = std::fs::read_to_string(path).unwrap();
+/// assert_eq!(text, "{\n  \"provenance\": \"here\",\n  \"mean\": 0.4\n}\n");
 /// # std::fs::remove_dir_all(&tmp).unwrap();
 /// # Ok::<(), fpsolve::report::ReportError>(())
 /// ```
@@ -151,10 +160,33 @@ pub fn write_json_flagging_undefined<T: Serialize + ?Sized>(
             map.insert("undefined".to_string(), list);
         }
     }
-    let mut bytes =
-        serde_json::to_vec_pretty(&json).map_err(|source| ReportError::Json { path, source })?;
+    let mut bytes = serde_json::to_vec_pretty(&ProvenanceFirst(&json))
+        .map_err(|source| ReportError::Json { path, source })?;
     bytes.push(b'\n');
     Ok((dir.write_atomic(name, &bytes)?, undefined))
+}
+
+/// A JSON value written as serde_json writes it, except that a top-level member
+/// `provenance` comes first: where a result came from opens its file. The other members keep
+/// their order (a `serde_json::Map`'s: by name).
+struct ProvenanceFirst<'a>(&'a serde_json::Value);
+
+impl Serialize for ProvenanceFirst<'_> {
+    fn serialize<S: ser::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use ser::SerializeMap;
+        let serde_json::Value::Object(map) = self.0 else {
+            return self.0.serialize(serializer);
+        };
+        let Some(provenance) = map.get("provenance") else {
+            return self.0.serialize(serializer);
+        };
+        let mut out = serializer.serialize_map(Some(map.len()))?;
+        out.serialize_entry("provenance", provenance)?;
+        for (key, value) in map.iter().filter(|(key, _)| *key != "provenance") {
+            out.serialize_entry(key, value)?;
+        }
+        out.end()
+    }
 }
 
 #[derive(Debug)]

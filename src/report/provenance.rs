@@ -4,7 +4,7 @@
 use std::sync::OnceLock;
 use std::time::{SystemTime, UNIX_EPOCH};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::model::{BoundModel, Model, Origin};
 
@@ -57,7 +57,8 @@ pub struct Provenance {
     pub command: Option<String>,
     /// When the file was written, UTC, ISO 8601 to the second.
     pub created: String,
-    /// The worker threads of the run.
+    /// The worker threads of the run; for a merge of a split run's parts, the threads each
+    /// part ran with (the most, when they differ), see [`Provenance::merged`].
     pub threads: usize,
     /// The model, when the result is of one model.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -65,7 +66,7 @@ pub struct Provenance {
 }
 
 /// A model as its file gave it.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModelSource {
     /// Its name.
     pub name: String,
@@ -90,24 +91,76 @@ impl Provenance {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn now(model: Option<&Model>) -> Provenance {
-        Provenance::with(model.map(|m| source(&m.name, m.origin.as_deref())))
+        Provenance::with(
+            model.map(|m| source(&m.name, m.origin.as_deref())),
+            rayon::current_num_threads(),
+        )
     }
 
     /// [`Provenance::now`] of a bound model (its file and text; the values bound are in the
     /// result itself and in the command).
     pub fn now_bound(model: &BoundModel) -> Provenance {
-        Provenance::with(Some(source(&model.name, model.origin.as_deref())))
+        Provenance::now_of(ModelSource::of_bound(model))
     }
 
-    fn with(model: Option<ModelSource>) -> Provenance {
+    /// The provenance of a merge of a split run's parts, written now: the merge's version,
+    /// schema, command and time, with what the parts' own `provenance` blocks say of the run:
+    /// the `model` (the first part's that names one) and the `threads` each part ran with
+    /// (the most, when they differ). A part without a block (a file of an older fpsolve)
+    /// says nothing; when none says how many threads, `threads` is the merging process's.
+    ///
+    /// ```
+    /// use fpsolve::report::Provenance;
+    /// let part = serde_json::json!({ "threads": 1, "model": { "name": "m", "text": "model m" } });
+    /// let p = Provenance::merged([Some(&part), None]);
+    /// assert_eq!(p.threads, 1);
+    /// assert_eq!(p.model.unwrap().text.as_deref(), Some("model m"));
+    /// ```
+    pub fn merged<'a, I>(parts: I) -> Provenance
+    where
+        I: IntoIterator<Item = Option<&'a serde_json::Value>>,
+    {
+        let mut threads: Option<usize> = None;
+        let mut model: Option<ModelSource> = None;
+        for part in parts.into_iter().flatten() {
+            let ran = part
+                .get("threads")
+                .and_then(serde_json::Value::as_u64)
+                .and_then(|t| usize::try_from(t).ok())
+                .filter(|&t| t > 0);
+            if let Some(t) = ran {
+                threads = Some(threads.map_or(t, |m| m.max(t)));
+            }
+            if model.is_none() {
+                model = part
+                    .get("model")
+                    .and_then(|m| ModelSource::deserialize(m).ok());
+            }
+        }
+        Provenance::with(model, threads.unwrap_or_else(rayon::current_num_threads))
+    }
+
+    /// [`Provenance::now`] of a model described already (a simulation's, kept for its shards).
+    pub(crate) fn now_of(model: ModelSource) -> Provenance {
+        Provenance::with(Some(model), rayon::current_num_threads())
+    }
+
+    fn with(model: Option<ModelSource>, threads: usize) -> Provenance {
         Provenance {
             fpsolve_version: env!("CARGO_PKG_VERSION"),
             schema_version: SCHEMA_VERSION,
             command: COMMAND.get().cloned(),
             created: utc(SystemTime::now()),
-            threads: rayon::current_num_threads(),
+            threads,
             model,
         }
+    }
+}
+
+impl ModelSource {
+    /// The source of a bound model: its name, file and text.
+    pub(crate) fn of_bound(model: &BoundModel) -> ModelSource {
+        source(&model.name, model.origin.as_deref())
     }
 }
 

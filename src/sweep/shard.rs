@@ -517,13 +517,8 @@ fn join(first: &SweepShard, parts: &[&SweepShard]) -> MergedSweep {
     let wall_ms: f64 = parts.iter().map(|s| s.wall_ms).sum();
     let entries: Vec<String> = points.iter().map(|p| indent(&p.json, "    ")).collect();
     // The merged file's provenance is the merge's (its command and time), with the model
-    // the shards were run on.
-    let mut provenance =
-        serde_json::to_value(Provenance::now(None)).expect("provenance serialises");
-    let model = first.provenance.as_ref().and_then(|p| p.get("model"));
-    if let (Some(model), Some(fields)) = (model, provenance.as_object_mut()) {
-        fields.insert("model".into(), model.clone());
-    }
+    // the shards were run on and the threads they ran with.
+    let provenance = Provenance::merged(parts.iter().map(|s| s.provenance.as_ref()));
     let json = splice(&first.json_head, &entries.join(",\n"), wall_ms, &provenance);
     let methods: Vec<String> = first
         .identity
@@ -560,7 +555,7 @@ fn indent(text: &str, by: &str) -> String {
 /// The pretty `sweep.json` of a head without provenance, points and time, with the merge's
 /// provenance, the points' entries and the time put in: the text serde_json writes for the
 /// whole result.
-fn splice(head: &str, entries: &str, wall_ms: f64, provenance: &serde_json::Value) -> String {
+fn splice(head: &str, entries: &str, wall_ms: f64, provenance: &Provenance) -> String {
     let tail = "  \"points\": [],\n  \"wall_ms\": 0.0\n}";
     let body = head
         .strip_suffix(tail)

@@ -105,6 +105,32 @@ fn a_shard_file_merges_after_a_trip_through_json() {
     assert_eq!(merged.csv(), sweep.run().to_csv());
 }
 
+/// A merge states the parts' model and the threads they ran with (not the merging
+/// process's), first in its file.
+#[test]
+fn a_merge_states_the_threads_and_the_model_of_its_parts() {
+    let model = linear();
+    let spec = SweepSpec::parse(&["c=0.1:0.5:5".to_string()]).unwrap();
+    let sweep = Sweep::new(&model, &spec).degree(2);
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let parts = one.install(|| shards(&sweep, 2));
+    let part = parts[0].1.provenance.as_ref().unwrap();
+    assert_eq!(part["threads"], 1, "{part}");
+    let merged = merge_sweep_shards(&parts).unwrap();
+    assert!(merged.json().starts_with("{\n  \"provenance\": {\n"));
+    let value: serde_json::Value = serde_json::from_str(merged.json()).unwrap();
+    let provenance = &value["provenance"];
+    assert_eq!(provenance["threads"], 1, "{provenance}");
+    assert_eq!(provenance["model"], part["model"]);
+    assert!(provenance["model"]["text"]
+        .as_str()
+        .unwrap()
+        .contains("observe a"));
+}
+
 #[test]
 fn grid_sweeps_shard_too() {
     let model = linear();

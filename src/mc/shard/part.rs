@@ -28,6 +28,12 @@ use crate::mc::stats::result::{finalize_run, McResult};
 /// or [`merge_named`], which check it with [`ShardOutput::validate`] first.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ShardOutput {
+    /// Where the part came from (the `provenance` block of a JSON result: version, schema,
+    /// command, time, the threads it ran with, the model's name, file and text; absent in
+    /// files of an older fpsolve). Not a number of the run: the digests do not cover it, and
+    /// a merge reports it ([`Provenance::merged`](crate::report::Provenance::merged)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<serde_json::Value>,
     /// The resolved settings of the whole run.
     pub settings: RunSettings,
     /// Which shard this is.
@@ -55,6 +61,7 @@ impl ShardOutput {
             }
         })?;
         Ok(ShardOutput {
+            provenance: None,
             settings,
             shard,
             batches,
@@ -293,6 +300,59 @@ mod tests {
     use crate::mc::{reference, McConfig, Simulation};
     use serde_json::{json, Value};
 
+    /// Each part says where it came from (the model, the threads of the pool it ran on),
+    /// first in its file; a merge reports the parts' model and threads, and parts without a
+    /// provenance (files of an older fpsolve) merge to the same numbers.
+    #[test]
+    fn parts_carry_their_provenance_and_the_merge_reports_it() {
+        let model = reference::linear_oscillator(0.5, 1.0, 1.0)
+            .bind(&[])
+            .unwrap();
+        let config = McConfig {
+            trajectories: 64,
+            lanes: 16,
+            samples: 20,
+            ..McConfig::default()
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let parts: Vec<ShardOutput> = (0..2)
+            .map(|k| one.install(|| sim.run_shard(Shard::new(k, 2).unwrap()).unwrap()))
+            .collect();
+        for part in &parts {
+            let p = part.provenance.as_ref().unwrap();
+            assert_eq!(p["threads"], 1, "{p}");
+            assert_eq!(p["model"]["name"], "linear", "{p}");
+            assert_eq!(p["schema_version"], crate::report::SCHEMA_VERSION);
+            let text = serde_json::to_string_pretty(part).unwrap();
+            assert!(
+                text.starts_with("{\n  \"provenance\": {"),
+                "{}",
+                &text[..80]
+            );
+        }
+        let merged = crate::report::Provenance::merged(parts.iter().map(|p| p.provenance.as_ref()));
+        assert_eq!(merged.threads, 1);
+        assert_eq!(merged.model.unwrap().name, "linear");
+        let old: Vec<ShardOutput> = parts
+            .iter()
+            .cloned()
+            .map(|mut p| {
+                p.provenance = None;
+                p
+            })
+            .collect();
+        assert_eq!(merge_shards(&old).unwrap(), merge_shards(&parts).unwrap());
+        assert_eq!(merge_shards(&parts).unwrap(), sim.run().unwrap());
+        let text = serde_json::to_string(&old[0]).unwrap();
+        assert!(!text.contains("provenance"));
+        let back: ShardOutput = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, old[0]);
+    }
+
     /// The two shards of a small real run, as JSON values (as they arrive from files).
     fn two_shards() -> (McResult, Vec<Value>) {
         two_shards_seeded(McConfig::default().seed)
@@ -447,6 +507,10 @@ mod tests {
             .collect();
         let mut paths = Vec::new();
         leaves(&parts[1], &mut Vec::new(), &mut paths);
+        // Where the part came from is no number of the run: any value merges (the merge
+        // reports it), so its edits are not counted.
+        assert!(paths.iter().any(|p| p[0] == "provenance"));
+        paths.retain(|p| p[0] != "provenance");
         let hostile = [
             json!(0),
             json!(1),
