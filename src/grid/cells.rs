@@ -100,8 +100,7 @@ impl Cells {
     /// assert!(c.memory_bytes() < 1e9);
     /// ```
     pub fn memory_bytes(&self) -> f64 {
-        let n = (self.0[0] * self.0[1]) as f64;
-        FILL_BYTES * n * n.log2().max(1.0) + 15e6
+        memory_bytes_of(self.0[0] * self.0[1])
     }
 
     /// Checks [`Cells::memory_bytes`] against `limit_bytes`.
@@ -146,6 +145,12 @@ impl Cells {
 
 /// Bytes of peak memory per n·log₂ n unknowns (measured 241 to 259, with a margin).
 const FILL_BYTES: f64 = 320.0;
+
+/// [`Cells::memory_bytes`] of `n` cells in all.
+pub(crate) fn memory_bytes_of(n: usize) -> f64 {
+    let n = n as f64;
+    FILL_BYTES * n * n.log2().max(1.0) + 15e6
+}
 
 #[cfg(test)]
 mod tests {

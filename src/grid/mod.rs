@@ -90,8 +90,8 @@ pub use passage::{
 };
 pub use solution::{BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings};
 pub use tolerance::{
-    check_tolerance, Shortfall, ToleranceOutcome, MAX_TOLERANCE, MAX_TOLERANCE_CELLS,
-    MAX_TOLERANCE_SOLVES,
+    check_tolerance, tolerance_cell_limit, Shortfall, ToleranceOutcome, MAX_TOLERANCE,
+    MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES,
 };
 pub use transient::{
     GridTransient, Initial, Moments, Snapshot, SnapshotErrors, TransientError, TransientHistory,
@@ -215,7 +215,8 @@ impl<'a> GridSolver<'a> {
     /// [`DiscretisationEstimate::curve_order`]), aiming below the tolerance with a margin,
     /// in counts that are multiples of 4; each solve sizes its own box
     /// unless [`domain`](Self::domain) fixed it. Exclusive with [`cells`](Self::cells)
-    /// ([`GridError::Setting`]). A tolerance not reached within [`MAX_TOLERANCE_CELLS`] or
+    /// ([`GridError::Setting`]). A tolerance not reached within the cells this machine's
+    /// memory allows ([`tolerance_cell_limit`], at most [`MAX_TOLERANCE_CELLS`]) or
     /// [`MAX_TOLERANCE_SOLVES`] is not an error: the solution with the smallest estimate is
     /// returned, and its [`GridReport::tolerance`] says `reached: false` and why (the
     /// report's `Display` prints a warning).
@@ -494,6 +495,8 @@ impl<'a> GridSolver<'a> {
         let mut last_error = None;
         let mut order = ASSUMED_ORDER;
         let mut not_falling = 0;
+        // No refinement beyond what this machine's memory lets a solve on given cells use.
+        let limit = tolerance_cell_limit(crate::base::limits::memory_limit_bytes());
         let shortfall = loop {
             let one = GridSolver {
                 cells,
@@ -546,13 +549,9 @@ impl<'a> GridSolver<'a> {
                     }
                 }
             }
-            match next_cells(cells, e, tol, order) {
+            match next_cells(cells, e, tol, order, limit) {
                 NextCells::Free(next) | NextCells::Capped(next) => cells = next,
-                NextCells::AtLimit => {
-                    break Some(Shortfall::CellLimit {
-                        limit: MAX_TOLERANCE_CELLS,
-                    })
-                }
+                NextCells::AtLimit => break Some(Shortfall::CellLimit { limit }),
             }
         };
         let Some(mut sol) = best else {

@@ -6,10 +6,44 @@ use serde::Serialize;
 
 use super::error::GridError;
 
-/// The most cells (position × velocity) a solve on request may use: the sparse LU's fill
-/// grows faster than the cell count, and 720×1440 cells keep one factorisation (and its
-/// half-resolution partner) within about 2 GB on the velocity-fastest ordering.
+/// The most cells (position × velocity) a solve on request may use on any machine: the
+/// sparse LU's fill grows faster than the cell count (720×1440 cells took 4.6 GB, the
+/// half-resolution partner included). On a machine with less memory the limit is lower
+/// ([`tolerance_cell_limit`]).
 pub const MAX_TOLERANCE_CELLS: usize = 720 * 1440;
+
+/// The most cells a solve on request may use when a run may plan for `limit_bytes`
+/// ([`crate::base::limits::memory_limit_bytes`]): the largest count whose estimated peak
+/// ([`Cells::memory_bytes`](super::Cells::memory_bytes), the guard `--cells` is checked
+/// against) fits, at most [`MAX_TOLERANCE_CELLS`]. A refinement is never planned beyond
+/// what a solve on given cells would be refused for.
+///
+/// ```
+/// use fpsolve::grid::{tolerance_cell_limit, Cells, MAX_TOLERANCE_CELLS};
+/// assert_eq!(tolerance_cell_limit(1e12), MAX_TOLERANCE_CELLS);
+/// let four_gib = 4.0 * 1024.0 * 1024.0 * 1024.0;
+/// let n = tolerance_cell_limit(four_gib);
+/// assert!(n < MAX_TOLERANCE_CELLS);
+/// assert!(Cells([n, 1]).memory_bytes() <= four_gib);
+/// assert!(Cells([n + 1, 1]).memory_bytes() > four_gib);
+/// ```
+pub fn tolerance_cell_limit(limit_bytes: f64) -> usize {
+    use super::cells::memory_bytes_of;
+    if memory_bytes_of(MAX_TOLERANCE_CELLS) <= limit_bytes {
+        return MAX_TOLERANCE_CELLS;
+    }
+    // The estimate grows with the count: the largest that fits, by bisection.
+    let (mut fits, mut not) = (0, MAX_TOLERANCE_CELLS);
+    while not - fits > 1 {
+        let mid = fits + (not - fits) / 2;
+        if memory_bytes_of(mid) <= limit_bytes {
+            fits = mid;
+        } else {
+            not = mid;
+        }
+    }
+    fits
+}
 
 /// How many solves a tolerance may take before it is reported as not reached.
 pub const MAX_TOLERANCE_SOLVES: usize = 6;
@@ -38,8 +72,12 @@ pub struct ToleranceOutcome {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, thiserror::Error)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Shortfall {
-    /// The cells needed exceed [`MAX_TOLERANCE_CELLS`].
-    #[error("the cells it needs exceed the limit of {limit} cells (memory of the sparse LU)")]
+    /// The cells needed exceed the limit ([`tolerance_cell_limit`]: [`MAX_TOLERANCE_CELLS`],
+    /// or fewer on a machine with less memory).
+    #[error(
+        "the cells it needs exceed the limit of {limit} cells (the sparse LU's memory on this \
+         machine)"
+    )]
     CellLimit {
         /// The limit.
         limit: usize,
@@ -100,9 +138,16 @@ pub fn check_tolerance(tol: f64) -> Result<(), GridError> {
 /// The cells of the next solve after `cells` gave `estimate`: the factor per axis that
 /// brings the estimate to `MARGIN × tol` at convergence order `order`, at least 1.25
 /// (a smaller step costs a solve for little), at most 4, counts that are multiples of 4
-/// (so that the solve has the quarter solve of its observed order), the aspect kept.
-/// `None` when even the capped factor leaves the cells at the limit already.
-pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64) -> NextCells {
+/// (so that the solve has the quarter solve of its observed order), the aspect kept, at most
+/// `limit` cells in all. `None` when even the capped factor leaves the cells at the limit
+/// already.
+pub(super) fn next_cells(
+    cells: [usize; 2],
+    estimate: f64,
+    tol: f64,
+    order: f64,
+    limit: usize,
+) -> NextCells {
     let factor = if estimate.is_finite() {
         (estimate / (MARGIN * tol))
             .powf(1.0 / order)
@@ -113,9 +158,9 @@ pub(super) fn next_cells(cells: [usize; 2], estimate: f64, tol: f64, order: f64)
     let by4 = |n: usize| -> usize { ((n as f64 * factor / 4.0).ceil() as usize * 4).max(64) };
     let mut next = [by4(cells[0]), by4(cells[1])];
     let total = |c: [usize; 2]| c[0] * c[1];
-    if total(next) > MAX_TOLERANCE_CELLS {
+    if total(next) > limit {
         // Scale down to the limit, keeping the aspect.
-        let s = (MAX_TOLERANCE_CELLS as f64 / total(next) as f64).sqrt();
+        let s = (limit as f64 / total(next) as f64).sqrt();
         next = [next[0], next[1]].map(|n| ((n as f64 * s / 4.0).floor() as usize * 4).max(64));
         if next[0] <= cells[0] && next[1] <= cells[1] {
             return NextCells::AtLimit;
@@ -143,21 +188,34 @@ mod tests {
     #[test]
     fn next_cells_aims_below_the_tolerance_at_the_observed_order() {
         // Estimate 4e-3 wanted 1e-3 at order 2: factor sqrt(4 / 0.6) = 2.58.
-        match next_cells([50, 100], 4e-3, 1e-3, 2.0) {
+        match next_cells([50, 100], 4e-3, 1e-3, 2.0, MAX_TOLERANCE_CELLS) {
             NextCells::Free(c) => assert_eq!(c, [132, 260]),
             other => panic!("{other:?}"),
         }
         // A tiny step is raised to 1.25.
         assert_eq!(
-            next_cells([100, 200], 6.1e-4, 1e-3, 2.0),
+            next_cells([100, 200], 6.1e-4, 1e-3, 2.0, MAX_TOLERANCE_CELLS),
             NextCells::Free([128, 252])
         );
         // Beyond the limit: capped, then at the limit.
         assert!(matches!(
-            next_cells([600, 1200], 1.0, 1e-4, 1.0),
+            next_cells([600, 1200], 1.0, 1e-4, 1.0, MAX_TOLERANCE_CELLS),
             NextCells::Capped(_)
         ));
-        assert_eq!(next_cells([720, 1440], 1.0, 1e-4, 1.0), NextCells::AtLimit);
+        assert_eq!(
+            next_cells([720, 1440], 1.0, 1e-4, 1.0, MAX_TOLERANCE_CELLS),
+            NextCells::AtLimit
+        );
+        // A machine with less memory: capped at its own limit.
+        let limit = 300 * 600;
+        match next_cells([200, 400], 1.0, 1e-4, 1.0, limit) {
+            NextCells::Capped(c) => assert!(c[0] * c[1] <= limit && c[0] > 200, "{c:?}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            next_cells([300, 600], 1.0, 1e-4, 1.0, limit),
+            NextCells::AtLimit
+        );
     }
 
     #[test]
