@@ -367,6 +367,12 @@ impl<'a> Problem<'a> {
         }
     }
 
+    /// The states, then the observables, of the model as it stands: what a solution of a
+    /// method that solves the model in its own coordinates knows (the grid, EPC-impact).
+    pub(crate) fn own_quantities(&self) -> Arc<[Quantity]> {
+        self.own_quantities.clone()
+    }
+
     /// The bound model.
     pub fn model(&self) -> &BoundModel {
         &self.model
@@ -432,7 +438,7 @@ impl<'a> Problem<'a> {
         let grid = solver.solve()?;
         Ok(Solution::new(
             Density::Grid(Box::new(grid)),
-            self.own_quantities.clone(),
+            self.own_quantities(),
         ))
     }
 
@@ -441,7 +447,7 @@ impl<'a> Problem<'a> {
         let sol = crate::epc_impact::EpcImpact::reading(&self.dynamics).solve(degree)?;
         Ok(Solution::new(
             Density::EpcImpact(Box::new(sol)),
-            self.own_quantities.clone(),
+            self.own_quantities(),
         ))
     }
 
@@ -465,7 +471,7 @@ impl<'a> Problem<'a> {
             .into_iter()
             .map(|r| {
                 r.map(|s| {
-                    Solution::new(Density::EpcImpact(Box::new(s)), self.own_quantities.clone())
+                    Solution::new(Density::EpcImpact(Box::new(s)), self.own_quantities())
                 })
                 .map_err(SolveError::from)
             })
