@@ -33,6 +33,7 @@ from ._fpsolve import (
 )
 from ._model import Model
 from ._montecarlo import Histogram, MonteCarlo, MonteCarloShard
+from ._passage import Passage, PassageMonteCarlo
 from ._solution import Moments, PointMassWarning, Solution
 from ._warnings import FpsolveWarning, MonteCarloWarning
 from ._sweep import SweepResult, SweepShard, sweep
@@ -61,6 +62,8 @@ __all__ = [
     "NotApplicableError",
     "NotNormalisableError",
     "ParameterError",
+    "Passage",
+    "PassageMonteCarlo",
     "PointMassWarning",
     "Solution",
     "SolveError",

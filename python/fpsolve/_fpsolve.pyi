@@ -167,6 +167,20 @@ def sweep_json(
     progress: Optional[Callable[[int, int], Any]] = None,
 ) -> str: ...
 def merge_sweep_json(shards: Sequence[str]) -> str: ...
+def passage(
+    model: _Model,
+    safe: Optional[str],
+    start: Union[None, str, Tuple[float, float]],
+    times: Union[None, str, Sequence[float]],
+    cells: Optional[Tuple[int, int]],
+    method: Union[str, Sequence[str]],
+    paths: int,
+    dt: float,
+    horizon: Optional[float],
+    seed: int,
+    threads: Optional[int],
+    set: Optional[Mapping[str, _Value]] = None,
+) -> Tuple[str, List[Tuple[str, List[float], List[float]]], List[str]]: ...
 def merge_mc_json(shards: Sequence[str]) -> Tuple[str, List[str], List[str]]: ...
 def run_job(
     model: _Model,

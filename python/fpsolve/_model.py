@@ -11,6 +11,8 @@ import numpy as np
 
 from . import _fpsolve
 from ._montecarlo import MonteCarlo, MonteCarloShard
+from ._passage import Passage
+from ._passage import run as _passage_run
 from ._progress import ProgressArg, callback
 from ._solution import Solution
 from ._warnings import FpsolveWarning
@@ -434,6 +436,107 @@ class Model:
         mc = MonteCarlo._from_json(text, flags, notes)
         mc._judge(bool(strict))
         return mc
+
+    def passage(
+        self,
+        safe: Optional[str] = None,
+        start: Union[None, str, Sequence[float]] = None,
+        times: Union[None, str, Sequence[float], "np.ndarray"] = None,
+        cells: Union[None, str, Sequence[int]] = None,
+        method: Union[str, Sequence[str]] = "grid",
+        paths: int = 10_000,
+        dt: float = 0.01,
+        horizon: Optional[float] = None,
+        seed: Union[int, None, "np.random.Generator", "np.random.SeedSequence"] = 1,
+        threads: Optional[int] = None,
+        params: Optional[Mapping[str, Value]] = None,
+        **set: Value,
+    ) -> Passage:
+        """First passage out of the safe set, as ``fpsolve passage``: the mean first-passage
+        time and its second moment (from the start and from the stationary density in the
+        set), the reliability R(t) = P(T > t) and the first-passage-time density, the slowest
+        decay and the quasi-stationary density on the grid; and by Monte Carlo with
+        ``"mc"`` in ``method``. The same checks, defaults and numbers (to the bit) as the
+        command line with the same arguments.
+
+        Parameters
+        ----------
+        safe : str, optional
+            The safe set, as ``--safe`` (``"abs(z) < 2.5"``, ``"-2 < z < 3"``): any expression
+            of states, observables and parameters bounded by ``<``; default the model's
+            ``safe`` line.
+        start : (float, float) or str, optional
+            The start ``(x, v)`` (or the text ``"X,V"``); default rest, (0, 0). It must lie
+            inside the safe set.
+        times : str or sequence of float, optional
+            The output times of R(t): ``"FIRST:LAST:COUNT"`` as ``--times`` (0 <= FIRST <
+            LAST, 2 <= COUNT <= 100000, evenly spaced), or the times themselves (finite,
+            non-negative, non-decreasing). Default none (the mean times only).
+        cells : (int, int) or str, optional
+            The grid's cells ``(nx, nv)`` (even, at least 8 per axis); default (200, 400).
+        method : str or sequence of str
+            ``"grid"`` (default), ``"mc"`` or ``"grid,mc"`` (or a list of them).
+        paths : int
+            Monte Carlo paths (default 10000).
+        dt : float
+            Monte Carlo time step (default 0.01; the bias estimate runs again at 2·dt).
+        horizon : float, optional
+            Monte Carlo horizon (paths still inside then are censored); default the last of
+            ``times``, else 20 times the grid's mean time. Only with ``"mc"``; with ``"mc"``
+            alone, ``horizon`` or ``times`` is needed.
+        seed : int, None, numpy.random.Generator or numpy.random.SeedSequence
+            Monte Carlo seed, as ``--seed`` (default 1); ``None`` draws a fresh one, a
+            ``Generator`` or ``SeedSequence`` gives one of its draws.
+        threads : int, optional
+            Worker threads (default: the cores available). The result does not depend on it.
+        params : mapping of str to number or str, optional
+            Overrides as a dict.
+        **set : number or str
+            Parameter overrides by keyword (``--set``).
+
+        Returns
+        -------
+        Passage
+            The grid's and Monte Carlo's numbers as NumPy arrays and floats, ``report`` (the
+            command line's ``summary.json`` as a dict) and ``warnings``.
+
+        Raises
+        ------
+        ValueError
+            Bad arguments, checked before any work in the command line's order: a method
+            other than grid and mc, no safe set, a start outside it, bad times or cells,
+            ``horizon`` without Monte Carlo, Monte Carlo alone without a horizon or times, a
+            negative number of paths; and a safe set holding no stationary probability.
+        ModelError
+            A ``safe`` text that does not parse or does not depend on a state (located in
+            the text, shown as ``--safe``), or a safe set whose bounds are not finite or
+            empty at these parameters; :class:`ParameterError` for a bad override.
+        MonteCarloError
+            Monte Carlo settings out of range (too few paths, a bad ``dt`` or ``horizon``:
+            ``kind`` ``"bad_setting"``), or a failed run.
+        GridSolveError, NotApplicableError
+            The grid's solves failed, or the grid does not apply to the model.
+        KeyboardInterrupt
+            Ctrl-C: the call returns at once; the solve finishes unseen in the background.
+
+        Warns
+        -----
+        FpsolveWarning
+            The grid and Monte Carlo means are more than 3 standard errors plus the grid's
+            estimated error apart; Monte Carlo paths blew up (also in ``warnings``).
+
+        Notes
+        -----
+        Releases the GIL.
+
+        Examples
+        --------
+        >>> p = model.passage(safe="abs(z) < 2", times="0:50:11", c=1)  # doctest: +SKIP
+        >>> p.mean_at_start, p.reliability                               # doctest: +SKIP
+        """
+        return _passage_run(
+            self, safe, start, times, cells, method, paths, dt, horizon, _seed(seed), threads, _params(params, set)
+        )
 
     def __repr__(self) -> str:
         return repr(self._inner)

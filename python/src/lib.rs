@@ -9,6 +9,7 @@ mod interrupt;
 mod job;
 mod merge;
 mod model;
+mod passage;
 mod pool;
 mod solution;
 mod sweep;
@@ -22,6 +23,7 @@ fn _fpsolve(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(job::run_job, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::merge_sweep_json, m)?)?;
     m.add_function(wrap_pyfunction!(merge::merge_mc_json, m)?)?;
+    m.add_function(wrap_pyfunction!(passage::passage, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

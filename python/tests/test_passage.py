@@ -1,0 +1,261 @@
+"""Model.passage against `fpsolve passage`: the same numbers to the bit (summary.json and
+passage.csv), the same refusals before any work, and the Monte Carlo's fields."""
+
+import csv
+import json
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+import fpsolve
+from conftest import MODELS
+
+MODEL = MODELS / "linear.sde"
+SAFE = "abs(z) < 1.2"
+COMMON = ["--safe", SAFE, "--set", "c=1", "--cells", "60,80"]
+
+
+def run_cli(cli, out, *args):
+    return subprocess.run(
+        [cli, "passage", MODEL, *COMMON, *args, "--out", out],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+
+
+def read_csv(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    # float() of the printed text: the CLI prints shortest round-trip decimals.
+    return header, {h: np.array([float(r[k]) for r in body]) for k, h in enumerate(header)}
+
+
+def without_timing(summary):
+    summary = json.loads(json.dumps(summary))
+    for key in ("command", "model_file"):
+        summary.pop(key)
+    if "grid" in summary:
+        summary["grid"]["report"].pop("total_ms")
+    return summary
+
+
+@pytest.fixture(scope="module")
+def both(cli, linear, tmp_path_factory):
+    """The CLI's and Python's grid and Monte Carlo run with the same arguments."""
+    out = tmp_path_factory.mktemp("passage") / "both"
+    console = run_cli(cli, out, "--times", "0:20:11", "--method", "grid,mc", "--paths", "2000")
+    py = linear.passage(
+        safe=SAFE, c=1, cells=(60, 80), times="0:20:11", method="grid,mc", paths=2000
+    )
+    return out, console.stdout, py
+
+
+def test_summary_is_the_cli_summary(both):
+    out, _, py = both
+    cli = json.loads((out / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(cli)
+    g = cli["grid"]
+    for key in (
+        "mean_at_start",
+        "second_at_start",
+        "mean_from_start_cell",
+        "mean_stationary",
+        "second_stationary",
+        "safe_mass",
+        "integral_of_reliability",
+    ):
+        assert getattr(py, key) == g[key], key
+    assert py.errors["mean_at_start"] == g["errors"]["mean_at_start"]
+    assert py.errors["rate"] == g["errors"]["rate"]
+    assert py.decay == g["decay"] and py.decay["status"] == "found"
+    assert py.start == (0.0, 0.0) and py.safe == SAFE
+    assert np.isnan(py.grid_vs_mc_se) and cli["grid_vs_mc_se"] is None  # censored: no distance
+
+
+def test_columns_are_the_cli_passage_csv(both):
+    out, _, py = both
+    header, cols = read_csv(out / "passage.csv")
+    assert header == ["t", "R_grid", "pdf_grid", "R_grid_err", "R_mc", "R_mc_lo95", "R_mc_hi95"]
+    np.testing.assert_array_equal(py.times, cols["t"])
+    np.testing.assert_array_equal(py.reliability, cols["R_grid"])
+    np.testing.assert_array_equal(py.pdf, cols["pdf_grid"])
+    np.testing.assert_array_equal(py.errors["reliability"], cols["R_grid_err"])
+    np.testing.assert_array_equal(py.mc.reliability, cols["R_mc"])
+    np.testing.assert_array_equal(py.mc.reliability_lo, cols["R_mc_lo95"])
+    np.testing.assert_array_equal(py.mc.reliability_hi, cols["R_mc_hi95"])
+    for state in ("z", "v"):
+        header, cols = read_csv(out / f"quasi_stationary_{state}.csv")
+        x, p = py.quasi_stationary[state]
+        np.testing.assert_array_equal(x, cols[state])
+        np.testing.assert_array_equal(p, cols["quasi_stationary"])
+
+
+def test_monte_carlo_fields(both):
+    out, console, py = both
+    mc = py.mc
+    cli = json.loads((out / "summary.json").read_text())["mc"]
+    assert (mc.paths, mc.dt, mc.horizon, mc.seed) == (2000, 0.01, 20.0, 1)
+    # The horizon 20 censors paths: no mean, a lower bound.
+    assert mc.censored > 0 and mc.censored_fraction == cli["censored_fraction"]
+    assert mc.mean is None and mc.variance is None
+    assert mc.mean_lower_bound == (cli["mean_lower_bound"]["value"], cli["mean_lower_bound"]["stderr"])
+    assert f"{mc.mean_lower_bound[0]:.6f}" in console
+    assert mc.bias == (cli["bias"]["value"], cli["bias"]["stderr"]) and mc.bias_paths > 0
+    np.testing.assert_array_equal(mc.times, py.times)
+    assert np.all(mc.reliability_lo <= mc.reliability) and np.all(mc.reliability <= mc.reliability_hi)
+    assert py.warnings == []
+
+
+def test_monte_carlo_alone_and_uncensored(cli, linear, tmp_path):
+    # Monte Carlo alone, with a horizon long enough that no path is censored: the mean with
+    # its standard error, R on the times asked, the same bits as the CLI.
+    out = tmp_path / "mc"
+    run_cli(cli, out, "--method", "mc", "--paths", "1024", "--horizon", "400", "--times", "0:40:5")
+    py = linear.passage(
+        safe=SAFE, params={"c": 1}, cells="60,80", method="mc", paths=1024, horizon=400, times=[0, 10, 20, 30, 40]
+    )
+    summary = json.loads((out / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(summary)
+    assert "grid" not in py.report and py.mean_at_start is None and py.reliability is None
+    assert py.grid_vs_mc_se is None and py.quasi_stationary == {}
+    mc = py.mc
+    assert mc.censored == 0 and mc.censored_fraction == 0.0
+    assert mc.mean == (summary["mc"]["mean"]["value"], summary["mc"]["mean"]["stderr"])
+    assert mc.mean[1] > 0 and mc.variance[0] > 0
+    assert mc.mean_lower_bound == mc.mean
+    np.testing.assert_array_equal(py.times, [0, 10, 20, 30, 40])
+    header, cols = read_csv(out / "passage.csv")
+    assert header == ["t", "R_mc", "R_mc_lo95", "R_mc_hi95"]
+    np.testing.assert_array_equal(mc.reliability, cols["R_mc"])
+
+
+def test_horizon_defaults_to_twenty_grid_means(cli, linear, tmp_path):
+    out = tmp_path / "h"
+    run_cli(cli, out, "--method", "grid,mc", "--paths", "512")
+    py = linear.passage(safe=SAFE, c=1, cells=(60, 80), method=["grid", "mc"], paths=512)
+    summary = json.loads((out / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(summary)
+    assert py.mc.horizon == 20.0 * py.mean_at_start
+    assert py.grid_vs_mc_se == summary["grid_vs_mc_se"]
+    assert len(py.times) == 0  # no times asked: the mean times only
+
+
+def test_disagreement_warns_as_the_cli(cli, linear, tmp_path):
+    # A coarse Monte Carlo step biases its mean beyond 3 standard errors plus the grid's error.
+    out = tmp_path / "w"
+    args = ["--method", "grid,mc", "--paths", "4000", "--dt", "0.4", "--horizon", "400"]
+    console = run_cli(cli, out, *args).stdout
+    assert "warning: the grid's mean first-passage time" in console
+    with pytest.warns(fpsolve.FpsolveWarning, match="more than 3 standard errors"):
+        py = linear.passage(safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=4000, dt=0.4, horizon=400)
+    assert len(py.warnings) == 1
+    gap = py.warnings[0].split(" is ")[1].split(" ")[0]
+    assert f"is {gap} from Monte Carlo's" in console
+    assert py.grid_vs_mc_se == json.loads((out / "summary.json").read_text())["grid_vs_mc_se"]
+
+
+def test_the_model_safe_line_and_a_start(cli, tmp_path):
+    text = MODEL.read_text() + "safe -1 < z < 1.5\n"
+    path = tmp_path / "linear_safe.sde"
+    path.write_text(text)
+    out = tmp_path / "s"
+    subprocess.run(
+        [cli, "passage", path, "--start", "0.5,-0.25", "--cells", "40,40", "--method", "grid", "--out", out],
+        check=True,
+        capture_output=True,
+    )
+    py = fpsolve.Model.load(path).passage(start=(0.5, -0.25), cells=(40, 40))
+    summary = json.loads((out / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(summary)
+    assert py.safe == "-1 < z < 1.5" and py.start == (0.5, -0.25)
+    assert py.mc is None and "mc" not in py.report
+
+
+# Refused before any work, as the CLI refuses them with exit status 2: (CLI arguments after
+# the model, Python keyword arguments, the class raised).
+REFUSED = {
+    "start outside": (["--safe", SAFE, "--start", "2,0"], dict(safe=SAFE, start=(2, 0)), ValueError),
+    "start text": (["--safe", SAFE, "--start", "1"], dict(safe=SAFE, start="1"), ValueError),
+    "odd cells": (["--safe", SAFE, "--cells", "61,80"], dict(safe=SAFE, cells=(61, 80)), ValueError),
+    "few cells": (["--safe", SAFE, "--cells", "4,80"], dict(safe=SAFE, cells=(4, 80)), ValueError),
+    "negative paths": (
+        ["--safe", SAFE, "--method", "mc", "--paths", "-5", "--horizon", "10"],
+        dict(safe=SAFE, method="mc", paths=-5, horizon=10),
+        ValueError,
+    ),
+    "too few paths": (
+        ["--safe", SAFE, "--method", "mc", "--paths", "1", "--horizon", "10"],
+        dict(safe=SAFE, method="mc", paths=1, horizon=10),
+        fpsolve.MonteCarloError,
+    ),
+    "bad dt": (
+        ["--safe", SAFE, "--method", "grid,mc", "--dt", "-0.1"],
+        dict(safe=SAFE, method="grid,mc", dt=-0.1),
+        fpsolve.MonteCarloError,
+    ),
+    "no state": (["--safe", "c < 2"], dict(safe="c < 2"), fpsolve.ModelError),
+    "unknown name": (["--safe", "abs(w) < 2"], dict(safe="abs(w) < 2"), fpsolve.ModelError),
+    "empty set": (["--safe", "2 < z < 1"], dict(safe="2 < z < 1"), fpsolve.ModelError),
+    "no safe set": ([], dict(), ValueError),
+    "bad method": (["--safe", SAFE, "--method", "epc"], dict(safe=SAFE, method="epc"), ValueError),
+    "bad times": (["--safe", SAFE, "--times", "5:1:3"], dict(safe=SAFE, times="5:1:3"), ValueError),
+    "horizon without mc": (
+        ["--safe", SAFE, "--method", "grid", "--horizon", "10"],
+        dict(safe=SAFE, method="grid", horizon=10),
+        ValueError,
+    ),
+    "mc without horizon": (["--safe", SAFE, "--method", "mc"], dict(safe=SAFE, method="mc"), ValueError),
+    "bad override": (["--safe", SAFE, "--set", "nope=1"], dict(safe=SAFE, nope=1), fpsolve.ParameterError),
+}
+
+
+@pytest.mark.parametrize("case", REFUSED, ids=list(REFUSED))
+def test_refused_before_any_work_as_the_cli(cli, linear, tmp_path, case):
+    args, kwargs, error = REFUSED[case]
+    out = tmp_path / "refused"
+    done = subprocess.run(
+        [cli, "passage", MODEL, *args, "--out", out], capture_output=True, text=True
+    )
+    assert done.returncode == 2, done.stderr
+    assert not out.exists()
+    with pytest.raises(error):
+        linear.passage(**kwargs)
+
+
+def test_error_details(linear):
+    with pytest.raises(ValueError, match="not inside the safe set `abs"):
+        linear.passage(safe=SAFE, start=(1.3, 0))
+    with pytest.raises(fpsolve.ModelError) as info:
+        linear.passage(safe="c < 2")
+    assert "depends on no state" in str(info.value) and "--safe" in str(info.value)
+    assert info.value.line == 1
+    with pytest.raises(fpsolve.MonteCarloError) as mc:
+        linear.passage(safe=SAFE, method="mc", paths=1, horizon=10)
+    assert mc.value.kind == "bad_setting"
+    with pytest.raises(ValueError, match="paths"):
+        linear.passage(safe=SAFE, method="mc", paths=-1, horizon=10)
+    with pytest.raises(TypeError):
+        linear.passage(safe=SAFE, params={"c": 1}, c=2)
+
+
+def test_no_probability_in_the_set_is_a_value_error(cli, linear, tmp_path):
+    # Found by the grid's stationary solve, not before (as the CLI, which exits 2 for it).
+    args = ["--set", "c=1", "--safe", "z > 5", "--start", "5.1,0", "--cells", "40,40", "--method", "grid"]
+    done = subprocess.run([cli, "passage", MODEL, *args, "--out", tmp_path / "n"], capture_output=True, text=True)
+    assert done.returncode == 2 and "of the stationary probability" in done.stderr
+    with pytest.raises(ValueError, match="of the stationary probability"):
+        linear.passage(safe="z > 5", start=(5.1, 0), cells=(40, 40), c=1)
+
+
+def test_threads_do_not_change_the_numbers(both, linear):
+    _, _, py = both
+    one = linear.passage(
+        safe=SAFE, c=1, cells=(60, 80), times="0:20:11", method="grid,mc", paths=2000, threads=1
+    )
+    assert without_timing(one.report) == without_timing(py.report)
+    with pytest.raises(ValueError, match="threads"):
+        linear.passage(safe=SAFE, threads=0)
