@@ -470,10 +470,8 @@ impl<'a> Problem<'a> {
             .solve_degrees(degrees)
             .into_iter()
             .map(|r| {
-                r.map(|s| {
-                    Solution::new(Density::EpcImpact(Box::new(s)), self.own_quantities())
-                })
-                .map_err(SolveError::from)
+                r.map(|s| Solution::new(Density::EpcImpact(Box::new(s)), self.own_quantities()))
+                    .map_err(SolveError::from)
             })
             .collect()
     }
