@@ -100,7 +100,7 @@ impl Cells {
     /// assert!(c.memory_bytes() < 1e9);
     /// ```
     pub fn memory_bytes(&self) -> f64 {
-        memory_bytes_of(self.0[0] * self.0[1])
+        super::memory::bytes_of(self.0[0] * self.0[1])
     }
 
     /// Checks [`Cells::memory_bytes`] against `limit_bytes`.
@@ -141,15 +141,6 @@ impl Cells {
         }
         Ok(())
     }
-}
-
-/// Bytes of peak memory per n·log₂ n unknowns (measured 241 to 259, with a margin).
-const FILL_BYTES: f64 = 320.0;
-
-/// [`Cells::memory_bytes`] of `n` cells in all.
-pub(crate) fn memory_bytes_of(n: usize) -> f64 {
-    let n = n as f64;
-    FILL_BYTES * n * n.log2().max(1.0) + 15e6
 }
 
 #[cfg(test)]

@@ -65,6 +65,7 @@ mod error;
 mod estimate;
 mod general;
 mod general_box;
+mod memory;
 pub(crate) mod mesh;
 pub(crate) mod nested;
 mod passage;

@@ -28,15 +28,15 @@ pub const MAX_TOLERANCE_CELLS: usize = 720 * 1440;
 /// assert!(Cells([n + 1, 1]).memory_bytes() > four_gib);
 /// ```
 pub fn tolerance_cell_limit(limit_bytes: f64) -> usize {
-    use super::cells::memory_bytes_of;
-    if memory_bytes_of(MAX_TOLERANCE_CELLS) <= limit_bytes {
+    use super::memory::bytes_of;
+    if bytes_of(MAX_TOLERANCE_CELLS) <= limit_bytes {
         return MAX_TOLERANCE_CELLS;
     }
     // The estimate grows with the count: the largest that fits, by bisection.
     let (mut fits, mut not) = (0, MAX_TOLERANCE_CELLS);
     while not - fits > 1 {
         let mid = fits + (not - fits) / 2;
-        if memory_bytes_of(mid) <= limit_bytes {
+        if bytes_of(mid) <= limit_bytes {
             fits = mid;
         } else {
             not = mid;

@@ -12,7 +12,7 @@ use super::shard::part::ShardOutput;
 use super::stats::result::{finalize_run, McResult};
 use crate::base::cancel::Cancel;
 use crate::model::BoundModel;
-use crate::report::{ModelSource, Provenance};
+use crate::model::{ModelSource, Provenance};
 
 /// Half-width of an automatic grid, in pilot standard deviations.
 const GRID_HALF_WIDTH_SDS: f64 = 6.0;

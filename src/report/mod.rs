@@ -31,11 +31,12 @@ mod figure;
 mod font;
 mod json;
 mod output;
-mod provenance;
 mod run_dir;
 
 use std::path::PathBuf;
 
+/// Where a run came from: the model's module, re-exported where the writers use it.
+pub use crate::model::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use csv::{Cell, PdfTable, TableError, TextTable};
 pub use figure::error::FigureError;
 pub use figure::render::FigureFiles;
@@ -43,7 +44,6 @@ pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
 pub use json::{undefined_fields, write_json, write_json_flagging_undefined, UndefinedField};
 pub use output::OutputDir;
-pub use provenance::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use run_dir::{abandon_unfinished, Abandoned, RunDir, RunDirError, MARKER};
 
 /// Why writing or reading a report file failed. Every variant names the file (or directory)

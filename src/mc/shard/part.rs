@@ -31,7 +31,7 @@ pub struct ShardOutput {
     /// Where the part came from (the `provenance` block of a JSON result: version, schema,
     /// command, time, the threads it ran with, the model's name, file and text; absent in
     /// files of an older fpsolve). Not a number of the run: the digests do not cover it, and
-    /// a merge reports it ([`Provenance::merged`](crate::report::Provenance::merged)).
+    /// a merge reports it ([`Provenance::merged`](crate::model::Provenance::merged)).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<serde_json::Value>,
     /// The resolved settings of the whole run.
@@ -334,7 +334,7 @@ mod tests {
                 &text[..80]
             );
         }
-        let merged = crate::report::Provenance::merged(parts.iter().map(|p| p.provenance.as_ref()));
+        let merged = crate::model::Provenance::merged(parts.iter().map(|p| p.provenance.as_ref()));
         assert_eq!(merged.threads, 1);
         assert_eq!(merged.model.unwrap().name, "linear");
         let old: Vec<ShardOutput> = parts

@@ -6,7 +6,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
 
-use crate::model::{BoundModel, Model, Origin};
+use super::{BoundModel, Model, Origin};
 
 /// The version of the JSON results' layout; raised with every change a reader must know of
 /// (2: the distances between methods are one `comparisons` list).
