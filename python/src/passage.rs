@@ -4,51 +4,20 @@
 //! bit. Returns `summary.json`'s JSON, the quasi-stationary marginals and the console's
 //! warnings; the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
 
-use fpsolve::grid::{GridPassage, PassageError, PassageSolution};
-use fpsolve::mc::{McPassage, McPassageResult};
+use fpsolve::grid::PassageError;
+use fpsolve::job::passage::{parse_pair, parse_times, McSettings, PassageRun, PassageRunError};
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::solve::SolveError as LibSolveError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use pyo3::IntoPyObjectExt;
-use serde::Serialize;
 
 use crate::errors::{self, Asked};
 use crate::interrupt::abandonable;
 use crate::model::PyModel;
 
-/// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
-/// Monte Carlo's mean first-passage times may be apart before a warning (the CLI's
-/// `DISAGREE_SE`).
-const DISAGREE_SE: f64 = 3.0;
-
 /// The quasi-stationary marginals: (state, centres, density) per state.
 type Marginals = Vec<(String, Vec<f64>, Vec<f64>)>;
-
-/// `summary.json` of `fpsolve passage`, field for field.
-#[derive(Serialize)]
-struct Summary<'a> {
-    fpsolve: &'static str,
-    command: String,
-    model: &'a str,
-    model_file: String,
-    safe: &'a str,
-    start: [f64; 2],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    grid: Option<&'a PassageSolution>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    mc: Option<&'a McPassageResult>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    grid_vs_mc_se: Option<Option<f64>>,
-}
-
-/// The Monte Carlo's checked settings.
-struct McSettings {
-    paths: u64,
-    dt: f64,
-    horizon: Option<f64>,
-    seed: u64,
-}
 
 /// The start: a pair, or the CLI's `X,V` text; default rest.
 fn start_of(start: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; 2]> {
@@ -69,55 +38,6 @@ fn start_of(start: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; 2]> {
         }
     }
     Ok([x, v])
-}
-
-/// The CLI's `--start X,V`.
-fn parse_pair(s: &str) -> Result<[f64; 2], String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let num = |t: &str| -> Result<f64, String> {
-        let v: f64 = t
-            .trim()
-            .parse()
-            .map_err(|_| format!("`{t}` is not a number"))?;
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(format!("`{t}` is not finite"))
-        }
-    };
-    match parts.as_slice() {
-        [x, v] => Ok([num(x)?, num(v)?]),
-        _ => Err(format!("`{s}`: expected X,V")),
-    }
-}
-
-/// The CLI's `--times FIRST:LAST:COUNT`, evenly spaced (the same arithmetic, so the same
-/// times to the bit).
-fn parse_times(s: &str) -> Result<Vec<f64>, String> {
-    let parts: Vec<&str> = s.split(':').collect();
-    let [a, b, n] = parts.as_slice() else {
-        return Err(format!("`{s}`: expected FIRST:LAST:COUNT"));
-    };
-    let (a, b): (f64, f64) = (
-        a.trim()
-            .parse()
-            .map_err(|_| format!("`{a}` is not a number"))?,
-        b.trim()
-            .parse()
-            .map_err(|_| format!("`{b}` is not a number"))?,
-    );
-    let n: usize = n
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{n}` is not a count"))?;
-    if !(a.is_finite() && b.is_finite() && a >= 0.0 && a < b && (2..=100_000).contains(&n)) {
-        return Err(format!(
-            "`{s}`: expected 0 <= FIRST < LAST, finite, and 2 <= COUNT <= 100000"
-        ));
-    }
-    Ok((0..n)
-        .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)
-        .collect())
 }
 
 /// The output times: the CLI's `A:B:N` text, or the times themselves (finite, non-negative,
@@ -321,13 +241,7 @@ pub(crate) fn passage(
             ));
         }
         // A placeholder horizon when it comes from the grid's mean time, as the CLI.
-        McPassage::new(&bound, &safe_set)
-            .paths(m.paths)
-            .dt(m.dt)
-            .horizon(m.horizon.unwrap_or(1.0))
-            .seed(m.seed)
-            .start(start)
-            .check()
+        m.check(&bound, &safe_set, start)
             .map_err(|e| errors::mc_error(py, &e))?;
     } else if horizon.is_some() {
         return Err(errors::bad_argument(
@@ -336,59 +250,17 @@ pub(crate) fn passage(
     }
     let pool = crate::pool::thread_pool(threads)?;
 
-    let grid_solution = if grid {
-        let (bound, safe_set, times, pool) =
-            (bound.clone(), safe_set.clone(), times.clone(), pool.clone());
-        let run = abandonable(py, move || {
-            pool.install(|| {
-                GridPassage::new(&bound, &safe_set)
-                    .cells(cells[0], cells[1])
-                    .start(start)
-                    .times(times)
-                    .run()
-            })
-        })?;
-        Some(run.map_err(|e| passage_error(py, e))?)
-    } else {
-        None
-    };
-    let mc_result = match &mc {
-        None => None,
-        Some(m) => {
-            // R(t) on the grid's output times when the grid ran.
-            let times = grid_solution
-                .as_ref()
-                .map_or(times.clone(), |g| g.times.clone());
-            let horizon = m
-                .horizon
-                .or_else(|| grid_solution.as_ref().map(|g| 20.0 * g.mean_at_start))
-                .expect("checked: a horizon, times or the grid");
-            let (paths, dt, seed) = (m.paths, m.dt, m.seed);
-            let (bound, safe_set) = (bound.clone(), safe_set.clone());
-            let run = abandonable(py, move || {
-                pool.install(|| {
-                    McPassage::new(&bound, &safe_set)
-                        .paths(paths)
-                        .dt(dt)
-                        .horizon(horizon)
-                        .seed(seed)
-                        .start(start)
-                        .times(times)
-                        .run()
-                })
-            })?;
-            Some(run.map_err(|e| errors::mc_error(py, &e))?)
+    let run = abandonable(py, {
+        let (bound, safe_set, times) = (bound.clone(), safe_set.clone(), times.clone());
+        move || {
+            pool.install(|| PassageRun::solve(&bound, &safe_set, start, &times, cells, grid, mc))
         }
-    };
-    let out = outcome(
-        this,
-        &bound,
-        &safe_set,
-        start,
-        grid_solution.as_ref(),
-        mc_result.as_ref(),
-    )?;
-    Ok(out)
+    })?
+    .map_err(|e| match e {
+        PassageRunError::Grid(e) => passage_error(py, e),
+        PassageRunError::Mc(e) => errors::mc_error(py, &e),
+    })?;
+    outcome(this, &bound, &safe_set, start, &run)
 }
 
 /// The report, the marginals and the warnings of a finished run.
@@ -397,55 +269,27 @@ fn outcome(
     bound: &BoundModel,
     safe: &BoundSafe,
     start: [f64; 2],
-    grid: Option<&PassageSolution>,
-    mc: Option<&McPassageResult>,
+    run: &PassageRun,
 ) -> PyResult<(String, Marginals, Vec<String>)> {
-    let distance = match (grid, mc) {
-        (Some(g), Some(m)) => Some(m.mean.map(|e| (e.value - g.mean_at_start) / e.stderr)),
-        _ => None,
-    };
-    let summary = Summary {
-        fpsolve: env!("CARGO_PKG_VERSION"),
-        command: "fpsolve.Model.passage".into(),
-        model: model.model.name(),
-        model_file: model
-            .path
-            .as_ref()
-            .map_or(String::new(), |p| p.display().to_string()),
-        safe: &safe.text,
+    let model_file = model
+        .path
+        .as_ref()
+        .map_or(String::new(), |p| p.display().to_string());
+    let summary = run.summary(
+        "fpsolve.Model.passage".into(),
+        model_file,
+        bound,
+        safe,
         start,
-        grid,
-        mc,
-        grid_vs_mc_se: distance,
-    };
+    );
     let json = serde_json::to_string(&summary).map_err(|e| errors::bad_argument(e.to_string()))?;
     let mut marginals = Vec::new();
-    if let Some([qx, qv]) = grid.and_then(|g| g.quasi_stationary.as_ref()) {
+    if let Some([qx, qv]) = run.grid.as_ref().and_then(|g| g.quasi_stationary.as_ref()) {
         let states = bound.states();
         for (q, name) in [(qx, &states[0]), (qv, &states[1])] {
             marginals.push((name.to_string(), q.centres.clone(), q.density.clone()));
         }
     }
-    let mut warnings = Vec::new();
-    if let Some(m) = mc {
-        if m.blowups > 0 {
-            warnings.push(format!(
-                "{} Monte Carlo paths blew up and are left out",
-                m.blowups
-            ));
-        }
-    }
-    if let (Some(g), Some(Some(e))) = (grid, mc.map(|m| m.mean)) {
-        let gap = (e.value - g.mean_at_start).abs();
-        let stated = g.errors.as_ref().map_or(0.0, |e| e.mean_at_start);
-        if gap > DISAGREE_SE * e.stderr + stated {
-            warnings.push(format!(
-                "the grid's mean first-passage time is {gap:.3e} from Monte Carlo's, more than \
-                 {DISAGREE_SE} standard errors ({:.2e}) plus the grid's estimated error \
-                 ({stated:.2e}): compare finer cells, and Monte Carlo at a smaller dt",
-                e.stderr
-            ));
-        }
-    }
+    let warnings = run.warnings().iter().map(ToString::to_string).collect();
     Ok((json, marginals, warnings))
 }

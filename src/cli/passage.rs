@@ -7,11 +7,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use fpsolve::grid::{Cells, GridPassage, PassageSolution};
-use fpsolve::mc::{McPassage, McPassageResult};
-use fpsolve::model::{BoundModel, BoundSafe, Model};
+use fpsolve::grid::Cells;
+use fpsolve::job::passage::{parse_pair, parse_times, McSettings, PassageRun, PassageRunError};
+use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::report::write_json;
-use serde::Serialize;
 
 /// The flags of `fpsolve passage`.
 #[derive(Args, Debug)]
@@ -54,7 +53,6 @@ pub(crate) struct PassageArgs {
 /// A checked `passage` command.
 pub(crate) struct PassagePlan {
     path: PathBuf,
-    model: Model,
     bound: BoundModel,
     safe: BoundSafe,
     start: [f64; 2],
@@ -63,14 +61,6 @@ pub(crate) struct PassagePlan {
     grid: bool,
     mc: Option<McSettings>,
     out: PathBuf,
-}
-
-/// The Monte Carlo's checked settings.
-struct McSettings {
-    paths: u64,
-    dt: f64,
-    horizon: Option<f64>,
-    seed: u64,
 }
 
 /// Reads and checks everything before any solve.
@@ -99,7 +89,9 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
         .map_err(|e| anyhow::Error::new(e).context(path.display().to_string()))?;
     let start = match &args.start {
         None => [0.0, 0.0],
-        Some(s) => parse_pair(s).context("--start")?,
+        Some(s) => parse_pair(s)
+            .map_err(anyhow::Error::new)
+            .context("--start")?,
     };
     if !safe.contains(start) {
         return Err(anyhow!(
@@ -111,7 +103,9 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
     }
     let times = match &args.times {
         None => Vec::new(),
-        Some(s) => parse_times(s).context("--times")?,
+        Some(s) => parse_times(s)
+            .map_err(anyhow::Error::new)
+            .context("--times")?,
     };
     let cells = args.cells.unwrap_or_default().0;
     fpsolve::grid::check_cells(cells).map_err(|e| anyhow::Error::new(e).context("--cells"))?;
@@ -130,20 +124,13 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
         }
         // Every setting checked now, before any work (a placeholder horizon when it comes
         // from the grid's mean time).
-        McPassage::new(&bound, &safe)
-            .paths(m.paths)
-            .dt(m.dt)
-            .horizon(m.horizon.unwrap_or(1.0))
-            .seed(m.seed)
-            .start(start)
-            .check()
-            .map_err(|e| {
-                let flag = match &e {
-                    fpsolve::mc::McError::BadSetting { name, .. } => format!("--{name}"),
-                    _ => "--method mc".into(),
-                };
-                crate::lib(e).context(flag)
-            })?;
+        m.check(&bound, &safe, start).map_err(|e| {
+            let flag = match &e {
+                fpsolve::mc::McError::BadSetting { name, .. } => format!("--{name}"),
+                _ => "--method mc".into(),
+            };
+            crate::lib(e).context(flag)
+        })?;
     } else if args.horizon.is_some() {
         return Err(anyhow!(
             "--horizon: only the Monte Carlo uses it (--method mc)"
@@ -154,7 +141,6 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
         .unwrap_or_else(|| Path::new("out").join(format!("{}_passage", model.name())));
     Ok(PassagePlan {
         path,
-        model,
         bound,
         safe,
         start,
@@ -166,151 +152,32 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
     })
 }
 
-fn parse_pair(s: &str) -> Result<[f64; 2]> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let num = |t: &str| -> Result<f64> {
-        let v: f64 = t
-            .trim()
-            .parse()
-            .map_err(|_| anyhow!("`{t}` is not a number"))?;
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(anyhow!("`{t}` is not finite"))
-        }
-    };
-    match parts.as_slice() {
-        [x, v] => Ok([num(x)?, num(v)?]),
-        _ => Err(anyhow!("`{s}`: expected X,V")),
-    }
-}
-
-/// `FIRST:LAST:COUNT`, evenly spaced (shared with `fpsolve transient`).
-pub(crate) fn parse_times(s: &str) -> Result<Vec<f64>> {
-    let parts: Vec<&str> = s.split(':').collect();
-    let [a, b, n] = parts.as_slice() else {
-        return Err(anyhow!("`{s}`: expected FIRST:LAST:COUNT"));
-    };
-    let (a, b): (f64, f64) = (
-        a.trim()
-            .parse()
-            .map_err(|_| anyhow!("`{a}` is not a number"))?,
-        b.trim()
-            .parse()
-            .map_err(|_| anyhow!("`{b}` is not a number"))?,
-    );
-    let n: usize = n
-        .trim()
-        .parse()
-        .map_err(|_| anyhow!("`{n}` is not a count"))?;
-    if !(a.is_finite() && b.is_finite() && a >= 0.0 && a < b && (2..=100_000).contains(&n)) {
-        return Err(anyhow!(
-            "`{s}`: expected 0 <= FIRST < LAST, finite, and 2 <= COUNT <= 100000"
-        ));
-    }
-    Ok((0..n)
-        .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)
-        .collect())
-}
-
-#[derive(Serialize)]
-struct Summary<'a> {
-    fpsolve: &'static str,
-    command: String,
-    model: &'a str,
-    model_file: String,
-    safe: &'a str,
-    start: [f64; 2],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    grid: Option<&'a PassageSolution>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    mc: Option<&'a McPassageResult>,
-    /// (Monte Carlo mean − grid mean) / the Monte Carlo's standard error; null when either
-    /// is missing or paths were censored (the Monte Carlo mean is then only a lower bound).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    grid_vs_mc_se: Option<Option<f64>>,
-}
-
 /// Solves and writes the output directory.
 pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     let run = crate::begin_output(&plan.out)?;
-    let grid = if plan.grid {
-        Some(
-            GridPassage::new(&plan.bound, &plan.safe)
-                .cells(plan.cells[0], plan.cells[1])
-                .start(plan.start)
-                .times(plan.times.clone())
-                .run()
-                .map_err(|e| anyhow::Error::new(e).context(plan.path.display().to_string()))?,
-        )
-    } else {
-        None
-    };
-    let mc = match &plan.mc {
-        None => None,
-        Some(m) => {
-            // R(t) on the grid's output times when the grid ran.
-            let times = grid
-                .as_ref()
-                .map_or(plan.times.clone(), |g| g.times.clone());
-            let horizon = m
-                .horizon
-                .or_else(|| grid.as_ref().map(|g| 20.0 * g.mean_at_start))
-                .expect("checked in plan: a horizon, --times or the grid");
-            let r = McPassage::new(&plan.bound, &plan.safe)
-                .paths(m.paths)
-                .dt(m.dt)
-                .horizon(horizon)
-                .seed(m.seed)
-                .start(plan.start)
-                .times(times)
-                .run()
-                .map_err(|e| crate::lib(e).context(plan.path.display().to_string()))?;
-            Some(r)
-        }
-    };
-    let times = grid
-        .as_ref()
-        .map(|g| g.times.clone())
-        .or_else(|| mc.as_ref().map(|m| m.times.clone()))
-        .unwrap_or_default();
-    let mut header = vec!["t"];
-    let r_errors = grid
-        .as_ref()
-        .and_then(|g| g.errors.as_ref())
-        .map(|e| &e.reliability);
-    if grid.is_some() {
-        header.extend(["R_grid", "pdf_grid"]);
-        if r_errors.is_some() {
-            header.push("R_grid_err");
-        }
-    }
-    if mc.is_some() {
-        header.extend(["R_mc", "R_mc_lo95", "R_mc_hi95"]);
-    }
-    let mut csv = header.join(",") + "\n";
-    for (k, t) in times.iter().enumerate() {
-        let mut row = vec![t.to_string()];
-        if let Some(g) = &grid {
-            row.extend([g.reliability[k].to_string(), g.pdf[k].to_string()]);
-            if let Some(e) = r_errors {
-                row.push(e[k].to_string());
-            }
-        }
-        if let Some(m) = &mc {
-            row.extend([
-                m.reliability[k].to_string(),
-                m.reliability_lo[k].to_string(),
-                m.reliability_hi[k].to_string(),
-            ]);
-        }
-        csv.push_str(&(row.join(",") + "\n"));
-    }
+    let solved = PassageRun::solve(
+        &plan.bound,
+        &plan.safe,
+        plan.start,
+        &plan.times,
+        plan.cells,
+        plan.grid,
+        plan.mc,
+    )
+    .map_err(|e| match e {
+        PassageRunError::Grid(e) => anyhow::Error::new(e),
+        PassageRunError::Mc(e) => crate::lib(e),
+    })
+    .with_context(|| plan.path.display().to_string())?;
     run.out()
-        .write_atomic("passage.csv", csv.as_bytes())
+        .write_atomic("passage.csv", solved.csv().as_bytes())
         .map_err(crate::lib)?;
     let mut files = 2;
-    if let Some([qx, qv]) = grid.as_ref().and_then(|g| g.quasi_stationary.as_ref()) {
+    if let Some([qx, qv]) = solved
+        .grid
+        .as_ref()
+        .and_then(|g| g.quasi_stationary.as_ref())
+    {
         let states = plan.bound.states();
         for (q, name) in [(qx, &states[0]), (qv, &states[1])] {
             let mut csv = format!("{name},quasi_stationary\n");
@@ -323,21 +190,14 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             files += 1;
         }
     }
-    let distance = match (&grid, &mc) {
-        (Some(g), Some(m)) => Some(m.mean.map(|e| (e.value - g.mean_at_start) / e.stderr)),
-        _ => None,
-    };
-    let summary = Summary {
-        fpsolve: env!("CARGO_PKG_VERSION"),
-        command: crate::command_line(),
-        model: plan.model.name(),
-        model_file: plan.path.display().to_string(),
-        safe: &plan.safe.text,
-        start: plan.start,
-        grid: grid.as_ref(),
-        mc: mc.as_ref(),
-        grid_vs_mc_se: distance,
-    };
+    let summary = solved.summary(
+        crate::command_line(),
+        plan.path.display().to_string(),
+        &plan.bound,
+        &plan.safe,
+        plan.start,
+    );
+    let (grid, mc) = (&solved.grid, &solved.mc);
     write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
     if let Some(g) = &grid {
         let pm = |e: Option<f64>| e.map_or(String::new(), |e| format!(" ± {e:.2e}"));
@@ -389,30 +249,9 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
                 m.mean_lower_bound.stderr
             ),
         }
-        if m.blowups > 0 {
-            crate::cli::console::sayln!(
-                "warning: {} Monte Carlo paths blew up and are left out",
-                m.blowups
-            );
-        }
     }
-    if let (Some(g), Some(Some(e))) = (&grid, mc.as_ref().map(|m| m.mean)) {
-        let gap = (e.value - g.mean_at_start).abs();
-        let stated = g.errors.as_ref().map_or(0.0, |e| e.mean_at_start);
-        if gap > DISAGREE_SE * e.stderr + stated {
-            crate::cli::console::sayln!(
-                "warning: the grid's mean first-passage time is {gap:.3e} from Monte Carlo's, more \
-                 than {DISAGREE_SE} standard errors ({:.2e}) plus the grid's estimated error \
-                 ({stated:.2e}): compare a finer --cells, and Monte Carlo at a smaller --dt",
-                e.stderr
-            );
-        }
+    for warning in solved.warnings() {
+        crate::cli::console::sayln!("warning: {warning}");
     }
     crate::commit_output(run, files)
 }
-
-/// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
-/// Monte Carlo's mean first-passage times may be apart before the console warns (measured:
-/// the grid converges about 1 % below two independent Monte Carlo codes on the lightly damped
-/// linear oscillator and the paper's case 1, 3 to 6 standard errors at 1e5 paths).
-const DISAGREE_SE: f64 = 3.0;

@@ -93,7 +93,9 @@ pub(crate) fn plan(path: PathBuf, args: TransientArgs) -> Result<TransientPlan> 
             }
         }
     }
-    let times = super::passage::parse_times(&args.times).context("--times")?;
+    let times = fpsolve::job::passage::parse_times(&args.times)
+        .map_err(anyhow::Error::new)
+        .context("--times")?;
     let (model, bound) = crate::load_amended(&path, &args.set, |model| match &args.initial {
         Some(text) => model.with_initial(text).map_err(crate::lib),
         None => Ok(model),

@@ -11,6 +11,7 @@
 mod compare;
 mod files;
 mod mc_from;
+pub mod passage;
 mod reliability;
 mod table;
 

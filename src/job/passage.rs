@@ -1,0 +1,361 @@
+//! First passage as `fpsolve passage` and Python's `Model.passage` run it: the grid and Monte
+//! Carlo solved in one order (Monte Carlo on the grid's times, its horizon 20 grid mean times
+//! unless given), and everything the two front ends report from them — `passage.csv`,
+//! `summary.json`, the warnings — written once, so the two give the same numbers and words.
+//! Each front end checks its own flags or keywords before calling [`PassageRun::solve`].
+
+use serde::Serialize;
+
+use crate::grid::{GridPassage, PassageError, PassageSolution};
+use crate::mc::{McError, McPassage, McPassageResult};
+use crate::model::{BoundModel, BoundSafe};
+
+/// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
+/// Monte Carlo's mean first-passage times may be apart before a warning.
+pub const DISAGREE_SE: f64 = 3.0;
+
+/// Why a `X,V` or `FIRST:LAST:COUNT` text could not be read.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TextError {
+    /// Not the shape asked.
+    #[error("`{text}`: expected {expected}")]
+    Shape {
+        /// The text.
+        text: String,
+        /// The shape (`X,V`, `FIRST:LAST:COUNT`).
+        expected: &'static str,
+    },
+    /// A part that is not a number.
+    #[error("`{0}` is not a number")]
+    NotNumber(String),
+    /// A number that is not finite.
+    #[error("`{0}` is not finite")]
+    NotFinite(String),
+    /// A count that is not a whole number.
+    #[error("`{0}` is not a count")]
+    NotCount(String),
+    /// Times out of range.
+    #[error("`{0}`: expected 0 <= FIRST < LAST, finite, and 2 <= COUNT <= 100000")]
+    TimesRange(String),
+}
+
+/// A point `X,V` (`--start`).
+///
+/// # Errors
+/// [`TextError`] for another shape or a part that is not a finite number.
+///
+/// ```
+/// use fpsolve::job::passage::parse_pair;
+/// assert_eq!(parse_pair("1e-6, 0").unwrap(), [1e-6, 0.0]);
+/// assert!(parse_pair("1,2,3").is_err() && parse_pair("inf,0").is_err());
+/// ```
+pub fn parse_pair(s: &str) -> Result<[f64; 2], TextError> {
+    let num = |t: &str| -> Result<f64, TextError> {
+        let v: f64 = t
+            .trim()
+            .parse()
+            .map_err(|_| TextError::NotNumber(t.to_string()))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(TextError::NotFinite(t.to_string()))
+        }
+    };
+    match s.split(',').collect::<Vec<_>>().as_slice() {
+        [x, v] => Ok([num(x)?, num(v)?]),
+        _ => Err(TextError::Shape {
+            text: s.to_string(),
+            expected: "X,V",
+        }),
+    }
+}
+
+/// Times `FIRST:LAST:COUNT`, evenly spaced (`--times` of `passage` and `transient`).
+///
+/// # Errors
+/// [`TextError`] for another shape, parts that are not numbers, or times out of range.
+///
+/// ```
+/// use fpsolve::job::passage::parse_times;
+/// assert_eq!(parse_times("0:2:3").unwrap(), [0.0, 1.0, 2.0]);
+/// assert!(parse_times("2:1:3").is_err() && parse_times("0:1").is_err());
+/// ```
+pub fn parse_times(s: &str) -> Result<Vec<f64>, TextError> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let [a, b, n] = parts.as_slice() else {
+        return Err(TextError::Shape {
+            text: s.to_string(),
+            expected: "FIRST:LAST:COUNT",
+        });
+    };
+    let number = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| TextError::NotNumber(t.to_string()))
+    };
+    let (a, b) = (number(a)?, number(b)?);
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| TextError::NotCount(n.to_string()))?;
+    if !(a.is_finite() && b.is_finite() && a >= 0.0 && a < b && (2..=100_000).contains(&n)) {
+        return Err(TextError::TimesRange(s.to_string()));
+    }
+    Ok((0..n)
+        .map(|k| a + (b - a) * k as f64 / (n - 1) as f64)
+        .collect())
+}
+
+/// The Monte Carlo's settings, checked by the front end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct McSettings {
+    /// Paths.
+    pub paths: u64,
+    /// Time step.
+    pub dt: f64,
+    /// Horizon; `None`: 20 times the grid's mean time from the start.
+    pub horizon: Option<f64>,
+    /// Seed.
+    pub seed: u64,
+}
+
+impl McSettings {
+    /// Every setting checked before any work, for a run from `start` (a placeholder horizon
+    /// when it is to come from the grid's mean time).
+    ///
+    /// # Errors
+    /// The [`McError`] naming the setting.
+    pub fn check(
+        &self,
+        bound: &BoundModel,
+        safe: &BoundSafe,
+        start: [f64; 2],
+    ) -> Result<(), McError> {
+        McPassage::new(bound, safe)
+            .paths(self.paths)
+            .dt(self.dt)
+            .horizon(self.horizon.unwrap_or(1.0))
+            .seed(self.seed)
+            .start(start)
+            .check()
+    }
+}
+
+/// Which solve failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PassageRunError {
+    /// The grid's.
+    #[error(transparent)]
+    Grid(#[from] PassageError),
+    /// Monte Carlo's.
+    #[error(transparent)]
+    Mc(#[from] McError),
+}
+
+/// A warning about a finished run, as both front ends word it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PassageWarning {
+    /// Monte Carlo paths that blew up.
+    #[error("{0} Monte Carlo paths blew up and are left out")]
+    Blowups(u64),
+    /// The grid's and Monte Carlo's mean times further apart than [`DISAGREE_SE`] standard
+    /// errors plus the grid's stated error.
+    #[error(
+        "the grid's mean first-passage time is {gap:.3e} from Monte Carlo's, more than \
+         {DISAGREE_SE} standard errors ({stderr:.2e}) plus the grid's estimated error \
+         ({stated:.2e}): compare finer cells, and Monte Carlo at a smaller dt"
+    )]
+    Disagree {
+        /// |MC mean − grid mean|.
+        gap: f64,
+        /// Monte Carlo's standard error.
+        stderr: f64,
+        /// The grid's stated error of its mean.
+        stated: f64,
+    },
+}
+
+/// The grid's and Monte Carlo's solutions of one first-passage problem.
+#[derive(Clone, Debug)]
+pub struct PassageRun {
+    /// The grid's, when it ran.
+    pub grid: Option<PassageSolution>,
+    /// Monte Carlo's, when it ran.
+    pub mc: Option<McPassageResult>,
+}
+
+/// `summary.json` of a passage run.
+#[derive(Serialize)]
+pub struct PassageSummary<'a> {
+    /// The version that wrote it.
+    pub fpsolve: &'static str,
+    /// The command (the CLI's command line, or the Python call).
+    pub command: String,
+    /// The model's name.
+    pub model: &'a str,
+    /// The model's file (empty for a model without one).
+    pub model_file: String,
+    /// The safe set as written.
+    pub safe: &'a str,
+    /// The start.
+    pub start: [f64; 2],
+    /// The grid's solution.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<&'a PassageSolution>,
+    /// Monte Carlo's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mc: Option<&'a McPassageResult>,
+    /// (Monte Carlo mean − grid mean) / the Monte Carlo's standard error; null when paths were
+    /// censored (the Monte Carlo mean is then only a lower bound); absent without both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_vs_mc_se: Option<Option<f64>>,
+}
+
+impl PassageRun {
+    /// Solves on the grid (`grid`, on `cells`) and by Monte Carlo (`mc`), from `start`, R(t)
+    /// at `times`; Monte Carlo on the grid's output times when the grid ran, to the horizon
+    /// given or 20 grid mean times. Each solve runs on the current rayon pool.
+    ///
+    /// # Errors
+    /// The failing solve's error.
+    ///
+    /// # Panics
+    /// When Monte Carlo runs alone without a horizon (the front ends refuse that first).
+    pub fn solve(
+        bound: &BoundModel,
+        safe: &BoundSafe,
+        start: [f64; 2],
+        times: &[f64],
+        cells: [usize; 2],
+        grid: bool,
+        mc: Option<McSettings>,
+    ) -> Result<PassageRun, PassageRunError> {
+        let grid = match grid {
+            true => Some(
+                GridPassage::new(bound, safe)
+                    .cells(cells[0], cells[1])
+                    .start(start)
+                    .times(times.to_vec())
+                    .run()?,
+            ),
+            false => None,
+        };
+        let mc = match mc {
+            None => None,
+            Some(m) => {
+                let times = grid.as_ref().map_or(times.to_vec(), |g| g.times.clone());
+                let horizon = m
+                    .horizon
+                    .or_else(|| grid.as_ref().map(|g| 20.0 * g.mean_at_start))
+                    .expect("checked by the front end: a horizon, times or the grid");
+                Some(
+                    McPassage::new(bound, safe)
+                        .paths(m.paths)
+                        .dt(m.dt)
+                        .horizon(horizon)
+                        .seed(m.seed)
+                        .start(start)
+                        .times(times)
+                        .run()?,
+                )
+            }
+        };
+        Ok(PassageRun { grid, mc })
+    }
+
+    /// (Monte Carlo mean − grid mean) / Monte Carlo's standard error: `None` without both,
+    /// `Some(None)` when paths were censored.
+    pub fn grid_vs_mc_se(&self) -> Option<Option<f64>> {
+        match (&self.grid, &self.mc) {
+            (Some(g), Some(m)) => Some(m.mean.map(|e| (e.value - g.mean_at_start) / e.stderr)),
+            _ => None,
+        }
+    }
+
+    /// The warnings: blown-up paths, and a disagreement beyond [`DISAGREE_SE`] standard
+    /// errors plus the grid's stated error.
+    pub fn warnings(&self) -> Vec<PassageWarning> {
+        let mut out = Vec::new();
+        if let Some(m) = self.mc.as_ref().filter(|m| m.blowups > 0) {
+            out.push(PassageWarning::Blowups(m.blowups));
+        }
+        if let (Some(g), Some(Some(e))) = (&self.grid, self.mc.as_ref().map(|m| m.mean)) {
+            let gap = (e.value - g.mean_at_start).abs();
+            let stated = g.errors.as_ref().map_or(0.0, |e| e.mean_at_start);
+            if gap > DISAGREE_SE * e.stderr + stated {
+                out.push(PassageWarning::Disagree {
+                    gap,
+                    stderr: e.stderr,
+                    stated,
+                });
+            }
+        }
+        out
+    }
+
+    /// `passage.csv`: `t`, then `R_grid,pdf_grid[,R_grid_err]` and `R_mc,R_mc_lo95,R_mc_hi95`
+    /// for the solves that ran.
+    pub fn csv(&self) -> String {
+        let (grid, mc) = (&self.grid, &self.mc);
+        let times = grid
+            .as_ref()
+            .map(|g| g.times.clone())
+            .or_else(|| mc.as_ref().map(|m| m.times.clone()))
+            .unwrap_or_default();
+        let mut header = vec!["t"];
+        let r_errors = grid
+            .as_ref()
+            .and_then(|g| g.errors.as_ref())
+            .map(|e| &e.reliability);
+        if grid.is_some() {
+            header.extend(["R_grid", "pdf_grid"]);
+            if r_errors.is_some() {
+                header.push("R_grid_err");
+            }
+        }
+        if mc.is_some() {
+            header.extend(["R_mc", "R_mc_lo95", "R_mc_hi95"]);
+        }
+        let mut csv = header.join(",") + "\n";
+        for (k, t) in times.iter().enumerate() {
+            let mut row = vec![t.to_string()];
+            if let Some(g) = grid {
+                row.extend([g.reliability[k].to_string(), g.pdf[k].to_string()]);
+                if let Some(e) = r_errors {
+                    row.push(e[k].to_string());
+                }
+            }
+            if let Some(m) = mc {
+                row.extend([
+                    m.reliability[k].to_string(),
+                    m.reliability_lo[k].to_string(),
+                    m.reliability_hi[k].to_string(),
+                ]);
+            }
+            csv.push_str(&(row.join(",") + "\n"));
+        }
+        csv
+    }
+
+    /// `summary.json` of the run.
+    pub fn summary<'a>(
+        &'a self,
+        command: String,
+        model_file: String,
+        bound: &'a BoundModel,
+        safe: &'a BoundSafe,
+        start: [f64; 2],
+    ) -> PassageSummary<'a> {
+        PassageSummary {
+            fpsolve: env!("CARGO_PKG_VERSION"),
+            command,
+            model: bound.name(),
+            model_file,
+            safe: &safe.text,
+            start,
+            grid: self.grid.as_ref(),
+            mc: self.mc.as_ref(),
+            grid_vs_mc_se: self.grid_vs_mc_se(),
+        }
+    }
+}
