@@ -112,7 +112,7 @@ impl Barrier {
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
 /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
 /// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
-/// assert!(matches!(dynamics.barriers(), fpsolve::dynamics::Barriers::None));
+/// assert!(matches!(dynamics.barriers()?, fpsolve::dynamics::Barriers::None));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Clone, Debug)]

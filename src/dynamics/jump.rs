@@ -11,7 +11,7 @@ use crate::symbolic::{DeltaPolicy, Expr, SymbolicError, Tape};
 ///             domain y >= 0\n";
 /// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
 /// let dynamics = fpsolve::dynamics::Dynamics::read(&bound);
-/// let wall = dynamics.barriers().iter().next().unwrap();
+/// let wall = dynamics.barriers()?.iter().next().unwrap();
 /// assert_eq!(wall.law().apply(wall.at(), -2.0), 1.0);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

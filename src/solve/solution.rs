@@ -275,7 +275,8 @@ impl Solution {
     /// use fpsolve::solve::{solve, Method};
     /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
-    /// let (exponents, coefficients) = solve(&bound, Method::Epc { degree: 2 })?.polynomial().unwrap();
+    /// let epc = solve(&bound, Method::Epc { degree: 2 })?;
+    /// let (exponents, coefficients) = epc.polynomial().unwrap();
     /// assert_eq!(exponents.len(), coefficients.len());
     /// assert!(solve(&bound, Method::Grid { cells: [40, 80] })?.polynomial().is_none());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
