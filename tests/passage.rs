@@ -507,6 +507,19 @@ fn the_passage_command_runs_monte_carlo_beside_the_grid() {
     );
     assert_eq!(csv.lines().count(), 5);
     let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    // The provenance block opens it, as every result file (issue 37).
+    assert!(
+        summary.trim_start().starts_with("{\n  \"provenance\": {"),
+        "{summary}"
+    );
+    for key in [
+        "\"schema_version\"",
+        "\"created\"",
+        "\"threads\"",
+        "\"text\"",
+    ] {
+        assert!(summary.contains(key), "{key}: {summary}");
+    }
     for key in [
         "\"mc\"",
         "\"censored_fraction\"",

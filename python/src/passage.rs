@@ -253,14 +253,19 @@ pub(crate) fn passage(
     let run = abandonable(py, {
         let (bound, safe_set, times) = (bound.clone(), safe_set.clone(), times.clone());
         move || {
-            pool.install(|| PassageRun::solve(&bound, &safe_set, start, &times, cells, grid, mc))
+            // The provenance on the pool the run used (its threads).
+            pool.install(|| {
+                let run = PassageRun::solve(&bound, &safe_set, start, &times, cells, grid, mc);
+                run.map(|run| (run, fpsolve::report::Provenance::now_bound(&bound)))
+            })
         }
     })?
     .map_err(|e| match e {
         PassageRunError::Grid(e) => passage_error(py, e),
         PassageRunError::Mc(e) => errors::mc_error(py, &e),
     })?;
-    outcome(this, &bound, &safe_set, start, &run)
+    let (run, provenance) = run;
+    outcome(this, &bound, &safe_set, start, &run, provenance)
 }
 
 /// The report, the marginals and the warnings of a finished run.
@@ -270,12 +275,14 @@ fn outcome(
     safe: &BoundSafe,
     start: [f64; 2],
     run: &PassageRun,
+    provenance: fpsolve::report::Provenance,
 ) -> PyResult<(String, Marginals, Vec<String>)> {
     let model_file = model
         .path
         .as_ref()
         .map_or(String::new(), |p| p.display().to_string());
     let summary = run.summary(
+        provenance,
         "fpsolve.Model.passage".into(),
         model_file,
         bound,

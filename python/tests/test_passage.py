@@ -36,7 +36,7 @@ def read_csv(path):
 
 def without_timing(summary):
     summary = json.loads(json.dumps(summary))
-    for key in ("command", "model_file"):
+    for key in ("command", "model_file", "provenance"):
         summary.pop(key)
     if "grid" in summary:
         summary["grid"]["report"].pop("total_ms")
@@ -58,6 +58,13 @@ def test_summary_is_the_cli_summary(both):
     out, _, py = both
     cli = json.loads((out / "summary.json").read_text())
     assert without_timing(py.report) == without_timing(cli)
+    # Both open with the provenance; Python's has no command line, and its time is its own.
+    assert next(iter(py.report)) == "provenance" == next(iter(cli))
+    for key in ("fpsolve_version", "schema_version", "threads"):
+        assert py.report["provenance"][key] == cli["provenance"][key], key
+    for key in ("name", "text"):
+        assert py.report["provenance"]["model"][key] == cli["provenance"]["model"][key], key
+    assert "command" not in py.report["provenance"]
     g = cli["grid"]
     for key in (
         "mean_at_start",

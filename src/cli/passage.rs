@@ -191,6 +191,7 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
         }
     }
     let summary = solved.summary(
+        fpsolve::report::Provenance::now_bound(&plan.bound),
         crate::command_line(),
         plan.path.display().to_string(),
         &plan.bound,

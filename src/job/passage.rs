@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::grid::{GridPassage, PassageError, PassageSolution};
 use crate::mc::{McError, McPassage, McPassageResult};
-use crate::model::{BoundModel, BoundSafe};
+use crate::model::{BoundModel, BoundSafe, Provenance};
 
 /// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
 /// Monte Carlo's mean first-passage times may be apart before a warning.
@@ -187,6 +187,9 @@ pub struct PassageRun {
 /// `summary.json` of a passage run.
 #[derive(Serialize)]
 pub struct PassageSummary<'a> {
+    /// Where it came from (version, schema, time, threads, the model's name, file and text),
+    /// first in the file as in every result file.
+    pub provenance: Provenance,
     /// The version that wrote it.
     pub fpsolve: &'static str,
     /// The command (the CLI's command line, or the Python call).
@@ -337,9 +340,10 @@ impl PassageRun {
         csv
     }
 
-    /// `summary.json` of the run.
+    /// `summary.json` of the run, opening with `provenance`.
     pub fn summary<'a>(
         &'a self,
+        provenance: Provenance,
         command: String,
         model_file: String,
         bound: &'a BoundModel,
@@ -347,6 +351,7 @@ impl PassageRun {
         start: [f64; 2],
     ) -> PassageSummary<'a> {
         PassageSummary {
+            provenance,
             fpsolve: env!("CARGO_PKG_VERSION"),
             command,
             model: bound.name(),
