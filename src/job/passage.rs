@@ -233,15 +233,16 @@ impl PassageRun {
         grid: bool,
         mc: Option<McSettings>,
     ) -> Result<PassageRun, PassageRunError> {
-        let grid = match grid {
-            true => Some(
+        let grid = if grid {
+            Some(
                 GridPassage::new(bound, safe)
                     .cells(cells[0], cells[1])
                     .start(start)
                     .times(times.to_vec())
                     .run()?,
-            ),
-            false => None,
+            )
+        } else {
+            None
         };
         let mc = match mc {
             None => None,

@@ -29,7 +29,7 @@ use crate::mc::compile::mech_form::MechForm;
 use crate::mc::error::BarrierLayout;
 use crate::mc::error::McError;
 use crate::model::BarrierSide;
-use crate::model::{BoundModel, Interpretation};
+use crate::model::Interpretation;
 use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Func};
 use nalgebra::{Matrix2, Matrix3, Vector3};
 
@@ -242,8 +242,10 @@ pub(crate) fn psd_sqrt(s: &[Vec<f64>]) -> Result<Vec<f64>, McError> {
     Ok(l)
 }
 
-/// The model read once ([`ModelDynamics::read`]), its barriers checked to be readable.
-pub(crate) fn read(model: &BoundModel) -> Result<ModelDynamics, McError> {
+/// The model read once ([`ModelDynamics::read`]), its barriers checked to be readable (for
+/// tests; a run reads it and takes its [`walls`], which check them, once).
+#[cfg(test)]
+pub(crate) fn read(model: &crate::model::BoundModel) -> Result<ModelDynamics, McError> {
     let dynamics = ModelDynamics::read(model);
     walls(&dynamics)?;
     Ok(dynamics)
@@ -252,7 +254,7 @@ pub(crate) fn read(model: &BoundModel) -> Result<ModelDynamics, McError> {
 /// The model's barriers as the simulation takes them, from its
 /// [`Dynamics`](crate::dynamics::Dynamics).
 #[cfg(test)]
-pub(crate) fn impact_specs(model: &BoundModel) -> Result<Vec<Wall>, McError> {
+pub(crate) fn impact_specs(model: &crate::model::BoundModel) -> Result<Vec<Wall>, McError> {
     walls(&read(model)?)
 }
 
@@ -299,7 +301,7 @@ impl Plan {
     /// `model` read and compiled with the impact laws `specs`, as a run compiles it.
     #[cfg(test)]
     pub(crate) fn of_model(
-        model: &BoundModel,
+        model: &crate::model::BoundModel,
         choice: SchemeChoice,
         specs: Vec<Wall>,
     ) -> Result<Plan, McError> {

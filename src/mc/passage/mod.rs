@@ -14,7 +14,7 @@ mod summary;
 
 use rayon::prelude::*;
 
-use super::compile::scheme::{read, walls, Plan, SchemeChoice};
+use super::compile::scheme::{walls, Plan, SchemeChoice};
 use super::config::bad;
 use super::error::McError;
 use super::kernel::rng::Increments;
@@ -177,7 +177,7 @@ impl<'a> McPassage<'a> {
     /// times.
     pub fn run(&self) -> Result<McPassageResult, McError> {
         self.check()?;
-        let dynamics = read(self.model)?;
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
         let observables: Vec<_> = self
             .model
             .observables

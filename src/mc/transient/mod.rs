@@ -43,7 +43,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::compile::impact::Crossing;
-use super::compile::scheme::{read, walls, Plan, SchemeChoice, SchemeKind};
+use super::compile::scheme::{walls, Plan, SchemeChoice, SchemeKind};
 use super::kernel::rng::Increments;
 use super::record::histogram::Grid;
 use super::step::state::BatchState;
@@ -336,7 +336,7 @@ impl<'a> McTransient<'a> {
         if self.model.time_dependent() {
             return Err(McTransientError::TimeDependent);
         }
-        let dynamics = read(self.model)?;
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
         let observables: Vec<_> = self
             .model
             .observables
