@@ -84,7 +84,8 @@ fn every_corpus_file_fails_where_its_header_says() {
 
 /// A scratch directory for generated inputs, unique to this test process.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-malformed-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("fpsolve-malformed-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }

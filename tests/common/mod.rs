@@ -18,8 +18,12 @@ pub fn fpsolve(args: &[&str]) -> Output {
 }
 
 /// A path unique to this test process and `name`, removed if it exists and not created.
+///
+/// It lies under Cargo's scratch directory for integration tests (`target/tmp`), not the
+/// system's temporary directory: what a run leaves for inspection goes with `target/`.
 pub fn fresh_path(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fpsolve-test-{}-{name}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("fpsolve-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }
