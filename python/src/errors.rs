@@ -372,6 +372,9 @@ pub(crate) fn solve_error(py: Python<'_>, e: &LibSolveError, asked: &Asked<'_>) 
             let attrs = base(vec![("reason", obj(py, z.to_string()))]);
             raise::<NotApplicableError>(py, text, "zhuravlev", &attrs)
         }
+        // An interrupted call raises its KeyboardInterrupt before reaching here; a flag set
+        // by anyone else stops the solve the same way.
+        LibSolveError::Cancelled(_) => PyErr::new::<pyo3::exceptions::PyKeyboardInterrupt, _>(text),
         // The package settles each method from its own name; kept typed all the same.
         LibSolveError::OtherSettings { .. } => {
             raise::<SolveError>(py, text, "other_settings", &base(vec![]))

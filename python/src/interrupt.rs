@@ -122,13 +122,27 @@ where
     T: Send + 'static,
     F: FnOnce() -> T + Send + 'static,
 {
+    abandonable_cancelling(py, move |_| work())
+}
+
+/// [`abandonable`] for work with a few cancellation points far apart (a grid solve checks
+/// between its factorisations): on an interrupt the call returns at once, as there, and the
+/// flag handed to `work` is set, so that the detached worker stops at its next check instead
+/// of running to its end unseen.
+pub(crate) fn abandonable_cancelling<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send + 'static,
+    F: FnOnce(Cancel) -> T + Send + 'static,
+{
     type Slot<T> = (Mutex<Option<std::thread::Result<T>>>, Condvar);
     let slot: Arc<Slot<T>> = Arc::new((Mutex::new(None), Condvar::new()));
     let worker_slot = Arc::clone(&slot);
+    let cancel = Cancel::new();
+    let worker_cancel = cancel.clone();
     std::thread::Builder::new()
         .name("fpsolve-call".into())
         .spawn(move || {
-            let out = catch_unwind(AssertUnwindSafe(work));
+            let out = catch_unwind(AssertUnwindSafe(|| work(worker_cancel)));
             let (value, ready) = &*worker_slot;
             // Stored even when the caller is gone (interrupted): dropped with the last Arc.
             *value.lock().unwrap_or_else(|p| p.into_inner()) = Some(out);
@@ -146,7 +160,12 @@ where
         });
         match done {
             Some(out) => return out.map_err(panic_error),
-            None => py.check_signals()?,
+            None => {
+                if let Err(interrupt) = py.check_signals() {
+                    cancel.cancel();
+                    return Err(interrupt);
+                }
+            }
         }
     }
 }

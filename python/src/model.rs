@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use fpsolve::base::limits::memory_limit_bytes;
+use fpsolve::base::run::RunControl;
 use fpsolve::grid::Cells;
 use fpsolve::mc::{Grid, McConfig, Shard, Simulation};
 use fpsolve::model::{load_model, parse_model, BoundModel, Model, Override};
@@ -12,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
 use crate::errors::{self, Asked};
-use crate::interrupt::{abandonable, interruptible_reporting};
+use crate::interrupt::{abandonable_cancelling, interruptible_reporting};
 use crate::solution::PySolution;
 
 /// A validated model (`Model.load(path)`, `Model.from_text(text)`).
@@ -283,17 +284,18 @@ impl PyModel {
         };
         let bound = self.bind(py, set)?;
         let domain = grid_domain(domain, &chosen, &bound)?;
-        // A grid solve is one factorisation with no point to stop at: Ctrl-C returns at once
-        // and the solve finishes unseen (a tolerance's solves too).
+        // A grid solve stops only between its factorisations: Ctrl-C returns at once, and the
+        // solve, left running, stops at its next check.
         let pool = crate::pool::shared()?;
-        let solved = abandonable(py, move || {
+        let solved = abandonable_cancelling(py, move |cancel| {
             pool.install(|| {
                 // Made on the pool, so that it states the pool's threads.
                 let provenance = fpsolve::report::Provenance::now_bound(&bound);
                 let problem = Problem::new(&bound)?
                     .with_grid_domain(domain)
                     .with_grid_tolerance(tol);
-                problem.solve(chosen).map(|s| (s, provenance))
+                let run = RunControl::new().cancelled_by(cancel);
+                problem.solve_with(chosen, &run).map(|s| (s, provenance))
             })
         })?;
         let (solution, provenance) = solved.map_err(|e| errors::solve_error(py, &e, &asked))?;

@@ -7,5 +7,6 @@ pub mod cancel;
 pub mod input_file;
 pub mod limits;
 pub mod number_text;
+pub mod run;
 pub mod simd;
 pub mod timeline;

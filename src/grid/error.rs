@@ -220,4 +220,8 @@ pub enum GridError {
         /// The widest side of the last box.
         width: f64,
     },
+    /// The run's flag was set ([`RunControl`](crate::base::run::RunControl)) between two of
+    /// its factorisations: nothing of the solve is returned.
+    #[error(transparent)]
+    Cancelled(#[from] crate::base::cancel::Cancelled),
 }

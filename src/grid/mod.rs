@@ -99,6 +99,7 @@ pub use transient::{
     TransientReport, INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE, UNRESOLVED_L1,
 };
 
+use crate::base::run::RunControl;
 use crate::dynamics::BarrierKind;
 use crate::model::BoundModel;
 use mesh::Mesh;
@@ -144,6 +145,10 @@ pub struct GridSolver<'a> {
     estimate: bool,
     tolerance: Option<f64>,
     cells_given: bool,
+    run: RunControl,
+    /// Solves on a main mesh reported to `run` before this solver's (a tolerance's earlier
+    /// solves), and whether this solver reports the run finished.
+    progress: (u64, bool),
 }
 
 impl<'a> GridSolver<'a> {
@@ -164,6 +169,8 @@ impl<'a> GridSolver<'a> {
             estimate: true,
             tolerance: None,
             cells_given: false,
+            run: RunControl::new(),
+            progress: (0, true),
         }
     }
 
@@ -281,6 +288,29 @@ impl<'a> GridSolver<'a> {
         self
     }
 
+    /// Runs under `run`: each solve on a mesh (the main one with its half- and quarter-cell
+    /// estimates beside it; again when the box grows; each solve of a
+    /// [`tolerance`](Self::tolerance)) is reported as it starts, `done` solves of `done + 1`
+    /// (the total grows when the box or the cells must; the end is reported as `done` of
+    /// `done`), and the flag is checked then. A factorisation under way runs to its end: the
+    /// grid stops within one solve of the flag.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
+    /// use fpsolve::base::{cancel::Cancel, run::RunControl};
+    /// use fpsolve::grid::{GridError, GridSolver};
+    /// let cancel = Cancel::new();
+    /// cancel.cancel();
+    /// let run = RunControl::new().cancelled_by(cancel);
+    /// let err = GridSolver::new(&bound).cells(40, 40).run_control(run).solve().unwrap_err();
+    /// assert!(matches!(err, GridError::Cancelled(_)));
+    /// ```
+    pub fn run_control(mut self, run: RunControl) -> Self {
+        self.run = run;
+        self
+    }
+
     /// Whether the solver applies to the model, without solving (milliseconds: it reads the
     /// mechanical form and the barrier, as [`GridSolver::solve`] does first).
     ///
@@ -354,7 +384,10 @@ impl<'a> GridSolver<'a> {
         let with_quarter = with_estimate && quarter_cells(self.cells).is_some();
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
         let mut recut = false;
+        let mut solves = self.progress.0;
         loop {
+            self.run.report(solves, solves + 1);
+            self.run.check()?;
             mesh = problem.mesh(domain, nx, nv, 4);
             // The error estimate's half-cells solve runs alongside the main one, pinned
             // where the main one is (a solve is a function of its mesh and pin alone, so
@@ -376,6 +409,7 @@ impl<'a> GridSolver<'a> {
             let solved;
             (solved, coarse) = rayon::join(main, half);
             (p, assemble_ms) = solved?;
+            solves += 1;
             // An automatic domain that cut into the density is enlarged and solved again;
             // one whose density ends far inside it is cut once from this solution.
             if self.domain.is_some() || passes >= MAX_GROWTH {
@@ -469,6 +503,9 @@ impl<'a> GridSolver<'a> {
         }
         report.timings.total_ms = ms(start);
         solution.report = report;
+        if self.progress.1 {
+            self.run.report(solves, solves);
+        }
         Ok(solution)
     }
 
@@ -498,17 +535,21 @@ impl<'a> GridSolver<'a> {
         let mut not_falling = 0;
         // No refinement beyond what this machine's memory lets a solve on given cells use.
         let limit = tolerance_cell_limit(crate::base::limits::memory_limit_bytes());
+        // Solves on a main mesh so far (a solve whose box grew made several).
+        let mut meshes = 0;
         let shortfall = loop {
             let one = GridSolver {
                 cells,
                 tolerance: None,
                 cells_given: true,
                 estimate: true,
+                progress: (meshes, false),
                 ..self.clone()
             };
             let mut cut = 0.0;
             let e = match one.solve() {
                 Ok(sol) => {
+                    meshes += sol.report.domain_passes as u64 + 1;
                     let e = achieved(&sol);
                     // The next cells aim at the order this solve's curves show.
                     if let Some(est) = &sol.report.discretisation_estimate {
@@ -524,6 +565,7 @@ impl<'a> GridSolver<'a> {
                 }
                 // Too coarse to resolve the density: refine like any other miss.
                 Err(err @ GridError::NegativeMass { .. }) => {
+                    meshes += 1;
                     last_error = Some(err);
                     f64::INFINITY
                 }
@@ -571,6 +613,7 @@ impl<'a> GridSolver<'a> {
             solves,
         });
         sol.report.timings.total_ms = ms(start);
+        self.run.report(meshes, meshes);
         Ok(sol)
     }
 }

@@ -218,6 +218,55 @@ mod tests {
         );
     }
 
+    /// A tolerance's refinements report each solve, `done` never falling and ending equal to
+    /// `total`; a flag set after the first solve stops the run before its second.
+    #[test]
+    fn a_tolerance_run_reports_its_solves_and_stops_on_its_flag() {
+        use crate::base::cancel::Cancel;
+        use crate::base::run::RunControl;
+        use crate::grid::{GridError, GridSolver};
+        use std::sync::{Arc, Mutex};
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+        let bound = crate::model::load_model(&path).unwrap().bind(&[]).unwrap();
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let run = RunControl::new().reporting({
+            let seen = seen.clone();
+            move |done, total| seen.lock().unwrap().push((done, total))
+        });
+        let sol = GridSolver::new(&bound)
+            .tolerance(2e-3)
+            .run_control(run)
+            .solve()
+            .unwrap();
+        let seen = seen.lock().unwrap().clone();
+        let solves = sol.report.tolerance.as_ref().unwrap().solves.len() as u64;
+        assert!(solves >= 2, "{solves} solves: the test needs a refinement");
+        assert!(seen.windows(2).all(|w| w[0].0 <= w[1].0), "{seen:?}");
+        assert!(seen.iter().all(|&(d, t)| d <= t), "{seen:?}");
+        let &(done, total) = seen.last().unwrap();
+        assert_eq!(done, total);
+        assert!(done >= solves, "{seen:?}");
+
+        let cancel = Cancel::new();
+        let run = RunControl::new().cancelled_by(cancel.clone()).reporting({
+            let cancel = cancel.clone();
+            move |done, _| {
+                if done >= 1 {
+                    cancel.cancel();
+                }
+            }
+        });
+        let stopped = GridSolver::new(&bound)
+            .tolerance(2e-3)
+            .run_control(run)
+            .solve()
+            .map(|s| s.report.cells);
+        assert!(
+            matches!(stopped, Err(GridError::Cancelled(_))),
+            "{stopped:?}"
+        );
+    }
+
     #[test]
     fn tolerance_must_be_positive_and_finite() {
         assert!(check_tolerance(1e-3).is_ok());

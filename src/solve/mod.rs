@@ -32,6 +32,8 @@ mod tail;
 use std::borrow::Cow;
 use std::sync::Arc;
 
+use crate::base::cancel::Cancelled;
+use crate::base::run::RunControl;
 use crate::dynamics::Dynamics;
 use crate::epc::{Epc, EpcError};
 use crate::fpk::{FpkError, FpkOperator};
@@ -149,6 +151,10 @@ pub enum SolveError {
         /// The settings given.
         settings: Method,
     },
+    /// The run's flag was set ([`RunControl`]) before the method finished: nothing of the
+    /// solve is returned.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -416,7 +422,31 @@ impl<'a> Problem<'a> {
     /// [`SolveError::Epc`] when EPC does not converge or cannot normalise;
     /// [`SolveError::Grid`] when the grid solver refuses the model or fails.
     pub fn solve(&self, method: Method) -> Result<Solution, SolveError> {
-        method.name().method().solve(self, method)
+        self.solve_with(method, &RunControl::new())
+    }
+
+    /// [`Problem::solve`] under `run`: the method checks its flag between its units of work
+    /// and reports its progress there (see [`StationaryMethod::solve`]).
+    ///
+    /// # Errors
+    /// As [`Problem::solve`]; [`SolveError::Cancelled`] when `run`'s flag was set.
+    ///
+    /// ```
+    /// use fpsolve::base::{cancel::Cancel, run::RunControl};
+    /// use fpsolve::solve::{Method, Problem, SolveError};
+    /// let bound = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\n\
+    ///     drift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?.bind(&[])?;
+    /// let problem = Problem::new(&bound)?;
+    /// let cancel = Cancel::new();
+    /// let run = RunControl::new().cancelled_by(cancel.clone());
+    /// assert!(problem.solve_with(Method::Grid { cells: [40, 40] }, &run).is_ok());
+    /// cancel.cancel();
+    /// let err = problem.solve_with(Method::Grid { cells: [40, 40] }, &run).unwrap_err();
+    /// assert!(matches!(err, SolveError::Cancelled(_)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn solve_with(&self, method: Method, run: &RunControl) -> Result<Solution, SolveError> {
+        method.name().method().solve(self, method, run)
     }
 
     /// Solves by EPC at `degree` (through the Zhuravlev transform when there is one).
@@ -429,13 +459,20 @@ impl<'a> Problem<'a> {
 
     /// Solves by the grid solver on `cells` (on the cells it chooses when a tolerance was
     /// asked), the model as it stands.
-    pub(crate) fn solve_grid(&self, cells: [usize; 2]) -> Result<Solution, SolveError> {
-        let solver = self.grid_solver();
+    pub(crate) fn solve_grid(
+        &self,
+        cells: [usize; 2],
+        run: &RunControl,
+    ) -> Result<Solution, SolveError> {
+        let solver = self.grid_solver().run_control(run.clone());
         let solver = match self.grid_tolerance {
             Some(_) => solver,
             None => solver.cells(cells[0], cells[1]),
         };
-        let grid = solver.solve()?;
+        let grid = solver.solve().map_err(|e| match e {
+            GridError::Cancelled(c) => SolveError::Cancelled(c),
+            e => SolveError::Grid(e),
+        })?;
         Ok(Solution::new(
             Density::Grid(Box::new(grid)),
             self.own_quantities(),

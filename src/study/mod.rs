@@ -13,10 +13,12 @@ mod run;
 mod warning;
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::base::run::RunControl;
 use crate::base::timeline;
 use crate::epc::EpcSolution;
 use crate::grid::GridReport;
@@ -110,6 +112,9 @@ pub struct StudyRunner<'a> {
     bins: Option<&'a BinChoice<'a>>,
     curves_of: Option<Vec<String>>,
     left_out: Vec<(MethodName, String)>,
+    run: RunControl,
+    /// Methods solved so far (a ladder counts once), for `run`'s progress.
+    solved: AtomicU64,
 }
 
 impl<'a> StudyRunner<'a> {
@@ -124,6 +129,8 @@ impl<'a> StudyRunner<'a> {
             bins: None,
             curves_of: None,
             left_out: Vec::new(),
+            run: RunControl::new(),
+            solved: AtomicU64::new(0),
         }
     }
 
@@ -228,6 +235,44 @@ impl<'a> StudyRunner<'a> {
     pub fn methods(mut self, methods: &[MethodName]) -> Self {
         self.methods = methods.to_vec();
         self
+    }
+
+    /// Runs under `run`: each method checks its flag between its units of work (a method
+    /// stopped by it keeps [`SolveError::Cancelled`] as its outcome, beside the methods that
+    /// finished), and the study reports each method solved (a ladder counts once) as a unit
+    /// of progress, of the methods asked.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/vibro_duffing.sde");
+    /// # let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// use std::sync::{Arc, Mutex};
+    /// use fpsolve::base::run::RunControl;
+    /// use fpsolve::solve::MethodName;
+    /// let seen = Arc::new(Mutex::new(Vec::new()));
+    /// let run = RunControl::new().reporting({
+    ///     let seen = seen.clone();
+    ///     move |done, total| seen.lock().unwrap().push((done, total))
+    /// });
+    /// fpsolve::study::StudyRunner::new(&bound)
+    ///     .degrees(&[2])
+    ///     .methods(&[MethodName::Epc, MethodName::Grid])
+    ///     .cells([40, 60])
+    ///     .run_control(run)
+    ///     .run()?;
+    /// let mut seen = seen.lock().unwrap().clone();
+    /// seen.sort();
+    /// assert_eq!(seen, [(1, 2), (2, 2)]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn run_control(mut self, run: RunControl) -> Self {
+        self.run = run;
+        self
+    }
+
+    /// A method solved: one unit of the study's progress.
+    fn solved_one(&self) {
+        let done = self.solved.fetch_add(1, Ordering::Relaxed) + 1;
+        self.run.report(done, self.methods.len() as u64);
     }
 
     /// Cells of the grid solver (position, velocity); default [`crate::grid::DEFAULT_CELLS`].
@@ -377,7 +422,10 @@ impl<'a> StudyRunner<'a> {
     }
 
     fn ladder(&self, problem: &Problem, method: MethodName) -> Vec<Run> {
-        let solved = method.method().solve_degrees(problem, &self.degrees);
+        let solved = method
+            .method()
+            .solve_degrees(problem, &self.degrees, &self.run.silent());
+        self.solved_one();
         solved
             .unwrap_or_default()
             .into_iter()
@@ -399,7 +447,8 @@ impl<'a> StudyRunner<'a> {
     fn once(&self, problem: &Problem, name: MethodName) -> Run {
         let t = Instant::now();
         let method = name.method().settle(0, self.cells);
-        let outcome = problem.solve(method);
+        let outcome = problem.solve_with(method, &self.run.silent());
+        self.solved_one();
         let stats = outcome
             .as_ref()
             .map_or_else(|_| Vec::new(), Solution::all_moments);

@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::base::run::RunControl;
 use crate::grid::Domain;
 use crate::model::{BoundModel, Model};
 use crate::observe::{ObservableDensity, ObservableMap};
@@ -71,16 +72,16 @@ fn ms(since: Instant) -> f64 {
 }
 
 /// The point `values` (number `index` of the sweep's points) of `spec` solved by every
-/// method in `settled`. The first method's EPC reference values are computed when the point
-/// is at the `frontier`.
+/// method in `settled`, under `run`. The first method's EPC reference values are computed
+/// when the point is at the `frontier`.
 pub(super) fn solve_point(
     model: &Model,
     spec: &SweepSpec,
-    index: usize,
-    values: Vec<f64>,
+    (index, values): (usize, Vec<f64>),
     settled: &[(MethodName, Method)],
     domain: Option<Domain>,
     frontier: &Frontier,
+    run: &RunControl,
 ) -> Raw {
     let start = Instant::now();
     let bound = model.bind(&spec.overrides_at(&values));
@@ -105,7 +106,7 @@ pub(super) fn solve_point(
                     by_epc(problem, *degree, (k == 0).then_some((frontier, index)))
                 }
                 (Ok(Ok(problem)), method) => {
-                    let (outcome, rms) = by_method(problem, *method);
+                    let (outcome, rms) = by_method(problem, *method, run);
                     (outcome, ReferenceRms::Known(rms))
                 }
             };
@@ -251,12 +252,14 @@ fn epc_curves(
 }
 
 /// Any other method through the front door (the grid on the problem's box when given): the
-/// solution's moments and its marginals on the report grid.
+/// solution's moments and its marginals on the report grid. Under `run`, whose flag stops a
+/// grid between two of its solves (the sweep then returns `Cancelled`, not this point).
 pub(super) fn by_method(
     problem: &Problem,
     method: Method,
+    run: &RunControl,
 ) -> (Result<PointCurves, PointFailure>, Option<Vec<f64>>) {
-    let solution = match problem.solve(method) {
+    let solution = match problem.solve_with(method, run) {
         Ok(s) => s,
         Err(e) => return (Err(failure(e, method)), None),
     };

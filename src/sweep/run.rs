@@ -7,6 +7,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::base::cancel::{Cancel, Cancelled};
+use crate::base::run::RunControl;
 use crate::grid::{Cells, Domain, GridSolver};
 use crate::model::Model;
 use crate::solve::{
@@ -256,6 +257,7 @@ impl<'a> Sweep<'a> {
         // to a solver.
         let refusals = admission::refusals(model, spec, &all);
         let frontier = Frontier::at(&range);
+        let run = RunControl::new().cancelled_by(cancel.clone());
         let solve = || {
             range
                 .clone()
@@ -272,11 +274,11 @@ impl<'a> Sweep<'a> {
                         None => solve_point(
                             model,
                             spec,
-                            i,
-                            all[i].clone(),
+                            (i, all[i].clone()),
                             &settled,
                             self.domain,
                             &frontier,
+                            &run,
                         ),
                     };
                     let k = done.fetch_add(1, Ordering::Relaxed) + 1;

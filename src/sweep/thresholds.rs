@@ -20,6 +20,7 @@
 use std::ops::Range;
 
 use crate::base::cancel::Cancel;
+use crate::base::run::RunControl;
 use crate::grid::Domain;
 use crate::model::Model;
 use crate::solve::{Method, Problem};
@@ -45,13 +46,15 @@ fn solved_rms(
     spec: &SweepSpec,
     values: &[f64],
     (method, domain): (Method, Option<Domain>),
+    cancel: &Cancel,
 ) -> Option<Vec<f64>> {
     let bound = model.bind(&spec.overrides_at(values)).ok()?;
     match method {
         Method::Epc { degree } => epc_reference_rms(&bound, degree),
-        other => Problem::new(&bound)
-            .ok()
-            .and_then(|p| by_method(&p.with_grid_domain(domain), other).1),
+        other => Problem::new(&bound).ok().and_then(|p| {
+            let run = RunControl::new().cancelled_by(cancel.clone());
+            by_method(&p.with_grid_domain(domain), other, &run).1
+        }),
     }
 }
 
@@ -74,7 +77,7 @@ pub(super) fn reference(
         }
         let rms = match known(i) {
             ReferenceRms::Known(rms) => rms,
-            ReferenceRms::Unknown => solved_rms(model, spec, &points[i], method),
+            ReferenceRms::Unknown => solved_rms(model, spec, &points[i], method, cancel),
         };
         if let Some(rms) = rms {
             return Some(Reference { point: i, rms });
@@ -104,7 +107,7 @@ mod tests {
         let spec = SweepSpec::parse(&["S=-1,-2,1,2".to_string()]).unwrap();
         let points = spec.points();
         let method = (Method::Epc { degree: 4 }, None);
-        let solved = |i: usize| solved_rms(&model, &spec, &points[i], method);
+        let solved = |i: usize| solved_rms(&model, &spec, &points[i], method, &Cancel::new());
         // Points 0 and 1 do not bind; point 2 is the reference (var z = S/(2c) = 2.5).
         let scratch = reference(
             &model,

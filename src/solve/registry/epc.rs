@@ -2,6 +2,7 @@
 //! [`StationaryMethod`].
 
 use super::StationaryMethod;
+use crate::base::run::RunControl;
 use crate::dynamics::ImpactForm;
 use crate::epc::EpcError;
 use crate::solve::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
@@ -50,9 +51,14 @@ impl StationaryMethod for Closure {
         })
     }
 
-    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+    fn solve(
+        &self,
+        problem: &Problem,
+        method: Method,
+        run: &RunControl,
+    ) -> Result<Solution, SolveError> {
         match method {
-            Method::Epc { degree } => problem.solve_epc(degree),
+            Method::Epc { degree } => super::one_unit(run, || problem.solve_epc(degree)),
             other => Err(SolveError::OtherSettings {
                 method: self.name(),
                 settings: other,
@@ -64,14 +70,15 @@ impl StationaryMethod for Closure {
         &self,
         problem: &Problem,
         degrees: &[usize],
+        run: &RunControl,
     ) -> Option<Vec<Result<Solution, SolveError>>> {
-        Some(
+        Some(super::one_ladder(run, degrees, || {
             problem
                 .solve_epc_degrees(degrees)
                 .into_iter()
                 .map(|r| r.map_err(SolveError::Epc))
-                .collect(),
-        )
+                .collect()
+        }))
     }
 
     fn figure_names(&self) -> &'static [&'static str] {

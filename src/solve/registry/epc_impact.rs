@@ -1,6 +1,7 @@
 //! EPC with the exact impact condition ([`crate::epc_impact`]) as a [`StationaryMethod`].
 
 use super::StationaryMethod;
+use crate::base::run::RunControl;
 use crate::epc_impact::{EpcImpact, EpcImpactError};
 use crate::solve::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
 
@@ -38,9 +39,16 @@ impl StationaryMethod for ExactImpact {
         }
     }
 
-    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+    fn solve(
+        &self,
+        problem: &Problem,
+        method: Method,
+        run: &RunControl,
+    ) -> Result<Solution, SolveError> {
         match method {
-            Method::EpcImpact { degree } => problem.solve_epc_impact(degree),
+            Method::EpcImpact { degree } => {
+                super::one_unit(run, || problem.solve_epc_impact(degree))
+            }
             other => Err(SolveError::OtherSettings {
                 method: self.name(),
                 settings: other,
@@ -52,8 +60,11 @@ impl StationaryMethod for ExactImpact {
         &self,
         problem: &Problem,
         degrees: &[usize],
+        run: &RunControl,
     ) -> Option<Vec<Result<Solution, SolveError>>> {
-        Some(problem.solve_epc_impact_degrees(degrees))
+        Some(super::one_ladder(run, degrees, || {
+            problem.solve_epc_impact_degrees(degrees)
+        }))
     }
 
     /// As EPC's (its FPK residual includes the impact condition's), and the quadrature's

@@ -2,6 +2,7 @@
 //! the other methods are compared with when there is no Monte Carlo run.
 
 use super::StationaryMethod;
+use crate::base::run::RunControl;
 use crate::grid::GridError;
 use crate::observe::ObservableMap;
 use crate::solve::{Density, Method, MethodName, NotApplicable, Problem, Solution, SolveError};
@@ -60,9 +61,14 @@ impl StationaryMethod for FiniteVolumes {
         }
     }
 
-    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError> {
+    fn solve(
+        &self,
+        problem: &Problem,
+        method: Method,
+        run: &RunControl,
+    ) -> Result<Solution, SolveError> {
         match method {
-            Method::Grid { cells } => problem.solve_grid(cells),
+            Method::Grid { cells } => problem.solve_grid(cells, run),
             other => Err(SolveError::OtherSettings {
                 method: self.name(),
                 settings: other,

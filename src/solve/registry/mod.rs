@@ -11,12 +11,14 @@ mod epc_impact;
 mod grid;
 
 use super::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
+use crate::base::run::RunControl;
 
 /// A method that solves for the stationary density: what it is called, whether it applies
 /// to a model (a typed refusal before any work), and its solve, once or at a ladder of
 /// degrees.
 ///
 /// ```
+/// use fpsolve::base::run::RunControl;
 /// use fpsolve::solve::{MethodName, Problem};
 /// let bound = fpsolve::model::parse_model("model m\nstate z, v\ndrift z: v\n\
 ///     drift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?.bind(&[])?;
@@ -25,7 +27,7 @@ use super::{Method, MethodName, NotApplicable, Problem, Solution, SolveError};
 ///     let method = name.method();
 ///     assert_eq!(method.name(), name);
 ///     if method.applies(&problem)?.is_ok() {
-///         let solution = method.solve(&problem, method.settle(2, [40, 40]))?;
+///         let solution = method.solve(&problem, method.settle(2, [40, 40]), &RunControl::new())?;
 ///         assert!(solution.moments("v")?.moments.variance > 0.9);
 ///     }
 /// }
@@ -62,18 +64,30 @@ pub trait StationaryMethod: Sync {
         Ok(())
     }
 
-    /// Solves once with `method`'s settings (a [`Method`] of this name).
+    /// Solves once with `method`'s settings (a [`Method`] of this name), under `run`: the
+    /// method checks `run`'s flag between its units of work and stops there with
+    /// [`SolveError::Cancelled`], and reports each unit done (the grid: each solve on a mesh,
+    /// a tolerance's refinements included; EPC: its solve, which takes milliseconds, is one
+    /// unit, checked before it starts).
     ///
     /// # Errors
-    /// The method's failure, as a [`SolveError`].
-    fn solve(&self, problem: &Problem, method: Method) -> Result<Solution, SolveError>;
+    /// The method's failure, as a [`SolveError`]; [`SolveError::Cancelled`].
+    fn solve(
+        &self,
+        problem: &Problem,
+        method: Method,
+        run: &RunControl,
+    ) -> Result<Solution, SolveError>;
 
     /// Solves at each degree asked, continuing through every lower even degree, one result
-    /// per degree in the order given; `None` for a method without degrees.
+    /// per degree in the order given, under `run` (checked before the ladder starts: a
+    /// ladder is one unit of work, reported when done); `None` for a method without
+    /// degrees. A cancelled ladder gives [`SolveError::Cancelled`] at every degree.
     fn solve_degrees(
         &self,
         _problem: &Problem,
         _degrees: &[usize],
+        _run: &RunControl,
     ) -> Option<Vec<Result<Solution, SolveError>>> {
         None
     }
@@ -113,6 +127,34 @@ pub trait StationaryMethod: Sync {
     fn zero_reason(&self) -> &'static str;
 }
 
+/// A solve that is one unit of work (EPC's: milliseconds): `run`'s flag checked before it
+/// starts, its start and end reported.
+fn one_unit(
+    run: &RunControl,
+    solve: impl FnOnce() -> Result<Solution, SolveError>,
+) -> Result<Solution, SolveError> {
+    run.check()?;
+    run.report(0, 1);
+    let solved = solve();
+    run.report(1, 1);
+    solved
+}
+
+/// [`one_unit`] for a ladder of `degrees`: a cancelled ladder is cancelled at every degree.
+fn one_ladder(
+    run: &RunControl,
+    degrees: &[usize],
+    solve: impl FnOnce() -> Vec<Result<Solution, SolveError>>,
+) -> Vec<Result<Solution, SolveError>> {
+    if let Err(c) = run.check() {
+        return degrees.iter().map(|_| Err(c.into())).collect();
+    }
+    run.report(0, 1);
+    let solved = solve();
+    run.report(1, 1);
+    solved
+}
+
 impl MethodName {
     /// The method of this name: the registry, the one place a name meets its method.
     ///
@@ -150,7 +192,9 @@ mod tests {
             if method.applies(&problem).unwrap().is_err() {
                 continue;
             }
-            let solution = method.solve(&problem, method.settle(2, [32, 48])).unwrap();
+            let solution = method
+                .solve(&problem, method.settle(2, [32, 48]), &RunControl::new())
+                .unwrap();
             assert_eq!(
                 solution.figures().values().len(),
                 method.figure_names().len(),
