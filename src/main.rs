@@ -77,7 +77,8 @@ struct SolveArgs {
     /// are refused, all of them in one message.
     #[arg(long, value_name = "NAME,...")]
     method: Option<MethodSet>,
-    /// Cells of the grid solver, position and velocity: even, at least 8 each.
+    /// Cells of the grid solver, position and velocity: even, at least 8 each (without
+    /// --cells or --tol the grid is solved to the tolerance 1e-3).
     #[arg(long, value_name = "NX,NV")]
     cells: Option<Cells>,
     /// The grid solver's box instead of one sized from the density: `x=LO:HI,v=LO:HI` (or
@@ -88,7 +89,8 @@ struct SolveArgs {
     domain: Option<String>,
     /// The grid solver's accuracy instead of its cells: it chooses and refines them until
     /// its estimated L1 error of both marginals is at most L1 (0 < L1 <= 0.5; not with
-    /// --cells). Not reached: the best solve is written and the run exits 1.
+    /// --cells; default 1e-3 without --cells). Not reached: the best solve is written and
+    /// the run exits 1.
     #[arg(long, value_name = "L1", allow_hyphen_values = true)]
     tol: Option<f64>,
     #[command(flatten)]

@@ -190,4 +190,5 @@ def run_job(
     cells: Optional[Tuple[int, int]] = None,
     set: Optional[Mapping[str, _Value]] = None,
     figures: bool = True,
+    tol: Optional[float] = None,
 ) -> _JobOutcome: ...

@@ -16,6 +16,7 @@ def run_job(
     degrees: Sequence[int] = (2, 4),
     cells: Optional[Sequence[int]] = None,
     figures: bool = True,
+    tol: Optional[float] = None,
     **set: Any,
 ) -> Dict[str, Any]:
     """Runs what ``fpsolve MODEL --out OUT`` runs (without Monte Carlo) and writes the same
@@ -33,9 +34,13 @@ def run_job(
     degrees : sequence of int
         The EPC degrees.
     cells : (int, int), optional
-        The grid's cells (default (200, 400)).
+        The grid's cells. Without ``cells`` or ``tol`` the grid chooses its cells for an
+        estimated L1 error of at most 1e-3, as the command line does.
     figures : bool
         Draw the figures (png and svg) beside the CSV files.
+    tol : float, optional
+        The grid's L1 tolerance (``--tol``): it chooses its box and cells until its estimate
+        is below it; not with ``cells``, and only when the grid runs.
     **set : number or str
         Parameter overrides by keyword.
 
@@ -69,6 +74,7 @@ def run_job(
         cells_t,
         set,
         bool(figures),
+        None if tol is None else float(tol),
     )
     result["files"] = [str(f) for f in result["files"]]
     return result

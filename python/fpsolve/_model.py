@@ -252,7 +252,8 @@ class Model:
             The EPC degree (even, 2 to 12; every even degree up to it is solved in turn).
             Not used by the grid.
         cells : (int, int), optional
-            The grid's cells ``(nx, nv)``; default (200, 400).
+            The grid's cells ``(nx, nv)``. Without ``cells`` or ``tol`` the grid chooses its
+            cells for an estimated L1 error of at most 1e-3, as the command line does.
         params : mapping of str to number or str, optional
             Overrides as a dict (for names that are not identifiers or clash with a keyword
             of this call); it and ``**set`` together may not name a parameter twice.

@@ -27,7 +27,7 @@ pub(crate) struct JobOutcome {
 /// unless `methods` names others, with the overrides `set`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (model, out, methods=None, degrees=vec![2, 4], cells=None, set=None, figures=true))]
+#[pyo3(signature = (model, out, methods=None, degrees=vec![2, 4], cells=None, set=None, figures=true, tol=None))]
 pub(crate) fn run_job(
     py: Python<'_>,
     model: &PyModel,
@@ -37,6 +37,7 @@ pub(crate) fn run_job(
     cells: Option<[usize; 2]>,
     set: Option<&Bound<'_, pyo3::types::PyDict>>,
     figures: bool,
+    tol: Option<f64>,
 ) -> PyResult<JobOutcome> {
     let path = model.path.clone();
     let overrides = overrides(py, set)?;
@@ -49,7 +50,7 @@ pub(crate) fn run_job(
         method: "job",
         degree: None,
     };
-    let problem = crate::pool::on_pool(py, || Problem::new(&bound))?
+    let problem = crate::pool::on_pool(py, || Problem::owning(bound))?
         .map_err(|e| errors::solve_error(py, &e, &asked))?;
     let methods = match methods {
         Some(m) => {
@@ -62,8 +63,28 @@ pub(crate) fn run_job(
         }
         None => job::default_methods(&problem).map_err(|e| errors::solve_error(py, &e, &asked))?,
     };
-    MethodPlan::new(&problem, &methods, named)
+    let plan = MethodPlan::new(&problem, &methods, named)
         .map_err(|e| errors::other::<errors::NotApplicableError>(py, "methods", e.to_string()))?;
+    // As the command line's --tol: checked, not with cells, only when the grid runs; without
+    // cells or a tolerance the grid is solved to the default tolerance.
+    let grid_runs = plan.run.contains(&MethodName::Grid);
+    if let Some(t) = tol {
+        fpsolve::grid::check_tolerance(t).map_err(|e| errors::bad_argument(format!("tol: {e}")))?;
+        if let Some([nx, nv]) = cells {
+            return Err(errors::bad_argument(format!(
+                "tol {t} with cells ({nx}, {nv}): give one (the tolerance chooses the cells)"
+            )));
+        }
+        if !grid_runs {
+            return Err(errors::bad_argument(format!(
+                "tol {t}: the grid solver does not run ({methods})"
+            )));
+        }
+    }
+    let tol = grid_runs
+        .then(|| fpsolve::grid::front_end_tolerance(tol, cells.is_some()))
+        .flatten();
+    let problem = problem.with_grid_tolerance(tol);
     let spec = JobSpec {
         degrees,
         overrides,
@@ -81,7 +102,7 @@ pub(crate) fn run_job(
     // Ctrl-C returns at once; the abandoned job finishes unseen and its staging directory goes
     // with it (nothing is committed).
     let (run, report) = abandonable(py, move || {
-        let report = pool.install(|| Job::new(&inner, &spec).run(run.out()));
+        let report = pool.install(|| Job::new(&inner, &spec).problem(&problem).run(run.out()));
         (run, report)
     })?;
     let report = report.map_err(|e| errors::other::<errors::JobError>(py, "job", e.to_string()))?;

@@ -122,14 +122,18 @@ fn grid_domain(
 
 /// The grid's L1 tolerance `tol=` asks (issue 34), checked as the command line's `--tol`:
 /// 0 < tol <= 0.5, not with `cells`, only for the grid. The grid then chooses its cells and
-/// its report's `tolerance` says what it achieved.
+/// its report's `tolerance` says what it achieved. The grid without `cells` or `tol` is
+/// solved to [`fpsolve::grid::DEFAULT_TOLERANCE`], as on the command line.
 fn grid_tolerance(
     tol: Option<f64>,
     cells: Option<[usize; 2]>,
     method: &str,
 ) -> PyResult<Option<f64>> {
     let Some(tol) = tol else {
-        return Ok(None);
+        let grid = matches!(method.parse(), Ok(MethodName::Grid));
+        return Ok(grid
+            .then(|| fpsolve::grid::front_end_tolerance(None, cells.is_some()))
+            .flatten());
     };
     fpsolve::grid::check_tolerance(tol).map_err(|e| errors::bad_argument(format!("tol: {e}")))?;
     if let Some([nx, nv]) = cells {

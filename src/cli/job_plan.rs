@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Result};
 use fpsolve::base::limits::memory_limit_bytes;
 use fpsolve::grid::Cells;
-use fpsolve::grid::DEFAULT_CELLS;
+use fpsolve::grid::{front_end_tolerance, DEFAULT_CELLS};
 use fpsolve::job::{JobSpec, McFrom, Target};
 use fpsolve::mc::McConfig;
 use fpsolve::solve::{MethodName, MethodSet, Problem};
@@ -42,8 +42,6 @@ pub(crate) fn plan_job(
     };
     let domain = grid_domain(args.domain.as_deref(), &methods, problem.dynamics())?;
     let tol = grid_tolerance(args.tol, args.cells, &methods)?;
-    let problem = problem.with_grid_domain(domain).with_grid_tolerance(tol);
-    let bound = problem.model();
     let plan = MethodPlan::new(&problem, &methods, named).map_err(|e| {
         anyhow::Error::new(fpsolve::job::JobError::from(e)).context(path.display().to_string())
     })?;
@@ -62,11 +60,20 @@ pub(crate) fn plan_job(
             None => bail!("--tol {tol}: the grid solver does not run"),
         }
     }
-    if plan.run.contains(&MethodName::Grid) && tol.is_none() {
+    // Without --cells or --tol the grid is solved to the default tolerance.
+    let grid_runs = plan.run.contains(&MethodName::Grid);
+    let tol = if grid_runs {
+        front_end_tolerance(tol, args.cells.is_some())
+    } else {
+        tol
+    };
+    if grid_runs && tol.is_none() {
         cells
             .within(memory_limit_bytes())
             .map_err(flag("--cells"))?;
     }
+    let problem = problem.with_grid_domain(domain).with_grid_tolerance(tol);
+    let bound = problem.model();
     if let Some(config) = &mc {
         config.preflight_of(problem.dynamics()).map_err(lib)?;
     }

@@ -91,8 +91,8 @@ pub use passage::{
 };
 pub use solution::{BoxEdges, DiscretisationEstimate, GridReport, GridSolution, GridTimings};
 pub use tolerance::{
-    check_tolerance, tolerance_cell_limit, Shortfall, ToleranceOutcome, MAX_TOLERANCE,
-    MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES,
+    check_tolerance, front_end_tolerance, tolerance_cell_limit, Shortfall, ToleranceOutcome,
+    DEFAULT_TOLERANCE, MAX_TOLERANCE, MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES,
 };
 pub use transient::{
     GridTransient, Initial, Moments, Snapshot, SnapshotErrors, TransientError, TransientHistory,

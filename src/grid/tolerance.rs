@@ -12,6 +12,30 @@ use super::error::GridError;
 /// ([`tolerance_cell_limit`]).
 pub const MAX_TOLERANCE_CELLS: usize = 720 * 1440;
 
+/// The L1 tolerance the front ends ask of the grid when the user gives neither cells nor a
+/// tolerance (the main job, `fpsolve solve`, Python's `Model.solve` and `run_job`): the
+/// cells are chosen for it ([`GridSolver::tolerance`](super::GridSolver::tolerance)). A sweep
+/// keeps fixed cells ([`DEFAULT_CELLS`](super::DEFAULT_CELLS)), one resolution for all its
+/// points.
+pub const DEFAULT_TOLERANCE: f64 = 1e-3;
+
+/// The tolerance a front end asks of the grid: the user's `tol`; none when the user fixed the
+/// cells; else [`DEFAULT_TOLERANCE`].
+///
+/// ```
+/// use fpsolve::grid::{front_end_tolerance, DEFAULT_TOLERANCE};
+/// assert_eq!(front_end_tolerance(Some(1e-4), false), Some(1e-4));
+/// assert_eq!(front_end_tolerance(None, true), None);
+/// assert_eq!(front_end_tolerance(None, false), Some(DEFAULT_TOLERANCE));
+/// ```
+pub fn front_end_tolerance(tol: Option<f64>, cells_given: bool) -> Option<f64> {
+    match (tol, cells_given) {
+        (Some(t), _) => Some(t),
+        (None, true) => None,
+        (None, false) => Some(DEFAULT_TOLERANCE),
+    }
+}
+
 /// The most cells a solve on request may use when a run may plan for `limit_bytes`
 /// ([`crate::base::limits::memory_limit_bytes`]): the largest count whose estimated peak
 /// ([`Cells::memory_bytes`](super::Cells::memory_bytes), the guard `--cells` is checked
