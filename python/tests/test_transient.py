@@ -3,7 +3,6 @@ pdf_<state>_t.csv, summary.json, the warnings), the arrays' shapes, the exact va
 linear oscillator from rest, the files `write` puts down, and the same refusals before any
 work."""
 
-import csv
 import json
 import subprocess
 import warnings
@@ -12,7 +11,7 @@ import numpy as np
 import pytest
 
 import fpsolve
-from conftest import MODELS
+from conftest import MODELS, read_csv
 
 # The runs are small: the grid warns that its cells do not resolve the start; the tests that
 # are about the warnings record them themselves.
@@ -33,14 +32,6 @@ def run_cli(cli, model, out, *args, check=True):
     return subprocess.run(
         [cli, "transient", model, *args, "--out", out], check=check, capture_output=True, text=True
     )
-
-
-def read_csv(path):
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    header, body = rows[0], rows[1:]
-    # float() of the printed text: the CLI prints shortest round-trip decimals ("NaN" too).
-    return header, {h: np.array([float(r[k]) for r in body]) for k, h in enumerate(header)}
 
 
 def without_timing(summary):
