@@ -113,7 +113,10 @@ fn bad_flags_are_refused_before_any_work() {
     )
     .unwrap();
     let cases: [(&[&str], &str); 7] = [
-        (&["--times", "0:1:3", "--method", "mc"], "give --domain"),
+        (
+            &["--times", "0:1:3", "--method", "mc"],
+            "required for Monte Carlo alone",
+        ),
         (&["--times", "0:1:3", "--method", "epc"], "expected `grid`"),
         (&["--times", "1:0:3"], "--times"),
         (&["--times", "0:1:3", "--tol", "0"], "--tol"),

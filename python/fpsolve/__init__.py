@@ -35,6 +35,7 @@ from ._model import Model
 from ._montecarlo import Histogram, MonteCarlo, MonteCarloShard
 from ._passage import Passage, PassageMonteCarlo
 from ._solution import Moments, PointMassWarning, Solution
+from ._transient import Transient, TransientHistory
 from ._warnings import FpsolveWarning, MonteCarloWarning
 from ._sweep import SweepResult, SweepShard, sweep
 from ._merge import merge
@@ -64,6 +65,8 @@ __all__ = [
     "ParameterError",
     "Passage",
     "PassageMonteCarlo",
+    "Transient",
+    "TransientHistory",
     "PointMassWarning",
     "Solution",
     "SolveError",

@@ -15,6 +15,8 @@ from ._passage import Passage
 from ._passage import run as _passage_run
 from ._progress import ProgressArg, callback
 from ._solution import Solution
+from ._transient import Transient
+from ._transient import run as _transient_run
 from ._warnings import FpsolveWarning
 
 Value = Union[float, int, str]
@@ -537,6 +539,122 @@ class Model:
         """
         return _passage_run(
             self, safe, start, times, cells, method, paths, dt, horizon, _seed(seed), threads, _params(params, set)
+        )
+
+    def transient(
+        self,
+        times: Union[str, Sequence[float], "np.ndarray"],
+        cells: Union[None, str, Sequence[int]] = None,
+        domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
+        tol: Optional[float] = None,
+        initial: Optional[str] = None,
+        method: Union[str, Sequence[str]] = "grid",
+        trajectories: int = 10_000,
+        dt: float = 0.01,
+        seed: Union[int, None, "np.random.Generator", "np.random.SeedSequence"] = 1,
+        threads: Optional[int] = None,
+        params: Optional[Mapping[str, Value]] = None,
+        **set: Value,
+    ) -> Transient:
+        """The density as it evolves from the start, as ``fpsolve transient``: on the grid
+        (TR-BDF2 steps on the stationary solver's operator, with error control) and, with
+        ``"mc"`` in ``method``, by a Monte Carlo ensemble on the grid's cells as bins; the
+        mean, variance and kurtosis of every state (and observable, on the grid) and each
+        state's marginal PDF at every output time. The same checks, defaults and numbers (to
+        the bit) as the command line with the same arguments.
+
+        Parameters
+        ----------
+        times : str or sequence of float
+            The output times: ``"FIRST:LAST:COUNT"`` as ``--times`` (0 <= FIRST < LAST,
+            2 <= COUNT <= 100000, evenly spaced), or the times themselves (finite,
+            non-negative, non-decreasing).
+        cells : (int, int) or str, optional
+            The grid's cells ``(nx, nv)`` (even, at least 8 per axis); Monte Carlo's bins
+            without the grid. Default (200, 400).
+        domain : str or mapping of str to (float, float), optional
+            The box, ``"z=-5:5,v=-5:5"`` as ``--domain`` or ``{"z": (-5, 5), "v": (-5, 5)}``;
+            default the stationary solver's. Required for a model whose coefficients depend
+            on the time ``t``, and for Monte Carlo alone (the histograms' range).
+        tol : float, optional
+            The L1 error each grid step may make per unit time, in (0, 1); default 1e-4.
+        initial : str, optional
+            Where the run starts, overriding the model's ``initial`` line, as ``--initial``:
+            ``"rest"``, ``"point z = 1, v = 0"``, ``"gaussian mean z = 0, v = 0 cov 1, 0, 0,
+            1"``. Default the model's line, else rest.
+        method : str or sequence of str
+            ``"grid"`` (default), ``"mc"`` or ``"grid,mc"`` (or a list of them).
+        trajectories : int
+            Monte Carlo trajectories (default 10000; rounded up to whole batches of 64).
+        dt : float
+            Monte Carlo's largest time step (default 0.01).
+        seed : int, None, numpy.random.Generator or numpy.random.SeedSequence
+            Monte Carlo seed, as ``--seed`` (default 1); ``None`` draws a fresh one, a
+            ``Generator`` or ``SeedSequence`` gives one of its draws.
+        threads : int, optional
+            Worker threads (default: the cores available). The result does not depend on it.
+        params : mapping of str to number or str, optional
+            Overrides as a dict.
+        **set : number or str
+            Parameter overrides by keyword (``--set``).
+
+        Returns
+        -------
+        Transient
+            ``t``; ``grid`` and ``mc`` (:class:`TransientHistory`: moment histories, Monte
+            Carlo's standard errors, the marginal PDFs as ``(x, p[t_index, x_index])``);
+            ``report`` (``summary.json`` as a dict), ``warnings``; ``write(directory)``
+            writes the command line's files.
+
+        Raises
+        ------
+        ValueError
+            Bad arguments, checked before any work in the command line's order: the cells, a
+            method other than grid and mc, the times, the box (its text, none for a model
+            that depends on the time or for Monte Carlo alone), fewer than 1 trajectory, a
+            tolerance outside (0, 1), a grid setting, or a start the box does not hold.
+        ModelError
+            An ``initial`` text that does not parse or names no state (located in the text,
+            shown as ``--initial``), or a start not finite at these parameters;
+            :class:`ParameterError` for a bad override.
+        MonteCarloError
+            Monte Carlo refused: a setting out of range (``kind`` ``"bad_setting"``), a model
+            whose coefficients depend on the time (``"time_dependent"``), a start beyond a
+            wall; or a failed run.
+        GridSolveError, NotApplicableError
+            The grid's time stepping failed, or the grid does not apply to the model.
+        KeyboardInterrupt
+            Ctrl-C: the call returns at once; the run finishes unseen in the background.
+
+        Warns
+        -----
+        FpsolveWarning
+            Grid variances or marginals the cells do not resolve; a Monte Carlo ensemble
+            still at its point start (also in ``warnings``, the last in ``flags``).
+
+        Notes
+        -----
+        Releases the GIL.
+
+        Examples
+        --------
+        >>> tr = model.transient("0:20:41", cells=(64, 64), domain="z=-8:8,v=-8:8", c=1)  # doctest: +SKIP
+        >>> tr.t, tr.grid.variance["z"]                                                 # doctest: +SKIP
+        >>> x, p = tr.grid.pdf["z"]                                                     # doctest: +SKIP
+        """
+        return _transient_run(
+            self,
+            times,
+            cells,
+            _domain(domain),
+            tol,
+            initial,
+            method,
+            trajectories,
+            dt,
+            _seed(seed),
+            threads,
+            _params(params, set),
         )
 
     def __repr__(self) -> str:

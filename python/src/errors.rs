@@ -7,8 +7,8 @@ use std::path::Path;
 use fpsolve::epc::EpcError;
 use fpsolve::epc_impact::EpcImpactError;
 use fpsolve::fpk::FpkError;
-use fpsolve::grid::GridError;
-use fpsolve::mc::McError;
+use fpsolve::grid::{GridError, TransientError};
+use fpsolve::mc::{McError, McTransientError};
 use fpsolve::model::{BindError, Diagnostic, ModelError as LibModelError, SetError};
 use fpsolve::solve::SolveError as LibSolveError;
 use fpsolve::sweep::SweepError as LibSweepError;
@@ -552,6 +552,67 @@ pub(crate) fn mc_error(py: Python<'_>, e: &McError) -> PyErr {
         _ => ("other", vec![]),
     };
     raise::<MonteCarloError>(py, e.to_string(), kind, &attrs)
+}
+
+/// A Monte Carlo transient refused or failed: its settings, a model whose coefficients
+/// depend on the time, a start beyond a wall, or the stationary run's refusals.
+pub(crate) fn mc_transient_error(py: Python<'_>, e: &McTransientError) -> PyErr {
+    let kind = match e {
+        McTransientError::Setting { .. } => "bad_setting",
+        McTransientError::TimeDependent => "time_dependent",
+        McTransientError::StartBeyondWall { .. } => "start_beyond_wall",
+        McTransientError::Mc(e) => return mc_error(py, e),
+    };
+    raise::<MonteCarloError>(py, e.to_string(), kind, &[])
+}
+
+/// A grid transient refused or failed: a setting or a start the box does not hold is a
+/// `ValueError` (checked before any step, as the CLI checks it), the grid's refusal of the
+/// model its [`solve_error`], a failed time step a `GridSolveError` of kind `step`.
+pub(crate) fn transient_error(py: Python<'_>, e: &TransientError) -> PyErr {
+    match e {
+        TransientError::Grid(g) => solve_error(
+            py,
+            &LibSolveError::Grid(g.clone()),
+            &Asked {
+                method: "grid",
+                degree: None,
+            },
+        ),
+        TransientError::Step(_) => grid_solve_error(py, "step", e.to_string(), vec![]),
+        TransientError::Setting { .. } | TransientError::InitialOutsideDomain { .. } => {
+            bad_argument(e.to_string())
+        }
+    }
+}
+
+/// A `GridSolveError` of `kind` with `text`, `method` "grid", no degree, and `attrs`.
+pub(crate) fn grid_solve_error(
+    py: Python<'_>,
+    kind: &str,
+    text: String,
+    attrs: Vec<(&str, PyObject)>,
+) -> PyErr {
+    let mut all = vec![
+        ("method", obj(py, "grid")),
+        ("degree", obj(py, None::<usize>)),
+    ];
+    all.extend(attrs);
+    raise::<GridSolveError>(py, text, kind, &all)
+}
+
+/// A `ModelError` of `kind` about a line given beside the model (a safe set, a start) that
+/// cannot be bound at these parameters: the model's `path`, no line or column, `text` as
+/// the message.
+pub(crate) fn unlocated_model_error(
+    py: Python<'_>,
+    kind: &str,
+    path: Option<&Path>,
+    text: String,
+) -> PyErr {
+    let mut attrs = located(py, path, None);
+    attrs[3].1 = obj(py, text.clone());
+    raise::<ModelError>(py, text, kind, &attrs)
 }
 
 /// A sweep that cannot run.

@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod arguments;
 mod errors;
 mod interrupt;
 mod job;
@@ -13,6 +14,7 @@ mod passage;
 mod pool;
 mod solution;
 mod sweep;
+mod transient;
 
 #[pymodule]
 fn _fpsolve(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -24,6 +26,8 @@ fn _fpsolve(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::merge_sweep_json, m)?)?;
     m.add_function(wrap_pyfunction!(merge::merge_mc_json, m)?)?;
     m.add_function(wrap_pyfunction!(passage::passage, m)?)?;
+    m.add_class::<transient::PyTransient>()?;
+    m.add_function(wrap_pyfunction!(transient::transient, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -92,6 +92,27 @@ impl PyModel {
             .bind(&overrides)
             .map_err(|e| errors::bind_error(py, &e, self.path.as_deref()))
     }
+
+    /// The model amended by a line given beside it (a `safe=` or `initial=` text), bound
+    /// with `set`, in the CLI's order: the overrides against the model as read, then the
+    /// amendment (a `ModelError` located in its text), then the amended model bound.
+    pub(crate) fn bind_amended(
+        &self,
+        py: Python<'_>,
+        set: Option<&Bound<'_, PyDict>>,
+        amend: impl FnOnce(&Model) -> Result<Model, fpsolve::model::ModelError>,
+    ) -> PyResult<(Model, BoundModel)> {
+        let overrides = overrides(py, set)?;
+        let path = self.path.as_deref();
+        self.model
+            .bind(&overrides)
+            .map_err(|e| errors::bind_error(py, &e, path))?;
+        let amended = amend(&self.model).map_err(|e| errors::model_error(py, &e, None))?;
+        let bound = amended
+            .bind(&overrides)
+            .map_err(|e| errors::bind_error(py, &e, path))?;
+        Ok((amended, bound))
+    }
 }
 
 /// The grid's box `text` gives (`x=LO:HI,v=LO:HI`, the model's state names), checked

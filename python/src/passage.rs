@@ -5,13 +5,14 @@
 //! warnings; the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
 
 use fpsolve::grid::PassageError;
-use fpsolve::job::passage::{parse_pair, parse_times, McSettings, PassageRun, PassageRunError};
+use fpsolve::job::passage::{parse_pair, McSettings, PassageRun, PassageRunError};
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::solve::SolveError as LibSolveError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use pyo3::IntoPyObjectExt;
 
+use crate::arguments::{cells_of, times_of};
 use crate::errors::{self, Asked};
 use crate::interrupt::abandonable;
 use crate::model::PyModel;
@@ -40,33 +41,6 @@ fn start_of(start: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; 2]> {
     Ok([x, v])
 }
 
-/// The output times: the CLI's `A:B:N` text, or the times themselves (finite, non-negative,
-/// non-decreasing, 1 to 100000 of them); none by default.
-fn times_of(times: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
-    let Some(times) = times else {
-        return Ok(Vec::new());
-    };
-    if let Ok(text) = times.extract::<String>() {
-        return parse_times(&text).map_err(|e| errors::bad_argument(format!("times: {e}")));
-    }
-    let t: Vec<f64> = times.extract().map_err(|_| {
-        errors::bad_argument("times: expected the text `FIRST:LAST:COUNT` or a sequence of times")
-    })?;
-    let ordered = t.windows(2).all(|w| w[0] <= w[1]);
-    if t.is_empty()
-        || t.len() > 100_000
-        || !ordered
-        || t.iter().any(|t| !(t.is_finite() && *t >= 0.0))
-    {
-        return Err(errors::bad_argument(format!(
-            "times: expected 1 to 100000 finite, non-negative, non-decreasing times, got {} \
-             values",
-            t.len()
-        )));
-    }
-    Ok(t)
-}
-
 /// The methods: `grid`, `mc` or both (a comma list, or a sequence of names).
 fn methods_of(method: &Bound<'_, PyAny>) -> PyResult<(bool, bool)> {
     let names: Vec<String> = if let Ok(text) = method.extract::<String>() {
@@ -88,47 +62,11 @@ fn methods_of(method: &Bound<'_, PyAny>) -> PyResult<(bool, bool)> {
     ))
 }
 
-/// A safe set that cannot be bound (a bound not finite at these parameters, or empty): a
-/// `ModelError` with the model's path and the library's message.
-fn safe_error(py: Python<'_>, model: &PyModel, text: String) -> PyErr {
-    let err = errors::other::<errors::ModelError>(py, "safe", text.clone());
-    let path = model.path.as_ref().map(|p| p.display().to_string());
-    let value = err.value(py);
-    let set = || -> PyResult<()> {
-        value.setattr("path", path)?;
-        value.setattr("line", py.None())?;
-        value.setattr("column", py.None())?;
-        value.setattr("message", text)?;
-        value.setattr("help", py.None())?;
-        Ok(())
-    };
-    match set() {
-        Ok(()) => err,
-        Err(e) => e,
-    }
-}
-
 /// A grid first-passage failure as the package's classes say it: bad settings and starts
 /// are `ValueError`s (checked before any work as the CLI does, so only the box and the safe
 /// set's probability reach here), the grid's own failures its `SolveError`s.
 fn passage_error(py: Python<'_>, e: PassageError) -> PyErr {
     let text = e.to_string();
-    let grid = |kind: &str, attrs: Vec<(&str, PyObject)>| {
-        let err = errors::other::<errors::GridSolveError>(py, kind, text.clone());
-        let value = err.value(py);
-        let set = || -> PyResult<()> {
-            value.setattr("method", "grid")?;
-            value.setattr("degree", py.None())?;
-            for (name, v) in attrs {
-                value.setattr(name, v)?;
-            }
-            Ok(())
-        };
-        match set() {
-            Ok(()) => err,
-            Err(e) => e,
-        }
-    };
     match e {
         PassageError::Grid(g) => errors::solve_error(
             py,
@@ -138,14 +76,16 @@ fn passage_error(py: Python<'_>, e: PassageError) -> PyErr {
                 degree: None,
             },
         ),
-        PassageError::Singular { nx, nv, .. } => grid(
+        PassageError::Singular { nx, nv, .. } => errors::grid_solve_error(
+            py,
             "singular",
+            text,
             vec![
                 ("nx", nx.into_py_any(py).unwrap_or_else(|_| py.None())),
                 ("nv", nv.into_py_any(py).unwrap_or_else(|_| py.None())),
             ],
         ),
-        PassageError::Step(_) => grid("step", vec![]),
+        PassageError::Step(_) => errors::grid_solve_error(py, "step", text, vec![]),
         _ => errors::bad_argument(text),
     }
 }
@@ -176,20 +116,10 @@ pub(crate) fn passage(
     // The order of the CLI's plan: methods, the model with its overrides and safe set, the
     // start, the times, the cells, the Monte Carlo's settings.
     let (grid, mc) = methods_of(method)?;
-    let overrides = crate::model::overrides(py, set)?;
-    this.model
-        .bind(&overrides)
-        .map_err(|e| errors::bind_error(py, &e, path))?;
-    let amended = match &safe {
-        Some(text) => this
-            .model
-            .with_safe(text)
-            .map_err(|e| errors::model_error(py, &e, None))?,
-        None => this.model.clone(),
-    };
-    let bound = amended
-        .bind(&overrides)
-        .map_err(|e| errors::bind_error(py, &e, path))?;
+    let (amended, bound) = this.bind_amended(py, set, |model| match &safe {
+        Some(text) => model.with_safe(text),
+        None => Ok(model.clone()),
+    })?;
     let named = path.map_or(String::new(), |p| format!("{}: ", p.display()));
     let safe_set = amended
         .safe()
@@ -199,7 +129,7 @@ pub(crate) fn passage(
             ))
         })?
         .bind(&bound)
-        .map_err(|e| safe_error(py, this, format!("{named}{e}")))?;
+        .map_err(|e| errors::unlocated_model_error(py, "safe", path, format!("{named}{e}")))?;
     let start = start_of(start)?;
     if !safe_set.contains(start) {
         return Err(errors::bad_argument(format!(
@@ -207,21 +137,11 @@ pub(crate) fn passage(
             start[0], start[1], safe_set.text
         )));
     }
-    let times = times_of(times)?;
-    let cells = match cells {
-        None => fpsolve::grid::DEFAULT_CELLS,
-        Some([nx, nv]) => {
-            let n = |c: i64| {
-                usize::try_from(c).map_err(|_| {
-                    errors::bad_argument(format!(
-                        "cells: ({nx}, {nv}): expected even numbers of cells, at least 8 per axis"
-                    ))
-                })
-            };
-            [n(nx)?, n(nv)?]
-        }
+    let times = match times {
+        Some(t) => times_of(t)?,
+        None => Vec::new(),
     };
-    fpsolve::grid::check_cells(cells).map_err(|e| errors::bad_argument(format!("cells: {e}")))?;
+    let cells = cells_of(cells)?;
     if paths < 0 {
         return Err(errors::bad_argument(format!(
             "paths: {paths}: expected a non-negative whole number"

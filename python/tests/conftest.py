@@ -1,10 +1,12 @@
 """Shared fixtures: the repository's models and the command-line binary the Python results are
 compared with (built with `cargo build --release` when absent)."""
 
+import csv
 import os
 import pathlib
 import subprocess
 
+import numpy as np
 import pytest
 
 import fpsolve
@@ -20,6 +22,15 @@ def cli_path() -> pathlib.Path:
         return pathlib.Path(os.environ["FPSOLVE_CLI"])
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
     return target / "release" / "fpsolve"
+
+
+def read_csv(path):
+    """A CSV file the CLI wrote: its header and {column: array}. float() of the printed text
+    is the number written: the CLI prints shortest round-trip decimals (and "NaN")."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    return header, {h: np.array([float(r[k]) for r in body]) for k, h in enumerate(header)}
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,7 @@ import pytest
 
 import fpsolve
 
-CONVERTED = [fpsolve.Solution, fpsolve.Model, fpsolve.MonteCarlo, fpsolve.SweepResult, fpsolve.MonteCarloShard, fpsolve.Passage, fpsolve.PassageMonteCarlo]
+CONVERTED = [fpsolve.Solution, fpsolve.Model, fpsolve.MonteCarlo, fpsolve.SweepResult, fpsolve.MonteCarloShard, fpsolve.Passage, fpsolve.PassageMonteCarlo, fpsolve.Transient, fpsolve.TransientHistory]
 FUNCTIONS = [fpsolve.sweep, fpsolve.merge, fpsolve.run_job]
 
 

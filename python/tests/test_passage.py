@@ -1,7 +1,6 @@
 """Model.passage against `fpsolve passage`: the same numbers to the bit (summary.json and
 passage.csv), the same refusals before any work, and the Monte Carlo's fields."""
 
-import csv
 import json
 import subprocess
 import warnings
@@ -10,7 +9,7 @@ import numpy as np
 import pytest
 
 import fpsolve
-from conftest import MODELS
+from conftest import MODELS, read_csv
 
 MODEL = MODELS / "linear.sde"
 SAFE = "abs(z) < 1.2"
@@ -24,14 +23,6 @@ def run_cli(cli, out, *args):
         capture_output=True,
         text=True,
     )
-
-
-def read_csv(path):
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    header, body = rows[0], rows[1:]
-    # float() of the printed text: the CLI prints shortest round-trip decimals.
-    return header, {h: np.array([float(r[k]) for r in body]) for k, h in enumerate(header)}
 
 
 def without_timing(summary):

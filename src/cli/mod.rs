@@ -13,4 +13,3 @@ pub(crate) mod sweep_flags;
 #[cfg(test)]
 mod tests;
 pub(crate) mod transient;
-pub(crate) mod transient_figures;

@@ -14,6 +14,7 @@ mod mc_from;
 pub mod passage;
 mod reliability;
 mod table;
+pub mod transient;
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -143,27 +143,41 @@ pub fn write_json_flagging_undefined<T: Serialize + ?Sized>(
     value: &T,
 ) -> Result<(PathBuf, Vec<UndefinedField>), ReportError> {
     let path = dir.file_path(name)?;
-    let undefined = undefined_fields(value).map_err(|e| ReportError::Json {
-        path: path.clone(),
-        source: <serde_json::Error as ser::Error>::custom(e),
-    })?;
-    let mut json = serde_json::to_value(value).map_err(|source| ReportError::Json {
-        path: path.clone(),
-        source,
-    })?;
+    let (text, undefined) =
+        json_flagging_undefined(value).map_err(|source| ReportError::Json { path, source })?;
+    Ok((dir.write_atomic(name, text.as_bytes())?, undefined))
+}
+
+/// The text [`write_json_flagging_undefined`] writes (a final newline included) and the
+/// fields it lists under `undefined`, for a caller that keeps or writes the text itself.
+///
+/// ```
+/// use fpsolve::report::json_flagging_undefined;
+///
+/// #[derive(serde::Serialize)]
+/// struct Moments { mean: f64, kurtosis: f64 }
+///
+/// let (text, undefined) = json_flagging_undefined(&Moments { mean: 0.4, kurtosis: f64::NAN })?;
+/// assert_eq!(undefined[0].field, "$.kurtosis");
+/// assert!(text.contains("\"kurtosis\": null") && text.ends_with("]\n}\n"));
+/// # Ok::<(), serde_json::Error>(())
+/// ```
+///
+/// # Errors
+/// serde's, if it refuses the value.
+pub fn json_flagging_undefined<T: Serialize + ?Sized>(
+    value: &T,
+) -> Result<(String, Vec<UndefinedField>), serde_json::Error> {
+    let undefined = undefined_fields(value).map_err(<serde_json::Error as ser::Error>::custom)?;
+    let mut json = serde_json::to_value(value)?;
     if !undefined.is_empty() {
         if let serde_json::Value::Object(map) = &mut json {
-            let list = serde_json::to_value(&undefined).map_err(|source| ReportError::Json {
-                path: path.clone(),
-                source,
-            })?;
-            map.insert("undefined".to_string(), list);
+            map.insert("undefined".to_string(), serde_json::to_value(&undefined)?);
         }
     }
-    let mut bytes = serde_json::to_vec_pretty(&ProvenanceFirst(&json))
-        .map_err(|source| ReportError::Json { path, source })?;
-    bytes.push(b'\n');
-    Ok((dir.write_atomic(name, &bytes)?, undefined))
+    let mut text = serde_json::to_string_pretty(&ProvenanceFirst(&json))?;
+    text.push('\n');
+    Ok((text, undefined))
 }
 
 /// A JSON value written as serde_json writes it, except that a top-level member

@@ -42,7 +42,10 @@ pub use figure::error::FigureError;
 pub use figure::render::FigureFiles;
 pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
-pub use json::{undefined_fields, write_json, write_json_flagging_undefined, UndefinedField};
+pub use json::{
+    json_flagging_undefined, undefined_fields, write_json, write_json_flagging_undefined,
+    UndefinedField,
+};
 pub use output::OutputDir;
 pub use run_dir::{abandon_unfinished, Abandoned, RunDir, RunDirError, MARKER};
 

@@ -1,12 +1,11 @@
-//! The figures of `fpsolve transient`, drawn with the report stage's helpers: σ(t) of each
+//! The figures of a transient, drawn with the report stage's helpers: σ(t) of each
 //! state (the grid's line, Monte Carlo's points with their 95 % band) and the marginal PDFs
 //! at a few chosen times (linear and log panels, Monte Carlo's histogram with 95 % bars).
 
-use anyhow::Result;
-use fpsolve::grid::TransientHistory;
-use fpsolve::mc::McTransientHistory;
-use fpsolve::model::Model;
-use fpsolve::report::{Curve, LineFigure, OutputDir, PdfFigure, Points};
+use crate::grid::TransientHistory;
+use crate::mc::McTransientHistory;
+use crate::model::BoundModel;
+use crate::report::{Curve, LineFigure, OutputDir, PdfFigure, Points, ReportError};
 
 /// The normal quantile of a two-sided 95 % interval.
 const Z95: f64 = 1.96;
@@ -16,13 +15,13 @@ const Z95: f64 = 1.96;
 const PDF_FRACTIONS: [f64; 3] = [1.0 / 16.0, 0.25, 1.0];
 
 /// Writes the figures; returns how many files.
-pub(crate) fn write(
+pub(super) fn write(
     dir: &OutputDir,
-    model: &Model,
-    states: &[String],
+    model: &BoundModel,
     grid: &Option<TransientHistory>,
     mc: &Option<McTransientHistory>,
-) -> Result<usize> {
+) -> Result<usize, ReportError> {
+    let states: Vec<String> = model.states().iter().map(|s| s.to_string()).collect();
     let times: Vec<f64> = match (grid, mc) {
         (Some(g), _) => g.snapshots.iter().map(|s| s.t).collect(),
         (None, Some(m)) => m.snapshots.iter().map(|s| s.t).collect(),
@@ -69,8 +68,7 @@ pub(crate) fn write(
         y_label: "σ".into(),
         series,
     }
-    .write(dir, "sigma_vs_t")
-    .map_err(crate::lib)?;
+    .write(dir, "sigma_vs_t")?;
     files += 2;
     let last = times.last().copied().unwrap_or(0.0);
     let mut chosen: Vec<usize> = PDF_FRACTIONS
@@ -111,8 +109,7 @@ pub(crate) fn write(
                 curves,
                 points,
             }
-            .write(dir, &format!("pdf_{q}_at_t{t}"))
-            .map_err(crate::lib)?;
+            .write(dir, &format!("pdf_{q}_at_t{t}"))?;
             files += 2;
         }
     }

@@ -1,0 +1,143 @@
+//! What a finished transient warns about: grid variances and marginals the cells do not
+//! resolve (their numbers are written all the same), and a Monte Carlo ensemble stuck at its
+//! point start (a flag: its numbers are not the law's).
+
+use super::TransientRun;
+use crate::grid::{Snapshot, TransientHistory, POINT_CELLS, UNRESOLVED_L1};
+use crate::model::BoundModel;
+
+/// The relative error estimate of a state's variance above which a warning is given (the
+/// numbers and their errors are in `moments_vs_t.csv` whatever they are).
+const UNCERTAIN_VARIANCE: f64 = 0.05;
+
+/// A warning about a finished transient, as both front ends word it.
+///
+/// ```
+/// use fpsolve::job::transient::TransientWarning;
+/// let w = TransientWarning::StuckAtStart { t: 1.0 };
+/// assert!(w.flags() && w.to_string().contains("still at its start at t = 1"));
+/// ```
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TransientWarning {
+    /// The grid's variance of a state has an estimated error above 5 % of itself at some
+    /// output after the start (the worst one).
+    #[error(
+        "the grid's variance of {state} at t = {t} is {variance:.4} with an estimated error \
+         of {:.0} % (from the run on half the cells): the cells do not resolve the density \
+         yet (a point start is a Gaussian {} cells wide); finer --cells or a Gaussian \
+         --initial narrow it",
+        100.0 * relative,
+        POINT_CELLS
+    )]
+    UncertainVariance {
+        /// The state.
+        state: String,
+        /// The output time of the worst error.
+        t: f64,
+        /// The variance there.
+        variance: f64,
+        /// Its estimated error over itself.
+        relative: f64,
+    },
+    /// The grid's marginal of a state has an estimated L1 error at or above
+    /// [`UNRESOLVED_L1`] up to some output after the start (the last one).
+    #[error(
+        "the grid's marginal of {state} is not resolved by the cells up to t = {t} \
+         (estimated L1 error {l1:.2} there: a number, not a bound); its curves before then \
+         are not the law's"
+    )]
+    UnresolvedMarginal {
+        /// The state.
+        state: String,
+        /// The last output time it is not resolved at.
+        t: f64,
+        /// Its estimated L1 error there.
+        l1: f64,
+    },
+    /// Every Monte Carlo trajectory is still at its point start at an output after 0
+    /// ([`crate::mc::McTransientHistory::stuck_at_start`]).
+    #[error(
+        "Monte Carlo: every trajectory is still at its start at t = {t} (both states' \
+         variances are 0): the sampled drift and noise vanish there (e.g. sgn(0) = 0 in a \
+         Zhuravlev form, whose noise is sgn(z)*xi); its numbers are not the law's. Start \
+         beside it, e.g. --initial 'point z = 1e-6, v = 0'"
+    )]
+    StuckAtStart {
+        /// The first such output time.
+        t: f64,
+    },
+}
+
+impl TransientWarning {
+    /// Whether the run's numbers are not to be trusted (the command line exits 1 with its
+    /// files written): a Monte Carlo ensemble stuck at its start.
+    pub fn flags(&self) -> bool {
+        matches!(self, TransientWarning::StuckAtStart { .. })
+    }
+}
+
+impl TransientRun {
+    /// The warnings: each state's uncertain grid variance, then each state's unresolved grid
+    /// marginal, then a Monte Carlo ensemble stuck at its start.
+    pub fn warnings(&self, model: &BoundModel) -> Vec<TransientWarning> {
+        let states: Vec<String> = model.states().iter().map(|s| s.to_string()).collect();
+        let mut out = Vec::new();
+        if let Some(g) = &self.grid {
+            out.extend(uncertain_variances(g, &states));
+            out.extend(unresolved_marginals(g, &states));
+        }
+        if let Some(t) = self.mc.as_ref().and_then(|m| m.stuck_at_start()) {
+            out.push(TransientWarning::StuckAtStart { t });
+        }
+        out
+    }
+}
+
+/// A warning per state whose grid variance has an estimated error above
+/// [`UNCERTAIN_VARIANCE`] of itself at some output after the start, at its worst output.
+fn uncertain_variances(g: &TransientHistory, states: &[String]) -> Vec<TransientWarning> {
+    states
+        .iter()
+        .enumerate()
+        .filter_map(|(a, q)| {
+            let relative = |s: &Snapshot| {
+                let e = s.estimate.as_ref()?.moments[a].variance;
+                let r = e / s.moments[a].variance.abs();
+                (s.t > 0.0 && r.is_finite()).then_some(r)
+            };
+            let (worst, r) = g
+                .snapshots
+                .iter()
+                .filter_map(|s| relative(s).map(|r| (s, r)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))?;
+            (r > UNCERTAIN_VARIANCE).then(|| TransientWarning::UncertainVariance {
+                state: q.clone(),
+                t: worst.t,
+                variance: worst.moments[a].variance,
+                relative: r,
+            })
+        })
+        .collect()
+}
+
+/// A warning per state whose grid marginal is not resolved at some output after the start
+/// (its L1 estimate at or above [`UNRESOLVED_L1`]), naming the last such time.
+fn unresolved_marginals(g: &TransientHistory, states: &[String]) -> Vec<TransientWarning> {
+    states
+        .iter()
+        .enumerate()
+        .filter_map(|(a, q)| {
+            let last = g.snapshots.iter().rev().find(|s| {
+                s.t > 0.0
+                    && s.estimate
+                        .as_ref()
+                        .is_some_and(|e| e.l1[a] >= UNRESOLVED_L1)
+            })?;
+            Some(TransientWarning::UnresolvedMarginal {
+                state: q.clone(),
+                t: last.t,
+                l1: last.estimate.as_ref().map_or(f64::NAN, |e| e.l1[a]),
+            })
+        })
+        .collect()
+}
