@@ -72,9 +72,19 @@ fn main_job_writes_observable_pdfs_summary_and_figures() {
     assert_eq!(summary["methods"], serde_json::json!(["epc", "grid"]));
     let grid = &summary["grid"];
     assert_eq!(grid["solved"], true);
+    // Without --cells or --tol the grid is solved to the default tolerance, and says so.
+    let tolerance = &grid["report"]["tolerance"];
     assert_eq!(
-        grid["report"]["cells"],
-        serde_json::json!(fpsolve::grid::DEFAULT_CELLS)
+        tolerance["asked"].as_f64(),
+        Some(fpsolve::grid::DEFAULT_TOLERANCE)
+    );
+    assert_eq!(tolerance["reached"], true);
+    assert!(tolerance["achieved"].as_f64().unwrap() <= fpsolve::grid::DEFAULT_TOLERANCE);
+    let cells = &grid["report"]["cells"];
+    assert_eq!(
+        tolerance["solves"].as_array().unwrap().last().unwrap()[0],
+        *cells,
+        "{tolerance}"
     );
     for key in [
         "domain",
