@@ -379,6 +379,8 @@ pub(crate) fn solve_error(py: Python<'_>, e: &LibSolveError, asked: &Asked<'_>) 
         LibSolveError::OtherSettings { .. } => {
             raise::<SolveError>(py, text, "other_settings", &base(vec![]))
         }
+        // A method added later without a class of its own: its text, as a SolveError.
+        _ => raise::<SolveError>(py, text, "solve", &base(vec![])),
     }
 }
 

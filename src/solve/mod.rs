@@ -121,8 +121,11 @@ impl std::fmt::Display for Method {
     }
 }
 
-/// Why there is no solution, or no answer to a question asked of one.
+/// Why there is no solution, or no answer to a question asked of one. Non-exhaustive: a new
+/// method adds its variant here, and code outside the crate (the Python binding) matches
+/// with a fallback, so that it needs no new arm.
 #[derive(Clone, Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SolveError {
     /// The FPK operator could not be derived.
     #[error(transparent)]
