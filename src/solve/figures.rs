@@ -114,7 +114,8 @@ impl SolverFigures {
     ///     drift v: -v - z\nnoise xi: intensity 2\ndiffusion v: xi\n", None)?.bind(&[])?;
     /// let problem = Problem::new(&bound)?;
     /// let grid = MethodName::Grid.method();
-    /// let solution = grid.solve(&problem, grid.settle(0, [40, 40]))?;
+    /// let run = fpsolve::base::run::RunControl::new();
+    /// let solution = grid.solve(&problem, grid.settle(0, [40, 40]), &run)?;
     /// let values = solution.figures().values();
     /// assert_eq!(values.len(), grid.figure_names().len());
     /// assert!(matches!(values[0], Figure::Number(m) if m >= 0.0)); // the clipped mass
