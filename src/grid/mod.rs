@@ -146,9 +146,6 @@ pub struct GridSolver<'a> {
     tolerance: Option<f64>,
     cells_given: bool,
     run: RunControl,
-    /// Solves on a main mesh reported to `run` before this solver's (a tolerance's earlier
-    /// solves), and whether this solver reports the run finished.
-    progress: (u64, bool),
 }
 
 impl<'a> GridSolver<'a> {
@@ -170,7 +167,6 @@ impl<'a> GridSolver<'a> {
             tolerance: None,
             cells_given: false,
             run: RunControl::new(),
-            progress: (0, true),
         }
     }
 
@@ -289,11 +285,11 @@ impl<'a> GridSolver<'a> {
     }
 
     /// Runs under `run`: each solve on a mesh (the main one with its half- and quarter-cell
-    /// estimates beside it; again when the box grows; each solve of a
-    /// [`tolerance`](Self::tolerance)) is reported as it starts, `done` solves of `done + 1`
-    /// (the total grows when the box or the cells must; the end is reported as `done` of
-    /// `done`), and the flag is checked then. A factorisation under way runs to its end: the
-    /// grid stops within one solve of the flag.
+    /// estimates beside it; again when the box grows) is reported as it starts, `done` solves
+    /// of `done + 1`, and the end as `done` of `done`; with a
+    /// [`tolerance`](Self::tolerance) the units are its solves at each resolution. The flag
+    /// is checked before every solve on a mesh. A factorisation under way runs to its end:
+    /// the grid stops within one solve of the flag.
     ///
     /// ```
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
@@ -384,7 +380,7 @@ impl<'a> GridSolver<'a> {
         let with_quarter = with_estimate && quarter_cells(self.cells).is_some();
         let (mut mesh, mut p, mut assemble_ms, mut coarse);
         let mut recut = false;
-        let mut solves = self.progress.0;
+        let mut solves = 0;
         loop {
             self.run.report(solves, solves + 1);
             self.run.check()?;
@@ -503,9 +499,7 @@ impl<'a> GridSolver<'a> {
         }
         report.timings.total_ms = ms(start);
         solution.report = report;
-        if self.progress.1 {
-            self.run.report(solves, solves);
-        }
+        self.run.report(solves, solves);
         Ok(solution)
     }
 
@@ -535,21 +529,21 @@ impl<'a> GridSolver<'a> {
         let mut not_falling = 0;
         // No refinement beyond what this machine's memory lets a solve on given cells use.
         let limit = tolerance_cell_limit(crate::base::limits::memory_limit_bytes());
-        // Solves on a main mesh so far (a solve whose box grew made several).
-        let mut meshes = 0;
         let shortfall = loop {
+            // Each resolution is one unit of the run's progress; its solves check the flag.
+            let done = solves.len() as u64;
+            self.run.report(done, done + 1);
             let one = GridSolver {
                 cells,
                 tolerance: None,
                 cells_given: true,
                 estimate: true,
-                progress: (meshes, false),
+                run: self.run.silent(),
                 ..self.clone()
             };
             let mut cut = 0.0;
             let e = match one.solve() {
                 Ok(sol) => {
-                    meshes += sol.report.domain_passes as u64 + 1;
                     let e = achieved(&sol);
                     // The next cells aim at the order this solve's curves show.
                     if let Some(est) = &sol.report.discretisation_estimate {
@@ -565,7 +559,6 @@ impl<'a> GridSolver<'a> {
                 }
                 // Too coarse to resolve the density: refine like any other miss.
                 Err(err @ GridError::NegativeMass { .. }) => {
-                    meshes += 1;
                     last_error = Some(err);
                     f64::INFINITY
                 }
@@ -601,6 +594,7 @@ impl<'a> GridSolver<'a> {
             return Err(last_error.expect("every solve failed with negative mass"));
         };
         let got = achieved(&sol);
+        let done = solves.len() as u64;
         sol.report.tolerance = Some(ToleranceOutcome {
             asked: tol,
             achieved: got,
@@ -613,7 +607,7 @@ impl<'a> GridSolver<'a> {
             solves,
         });
         sol.report.timings.total_ms = ms(start);
-        self.run.report(meshes, meshes);
+        self.run.report(done, done);
         Ok(sol)
     }
 }
