@@ -223,7 +223,8 @@ impl MechForm {
             let value = match op {
                 LaneOp::Const(c) => Value::Poly(Poly::constant(c)),
                 LaneOp::Var(0) => Value::Poly(z),
-                LaneOp::Var(_) => Value::Poly(Poly::monomial(0, 0, 1)),
+                LaneOp::Var(1) => Value::Poly(Poly::monomial(0, 0, 1)),
+                LaneOp::Var(_) => Value::Opaque,
                 LaneOp::Add(a, b) => both(a, b, &|p, q| p + q),
                 LaneOp::Sub(a, b) => both(a, b, &|p, q| p - q),
                 LaneOp::Neg(a) => lin(a, &|p| p.map(|c| -c)),
@@ -538,7 +539,7 @@ pub(crate) mod tests {
                     ((uniform() - 0.5) * 10.0, (uniform() - 0.5) * 10.0)
                 };
                 let mut want = [0.0; 3];
-                step.eval_point(z, v, &mut want);
+                step.eval_point(0.0, z, v, &mut want);
                 let (f, s, l) = form.eval(z, v);
                 let (fm, sm, lm) = bound.eval(z.abs(), v.abs());
                 let mut pairs = vec![(f, want[0], fm), (s, want[1], sm)];

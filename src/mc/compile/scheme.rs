@@ -484,15 +484,15 @@ impl Plan {
         })
     }
 
-    /// The drift's Jacobian at the origin (central differences, deltas as zero).
+    /// The drift's Jacobian at the origin at time 0 (central differences, deltas as zero).
     fn jacobian(&self) -> [[f64; 2]; 2] {
         let h = 1e-6;
         let mut jac = [[0.0; 2]; 2];
         for (j, dir) in [[h, 0.0], [0.0, h]].iter().enumerate() {
             let mut p = [0.0; 2];
             let mut q = [0.0; 2];
-            self.drift.eval_point(dir[0], dir[1], &mut p);
-            self.drift.eval_point(-dir[0], -dir[1], &mut q);
+            self.drift.eval_point(0.0, dir[0], dir[1], &mut p);
+            self.drift.eval_point(0.0, -dir[0], -dir[1], &mut q);
             for i in 0..2 {
                 jac[i][j] = (p[i] - q[i]) / (2.0 * h);
             }

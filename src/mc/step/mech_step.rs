@@ -22,16 +22,19 @@ impl Evaluator {
 }
 
 impl BatchState {
-    /// The fast mechanical path (`kernel/mech`) for three-point increments; `false`
-    /// (nothing done) for Gaussian ones, which keep the lane evaluator.
+    /// The fast mechanical path (`kernel/mech`) for three-point increments, `steps` steps
+    /// from the time `t0`; `false` (nothing done) for Gaussian ones, which keep the lane
+    /// evaluator.
     #[inline(always)]
     pub(in crate::mc) fn mech_fast(
         &mut self,
         form: &MechForm,
         bar: Option<&Barrier>,
+        t0: f64,
         steps: u64,
         h: f64,
     ) -> bool {
+        let _ = t0;
         self.run_fast(form, bar, 1, steps, h, None)
     }
 

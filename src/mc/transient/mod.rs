@@ -350,7 +350,7 @@ impl<'a> McTransient<'a> {
             walls(&dynamics)?,
         )?;
         let states = dynamics.states();
-        if let Some(limit) = plan.step_limit([&states[0], &states[1]]) {
+        if let Some(limit) = plan.step_limit([&states[0], &states[1]], 0.0) {
             if dt > limit.largest_dt {
                 return Err(super::McError::UnstableStep { dt, limit }.into());
             }

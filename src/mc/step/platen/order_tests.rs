@@ -203,7 +203,7 @@ fn platen_branches(plan: &Plan, h: f64) -> (Vec<Branch>, Vec<Branch>) {
             }
         }
     }
-    work.step(kernel.program(), pk, m, h, &x, &v, &z);
+    work.step(kernel.program(), pk, m, 0.0, h, &x, &v, &z);
     let lanes = combos
         .iter()
         .enumerate()
@@ -226,7 +226,7 @@ fn platen_branches(plan: &Plan, h: f64) -> (Vec<Branch>, Vec<Branch>) {
         .map(|(zc, bits, prob)| {
             let w: Vec<f64> = zc.iter().map(|z| sq * z).collect();
             let vpair: Vec<f64> = bits.iter().map(|b| if *b == 0 { h } else { -h }).collect();
-            let (mm, d) = affine(|p| general_point_step(plan, p, h, &w, &vpair, &mut point));
+            let (mm, d) = affine(|p| general_point_step(plan, 0.0, p, h, &w, &vpair, &mut point));
             Branch {
                 prob: *prob,
                 m: mm,
@@ -254,7 +254,7 @@ fn heun_branches(plan: &Plan, h: f64) -> Vec<Branch> {
             let w: Vec<f64> = (0..m)
                 .map(|k| h.sqrt() * (0..=k).map(|l| sqrt_s[k * m + l] * zc[l]).sum::<f64>())
                 .collect();
-            let (mm, d) = affine(|p| general_point_step(plan, p, h, &w, &[], &mut point));
+            let (mm, d) = affine(|p| general_point_step(plan, 0.0, p, h, &w, &[], &mut point));
             Branch {
                 prob: *prob,
                 m: mm,
