@@ -6,3 +6,6 @@ pub(crate) mod events;
 pub(crate) mod mech_step;
 pub(crate) mod platen;
 pub(crate) mod state;
+
+#[cfg(test)]
+mod time_tests;
