@@ -455,7 +455,10 @@ fn passage_monte_carlo_follows_a_time_dependent_force() {
         .unwrap();
     let m = r.mean.unwrap();
     let exact = 2.0 * std::f64::consts::PI / 3.0;
-    println!("T {:.6} ± {:.1e}, bias {:.1e}; exact {exact:.6}", m.value, m.stderr, r.bias.value);
+    println!(
+        "T {:.6} ± {:.1e}, bias {:.1e}; exact {exact:.6}",
+        m.value, m.stderr, r.bias.value
+    );
     assert!((m.value - exact).abs() < 1e-4, "{} vs {exact}", m.value);
 }
 

@@ -166,7 +166,11 @@ fn a_time_dependent_model_runs_on_both_methods_and_they_agree() {
                     r[0],
                     (mc - grid) / se
                 );
-                assert!((mc - grid).abs() <= 4.0 * se + err, "t = {} {q} {what}", r[0]);
+                assert!(
+                    (mc - grid).abs() <= 4.0 * se + err,
+                    "t = {} {q} {what}",
+                    r[0]
+                );
             }
             let (mc, se) = (
                 r[col(&format!("{q}_variance_mc"))],

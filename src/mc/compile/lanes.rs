@@ -497,12 +497,7 @@ fn time_only(ops: &[LaneOp]) -> Vec<bool> {
 /// instruction for a constant (its slot is filled once) nor for a state (read in place even
 /// when it is an output). Every value is computed by the same operations in the same order
 /// as in the tape.
-fn lane_code(
-    ops: &[LaneOp],
-    outputs: &[u32],
-    timed: &[bool],
-    lean: bool,
-) -> (Vec<Step>, Vec<u32>) {
+fn lane_code(ops: &[LaneOp], outputs: &[u32], timed: &[bool], lean: bool) -> (Vec<Step>, Vec<u32>) {
     let mut uses = vec![0usize; ops.len()];
     for &o in outputs {
         uses[o as usize] += 1;
@@ -695,8 +690,8 @@ mod tests {
     #[test]
     fn time_instructions_are_computed_once_per_time_and_agree_with_the_tape() {
         let n = |x: f64| Expr::num(x);
-        let env = n(4.0)
-            * (Expr::call(Func::Exp, n(-0.5) * t()) - Expr::call(Func::Exp, n(-1.0) * t()));
+        let env =
+            n(4.0) * (Expr::call(Func::Exp, n(-0.5) * t()) - Expr::call(Func::Exp, n(-1.0) * t()));
         let exprs = vec![
             -(n(0.5) * v()) - z() + n(0.3) * Expr::call(Func::Cos, n(2.0) * t()),
             env.clone(),
@@ -710,8 +705,15 @@ mod tests {
         let prog = LaneProgram::from_tape(&tape);
         assert!(prog.is_timed());
         // The lane code computes no time instruction.
-        assert!(prog.code.iter().chain(&prog.lean).all(|s| !prog.is_time_only(s.dst as usize)));
-        assert!(prog.is_time_only(prog.output(1)), "the envelope is a time instruction");
+        assert!(prog
+            .code
+            .iter()
+            .chain(&prog.lean)
+            .all(|s| !prog.is_time_only(s.dst as usize)));
+        assert!(
+            prog.is_time_only(prog.output(1)),
+            "the envelope is a time instruction"
+        );
         for time in [0.0, 0.3, 1.7, 25.0] {
             check_against_tape(&exprs, &tape, &prog, Some(time));
         }

@@ -25,7 +25,7 @@ use crate::dynamics::Barrier as Wall;
 use crate::dynamics::Dynamics as ModelDynamics;
 use crate::mc::compile::eval::{compile, BatchKernel};
 use crate::mc::compile::impact::{Barrier, Crossing};
-use crate::mc::compile::mech_form::MechForm;
+use crate::mc::compile::mech_form::{MechForm, TimedForm};
 use crate::mc::error::BarrierLayout;
 use crate::mc::error::McError;
 use crate::model::BarrierSide;
@@ -147,6 +147,9 @@ pub(crate) enum Dynamics {
         /// `step` recognised as polynomials in z, sgn(z) and v: the fast kernel
         /// (`kernel/mech`) runs it; `None` keeps the lane evaluator.
         form: Option<MechForm>,
+        /// The same for a step program whose coefficients depend on the time (`form` is
+        /// then `None`): the fast kernel runs it with the coefficients of each step's time.
+        timed: Option<TimedForm>,
     },
     General {
         /// Outputs: m_0, m_1, G_00..G_0(m−1), G_10..G_1(m−1).
@@ -375,6 +378,10 @@ impl Plan {
             outputs.extend(slope.iter().cloned());
             let step = compile(&outputs, states)?;
             let form = MechForm::recognise(step.program());
+            let timed = match form {
+                None => TimedForm::recognise(step.program()),
+                Some(_) => None,
+            };
             (
                 SchemeKind::MechanicalStrang,
                 Dynamics::Mechanical {
@@ -382,6 +389,7 @@ impl Plan {
                     force: compile(&[force], states)?,
                     affine: slope.is_some(),
                     form,
+                    timed,
                 },
             )
         } else if choice == SchemeChoice::GeneralOrder1 {

@@ -10,13 +10,21 @@ use crate::mc::compile::scheme::{Dynamics, Plan};
 use crate::mc::kernel::rng::Increments;
 use crate::mc::step::state::BatchState;
 
-/// The plan of `text` on the fast kernel (when its form is recognised) and on the lane
-/// evaluator.
+/// The plan of `text` on the fast kernel (its coefficients depend on the time: a
+/// [`crate::mc::compile::mech_form::TimedForm`]) and on the lane evaluator.
 fn both_paths(text: &str) -> [(&'static str, Plan); 2] {
     let fast = plan_of(text).unwrap();
+    assert!(matches!(
+        fast.dynamics,
+        Dynamics::Mechanical {
+            form: None,
+            timed: Some(_),
+            ..
+        }
+    ));
     let mut slow = plan_of(text).unwrap();
-    if let Dynamics::Mechanical { form, .. } = &mut slow.dynamics {
-        *form = None;
+    if let Dynamics::Mechanical { timed, .. } = &mut slow.dynamics {
+        *timed = None;
     }
     [("fast", fast), ("lanes", slow)]
 }
@@ -72,8 +80,14 @@ fn a_time_dependent_force_converges_at_order_two() {
         for i in 0..n {
             let t = i as f64 * dt;
             let k1 = f(t, y);
-            let k2 = f(t + dt / 2.0, [y[0] + dt / 2.0 * k1[0], y[1] + dt / 2.0 * k1[1]]);
-            let k3 = f(t + dt / 2.0, [y[0] + dt / 2.0 * k2[0], y[1] + dt / 2.0 * k2[1]]);
+            let k2 = f(
+                t + dt / 2.0,
+                [y[0] + dt / 2.0 * k1[0], y[1] + dt / 2.0 * k1[1]],
+            );
+            let k3 = f(
+                t + dt / 2.0,
+                [y[0] + dt / 2.0 * k2[0], y[1] + dt / 2.0 * k2[1]],
+            );
             let k4 = f(t + dt, [y[0] + dt * k3[0], y[1] + dt * k3[1]]);
             for j in 0..2 {
                 y[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
@@ -85,7 +99,8 @@ fn a_time_dependent_force_converges_at_order_two() {
         let errors: Vec<f64> = [20u64, 40, 80]
             .iter()
             .map(|&n| {
-                let mut b = BatchState::new(&plan, &[[0.0; 2]; 2], 1, 0, 70, Increments::ThreePoint);
+                let mut b =
+                    BatchState::new(&plan, &[[0.0; 2]; 2], 1, 0, 70, Increments::ThreePoint);
                 b.x.fill(1.0);
                 b.v.fill(0.0);
                 // Two calls, as an output time splits a run: the time carries over.
@@ -102,5 +117,125 @@ fn a_time_dependent_force_converges_at_order_two() {
             orders.iter().all(|p| (1.9..2.1).contains(p)),
             "{path}: errors {errors:?}"
         );
+    }
+}
+
+/// Models whose coefficients depend on the time in every part the fast kernel evaluates:
+/// a modulated noise with a sign part at a Zhuravlev barrier, a periodic force and a
+/// time-dependent stiffness on a Duffing oscillator, a time-dependent damping (the Heun
+/// factor then changes with the time), Rayleigh damping (degree 3 in v) under a periodic
+/// force, and a reflecting wall under a parametric noise.
+const TIMED: [(&str, &str); 5] = [
+    (
+        "modulated_vibro",
+        "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z - 0.1*z^3\nnoise xi: intensity 1\n\
+         diffusion v: 2*(exp(-0.5*t) - exp(-t))*(sgn(z) + 0.1*z)*xi\nimpact z = 0: v -> 0.8*v\n",
+    ),
+    (
+        "forced_duffing",
+        "model m\nstate z, v\ndrift z: v\n\
+         drift v: -0.1*v - (1 + 0.3*cos(2*t))*z - 0.2*z^3 + 0.5*cos(0.9*t)\n\
+         noise xi: intensity 0.2\ndiffusion v: xi\n",
+    ),
+    (
+        "time_damping",
+        "model m\nstate z, v\ndrift z: v\ndrift v: -(0.1 + 0.05*sin(t))*(1 + z^2)*v - z\n\
+         noise xi: intensity 0.2\ndiffusion v: (1 + 0.5*sin(3*t))*xi\n",
+    ),
+    (
+        "rayleigh_forced",
+        "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - 0.05*v^3 - z + 0.3*sin(t)*v^2\n\
+         noise xi: intensity 0.2\ndiffusion v: exp(-0.1*t)*xi\n",
+    ),
+    (
+        "wall",
+        "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z\nnoise xi: intensity 0.2\n\
+         diffusion v: (1 + 0.2*z*cos(t))*xi\nimpact z = -1: v -> -0.7*v\ndomain z >= -1\n",
+    ),
+];
+
+/// The fast kernel's time-dependent coefficients against the lane evaluator's, from the
+/// same random states and streams at several times, 4 steps at a time: the states agree to
+/// rounding (Horner's order is not the tape's: far less than 1e-12·(1 + |z| + |v|)³ over
+/// four steps), the impacts exactly. Run in several calls of 4 steps, as an output time
+/// splits a run.
+#[test]
+fn the_fast_kernel_follows_the_lane_evaluator_with_the_time() {
+    for (name, text) in TIMED {
+        let [(_, fast), (_, slow)] = both_paths(text);
+        let lanes = 150;
+        let new =
+            |p: &Plan| BatchState::new(p, &[[0.0; 2]; 2], 11, 0, lanes, Increments::ThreePoint);
+        let (mut a, mut b) = (new(&fast), new(&slow));
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut uniform = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for round in 0..20 {
+            let scale = 1.0 + round as f64 * 0.2;
+            for i in 0..lanes {
+                // On the model's side of a wall at −1; the sign of z kept at a barrier at 0.
+                let z = if a.x[i] < 0.0 { -uniform() } else { uniform() } * scale;
+                a.x[i] = if name == "wall" { z.max(-0.99) } else { z };
+                a.v[i] = (2.0 * uniform() - 1.0) * scale;
+                b.x[i] = a.x[i];
+                b.v[i] = a.v[i];
+            }
+            let t = 0.37 * round as f64;
+            (a.t, b.t) = (t, t);
+            a.advance(&fast, 4, 0.01);
+            b.advance(&slow, 4, 0.01);
+            for i in 0..lanes {
+                let m = 1.0 + a.x[i].abs() + a.v[i].abs();
+                let tol = 1e-12 * m * m * m;
+                assert!(
+                    (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
+                    "{name} lane {i} at t = {t}: ({}, {}) vs ({}, {})",
+                    a.x[i],
+                    a.v[i],
+                    b.x[i],
+                    b.v[i]
+                );
+                a.x[i] = b.x[i];
+                a.v[i] = b.v[i];
+            }
+            assert_eq!(a.impacts, b.impacts, "{name}");
+            assert_eq!(a.side, b.side, "{name}");
+        }
+        if !fast.barriers.is_empty() {
+            assert!(
+                a.impacts.iter().sum::<u64>() > 0,
+                "{name}: no impact tested"
+            );
+        }
+    }
+}
+
+/// Coefficients computed once for every batch (a [`SpanTable`]) give the bits each batch
+/// computes for itself, across kernel calls ([`TABLE_STEPS`] steps each); a table made for
+/// other steps is not used.
+#[test]
+fn a_shared_span_table_changes_no_bit() {
+    use crate::mc::step::mech_step::{SpanTable, TABLE_STEPS};
+    for (name, text) in TIMED {
+        let plan = plan_of(text).unwrap();
+        let (steps, h, t0) = (TABLE_STEPS + 300, 0.01, 1.5);
+        let table = SpanTable::of(&plan, t0, steps, h, usize::MAX).expect("a timed form");
+        let other = SpanTable::of(&plan, t0 + h, steps, h, usize::MAX).unwrap();
+        let run = |span: Option<&SpanTable>| {
+            let mut b = BatchState::new(&plan, &[[0.0; 2]; 2], 5, 0, 70, Increments::ThreePoint);
+            b.x.fill(0.5);
+            b.v.fill(0.1);
+            b.t = t0;
+            b.advance_with(&plan, steps, h, span);
+            (b.x, b.v, b.impacts)
+        };
+        let own = run(None);
+        assert_eq!(run(Some(&table)), own, "{name}");
+        assert_eq!(run(Some(&other)), own, "{name}");
+        assert!(SpanTable::of(&plan, t0, steps, h, 10).is_none());
     }
 }

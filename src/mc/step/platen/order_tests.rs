@@ -395,11 +395,7 @@ fn weak_orders(text: &str) {
         }
         lane_errs.push(errors(n, |k| branches[k].0.clone(), &exact));
         point_errs.push(errors(n, |k| branches[k].1.clone(), &exact));
-        heun_errs.push(errors(
-            n,
-            |k| heun_branches(&heun, k as f64 * h, h),
-            &exact,
-        ));
+        heun_errs.push(errors(n, |k| heun_branches(&heun, k as f64 * h, h), &exact));
     }
     eprintln!(
         "exact at T: mean {:?}, second moments {:?}",
