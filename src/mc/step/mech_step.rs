@@ -76,7 +76,7 @@ impl BatchState {
                 draws: tp.draws,
                 rows: None,
             };
-            mech::advance_table(&table, bar, columns, tp.field, n, h, self.simd);
+            mech::advance_table(table, bar, columns, tp.field, n, h, self.simd);
             done += n;
         }
         true

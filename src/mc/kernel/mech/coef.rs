@@ -23,34 +23,45 @@ const MAX_COEFS: usize = 9;
 /// A polynomial in z, coefficients from the constant up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Horner {
+    /// The coefficients; one that is a step's value j holds the mark [`step_mark`]`(j)`.
     c: [f64; MAX_COEFS],
     n: usize,
-    /// For each coefficient: 0, or j + 1 when its value is a step's value j
-    /// ([`StepValues`]; `c` then holds NaN).
-    step: [u8; MAX_COEFS],
+}
+
+/// The bits of a quiet NaN that marks a coefficient as a step's value (its low bits the
+/// value's index): no coefficient of a model is NaN (a tape refuses a constant that is
+/// not finite).
+const MARK: u64 = 0x7ffc_0000_0000_0000;
+const MARK_MASK: u64 = 0xffff_0000_0000_0000;
+
+/// The mark of a step's value j.
+fn step_mark(j: usize) -> f64 {
+    f64::from_bits(MARK | j as u64)
 }
 
 /// Where the kernel reads the coefficients a [`Horner`] marks as a step's values.
 pub(crate) trait StepValues {
-    /// The value of a coefficient `c` of a [`Horner`] with the mark `step`.
-    fn coef(&self, c: f64, step: u8) -> f64;
+    /// The value of a coefficient `c` of a [`Horner`].
+    fn coef(&self, c: f64) -> f64;
 }
 
 /// No step values: every coefficient is the [`Horner`]'s own.
 impl StepValues for () {
     #[inline(always)]
-    fn coef(&self, c: f64, _: u8) -> f64 {
+    fn coef(&self, c: f64) -> f64 {
         c
     }
 }
 
-/// One step's values, the marked coefficients read from them.
+/// One step's values, a marked coefficient read from them.
 impl StepValues for [f64] {
     #[inline(always)]
-    fn coef(&self, c: f64, step: u8) -> f64 {
-        match step {
-            0 => c,
-            j => self[j as usize - 1],
+    fn coef(&self, c: f64) -> f64 {
+        let bits = c.to_bits();
+        if bits & MARK_MASK == MARK {
+            self[(bits & !MARK_MASK) as usize]
+        } else {
+            c
         }
     }
 }
@@ -68,14 +79,13 @@ impl Horner {
             c[0] += add;
             n = n.max(1);
         }
-        let step = [0; MAX_COEFS];
         if let Some(like) = like {
-            return Horner { c, n: like.n, step };
+            return Horner { c, n: like.n };
         }
         while n > 0 && c[n - 1] == 0.0 {
             n -= 1;
         }
-        Horner { c, n, step }
+        Horner { c, n }
     }
 
     /// The value when the polynomial is a constant (zero when it has no terms).
@@ -98,11 +108,11 @@ impl Horner {
         let Some(top) = self.n.checked_sub(1) else {
             return [V::splat(0.0); N];
         };
-        let mut acc = [V::splat(vals.coef(self.c[top], self.step[top])); N];
-        for (&c, &step) in self.c[..top].iter().zip(&self.step[..top]).rev() {
+        let mut acc = [V::splat(vals.coef(self.c[top])); N];
+        for &c in self.c[..top].iter().rev() {
             acc = each(|k| acc[k].mul(z[k]));
             if c != 0.0 {
-                let c = V::splat(vals.coef(c, step));
+                let c = V::splat(vals.coef(c));
                 acc = each(|k| acc[k].add(c));
             }
         }
@@ -175,10 +185,9 @@ impl Part {
         // sgn(z)·q as q added where z > 0 and subtracted where z < 0 (at zero and for NaN
         // neither): no product, and on AVX-512 two masked operations.
         let zero = V::splat(0.0);
-        let q: [V; N] = match q.n {
-            0 => [zero; N],
-            1 => [V::splat(vals.coef(q.c[0], q.step[0])); N],
-            _ => q.eval(vals, z),
+        let q: [V; N] = match q.constant() {
+            Some(c) => [V::splat(vals.coef(c)); N],
+            None => q.eval(vals, z),
         };
         each(|k| {
             p[k].add_where(z[k].gt(zero), q[k])
@@ -376,7 +385,7 @@ impl Coefs {
     pub(crate) fn mark_step_values(&mut self, slots: &[Slot]) {
         for (j, s) in slots.iter().enumerate() {
             if let Some(h) = self.part_mut(s.part).and_then(|p| p.horner_mut(s.sgn)) {
-                h.step[s.power] = u8::try_from(j + 1).expect("at most 254 step values");
+                h.c[s.power] = step_mark(j);
             }
         }
     }

@@ -129,6 +129,7 @@ impl StepCoefs for Coefs {
 
 /// The coefficients of every step of a call: `template` (its changing coefficients marked
 /// by [`Coefs::mark_step_values`]), step k's values of them `values[k·m..(k + 1)·m]`.
+#[derive(Clone, Copy)]
 pub(crate) struct Table<'a> {
     pub(crate) template: &'a Coefs,
     /// The number m of marked coefficients.
@@ -146,7 +147,7 @@ impl StepCoefs for Table<'_> {
 }
 
 /// What one call does to every lane.
-struct Steps<'a, C: ?Sized> {
+struct Steps<'a, C> {
     /// Steps per sample point.
     steps: u64,
     /// Sample points: the call advances `samples · steps` steps, by `steps` at a time.
@@ -154,7 +155,7 @@ struct Steps<'a, C: ?Sized> {
     h: f64,
     /// The field of the lanes' last draws the first step takes (0: a new draw first).
     field: u8,
-    coefs: &'a C,
+    coefs: C,
     jump: Option<Jump<'a>>,
 }
 
@@ -179,7 +180,7 @@ pub(crate) fn advance(
         return;
     }
     run(
-        &Coefs::new(form, h, a),
+        Coefs::new(form, h, a),
         bar,
         c,
         field,
@@ -193,7 +194,7 @@ pub(crate) fn advance(
 /// [`advance`] by `steps` steps (one sample point), step k with the coefficients of
 /// `table` at k (of the form at step k's time, prescaled for h and the three-point value).
 pub(crate) fn advance_table(
-    table: &Table<'_>,
+    table: Table<'_>,
     bar: Option<&Barrier>,
     c: Columns<'_>,
     field: &mut u8,
@@ -211,8 +212,8 @@ pub(crate) fn advance_table(
 /// The kernel over every lane with step k's coefficients `coefs.at(k)`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn run<C: StepCoefs + ?Sized>(
-    coefs: &C,
+fn run<C: StepCoefs>(
+    coefs: C,
     bar: Option<&Barrier>,
     c: Columns<'_>,
     field: &mut u8,
@@ -254,21 +255,21 @@ fn run<C: StepCoefs + ?Sized>(
 /// the lanes done.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn groups_avx512<C: StepCoefs + ?Sized>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
+fn groups_avx512<C: StepCoefs>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
     groups::<vector::Avx512, VECTORS_512, C>(st, c)
 }
 
 /// The kernel compiled for AVX2, as [`groups_avx512`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn groups_avx2<C: StepCoefs + ?Sized>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
+fn groups_avx2<C: StepCoefs>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
     groups::<vector::Avx2, VECTORS_256, C>(st, c)
 }
 
 /// Groups of `N` vectors over the columns, then single vectors; the lanes done (the rest
 /// are fewer than a vector).
 #[inline(always)]
-fn groups<V: Impacts, const N: usize, C: StepCoefs + ?Sized>(
+fn groups<V: Impacts, const N: usize, C: StepCoefs>(
     st: &Steps<'_, C>,
     c: &mut Columns<'_>,
 ) -> usize {
@@ -441,7 +442,7 @@ fn in_v<V: Vector, const N: usize>(
 /// `N` vectors of lanes (the columns hold exactly `N · V::LANES`) through all the steps of
 /// a call.
 #[inline(always)]
-fn group<V: Impacts, const N: usize, C: StepCoefs + ?Sized>(st: &Steps<'_, C>, c: Columns<'_>) {
+fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns<'_>) {
     // A flight's lanes near the barrier are the bits of one u32 (`Flight::near`).
     const { assert!(N * V::LANES <= 32) };
     let w = V::LANES;
