@@ -58,19 +58,24 @@ fn model(text: &str) -> BoundModel {
     parse_model(text, None).unwrap().bind(&[]).unwrap()
 }
 
+/// A run from rest to `times` with `n` trajectories at step `dt`, seeded with `seed`.
+fn run(m: &BoundModel, times: &[f64], n: u64, dt: f64, seed: u64) -> McTransientHistory {
+    McTransient::new(m)
+        .initial(InitialState::Rest)
+        .times(times.to_vec())
+        .trajectories(n)
+        .dt(dt)
+        .seed(seed)
+        .run()
+        .unwrap()
+}
+
 #[test]
 fn linear_oscillator_from_rest_matches_the_lyapunov_variances() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     let model = load_model(&path).unwrap().bind(&[]).unwrap();
     let times = vec![0.0, 1.0, 3.0, 6.0];
-    let h = McTransient::new(&model)
-        .initial(InitialState::Rest)
-        .times(times.clone())
-        .trajectories(16_384)
-        .dt(0.01)
-        .seed(7)
-        .run()
-        .unwrap();
+    let h = run(&model, &times, 16_384, 0.01, 7);
     let exact = lyapunov(0.1, 1.0, |_| 1.0, [0.0, 0.0], [[0.0; 2]; 2], &times);
     assert_matches(&h, &exact, 4.5, "linear");
 }
@@ -89,13 +94,7 @@ fn modulated_white_noise_matches_the_lyapunov_variances() {
     ));
     assert!(m.time_dependent());
     let times = vec![0.0, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0];
-    let h = McTransient::new(&m)
-        .times(times.clone())
-        .trajectories(32_768)
-        .dt(0.01)
-        .seed(11)
-        .run()
-        .unwrap();
+    let h = run(&m, &times, 32_768, 0.01, 11);
     assert_eq!(h.settings.scheme, SchemeKind::MechanicalStrang);
     let env2 = |t: f64| (a * ((-b1 * t).exp() - (-b2 * t).exp())).powi(2);
     let exact = lyapunov(c, k, env2, [0.0; 2], [[0.0; 2]; 2], &times);
@@ -115,13 +114,7 @@ fn periodic_force_mean_follows_the_deterministic_response() {
          noise xi: intensity {s}\ndiffusion v: xi\n"
     ));
     let times = vec![0.0, 1.0, 2.5, 5.0, 10.0, 20.0];
-    let h = McTransient::new(&m)
-        .times(times.clone())
-        .trajectories(16_384)
-        .dt(0.01)
-        .seed(3)
-        .run()
-        .unwrap();
+    let h = run(&m, &times, 16_384, 0.01, 3);
     let exact = linear_law(
         [[0.0, 1.0], [-omega * omega, -2.0 * zeta * omega]],
         |t| [0.0, amp * (w * t).cos()],
@@ -148,13 +141,7 @@ fn platen_follows_a_time_dependent_linear_law() {
          diffusion v: 2*(exp(-0.5*t) - exp(-t))*xi\n",
     );
     let times = vec![0.0, 1.0, 2.0, 4.0, 8.0];
-    let h = McTransient::new(&m)
-        .times(times.clone())
-        .trajectories(16_384)
-        .dt(0.02)
-        .seed(5)
-        .run()
-        .unwrap();
+    let h = run(&m, &times, 16_384, 0.02, 5);
     assert_eq!(h.settings.scheme, SchemeKind::PlatenWeak2);
     let e = |t: f64| 2.0 * ((-0.5 * t).exp() - (-t).exp());
     let exact = linear_law(

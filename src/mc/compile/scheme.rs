@@ -149,7 +149,7 @@ pub(crate) enum Dynamics {
         form: Option<MechForm>,
         /// The same for a step program whose coefficients depend on the time (`form` is
         /// then `None`): the fast kernel runs it with the coefficients of each step's time.
-        timed: Option<TimedForm>,
+        timed: Option<Box<TimedForm>>,
     },
     General {
         /// Outputs: m_0, m_1, G_00..G_0(m−1), G_10..G_1(m−1).
@@ -379,7 +379,7 @@ impl Plan {
             let step = compile(&outputs, states)?;
             let form = MechForm::recognise(step.program());
             let timed = match form {
-                None => TimedForm::recognise(step.program()),
+                None => TimedForm::recognise(step.program()).map(Box::new),
                 Some(_) => None,
             };
             (

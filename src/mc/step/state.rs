@@ -9,8 +9,8 @@ use crate::mc::compile::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_S
 use crate::mc::kernel::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use crate::mc::kernel::rng::{IncrementStream, Increments, LaneRng};
 use crate::mc::step::events::{crossings, EventWork};
-use crate::mc::step::mech_step::{SpanTable, TimedSteps};
 use crate::mc::step::platen::{platen_point_step, PlatenWork, PointWork};
+use crate::mc::step::timed::{SpanTable, TimedSteps};
 
 /// A batch of trajectories in flight: states, barrier sides, event counts and generators,
 /// all structure-of-arrays, plus the work buffers of the schemes.
@@ -808,7 +808,7 @@ mod tests {
 }
 
 #[cfg(test)]
-mod fast_path_tests {
+pub(in crate::mc) mod fast_path_tests {
     use super::*;
     use crate::mc::compile::mech_form::tests::{mechanical_plans, plan_named};
 
@@ -826,54 +826,64 @@ mod fast_path_tests {
             if let Dynamics::Mechanical { form, .. } = &mut slow.dynamics {
                 *form = None;
             }
-            let spread = fast.initial_spread();
-            let lanes = 150;
-            let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
-            let (mut a, mut b) = (new(fast), new(&slow));
-            let mut seed = 0x2545_F491_4F6C_DD1Du64;
-            let mut uniform = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
-            for round in 0..20 {
-                // Random states (the same for both, each on its lane's side of the barrier:
-                // the sign of x kept), spread up to 5, then step both.
-                let scale = 1.0 + round as f64 * 0.2;
-                for i in 0..lanes {
-                    a.x[i] = a.x[i].signum() * uniform() * scale;
-                    a.v[i] = (2.0 * uniform() - 1.0) * scale;
-                    b.x[i] = a.x[i];
-                    b.v[i] = a.v[i];
+            assert_follows(name, fast, &slow, 1e-13);
+        }
+    }
+
+    /// `fast` (a plan on the fast kernel) against `slow` (the same model on the lane
+    /// evaluator), 20 rounds of 4 steps of 0.01 from the same random states spread up to 5
+    /// (each on its lane's side of a barrier: the sign of x kept, a wall's side by
+    /// reflection), round r from the time 0.37·r: the states within
+    /// `tol`·(1 + |x| + |v|)³, the impacts and sides equal.
+    pub(in crate::mc) fn assert_follows(name: &str, fast: &Plan, slow: &Plan, tol: f64) {
+        let spread = fast.initial_spread();
+        let lanes = 150;
+        let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
+        let (mut a, mut b) = (new(fast), new(slow));
+        let mut uniform = crate::mc::kernel::mech::tests::uniforms(0x2545_F491_4F6C_DD1D);
+        for round in 0..20 {
+            // Random states (the same for both), then step both.
+            let scale = 1.0 + round as f64 * 0.2;
+            for i in 0..lanes {
+                let mut x = a.x[i].signum() * uniform() * scale;
+                if let [bar] = fast.barriers.as_slice() {
+                    if bar.crossing == Crossing::Reflects && (x - bar.at) * bar.side < 0.0 {
+                        x = 2.0 * bar.at - x;
+                    }
                 }
-                a.advance(fast, 4, 0.01);
-                b.advance(&slow, 4, 0.01);
-                for i in 0..lanes {
-                    let m = 1.0 + a.x[i].abs() + a.v[i].abs();
-                    let tol = 1e-13 * m * m * m;
-                    assert!(
-                        (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
-                        "{name} lane {i}: ({}, {}) vs ({}, {})",
-                        a.x[i],
-                        a.v[i],
-                        b.x[i],
-                        b.v[i]
-                    );
-                    // The rounding difference must not make one path see an impact the
-                    // other does not.
-                    a.x[i] = b.x[i];
-                    a.v[i] = b.v[i];
-                }
-                assert_eq!(a.impacts, b.impacts, "{name}");
-                assert_eq!(a.side, b.side, "{name}");
+                a.x[i] = x;
+                a.v[i] = (2.0 * uniform() - 1.0) * scale;
+                b.x[i] = a.x[i];
+                b.v[i] = a.v[i];
             }
-            if !fast.barriers.is_empty() {
+            let t = 0.37 * round as f64;
+            (a.t, b.t) = (t, t);
+            a.advance(fast, 4, 0.01);
+            b.advance(slow, 4, 0.01);
+            for i in 0..lanes {
+                let m = 1.0 + a.x[i].abs() + a.v[i].abs();
+                let tol = tol * m * m * m;
                 assert!(
-                    a.impacts.iter().sum::<u64>() > 0,
-                    "{name}: no impact tested"
+                    (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
+                    "{name} lane {i} at t = {t}: ({}, {}) vs ({}, {})",
+                    a.x[i],
+                    a.v[i],
+                    b.x[i],
+                    b.v[i]
                 );
+                // The rounding difference must not make one path see an impact the
+                // other does not.
+                a.x[i] = b.x[i];
+                a.v[i] = b.v[i];
             }
+            assert_eq!(a.impacts, b.impacts, "{name}");
+            assert_eq!(a.side, b.side, "{name}");
+        }
+        if !fast.barriers.is_empty() {
+            assert!(
+                a.impacts.iter().sum::<u64>() > 0,
+                "{name}: no impact tested"
+            );
         }
     }
 }

@@ -8,6 +8,7 @@
 use crate::mc::compile::mech_form::tests::plan_of;
 use crate::mc::compile::scheme::{Dynamics, Plan};
 use crate::mc::kernel::rng::Increments;
+use crate::mc::step::state::fast_path_tests::assert_follows;
 use crate::mc::step::state::BatchState;
 
 /// The plan of `text` on the fast kernel (its coefficients depend on the time: a
@@ -155,62 +156,14 @@ const TIMED: [(&str, &str); 5] = [
 ];
 
 /// The fast kernel's time-dependent coefficients against the lane evaluator's, from the
-/// same random states and streams at several times, 4 steps at a time: the states agree to
-/// rounding (Horner's order is not the tape's: far less than 1e-12·(1 + |z| + |v|)³ over
-/// four steps), the impacts exactly. Run in several calls of 4 steps, as an output time
-/// splits a run.
+/// same random states and streams at several times, 4 steps at a time
+/// ([`assert_follows`]): the states agree to rounding (Horner's order is not the tape's: far
+/// less than 1e-12·(1 + |z| + |v|)³ over four steps), the impacts exactly.
 #[test]
 fn the_fast_kernel_follows_the_lane_evaluator_with_the_time() {
     for (name, text) in TIMED {
         let [(_, fast), (_, slow)] = both_paths(text);
-        let lanes = 150;
-        let new =
-            |p: &Plan| BatchState::new(p, &[[0.0; 2]; 2], 11, 0, lanes, Increments::ThreePoint);
-        let (mut a, mut b) = (new(&fast), new(&slow));
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut uniform = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for round in 0..20 {
-            let scale = 1.0 + round as f64 * 0.2;
-            for i in 0..lanes {
-                // On the model's side of a wall at −1; the sign of z kept at a barrier at 0.
-                let z = if a.x[i] < 0.0 { -uniform() } else { uniform() } * scale;
-                a.x[i] = if name == "wall" { z.max(-0.99) } else { z };
-                a.v[i] = (2.0 * uniform() - 1.0) * scale;
-                b.x[i] = a.x[i];
-                b.v[i] = a.v[i];
-            }
-            let t = 0.37 * round as f64;
-            (a.t, b.t) = (t, t);
-            a.advance(&fast, 4, 0.01);
-            b.advance(&slow, 4, 0.01);
-            for i in 0..lanes {
-                let m = 1.0 + a.x[i].abs() + a.v[i].abs();
-                let tol = 1e-12 * m * m * m;
-                assert!(
-                    (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
-                    "{name} lane {i} at t = {t}: ({}, {}) vs ({}, {})",
-                    a.x[i],
-                    a.v[i],
-                    b.x[i],
-                    b.v[i]
-                );
-                a.x[i] = b.x[i];
-                a.v[i] = b.v[i];
-            }
-            assert_eq!(a.impacts, b.impacts, "{name}");
-            assert_eq!(a.side, b.side, "{name}");
-        }
-        if !fast.barriers.is_empty() {
-            assert!(
-                a.impacts.iter().sum::<u64>() > 0,
-                "{name}: no impact tested"
-            );
-        }
+        assert_follows(name, &fast, &slow, 1e-12);
     }
 }
 
@@ -219,7 +172,7 @@ fn the_fast_kernel_follows_the_lane_evaluator_with_the_time() {
 /// other steps is not used.
 #[test]
 fn a_shared_span_table_changes_no_bit() {
-    use crate::mc::step::mech_step::{SpanTable, TABLE_STEPS};
+    use crate::mc::step::timed::{SpanTable, TABLE_STEPS};
     for (name, text) in TIMED {
         let plan = plan_of(text).unwrap();
         let (steps, h, t0) = (TABLE_STEPS + 300, 0.01, 1.5);

@@ -19,6 +19,19 @@
 //! estimate's p is the scheme's order as for a model without the time.
 //!
 //! ```
+//! use fpsolve::mc::McTransient;
+//! // White noise modulated by the Shinozuka–Sato envelope 4(e^{−t/2} − e^{−t}).
+//! let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.5*v - z\nnoise xi: intensity 1\n\
+//!             diffusion v: 4*(exp(-0.5*t) - exp(-t))*xi\n";
+//! let model = fpsolve::model::parse_model(text, None)?.bind(&[])?;
+//! let h = McTransient::new(&model).times(vec![0.0, 3.0, 20.0]).trajectories(1024).run()?;
+//! let var = |k: usize| h.snapshots[k].moments[0].variance.value;
+//! // The response grows while the excitation does, then decays with it.
+//! assert!(var(1) > 0.4 && var(2) < 0.1 * var(1));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ```
 //! use fpsolve::mc::{Grid, McTransient};
 //! use fpsolve::model::{load_model, InitialState};
 //! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
@@ -50,8 +63,8 @@ use super::compile::impact::Crossing;
 use super::compile::scheme::{walls, Plan, SchemeChoice, SchemeKind};
 use super::kernel::rng::Increments;
 use super::record::histogram::Grid;
-use super::step::mech_step::SpanTable;
 use super::step::state::BatchState;
+use super::step::timed::SpanTable;
 use crate::model::{BoundModel, InitialState};
 use crate::stats::Estimate;
 use sums::PowerSums;

@@ -1,7 +1,8 @@
 //! The fast mechanical path: the Strang splitting of `compile/scheme.rs` for a model in the
-//! recognised form ([`MechForm`]), at most one barrier and three-point increments, with
-//! the loops interchanged. Each group of lanes keeps its whole state (position, velocity,
-//! barrier side, generator, last draw) in registers for all the steps of a call, draws its
+//! recognised form (`compile/mech_form.rs`), at most one barrier and three-point
+//! increments, with the loops interchanged. Each group of lanes keeps its whole state
+//! (position, velocity, barrier side, generator, last draw) in registers for all the steps
+//! of a call, draws its
 //! increments inside the step and evaluates h·f, √h·σ and the Heun factor by Horner's rule
 //! on coefficients prescaled once per call (`kernel/mech/coef.rs`): no pass over arrays per step,
 //! no dispatch per instruction.
@@ -18,7 +19,7 @@
 //!   lane is on or beyond the barrier.
 //!
 //! A model whose coefficients depend on the time ([`crate::mc::compile::mech_form::TimedForm`])
-//! runs the same kernel with the coefficients of each step ([`advance_table`]): a template in
+//! runs the same kernel with the coefficients of each step (a [`Table`]): a template in
 //! the layout of every step's, its coefficients that change marked, and each step's values
 //! of them, computed once for all the lanes of a call; the kernel reads the layout and the
 //! fixed coefficients from the template, the same at every step, and the marked ones from
@@ -38,7 +39,7 @@ use crate::mc::compile::eval::Simd;
 #[cfg(test)]
 use crate::mc::compile::impact::impact_in_flight;
 use crate::mc::compile::impact::Barrier;
-use crate::mc::compile::mech_form::{MechForm, MAX_V_DEGREE};
+use crate::mc::compile::mech_form::MAX_V_DEGREE;
 use crate::mc::kernel::rng::THREE_POINT_FIELDS;
 
 mod coef;
@@ -110,7 +111,7 @@ impl Columns<'_> {
 }
 
 /// The prescaled coefficients of each step of a call.
-trait StepCoefs {
+pub(crate) trait StepCoefs {
     /// A step's values of the coefficients that change.
     type Values: StepValues + ?Sized;
     /// The coefficients (their layout and fixed values) and step `k`'s values (counted
@@ -161,58 +162,13 @@ struct Steps<'a, C> {
 
 /// Advances every lane by `samples` times `steps` steps of size `h`, each `steps` as one
 /// `BatchState::advance` on the lane-evaluator path (half flight, then velocity update and
-/// flight per step, the last flight a half), with f, σ, ∂f/∂v from `form`; the states after
-/// each `steps` go to `c.rows` when given. `field` is the increment stream's next field,
-/// updated; `a` its three-point value.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn advance(
-    form: &MechForm,
-    bar: Option<&Barrier>,
-    c: Columns<'_>,
-    field: &mut u8,
-    a: f64,
-    samples: u64,
-    steps: u64,
-    h: f64,
-    simd: Simd,
-) {
-    if steps == 0 || samples == 0 {
-        return;
-    }
-    run(
-        Coefs::new(form, h, a),
-        bar,
-        c,
-        field,
-        samples,
-        steps,
-        h,
-        simd,
-    );
-}
-
-/// [`advance`] by `steps` steps (one sample point), step k with the coefficients of
-/// `table` at k (of the form at step k's time, prescaled for h and the three-point value).
-pub(crate) fn advance_table(
-    table: Table<'_>,
-    bar: Option<&Barrier>,
-    c: Columns<'_>,
-    field: &mut u8,
-    steps: u64,
-    h: f64,
-    simd: Simd,
-) {
-    debug_assert!(table.values.len() >= steps as usize * table.width);
-    if steps == 0 {
-        return;
-    }
-    run(table, bar, c, field, 1, steps, h, simd);
-}
-
-/// The kernel over every lane with step k's coefficients `coefs.at(k)`.
+/// flight per step, the last flight a half), step k with the coefficients `coefs.at(k)`
+/// (a [`Coefs`] of the form for every step, or a [`Table`] of a form that depends on the
+/// time); the states after each `steps` go to `c.rows` when given. `field` is the increment
+/// stream's next field, updated.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn run<C: StepCoefs>(
+pub(crate) fn advance<C: StepCoefs>(
     coefs: C,
     bar: Option<&Barrier>,
     c: Columns<'_>,
@@ -222,6 +178,9 @@ fn run<C: StepCoefs>(
     h: f64,
     simd: Simd,
 ) {
+    if steps == 0 || samples == 0 {
+        return;
+    }
     let st = Steps {
         steps,
         samples,
@@ -536,4 +495,4 @@ fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
