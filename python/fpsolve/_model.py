@@ -618,9 +618,8 @@ class Model:
             shown as ``--initial``), or a start not finite at these parameters;
             :class:`ParameterError` for a bad override.
         MonteCarloError
-            Monte Carlo refused: a setting out of range (``kind`` ``"bad_setting"``), a model
-            whose coefficients depend on the time (``"time_dependent"``), a start beyond a
-            wall; or a failed run.
+            Monte Carlo refused: a setting out of range (``kind`` ``"bad_setting"``), a start
+            beyond a wall (``"start_beyond_wall"``); or a failed run.
         GridSolveError, NotApplicableError
             The grid's time stepping failed, or the grid does not apply to the model.
         KeyboardInterrupt

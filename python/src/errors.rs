@@ -556,12 +556,11 @@ pub(crate) fn mc_error(py: Python<'_>, e: &McError) -> PyErr {
     raise::<MonteCarloError>(py, e.to_string(), kind, &attrs)
 }
 
-/// A Monte Carlo transient refused or failed: its settings, a model whose coefficients
-/// depend on the time, a start beyond a wall, or the stationary run's refusals.
+/// A Monte Carlo transient refused or failed: its settings, a start beyond a wall, or the
+/// stationary run's refusals.
 pub(crate) fn mc_transient_error(py: Python<'_>, e: &McTransientError) -> PyErr {
     let kind = match e {
         McTransientError::Setting { .. } => "bad_setting",
-        McTransientError::TimeDependent => "time_dependent",
         McTransientError::StartBeyondWall { .. } => "start_beyond_wall",
         McTransientError::Mc(e) => return mc_error(py, e),
     };

@@ -348,7 +348,7 @@ impl McConfig {
         // A step the drift makes unstable blows every trajectory up, in a run that looks
         // like a hang (c = 1e6 at dt = 0.01): refused with the largest stable step.
         let states = dynamics.states();
-        if let Some(limit) = plan.step_limit([&states[0], &states[1]]) {
+        if let Some(limit) = plan.step_limit([&states[0], &states[1]], 0.0) {
             if dt > limit.largest_dt {
                 return Err(McError::UnstableStep { dt, limit });
             }

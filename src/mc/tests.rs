@@ -116,6 +116,30 @@ fn burn_in_is_ten_decay_times_of_the_linearisation() {
     ));
 }
 
+/// A time-dependent model has no stationary law to sample: the stationary run refuses it
+/// before any work, though its kernels could now step it (the transient runs it).
+#[test]
+fn a_time_dependent_model_is_refused_by_the_stationary_run() {
+    let m = crate::model::parse_model(
+        "model m\nstate z, v\ndrift z: v\ndrift v: -0.1*v - z + cos(t)\n\
+         noise xi: intensity 1\ndiffusion v: xi\n",
+        None,
+    )
+    .unwrap()
+    .bind(&[])
+    .unwrap();
+    let err = Simulation::new(&m, &small(32)).err().unwrap();
+    assert!(
+        matches!(
+            &err,
+            McError::Inadmissible(crate::dynamics::Inadmissible::TimeDependent { line })
+                if line == "drift of `v`"
+        ),
+        "{err}"
+    );
+    assert!(crate::mc::McConfig::default().preflight(&m).is_err());
+}
+
 #[test]
 fn automatic_grids_cover_the_pilot_and_fold_at_zero() {
     let p = VibroImpact {

@@ -2,14 +2,15 @@
 //! start (E[ξ(t)ξ(t+τ)] = δ(τ) times the intensity): the density stays Gaussian, its mean
 //! solving m' = A m and its covariance the Lyapunov equation Σ' = AΣ + ΣAᵀ + B(t),
 //! B(t) = diag(0, e(t)²·intensity), both integrated by RK4 on a step (1e−3) whose error is
-//! far below what the tests compare; and the L1 distance of a marginal's cell averages to a
+//! far below what the tests compare; the same for any linear SDE with a time-dependent
+//! force and noise ([`linear_law`]); and the L1 distance of a marginal's cell averages to a
 //! Gaussian's.
 
 #![allow(dead_code)] // each test file uses its own subset
 
 use fpsolve::grid::Marginal;
 
-/// Mean and covariance at each of `times` (non-decreasing), from (m0, s0) at t = 0, for
+/// Mean and covariance at each of `times`, from (m0, s0) at t = 0, for
 /// damping `c`, stiffness `k` and the diffusion's square b(t) = e(t)²·intensity.
 pub fn lyapunov(
     c: f64,
@@ -19,16 +20,38 @@ pub fn lyapunov(
     s0: [[f64; 2]; 2],
     times: &[f64],
 ) -> Vec<([f64; 2], [[f64; 2]; 2])> {
-    let a = [[0.0, 1.0], [-k, -c]];
+    linear_law(
+        [[0.0, 1.0], [-k, -c]],
+        |_| [0.0, 0.0],
+        |t| [[0.0, 0.0], [0.0, b(t)]],
+        m0,
+        s0,
+        times,
+    )
+}
+
+/// Mean and covariance at each of `times` (non-decreasing), from (m0, s0) at t = 0, of
+/// the linear SDE dX = (A X + f(t)) dt + G(t) dW with B(t) = G S Gᵀ: m' = A m + f(t),
+/// Σ' = AΣ + ΣAᵀ + B(t), by RK4 on a step of 1e−3 (its error is far below what the tests
+/// compare).
+pub fn linear_law(
+    a: [[f64; 2]; 2],
+    f: impl Fn(f64) -> [f64; 2],
+    b: impl Fn(f64) -> [[f64; 2]; 2],
+    m0: [f64; 2],
+    s0: [[f64; 2]; 2],
+    times: &[f64],
+) -> Vec<([f64; 2], [[f64; 2]; 2])> {
     // State: m (2) and Σ's three distinct entries (xx, xv, vv).
     let rhs = |t: f64, y: [f64; 5]| {
         let [m0, m1, sxx, sxv, svv] = y;
+        let (f, b) = (f(t), b(t));
         [
-            a[0][0] * m0 + a[0][1] * m1,
-            a[1][0] * m0 + a[1][1] * m1,
-            2.0 * (a[0][0] * sxx + a[0][1] * sxv),
-            a[0][0] * sxv + a[0][1] * svv + a[1][0] * sxx + a[1][1] * sxv,
-            2.0 * (a[1][0] * sxv + a[1][1] * svv) + b(t),
+            a[0][0] * m0 + a[0][1] * m1 + f[0],
+            a[1][0] * m0 + a[1][1] * m1 + f[1],
+            2.0 * (a[0][0] * sxx + a[0][1] * sxv) + b[0][0],
+            a[0][0] * sxv + a[0][1] * svv + a[1][0] * sxx + a[1][1] * sxv + b[0][1],
+            2.0 * (a[1][0] * sxv + a[1][1] * svv) + b[1][1],
         ]
     };
     let add = |y: [f64; 5], k: [f64; 5], s: f64| std::array::from_fn(|i| y[i] + s * k[i]);

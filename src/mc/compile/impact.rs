@@ -18,7 +18,7 @@
 //! rest of its time on the wall it last hit (its speed is then beyond any the model can
 //! reach: the strip's width crossed that many times in one sub-step).
 
-use crate::mc::compile::eval::BatchKernel;
+use crate::mc::compile::eval::{BatchKernel, NO_TIME};
 use crate::mc::compile::lanes::LaneOp;
 use crate::symbolic::Expr;
 
@@ -58,7 +58,7 @@ impl Barrier {
     /// The value of `other` after an impact at the state `(x, v)` (on the barrier).
     pub(crate) fn jump(&self, x: f64, v: f64) -> f64 {
         let mut out = [0.0];
-        self.map.eval_point(x, v, &mut out);
+        self.map.eval_point(NO_TIME, x, v, &mut out);
         out[0]
     }
 

@@ -6,6 +6,12 @@
 //! and every instruction's arithmetic is the tape's own (`Op::apply`), so every output is
 //! bit-for-bit the tape's (tested below) and the simulator's trajectories do not depend on
 //! which evaluator runs.
+//!
+//! A program of a time-dependent model takes the time `t` as its third variable. The
+//! instructions that depend on the time only (`exp(-0.5*t)`, `cos(w*t)` and what is built
+//! from them and constants) are the same for every lane: [`LaneProgram::set_time`] computes
+//! each once, as a scalar, and writes it to its slot for all lanes; the lane code skips them.
+//! A program of the states only has no such instruction, and its code is what it was.
 
 use crate::symbolic::{Tape, TapeOp as Op, TapeUnary as Unary};
 
@@ -54,6 +60,11 @@ pub(crate) struct LaneProgram {
     lean: Vec<Step>,
     /// The constants' slots and values.
     constants: Vec<(u32, f64)>,
+    /// What [`LaneProgram::set_time`] executes: the instructions that depend on the time
+    /// only (and on constants), in the tape's order; neither `code` nor `lean` has them.
+    time: Vec<(u32, LaneOp)>,
+    /// The constants the time instructions read (their slots and values).
+    time_constants: Vec<(u32, f64)>,
     /// Where output j is after [`LaneProgram::run_lean`]: a slot, or a state's code.
     lean_outputs: Vec<u32>,
     /// The tape's Gaussian delta instructions, by index.
@@ -62,10 +73,13 @@ pub(crate) struct LaneProgram {
 }
 
 impl LaneProgram {
-    /// The program of `tape` (variables: the two states, in the tape's order): its
-    /// instructions one for one.
+    /// The program of `tape` (variables: the two states, in the tape's order, then the time
+    /// when the tape has a third variable): its instructions one for one.
     pub(crate) fn from_tape(tape: &Tape) -> LaneProgram {
-        debug_assert!(tape.n_vars() <= 2, "a lane program takes the two states");
+        debug_assert!(
+            tape.n_vars() <= 3,
+            "a lane program takes the two states and the time"
+        );
         let mut gauss = Vec::new();
         let ops: Vec<LaneOp> = tape
             .instructions()
@@ -93,24 +107,95 @@ impl LaneProgram {
             })
             .collect();
         let outputs = tape.output_slots().to_vec();
-        let (code, _) = lane_code(&ops, &outputs, false);
-        let (lean, lean_outputs) = lane_code(&ops, &outputs, true);
-        let constants = ops
-            .iter()
-            .enumerate()
-            .filter_map(|(i, op)| match *op {
-                LaneOp::Const(c) => Some((i as u32, Op::Const(c).apply(0.0, 0.0))),
-                _ => None,
-            })
+        let timed = time_only(&ops);
+        let (code, _) = lane_code(&ops, &outputs, &timed, false);
+        let (lean, lean_outputs) = lane_code(&ops, &outputs, &timed, true);
+        let constant = |i: u32| match ops[i as usize] {
+            LaneOp::Const(c) => Some((i, Op::Const(c).apply(0.0, 0.0))),
+            _ => None,
+        };
+        let constants = (0..ops.len() as u32).filter_map(constant).collect();
+        let time: Vec<(u32, LaneOp)> = (0..ops.len())
+            .filter(|&i| timed[i])
+            .map(|i| (i as u32, ops[i]))
             .collect();
+        let mut read: Vec<u32> = time.iter().flat_map(|&(_, op)| operands(op)).collect();
+        read.sort_unstable();
+        read.dedup();
+        let time_constants = read.into_iter().filter_map(constant).collect();
         LaneProgram {
             ops,
             code,
             lean,
             constants,
+            time,
+            time_constants,
             lean_outputs,
             gauss,
             outputs,
+        }
+    }
+
+    /// Whether the program depends on the time (it has a time instruction).
+    pub(crate) fn is_timed(&self) -> bool {
+        !self.time.is_empty()
+    }
+
+    /// Whether instruction `i` depends on the time only (its value is the same in every
+    /// lane at a given time).
+    pub(crate) fn is_time_only(&self, i: usize) -> bool {
+        self.time.iter().any(|&(dst, _)| dst as usize == i)
+    }
+
+    /// Writes the value at time `t` of every instruction that depends on the time only into
+    /// its slot, for all `W` lanes: [`LaneProgram::run`] and [`LaneProgram::run_lean`] read
+    /// them there and do not compute them. Each is computed once, by the tape's arithmetic;
+    /// a program of the states only writes nothing.
+    #[inline(always)]
+    pub(crate) fn set_time<const W: usize>(&self, t: f64, slots: &mut [[f64; W]]) {
+        if self.time.is_empty() {
+            return;
+        }
+        // Lane 0 holds the scalar values the time instructions read.
+        for &(slot, c) in &self.time_constants {
+            slots[slot as usize][0] = c;
+        }
+        for &(dst, op) in &self.time {
+            let (operands, n) = self.tape_op(op).operands();
+            let get = |k: usize| {
+                if k < n {
+                    slots[operands[k] as usize][0]
+                } else {
+                    0.0
+                }
+            };
+            let value = match op {
+                LaneOp::Var(_) => t,
+                _ => self.tape_op(op).apply(get(0), get(1)),
+            };
+            slots[dst as usize] = [value; W];
+        }
+    }
+
+    /// The tape's instruction of `op`.
+    fn tape_op(&self, op: LaneOp) -> Op {
+        match op {
+            LaneOp::Const(c) => Op::Const(c),
+            LaneOp::Var(k) => Op::Var(k),
+            LaneOp::Add(a, b) => Op::Add(a, b),
+            LaneOp::Sub(a, b) => Op::Sub(a, b),
+            LaneOp::Mul(a, b) => Op::Mul(a, b),
+            LaneOp::Div(a, b) => Op::Div(a, b),
+            LaneOp::AddC(a, c) => Op::AddC(a, c),
+            LaneOp::MulC(a, c) => Op::MulC(a, c),
+            LaneOp::Neg(a) => Op::Neg(a),
+            LaneOp::Recip(a) => Op::Recip(a),
+            LaneOp::Unary(f, a) => Op::Unary(f, a),
+            LaneOp::Min(a, b) => Op::Min(a, b),
+            LaneOp::Max(a, b) => Op::Max(a, b),
+            LaneOp::PowC(a, c) => Op::PowC(a, c),
+            LaneOp::Pow(a, b) => Op::Pow(a, b),
+            LaneOp::Gauss(_, k) => self.gauss[k as usize],
         }
     }
 
@@ -136,8 +221,9 @@ impl LaneProgram {
     }
 
     /// Evaluates the program at `W` points `(x[i], v[i])` into `slots` (one chunk per
-    /// instruction); output `j` is then `slots[self.output(j)]`. Inlined into the caller,
-    /// so that it is compiled for the caller's target features.
+    /// instruction); output `j` is then `slots[self.output(j)]`. The time instructions'
+    /// slots must hold their values ([`LaneProgram::set_time`], once per time). Inlined into
+    /// the caller, so that it is compiled for the caller's target features.
     #[inline(always)]
     pub(crate) fn run<const W: usize>(&self, x: &[f64; W], v: &[f64; W], slots: &mut [[f64; W]]) {
         self.exec(&self.code, x, v, slots);
@@ -291,11 +377,13 @@ impl LaneProgram {
         self.outputs[j] as usize
     }
 
-    /// Every output at `n = x.len()` points: output `j` at point `i` goes to `out[j*n + i]`;
-    /// `slots` is reusable working memory. Inlined, for the caller's target features.
+    /// Every output at `n = x.len()` points at time `t`: output `j` at point `i` goes to
+    /// `out[j*n + i]`; `slots` is reusable working memory. Inlined, for the caller's target
+    /// features.
     #[inline(always)]
     pub(crate) fn eval_rows(
         &self,
+        t: f64,
         x: &[f64],
         v: &[f64],
         out: &mut [f64],
@@ -305,6 +393,7 @@ impl LaneProgram {
         let k = self.outputs.len();
         let out = &mut out[..k * n];
         slots.resize(self.ops.len(), [0.0; CHUNK]);
+        self.set_time(t, slots);
         let mut start = 0;
         while start + CHUNK <= n {
             let xc: &[f64; CHUNK] = x[start..start + CHUNK].try_into().expect("chunk");
@@ -319,6 +408,7 @@ impl LaneProgram {
             return;
         }
         let mut one = vec![[0.0; 1]; self.ops.len()];
+        self.set_time(t, &mut one);
         for i in start..n {
             self.run(&[x[i]], &[v[i]], &mut one);
             for j in 0..k {
@@ -327,9 +417,9 @@ impl LaneProgram {
         }
     }
 
-    /// Every output at one point (on the stack for programs of up to 32 instructions, such
-    /// as impact laws, evaluated at every impact).
-    pub(crate) fn eval_point(&self, x: f64, v: f64, out: &mut [f64]) {
+    /// Every output at one point at time `t` (on the stack for programs of up to 32
+    /// instructions, such as impact laws, evaluated at every impact).
+    pub(crate) fn eval_point(&self, t: f64, x: f64, v: f64, out: &mut [f64]) {
         const STACK: usize = 32;
         let mut stack = [[0.0; 1]; STACK];
         let mut heap = Vec::new();
@@ -339,6 +429,7 @@ impl LaneProgram {
             heap.resize(self.ops.len(), [0.0; 1]);
             &mut heap
         };
+        self.set_time(t, one);
         self.run(&[x], &[v], one);
         for (j, o) in out.iter_mut().enumerate().take(self.outputs.len()) {
             *o = one[self.output(j)][0];
@@ -379,13 +470,34 @@ enum Code {
     SubMulC(u32, u32, f64),
 }
 
+/// Which of `ops` depend on the time only: the time (variable 2) and every instruction
+/// whose operands are time-only instructions or constants, one of them time-only.
+fn time_only(ops: &[LaneOp]) -> Vec<bool> {
+    let mut timed = vec![false; ops.len()];
+    for (i, &op) in ops.iter().enumerate() {
+        let reads = operands(op);
+        timed[i] = match op {
+            LaneOp::Var(k) => k == 2,
+            _ => {
+                reads.iter().any(|&a| timed[a as usize])
+                    && reads
+                        .iter()
+                        .all(|&a| timed[a as usize] || matches!(ops[a as usize], LaneOp::Const(_)))
+            }
+        };
+    }
+    timed
+}
+
 /// The lane code of a tape's instructions `ops` with outputs `outputs`, and where each
 /// output is then read: a state that is no output is read in place rather than copied into a
 /// slot, and a product by a constant used only by one sum or difference is computed inside
-/// it (one pass over the lanes, not two). `lean` code has no instruction for a constant (its
-/// slot is filled once) nor for a state (read in place even when it is an output). Every
-/// value is computed by the same operations in the same order as in the tape.
-fn lane_code(ops: &[LaneOp], outputs: &[u32], lean: bool) -> (Vec<Step>, Vec<u32>) {
+/// it (one pass over the lanes, not two). Neither code has an instruction that depends on
+/// the time only (`timed`: [`LaneProgram::set_time`] writes its slot). `lean` code has no
+/// instruction for a constant (its slot is filled once) nor for a state (read in place even
+/// when it is an output). Every value is computed by the same operations in the same order
+/// as in the tape.
+fn lane_code(ops: &[LaneOp], outputs: &[u32], timed: &[bool], lean: bool) -> (Vec<Step>, Vec<u32>) {
     let mut uses = vec![0usize; ops.len()];
     for &o in outputs {
         uses[o as usize] += 1;
@@ -401,11 +513,18 @@ fn lane_code(ops: &[LaneOp], outputs: &[u32], lean: bool) -> (Vec<Step>, Vec<u32
     // Whether slot i is a product computed inside the sum that uses it.
     let mut fused = vec![false; ops.len()];
     let single_product = |a: u32| match ops[a as usize] {
-        LaneOp::MulC(p, c) if uses[a as usize] == 1 && !is_output(a as usize) => Some((p, c)),
+        LaneOp::MulC(p, c)
+            if uses[a as usize] == 1 && !is_output(a as usize) && !timed[a as usize] =>
+        {
+            Some((p, c))
+        }
         _ => None,
     };
     let mut code = Vec::with_capacity(ops.len());
     for (i, &op) in ops.iter().enumerate() {
+        if timed[i] {
+            continue;
+        }
         match op {
             LaneOp::Var(k) if lean || !is_output(i) => {
                 at[i] = if k == 0 { STATE_X } else { STATE_V };
@@ -554,11 +673,55 @@ mod tests {
         for policy in [DeltaPolicy::Zero, DeltaPolicy::Gaussian { width: 0.3 }] {
             let tape = Tape::compile(&exprs, &["z", "v"], policy).unwrap();
             let prog = LaneProgram::from_tape(&tape);
-            check_against_tape(&exprs, &tape, &prog);
+            assert!(!prog.is_timed());
+            check_against_tape(&exprs, &tape, &prog, None);
         }
     }
 
-    fn check_against_tape(exprs: &[Expr], tape: &Tape, prog: &LaneProgram) {
+    fn t() -> Expr {
+        Expr::sym("t")
+    }
+
+    /// A program of the states and the time: its time instructions (`exp(-0.5 t)`, the
+    /// envelope, `cos(2t)`, a time-only output, a product of a state with a time-only
+    /// factor) are computed once per time by `set_time`, not by the lane code, and every
+    /// output is still the tape's bit for bit, at several times, whatever the slots held
+    /// before.
+    #[test]
+    fn time_instructions_are_computed_once_per_time_and_agree_with_the_tape() {
+        let n = |x: f64| Expr::num(x);
+        let env =
+            n(4.0) * (Expr::call(Func::Exp, n(-0.5) * t()) - Expr::call(Func::Exp, n(-1.0) * t()));
+        let exprs = vec![
+            -(n(0.5) * v()) - z() + n(0.3) * Expr::call(Func::Cos, n(2.0) * t()),
+            env.clone(),
+            env * (Expr::call(Func::Sgn, z()) + n(0.1) * z()),
+            -(n(0.1) + n(0.05) * Expr::call(Func::Sin, t())) * v() - Expr::pow(z(), n(3.0)),
+            Expr::pow(t() + n(1.0), n(-1.5)) * v() / (n(1.0) + t() * t()),
+            z(),
+            n(2.0),
+        ];
+        let tape = Tape::compile(&exprs, &["z", "v", "t"], DeltaPolicy::Zero).unwrap();
+        let prog = LaneProgram::from_tape(&tape);
+        assert!(prog.is_timed());
+        // The lane code computes no time instruction.
+        assert!(prog
+            .code
+            .iter()
+            .chain(&prog.lean)
+            .all(|s| !prog.is_time_only(s.dst as usize)));
+        assert!(
+            prog.is_time_only(prog.output(1)),
+            "the envelope is a time instruction"
+        );
+        for time in [0.0, 0.3, 1.7, 25.0] {
+            check_against_tape(&exprs, &tape, &prog, Some(time));
+        }
+    }
+
+    /// `prog`'s outputs (every evaluator: rows, point, lean code) against `tape`'s, bit for
+    /// bit, at many points; at the time `time` when the program takes one.
+    fn check_against_tape(exprs: &[Expr], tape: &Tape, prog: &LaneProgram, time: Option<f64>) {
         assert_eq!(prog.n_outputs(), exprs.len());
         let special = [0.0, -0.0, 1.0, -1.0, 1e-300, -2.5, 7.0, 1e10];
         let mut xs = Vec::new();
@@ -583,18 +746,26 @@ mod tests {
         let np = xs.len();
         assert!(np % CHUNK != 0, "the test must cover a partial chunk");
         let mut got = vec![0.0; exprs.len() * np];
-        let mut slots = Vec::new();
-        prog.eval_rows(&xs, &vs, &mut got, &mut slots);
+        let tt = time.unwrap_or(f64::NAN);
+        // Slots left over from another time: set_time must rewrite what depends on it.
+        let mut slots = vec![[f64::NAN; CHUNK]; prog.n_slots()];
+        prog.set_time(tt + 1.0, &mut slots);
+        prog.eval_rows(tt, &xs, &vs, &mut got, &mut slots);
         let mut want = vec![0.0; exprs.len()];
         let mut scratch = Vec::new();
         let mut one = vec![0.0; exprs.len()];
-        // The lean code on slots that only its constants were written into, reused from
-        // point to point as the simulator reuses them from step to step.
+        // The lean code on slots that only its constants (and the time's values) were
+        // written into, reused from point to point as the simulator reuses them from step
+        // to step.
         let mut lean = vec![[f64::NAN; 1]; prog.n_slots()];
         prog.fill_constants(&mut lean);
+        prog.set_time(tt, &mut lean);
         for i in 0..np {
-            tape.eval(&[xs[i], vs[i]], &mut scratch, &mut want);
-            prog.eval_point(xs[i], vs[i], &mut one);
+            match time {
+                Some(t) => tape.eval(&[xs[i], vs[i], t], &mut scratch, &mut want),
+                None => tape.eval(&[xs[i], vs[i]], &mut scratch, &mut want),
+            }
+            prog.eval_point(tt, xs[i], vs[i], &mut one);
             let (x, v) = ([xs[i]], [vs[i]]);
             prog.run_lean(&x, &v, &mut lean);
             for j in 0..exprs.len() {
@@ -648,7 +819,7 @@ mod tests {
         let q = LaneProgram::from_tape(&tape);
         assert_eq!(fused(&q), 1, "{:?}", q.code);
         let mut out = [0.0; 2];
-        q.eval_point(0.3, -2.0, &mut out);
+        q.eval_point(0.0, 0.3, -2.0, &mut out);
         assert_eq!(out[1], -0.1 * -2.0);
     }
 

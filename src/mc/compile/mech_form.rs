@@ -12,32 +12,107 @@
 //! or 3 in v (Rayleigh damping `v³`, energy-dependent damping `H(z, v)·v`) is evaluated twice
 //! a step, at v and at the predictor, as the lane evaluator does it. The recogniser runs the
 //! tape's instructions over this algebra (`abs(z)` is `s·z`); a program outside it (any
-//! other function, a division, `sgn(z)²`, a fourth power of `v`) is not recognised and keeps
-//! the lane evaluator. The kernel evaluates each polynomial by Horner's rule on coefficients
-//! prescaled by the step sizes (`kernel/mech/coef.rs`), not in the tape's order, so its outputs
-//! agree with the tape's to rounding (a bound in the tests), not to the bit.
+//! other function of a state, a division by one, `sgn(z)²`, a fourth power of `v`) is not
+//! recognised and keeps the lane evaluator. The kernel evaluates each polynomial by Horner's
+//! rule on coefficients prescaled by the step sizes (`kernel/mech/coef.rs`), not in the tape's
+//! order, so its outputs agree with the tape's to rounding (a bound in the tests), not to the
+//! bit.
+//!
+//! In a program of a time-dependent model the coefficients may depend on the time: an
+//! instruction of the time only (`exp(-0.5*t)`, `cos(w*t)`) is a coefficient, and the
+//! recogniser carries each coefficient built from such values as an expression of them
+//! ([`TimedForm`]); the form's coefficients at a time are that expression's values there,
+//! computed once per step for every lane (`TimedForm::at`).
 
 use crate::mc::compile::lanes::{LaneOp, LaneProgram};
-use crate::symbolic::TapeUnary as Unary;
+use crate::symbolic::{DeltaPolicy, Expr, Tape, TapeUnary as Unary};
 
 /// Highest power of `z` the recogniser follows.
 const MAX_DEGREE: usize = 8;
 /// Highest power of `v` the recogniser follows (Rayleigh and energy-dependent damping).
 pub(crate) const MAX_V_DEGREE: usize = 3;
 
+/// A coefficient of the recogniser's polynomials: a number, or an expression of the values
+/// of a program's time instructions (symbols [`time_slot`]), never zero.
+#[derive(Clone, Debug, PartialEq)]
+enum Coef {
+    Num(f64),
+    Time(Expr),
+}
+
+impl Coef {
+    const ZERO: Coef = Coef::Num(0.0);
+
+    fn is_zero(&self) -> bool {
+        matches!(self, Coef::Num(c) if *c == 0.0)
+    }
+
+    fn expr(&self) -> Expr {
+        match self {
+            Coef::Num(c) => Expr::num(*c),
+            Coef::Time(e) => e.clone(),
+        }
+    }
+
+    /// `f` of two numbers as numbers (the arithmetic of a model without the time), else
+    /// `g` of their expressions.
+    fn combine(
+        &self,
+        o: &Coef,
+        f: impl Fn(f64, f64) -> f64,
+        g: impl Fn(Expr, Expr) -> Expr,
+    ) -> Coef {
+        match (self, o) {
+            (Coef::Num(a), Coef::Num(b)) => Coef::Num(f(*a, *b)),
+            _ => Coef::Time(g(self.expr(), o.expr())),
+        }
+    }
+
+    fn add(&self, o: &Coef) -> Coef {
+        match (self.is_zero(), o.is_zero()) {
+            (_, true) if matches!(self, Coef::Time(_)) => self.clone(),
+            (true, _) if matches!(o, Coef::Time(_)) => o.clone(),
+            _ => self.combine(o, |a, b| a + b, |a, b| a + b),
+        }
+    }
+
+    fn sub(&self, o: &Coef) -> Coef {
+        match o.is_zero() {
+            true if matches!(self, Coef::Time(_)) => self.clone(),
+            _ => self.combine(o, |a, b| a - b, |a, b| a - b),
+        }
+    }
+
+    fn mul(&self, o: &Coef) -> Coef {
+        match (self, o) {
+            (Coef::Num(a), Coef::Num(b)) => Coef::Num(a * b),
+            _ if self.is_zero() || o.is_zero() => Coef::ZERO,
+            _ => Coef::Time(self.expr() * o.expr()),
+        }
+    }
+
+    fn scale(&self, c: f64) -> Coef {
+        self.mul(&Coef::Num(c))
+    }
+}
+
+/// The symbol standing for the value of a program's time instruction `slot` in the
+/// coefficients of a [`TimedForm`].
+fn time_slot(slot: usize) -> String {
+    format!("@{slot}")
+}
+
 /// A polynomial in z, s (degree ≤ 1) and v (degree ≤ [`MAX_V_DEGREE`]): `c[k][j][l]`
 /// multiplies `z^k s^j v^l`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 struct Poly {
-    c: [[[f64; MAX_V_DEGREE + 1]; 2]; MAX_DEGREE + 1],
+    c: [[[Coef; MAX_V_DEGREE + 1]; 2]; MAX_DEGREE + 1],
 }
 
 /// A value of the program under the algebra: a polynomial, or something outside it.
-// Plan-time only, one per instruction of a short program: the size does not matter.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 enum Value {
-    Poly(Poly),
+    Poly(Box<Poly>),
     /// Not a polynomial of the form (e.g. `abs(v)`): vanishes only when multiplied by zero.
     Opaque,
 }
@@ -45,11 +120,13 @@ enum Value {
 impl Poly {
     fn zero() -> Poly {
         Poly {
-            c: [[[0.0; MAX_V_DEGREE + 1]; 2]; MAX_DEGREE + 1],
+            c: std::array::from_fn(|_| {
+                std::array::from_fn(|_| std::array::from_fn(|_| Coef::ZERO))
+            }),
         }
     }
 
-    fn constant(c: f64) -> Poly {
+    fn constant(c: Coef) -> Poly {
         let mut p = Poly::zero();
         p.c[0][0][0] = c;
         p
@@ -57,26 +134,26 @@ impl Poly {
 
     fn monomial(k: usize, j: usize, l: usize) -> Poly {
         let mut p = Poly::zero();
-        p.c[k][j][l] = 1.0;
+        p.c[k][j][l] = Coef::Num(1.0);
         p
     }
 
     fn is_zero(&self) -> bool {
-        self.c.iter().flatten().flatten().all(|&c| c == 0.0)
+        self.c.iter().flatten().flatten().all(Coef::is_zero)
     }
 
-    fn map(&self, f: impl Fn(f64) -> f64) -> Poly {
-        let mut p = *self;
-        p.c.iter_mut().flatten().flatten().for_each(|c| *c = f(*c));
+    fn map(&self, f: impl Fn(&Coef) -> Coef) -> Poly {
+        let mut p = self.clone();
+        p.c.iter_mut().flatten().flatten().for_each(|c| *c = f(c));
         p
     }
 
-    fn zip(&self, o: &Poly, f: impl Fn(f64, f64) -> f64) -> Poly {
+    fn zip(&self, o: &Poly, f: impl Fn(&Coef, &Coef) -> Coef) -> Poly {
         let mut p = Poly::zero();
         for k in 0..=MAX_DEGREE {
             for j in 0..2 {
                 for l in 0..=MAX_V_DEGREE {
-                    p.c[k][j][l] = f(self.c[k][j][l], o.c[k][j][l]);
+                    p.c[k][j][l] = f(&self.c[k][j][l], &o.c[k][j][l]);
                 }
             }
         }
@@ -88,21 +165,21 @@ impl Poly {
         let mut p = Poly::zero();
         for (k1, a) in self.c.iter().enumerate() {
             for (j1, a) in a.iter().enumerate() {
-                for (l1, &a) in a.iter().enumerate() {
-                    if a == 0.0 {
+                for (l1, a) in a.iter().enumerate() {
+                    if a.is_zero() {
                         continue;
                     }
                     for (k2, b) in o.c.iter().enumerate() {
                         for (j2, b) in b.iter().enumerate() {
-                            for (l2, &b) in b.iter().enumerate() {
-                                if b == 0.0 {
+                            for (l2, b) in b.iter().enumerate() {
+                                if b.is_zero() {
                                     continue;
                                 }
                                 let (k, j, l) = (k1 + k2, j1 + j2, l1 + l2);
                                 if k > MAX_DEGREE || j > 1 || l > MAX_V_DEGREE {
                                     return None;
                                 }
-                                p.c[k][j][l] += a * b;
+                                p.c[k][j][l] = p.c[k][j][l].add(&a.mul(b));
                             }
                         }
                     }
@@ -113,9 +190,9 @@ impl Poly {
     }
 
     /// The coefficients of `s^j v^l` as a polynomial in z (trailing zeros trimmed).
-    fn part(&self, j: usize, l: usize) -> ZPoly {
-        let mut coef: Vec<f64> = self.c.iter().map(|c| c[j][l]).collect();
-        while coef.last() == Some(&0.0) {
+    fn part(&self, j: usize, l: usize) -> ZPoly<Coef> {
+        let mut coef: Vec<Coef> = self.c.iter().map(|c| c[j][l].clone()).collect();
+        while coef.last().is_some_and(Coef::is_zero) {
             coef.pop();
         }
         ZPoly { coef }
@@ -124,8 +201,8 @@ impl Poly {
 
 /// A polynomial in z, coefficients from the constant up (none: the zero polynomial).
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct ZPoly {
-    pub(crate) coef: Vec<f64>,
+pub(crate) struct ZPoly<C = f64> {
+    pub(crate) coef: Vec<C>,
 }
 
 impl ZPoly {
@@ -142,19 +219,41 @@ impl ZPoly {
 
 /// `P₀(z) + s·P₁(z)`, the sign part absent when zero.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct SgnPoly {
-    pub(crate) plain: ZPoly,
-    pub(crate) sgn: Option<ZPoly>,
+pub(crate) struct SgnPoly<C = f64> {
+    pub(crate) plain: ZPoly<C>,
+    pub(crate) sgn: Option<ZPoly<C>>,
 }
 
-impl SgnPoly {
-    fn new(plain: ZPoly, sgn: ZPoly) -> SgnPoly {
+impl<C> SgnPoly<C> {
+    fn new(plain: ZPoly<C>, sgn: ZPoly<C>) -> SgnPoly<C> {
         SgnPoly {
             plain,
             sgn: (!sgn.coef.is_empty()).then_some(sgn),
         }
     }
 
+    /// Every coefficient, the plain part's first, `f` applied in that order.
+    fn map<D>(&self, f: &mut impl FnMut(&C) -> D) -> SgnPoly<D> {
+        let mut zmap = |p: &ZPoly<C>| ZPoly {
+            coef: p.coef.iter().map(&mut *f).collect(),
+        };
+        let plain = zmap(&self.plain);
+        SgnPoly {
+            plain,
+            sgn: self.sgn.as_ref().map(zmap),
+        }
+    }
+
+    /// Every coefficient in [`SgnPoly::map`]'s order.
+    fn visit_mut(&mut self, f: &mut impl FnMut(&mut C)) {
+        self.plain.coef.iter_mut().for_each(&mut *f);
+        if let Some(s) = &mut self.sgn {
+            s.coef.iter_mut().for_each(f);
+        }
+    }
+}
+
+impl SgnPoly {
     #[cfg(test)]
     pub(crate) fn eval(&self, z: f64, s: f64) -> f64 {
         match &self.sgn {
@@ -165,32 +264,33 @@ impl SgnPoly {
 }
 
 /// The step program (outputs f, σ and, for a force affine in v, ∂f/∂v) recognised in the
-/// mechanical form.
+/// mechanical form, with coefficients `C` (numbers, or for [`TimedForm`] at plan time
+/// expressions of the time).
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct MechForm {
+pub(crate) struct MechForm<C = f64> {
     /// The part of f free of v.
-    pub(crate) force0: SgnPoly,
+    pub(crate) force0: SgnPoly<C>,
     /// How f depends on v.
-    pub(crate) in_v: InVelocity,
+    pub(crate) in_v: InVelocity<C>,
     /// σ.
-    pub(crate) sigma: SgnPoly,
+    pub(crate) sigma: SgnPoly<C>,
 }
 
 /// How the force f depends on the velocity, which decides how the Heun corrector is taken.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum InVelocity {
+pub(crate) enum InVelocity<C = f64> {
     /// `f = force0 + v·force1` (`force1` absent when f does not depend on v), with the
     /// slope ∂f/∂v as the step program computes it: the corrector needs no second
     /// evaluation of f.
     Affine {
-        force1: Option<SgnPoly>,
-        slope: SgnPoly,
+        force1: Option<SgnPoly<C>>,
+        slope: SgnPoly<C>,
     },
     /// `f = force0 + Σ_l v^l·powers[l − 1]` for l = 1..=[`MAX_V_DEGREE`] (a power absent
     /// when its coefficient is zero), of degree 2 or more in v: f is evaluated at v and at
     /// the predictor.
     Polynomial {
-        powers: [Option<SgnPoly>; MAX_V_DEGREE],
+        powers: [Option<SgnPoly<C>>; MAX_V_DEGREE],
     },
 }
 
@@ -200,113 +300,69 @@ pub(crate) fn sgn(z: f64) -> f64 {
     Unary::Sgn.apply(z)
 }
 
-impl MechForm {
-    /// The form of `program` (outputs f, σ and, when f is affine in v, ∂f/∂v, of the states
-    /// z, v), or `None` when the program is outside it.
-    pub(crate) fn recognise(program: &LaneProgram) -> Option<MechForm> {
-        let outputs = program.outputs();
-        if !(2..=3).contains(&outputs.len()) {
-            return None;
-        }
-        let z = Poly::monomial(1, 0, 0);
-        let mut vals: Vec<Value> = Vec::with_capacity(program.ops().len());
-        for &op in program.ops() {
-            let get = |a: u32| vals[a as usize];
-            let lin = |a: u32, f: &dyn Fn(&Poly) -> Poly| match get(a) {
-                Value::Poly(p) => Value::Poly(f(&p)),
-                Value::Opaque => Value::Opaque,
-            };
-            let both = |a: u32, b: u32, f: &dyn Fn(f64, f64) -> f64| match (get(a), get(b)) {
-                (Value::Poly(p), Value::Poly(q)) => Value::Poly(p.zip(&q, f)),
-                _ => Value::Opaque,
-            };
-            let value = match op {
-                LaneOp::Const(c) => Value::Poly(Poly::constant(c)),
-                LaneOp::Var(0) => Value::Poly(z),
-                LaneOp::Var(_) => Value::Poly(Poly::monomial(0, 0, 1)),
-                LaneOp::Add(a, b) => both(a, b, &|p, q| p + q),
-                LaneOp::Sub(a, b) => both(a, b, &|p, q| p - q),
-                LaneOp::Neg(a) => lin(a, &|p| p.map(|c| -c)),
-                LaneOp::AddC(a, c) => lin(a, &|p| {
-                    let mut p = *p;
-                    p.c[0][0][0] += c;
-                    p
-                }),
-                // Anything times zero (the pattern matches −0 too) is zero here: a
-                // non-finite state has blown up anyway.
-                LaneOp::MulC(_, 0.0) => Value::Poly(Poly::zero()),
-                LaneOp::MulC(a, c) => lin(a, &|p| p.map(|x| x * c)),
-                LaneOp::Mul(a, b) => match (get(a), get(b)) {
-                    (Value::Poly(p), Value::Poly(q)) => Value::Poly(p.mul(&q)?),
-                    (Value::Poly(p), Value::Opaque) | (Value::Opaque, Value::Poly(p))
-                        if p.is_zero() =>
-                    {
-                        Value::Poly(Poly::zero())
-                    }
-                    _ => Value::Opaque,
-                },
-                LaneOp::PowC(a, c) if c.fract() == 0.0 && (0.0..=8.0).contains(&c) => {
-                    match get(a) {
-                        Value::Poly(p) => {
-                            let mut acc = Poly::constant(1.0);
-                            for _ in 0..c as usize {
-                                acc = acc.mul(&p)?;
-                            }
-                            Value::Poly(acc)
-                        }
-                        Value::Opaque => Value::Opaque,
-                    }
-                }
-                LaneOp::Unary(f @ (Unary::Abs | Unary::Sgn), a) => match get(a) {
-                    Value::Poly(p) if p == z => Value::Poly(match f {
-                        Unary::Abs => Poly::monomial(1, 1, 0),
-                        _ => Poly::monomial(0, 1, 0),
-                    }),
-                    _ => Value::Opaque,
-                },
-                _ => Value::Opaque,
-            };
-            vals.push(value);
-        }
-        let out = |j: usize| match vals[outputs[j] as usize] {
-            Value::Poly(p) => Some(p),
-            Value::Opaque => None,
-        };
-        let (f, sigma) = (out(0)?, out(1)?);
-        let free_of_v = |p: &Poly| {
-            p.c.iter()
-                .flatten()
-                .all(|c| c[1..].iter().all(|&x| x == 0.0))
-        };
-        if !free_of_v(&sigma) {
-            return None;
-        }
-        let power = |l: usize| {
-            let p = SgnPoly::new(f.part(0, l), f.part(1, l));
-            (!p.plain.coef.is_empty() || p.sgn.is_some()).then_some(p)
-        };
-        let in_v = match outputs.len() {
-            // The slope comes with a force the model's symbols show affine in v.
-            3 => {
-                let slope = out(2)?;
-                if !free_of_v(&slope) || (2..=MAX_V_DEGREE).any(|l| power(l).is_some()) {
-                    return None;
-                }
+impl<C> MechForm<C> {
+    /// The form with every coefficient `f` of the one here, taken in a fixed order (the
+    /// order of [`MechForm::visit_mut`]).
+    fn map<D>(&self, f: &mut impl FnMut(&C) -> D) -> MechForm<D> {
+        let force0 = self.force0.map(f);
+        let in_v = match &self.in_v {
+            InVelocity::Affine { force1, slope } => {
+                let force1 = force1.as_ref().map(|p| p.map(f));
                 InVelocity::Affine {
-                    force1: power(1),
-                    slope: SgnPoly::new(slope.part(0, 0), slope.part(1, 0)),
+                    force1,
+                    slope: slope.map(f),
                 }
             }
-            2 => InVelocity::Polynomial {
-                powers: std::array::from_fn(|l| power(l + 1)),
-            },
-            _ => return None,
+            InVelocity::Polynomial { powers } => {
+                let mut out: [Option<SgnPoly<D>>; MAX_V_DEGREE] = Default::default();
+                for (o, p) in out.iter_mut().zip(powers) {
+                    *o = p.as_ref().map(|p| p.map(f));
+                }
+                InVelocity::Polynomial { powers: out }
+            }
         };
-        Some(MechForm {
-            force0: SgnPoly::new(f.part(0, 0), f.part(1, 0)),
+        MechForm {
+            force0,
             in_v,
-            sigma: SgnPoly::new(sigma.part(0, 0), sigma.part(1, 0)),
-        })
+            sigma: self.sigma.map(f),
+        }
+    }
+
+    /// Every coefficient, in the order of [`MechForm::map`].
+    fn visit_mut(&mut self, f: &mut impl FnMut(&mut C)) {
+        self.force0.visit_mut(f);
+        match &mut self.in_v {
+            InVelocity::Affine { force1, slope } => {
+                if let Some(p) = force1 {
+                    p.visit_mut(f);
+                }
+                slope.visit_mut(f);
+            }
+            InVelocity::Polynomial { powers } => {
+                for p in powers.iter_mut().flatten() {
+                    p.visit_mut(f);
+                }
+            }
+        }
+        self.sigma.visit_mut(f);
+    }
+}
+
+impl MechForm {
+    /// The form of `program` (outputs f, σ and, when f is affine in v, ∂f/∂v, of the states
+    /// z, v), or `None` when the program is outside it or its coefficients depend on the
+    /// time (see [`TimedForm::recognise`]).
+    pub(crate) fn recognise(program: &LaneProgram) -> Option<MechForm> {
+        let form = recognise(program)?;
+        let mut numbers = true;
+        let fixed = form.map(&mut |c| match c {
+            Coef::Num(x) => *x,
+            Coef::Time(_) => {
+                numbers = false;
+                f64::NAN
+            }
+        });
+        numbers.then_some(fixed)
     }
 
     /// f, σ and (for a force affine in v) ∂f/∂v at `(z, v)` by Horner's rule (the
@@ -332,6 +388,216 @@ impl MechForm {
         };
         (f, self.sigma.eval(z, s), slope)
     }
+}
+
+/// The mechanical form of a program whose coefficients depend on the time: the form's
+/// shape (which coefficients there are) and its coefficients as one tape of the values of
+/// the program's time instructions, evaluated at a step's time by [`TimedForm::at`].
+#[derive(Clone, Debug)]
+pub(crate) struct TimedForm {
+    /// The form; its time-dependent coefficients NaN, written by [`TimedForm::at`].
+    shape: MechForm,
+    /// For each coefficient in [`MechForm::visit_mut`]'s order, the tape output that is its
+    /// value, or `None` for a number (kept as it is in `shape`).
+    outputs: Vec<Option<usize>>,
+    /// The time-dependent coefficients, of the variables `slots` (the program's time
+    /// instructions whose values they take).
+    tape: Tape,
+    slots: Vec<u32>,
+    /// The step program, whose time instructions `set_time` computes.
+    program: LaneProgram,
+}
+
+/// Working memory of [`TimedForm::at`], so that a step allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct TimedWork {
+    slots: Vec<[f64; 1]>,
+    vars: Vec<f64>,
+    values: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
+impl TimedForm {
+    /// The form of `program` when its coefficients depend on the time (as
+    /// [`MechForm::recognise`]); `None` when it is outside the form, or its coefficients are
+    /// numbers (then [`MechForm::recognise`] gives it).
+    pub(crate) fn recognise(program: &LaneProgram) -> Option<TimedForm> {
+        let form = recognise(program)?;
+        let mut exprs = Vec::new();
+        let mut outputs = Vec::new();
+        let shape = form.map(&mut |c| match c {
+            Coef::Num(x) => {
+                outputs.push(None);
+                *x
+            }
+            Coef::Time(e) => {
+                outputs.push(Some(exprs.len()));
+                exprs.push(e.clone());
+                f64::NAN
+            }
+        });
+        if exprs.is_empty() {
+            return None;
+        }
+        let mut slots: Vec<u32> = (0..program.n_slots() as u32)
+            .filter(|&i| exprs.iter().any(|e| e.mentions(&time_slot(i as usize))))
+            .collect();
+        slots.sort_unstable();
+        let names: Vec<String> = slots.iter().map(|&i| time_slot(i as usize)).collect();
+        let vars: Vec<&str> = names.iter().map(String::as_str).collect();
+        let tape = Tape::compile(&exprs, &vars, DeltaPolicy::Zero).ok()?;
+        Some(TimedForm {
+            shape,
+            outputs,
+            tape,
+            slots,
+            program: program.clone(),
+        })
+    }
+
+    /// Working memory for [`TimedForm::at`].
+    pub(crate) fn work(&self) -> TimedWork {
+        TimedWork {
+            slots: vec![[0.0]; self.program.n_slots()],
+            vars: vec![0.0; self.slots.len()],
+            values: vec![0.0; self.tape.n_outputs()],
+            scratch: Vec::new(),
+        }
+    }
+
+    /// The form at time `t` into `form` (a clone of [`TimedForm::shape`]): its
+    /// time-dependent coefficients evaluated there, by the tape's arithmetic.
+    pub(crate) fn at(&self, t: f64, form: &mut MechForm, w: &mut TimedWork) {
+        self.program.set_time(t, &mut w.slots);
+        for (v, &s) in w.vars.iter_mut().zip(&self.slots) {
+            *v = w.slots[s as usize][0];
+        }
+        self.tape.eval(&w.vars, &mut w.scratch, &mut w.values);
+        let mut k = 0;
+        form.visit_mut(&mut |c| {
+            if let Some(j) = self.outputs[k] {
+                *c = w.values[j];
+            }
+            k += 1;
+        });
+    }
+
+    /// The form's shape, its time-dependent coefficients NaN (what [`TimedForm::at`] writes
+    /// into; prescaled, the NaNs mark the kernel's coefficients that change with time).
+    pub(crate) fn shape(&self) -> &MechForm {
+        &self.shape
+    }
+}
+
+/// The form of `program`, its coefficients numbers or expressions of its time instructions.
+fn recognise(program: &LaneProgram) -> Option<MechForm<Coef>> {
+    let outputs = program.outputs();
+    if !(2..=3).contains(&outputs.len()) {
+        return None;
+    }
+    let z = Poly::monomial(1, 0, 0);
+    let mut vals: Vec<Value> = Vec::with_capacity(program.ops().len());
+    for (i, &op) in program.ops().iter().enumerate() {
+        let get = |a: u32| vals[a as usize].clone();
+        let lin = |a: u32, f: &dyn Fn(&Poly) -> Poly| match get(a) {
+            Value::Poly(p) => Value::Poly(Box::new(f(&p))),
+            Value::Opaque => Value::Opaque,
+        };
+        let both = |a: u32, b: u32, f: &dyn Fn(&Coef, &Coef) -> Coef| match (get(a), get(b)) {
+            (Value::Poly(p), Value::Poly(q)) => Value::Poly(Box::new(p.zip(&q, f))),
+            _ => Value::Opaque,
+        };
+        let poly = |p: Poly| Value::Poly(Box::new(p));
+        let value = match op {
+            // A value of the time only is a coefficient, whatever it is built from.
+            _ if program.is_time_only(i) => {
+                poly(Poly::constant(Coef::Time(Expr::sym(&time_slot(i)))))
+            }
+            LaneOp::Const(c) => poly(Poly::constant(Coef::Num(c))),
+            LaneOp::Var(0) => poly(z.clone()),
+            LaneOp::Var(1) => poly(Poly::monomial(0, 0, 1)),
+            LaneOp::Var(_) => Value::Opaque,
+            LaneOp::Add(a, b) => both(a, b, &Coef::add),
+            LaneOp::Sub(a, b) => both(a, b, &Coef::sub),
+            LaneOp::Neg(a) => lin(a, &|p| p.map(|c| c.combine(c, |x, _| -x, |e, _| -e))),
+            LaneOp::AddC(a, c) => lin(a, &|p| {
+                let mut p = p.clone();
+                p.c[0][0][0] = p.c[0][0][0].add(&Coef::Num(c));
+                p
+            }),
+            // Anything times zero (the pattern matches −0 too) is zero here: a
+            // non-finite state has blown up anyway.
+            LaneOp::MulC(_, 0.0) => poly(Poly::zero()),
+            LaneOp::MulC(a, c) => lin(a, &|p| p.map(|x| x.scale(c))),
+            LaneOp::Mul(a, b) => match (get(a), get(b)) {
+                (Value::Poly(p), Value::Poly(q)) => poly(p.mul(&q)?),
+                (Value::Poly(p), Value::Opaque) | (Value::Opaque, Value::Poly(p))
+                    if p.is_zero() =>
+                {
+                    poly(Poly::zero())
+                }
+                _ => Value::Opaque,
+            },
+            LaneOp::PowC(a, c) if c.fract() == 0.0 && (0.0..=8.0).contains(&c) => match get(a) {
+                Value::Poly(p) => {
+                    let mut acc = Poly::constant(Coef::Num(1.0));
+                    for _ in 0..c as usize {
+                        acc = acc.mul(&p)?;
+                    }
+                    poly(acc)
+                }
+                Value::Opaque => Value::Opaque,
+            },
+            LaneOp::Unary(f @ (Unary::Abs | Unary::Sgn), a) => match get(a) {
+                Value::Poly(p) if *p == z => poly(match f {
+                    Unary::Abs => Poly::monomial(1, 1, 0),
+                    _ => Poly::monomial(0, 1, 0),
+                }),
+                _ => Value::Opaque,
+            },
+            _ => Value::Opaque,
+        };
+        vals.push(value);
+    }
+    let out = |j: usize| match &vals[outputs[j] as usize] {
+        Value::Poly(p) => Some((**p).clone()),
+        Value::Opaque => None,
+    };
+    let (f, sigma) = (out(0)?, out(1)?);
+    let free_of_v = |p: &Poly| {
+        p.c.iter()
+            .flatten()
+            .all(|c| c[1..].iter().all(Coef::is_zero))
+    };
+    if !free_of_v(&sigma) {
+        return None;
+    }
+    let power = |l: usize| {
+        let p = SgnPoly::new(f.part(0, l), f.part(1, l));
+        (!p.plain.coef.is_empty() || p.sgn.is_some()).then_some(p)
+    };
+    let in_v = match outputs.len() {
+        // The slope comes with a force the model's symbols show affine in v.
+        3 => {
+            let slope = out(2)?;
+            if !free_of_v(&slope) || (2..=MAX_V_DEGREE).any(|l| power(l).is_some()) {
+                return None;
+            }
+            InVelocity::Affine {
+                force1: power(1),
+                slope: SgnPoly::new(slope.part(0, 0), slope.part(1, 0)),
+            }
+        }
+        2 => InVelocity::Polynomial {
+            powers: std::array::from_fn(|l| power(l + 1)),
+        },
+        _ => return None,
+    };
+    Some(MechForm {
+        force0: SgnPoly::new(f.part(0, 0), f.part(1, 0)),
+        in_v,
+        sigma: SgnPoly::new(sigma.part(0, 0), sigma.part(1, 0)),
+    })
 }
 
 #[cfg(test)]
@@ -538,7 +804,7 @@ pub(crate) mod tests {
                     ((uniform() - 0.5) * 10.0, (uniform() - 0.5) * 10.0)
                 };
                 let mut want = [0.0; 3];
-                step.eval_point(z, v, &mut want);
+                step.eval_point(0.0, z, v, &mut want);
                 let (f, s, l) = form.eval(z, v);
                 let (fm, sm, lm) = bound.eval(z.abs(), v.abs());
                 let mut pairs = vec![(f, want[0], fm), (s, want[1], sm)];

@@ -25,7 +25,7 @@ use crate::dynamics::Barrier as Wall;
 use crate::dynamics::Dynamics as ModelDynamics;
 use crate::mc::compile::eval::{compile, BatchKernel};
 use crate::mc::compile::impact::{Barrier, Crossing};
-use crate::mc::compile::mech_form::MechForm;
+use crate::mc::compile::mech_form::{MechForm, TimedForm};
 use crate::mc::error::BarrierLayout;
 use crate::mc::error::McError;
 use crate::model::BarrierSide;
@@ -147,6 +147,9 @@ pub(crate) enum Dynamics {
         /// `step` recognised as polynomials in z, sgn(z) and v: the fast kernel
         /// (`kernel/mech`) runs it; `None` keeps the lane evaluator.
         form: Option<MechForm>,
+        /// The same for a step program whose coefficients depend on the time (`form` is
+        /// then `None`): the fast kernel runs it with the coefficients of each step's time.
+        timed: Option<Box<TimedForm>>,
     },
     General {
         /// Outputs: m_0, m_1, G_00..G_0(m−1), G_10..G_1(m−1).
@@ -375,6 +378,10 @@ impl Plan {
             outputs.extend(slope.iter().cloned());
             let step = compile(&outputs, states)?;
             let form = MechForm::recognise(step.program());
+            let timed = match form {
+                None => TimedForm::recognise(step.program()).map(Box::new),
+                Some(_) => None,
+            };
             (
                 SchemeKind::MechanicalStrang,
                 Dynamics::Mechanical {
@@ -382,6 +389,7 @@ impl Plan {
                     force: compile(&[force], states)?,
                     affine: slope.is_some(),
                     form,
+                    timed,
                 },
             )
         } else if choice == SchemeChoice::GeneralOrder1 {
@@ -484,15 +492,15 @@ impl Plan {
         })
     }
 
-    /// The drift's Jacobian at the origin (central differences, deltas as zero).
+    /// The drift's Jacobian at the origin at time 0 (central differences, deltas as zero).
     fn jacobian(&self) -> [[f64; 2]; 2] {
         let h = 1e-6;
         let mut jac = [[0.0; 2]; 2];
         for (j, dir) in [[h, 0.0], [0.0, h]].iter().enumerate() {
             let mut p = [0.0; 2];
             let mut q = [0.0; 2];
-            self.drift.eval_point(dir[0], dir[1], &mut p);
-            self.drift.eval_point(-dir[0], -dir[1], &mut q);
+            self.drift.eval_point(0.0, dir[0], dir[1], &mut p);
+            self.drift.eval_point(0.0, -dir[0], -dir[1], &mut q);
             for i in 0..2 {
                 jac[i][j] = (p[i] - q[i]) / (2.0 * h);
             }

@@ -13,13 +13,13 @@ const POINTS: i32 = 8;
 
 impl Plan {
     /// The fastest decay of the drift along a state's own axis over the states a run visits
-    /// (see [`StepLimit`]); `None` when the drift decays nowhere there.
-    pub(crate) fn step_limit(&self, states: [&str; 2]) -> Option<StepLimit> {
+    /// (see [`StepLimit`]) at time `t`; `None` when the drift decays nowhere there.
+    pub(crate) fn step_limit(&self, states: [&str; 2], t: f64) -> Option<StepLimit> {
         let l = self.initial_spread();
         let sd = [l[0][0].abs(), l[1][0].hypot(l[1][1])];
         let mut out = [0.0; 2];
         let mut f = |p: [f64; 2], i: usize| {
-            self.drift.eval_point(p[0], p[1], &mut out);
+            self.drift.eval_point(t, p[0], p[1], &mut out);
             out[i]
         };
         let mut worst: Option<StepLimit> = None;

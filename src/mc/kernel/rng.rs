@@ -139,6 +139,11 @@ pub(crate) const THREE_POINT_FIELDS: u8 = 3;
 pub(crate) const THREE_POINT_T: u64 = 349_525;
 const TWO_POW_BITS: f64 = (1u64 << THREE_POINT_BITS) as f64;
 
+/// The three-point variables' value a ≈ √3 ([`THREE_POINT_T`]).
+pub(crate) fn three_point_value() -> f64 {
+    (TWO_POW_BITS / (2 * THREE_POINT_T) as f64).sqrt()
+}
+
 /// Field `k` (0, 1, 2) of the draw `w`: bits 63…43, 42…22, 21…1.
 #[inline(always)]
 pub(crate) fn three_point_field(w: u64, k: u8) -> u64 {
@@ -182,7 +187,7 @@ impl IncrementStream {
             pending: vec![0.0; lanes],
             has_pending: false,
             field: 0,
-            three_point_value: (TWO_POW_BITS / (2 * THREE_POINT_T) as f64).sqrt(),
+            three_point_value: three_point_value(),
         }
     }
 

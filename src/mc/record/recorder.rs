@@ -3,7 +3,7 @@
 //! recorder, streaming histograms and power sums per quantity ([`Histograms`]).
 
 use crate::base::cancel::Cancel;
-use crate::mc::compile::eval::{BatchKernel, Scratch};
+use crate::mc::compile::eval::{BatchKernel, Scratch, NO_TIME};
 use crate::mc::compile::scheme::Plan;
 use crate::mc::record::accumulator::Accumulator;
 use crate::mc::record::histogram::QuantityBatch;
@@ -92,7 +92,7 @@ impl Recorder for Histograms<'_> {
             a.set_window(window);
         }
         self.observables
-            .eval_batch(x, v, &mut self.obs, &mut self.scratch);
+            .eval_batch(NO_TIME, x, v, &mut self.obs, &mut self.scratch);
         self.acc[0].add(x, record);
         self.acc[1].add(v, record);
         let lanes = self.lanes;

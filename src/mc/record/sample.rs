@@ -440,7 +440,8 @@ mod tests {
         let mut out = [0.0; 2];
         for &z in &zs {
             for &v in &vs {
-                p.observables.eval_point(z, v, &mut out);
+                p.observables
+                    .eval_point(crate::mc::compile::eval::NO_TIME, z, v, &mut out);
                 for (k, want) in kinds.iter().zip(out) {
                     let got = k.at(z, v);
                     assert!(

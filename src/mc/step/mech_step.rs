@@ -1,14 +1,15 @@
 //! The fast mechanical path's part of [`BatchState`] (`kernel/mech` runs it): a call
-//! by steps, a call by sample points that writes the states at each, and the vector
-//! extension the lane loops run with.
+//! by steps, one by steps of a form whose coefficients depend on the time, a call by sample
+//! points that writes the states at each, and the vector extension the lane loops run with.
 
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::impact::Barrier;
-use crate::mc::compile::mech_form::MechForm;
+use crate::mc::compile::mech_form::{MechForm, TimedForm};
 use crate::mc::compile::scheme::{Dynamics, Evaluator, Plan};
-use crate::mc::kernel::mech::{self, Columns, Rows};
-use crate::mc::kernel::rng::Increments;
+use crate::mc::kernel::mech::{self, Coefs, Columns, Rows};
+use crate::mc::kernel::rng::{three_point_value, Increments};
 use crate::mc::step::state::BatchState;
+use crate::mc::step::timed::{SpanTable, TimedSteps, TABLE_STEPS};
 
 impl Evaluator {
     /// The evaluator a run of `plan` with `increments` gets (as the batch driver decides).
@@ -33,6 +34,50 @@ impl BatchState {
         h: f64,
     ) -> bool {
         self.run_fast(form, bar, 1, steps, h, None)
+    }
+
+    /// The fast mechanical path for a form whose coefficients depend on the time, `steps`
+    /// steps from the time `t0`: step k's velocity update with the coefficients of the time
+    /// t0 + (k + ½)h (the splitting's midpoint, as on the lane evaluator), computed once for
+    /// all the lanes (or taken from `span` when it was made for these steps),
+    /// [`TABLE_STEPS`] steps at a time (each one call of the kernel, whose flights at its
+    /// ends are halves). `false` (nothing done) for Gaussian increments.
+    pub(in crate::mc) fn mech_fast_timed(
+        &mut self,
+        timed: &TimedForm,
+        bar: Option<&Barrier>,
+        t0: f64,
+        steps: u64,
+        h: f64,
+        span: Option<&SpanTable>,
+    ) -> bool {
+        if self.inc.three_point_mut().is_none() {
+            return false;
+        }
+        let a = three_point_value();
+        let span = span.filter(|s| s.made_for(t0, steps, h, a));
+        let mut own = self
+            .timed
+            .take()
+            .unwrap_or_else(|| Box::new(TimedSteps::new(timed)));
+        let simd = self.simd;
+        let mut done = 0;
+        while done < steps {
+            let n = (steps - done).min(TABLE_STEPS);
+            let table = match span {
+                Some(s) => s.table(done, n),
+                None => {
+                    own.fill(timed, t0, done, n, h, a);
+                    own.table()
+                }
+            };
+            self.with_columns(None, |c, field, _| {
+                mech::advance(table, bar, c, field, 1, n, h, simd)
+            });
+            done += n;
+        }
+        self.timed = Some(own);
+        true
     }
 
     /// `samples` times [`BatchState::advance`] by `steps` steps of size `h` on the fast
@@ -81,6 +126,22 @@ impl BatchState {
         h: f64,
         rows: Option<Rows<'_>>,
     ) -> bool {
+        let simd = self.simd;
+        self.with_columns(rows, |c, field, a| {
+            let coefs = Coefs::new(form, h, a);
+            mech::advance(coefs, bar, c, field, samples, steps, h, simd)
+        })
+    }
+
+    /// `kernel` on the batch's columns (the states at the sample points going to `rows`),
+    /// the three-point stream's next field and its value; `false` (nothing done) for
+    /// Gaussian increments.
+    #[inline(always)]
+    fn with_columns(
+        &mut self,
+        rows: Option<Rows<'_>>,
+        kernel: impl FnOnce(Columns<'_>, &mut u8, f64),
+    ) -> bool {
         let Some(tp) = self.inc.three_point_mut() else {
             return false;
         };
@@ -93,9 +154,7 @@ impl BatchState {
             draws: tp.draws,
             rows,
         };
-        mech::advance(
-            form, bar, columns, tp.field, tp.a, samples, steps, h, self.simd,
-        );
+        kernel(columns, tp.field, tp.a);
         true
     }
 

@@ -6,3 +6,7 @@ pub(crate) mod events;
 pub(crate) mod mech_step;
 pub(crate) mod platen;
 pub(crate) mod state;
+pub(crate) mod timed;
+
+#[cfg(test)]
+mod time_tests;

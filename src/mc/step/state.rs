@@ -10,10 +10,15 @@ use crate::mc::kernel::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use crate::mc::kernel::rng::{IncrementStream, Increments, LaneRng};
 use crate::mc::step::events::{crossings, EventWork};
 use crate::mc::step::platen::{platen_point_step, PlatenWork, PointWork};
+use crate::mc::step::timed::{SpanTable, TimedSteps};
 
 /// A batch of trajectories in flight: states, barrier sides, event counts and generators,
 /// all structure-of-arrays, plus the work buffers of the schemes.
 pub(crate) struct BatchState {
+    /// The time of the states: 0 at the start, advanced by [`BatchState::advance`]; a
+    /// time-dependent model's coefficients are evaluated at the times within each step that
+    /// the scheme takes (see [`BatchState::advance`]).
+    pub(crate) t: f64,
     pub(crate) x: Vec<f64>,
     pub(crate) v: Vec<f64>,
     pub(crate) side: Vec<f64>,
@@ -26,6 +31,9 @@ pub(crate) struct BatchState {
     buf: [Vec<f64>; 6],
     /// Working memory of Platen's scheme, sized once (when that scheme runs).
     platen: Option<PlatenWork>,
+    /// Working memory of the fast path of a form whose coefficients depend on the time
+    /// (when that path runs).
+    pub(in crate::mc::step) timed: Option<Box<TimedSteps>>,
     /// Working memory of the general schemes' events, sized once (an event allocates
     /// nothing).
     events: EventWork,
@@ -56,6 +64,7 @@ impl BatchState {
             Dynamics::General { noises, .. } => *noises,
         };
         let mut st = BatchState {
+            t: 0.0,
             x: vec![0.0; lanes],
             v: vec![0.0; lanes],
             side: if sides.len() > 1 {
@@ -76,6 +85,7 @@ impl BatchState {
                 } => Some(PlatenWork::new(kernel.as_ref(), pk, noises, lanes)),
                 _ => None,
             },
+            timed: None,
             events: EventWork::new(noises),
             z: vec![0.0; lanes * noises.max(1)],
             scratch: [Scratch::new(), Scratch::new()],
@@ -100,50 +110,93 @@ impl BatchState {
         st
     }
 
-    /// Advances every trajectory by `steps` steps of size `h`.
+    /// Advances every trajectory by `steps` steps of size `h`, from the time [`BatchState::t`]
+    /// to `t + steps·h`.
+    ///
+    /// A time-dependent model's coefficients are evaluated where each scheme, applied to the
+    /// system with the time as a third state (dt/dt = 1, no noise), evaluates them, which
+    /// keeps its weak order:
+    /// - the mechanical splitting A(h/2) B(h) A(h/2) moves the time with the free flight A,
+    ///   so the velocity update B of step k is taken at the step's midpoint t + (k + ½)h
+    ///   (weak order 2);
+    /// - Euler–Maruyama evaluates at the step's start; stochastic Heun's predictor at the
+    ///   start and its corrector at the end (weak order 1);
+    /// - Platen's scheme evaluates the drift and the noise at the start Y, the drift at the
+    ///   predictor Ῡ and the noise at R±_j = Y + aΔ ± b̃_j√Δ at the end of the step, and the
+    ///   noise at U±_r = Y ± b̃_r√Δ at its start (weak order 2);
+    /// - a general scheme's step cut at an impact continues from the impact's time
+    ///   t + θh (θ the interpolated fraction of the step); impact laws do not depend on
+    ///   the time.
     ///
     /// On x86-64 with AVX2 or AVX-512 the lane loops are compiled again for 4- or 8-wide
     /// vectors (chosen at run time). The results are bit-identical to the baseline build:
     /// the loops use only IEEE-exact operations (no fused multiply-add), whatever the width.
     pub(crate) fn advance(&mut self, plan: &Plan, steps: u64, h: f64) {
+        self.advance_with(plan, steps, h, None);
+    }
+
+    /// [`BatchState::advance`] with the coefficients of a time-dependent form over these
+    /// steps computed beforehand (`span`, for every batch that takes the same steps; one
+    /// made for other steps is not used): the same numbers as without it, sooner.
+    pub(crate) fn advance_with(
+        &mut self,
+        plan: &Plan,
+        steps: u64,
+        h: f64,
+        span: Option<&SpanTable>,
+    ) {
         match self.simd {
-            Simd::Baseline => self.advance_body(plan, steps, h),
+            Simd::Baseline => self.advance_body(plan, steps, h, span),
             // SAFETY: `simd` was detected on this CPU (`Simd::detect`).
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx2(_) => unsafe { self.advance_avx2(plan, steps, h) },
+            Simd::Avx2(_) => unsafe { self.advance_avx2(plan, steps, h, span) },
             // SAFETY: as above.
             #[cfg(target_arch = "x86_64")]
-            Simd::Avx512(_) => unsafe { self.advance_avx512(plan, steps, h) },
+            Simd::Avx512(_) => unsafe { self.advance_avx512(plan, steps, h, span) },
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn advance_avx2(&mut self, plan: &Plan, steps: u64, h: f64) {
-        self.advance_body(plan, steps, h);
+    unsafe fn advance_avx2(&mut self, plan: &Plan, steps: u64, h: f64, span: Option<&SpanTable>) {
+        self.advance_body(plan, steps, h, span);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    unsafe fn advance_avx512(&mut self, plan: &Plan, steps: u64, h: f64) {
-        self.advance_body(plan, steps, h);
+    unsafe fn advance_avx512(&mut self, plan: &Plan, steps: u64, h: f64, span: Option<&SpanTable>) {
+        self.advance_body(plan, steps, h, span);
     }
 
     #[inline(always)]
-    fn advance_body(&mut self, plan: &Plan, steps: u64, h: f64) {
+    fn advance_body(&mut self, plan: &Plan, steps: u64, h: f64, span: Option<&SpanTable>) {
         if steps == 0 {
             return;
         }
+        let t0 = self.t;
+        self.steps_body(plan, t0, steps, h, span);
+        self.t = t0 + steps as f64 * h;
+    }
+
+    /// The steps of [`BatchState::advance_body`] from the time `t0`.
+    #[inline(always)]
+    fn steps_body(&mut self, plan: &Plan, t0: f64, steps: u64, h: f64, span: Option<&SpanTable>) {
         match &plan.dynamics {
             Dynamics::Mechanical {
                 step,
                 force,
                 affine,
                 form,
+                timed,
             } => {
                 let bar = plan.barriers.as_slice();
                 if let (Some(form), [] | [_]) = (form, bar) {
                     if self.mech_fast(form, bar.first(), steps, h) {
+                        return;
+                    }
+                }
+                if let (Some(timed), [] | [_]) = (timed, bar) {
+                    if self.mech_fast_timed(timed, bar.first(), t0, steps, h, span) {
                         return;
                     }
                 }
@@ -153,17 +206,19 @@ impl BatchState {
                 let fused = *affine && bar.len() <= 1;
                 for k in 0..steps {
                     let tau = if k + 1 == steps { 0.5 * h } else { h };
+                    // The velocity update at the step's midpoint (the flights move the time).
+                    let mid = t0 + (k as f64 + 0.5) * h;
                     if fused {
-                        self.fused_step(step.program(), bar.first(), h, tau);
+                        self.fused_step(step.program(), bar.first(), mid, h, tau);
                     } else {
-                        self.velocity_update(step.as_ref(), force.as_ref(), *affine, h);
+                        self.velocity_update(step.as_ref(), force.as_ref(), *affine, mid, h);
                         self.flight(bar, tau);
                     }
                 }
             }
             Dynamics::General { .. } => {
-                for _ in 0..steps {
-                    self.general_step(plan, h);
+                for k in 0..steps {
+                    self.general_step(plan, t0 + k as f64 * h, h);
                 }
             }
         }
@@ -182,12 +237,20 @@ impl BatchState {
         );
     }
 
-    /// [`BatchState::velocity_update`] (f affine in v) and then [`BatchState::flight`] over
-    /// `tau` with at most one barrier, the same arithmetic in one pass per chunk of lanes:
-    /// the step kernel evaluated on the chunk, the velocity updated and the free flight
-    /// taken while the chunk is in registers; the rare impacts resolved after.
+    /// [`BatchState::velocity_update`] (f affine in v) at time `t` and then
+    /// [`BatchState::flight`] over `tau` with at most one barrier, the same arithmetic in one
+    /// pass per chunk of lanes: the step kernel evaluated on the chunk, the velocity updated
+    /// and the free flight taken while the chunk is in registers; the rare impacts resolved
+    /// after.
     #[inline(always)]
-    fn fused_step(&mut self, program: &LaneProgram, bar: Option<&Barrier>, h: f64, tau: f64) {
+    fn fused_step(
+        &mut self,
+        program: &LaneProgram,
+        bar: Option<&Barrier>,
+        t: f64,
+        h: f64,
+        tau: f64,
+    ) {
         let n = self.x.len();
         let z = &mut self.z[..n];
         self.inc.next(&mut self.rng, z);
@@ -198,6 +261,7 @@ impl BatchState {
         xn.resize(n, 0.0);
         let slots = &mut self.scratch[0];
         slots.resize(program.n_slots(), [0.0; CHUNK]);
+        program.set_time(t, slots);
         let mut start = 0;
         let (x, v, side) = (&self.x[..n], &mut self.v[..n], &mut self.side[..n]);
         let impacts = &mut self.impacts[..n];
@@ -230,6 +294,7 @@ impl BatchState {
         }
         if start < n {
             let mut one = vec![[0.0; 1]; program.n_slots()];
+            program.set_time(t, &mut one);
             for i in start..n {
                 let met = fused_chunk::<1>(
                     program,
@@ -247,20 +312,27 @@ impl BatchState {
         self.buf[5] = std::mem::replace(&mut self.x, xn);
     }
 
-    /// The `B` flow over `h`: `dv = f(x, v) dt + σ(x) dW` at frozen `x`, Heun for additive
-    /// noise (weak order 2).
+    /// The `B` flow over `h`: `dv = f(x, v) dt + σ(x) dW` at frozen `x` and frozen time
+    /// `t`, Heun for additive noise (weak order 2).
     #[inline(always)]
     fn velocity_update(
         &mut self,
         step: &dyn BatchKernel,
         force: &dyn BatchKernel,
         affine: bool,
+        t: f64,
         h: f64,
     ) {
         let n = self.x.len();
         let outs = if affine { 3 } else { 2 };
         let [e, f1, vbar, dw, ..] = &mut self.buf;
-        step.eval_batch(&self.x, &self.v, &mut e[..outs * n], &mut self.scratch[0]);
+        step.eval_batch(
+            t,
+            &self.x,
+            &self.v,
+            &mut e[..outs * n],
+            &mut self.scratch[0],
+        );
         let z = &mut self.z[..n];
         self.inc.next(&mut self.rng, z);
         let (f0, rest) = e.split_at(n);
@@ -283,17 +355,18 @@ impl BatchState {
             for (((vb, &v), &f0), &dw) in vbar.iter_mut().zip(v.iter()).zip(f0).zip(dw.iter()) {
                 *vb = v + f0 * h + dw;
             }
-            force.eval_batch(&self.x, vbar, &mut f1[..n], &mut self.scratch[1]);
+            force.eval_batch(t, &self.x, vbar, &mut f1[..n], &mut self.scratch[1]);
             for (((v, &f0), &f1), &dw) in v.iter_mut().zip(f0).zip(f1.iter()).zip(dw.iter()) {
                 *v += 0.5 * (f0 + f1) * h + dw;
             }
         }
     }
 
-    /// One step of the general scheme for the whole batch, then the barrier events.
+    /// One step of the general scheme from time `t` for the whole batch, then the barrier
+    /// events.
     // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
     #[inline(always)]
-    fn general_step(&mut self, plan: &Plan, h: f64) {
+    fn general_step(&mut self, plan: &Plan, t: f64, h: f64) {
         let Dynamics::General {
             kernel,
             sqrt_s,
@@ -305,7 +378,7 @@ impl BatchState {
             unreachable!("general step on a mechanical plan")
         };
         if let Some(pk) = platen {
-            self.platen_step(plan, pk, kernel.as_ref(), *noises, h);
+            self.platen_step(plan, pk, kernel.as_ref(), *noises, t, h);
             return;
         }
         let (n, m) = (self.x.len(), *noises);
@@ -327,12 +400,12 @@ impl BatchState {
                 dw[k * n + i] = sq * acc;
             }
         }
-        kernel.eval_batch(&self.x, &self.v, e0, &mut self.scratch[0]);
+        kernel.eval_batch(t, &self.x, &self.v, e0, &mut self.scratch[0]);
         xp.resize(n, 0.0);
         vp.resize(n, 0.0);
         euler_predictor(&self.x, &self.v, e0, dw, h, m, xp, vp);
         if *stratonovich {
-            kernel.eval_batch(&xp[..n], &vp[..n], e1, &mut self.scratch[0]);
+            kernel.eval_batch(t + h, &xp[..n], &vp[..n], e1, &mut self.scratch[0]);
             for i in 0..n {
                 let (mut dx, mut dv) =
                     (0.5 * (e0[i] + e1[i]) * h, 0.5 * (e0[n + i] + e1[n + i]) * h);
@@ -345,20 +418,21 @@ impl BatchState {
                 vp[i] = self.v[i] + dv;
             }
         }
-        self.step_events(plan, &mut xp[..n], &mut vp[..n], &dw[..m * n], 1.0, m, h);
+        self.step_events(plan, t, &mut xp[..n], &mut vp[..n], &dw[..m * n], 1.0, m, h);
         self.x[..n].copy_from_slice(&xp[..n]);
         self.v[..n].copy_from_slice(&vp[..n]);
         self.buf = buf;
     }
 
-    /// Applies the barrier events of a step `(x, v) → (xp, vp)` taken with the increments
-    /// `scale`·`w` (source k of lane i at `w[k*n + i]`), in place in `(xp, vp)`.
+    /// Applies the barrier events of a step `(x, v) → (xp, vp)` from time `t` taken with the
+    /// increments `scale`·`w` (source k of lane i at `w[k*n + i]`), in place in `(xp, vp)`.
     // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn step_events(
         &mut self,
         plan: &Plan,
+        t: f64,
         xp: &mut [f64],
         vp: &mut [f64],
         w: &[f64],
@@ -402,6 +476,7 @@ impl BatchState {
                 let (x1, v1) = self.resolve_events(
                     plan,
                     i,
+                    t,
                     [self.x[i], self.v[i]],
                     [xp[i], vp[i]],
                     h,
@@ -429,12 +504,14 @@ impl BatchState {
     /// two-point ±Δ. State-independent columns need no supporting values.
     // Inlined into `advance`'s target-feature functions, so its loops use wide vectors.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn platen_step(
         &mut self,
         plan: &Plan,
         pk: &PlatenKernels,
         kernel: &dyn BatchKernel,
         m: usize,
+        t: f64,
         h: f64,
     ) {
         let n = self.x.len();
@@ -453,6 +530,7 @@ impl BatchState {
             kernel.program(),
             pk,
             m,
+            t,
             h,
             &self.x,
             &self.v,
@@ -460,7 +538,7 @@ impl BatchState {
         );
         let (mut nx, mut nv) = (std::mem::take(&mut work.nx), std::mem::take(&mut work.nv));
         let z = std::mem::take(&mut self.z);
-        self.step_events(plan, &mut nx, &mut nv, &z[..m * n], h.sqrt(), m, h);
+        self.step_events(plan, t, &mut nx, &mut nv, &z[..m * n], h.sqrt(), m, h);
         self.z = z;
         // The new states become the batch's; the old ones are the next step's output.
         std::mem::swap(&mut self.x, &mut nx);
@@ -469,13 +547,15 @@ impl BatchState {
         self.platen = Some(work);
     }
 
-    /// Cuts lane `i`'s step `p0 → p1` (increment `w` over `h`) at the first barrier it
-    /// meets (the earliest crossing), applies the jump and finishes the step, repeating for
-    /// further events up to a limit.
+    /// Cuts lane `i`'s step `p0 → p1` (from time `t`, increment `w` over `h`) at the first
+    /// barrier it meets (the earliest crossing, at time t + θh), applies the jump and
+    /// finishes the step from there, repeating for further events up to a limit.
+    #[allow(clippy::too_many_arguments)]
     fn resolve_events(
         &mut self,
         plan: &Plan,
         i: usize,
+        mut t: f64,
         mut p0: [f64; 2],
         mut p1: [f64; 2],
         mut h: f64,
@@ -503,6 +583,8 @@ impl BatchState {
             };
             let bar = &plan.barriers[k];
             let (s, o) = (bar.state, bar.other);
+            // The rest of the step starts at the impact.
+            t += theta * h;
             let mut c = [0.0; 2];
             for k in 0..2 {
                 c[k] = p0[k] + theta * (p1[k] - p0[k]);
@@ -515,7 +597,7 @@ impl BatchState {
             // changed sign within the step is no reason to live beyond the wall).
             if bar.crossing == Crossing::PassesThrough {
                 let mut drift = [0.0; 2];
-                plan.drift.eval_point(c[0], c[1], &mut drift);
+                plan.drift.eval_point(t, c[0], c[1], &mut drift);
                 if drift[s] * self.side[k * n + i] < 0.0 {
                     self.side[k * n + i] = -self.side[k * n + i];
                 }
@@ -542,7 +624,15 @@ impl BatchState {
                 };
             }
             p0 = c;
-            p1 = general_point_step(plan, c, rest, &ev.w_rest, &ev.vpair[..pairs], &mut ev.point);
+            p1 = general_point_step(
+                plan,
+                t,
+                c,
+                rest,
+                &ev.w_rest,
+                &ev.vpair[..pairs],
+                &mut ev.point,
+            );
             h = rest;
             std::mem::swap(&mut ev.w, &mut ev.w_rest);
         }
@@ -608,9 +698,11 @@ fn reflect_into(s: f64, lo: f64, hi: f64) -> f64 {
     lo + y
 }
 
-/// One general-scheme step of a single trajectory (used for the remainder after an event).
+/// One general-scheme step of a single trajectory from time `t` (used for the remainder
+/// after an event).
 pub(in crate::mc) fn general_point_step(
     plan: &Plan,
+    t: f64,
     p: [f64; 2],
     h: f64,
     w: &[f64],
@@ -629,10 +721,10 @@ pub(in crate::mc) fn general_point_step(
     };
     let m = *noises;
     if let Some(pk) = platen {
-        return platen_point_step(pk, kernel.as_ref(), m, p, h, w, vpair, work);
+        return platen_point_step(pk, kernel.as_ref(), m, t, p, h, w, vpair, work);
     }
     let PointWork { e0, e1, .. } = work;
-    kernel.eval_point(p[0], p[1], e0);
+    kernel.eval_point(t, p[0], p[1], e0);
     let incr = |e: &[f64], i: usize| -> f64 {
         e[i] * h + (0..m).map(|k| e[2 + i * m + k] * w[k]).sum::<f64>()
     };
@@ -640,7 +732,7 @@ pub(in crate::mc) fn general_point_step(
     if !*stratonovich {
         return pred;
     }
-    kernel.eval_point(pred[0], pred[1], e1);
+    kernel.eval_point(t + h, pred[0], pred[1], e1);
     [
         p[0] + 0.5 * (incr(e0, 0) + incr(e1, 0)),
         p[1] + 0.5 * (incr(e0, 1) + incr(e1, 1)),
@@ -699,7 +791,7 @@ mod tests {
             // 150 lanes: two whole chunks of the kernels' evaluation and a partial one.
             let lanes = 150;
             let mut b = BatchState::new(&plan, &spread, 5, 0, lanes, Increments::ThreePoint);
-            b.advance_body(&plan, 500, 0.01);
+            b.advance_body(&plan, 500, 0.01, None);
             for simd in Simd::available() {
                 let mut a = BatchState::new(&plan, &spread, 5, 0, lanes, Increments::ThreePoint);
                 a.simd = simd;
@@ -716,7 +808,7 @@ mod tests {
 }
 
 #[cfg(test)]
-mod fast_path_tests {
+pub(in crate::mc) mod fast_path_tests {
     use super::*;
     use crate::mc::compile::mech_form::tests::{mechanical_plans, plan_named};
 
@@ -734,54 +826,64 @@ mod fast_path_tests {
             if let Dynamics::Mechanical { form, .. } = &mut slow.dynamics {
                 *form = None;
             }
-            let spread = fast.initial_spread();
-            let lanes = 150;
-            let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
-            let (mut a, mut b) = (new(fast), new(&slow));
-            let mut seed = 0x2545_F491_4F6C_DD1Du64;
-            let mut uniform = move || {
-                seed ^= seed << 13;
-                seed ^= seed >> 7;
-                seed ^= seed << 17;
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
-            for round in 0..20 {
-                // Random states (the same for both, each on its lane's side of the barrier:
-                // the sign of x kept), spread up to 5, then step both.
-                let scale = 1.0 + round as f64 * 0.2;
-                for i in 0..lanes {
-                    a.x[i] = a.x[i].signum() * uniform() * scale;
-                    a.v[i] = (2.0 * uniform() - 1.0) * scale;
-                    b.x[i] = a.x[i];
-                    b.v[i] = a.v[i];
+            assert_follows(name, fast, &slow, 1e-13);
+        }
+    }
+
+    /// `fast` (a plan on the fast kernel) against `slow` (the same model on the lane
+    /// evaluator), 20 rounds of 4 steps of 0.01 from the same random states spread up to 5
+    /// (each on its lane's side of a barrier: the sign of x kept, a wall's side by
+    /// reflection), round r from the time 0.37·r: the states within
+    /// `tol`·(1 + |x| + |v|)³, the impacts and sides equal.
+    pub(in crate::mc) fn assert_follows(name: &str, fast: &Plan, slow: &Plan, tol: f64) {
+        let spread = fast.initial_spread();
+        let lanes = 150;
+        let new = |p: &Plan| BatchState::new(p, &spread, 11, 0, lanes, Increments::ThreePoint);
+        let (mut a, mut b) = (new(fast), new(slow));
+        let mut uniform = crate::mc::kernel::mech::tests::uniforms(0x2545_F491_4F6C_DD1D);
+        for round in 0..20 {
+            // Random states (the same for both), then step both.
+            let scale = 1.0 + round as f64 * 0.2;
+            for i in 0..lanes {
+                let mut x = a.x[i].signum() * uniform() * scale;
+                if let [bar] = fast.barriers.as_slice() {
+                    if bar.crossing == Crossing::Reflects && (x - bar.at) * bar.side < 0.0 {
+                        x = 2.0 * bar.at - x;
+                    }
                 }
-                a.advance(fast, 4, 0.01);
-                b.advance(&slow, 4, 0.01);
-                for i in 0..lanes {
-                    let m = 1.0 + a.x[i].abs() + a.v[i].abs();
-                    let tol = 1e-13 * m * m * m;
-                    assert!(
-                        (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
-                        "{name} lane {i}: ({}, {}) vs ({}, {})",
-                        a.x[i],
-                        a.v[i],
-                        b.x[i],
-                        b.v[i]
-                    );
-                    // The rounding difference must not make one path see an impact the
-                    // other does not.
-                    a.x[i] = b.x[i];
-                    a.v[i] = b.v[i];
-                }
-                assert_eq!(a.impacts, b.impacts, "{name}");
-                assert_eq!(a.side, b.side, "{name}");
+                a.x[i] = x;
+                a.v[i] = (2.0 * uniform() - 1.0) * scale;
+                b.x[i] = a.x[i];
+                b.v[i] = a.v[i];
             }
-            if !fast.barriers.is_empty() {
+            let t = 0.37 * round as f64;
+            (a.t, b.t) = (t, t);
+            a.advance(fast, 4, 0.01);
+            b.advance(slow, 4, 0.01);
+            for i in 0..lanes {
+                let m = 1.0 + a.x[i].abs() + a.v[i].abs();
+                let tol = tol * m * m * m;
                 assert!(
-                    a.impacts.iter().sum::<u64>() > 0,
-                    "{name}: no impact tested"
+                    (a.x[i] - b.x[i]).abs() <= tol && (a.v[i] - b.v[i]).abs() <= tol,
+                    "{name} lane {i} at t = {t}: ({}, {}) vs ({}, {})",
+                    a.x[i],
+                    a.v[i],
+                    b.x[i],
+                    b.v[i]
                 );
+                // The rounding difference must not make one path see an impact the
+                // other does not.
+                a.x[i] = b.x[i];
+                a.v[i] = b.v[i];
             }
+            assert_eq!(a.impacts, b.impacts, "{name}");
+            assert_eq!(a.side, b.side, "{name}");
+        }
+        if !fast.barriers.is_empty() {
+            assert!(
+                a.impacts.iter().sum::<u64>() > 0,
+                "{name}: no impact tested"
+            );
         }
     }
 }

@@ -22,14 +22,6 @@ pub enum McTransientError {
         /// What was expected.
         expected: &'static str,
     },
-    /// The model's coefficients depend on the time `t`: the compiled kernels take the
-    /// states only, so such a model is not simulated (it would be with the time frozen at
-    /// 0, a wrong answer).
-    #[error(
-        "the model's drift or diffusion depends on the time `t`, which the Monte Carlo \
-         kernels do not take yet: use --method grid"
-    )]
-    TimeDependent,
     /// The start puts trajectories on the far side of a reflecting wall.
     /// (A Gaussian start must keep [`crate::mc::WALL_SDS`] standard deviations from the
     /// wall, so that less than 1e−9 of it lies beyond.)

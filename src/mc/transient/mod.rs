@@ -7,12 +7,29 @@
 //!
 //! Between two output times the step is the largest that divides the interval into whole
 //! steps no longer than `dt`. Batches of [`TRANSIENT_LANES`] trajectories run in parallel
-//! (rayon), each trajectory with its own random stream (the stationary run's, by index);
-//! the per-batch sums are combined in batch order and the histograms are integer counts, so
-//! a seed gives the same numbers whatever the number of threads.
+//! (rayon; a task steps up to 16 side by side), each trajectory with its own random stream
+//! (the stationary run's, by index); the per-batch sums are combined in batch order and the
+//! histograms are integer counts, so a seed gives the same numbers whatever the number of
+//! threads.
 //!
-//! A model whose coefficients depend on the time is refused
-//! ([`McTransientError::TimeDependent`]): the compiled kernels take the states only.
+//! A model whose drift or diffusion depends on the time `t` (a modulated white noise, a
+//! periodic force) is simulated with its coefficients at the times each scheme takes within
+//! a step (see `BatchState::advance`): the mechanical splitting's velocity update at the
+//! step's midpoint and Platen's scheme at the step's ends keep weak order 2, so the bias
+//! estimate's p is the scheme's order as for a model without the time.
+//!
+//! ```
+//! use fpsolve::mc::McTransient;
+//! // White noise modulated by the Shinozuka–Sato envelope 4(e^{−t/2} − e^{−t}).
+//! let text = "model m\nstate z, v\ndrift z: v\ndrift v: -0.5*v - z\nnoise xi: intensity 1\n\
+//!             diffusion v: 4*(exp(-0.5*t) - exp(-t))*xi\n";
+//! let model = fpsolve::model::parse_model(text, None)?.bind(&[])?;
+//! let h = McTransient::new(&model).times(vec![0.0, 3.0, 20.0]).trajectories(1024).run()?;
+//! let var = |k: usize| h.snapshots[k].moments[0].variance.value;
+//! // The response grows while the excitation does, then decays with it.
+//! assert!(var(1) > 0.4 && var(2) < 0.1 * var(1));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
 //! ```
 //! use fpsolve::mc::{Grid, McTransient};
@@ -47,14 +64,26 @@ use super::compile::scheme::{walls, Plan, SchemeChoice, SchemeKind};
 use super::kernel::rng::Increments;
 use super::record::histogram::Grid;
 use super::step::state::BatchState;
+use super::step::timed::SpanTable;
 use crate::model::{BoundModel, InitialState};
 use crate::stats::Estimate;
 use sums::PowerSums;
 
 pub use error::McTransientError;
 
-/// Trajectories per batch (one task of the thread pool).
+/// Trajectories per batch: the unit of the error bars and of the bias run's pairing.
 pub const TRANSIENT_LANES: usize = 64;
+
+/// At most this many batches are stepped side by side in one state (a task of the thread
+/// pool): a model whose coefficients depend on the time has them computed once per step
+/// for all their lanes. Each lane's arithmetic and random stream are its own whatever lanes
+/// share its state, so the grouping changes no number.
+const BLOCK_BATCHES: u64 = 16;
+
+/// At most this many coefficient values (8 bytes each) of a time-dependent form are
+/// computed once for all the batches of a pass; beyond, each block computes its own (the
+/// same numbers, more slowly).
+const MAX_SHARED_VALUES: usize = 1 << 22;
 
 /// At most this many trajectories in one run.
 pub const MAX_TRANSIENT_TRAJECTORIES: u64 = 100_000_000;
@@ -267,9 +296,9 @@ impl<'a> McTransient<'a> {
     /// ```
     ///
     /// # Errors
-    /// [`McTransientError::Setting`], [`McTransientError::TimeDependent`],
-    /// [`McTransientError::StartBeyondWall`], [`McTransientError::Mc`] (a model the
-    /// stationary run cannot simulate either; a dt its drift makes unstable).
+    /// [`McTransientError::Setting`], [`McTransientError::StartBeyondWall`],
+    /// [`McTransientError::Mc`] (a model that cannot be simulated; a dt its drift makes
+    /// unstable, at t = 0 or, for a drift that depends on the time, at an output time).
     pub fn check(&self) -> Result<(), McTransientError> {
         self.plan().map(|_| ())
     }
@@ -333,9 +362,6 @@ impl<'a> McTransient<'a> {
             }
             _ => {}
         }
-        if self.model.time_dependent() {
-            return Err(McTransientError::TimeDependent);
-        }
         let dynamics = crate::dynamics::Dynamics::read(self.model);
         let observables: Vec<_> = self
             .model
@@ -350,9 +376,17 @@ impl<'a> McTransient<'a> {
             walls(&dynamics)?,
         )?;
         let states = dynamics.states();
-        if let Some(limit) = plan.step_limit([&states[0], &states[1]]) {
-            if dt > limit.largest_dt {
-                return Err(super::McError::UnstableStep { dt, limit }.into());
+        // A drift that depends on the time is checked at the output times too.
+        let at: &[f64] = if plan.drift.program().is_timed() {
+            t
+        } else {
+            &[]
+        };
+        for &time in std::iter::once(&0.0).chain(at) {
+            if let Some(limit) = plan.step_limit([&states[0], &states[1]], time) {
+                if dt > limit.largest_dt {
+                    return Err(super::McError::UnstableStep { dt, limit }.into());
+                }
             }
         }
         self.check_walls(&plan)?;
@@ -469,13 +503,18 @@ impl<'a> McTransient<'a> {
             paired_counts: self.empty_counts(),
             blown_up: vec![0; self.times.len()],
         };
-        // `collect` keeps the batches' order, whichever thread ran each.
-        let parts: Vec<Pass> = (0..batches)
+        let spans = self.span_tables(plan, dt);
+        // Enough blocks for every thread to take several.
+        let threads = rayon::current_num_threads().max(1) as u64;
+        let per = (batches / (4 * threads)).clamp(1, BLOCK_BATCHES);
+        // `collect` keeps the blocks' order, whichever thread ran each.
+        let parts: Vec<Pass> = (0..batches.div_ceil(per))
             .into_par_iter()
-            .map(|k| {
+            .map(|j| {
                 let mut p = empty();
-                let sums = self.batch(plan, k, dt, &mut p, k < pairs);
-                p.sums.push(sums);
+                let first = j * per;
+                let range = first..(first + per).min(batches);
+                self.block(plan, &spans, range, pairs, dt, &mut p);
                 p
             })
             .collect();
@@ -492,26 +531,52 @@ impl<'a> McTransient<'a> {
         out
     }
 
+    /// For each output time, the coefficients of a time-dependent form over the steps from
+    /// the previous one at step at most `dt` ([`SpanTable`]), while they fit
+    /// [`MAX_SHARED_VALUES`]; `None` where there are none to share.
+    fn span_tables(&self, plan: &Plan, dt: f64) -> Vec<Option<SpanTable>> {
+        let mut left = MAX_SHARED_VALUES;
+        let mut now = 0.0;
+        self.times
+            .iter()
+            .map(|&t| {
+                let (from, span) = (now, t - now);
+                now = t;
+                if span <= 0.0 {
+                    return None;
+                }
+                let (steps, h) = steps_of(span, dt);
+                let table = SpanTable::of(plan, from, steps, h, left)?;
+                left -= table.len();
+                Some(table)
+            })
+            .collect()
+    }
+
     fn empty_counts(&self) -> Vec<[Vec<u64>; 2]> {
         let n = |a: usize| self.bins.map_or(0, |b| b[a].bins + 1);
         vec![[vec![0; n(0)], vec![0; n(1)]]; self.times.len()]
     }
 
-    /// One batch from the start through every output time: its power sums per time and
-    /// state; its counts added to `pass`.
-    fn batch(
+    /// The batches `batches` stepped side by side in one state, from the start through
+    /// every output time: each batch's power sums per time and state pushed to `pass` (in
+    /// batch order), its counts added there (those of a batch below `pairs` also to the
+    /// paired counts).
+    fn block(
         &self,
         plan: &Plan,
-        k: u64,
+        spans: &[Option<SpanTable>],
+        batches: std::ops::Range<u64>,
+        pairs: u64,
         dt: f64,
         pass: &mut Pass,
-        paired: bool,
-    ) -> Vec<[PowerSums; 2]> {
-        let first = k * TRANSIENT_LANES as u64;
+    ) {
+        let width = TRANSIENT_LANES as u64;
+        let first = batches.start * width;
         let lanes = self
             .trajectories
             .saturating_sub(first)
-            .min(TRANSIENT_LANES as u64) as usize;
+            .min((batches.end - batches.start) * width) as usize;
         let mut b = BatchState::new(
             plan,
             &[[0.0; 2]; 2],
@@ -549,35 +614,56 @@ impl<'a> McTransient<'a> {
                 }
             }
         }
-        let mut out = Vec::with_capacity(self.times.len());
+        // Each batch's lanes of the block.
+        let members: Vec<(u64, std::ops::Range<usize>)> = batches
+            .clone()
+            .map(|k| {
+                let lo = ((k - batches.start) * width) as usize;
+                (k, lo.min(lanes)..(lo + TRANSIENT_LANES).min(lanes))
+            })
+            .collect();
+        let mut sums = vec![Vec::with_capacity(self.times.len()); members.len()];
         let mut now = 0.0;
         for (k, &t) in self.times.iter().enumerate() {
             let span = t - now;
             if span > 0.0 {
-                let steps = (span / dt * (1.0 - 1e-12)).ceil().max(1.0);
-                b.advance(plan, steps as u64, span / steps);
+                let (steps, h) = steps_of(span, dt);
+                b.advance_with(plan, steps, h, spans[k].as_ref());
+                // The output time itself, not the sum of the steps, starts the next span.
+                b.t = t;
                 now = t;
             }
-            let finite: Vec<bool> = (0..lanes)
-                .map(|i| b.x[i].is_finite() && b.v[i].is_finite())
-                .collect();
-            pass.blown_up[k] += finite.iter().filter(|f| !**f).count() as u64;
-            let states = [&b.x, &b.v];
-            out.push(std::array::from_fn(|a| {
-                let q: Vec<f64> = (0..lanes)
-                    .map(|i| if finite[i] { states[a][i] } else { f64::NAN })
+            for ((batch, r), out) in members.iter().zip(&mut sums) {
+                let finite: Vec<bool> = r
+                    .clone()
+                    .map(|i| b.x[i].is_finite() && b.v[i].is_finite())
                     .collect();
-                if let Some(bins) = &self.bins {
-                    count(&bins[a], &q, &mut pass.counts[k][a]);
-                    if paired {
-                        count(&bins[a], &q, &mut pass.paired_counts[k][a]);
+                pass.blown_up[k] += finite.iter().filter(|f| !**f).count() as u64;
+                let states = [&b.x[r.clone()], &b.v[r.clone()]];
+                out.push(std::array::from_fn(|a| {
+                    let q: Vec<f64> = states[a]
+                        .iter()
+                        .zip(&finite)
+                        .map(|(&q, &f)| if f { q } else { f64::NAN })
+                        .collect();
+                    if let Some(bins) = &self.bins {
+                        count(&bins[a], &q, &mut pass.counts[k][a]);
+                        if *batch < pairs {
+                            count(&bins[a], &q, &mut pass.paired_counts[k][a]);
+                        }
                     }
-                }
-                PowerSums::of(&q)
-            }));
+                    PowerSums::of(&q)
+                }));
+            }
         }
-        out
+        pass.sums.extend(sums);
     }
+}
+
+/// The steps over `span` at step at most `dt`: the fewest whole steps, and their size.
+fn steps_of(span: f64, dt: f64) -> (u64, f64) {
+    let steps = (span / dt * (1.0 - 1e-12)).ceil().max(1.0);
+    (steps as u64, span / steps)
 }
 
 /// Adds the finite values `q` to the bin counts `c` (the last entry: outside the bins).

@@ -1,7 +1,8 @@
 //! The fast mechanical path: the Strang splitting of `compile/scheme.rs` for a model in the
-//! recognised form ([`MechForm`]), at most one barrier and three-point increments, with
-//! the loops interchanged. Each group of lanes keeps its whole state (position, velocity,
-//! barrier side, generator, last draw) in registers for all the steps of a call, draws its
+//! recognised form (`compile/mech_form.rs`), at most one barrier and three-point
+//! increments, with the loops interchanged. Each group of lanes keeps its whole state
+//! (position, velocity, barrier side, generator, last draw) in registers for all the steps
+//! of a call, draws its
 //! increments inside the step and evaluates h·f, √h·σ and the Heun factor by Horner's rule
 //! on coefficients prescaled once per call (`kernel/mech/coef.rs`): no pass over arrays per step,
 //! no dispatch per instruction.
@@ -17,6 +18,13 @@
 //!   one comparison `d ≤ 0` per flight, the exact test (`impact::meets`) only when some
 //!   lane is on or beyond the barrier.
 //!
+//! A model whose coefficients depend on the time ([`crate::mc::compile::mech_form::TimedForm`])
+//! runs the same kernel with the coefficients of each step (a [`Table`]): a template in
+//! the layout of every step's, its coefficients that change marked, and each step's values
+//! of them, computed once for all the lanes of a call; the kernel reads the layout and the
+//! fixed coefficients from the template, the same at every step, and the marked ones from
+//! the step's values. A model without the time has one set of coefficients for all steps.
+//!
 //! Impacts are resolved in vector form for the laws `v → r·v` (the compiled map recognised,
 //! [`Barrier::gain`]): located, jumped and continued with masked operations, the division
 //! only when some lane met the barrier, the same arithmetic as the scalar
@@ -31,14 +39,16 @@ use crate::mc::compile::eval::Simd;
 #[cfg(test)]
 use crate::mc::compile::impact::impact_in_flight;
 use crate::mc::compile::impact::Barrier;
-use crate::mc::compile::mech_form::{MechForm, MAX_V_DEGREE};
+use crate::mc::compile::mech_form::MAX_V_DEGREE;
 use crate::mc::kernel::rng::THREE_POINT_FIELDS;
 
 mod coef;
 mod flight;
 mod vector;
 
-use coef::{Coefs, Velocity};
+use coef::StepValues;
+use coef::Velocity;
+pub(crate) use coef::{Coefs, Slot};
 #[cfg(test)]
 use flight::impacts;
 use flight::{dist, Flight, Impacts, Jump};
@@ -100,8 +110,45 @@ impl Columns<'_> {
     }
 }
 
+/// The prescaled coefficients of each step of a call.
+pub(crate) trait StepCoefs {
+    /// A step's values of the coefficients that change.
+    type Values: StepValues + ?Sized;
+    /// The coefficients (their layout and fixed values) and step `k`'s values (counted
+    /// over the whole call).
+    fn at(&self, k: u64) -> (&Coefs, &Self::Values);
+}
+
+/// The same coefficients at every step.
+impl StepCoefs for Coefs {
+    type Values = ();
+    #[inline(always)]
+    fn at(&self, _: u64) -> (&Coefs, &()) {
+        (self, &())
+    }
+}
+
+/// The coefficients of every step of a call: `template` (its changing coefficients marked
+/// by [`Coefs::mark_step_values`]), step k's values of them `values[k·m..(k + 1)·m]`.
+#[derive(Clone, Copy)]
+pub(crate) struct Table<'a> {
+    pub(crate) template: &'a Coefs,
+    /// The number m of marked coefficients.
+    pub(crate) width: usize,
+    pub(crate) values: &'a [f64],
+}
+
+impl StepCoefs for Table<'_> {
+    type Values = [f64];
+    #[inline(always)]
+    fn at(&self, k: u64) -> (&Coefs, &[f64]) {
+        let m = self.width;
+        (self.template, &self.values[k as usize * m..][..m])
+    }
+}
+
 /// What one call does to every lane.
-struct Steps<'a> {
+struct Steps<'a, C> {
     /// Steps per sample point.
     steps: u64,
     /// Sample points: the call advances `samples · steps` steps, by `steps` at a time.
@@ -109,22 +156,23 @@ struct Steps<'a> {
     h: f64,
     /// The field of the lanes' last draws the first step takes (0: a new draw first).
     field: u8,
-    coefs: Coefs,
+    coefs: C,
     jump: Option<Jump<'a>>,
 }
 
 /// Advances every lane by `samples` times `steps` steps of size `h`, each `steps` as one
 /// `BatchState::advance` on the lane-evaluator path (half flight, then velocity update and
-/// flight per step, the last flight a half), with f, σ, ∂f/∂v from `form`; the states after
-/// each `steps` go to `c.rows` when given. `field` is the increment stream's next field,
-/// updated; `a` its three-point value.
+/// flight per step, the last flight a half), step k with the coefficients `coefs.at(k)`
+/// (a [`Coefs`] of the form for every step, or a [`Table`] of a form that depends on the
+/// time); the states after each `steps` go to `c.rows` when given. `field` is the increment
+/// stream's next field, updated.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn advance(
-    form: &MechForm,
+#[inline(always)]
+pub(crate) fn advance<C: StepCoefs>(
+    coefs: C,
     bar: Option<&Barrier>,
     c: Columns<'_>,
     field: &mut u8,
-    a: f64,
     samples: u64,
     steps: u64,
     h: f64,
@@ -138,7 +186,7 @@ pub(crate) fn advance(
         samples,
         h,
         field: *field,
-        coefs: Coefs::new(form, h, a),
+        coefs,
         jump: bar.map(|bar| Jump {
             bar,
             gain: bar.gain(),
@@ -156,7 +204,7 @@ pub(crate) fn advance(
     };
     let n = c.x.len();
     for i in done..n {
-        group::<f64, 1>(&st, c.slice(i..i + 1));
+        group::<f64, 1, C>(&st, c.slice(i..i + 1));
     }
     let fields = u64::from(THREE_POINT_FIELDS);
     *field = ((u64::from(*field) + steps % fields * (samples % fields)) % fields) as u8;
@@ -166,30 +214,33 @@ pub(crate) fn advance(
 /// the lanes done.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn groups_avx512(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
-    groups::<vector::Avx512, VECTORS_512>(st, c)
+fn groups_avx512<C: StepCoefs>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
+    groups::<vector::Avx512, VECTORS_512, C>(st, c)
 }
 
 /// The kernel compiled for AVX2, as [`groups_avx512`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn groups_avx2(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
-    groups::<vector::Avx2, VECTORS_256>(st, c)
+fn groups_avx2<C: StepCoefs>(st: &Steps<'_, C>, c: &mut Columns<'_>) -> usize {
+    groups::<vector::Avx2, VECTORS_256, C>(st, c)
 }
 
 /// Groups of `N` vectors over the columns, then single vectors; the lanes done (the rest
 /// are fewer than a vector).
 #[inline(always)]
-fn groups<V: Impacts, const N: usize>(st: &Steps<'_>, c: &mut Columns<'_>) -> usize {
+fn groups<V: Impacts, const N: usize, C: StepCoefs>(
+    st: &Steps<'_, C>,
+    c: &mut Columns<'_>,
+) -> usize {
     let n = c.x.len();
     let (wide, one) = (N * V::LANES, V::LANES);
     let mut start = 0;
     while start + wide <= n {
-        group::<V, N>(st, c.slice(start..start + wide));
+        group::<V, N, C>(st, c.slice(start..start + wide));
         start += wide;
     }
     while start + one <= n {
-        group::<V, 1>(st, c.slice(start..start + one));
+        group::<V, 1, C>(st, c.slice(start..start + one));
         start += one;
     }
     start
@@ -237,9 +288,15 @@ fn fly<V: Impacts, const N: usize>(
 /// the top fields of `words`: `v ← v + (h·f + dw)·(1 + (h/2)·∂f/∂v)`, as [`Coefs`]
 /// arranges it ([`Velocity`]).
 #[inline(always)]
-fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words: &[V::Bits; N]) {
-    let f0 = c.force0.eval(x);
-    let s = c.sigma.eval(x);
+fn kick<V: Vector, const N: usize, S: StepValues + ?Sized>(
+    c: &Coefs,
+    vals: &S,
+    x: &[V; N],
+    v: &mut [V; N],
+    words: &[V::Bits; N],
+) {
+    let f0 = c.force0.eval(vals, x);
+    let s = c.sigma.eval(vals, x);
     // g + dw: dw = ±s or 0 as the three-point bits say, added where it is not zero.
     #[inline(always)]
     fn noise<V: Vector>(g: V, s: V, word: V::Bits) -> V {
@@ -252,7 +309,7 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
             let vk = match keep {
                 None => *v,
                 Some(b) => {
-                    let b = b.eval(x);
+                    let b = b.eval(vals, x);
                     each(
                         #[inline(always)]
                         |k| v[k].mul(b[k]),
@@ -268,14 +325,14 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
             let hf = match force1 {
                 None => f0,
                 Some(b) => {
-                    let b = b.eval(x);
+                    let b = b.eval(vals, x);
                     each(
                         #[inline(always)]
                         |k| f0[k].add(v[k].mul(b[k])),
                     )
                 }
             };
-            let f = factor.eval(x);
+            let f = factor.eval(vals, x);
             *v = each(
                 #[inline(always)]
                 |k| v[k].add(noise(hf[k], s[k], words[k]).mul(f[k])),
@@ -286,7 +343,7 @@ fn kick<V: Vector, const N: usize>(c: &Coefs, x: &[V; N], v: &mut [V; N], words:
             let p: [Option<[V; N]>; MAX_V_DEGREE] = each(
                 #[inline(always)]
                 |l| match &powers[l] {
-                    Some(q) => Some(q.eval(x)),
+                    Some(q) => Some(q.eval(vals, x)),
                     None => None,
                 },
             );
@@ -344,7 +401,7 @@ fn in_v<V: Vector, const N: usize>(
 /// `N` vectors of lanes (the columns hold exactly `N · V::LANES`) through all the steps of
 /// a call.
 #[inline(always)]
-fn group<V: Impacts, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
+fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns<'_>) {
     // A flight's lanes near the barrier are the bits of one u32 (`Flight::near`).
     const { assert!(N * V::LANES <= 32) };
     let w = V::LANES;
@@ -414,7 +471,8 @@ fn group<V: Impacts, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
             } else {
                 field + 1
             };
-            kick(&st.coefs, &x, &mut v, &words);
+            let (coefs, values) = st.coefs.at(j * st.steps + step);
+            kick(coefs, values, &x, &mut v, &words);
             fly(jump, &mut x, &mut v, &mut side, impacts, tau);
         }
         if let Some(rows) = rows.as_mut() {
@@ -437,4 +495,4 @@ fn group<V: Impacts, const N: usize>(st: &Steps<'_>, c: Columns<'_>) {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

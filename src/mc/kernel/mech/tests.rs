@@ -4,6 +4,7 @@
 use super::*;
 use crate::mc::compile::eval::compile;
 use crate::mc::compile::mech_form::tests::{plan, plan_named};
+use crate::mc::compile::mech_form::MechForm;
 use crate::mc::compile::scheme::{Dynamics, Plan};
 use crate::mc::kernel::rng::{stream_state, IncrementStream, Increments};
 use crate::symbolic::Expr;
@@ -39,18 +40,22 @@ fn bits_of(s: f64) -> u64 {
     }
 }
 
+/// Uniform numbers in [0, 1) from a xorshift64 generator started at `seed` (test data).
+pub(crate) fn uniforms(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// `lanes` lanes from states spread over [−2, 2] (each on its side of the barrier), run
 /// with `simd` through 7 calls of `samples` × `steps` steps (10, not a multiple of 3, so
 /// that calls start at every field of a draw), every state as bits.
 fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
     let (samples, steps, h) = (2, 5, 0.02);
-    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-    let mut uniform = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uniform = uniforms(0x9E37_79B9_7F4A_7C15);
     let side0 = bar.map_or(1.0, |b| b.side);
     let mut x: Vec<f64> = (0..lanes).map(|_| side0 * 2.0 * uniform()).collect();
     let mut v: Vec<f64> = (0..lanes).map(|_| 4.0 * uniform() - 2.0).collect();
@@ -93,11 +98,10 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
             }),
         };
         advance(
-            form_of(plan),
+            Coefs::new(form_of(plan), h, tp.a),
             bar,
             c,
             &mut *tp.field,
-            tp.a,
             samples,
             steps,
             h,

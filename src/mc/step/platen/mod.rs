@@ -191,8 +191,8 @@ impl PlatenWork {
         }
     }
 
-    /// One step of every lane from `(x, v)` into `(self.nx, self.nv)`: the increments are
-    /// ΔŴ = √h·`z` (source k of lane i at `z[k*n + i]`), the pair signs from
+    /// One step of every lane from `(x, v)` at time `t` into `(self.nx, self.nv)`: the
+    /// increments are ΔŴ = √h·`z` (source k of lane i at `z[k*n + i]`), the pair signs from
     /// `self.pair_bits`, both formed where the chunk's passes use them.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -201,11 +201,13 @@ impl PlatenWork {
         kernel: &LaneProgram,
         pk: &PlatenKernels,
         m: usize,
+        t: f64,
         h: f64,
         x: &[f64],
         v: &[f64],
         z: &[f64],
     ) {
+        self.set_time(kernel, pk, t, h);
         let n = x.len();
         let mut nx = std::mem::take(&mut self.nx);
         let mut nv = std::mem::take(&mut self.nv);
@@ -266,6 +268,21 @@ impl PlatenWork {
         self.nx = nx;
         self.nv = nv;
         self.pair_bits = bits;
+    }
+
+    /// Writes the time instructions' values of every program into its slots: the kernel's
+    /// (at the state Y) and the U± evaluations' at the step's start `t`, the drift's (at the
+    /// predictor Ῡ) and the R± evaluations' at its end `t + h`, as the scheme applied to
+    /// the system with the time as a state takes them. Nothing for programs of the states
+    /// only.
+    fn set_time(&mut self, kernel: &LaneProgram, pk: &PlatenKernels, t: f64, h: f64) {
+        let rows = &mut self.rows;
+        kernel.set_time(t, &mut rows[self.e0_at..self.a1_at]);
+        pk.drift.program().set_time(t + h, &mut rows[self.a1_at..]);
+        for s in &self.support {
+            let at = if s.drifted { t + h } else { t };
+            s.program(pk).set_time(at, &mut rows[s.at..]);
+        }
     }
 
     /// Platen's step of one chunk into `(out_x, out_v)` (the arithmetic of
@@ -659,12 +676,14 @@ impl PointWork {
     }
 }
 
-/// One step of Platen's scheme for a single trajectory (the remainder after an event).
+/// One step of Platen's scheme for a single trajectory from time `t` (the remainder after
+/// an event); the times of its evaluations as in [`PlatenWork::step`].
 #[allow(clippy::too_many_arguments)]
 pub(in crate::mc) fn platen_point_step(
     pk: &PlatenKernels,
     kernel: &dyn BatchKernel,
     m: usize,
+    t: f64,
     p: [f64; 2],
     h: f64,
     w: &[f64],
@@ -673,7 +692,7 @@ pub(in crate::mc) fn platen_point_step(
 ) -> [f64; 2] {
     let sq = h.sqrt();
     let PointWork { e0, bp, bm, .. } = work;
-    kernel.eval_point(p[0], p[1], e0);
+    kernel.eval_point(t, p[0], p[1], e0);
     let e0 = &*e0;
     let col = |e: &[f64], k: usize, j: usize| e[k * m + j];
     let b0 = |k: usize, j: usize| e0[2 + k * m + j];
@@ -683,7 +702,7 @@ pub(in crate::mc) fn platen_point_step(
         bar[1] += b0(1, j) * w[j];
     }
     let mut a1 = [0.0; 2];
-    pk.drift.eval_point(bar[0], bar[1], &mut a1);
+    pk.drift.eval_point(t + h, bar[0], bar[1], &mut a1);
     let mut out = [
         p[0] + 0.5 * (e0[0] + a1[0]) * h,
         p[1] + 0.5 * (e0[1] + a1[1]) * h,
@@ -696,6 +715,7 @@ pub(in crate::mc) fn platen_point_step(
         }
         for (sign, b) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
             pk.noise.eval_point(
+                t + h,
                 p[0] + e0[0] * h + sign * b0(0, j) * sq,
                 p[1] + e0[1] * h + sign * b0(1, j) * sq,
                 b,
@@ -713,8 +733,12 @@ pub(in crate::mc) fn platen_point_step(
             continue;
         }
         for (sign, b) in [(1.0, &mut *bp), (-1.0, &mut *bm)] {
-            pk.noise
-                .eval_point(p[0] + sign * b0(0, r) * sq, p[1] + sign * b0(1, r) * sq, b);
+            pk.noise.eval_point(
+                t,
+                p[0] + sign * b0(0, r) * sq,
+                p[1] + sign * b0(1, r) * sq,
+                b,
+            );
         }
         for j in 0..m {
             if j == r || pk.constant[j] {
