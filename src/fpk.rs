@@ -451,6 +451,7 @@ mod tests {
             impacts: vec![],
             observables: vec![],
             delta: DeltaTreatment::Exact,
+            periodic: None,
             origin: None,
         }
     }

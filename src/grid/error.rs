@@ -90,6 +90,38 @@ pub enum Unsupported {
         /// Why the form is not mechanical, in words.
         form: String,
     },
+    /// A periodic state that is the model's second: the grid wraps its first axis.
+    #[error(
+        "`{state}` is periodic and is the second state; the grid solver takes a periodic \
+         first state: list `{state}` first on the `state` line"
+    )]
+    PeriodicSecondState {
+        /// The periodic state.
+        state: String,
+    },
+    /// A periodic state in a problem the grid does not wrap yet.
+    #[error("{what} with a periodic state is not supported by the grid solver yet")]
+    PeriodicProblem {
+        /// The problem (`a first passage`, `a transient`).
+        what: &'static str,
+    },
+    /// A domain given explicitly whose range of the periodic state is not its window.
+    #[error(
+        "the domain's range {lo}..{hi} of the periodic state `{state}` must be its window \
+         {:.6}..{:.6} (one period centred on 0, to 1e-5)",
+        window[0],
+        window[1]
+    )]
+    PeriodicWindow {
+        /// The periodic state.
+        state: String,
+        /// The range given.
+        lo: f64,
+        /// Its upper end.
+        hi: f64,
+        /// The window.
+        window: [f64; 2],
+    },
     /// A domain given explicitly whose end on a wall's side is not the wall (a reflecting
     /// barrier is where the state's range ends; a strip's ends may be inside it, not beyond).
     #[error("the domain's {end} end {given} of the position must {relation} the wall at {at}")]

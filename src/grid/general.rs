@@ -21,6 +21,8 @@ use crate::symbolic::{diff, simplify, DeltaPolicy, Expr, Tape, TapeScratch};
 pub(crate) struct General {
     /// Outputs u₁, u₂, b₁₁, b₁₂, b₂₂, a₁, a₂ over (x, y).
     coefficients: Tape,
+    /// The first state's window when it is periodic.
+    pub(crate) window: Option<[f64; 2]>,
 }
 
 /// The coefficients at a batch of points.
@@ -107,7 +109,10 @@ impl General {
                 what: format!("the drift and diffusion of `{x}` and `{y}`"),
                 source,
             })?;
-        Ok(General { coefficients })
+        Ok(General {
+            coefficients,
+            window: super::problem::periodic_window(model)?,
+        })
     }
 
     /// The coefficients at the points (x[p], y[p]), NaN and infinite values included.

@@ -141,7 +141,7 @@ const STARTS: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 1.0], [-1.0, -1.0], [0.5, -0.5]
 /// The range an Euler–Maruyama pilot of the SDE visited over the second half of its run,
 /// widened by half its width on each side, and the mean point visited (the first pin).
 /// [`GridError::DomainNotFound`] when every trajectory escapes.
-fn pilot_box(problem: &General) -> Result<(Domain, [f64; 2]), GridError> {
+pub(super) fn pilot_box(problem: &General) -> Result<(Domain, [f64; 2]), GridError> {
     let not_found = || GridError::DomainNotFound {
         tries: 0,
         edge: f64::NAN,

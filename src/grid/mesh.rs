@@ -75,6 +75,9 @@ pub(crate) struct Mesh {
     /// Runs of x-cells [start, end) between walls; reconstruction never crosses a wall.
     pub(crate) segments: Vec<[usize; 2]>,
     pub(crate) exits: Vec<Exit>,
+    /// The position is periodic: the last x-cell's upper face is the first one's lower
+    /// face, and reconstruction runs around it.
+    pub(crate) wrap: bool,
 }
 
 impl Mesh {
@@ -159,6 +162,7 @@ impl Mesh {
             hv,
             segments,
             exits,
+            wrap: false,
         }
     }
 
@@ -201,6 +205,7 @@ impl Mesh {
             hv: 2.0 * vmax / nv as f64,
             segments: vec![[0, nx]],
             exits,
+            wrap: false,
         }
     }
 
@@ -220,6 +225,24 @@ impl Mesh {
             hv: (v1 - v0) / nv as f64,
             segments: vec![[0, nx]],
             exits: Vec::new(),
+            wrap: false,
+        }
+    }
+
+    /// The same cells with the position periodic: the x range is one period, its two ends
+    /// one face (a mesh without walls).
+    pub(crate) fn wrapped(self) -> Mesh {
+        debug_assert!(self.exits.is_empty() && self.segments.len() == 1);
+        Mesh { wrap: true, ..self }
+    }
+
+    /// The x-faces of the mesh, each as the cells below and above it: between neighbours,
+    /// and on a periodic mesh also between the last cell and the first.
+    pub(crate) fn x_faces(&self) -> usize {
+        if self.wrap {
+            self.nx
+        } else {
+            self.nx - 1
         }
     }
 
@@ -309,6 +332,18 @@ pub(crate) fn face_weights(i: usize, [start, end]: [usize; 2], sign: f64) -> [(u
         [(i + 2, K[0]), (i + 1, K[1]), (i, K[2])]
     } else {
         [(i + 1, 0.5), (i, 0.5), (i, 0.0)]
+    }
+}
+
+/// [`face_weights`] on a periodic run of `n` cells: the face between cell `i` and cell
+/// `(i + 1) mod n`, the third-order values everywhere (the neighbours wrap around).
+pub(crate) fn wrapped_face_weights(i: usize, n: usize, sign: f64) -> [(usize, f64); 3] {
+    const K: [f64; 3] = [-1.0 / 6.0, 5.0 / 6.0, 1.0 / 3.0];
+    let at = |k: usize| (i + k) % n;
+    if sign >= 0.0 {
+        [(at(n - 1), K[0]), (i, K[1]), (at(1), K[2])]
+    } else {
+        [(at(2), K[0]), (at(1), K[1]), (i, K[2])]
     }
 }
 

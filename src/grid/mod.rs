@@ -69,6 +69,7 @@ mod memory;
 pub(crate) mod mesh;
 pub(crate) mod nested;
 mod passage;
+mod periodic_box;
 mod pilot;
 pub(crate) mod problem;
 mod read;
@@ -737,7 +738,8 @@ fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
         }
     }
     for end in 0..2 {
-        if mesh.ends_on_wall(end) {
+        // A wall, or the seam of a periodic position: no density lies beyond either.
+        if mesh.ends_on_wall(end) || mesh.wrap {
             mass[end] = [0.0; 2];
             peak[end] = 0.0;
         }
@@ -768,6 +770,26 @@ fn box_edges(mesh: &Mesh, p: &[f64]) -> BoxEdges {
 
 /// A box given explicitly, checked (and, in the mechanical form, fitted to the walls).
 fn checked_domain(d: &Domain, problem: &Problem, model: &BoundModel) -> Result<Domain, GridError> {
+    if let Some(window) = problem.window() {
+        // The window as typed: ±3.14159 for ±π.
+        let near = |a: f64, b: f64| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()).max(1.0);
+        if !(near(d.x[0], window[0]) && near(d.x[1], window[1])) {
+            return Err(GridError::Unsupported {
+                model: model.name().to_string(),
+                reason: Unsupported::PeriodicWindow {
+                    state: model.states()[0].to_string(),
+                    lo: d.x[0],
+                    hi: d.x[1],
+                    window,
+                },
+            });
+        }
+        let d = Domain { x: window, ..*d };
+        return match problem {
+            Problem::Mechanical(m) => check_domain(&d, m, model),
+            Problem::General(_) => Problem::check_general_domain(&d),
+        };
+    }
     match problem {
         Problem::Mechanical(m) => check_domain(d, m, model),
         Problem::General(_) => Problem::check_general_domain(d),

@@ -22,6 +22,8 @@ pub(crate) struct Mechanical {
     /// variable), and the time they are evaluated at ([`Mechanical::at_time`]).
     time_dependent: bool,
     now: f64,
+    /// The position's window when it is periodic ([`crate::model::BoundPeriodic`]).
+    pub(crate) window: Option<[f64; 2]>,
 }
 
 /// Coefficients at a batch of points.
@@ -47,6 +49,22 @@ impl Mechanical {
         let model = dynamics.model();
         let barriers = dynamics.barriers().map_err(|e| jump_map_error(model, e))?;
         Mechanical::build(model, dynamics, barriers, !model.time_dependent())
+    }
+
+    /// The problem, or [`Unsupported::PeriodicProblem`] for `what` (a first passage, a
+    /// transient) when its position is periodic: those solvers do not wrap the cells yet.
+    pub(crate) fn not_periodic(
+        self,
+        model: &BoundModel,
+        what: &'static str,
+    ) -> Result<Self, GridError> {
+        match self.window {
+            None => Ok(self),
+            Some(_) => Err(GridError::Unsupported {
+                model: model.name().to_string(),
+                reason: Unsupported::PeriodicProblem { what },
+            }),
+        }
     }
 
     /// Whether the coefficients depend on the time.
@@ -104,6 +122,7 @@ impl Mechanical {
         if admit {
             dynamics.admissible()?;
         }
+        let window = periodic_window(model)?;
         let sde = dynamics.sde();
         // δ terms are dropped below only because an impact law stands for them exactly.
         if barriers.is_empty() && sde.drift()[1].contains_delta() {
@@ -172,6 +191,7 @@ impl Mechanical {
         Ok(Mechanical {
             coefficients,
             barriers,
+            window,
             time_dependent,
             now: 0.0,
         })
@@ -321,6 +341,21 @@ fn classify(barrier: &Barrier) -> Option<bool> {
         }
     }
     Some(sign < 0.0)
+}
+
+/// The window of the model's periodic state, which the grid takes only as the first state
+/// (its x axis); `None` without one.
+pub(crate) fn periodic_window(model: &BoundModel) -> Result<Option<[f64; 2]>, GridError> {
+    match model.periodic() {
+        None => Ok(None),
+        Some(p) if p.state == 0 => Ok(Some(p.window())),
+        Some(p) => Err(GridError::Unsupported {
+            model: model.name().to_string(),
+            reason: Unsupported::PeriodicSecondState {
+                state: model.states()[p.state].to_string(),
+            },
+        }),
+    }
 }
 
 /// A jump map that does not compile, as the grid solver reports it.

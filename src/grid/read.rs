@@ -7,7 +7,7 @@ use super::error::GridError;
 use super::general::General;
 use super::mesh::{Domain, Mesh};
 use super::problem::Mechanical;
-use super::{domain, general_box};
+use super::{domain, general_box, periodic_box, pilot};
 use crate::dynamics::{Dynamics, Form};
 
 /// A model the grid solves.
@@ -35,16 +35,37 @@ impl Problem {
         }
     }
 
-    /// The cells on `domain` (`align`: see [`Mesh::new`]).
-    pub(crate) fn mesh(&self, domain: Domain, nx: usize, nv: usize, align: usize) -> Mesh {
+    /// The window of the first state when it is periodic (`domain x periodic L`).
+    pub(crate) fn window(&self) -> Option<[f64; 2]> {
         match self {
+            Problem::Mechanical(m) => m.window,
+            Problem::General(g) => g.window,
+        }
+    }
+
+    /// The cells on `domain` (`align`: see [`Mesh::new`]), wrapped around in x when the
+    /// first state is periodic.
+    pub(crate) fn mesh(&self, domain: Domain, nx: usize, nv: usize, align: usize) -> Mesh {
+        let mesh = match self {
             Problem::Mechanical(m) => Mesh::new(domain, nx, nv, &m.barriers, align),
             Problem::General(_) => Mesh::general(domain, nx, nv),
+        };
+        if self.window().is_some() {
+            mesh.wrapped()
+        } else {
+            mesh
         }
     }
 
     /// The box sized from the density, the coarse passes it took and the density's peak.
     pub(crate) fn size(&self) -> Result<(Domain, usize, [f64; 2]), GridError> {
+        if let Some(window) = self.window() {
+            let start = match self {
+                Problem::Mechanical(m) => pilot::pilot_box(m)?.v,
+                Problem::General(g) => general_box::pilot_box(g)?.0.v,
+            };
+            return periodic_box::size(self, window, start);
+        }
         match self {
             Problem::Mechanical(m) => domain::size(m),
             Problem::General(g) => general_box::size(g),
@@ -53,6 +74,9 @@ impl Problem {
 
     /// A main solve's box enlarged where it cuts the density; `None` when it does not.
     pub(crate) fn grow(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+        if self.window().is_some() {
+            return periodic_box::grow(mesh, p);
+        }
         match self {
             Problem::Mechanical(m) => domain::grow(mesh, p, m).map(|d| domain::symmetrised(d, m)),
             Problem::General(_) => general_box::grow(mesh, p),
@@ -61,6 +85,9 @@ impl Problem {
 
     /// A main solve's box cut where its tails end far inside it; `None` when it need not be.
     pub(crate) fn recut(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+        if self.window().is_some() {
+            return periodic_box::recut(mesh, p);
+        }
         match self {
             Problem::Mechanical(m) => domain::recut(mesh, p, m),
             Problem::General(_) => general_box::recut(mesh, p),

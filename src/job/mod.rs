@@ -112,8 +112,10 @@ impl Default for JobSpec {
 /// ```
 pub fn default_methods(problem: &Problem) -> Result<MethodSet, crate::solve::SolveError> {
     let names = match MethodName::Epc.method().applies(problem)? {
-        Ok(()) => vec![MethodName::Epc, MethodName::Grid],
-        Err(_) => vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid],
+        Err(NotApplicable::ImpactLaw { .. }) => {
+            vec![MethodName::Epc, MethodName::EpcImpact, MethodName::Grid]
+        }
+        Ok(()) | Err(_) => vec![MethodName::Epc, MethodName::Grid],
     };
     Ok(MethodSet::new(names).expect("distinct methods"))
 }

@@ -251,6 +251,11 @@ impl McConfig {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
         crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
+        if let Some(p) = model.periodic() {
+            return Err(McError::PeriodicState {
+                state: model.states()[p.state].to_string(),
+            });
+        }
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));

@@ -48,6 +48,17 @@ pub enum BarrierLayout {
 /// Errors of the Monte Carlo stage.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum McError {
+    /// The model has a periodic state (`domain theta periodic 2*pi`), whose values the
+    /// simulation's histograms and moments do not yet take modulo the period.
+    #[error(
+        "`{state}` is periodic, and the simulation does not yet take its values modulo the \
+         period (its histograms and moments would count an angle that has turned as one far \
+         away): the grid solves this model (`--method grid`)"
+    )]
+    PeriodicState {
+        /// The periodic state.
+        state: String,
+    },
     /// A configuration value is out of range (`dt ≤ 0`, no trajectories, …).
     #[error("invalid Monte Carlo setting `{name}`: {reason}")]
     BadSetting {

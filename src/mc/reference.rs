@@ -39,6 +39,7 @@ fn oscillator(name: &str, params: Vec<Parameter>, force: Expr, noise: Expr) -> M
         observables: vec![],
         safe: None,
         initial: None,
+        periodic: None,
         delta: DeltaTreatment::Exact,
         origin: None,
     }

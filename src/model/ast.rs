@@ -194,6 +194,13 @@ pub enum StatementKind {
         /// Its upper bound, if any.
         upper: Option<DomainLimit>,
     },
+    /// `domain theta periodic 2*pi`: the state is an angle, taken modulo the period.
+    Periodic {
+        /// The periodic state.
+        state: Ident,
+        /// The period, a constant.
+        period: ExprNode,
+    },
     /// `observe y = abs(z), ydot = v*sgn(z)`.
     Observe(Vec<Binding>),
     /// `delta: exact` or `delta: gaussian(width)`.

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use super::barrier::{bind_impacts, BoundImpact, DomainPart, Placed};
 pub use super::bind_error::BindError;
 use super::dependency::{walk, WalkError};
+use super::periodic::{first_not_periodic, BoundPeriodic};
 use super::{DeltaTreatment, Interpretation, Model, Observable, Origin};
 use crate::symbolic::{Expr, Func, Symbol};
 
@@ -63,6 +64,8 @@ pub struct BoundModel {
     pub(crate) impacts: Vec<BoundImpact>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
+    /// The periodic state, if any.
+    pub(crate) periodic: Option<BoundPeriodic>,
     /// Where the model was read from (for locating errors of later stages).
     pub(crate) origin: Option<std::sync::Arc<Origin>>,
 }
@@ -108,6 +111,41 @@ impl BoundModel {
             }
         }
         Ok(())
+    }
+
+    /// Refuses a periodic state whose drift or diffusion does not repeat with its period.
+    fn check_periodic(&self) -> Result<(), BindError> {
+        let Some(p) = self.periodic else {
+            return Ok(());
+        };
+        let mut exprs: Vec<(String, &Expr)> = Vec::new();
+        for i in 0..2 {
+            exprs.push((format!("the drift of `{}`", self.states[i]), &self.drift[i]));
+            for g in &self.noise_matrix[i] {
+                exprs.push((format!("the diffusion of `{}`", self.states[i]), g));
+            }
+        }
+        match first_not_periodic(&self.states, p, exprs) {
+            Some((what, at)) => Err(BindError::NotPeriodic {
+                what,
+                state: self.states[p.state].to_string(),
+                period: p.period,
+                at,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The periodic state and its period (`domain theta periodic 2*pi`), if any.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+    /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
+    /// assert!(bound.periodic().is_none());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn periodic(&self) -> Option<BoundPeriodic> {
+        self.periodic
     }
 
     /// The model's name.
@@ -291,6 +329,8 @@ impl Model {
                 (i.and_then(|i| origin.correlations.get(i).copied()), None)
             }
             BindError::BadBarrier { .. } => (origin.barriers.first().copied(), None),
+            BindError::BadPeriod { .. } => (origin.period.or(origin.domain), None),
+            BindError::NotPeriodic { .. } => (origin.domain, None),
             BindError::NotFiniteTerm { what, .. } => {
                 let state = |i: usize| format!("`{}`", self.states[i]);
                 let span = if what.starts_with("the drift") {
@@ -357,6 +397,22 @@ impl Model {
             intensity[c.b][c.a] = s;
         }
         let impacts = bind_impacts(self, &number, &subst).map_err(|p| self.place(p))?;
+        let periodic = match &self.periodic {
+            Some(p) => {
+                let period = number(&p.period);
+                if !(period.is_finite() && period > 0.0) {
+                    return Err(BindError::BadPeriod {
+                        state: self.states[p.state].to_string(),
+                        value: period,
+                    });
+                }
+                Some(BoundPeriodic {
+                    state: p.state,
+                    period,
+                })
+            }
+            None => None,
+        };
         let bound = BoundModel {
             name: self.name.clone(),
             states: self.states.clone(),
@@ -379,9 +435,11 @@ impl Model {
                 .collect(),
             delta: self.delta,
             params: values,
+            periodic,
             origin: self.origin.clone(),
         };
         bound.check_constants()?;
+        bound.check_periodic()?;
         Ok(bound)
     }
 
@@ -532,6 +590,7 @@ mod tests {
             observables: vec![],
             safe: None,
             initial: None,
+            periodic: None,
             delta: DeltaTreatment::Exact,
             origin: None,
         }

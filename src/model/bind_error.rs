@@ -69,6 +69,33 @@ pub enum BindError {
         /// The value found.
         value: f64,
     },
+    /// A period that is not a positive finite number.
+    #[error("the period of `{state}` evaluates to {}; it must be a positive number", number(*value))]
+    BadPeriod {
+        /// The periodic state.
+        state: String,
+        /// The value found.
+        value: f64,
+    },
+    /// A coefficient that does not repeat with the period of a periodic state.
+    #[error(
+        "{what} does not repeat with the period {period:.6} of `{state}`: its values at \
+         {state} = {:.4} and at {state} = {:.4} + {period:.6} differ (the other state at \
+         {:.4}); a periodic state needs coefficients periodic in it",
+        at[0],
+        at[0],
+        at[1]
+    )]
+    NotPeriodic {
+        /// The coefficient (`the drift of `w``, `the diffusion of `w``).
+        what: String,
+        /// The periodic state.
+        state: String,
+        /// The period.
+        period: f64,
+        /// The probe: the periodic state's value, then the other state's.
+        at: [f64; 2],
+    },
     /// A barrier position that is not a finite number.
     #[error("the impact barrier evaluates to {}", number(*value))]
     BadBarrier {

@@ -14,6 +14,7 @@ mod error;
 mod initial;
 mod load;
 mod parse;
+mod periodic;
 mod print;
 mod provenance;
 mod safe;
@@ -29,6 +30,7 @@ pub use error::ModelError;
 pub use initial::{InitialError, InitialSpec, InitialState};
 pub use load::{load_model, parse_expr, parse_model};
 pub use parse::{MAX_LINE_BYTES, MAX_NESTING, MAX_SOURCE_BYTES};
+pub use periodic::{BoundPeriodic, Periodic};
 pub use provenance::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use safe::{BoundSafe, SafeError, SafeSet};
 pub use set::SetError;
@@ -218,6 +220,8 @@ pub struct Model {
     pub(crate) impacts: Vec<ImpactLaw>,
     /// The `domain` line, if any.
     pub(crate) domain: Option<Domain>,
+    /// The `domain ... periodic` line, if any.
+    pub(crate) periodic: Option<Periodic>,
     pub(crate) observables: Vec<Observable>,
     pub(crate) delta: DeltaTreatment,
     /// The `safe` line (or a `--safe` value), if any.
@@ -249,6 +253,8 @@ pub(crate) struct Origin {
     pub(crate) domain: Option<ast::Span>,
     /// Its lower and upper bound.
     pub(crate) domain_bounds: [Option<ast::Span>; 2],
+    /// The period of a `domain ... periodic` line.
+    pub(crate) period: Option<ast::Span>,
     /// The drift of each state.
     pub(crate) drifts: [Option<ast::Span>; 2],
     /// The diffusion line of each state.
@@ -397,6 +403,17 @@ impl Model {
     /// ```
     pub fn domain(&self) -> Option<&Domain> {
         self.domain.as_ref()
+    }
+
+    /// The `domain STATE periodic PERIOD` line: the state that is an angle.
+    ///
+    /// ```
+    /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/duffing.sde");
+    /// let model = fpsolve::model::load_model(&path).unwrap();
+    /// assert!(model.periodic().is_none());
+    /// ```
+    pub fn periodic(&self) -> Option<&Periodic> {
+        self.periodic.as_ref()
     }
 
     /// The observables, in the order declared.

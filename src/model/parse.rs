@@ -184,6 +184,7 @@ fn content(pair: Pair<'_, Rule>) -> impl Iterator<Item = Pair<'_, Rule>> {
                 | Rule::kw_impact
                 | Rule::kw_observe
                 | Rule::kw_domain
+                | Rule::kw_periodic
                 | Rule::kw_delta
                 | Rule::kw_gaussian
                 | Rule::kw_safe
@@ -396,6 +397,14 @@ pub(crate) fn parse_lone_safe(source: &str) -> Result<SafeSpec, SyntaxFailure> {
 
 /// `domain a <= y <= b` or `domain y >= a` / `domain y <= b`.
 fn build_domain(pair: Pair<'_, Rule>) -> StatementKind {
+    if pair.as_rule() == Rule::domain_periodic {
+        let mut parts = Parts::new(pair);
+        let state = parts.ident();
+        return StatementKind::Periodic {
+            state,
+            period: parts.expr(),
+        };
+    }
     let range = pair.as_rule() == Rule::domain_range;
     let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
     let limit = |op: &Pair<'_, Rule>, at: Pair<'_, Rule>| DomainLimit {

@@ -65,6 +65,9 @@ impl fmt::Display for Model {
         if let Some(domain) = &self.domain {
             writeln!(f, "domain {}", domain.text(&self.states))?;
         }
+        if let Some(p) = &self.periodic {
+            writeln!(f, "domain {} periodic {}", self.states[p.state], p.period)?;
+        }
         if !self.observables.is_empty() {
             let list: Vec<String> = self
                 .observables

@@ -97,9 +97,11 @@ fn describe_rule(rule: &Rule) -> String {
         Rule::arrow => "`->`",
         Rule::above => "`>=` or `>`",
         Rule::below => "`<=` or `<`",
-        Rule::domain_range | Rule::domain_bound => {
-            "`STATE >= BOUND`, `STATE <= BOUND` or `LOW <= STATE <= HIGH`"
+        Rule::domain_range | Rule::domain_bound | Rule::domain_periodic => {
+            "`STATE >= BOUND`, `STATE <= BOUND`, `LOW <= STATE <= HIGH` or `STATE periodic \
+             PERIOD`"
         }
+        Rule::kw_periodic => "`periodic`",
         Rule::safe_range | Rule::safe_bound => {
             "`QUANTITY < BOUND`, `QUANTITY > BOUND` or `LOW < QUANTITY < HIGH`"
         }

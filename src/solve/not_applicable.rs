@@ -28,6 +28,19 @@ pub enum NotApplicable {
         /// Why, in words (what EPC represents, what handles this law).
         message: String,
     },
+    /// The model has a periodic state (`domain theta periodic 2*pi`), which the method does
+    /// not represent.
+    #[error("{method} does not apply to model `{model}`: `{state}` is periodic, and {why}")]
+    PeriodicState {
+        /// The method, in words.
+        method: String,
+        /// The model's name.
+        model: String,
+        /// The periodic state.
+        state: String,
+        /// Why the method cannot represent it, and what can.
+        why: String,
+    },
     /// The grid solver does not handle the model.
     #[error("the grid solver cannot solve model `{model}`: {unsupported}")]
     Grid {

@@ -317,6 +317,7 @@ pub fn zhuravlev(model: &Model) -> Result<Zhuravlev<Model>, ZhuravlevError> {
         // passage and transients are solved there.
         safe: None,
         initial: None,
+        periodic: None,
         origin: None,
     };
     Ok(Zhuravlev {
@@ -393,6 +394,7 @@ pub fn zhuravlev_bound(model: &BoundModel) -> Result<Zhuravlev<BoundModel>, Zhur
         }],
         observables: t.observables,
         delta: model.delta_treatment(),
+        periodic: None,
         origin: None,
     };
     Ok(Zhuravlev {

@@ -326,7 +326,8 @@ impl<'a> GridPassage<'a> {
     pub fn run(&self) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
         self.check()?;
-        let problem = Mechanical::new(&crate::dynamics::Dynamics::read(self.model))?;
+        let problem = Mechanical::new(&crate::dynamics::Dynamics::read(self.model))?
+            .not_periodic(self.model, "a first passage")?;
         let box_ = super::transient::starting_box(self.domain, &problem, self.model)?;
         let [nx, nv] = self.cells;
         // The error estimate's solve on half the cells, alongside (the same problem and box,

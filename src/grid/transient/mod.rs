@@ -427,7 +427,8 @@ impl<'a> GridTransient<'a> {
     /// The problem, the mesh, the initial cell averages (not yet normalised) and their mass.
     fn prepare(&self) -> Result<(Mechanical, Mesh, Vec<f64>, f64), TransientError> {
         self.check_settings()?;
-        let problem = Mechanical::transient(&crate::dynamics::Dynamics::read(self.model))?;
+        let problem = Mechanical::transient(&crate::dynamics::Dynamics::read(self.model))?
+            .not_periodic(self.model, "a transient")?;
         if problem.time_dependent() && self.domain.is_none() {
             return Err(TransientError::Setting {
                 setting: "domain",

@@ -187,6 +187,16 @@ pub enum SemanticError {
         /// The barrier state of the impact laws.
         impact_state: String,
     },
+    /// An impact law in a model with a periodic state.
+    #[error(
+        "`{state}` is periodic, and an impact law cannot be combined with a periodic state \
+         (a barrier on an angle, or impacts of the other state, are not handled): drop the \
+         `domain ... periodic` line or the impact law"
+    )]
+    PeriodicWithImpact {
+        /// The periodic state.
+        state: String,
+    },
     /// Parameters defined through one another in a cycle.
     #[error("parameter `{name}` is defined through itself: {chain}")]
     ParameterCycle {

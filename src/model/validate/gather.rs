@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use super::super::ast::{Binding, DomainLimit, ExprNode, Ident, Span, Statement, StatementKind};
 use super::super::{
     Correlation, DeltaTreatment, Domain, DomainBound, ImpactLaw, Interpretation, NoiseSource,
-    Observable,
+    Observable, Periodic,
 };
 use super::error::{fail, DeltaMisuse, Result, SemanticError};
 use super::scope::Context;
@@ -31,6 +31,8 @@ pub(super) struct Gathered {
     pub(super) impacts: Vec<(ImpactLaw, Span)>,
     /// The domain, the span of its statement and its state's name.
     pub(super) domain: Option<(Domain, Span, Ident)>,
+    /// The periodic state, the span of its statement and its state's name.
+    pub(super) periodic: Option<(Periodic, Span, Ident)>,
     pub(super) observables: Vec<Observable>,
     pub(super) delta: DeltaTreatment,
     /// Where each bound value was written, for the diagnostics of binding (see `Origin`).
@@ -45,6 +47,7 @@ pub(super) struct ValueSpans {
     pub(super) barriers: Vec<Span>,
     pub(super) maps: Vec<Span>,
     pub(super) domain_bounds: [Option<Span>; 2],
+    pub(super) period: Option<Span>,
     pub(super) drifts: [Option<Span>; 2],
     pub(super) diffusions: [Option<Span>; 2],
 }
@@ -76,6 +79,9 @@ impl Validator<'_> {
                     lower,
                     upper,
                 } => self.domain(&mut g, st, state, [lower, upper])?,
+                StatementKind::Periodic { state, period } => {
+                    self.periodic(&mut g, st, state, period)?;
+                }
                 StatementKind::Observe(bindings) => self.observe(&mut g, bindings)?,
                 StatementKind::Delta(spec) => g.delta = self.delta(spec)?,
                 // Lowered after every observable is known (`Validator::safe_set`).
@@ -242,6 +248,35 @@ impl Validator<'_> {
             upper: self.domain_bound(g, upper, 1)?,
         };
         g.domain = Some((d, st.span, state.clone()));
+        Ok(())
+    }
+
+    /// `domain state periodic period`: a constant period; its value is checked when the
+    /// model is bound, and that the coefficients repeat with it.
+    fn periodic(
+        &self,
+        g: &mut Gathered,
+        st: &Statement,
+        state: &Ident,
+        period: &ExprNode,
+    ) -> Result<()> {
+        let s = self.state_index(state, Some("domain"))?;
+        let at = self.scope.lower(period, Context::Constant("a period"))?;
+        self.forbid_delta(
+            period,
+            DeltaMisuse::InConstant {
+                context: "a period",
+            },
+        )?;
+        g.spans.period = Some(period.span);
+        g.periodic = Some((
+            Periodic {
+                state: s,
+                period: at,
+            },
+            st.span,
+            state.clone(),
+        ));
         Ok(())
     }
 

@@ -105,6 +105,14 @@ impl<'a> Validator<'a> {
         let drift = self.drifts(g.drift, &states)?;
         let noise_matrix = self.noise_matrix(g.diffusion)?;
         self.domain_agrees(g.domain.as_ref(), &g.impacts, &states)?;
+        if let (Some((_, span, name)), Some(_)) = (&g.periodic, g.impacts.first()) {
+            return fail(
+                SemanticError::PeriodicWithImpact {
+                    state: name.name.clone(),
+                },
+                *span,
+            );
+        }
         self.check_parameter_graph(&params)?;
         let safe = match self.ast.statements.iter().find_map(|st| match &st.kind {
             StatementKind::Safe(spec) => Some(spec),
@@ -123,7 +131,11 @@ impl<'a> Validator<'a> {
         };
 
         let spans = g.spans;
-        let domain_span = g.domain.as_ref().map(|(_, span, _)| *span);
+        let domain_span = g
+            .domain
+            .as_ref()
+            .map(|(_, span, _)| *span)
+            .or(g.periodic.as_ref().map(|(_, span, _)| *span));
         Ok(Model {
             name,
             description,
@@ -136,6 +148,7 @@ impl<'a> Validator<'a> {
             interpretation: g.interpretation,
             impacts: g.impacts.into_iter().map(|(law, _)| law).collect(),
             domain: g.domain.map(|(d, ..)| d),
+            periodic: g.periodic.map(|(p, ..)| p),
             observables: g.observables,
             delta: g.delta,
             safe,
@@ -150,6 +163,7 @@ impl<'a> Validator<'a> {
                 maps: spans.maps,
                 domain: domain_span,
                 domain_bounds: spans.domain_bounds,
+                period: spans.period,
                 drifts: spans.drifts,
                 diffusions: spans.diffusions,
             })),

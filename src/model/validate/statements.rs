@@ -128,7 +128,7 @@ impl<'a> Validator<'a> {
             let keyword = match st.kind {
                 StatementKind::State(_) => "state",
                 StatementKind::Interpretation(_) => "interpretation",
-                StatementKind::Domain { .. } => "domain",
+                StatementKind::Domain { .. } | StatementKind::Periodic { .. } => "domain",
                 StatementKind::Delta(_) => "delta",
                 StatementKind::Safe(_) => "safe",
                 StatementKind::Initial(_) => "initial",
