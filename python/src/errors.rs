@@ -372,6 +372,14 @@ pub(crate) fn solve_error(py: Python<'_>, e: &LibSolveError, asked: &Asked<'_>) 
             let attrs = base(vec![("reason", obj(py, z.to_string()))]);
             raise::<NotApplicableError>(py, text, "zhuravlev", &attrs)
         }
+        LibSolveError::NotApplicable(n) => {
+            let attrs = base(vec![("reason", obj(py, n.to_string()))]);
+            let kind = match n {
+                fpsolve::solve::NotApplicable::PeriodicState { .. } => "periodic_state",
+                _ => "not_applicable",
+            };
+            raise::<NotApplicableError>(py, text, kind, &attrs)
+        }
         // An interrupted call raises its KeyboardInterrupt before reaching here; a flag set
         // by anyone else stops the solve the same way.
         LibSolveError::Cancelled(_) => PyErr::new::<pyo3::exceptions::PyKeyboardInterrupt, _>(text),

@@ -4,14 +4,16 @@
 //! is not negligible at an edge and cut it where it falls below `CUT` of its peak, on that
 //! axis only, as [`super::general_box`] does on both.
 
+use super::assemble::Discretise;
 use super::domain::{peak, profiles, reach, solve_pinned, COARSE, CUT, EDGE, MAX_PASSES, SETTLED};
 use super::error::GridError;
 use super::mesh::{Domain, Mesh};
-use super::read::Problem;
 
-/// The sized box, the number of coarse passes and the peak (for pinning the main solve).
-pub(crate) fn size(
-    problem: &Problem,
+/// The sized box, the number of coarse passes and the peak (for pinning the main solve);
+/// `cells` makes the problem's wrapped cells on a box.
+pub(crate) fn size<P: Discretise>(
+    problem: &P,
+    cells: &dyn Fn(Domain, usize, usize) -> Mesh,
     window: [f64; 2],
     start: [f64; 2],
 ) -> Result<(Domain, usize, [f64; 2]), GridError> {
@@ -24,7 +26,7 @@ pub(crate) fn size(
     let mut worst = 0.0f64;
     let mut last_cut: Option<Domain> = None;
     for pass in 1..=MAX_PASSES {
-        let mesh = problem.mesh(d, COARSE[0] * scale, COARSE[1] * scale, 1);
+        let mesh = cells(d, COARSE[0] * scale, COARSE[1] * scale);
         let p = match solve_pinned(&mesh, problem, guess) {
             Ok((p, _)) => p,
             Err(GridError::Degenerate { .. } | GridError::Singular { .. }) if scale < 4 => {

@@ -64,7 +64,8 @@ impl Problem {
                 Problem::Mechanical(m) => pilot::pilot_box(m)?.v,
                 Problem::General(g) => general_box::pilot_box(g)?.0.v,
             };
-            return periodic_box::size(self, window, start);
+            let cells = |d: Domain, nx: usize, nv: usize| self.mesh(d, nx, nv, 1);
+            return periodic_box::size(self, &cells, window, start);
         }
         match self {
             Problem::Mechanical(m) => domain::size(m),

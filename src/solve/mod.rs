@@ -158,6 +158,10 @@ pub enum SolveError {
     /// solve is returned.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+    /// The method cannot represent the model (a periodic state under EPC): refused before
+    /// any work, as its [`StationaryMethod::applies`] says.
+    #[error(transparent)]
+    NotApplicable(#[from] NotApplicable),
     /// A name that is neither a state nor an observable of the model.
     #[error("`{name}` is neither a state nor an observable of the model (it has: {})", known.join(", "))]
     UnknownQuantity {
@@ -452,8 +456,18 @@ impl<'a> Problem<'a> {
         method.name().method().solve(self, method, run)
     }
 
+    /// [`SolveError::NotApplicable`] when the model has a periodic state, which `method` (an
+    /// exponential polynomial) does not represent: what its `applies` says.
+    fn refuse_periodic(&self, method: MethodName) -> Result<(), SolveError> {
+        match method.method().applies(self)? {
+            Err(e @ NotApplicable::PeriodicState { .. }) => Err(SolveError::NotApplicable(e)),
+            _ => Ok(()),
+        }
+    }
+
     /// Solves by EPC at `degree` (through the Zhuravlev transform when there is one).
     pub(crate) fn solve_epc(&self, degree: usize) -> Result<Solution, SolveError> {
+        self.refuse_periodic(MethodName::Epc)?;
         if let Some(Err(e)) = &self.zhuravlev {
             return Err(SolveError::Zhuravlev(e.clone()));
         }
@@ -484,6 +498,7 @@ impl<'a> Problem<'a> {
 
     /// Solves by EPC with the exact impact condition at `degree`, the model as it stands.
     pub(crate) fn solve_epc_impact(&self, degree: usize) -> Result<Solution, SolveError> {
+        self.refuse_periodic(MethodName::EpcImpact)?;
         let sol = crate::epc_impact::EpcImpact::reading(&self.dynamics).solve(degree)?;
         Ok(Solution::new(
             Density::EpcImpact(Box::new(sol)),

@@ -1,0 +1,48 @@
+"""A periodic state from Python: the grid solves it (its angle on one period, as the command
+line does), and the methods that do not represent it refuse with their reason."""
+
+import math
+
+import numpy as np
+import pytest
+
+import fpsolve
+
+PENDULUM = """model pendulum
+param c = 0.5, k = 2, S = 0.5
+state theta, w
+drift theta: w
+drift w: -c*w - k*sin(theta)
+noise xi: intensity S
+diffusion w: xi
+domain theta periodic 2*pi
+"""
+
+
+def test_the_grid_gives_the_von_mises_angle():
+    model = fpsolve.Model.from_text(PENDULUM)
+    sol = model.solve("grid", tol=1e-3)
+    x, p = sol.marginal("theta")
+    assert x[0] > -math.pi and x[-1] < math.pi
+    # kappa = 2 c k / S = 4: p(theta) = exp(4 cos theta) / (2 pi I0(4)).
+    t = np.linspace(-math.pi, math.pi, 20001)
+    norm = np.sum(np.exp(4 * np.cos(t[:-1]))) * (t[1] - t[0])
+    exact = np.exp(4 * np.cos(x)) / norm
+    h = x[1] - x[0]
+    assert np.sum(np.abs(p - exact)) * h < 1e-3
+    assert sol.moments("w").variance == pytest.approx(0.5, rel=2e-3)
+
+
+@pytest.mark.parametrize("method", ["epc", "epc-impact"])
+def test_epc_refuses_with_its_reason(method):
+    model = fpsolve.Model.from_text(PENDULUM)
+    with pytest.raises(fpsolve.NotApplicableError) as info:
+        model.solve(method, degree=4)
+    assert info.value.kind == "periodic_state" and "periodic" in str(info.value)
+
+
+def test_monte_carlo_refuses_with_its_reason():
+    model = fpsolve.Model.from_text(PENDULUM)
+    with pytest.raises(fpsolve.MonteCarloError) as info:
+        model.simulate(samples=10_000)
+    assert info.value.kind == "periodic_state"
