@@ -112,7 +112,7 @@ impl Work {
 /// A factorised stage matrix.
 enum Stage {
     Pattern(PatternLu),
-    Faer(FaerLu),
+    Faer(Box<FaerLu>),
 }
 
 struct Entry {
@@ -528,7 +528,7 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
             Stage::Pattern(_) => {
                 let lu = FaerLu::factor(a, Ordering::Colamd, memory_limit_bytes())?;
                 let x = lu.checked_solve(a, b, CHECK);
-                entry.factor = Stage::Faer(lu);
+                entry.factor = Stage::Faer(Box::new(lu));
                 x.map_err(|faer| FactorError::Faer(format!("{e}; faer's LU: {faer}")))
             }
             Stage::Faer(_) => Err(e),
@@ -558,7 +558,9 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
         evicted: Option<Entry>,
     ) -> Result<Stage, FactorError> {
         let limit = memory_limit_bytes();
-        let faer = || FaerLu::factor(m.as_ref(), Ordering::Colamd, limit).map(Stage::Faer);
+        let faer = || {
+            FaerLu::factor(m.as_ref(), Ordering::Colamd, limit).map(|lu| Stage::Faer(Box::new(lu)))
+        };
         let spare = evicted.and_then(|e| match e.factor {
             Stage::Pattern(lu) if same_pattern(&e.matrix, m) => Some(lu),
             _ => None,
