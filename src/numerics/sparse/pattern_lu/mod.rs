@@ -38,13 +38,15 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{MatMut, MatRef, Par, Side};
 use numeric::numeric;
 use permuted::permute;
+use std::sync::Arc;
 
 #[cfg(test)]
 use numeric::plan;
 
 /// The LU factors of P A Pᵀ, ready to solve.
 pub(crate) struct PatternLu {
-    symbolic: SymbolicCholesky<usize>,
+    /// Shared by the refactorisations of matrices of one pattern ([`PatternLu::refactor`]).
+    symbolic: Arc<SymbolicCholesky<usize>>,
     /// P: row k of P A Pᵀ is row `fwd[k]` of A.
     fwd: Vec<usize>,
     /// Per supernode: the unit lower L11 and upper U11 in the diagonal block, L21 below it
@@ -121,6 +123,55 @@ impl PatternLu {
             params,
         )
         .map_err(|e| analysis(&e))?;
+        if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+            return Err(FactorError::Analysis("not supernodal".into()));
+        }
+        PatternLu::numeric_with(a, fwd, inv, Arc::new(symbolic), parallel, limit, None)
+    }
+
+    /// Factorises `a`, whose pattern is that of the matrix `self` factorises (the caller
+    /// compares them), in the same order, reusing the symbolic analysis: the numeric
+    /// factorisation alone, the same bits as [`Factorization::factor`] on `a`.
+    pub(crate) fn refactor(
+        &self,
+        a: SparseColMatRef<'_, usize, f64>,
+        limit: f64,
+    ) -> Result<PatternLu, FactorError> {
+        let mut inv = vec![0usize; self.fwd.len()];
+        for (k, &c) in self.fwd.iter().enumerate() {
+            inv[c] = k;
+        }
+        let symbolic = Arc::clone(&self.symbolic);
+        PatternLu::numeric_with(a, self.fwd.clone(), inv, symbolic, true, limit, None)
+    }
+
+    /// [`PatternLu::refactor`] into this factorisation's own memory, which it consumes (a
+    /// factorisation about to be dropped): the same bits, without mapping new pages.
+    pub(crate) fn refactor_into(
+        self,
+        a: SparseColMatRef<'_, usize, f64>,
+        limit: f64,
+    ) -> Result<PatternLu, FactorError> {
+        let mut inv = vec![0usize; self.fwd.len()];
+        for (k, &c) in self.fwd.iter().enumerate() {
+            inv[c] = k;
+        }
+        let spare = Some((self.l, self.u, self.pivots));
+        PatternLu::numeric_with(a, self.fwd, inv, self.symbolic, true, limit, spare)
+    }
+
+    /// The numeric factorisation of `a` in the order `fwd` (`inv` its inverse) on the
+    /// supernodal analysis `symbolic`, refusing factors of more than `limit` bytes; into
+    /// `spare`'s memory when it is an earlier factorisation's on this analysis.
+    fn numeric_with(
+        a: SparseColMatRef<'_, usize, f64>,
+        fwd: Vec<usize>,
+        inv: Vec<usize>,
+        symbolic: Arc<SymbolicCholesky<usize>>,
+        parallel: bool,
+        limit: f64,
+        spare: Option<numeric::Factors>,
+    ) -> Result<PatternLu, FactorError> {
         let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
             return Err(FactorError::Analysis("not supernodal".into()));
         };
@@ -130,7 +181,7 @@ impl PatternLu {
             return Err(FactorError::TooLarge { bytes, limit });
         }
         let p = permute(a, &inv);
-        let (l, u, pivots) = numeric(sym, &p, parallel)?;
+        let (l, u, pivots) = numeric(sym, &p, parallel, spare)?;
         #[cfg(test)]
         let growth = {
             let scale = p.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
