@@ -74,3 +74,21 @@ pub enum NotApplicable {
         unsupported: crate::epc_impact::Unsupported,
     },
 }
+
+impl NotApplicable {
+    /// [`NotApplicable::PeriodicState`] for `method`, an exponential polynomial of the
+    /// states (EPC, EPC-impact), when `model` has a periodic state; `None` without one.
+    pub(crate) fn exponential_of_angle(
+        method: &str,
+        model: &crate::model::BoundModel,
+    ) -> Option<NotApplicable> {
+        model.periodic().map(|p| NotApplicable::PeriodicState {
+            method: method.to_string(),
+            model: model.name().to_string(),
+            state: model.states()[p.state].to_string(),
+            why: "an exponential polynomial in it is not periodic: the grid solves this model \
+                  (`--method grid`)"
+                .to_string(),
+        })
+    }
+}

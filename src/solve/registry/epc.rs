@@ -38,16 +38,8 @@ impl StationaryMethod for Closure {
     }
 
     fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
-        let model = problem.model();
-        if let Some(p) = model.periodic() {
-            return Ok(Err(NotApplicable::PeriodicState {
-                method: "EPC".to_string(),
-                model: model.name().to_string(),
-                state: model.states()[p.state].to_string(),
-                why: "an exponential polynomial in it is not periodic: the grid solves this \
-                      model (`--method grid`)"
-                    .to_string(),
-            }));
+        if let Some(refused) = NotApplicable::exponential_of_angle("EPC", problem.model()) {
+            return Ok(Err(refused));
         }
         Ok(match &problem.fpk().impact {
             Some(ImpactForm::Unsupported { law, reason }) => Err(NotApplicable::ImpactLaw {

@@ -27,16 +27,9 @@ impl StationaryMethod for ExactImpact {
     }
 
     fn applies(&self, problem: &Problem) -> Result<Result<(), NotApplicable>, SolveError> {
-        let model = problem.model();
-        if let Some(p) = model.periodic() {
-            return Ok(Err(NotApplicable::PeriodicState {
-                method: "EPC with the exact impact condition".to_string(),
-                model: model.name().to_string(),
-                state: model.states()[p.state].to_string(),
-                why: "an exponential polynomial in it is not periodic: the grid solves this \
-                      model (`--method grid`)"
-                    .to_string(),
-            }));
+        let method = "EPC with the exact impact condition";
+        if let Some(refused) = NotApplicable::exponential_of_angle(method, problem.model()) {
+            return Ok(Err(refused));
         }
         match EpcImpact::reading(problem.dynamics()).check() {
             Ok(()) => Ok(Ok(())),
