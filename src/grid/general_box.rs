@@ -3,8 +3,11 @@
 //! energy, which a general model does not have), then coarse solves enlarged on each side
 //! where the density is not negligible at that edge and cut on each side where it falls
 //! below `CUT` of its peak, until the cut settles. Every side of both axes moves on its own:
-//! neither state is a velocity, so neither range is symmetric about 0.
+//! neither state is a velocity, so neither range is symmetric about 0. When the first state
+//! is periodic (`fixed_x`), its range is its window and only the second axis moves; the same
+//! passes then size that axis of a mechanical model too.
 
+use super::assemble::Discretise;
 use super::domain::{peak, profiles, reach, solve_pinned, COARSE, CUT, EDGE, MAX_PASSES, SETTLED};
 use super::error::GridError;
 use super::general::General;
@@ -12,12 +15,31 @@ use super::mesh::{Domain, Mesh};
 
 /// The sized box, the number of coarse passes and the peak (for pinning the main solve).
 pub(crate) fn size(problem: &General) -> Result<(Domain, usize, [f64; 2]), GridError> {
-    let (mut d, mut guess) = pilot_box(problem)?;
+    let (d, guess) = pilot_box(problem)?;
+    size_from(
+        problem,
+        &|d, nx, nv| Mesh::general(d, nx, nv),
+        d,
+        guess,
+        false,
+    )
+}
+
+/// The coarse passes from the box `start` pinned at `guess`, on the cells `cells` makes;
+/// `fixed_x`: the first state's range stays as it is (a periodic state's window).
+pub(crate) fn size_from<P: Discretise>(
+    problem: &P,
+    cells: &dyn Fn(Domain, usize, usize) -> Mesh,
+    start: Domain,
+    mut guess: [f64; 2],
+    fixed_x: bool,
+) -> Result<(Domain, usize, [f64; 2]), GridError> {
+    let mut d = start;
     let mut scale = 1;
     let mut worst = 0.0f64;
     let mut last_cut: Option<Domain> = None;
     for pass in 1..=MAX_PASSES {
-        let mesh = Mesh::general(d, COARSE[0] * scale, COARSE[1] * scale);
+        let mesh = cells(d, COARSE[0] * scale, COARSE[1] * scale);
         let p = match solve_pinned(&mesh, problem, guess) {
             Ok((p, _)) => p,
             Err(GridError::Degenerate { .. } | GridError::Singular { .. }) if scale < 4 => {
@@ -28,15 +50,16 @@ pub(crate) fn size(problem: &General) -> Result<(Domain, usize, [f64; 2]), GridE
         };
         guess = peak(&mesh, &p);
         let (px, pv, top) = profiles(&mesh, &p);
-        let edges = edge_levels(&px, &pv, top);
-        worst = edges.iter().fold(0.0, |a, &b| a.max(b));
+        let edges = edge_levels(&px, &pv, top, fixed_x);
+        worst = edges.iter().flatten().fold(0.0, |a, &b| a.max(b));
         let cur = mesh.domain();
         if let Some(bigger) = widened(cur, edges, 0.5) {
             d = bigger;
             last_cut = None;
             continue;
         }
-        let cut = cut_from(&mesh, &px, &pv, top);
+        // A fixed range is cut to itself, so it is settled and never moves.
+        let cut = cut_from(&mesh, &px, &pv, top, fixed_x);
         let w = cur.width();
         let settled = (0..2).all(|side| {
             (cut.x[side] - cur.x[side]).abs() <= SETTLED * w[0]
@@ -53,25 +76,31 @@ pub(crate) fn size(problem: &General) -> Result<(Domain, usize, [f64; 2]), GridE
         None => Err(GridError::DomainNotFound {
             tries: MAX_PASSES,
             edge: worst,
-            width: d.width()[0].max(d.width()[1]),
+            width: if fixed_x {
+                d.width()[1]
+            } else {
+                d.width()[0].max(d.width()[1])
+            },
         }),
     }
 }
 
 /// The largest density on each outermost row (x low, x high, y low, y high), relative to
-/// the peak.
-fn edge_levels(px: &[f64], pv: &[f64], top: f64) -> [f64; 4] {
-    [px[0], px[px.len() - 1], pv[0], pv[pv.len() - 1]].map(|e| e / top)
+/// the peak; `None` for the sides of a fixed x range (`fixed_x`), which never move.
+fn edge_levels(px: &[f64], pv: &[f64], top: f64, fixed_x: bool) -> [Option<f64>; 4] {
+    let moves = |k: usize| k >= 2 || !fixed_x;
+    let rows = [px[0], px[px.len() - 1], pv[0], pv[pv.len() - 1]];
+    std::array::from_fn(|k| moves(k).then(|| rows[k] / top))
 }
 
 /// `d` with every side whose edge holds more than `EDGE` of the peak moved out by `by`
 /// times the box's width along that axis; `None` when no side needs it.
-fn widened(d: Domain, edges: [f64; 4], by: f64) -> Option<Domain> {
+fn widened(d: Domain, edges: [Option<f64>; 4], by: f64) -> Option<Domain> {
     let w = d.width();
     let mut out = d;
     let mut grown = false;
-    for (k, &e) in edges.iter().enumerate() {
-        if e > EDGE {
+    for (k, e) in edges.iter().enumerate() {
+        if e.is_some_and(|e| e > EDGE) {
             let (axis, side) = (k / 2, k % 2);
             let dir = if side == 0 { -1.0 } else { 1.0 };
             let range = if axis == 0 { &mut out.x } else { &mut out.v };
@@ -84,14 +113,16 @@ fn widened(d: Domain, edges: [f64; 4], by: f64) -> Option<Domain> {
 
 /// The main solve's box enlarged where its density is not negligible at an edge (by 0.3
 /// of the width on that side, as the mechanical form's); `None` when no side needs it.
-pub(crate) fn grow(mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+/// `fixed_x`: the first state's range does not move.
+pub(crate) fn grow(mesh: &Mesh, p: &[f64], fixed_x: bool) -> Option<Domain> {
     let (px, pv, top) = profiles(mesh, p);
-    widened(mesh.domain(), edge_levels(&px, &pv, top), 0.3)
+    widened(mesh.domain(), edge_levels(&px, &pv, top, fixed_x), 0.3)
 }
 
 /// The box `mesh`'s density is cut to: each side where the density falls below `CUT` of
-/// its peak ([`reach`] reads the tail's decay), one more cell kept.
-fn cut_from(mesh: &Mesh, px: &[f64], pv: &[f64], top: f64) -> Domain {
+/// its peak ([`reach`] reads the tail's decay), one more cell kept; the x range as it is
+/// when `fixed_x`.
+fn cut_from(mesh: &Mesh, px: &[f64], pv: &[f64], top: f64, fixed_x: bool) -> Domain {
     let axis = |profile: &[f64], lo: f64, h: f64| {
         let n = profile.len();
         let rev: Vec<f64> = profile.iter().rev().copied().collect();
@@ -100,7 +131,11 @@ fn cut_from(mesh: &Mesh, px: &[f64], pv: &[f64], top: f64) -> Domain {
         [lo + below as f64 * h, lo + above as f64 * h]
     };
     Domain {
-        x: axis(px, mesh.x0, mesh.hx),
+        x: if fixed_x {
+            mesh.domain().x
+        } else {
+            axis(px, mesh.x0, mesh.hx)
+        },
         v: axis(pv, mesh.v0, mesh.hv),
     }
 }
@@ -108,15 +143,15 @@ fn cut_from(mesh: &Mesh, px: &[f64], pv: &[f64], top: f64) -> Domain {
 /// The box of a main solve whose tails end far inside it (an edge below `CUT`² of the peak
 /// on some side), cut again from the resolved solution (the coarse passes' density is wider
 /// than the true one where their cells add diffusion). `None` when no side would move in by
-/// more than a tenth of the box.
-pub(crate) fn recut(mesh: &Mesh, p: &[f64]) -> Option<Domain> {
+/// more than a tenth of the box. `fixed_x`: the first state's range does not move.
+pub(crate) fn recut(mesh: &Mesh, p: &[f64], fixed_x: bool) -> Option<Domain> {
     let (px, pv, top) = profiles(mesh, p);
-    let edges = edge_levels(&px, &pv, top);
-    if !edges.iter().any(|&e| e < CUT * CUT) {
+    let edges = edge_levels(&px, &pv, top, fixed_x);
+    if !edges.iter().flatten().any(|&e| e < CUT * CUT) {
         return None;
     }
     let cur = mesh.domain();
-    let cut = cut_from(mesh, &px, &pv, top);
+    let cut = cut_from(mesh, &px, &pv, top, fixed_x);
     let w = cur.width();
     let moved = (0..2).any(|side| {
         (cut.x[side] - cur.x[side]).abs() > 0.1 * w[0]

@@ -69,7 +69,6 @@ mod memory;
 pub(crate) mod mesh;
 pub(crate) mod nested;
 mod passage;
-mod periodic_box;
 mod pilot;
 pub(crate) mod problem;
 mod read;
@@ -784,15 +783,15 @@ fn checked_domain(d: &Domain, problem: &Problem, model: &BoundModel) -> Result<D
                 },
             });
         }
-        let d = Domain { x: window, ..*d };
-        return match problem {
-            Problem::Mechanical(m) => check_domain(&d, m, model),
-            Problem::General(_) => Problem::check_general_domain(&d),
-        };
     }
+    // A periodic state's range is its window exactly (it was typed to 1e−5).
+    let d = match problem.window() {
+        Some(window) => Domain { x: window, ..*d },
+        None => *d,
+    };
     match problem {
-        Problem::Mechanical(m) => check_domain(d, m, model),
-        Problem::General(_) => Problem::check_general_domain(d),
+        Problem::Mechanical(m) => check_domain(&d, m, model),
+        Problem::General(_) => Problem::check_general_domain(&d),
     }
 }
 

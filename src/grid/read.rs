@@ -7,7 +7,7 @@ use super::error::GridError;
 use super::general::General;
 use super::mesh::{Domain, Mesh};
 use super::problem::Mechanical;
-use super::{domain, general_box, periodic_box, pilot};
+use super::{domain, general_box, pilot};
 use crate::dynamics::{Dynamics, Form};
 
 /// A model the grid solves.
@@ -60,12 +60,14 @@ impl Problem {
     /// The box sized from the density, the coarse passes it took and the density's peak.
     pub(crate) fn size(&self) -> Result<(Domain, usize, [f64; 2]), GridError> {
         if let Some(window) = self.window() {
-            let start = match self {
+            let v = match self {
                 Problem::Mechanical(m) => pilot::pilot_box(m)?.v,
                 Problem::General(g) => general_box::pilot_box(g)?.0.v,
             };
             let cells = |d: Domain, nx: usize, nv: usize| self.mesh(d, nx, nv, 1);
-            return periodic_box::size(self, &cells, window, start);
+            let start = Domain { x: window, v };
+            let guess = [0.0, 0.5 * (v[0] + v[1])];
+            return general_box::size_from(self, &cells, start, guess, true);
         }
         match self {
             Problem::Mechanical(m) => domain::size(m),
@@ -76,22 +78,22 @@ impl Problem {
     /// A main solve's box enlarged where it cuts the density; `None` when it does not.
     pub(crate) fn grow(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
         if self.window().is_some() {
-            return periodic_box::grow(mesh, p);
+            return general_box::grow(mesh, p, true);
         }
         match self {
             Problem::Mechanical(m) => domain::grow(mesh, p, m).map(|d| domain::symmetrised(d, m)),
-            Problem::General(_) => general_box::grow(mesh, p),
+            Problem::General(_) => general_box::grow(mesh, p, false),
         }
     }
 
     /// A main solve's box cut where its tails end far inside it; `None` when it need not be.
     pub(crate) fn recut(&self, mesh: &Mesh, p: &[f64]) -> Option<Domain> {
         if self.window().is_some() {
-            return periodic_box::recut(mesh, p);
+            return general_box::recut(mesh, p, true);
         }
         match self {
             Problem::Mechanical(m) => domain::recut(mesh, p, m),
-            Problem::General(_) => general_box::recut(mesh, p),
+            Problem::General(_) => general_box::recut(mesh, p, false),
         }
     }
 

@@ -93,8 +93,9 @@ fn non_finite_constant(e: &Expr) -> Option<(String, f64)> {
 }
 
 impl BoundModel {
-    /// Refuses a drift, diffusion or jump map with a non-finite constant part.
-    fn check_constants(&self) -> Result<(), BindError> {
+    /// Every drift and diffusion coefficient, each named as an error names it (`the drift
+    /// of `v``).
+    fn coefficients(&self) -> Vec<(String, &Expr)> {
         let mut exprs: Vec<(String, &Expr)> = Vec::new();
         for i in 0..2 {
             exprs.push((format!("the drift of `{}`", self.states[i]), &self.drift[i]));
@@ -102,6 +103,12 @@ impl BoundModel {
                 exprs.push((format!("the diffusion of `{}`", self.states[i]), g));
             }
         }
+        exprs
+    }
+
+    /// Refuses a drift, diffusion or jump map with a non-finite constant part.
+    fn check_constants(&self) -> Result<(), BindError> {
+        let mut exprs = self.coefficients();
         for law in &self.impacts {
             exprs.push(("the impact map".to_string(), &law.map));
         }
@@ -118,14 +125,7 @@ impl BoundModel {
         let Some(p) = self.periodic else {
             return Ok(());
         };
-        let mut exprs: Vec<(String, &Expr)> = Vec::new();
-        for i in 0..2 {
-            exprs.push((format!("the drift of `{}`", self.states[i]), &self.drift[i]));
-            for g in &self.noise_matrix[i] {
-                exprs.push((format!("the diffusion of `{}`", self.states[i]), g));
-            }
-        }
-        match first_not_periodic(&self.states, p, exprs) {
+        match first_not_periodic(&self.states, p, self.coefficients()) {
             Some((what, at)) => Err(BindError::NotPeriodic {
                 what,
                 state: self.states[p.state].to_string(),

@@ -561,21 +561,26 @@ impl<'a, G: Generator> TrBdf2<'a, G> {
         let faer = || {
             FaerLu::factor(m.as_ref(), Ordering::Colamd, limit).map(|lu| Stage::Faer(Box::new(lu)))
         };
+        let Some(order) = &self.order else {
+            return faer();
+        };
         let spare = evicted.and_then(|e| match e.factor {
             Stage::Pattern(lu) if same_pattern(&e.matrix, m) => Some(lu),
             _ => None,
         });
-        let analysed = cache.iter().find_map(|e| match &e.factor {
-            Stage::Pattern(lu) if same_pattern(&e.matrix, m) => Some(lu),
-            _ => None,
-        });
-        let Some(order) = &self.order else {
-            return faer();
+        // A cached factor of the same pattern lends its analysis when no spare does.
+        let analysed = || {
+            cache.iter().find_map(|e| match &e.factor {
+                Stage::Pattern(lu) if same_pattern(&e.matrix, m) => Some(lu),
+                _ => None,
+            })
         };
-        let pattern = match (spare, analysed) {
-            (Some(spare), _) => spare.refactor_into(m.as_ref(), limit),
-            (None, Some(lu)) => lu.refactor(m.as_ref(), limit),
-            (None, None) => PatternLu::factor(m.as_ref(), order.clone(), limit),
+        let pattern = match spare {
+            Some(spare) => spare.refactor_into(m.as_ref(), limit),
+            None => match analysed() {
+                Some(lu) => lu.refactor(m.as_ref(), limit),
+                None => PatternLu::factor(m.as_ref(), order.clone(), limit),
+            },
         };
         match pattern {
             Ok(lu) => Ok(Stage::Pattern(lu)),

@@ -104,10 +104,7 @@ impl PatternLu {
     ) -> Result<PatternLu, FactorError> {
         let n = a.ncols();
         let analysis = |e: &dyn std::fmt::Debug| FactorError::Analysis(format!("{e:?}"));
-        let mut inv = vec![0usize; n];
-        for (k, &c) in fwd.iter().enumerate() {
-            inv[c] = k;
-        }
+        let inv = inverse(&fwd);
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
@@ -137,10 +134,7 @@ impl PatternLu {
         a: SparseColMatRef<'_, usize, f64>,
         limit: f64,
     ) -> Result<PatternLu, FactorError> {
-        let mut inv = vec![0usize; self.fwd.len()];
-        for (k, &c) in self.fwd.iter().enumerate() {
-            inv[c] = k;
-        }
+        let inv = inverse(&self.fwd);
         let symbolic = Arc::clone(&self.symbolic);
         PatternLu::numeric_with(a, self.fwd.clone(), inv, symbolic, true, limit, None)
     }
@@ -152,10 +146,7 @@ impl PatternLu {
         a: SparseColMatRef<'_, usize, f64>,
         limit: f64,
     ) -> Result<PatternLu, FactorError> {
-        let mut inv = vec![0usize; self.fwd.len()];
-        for (k, &c) in self.fwd.iter().enumerate() {
-            inv[c] = k;
-        }
+        let inv = inverse(&self.fwd);
         let spare = Some((self.l, self.u, self.pivots));
         PatternLu::numeric_with(a, self.fwd, inv, self.symbolic, true, limit, spare)
     }
@@ -348,6 +339,15 @@ fn symmetric_pattern(
     ptr[n] = write;
     idx.truncate(write);
     faer::sparse::SymbolicSparseColMat::new_checked(n, n, ptr, None, idx)
+}
+
+/// The inverse of the permutation `fwd` (`inv[fwd[k]] = k`).
+fn inverse(fwd: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0usize; fwd.len()];
+    for (k, &c) in fwd.iter().enumerate() {
+        inv[c] = k;
+    }
+    inv
 }
 
 #[cfg(test)]
