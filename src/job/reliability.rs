@@ -26,13 +26,13 @@ use serde::Serialize;
 
 use super::Unwritten;
 use crate::grid::TAIL_LEVEL;
+use crate::mc::{CrossingRates, Grid, McConfig, McResult};
 use crate::model::BarrierSide;
+use crate::observe::LevelRate;
 use crate::observe::{
     crossing_rate, crossings_csv, crossings_file_name, impact_statistics, CrossingCurve,
     CrossingError, ImpactStatistics,
 };
-use crate::mc::{CrossingRates, Grid, McConfig, McResult};
-use crate::observe::LevelRate;
 use crate::report::{OutputDir, PdfTable};
 use crate::solve::Problem;
 use crate::study::Study;
@@ -236,11 +236,8 @@ fn with_mc_columns(text: &str, rates: &CrossingRates) -> String {
     }
     let mut out = format!("{},mc,mc_se,mc_bias\n", lines[0]);
     for (k, line) in lines[1..].iter().enumerate() {
-        let bias = rates.spacing_bias[k].value
-            + rates
-                .time_step_bias
-                .as_ref()
-                .map_or(0.0, |b| b[k].value);
+        let bias =
+            rates.spacing_bias[k].value + rates.time_step_bias.as_ref().map_or(0.0, |b| b[k].value);
         let r = rates.rate[k];
         out.push_str(&format!("{line},{},{},{}\n", r.value, r.stderr, bias));
     }
@@ -407,7 +404,9 @@ fn impacts(
             });
         }
         let above = side == BarrierSide::Above;
-        let walls = mc.and_then(|m| m.impacts.as_ref()).map(|i| i.walls.as_slice());
+        let walls = mc
+            .and_then(|m| m.impacts.as_ref())
+            .map(|i| i.walls.as_slice());
         if let Some(w) = walls
             .unwrap_or(&[])
             .iter()
@@ -445,7 +444,9 @@ fn impacts(
                 mean_power_error: None,
                 accuracy: 0.0,
                 stderr: Some([w.rate.stderr, w.mean_speed.stderr, w.mean_power.stderr]),
-                time_step_bias: w.time_step_bias.map(|b| [b[0].value, b[1].value, b[2].value]),
+                time_step_bias: w
+                    .time_step_bias
+                    .map(|b| [b[0].value, b[1].value, b[2].value]),
                 speed_pdf_file: file.clone(),
             });
         }
