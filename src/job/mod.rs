@@ -404,6 +404,16 @@ fn run(
                 }
             }
         }
+        // The crossing tables' levels and the impact-speed table's points, so that Monte
+        // Carlo's columns sit beside the other methods'.
+        for (name, levels) in reliability::mc_levels(problem, &study, &names) {
+            if !config.levels.iter().any(|(n, _)| n == &name) {
+                config.levels.push((name, levels));
+            }
+        }
+        if config.impact_speeds.is_none() {
+            config.impact_speeds = reliability::mc_speed_grid(problem, &study, &config);
+        }
         let t = Instant::now();
         // A Monte Carlo failure does not cost the other results: it is recorded beside them.
         match simulate(problem.dynamics(), &config, progress) {
@@ -420,7 +430,7 @@ fn run(
     let mut files = written.files;
     let mut unwritten = written.unwritten;
     crate::base::timeline::mark("job: crossings and impacts");
-    let reliability = reliability::write(problem, &study, &names, out);
+    let reliability = reliability::write(problem, &study, &names, mc.as_ref(), out);
     files.extend(reliability.files);
     unwritten.extend(reliability.unwritten);
     let reliability = reliability.summary;

@@ -10,6 +10,15 @@
 //!
 //! A quantity without a finite rate (a velocity driven by white noise) or whose level sets the
 //! rate formula does not cover is listed under `no_crossings` with the reason.
+//!
+//! With a Monte Carlo run (run by the job, or read with `--mc-from` when its levels and speed
+//! grid are these), its numbers go beside the others: in a crossing table the columns `mc`
+//! (up-crossings counted between sample points per unit time per trajectory), `mc_se` (its
+//! batch-means standard error) and `mc_bias` (its stated bias: the sample spacing's, from
+//! counting on every other sample point, plus the time-step bias from the 2·dt run when the
+//! run estimated one); at a wall a row `mc` in `impacts` with standard errors and time-step
+//! biases instead of error bounds, and the columns `mc`, `mc_se` of the impact-speed table
+//! (a histogram whose bins are centred on the table's speeds).
 
 use std::path::PathBuf;
 
@@ -17,7 +26,9 @@ use serde::Serialize;
 
 use super::Unwritten;
 use crate::grid::TAIL_LEVEL;
+use crate::mc::{CrossingRates, Grid, McConfig, McResult};
 use crate::model::BarrierSide;
+use crate::observe::LevelRate;
 use crate::observe::{
     crossing_rate, crossings_csv, crossings_file_name, impact_statistics, CrossingCurve,
     CrossingError, ImpactStatistics,
@@ -92,8 +103,15 @@ pub struct WallImpacts {
     /// Bound on the error of `mean_power`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mean_power_error: Option<f64>,
-    /// The relative accuracy of the integrals alone.
+    /// The relative accuracy of the integrals alone (0 for Monte Carlo, which has none).
     pub accuracy: f64,
+    /// Monte Carlo's batch-means standard errors of `rate`, `mean_speed`, `mean_power`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stderr: Option<[f64; 3]>,
+    /// Monte Carlo's time-step biases (S_dt − S, from the 2·dt run) of `rate`, `mean_speed`,
+    /// `mean_power`, when the run estimated them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_step_bias: Option<[f64; 3]>,
     /// The file holding the impact-speed PDF.
     pub speed_pdf_file: String,
 }
@@ -111,6 +129,7 @@ pub(super) fn write(
     problem: &Problem,
     study: &Study,
     names: &[String],
+    mc: Option<&McResult>,
     out: &OutputDir,
 ) -> Written {
     let mut written = Written {
@@ -121,6 +140,10 @@ pub(super) fn write(
     for name in names {
         match crossing_text(problem, study, name) {
             Ok(Some(text)) => {
+                let text = match mc.and_then(|m| m.crossings.iter().find(|c| &c.quantity == name)) {
+                    Some(rates) => with_mc_columns(&text, rates),
+                    None => text,
+                };
                 let file = crossings_file_name(name);
                 match out.write_atomic(&file, text.as_bytes()) {
                     Ok(path) => {
@@ -143,8 +166,82 @@ pub(super) fn write(
             }),
         }
     }
-    impacts(problem, study, out, &mut written);
+    impacts(problem, study, mc, out, &mut written);
     written
+}
+
+/// The levels of the crossing tables Monte Carlo can count beside the other methods: each of
+/// `names` whose curve the study has and whose rate is finite in the model's coordinates.
+pub(super) fn mc_levels(
+    problem: &Problem,
+    study: &Study,
+    names: &[String],
+) -> Vec<(String, Vec<f64>)> {
+    let model = problem.model();
+    names
+        .iter()
+        .filter_map(|name| {
+            let curve = study.curves.iter().find(|c| &c.name == name)?;
+            let rate = match model.states().iter().position(|s| s.as_ref() == name) {
+                Some(i) => LevelRate::of_state(model, i),
+                None => LevelRate::of_observable(model, name),
+            };
+            let ascending = curve.x.windows(2).all(|w| w[0] < w[1]);
+            (rate.is_ok() && ascending && !curve.x.is_empty())
+                .then(|| (name.clone(), curve.x.clone()))
+        })
+        .collect()
+}
+
+/// The speeds of the impact-speed tables: from 0 to the velocity extent of the first density
+/// in the model's coordinates, in [`SPEED_POINTS`] points; `None` without one.
+fn speed_points(problem: &Problem, study: &Study) -> Option<Vec<f64>> {
+    let model = problem.model();
+    let density = study.runs.iter().find_map(|run| {
+        let solution = run.solution()?;
+        std::ptr::eq(run.name().method().density_model(problem), model).then(|| solution.joint())
+    })?;
+    let top = density.extent()[1][1].max(-density.extent()[1][0]);
+    Some(
+        (0..SPEED_POINTS)
+            .map(|k| top * k as f64 / (SPEED_POINTS - 1) as f64)
+            .collect(),
+    )
+}
+
+/// Monte Carlo's impact-speed grid for a model with a wall: bins centred on the speed
+/// tables' points (from the study's density, else from 0 to the largest speed of the
+/// velocity's histogram grid in `config`), `None` without a wall or a range.
+pub(super) fn mc_speed_grid(problem: &Problem, study: &Study, config: &McConfig) -> Option<Grid> {
+    let model = problem.model();
+    let wall = model.impacts().iter().find(|i| i.side.is_some())?;
+    let top = match speed_points(problem, study) {
+        Some(x) => *x.last()?,
+        None => {
+            let v = model.states()[wall.other].to_string();
+            let (_, g) = config.grids.iter().find(|(n, _)| n == &v)?;
+            g.hi.max(-g.lo)
+        }
+    };
+    let half = 0.5 * top / (SPEED_POINTS - 1) as f64;
+    Grid::new(-half, top + half, SPEED_POINTS).ok()
+}
+
+/// `text` (a crossing table) with Monte Carlo's columns `mc`, `mc_se`, `mc_bias` added, when
+/// its levels are the table's; else `text` as it is.
+fn with_mc_columns(text: &str, rates: &CrossingRates) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    if lines.len() != rates.levels.len() + 1 {
+        return text.to_string();
+    }
+    let mut out = format!("{},mc,mc_se,mc_bias\n", lines[0]);
+    for (k, line) in lines[1..].iter().enumerate() {
+        let bias =
+            rates.spacing_bias[k].value + rates.time_step_bias.as_ref().map_or(0.0, |b| b[k].value);
+        let r = rates.rate[k];
+        out.push_str(&format!("{line},{},{},{}\n", r.value, r.stderr, bias));
+    }
+    out
 }
 
 /// The crossing table of `name`, `None` when no method solved or the quantity has no curve.
@@ -230,7 +327,13 @@ fn envelope(errors: &[f64], rate: &[f64]) -> Vec<f64> {
 
 /// The impact statistics at every wall, by every method whose density is in the model's own
 /// coordinates, into `written`.
-fn impacts(problem: &Problem, study: &Study, out: &OutputDir, written: &mut Written) {
+fn impacts(
+    problem: &Problem,
+    study: &Study,
+    mc: Option<&McResult>,
+    out: &OutputDir,
+    written: &mut Written,
+) {
     let model = problem.model();
     for impact in model.impacts() {
         let Some(side) = impact.side else {
@@ -295,6 +398,55 @@ fn impacts(problem: &Problem, study: &Study, out: &OutputDir, written: &mut Writ
                 mean_speed_error: errors.as_ref().map(|e| e[1]),
                 mean_power_error: errors.as_ref().map(|e| e[2]),
                 accuracy: stats.accuracy,
+                stderr: None,
+                time_step_bias: None,
+                speed_pdf_file: file.clone(),
+            });
+        }
+        let above = side == BarrierSide::Above;
+        let walls = mc
+            .and_then(|m| m.impacts.as_ref())
+            .map(|i| i.walls.as_slice());
+        if let Some(w) = walls
+            .unwrap_or(&[])
+            .iter()
+            .find(|w| w.state == state && w.at == impact.at && w.above == above)
+        {
+            if let Some(d) = &w.speeds {
+                // The bins are centred on k·width: the tables' speeds when the grid was made
+                // from them (`mc_speed_grid`).
+                let w = d.grid.width();
+                if table.x.is_empty() {
+                    table.x = (0..d.density.len()).map(|k| k as f64 * w).collect();
+                }
+                let on_points = table.x.len() == d.density.len()
+                    && table
+                        .x
+                        .iter()
+                        .enumerate()
+                        .all(|(k, x)| (x - k as f64 * w).abs() <= 1e-9 * w * (k + 1) as f64);
+                if on_points {
+                    table.columns.push(("mc".into(), d.density.clone()));
+                    table.columns.push(("mc_se".into(), d.stderr.clone()));
+                }
+            }
+            rows.push(WallImpacts {
+                method: "mc".into(),
+                state: state.clone(),
+                at: w.at,
+                side,
+                law: impact.map.to_string(),
+                rate: w.rate.value,
+                mean_speed: w.mean_speed.value,
+                mean_power: w.mean_power.value,
+                rate_error: None,
+                mean_speed_error: None,
+                mean_power_error: None,
+                accuracy: 0.0,
+                stderr: Some([w.rate.stderr, w.mean_speed.stderr, w.mean_power.stderr]),
+                time_step_bias: w
+                    .time_step_bias
+                    .map(|b| [b[0].value, b[1].value, b[2].value]),
                 speed_pdf_file: file.clone(),
             });
         }

@@ -55,6 +55,15 @@ pub struct McConfig {
     /// fewer; 0 turns the estimate off). At the default spacing (an even number of steps)
     /// a coarse batch costs half a fine one: 12.5 % extra for the default 32 batches.
     pub bias_fraction: f64,
+    /// Levels whose up-crossing rates the run counts, by quantity name, each ascending
+    /// (default none: no crossings counted).
+    #[serde(default)]
+    pub levels: Vec<(String, Vec<f64>)>,
+    /// The grid of the impact-speed histograms at the walls (default none: no histogram;
+    /// the impact count, mean speed and dissipated power are recorded whenever the model has
+    /// a wall).
+    #[serde(default)]
+    pub impact_speeds: Option<Grid>,
 }
 
 impl Default for McConfig {
@@ -72,6 +81,8 @@ impl Default for McConfig {
             increments: Increments::default(),
             scheme: SchemeChoice::default(),
             bias_fraction: 0.25,
+            levels: Vec::new(),
+            impact_speeds: None,
         }
     }
 }

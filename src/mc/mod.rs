@@ -80,6 +80,7 @@ pub use shard::index::Shard;
 pub use shard::part::{merge_named, merge_shards, ShardOutput};
 pub use simulation::Simulation;
 pub use stats::impacts::ImpactStats;
+pub use stats::reliability::{CrossingRates, SpeedDensity, WallStats};
 pub use stats::result::McResult;
 pub use stats::verdict::{
     BlowUps, Drift, McWarning, Moment, Stationarity, Statistic, Undetermined, BLOWUP_TOLERANCE,

@@ -60,6 +60,9 @@ pub struct QuantitySpec {
     pub is_state: bool,
     /// Its histogram grid.
     pub grid: Grid,
+    /// Levels whose up-crossings the run counts, ascending (none: not counted).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub levels: Vec<f64>,
 }
 
 /// The fully resolved settings of a run: everything its numbers depend on.
@@ -103,6 +106,10 @@ pub struct RunSettings {
     /// written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evaluator: Option<Evaluator>,
+    /// The grid of the impact-speed histogram at each wall (none: the impact statistics are
+    /// the count, the mean speed and the dissipated power without a histogram).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub impact_speeds: Option<Grid>,
 }
 
 impl RunSettings {

@@ -127,20 +127,30 @@ impl Simulation {
                         .iter()
                         .find(|(g, _)| g == n)
                         .map_or(placeholder, |(_, g)| *g),
+                    levels: config
+                        .levels
+                        .iter()
+                        .find(|(g, _)| g == n)
+                        .map_or_else(Vec::new, |(_, l)| l.clone()),
                 })
                 .collect(),
             bias_batches,
             evaluator: Some(Evaluator::of(&plan, config.increments)),
+            impact_speeds: config.impact_speeds,
         };
         let given = |n: &str| config.grids.iter().any(|(g, _)| g == n);
         if settings.quantities.iter().any(|q| !given(&q.name)) {
-            let pilot = RunSettings {
+            let mut pilot = RunSettings {
                 seed: config.seed ^ PILOT_SALT,
                 batches: PILOT_BATCHES,
                 samples_per_trajectory: config.samples.min(PILOT_SAMPLES),
                 bias_batches: 0,
+                impact_speeds: None,
                 ..settings.clone()
             };
+            for q in &mut pilot.quantities {
+                q.levels.clear();
+            }
             crate::base::timeline::mark("mc: pilot start");
             let summaries = run_batches_to_end(&plan, &pilot, 0..PILOT_BATCHES, &|| {});
             crate::base::timeline::mark("mc: pilot end");

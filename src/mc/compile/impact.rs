@@ -20,6 +20,7 @@
 
 use crate::mc::compile::eval::{BatchKernel, NO_TIME};
 use crate::mc::compile::lanes::LaneOp;
+use crate::mc::compile::tally::ImpactSink;
 use crate::symbolic::Expr;
 
 /// Impacts one free flight between two walls may have before its remaining time is spent on
@@ -135,7 +136,7 @@ pub(crate) fn free_flight(
     x: &mut Vec<f64>,
     v: &mut [f64],
     side: &mut [f64],
-    impacts: &mut [u64],
+    impacts: &mut ImpactSink<'_>,
     tau: f64,
     barriers: &[Barrier],
     scratch: &mut Vec<f64>,
@@ -172,14 +173,15 @@ pub(crate) fn impacts_in_flight(
     xn: &mut [f64],
     v: &mut [f64],
     side: &mut [f64],
-    impacts: &mut [u64],
+    impacts: &mut ImpactSink<'_>,
     tau: f64,
     bar: &Barrier,
 ) {
     for i in 0..xn.len() {
         if meets(bar.at, side[i], x[i], xn[i]) {
+            let before = v[i];
             impact_in_flight(x[i], &mut xn[i], &mut v[i], &mut side[i], tau, bar);
-            impacts[i] += 1;
+            impacts.hit(i, 0, before, v[i]);
         }
     }
 }
@@ -213,7 +215,7 @@ pub(crate) fn impact_in_flight(
 fn strip_flight(
     x: &mut [f64],
     v: &mut [f64],
-    impacts: &mut [u64],
+    impacts: &mut ImpactSink<'_>,
     tau: f64,
     [lo, hi]: [&Barrier; 2],
 ) {
@@ -228,19 +230,20 @@ fn strip_flight(
         let (mut s, mut u, mut rest) = (x[i], v[i], tau);
         for _ in 0..MAX_FLIGHT_EVENTS {
             let end = s + u * rest;
-            let wall = if meets(a, 1.0, s, end) {
-                lo
+            let (k, wall) = if meets(a, 1.0, s, end) {
+                (0, lo)
             } else if meets(b, -1.0, s, end) {
-                hi
+                (1, hi)
             } else {
                 s = end;
                 break;
             };
             let t_hit = ((wall.at - s) / u).clamp(0.0, rest);
+            let before = u;
             u = wall.jump(wall.at, u);
             s = wall.at;
             rest -= t_hit;
-            impacts[i] += 1;
+            impacts.hit(i, k, before, u);
         }
         x[i] = s;
         v[i] = u;
@@ -282,12 +285,28 @@ mod tests {
         let (mut x, mut v, mut side, mut k) = (vec![0.0], vec![10.0], vec![1.0], vec![0]);
         let mut s = Vec::new();
         // 0.05 to the upper wall, back at speed 5 for 0.2 to the lower wall, up at 5: 0.05 left.
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, &walls, &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut ImpactSink::new(&mut k, None),
+            0.3,
+            &walls,
+            &mut s,
+        );
         assert_eq!((v[0], k[0]), (5.0, 2));
         assert!((x[0] - (-0.25)).abs() < 1e-14, "{}", x[0]);
         // A slow lane inside moves freely.
         let (mut x, mut v) = (vec![0.1], vec![-1.0]);
-        free_flight(&mut x, &mut v, &mut side, &mut k, 0.3, &walls, &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut ImpactSink::new(&mut k, None),
+            0.3,
+            &walls,
+            &mut s,
+        );
         assert!((x[0] + 0.2).abs() < 1e-15);
         assert_eq!(k[0], 2);
     }
@@ -299,7 +318,15 @@ mod tests {
         let walls = [wall(0.0, 1.0, 1.0), wall(1.0, 1.0, -1.0)];
         let (mut x, mut v, mut side, mut k) = (vec![0.5], vec![1e6], vec![1.0], vec![0]);
         let mut s = Vec::new();
-        free_flight(&mut x, &mut v, &mut side, &mut k, 1.0, &walls, &mut s);
+        free_flight(
+            &mut x,
+            &mut v,
+            &mut side,
+            &mut ImpactSink::new(&mut k, None),
+            1.0,
+            &walls,
+            &mut s,
+        );
         assert_eq!(k[0], MAX_FLIGHT_EVENTS as u64);
         assert!(x[0] == 0.0 || x[0] == 1.0);
         assert_eq!(v[0].abs(), 1e6);
@@ -314,7 +341,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.3,
             std::slice::from_ref(&bar),
             &mut s,
@@ -327,7 +354,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.3,
             std::slice::from_ref(&bar),
             &mut s,
@@ -344,7 +371,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.3,
             std::slice::from_ref(&bar),
             &mut s,
@@ -362,7 +389,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.3,
             std::slice::from_ref(&bar),
             &mut s,
@@ -373,7 +400,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.2,
             std::slice::from_ref(&bar),
             &mut s,
@@ -385,7 +412,7 @@ mod tests {
             &mut x,
             &mut v,
             &mut side,
-            &mut k,
+            &mut ImpactSink::new(&mut k, None),
             0.2,
             std::slice::from_ref(&bar),
             &mut s,

@@ -10,3 +10,4 @@ pub(crate) mod mech_form;
 pub(crate) mod scheme;
 pub(crate) mod step_limit;
 pub(crate) mod stiffness;
+pub(crate) mod tally;

@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::Simd;
 use crate::mc::compile::scheme::Plan;
+use crate::mc::compile::tally::{ImpactTally, WallBatch};
 use crate::mc::kernel::rng::Increments;
+use crate::mc::record::crossings::CrossingBatch;
 use crate::mc::record::histogram::QuantityBatch;
 use crate::mc::record::recorder::{record_samples, Histograms, Recorder};
 use crate::mc::record::sample::{record_batch, Blown, LastState, Observed};
@@ -46,6 +48,12 @@ pub(crate) struct BatchSummary {
     pub(crate) folded: u64,
     pub(crate) quantities: Vec<QuantityBatch>,
     pub(crate) blowups: Vec<BlowUp>,
+    /// The impact statistics at each wall (none for a model without one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(crate) walls: Vec<WallBatch>,
+    /// The up-crossings of the quantities with levels.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(crate) crossings: Vec<CrossingBatch>,
 }
 
 /// Runs the lanes `part` of statistics batch `index` (their trajectories from their start),
@@ -91,6 +99,13 @@ fn run_part_with(
     b.impacts.fill(0);
     b.folded.fill(0);
     let mut record: Vec<bool> = excluded.iter().map(|e| !e).collect();
+    if st.has_barrier {
+        b.tally = Some(ImpactTally::new(
+            plan.barriers.len(),
+            record.clone(),
+            st.impact_speeds,
+        ));
+    }
     let mut histograms = Histograms::new(plan, st, lanes);
     let mut blown: Vec<Blown> = Vec::new();
     // The recording fused with the fast mechanical kernel when it applies (`sample.rs`),
@@ -103,6 +118,7 @@ fn run_part_with(
             &kinds,
             &mut b,
             &mut histograms.acc,
+            &mut histograms.crossings,
             &mut record,
             &mut blown,
             cancel,
@@ -136,13 +152,16 @@ fn run_part_with(
         })
         .collect();
     let blown = blown.into_iter().map(|b| b.0).collect();
+    let (quantities, crossings) = histograms.finish();
     let summary = BatchSummary {
         index,
         recorded,
         impacts,
         folded,
-        quantities: histograms.finish(),
+        quantities,
         blowups,
+        walls: b.tally.take().map_or_else(Vec::new, ImpactTally::finish),
+        crossings,
     };
     Some((summary, blown))
 }
@@ -231,6 +250,12 @@ impl BatchSummary {
             all.folded += p.folded;
             for (q, pq) in all.quantities.iter_mut().zip(p.quantities) {
                 q.merge(pq);
+            }
+            for (w, pw) in all.walls.iter_mut().zip(&p.walls) {
+                w.merge(pw);
+            }
+            for (c, pc) in all.crossings.iter_mut().zip(&p.crossings) {
+                c.merge(pc);
             }
             all.blowups.extend(p.blowups);
         }
@@ -461,9 +486,11 @@ mod tests {
                     name: n.clone(),
                     is_state: *s,
                     grid: grid(k),
+                    levels: vec![],
                 })
                 .collect(),
             bias_batches: 0,
+            impact_speeds: None,
         };
         (plan, st)
     }

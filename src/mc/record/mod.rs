@@ -4,6 +4,7 @@
 
 pub(crate) mod accumulator;
 pub(crate) mod batch;
+pub(crate) mod crossings;
 pub(crate) mod histogram;
 pub(crate) mod recorder;
 pub(crate) mod sample;

@@ -6,6 +6,7 @@ use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::{BatchKernel, Scratch, NO_TIME};
 use crate::mc::compile::scheme::Plan;
 use crate::mc::record::accumulator::Accumulator;
+use crate::mc::record::crossings::{CrossingBatch, LevelCrossings};
 use crate::mc::record::histogram::QuantityBatch;
 use crate::mc::record::sample::{Blown, LastState};
 use crate::mc::settings::RunSettings;
@@ -62,6 +63,8 @@ pub(crate) struct Histograms<'a> {
     obs: Vec<f64>,
     scratch: Scratch,
     lanes: usize,
+    /// The up-crossings of the quantities with levels; the fused recording counts them too.
+    pub(crate) crossings: LevelCrossings,
 }
 
 impl<'a> Histograms<'a> {
@@ -79,12 +82,13 @@ impl<'a> Histograms<'a> {
             obs: vec![0.0; n_obs * lanes],
             scratch: Scratch::new(),
             lanes,
+            crossings: LevelCrossings::new(&st.quantities, lanes),
         }
     }
 }
 
 impl Recorder for Histograms<'_> {
-    type Summary = Vec<QuantityBatch>;
+    type Summary = (Vec<QuantityBatch>, Vec<CrossingBatch>);
 
     fn sample(&mut self, at: SamplePoint, x: &[f64], v: &[f64], record: &[bool]) {
         let window = at.quarter();
@@ -99,10 +103,22 @@ impl Recorder for Histograms<'_> {
         for (j, a) in self.acc[2..].iter_mut().enumerate() {
             a.add(&self.obs[j * lanes..(j + 1) * lanes], record);
         }
+        if self.crossings.any() {
+            let counted: Vec<usize> = self.crossings.quantities().collect();
+            for (k, q) in counted.into_iter().enumerate() {
+                let g = match q {
+                    0 => x,
+                    1 => v,
+                    j => &self.obs[(j - 2) * lanes..(j - 1) * lanes],
+                };
+                self.crossings.add(k, at.index, g, record);
+            }
+        }
     }
 
-    fn finish(self) -> Vec<QuantityBatch> {
-        self.acc.into_iter().map(Accumulator::finish).collect()
+    fn finish(self) -> (Vec<QuantityBatch>, Vec<CrossingBatch>) {
+        let hist = self.acc.into_iter().map(Accumulator::finish).collect();
+        (hist, self.crossings.finish())
     }
 }
 

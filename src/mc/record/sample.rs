@@ -20,6 +20,7 @@ use crate::mc::compile::mech_form::sgn;
 use crate::mc::compile::scheme::Plan;
 use crate::mc::exact;
 use crate::mc::record::accumulator::Accumulator;
+use crate::mc::record::crossings::LevelCrossings;
 use crate::mc::settings::RunSettings;
 use crate::mc::step::state::BatchState;
 use crate::symbolic::TapeUnary as Unary;
@@ -120,6 +121,7 @@ pub(crate) fn record_batch(
     kinds: &[Observed],
     b: &mut BatchState,
     acc: &mut [Accumulator],
+    crossings: &mut LevelCrossings,
     record: &mut [bool],
     blown: &mut Vec<Blown>,
     cancel: &Cancel,
@@ -163,6 +165,9 @@ pub(crate) fn record_batch(
             rec,
         };
         let lost = record_chunk(acc, chunk, record, simd);
+        if crossings.any() {
+            count_crossings(crossings, kinds, s, n, xs, vs, rec);
+        }
         // The lanes lost in the chunk, row by row and in lane order in a row (as `batch.rs`).
         for j in (0..m).filter(|&j| lost >> j & 1 == 1) {
             let g = s + j as u64;
@@ -193,6 +198,38 @@ pub(crate) fn record_batch(
         s = end;
     }
     Some(true)
+}
+
+/// The rows `xs`, `vs` of a chunk from sample point `first` on (`n` lanes a row, `rec` the
+/// lanes recorded) into `crossings`: the states as they are, the observables of `kinds` as
+/// the general recording's tape computes them.
+fn count_crossings(
+    crossings: &mut LevelCrossings,
+    kinds: &[Observed],
+    first: u64,
+    n: usize,
+    xs: &[f64],
+    vs: &[f64],
+    rec: &[bool],
+) {
+    let counted: Vec<usize> = crossings.quantities().collect();
+    let mut g = vec![0.0; n];
+    for (j, (x, v)) in xs.chunks_exact(n).zip(vs.chunks_exact(n)).enumerate() {
+        let r = &rec[j * n..(j + 1) * n];
+        for (k, &q) in counted.iter().enumerate() {
+            let values = match q {
+                0 => x,
+                1 => v,
+                q => {
+                    for i in 0..n {
+                        g[i] = kinds[q - 2].at(x[i], v[i]);
+                    }
+                    &g[..]
+                }
+            };
+            crossings.add(k, first + j as u64, values, r);
+        }
+    }
 }
 
 /// The quarter of the recording sample `s` of `samples` falls in (as `batch.rs`).

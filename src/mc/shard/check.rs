@@ -80,7 +80,24 @@ impl RunSettings {
                 ),
             ));
         }
+        if let Some(g) = self.impact_speeds {
+            if !g.well_formed() || g.bins > crate::mc::record::histogram::MAX_BINS {
+                return Err(defect_setting(
+                    "impact_speeds",
+                    format!("[{:?}, {:?}) with {} bins", g.lo, g.hi, g.bins),
+                ));
+            }
+        }
         for q in &self.quantities {
+            if !q.levels.iter().all(|u| u.is_finite())
+                || !q.levels.windows(2).all(|w| w[0] < w[1])
+                || q.levels.len() > crate::mc::record::histogram::MAX_BINS
+            {
+                return Err(defect_setting(
+                    "levels",
+                    format!("{}: levels must be finite and ascending", q.name),
+                ));
+            }
             let g = q.grid;
             if !g.well_formed() || g.bins > crate::mc::record::histogram::MAX_BINS {
                 return Err(defect_setting(
@@ -174,10 +191,79 @@ pub(in crate::mc) fn check_batch(st: &RunSettings, b: &BatchSummary) -> Result<(
             format!("{} impacts in a model without a barrier", b.impacts),
         ));
     }
+    check_walls(st, b).map_err(|what| bad(None, what))?;
+    check_crossings(st, b).map_err(|(q, what)| bad(Some(&st.quantities[q].name), what))?;
     let expected = b.recorded as u128 * st.samples_per_trajectory as u128;
     for (spec, q) in st.quantities.iter().zip(&b.quantities) {
         check_quantity(spec.grid, spec.is_state, q, expected)
             .map_err(|what| bad(Some(&spec.name), what))?;
+    }
+    Ok(())
+}
+
+/// The impact statistics of each wall: one per barrier (or none, from a run that did not
+/// record them), their counts adding up to the batch's impacts, finite sums, the speed
+/// histogram on the settings' grid holding every impact.
+fn check_walls(st: &RunSettings, b: &BatchSummary) -> Result<(), String> {
+    if b.walls.is_empty() {
+        return Ok(());
+    }
+    if b.walls.len() != st.barriers.len() || !st.has_barrier {
+        return Err(format!(
+            "impact statistics of {} walls, the settings list {}",
+            b.walls.len(),
+            st.barriers.len()
+        ));
+    }
+    let total = b.walls.iter().try_fold(0u64, |a, w| a.checked_add(w.count));
+    if total != Some(b.impacts) {
+        return Err(format!(
+            "the walls' impacts do not add up to the batch's {}",
+            b.impacts
+        ));
+    }
+    for w in &b.walls {
+        // Each impact's speed is at least 0 and its energy loss is finite.
+        if !(w.speed_sum.is_finite() && w.speed_sum >= 0.0 && w.loss_sum.is_finite()) {
+            return Err("an impact speed or energy sum that is not finite".into());
+        }
+        let bins = st.impact_speeds.map_or(0, |g| g.bins + 1);
+        let held = w
+            .speed_counts
+            .iter()
+            .try_fold(0u64, |a, &c| a.checked_add(c));
+        if w.speed_counts.len() != bins || (bins > 0 && held != Some(w.count)) {
+            return Err("an impact-speed histogram off the settings' grid".into());
+        }
+    }
+    Ok(())
+}
+
+/// The up-crossing counts: one entry per quantity with levels, in order, each as long as its
+/// levels, at most one crossing per level and trajectory between sample points.
+fn check_crossings(st: &RunSettings, b: &BatchSummary) -> Result<(), (usize, String)> {
+    let counted: Vec<usize> = (0..st.quantities.len())
+        .filter(|&q| !st.quantities[q].levels.is_empty())
+        .collect();
+    if b.crossings.len() != counted.len() {
+        return Err((
+            counted.first().copied().unwrap_or(0),
+            format!(
+                "crossings of {} quantities, the settings give levels of {}",
+                b.crossings.len(),
+                counted.len()
+            ),
+        ));
+    }
+    let most = b.recorded as u128 * st.samples_per_trajectory as u128;
+    for (c, &q) in b.crossings.iter().zip(&counted) {
+        let n = st.quantities[q].levels.len();
+        if c.quantity != q || c.up.len() != n || c.up_wide.len() != n {
+            return Err((q, "crossings not on the settings' levels".into()));
+        }
+        if c.up.iter().chain(&c.up_wide).any(|&u| u as u128 > most) {
+            return Err((q, "more crossings than its trajectories can have".into()));
+        }
     }
     Ok(())
 }

@@ -393,6 +393,74 @@ mod tests {
         merge_named(&named)
     }
 
+    /// A run with a wall, a speed histogram and crossing levels, split into three shards
+    /// sent through JSON files, merges to the single run: the walls' statistics and the
+    /// crossing rates (with their biases from the 2·dt run) equal, bit for bit.
+    #[test]
+    fn impact_and_crossing_statistics_merge_to_the_whole_run() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/models/grid_impact_linear.sde"
+        );
+        let model = crate::model::load_model(path.as_ref())
+            .unwrap()
+            .bind(&[crate::model::Override::number("r", 0.8)])
+            .unwrap();
+        let config = McConfig {
+            trajectories: 96,
+            lanes: 16,
+            samples: 40,
+            seed: 5,
+            bias_fraction: 1.0,
+            levels: vec![("y".into(), vec![-0.2, 0.5, 1.5])],
+            impact_speeds: Some(crate::mc::Grid::new(-0.25, 5.25, 11).unwrap()),
+            ..McConfig::default()
+        };
+        let sim = Simulation::new(&model, &config).unwrap();
+        let whole = sim.run().unwrap();
+        let walls = &whole.impacts.as_ref().unwrap().walls;
+        assert!(walls[0].count > 0 && walls[0].speeds.is_some());
+        assert!(whole.crossings[0].rate.iter().all(|r| r.value > 0.0));
+        assert!(whole.crossings[0].time_step_bias.is_some());
+        let parts: Vec<Value> = (0..3)
+            .map(|k| {
+                serde_json::to_value(sim.run_shard(Shard::new(k, 3).unwrap()).unwrap()).unwrap()
+            })
+            .collect();
+        let named: Vec<(String, ShardOutput)> = parts
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                (
+                    format!("shard_{k}"),
+                    serde_json::from_value(v.clone()).unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(merge_named(&named).unwrap(), whole);
+        // A shard whose walls' counts do not add up is refused, not merged.
+        let mut bad = parts.clone();
+        bad[1]["batches"][0]["walls"][0]["count"] = json!(0);
+        assert!(merge_values_n(&bad).is_err());
+        let mut bad = parts;
+        bad[2]["batches"][0]["crossings"][0]["up"] = json!([1, 2]);
+        assert!(merge_values_n(&bad).is_err());
+    }
+
+    fn merge_values_n(parts: &[Value]) -> Result<McResult, McError> {
+        let named: Vec<(String, ShardOutput)> = parts
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                (
+                    format!("shard_{k}"),
+                    serde_json::from_value(v.clone()).unwrap(),
+                )
+            })
+            .collect();
+        merge_named(&named)
+    }
+
     #[test]
     fn valid_shards_merge_to_the_whole_run() {
         let (whole, parts) = two_shards();

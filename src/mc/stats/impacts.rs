@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::mc::stats::reliability::WallStats;
 use crate::stats::Estimate;
 
 /// Impact statistics of a run with a barrier.
@@ -22,4 +23,8 @@ pub struct ImpactStats {
     /// splitting scheme, whose flights resolve their impacts exactly).
     #[serde(default)]
     pub folded: u64,
+    /// The statistics of each wall (the plan's barriers in order, a strip's lower first):
+    /// rate, mean impact speed, mean dissipated power and the impact-speed density.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub walls: Vec<WallStats>,
 }

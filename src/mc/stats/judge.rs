@@ -93,7 +93,7 @@ pub(crate) fn stationarity(st: &RunSettings, batches: &[&BatchSummary]) -> Stati
 }
 
 /// The mean and standard error of per-pair values.
-fn mean_se(values: &[f64]) -> Estimate {
+pub(crate) fn mean_se(values: &[f64]) -> Estimate {
     let k = values.len() as f64;
     if values.is_empty() {
         return Estimate {
@@ -113,7 +113,7 @@ fn mean_se(values: &[f64]) -> Estimate {
 /// The fine batch with the index of the coarse batch `c`. Fine batches are normally in index
 /// order from 0 (a run, or shards merged in order): direct lookup, the search only if that
 /// ever does not hold.
-fn paired<'a>(fine: &[&'a BatchSummary], c: &BatchSummary) -> Option<&'a BatchSummary> {
+pub(crate) fn paired<'a>(fine: &[&'a BatchSummary], c: &BatchSummary) -> Option<&'a BatchSummary> {
     fine.get(c.index as usize)
         .filter(|f| f.index == c.index)
         .or_else(|| fine.iter().find(|f| f.index == c.index))

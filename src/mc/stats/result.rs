@@ -14,6 +14,7 @@ use crate::mc::stats::impacts::ImpactStats;
 use crate::mc::stats::judge::{
     bias_warnings, impact_rate_bias, impact_warnings, render_bias, stationarity, time_step_bias,
 };
+use crate::mc::stats::reliability::{crossing_rates, wall_stats, CrossingRates};
 use crate::mc::stats::verdict::{BlowUps, McWarning, Stationarity, Undetermined};
 use crate::stats::Estimate;
 
@@ -43,6 +44,9 @@ pub struct McResult {
     pub impacts: Option<ImpactStats>,
     /// Trajectories left out because their state stopped being finite.
     pub blowups: Vec<BlowUp>,
+    /// The mean up-crossing rates of the quantities whose levels the run was given.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub crossings: Vec<CrossingRates>,
 }
 
 impl McResult {
@@ -150,6 +154,7 @@ pub(crate) fn finalize_run(
             },
             time_step_bias: bias.map(|(b, _)| b),
             folded: batches.iter().fold(0u64, |a, b| a.saturating_add(b.folded)),
+            walls: wall_stats(st, batches, coarse),
         }
     });
     // A folded step misplaces at most one step's share of its trajectory's time, so the
@@ -194,6 +199,7 @@ pub(crate) fn finalize_run(
             .iter()
             .flat_map(|b| b.blowups.iter().cloned())
             .collect(),
+        crossings: crossing_rates(st, batches, coarse),
     })
 }
 

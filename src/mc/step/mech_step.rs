@@ -6,6 +6,7 @@ use crate::mc::compile::eval::Simd;
 use crate::mc::compile::impact::Barrier;
 use crate::mc::compile::mech_form::{MechForm, TimedForm};
 use crate::mc::compile::scheme::{Dynamics, Evaluator, Plan};
+use crate::mc::compile::tally::ImpactSink;
 use crate::mc::kernel::mech::{self, Coefs, Columns, Rows};
 use crate::mc::kernel::rng::{three_point_value, Increments};
 use crate::mc::step::state::BatchState;
@@ -149,7 +150,7 @@ impl BatchState {
             x: &mut self.x,
             v: &mut self.v,
             side: &mut self.side,
-            impacts: &mut self.impacts,
+            impacts: ImpactSink::new(&mut self.impacts, self.tally.as_mut()),
             rng: self.rng.state_mut(),
             draws: tp.draws,
             rows,

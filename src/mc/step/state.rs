@@ -6,6 +6,7 @@ use crate::mc::compile::eval::{BatchKernel, Scratch, Simd};
 use crate::mc::compile::impact::{free_flight, impact_in_flight, meets, Barrier, Crossing};
 use crate::mc::compile::lanes::{LaneProgram, CHUNK};
 use crate::mc::compile::scheme::{Dynamics, Plan, PlatenKernels, MAX_EVENTS_PER_STEP};
+use crate::mc::compile::tally::{ImpactSink, ImpactTally};
 use crate::mc::kernel::fused::{chunk, chunk_mut, fused_chunk, Kinematics};
 use crate::mc::kernel::rng::{IncrementStream, Increments, LaneRng};
 use crate::mc::step::events::{crossings, EventWork};
@@ -26,6 +27,9 @@ pub(crate) struct BatchState {
     /// Steps whose events ran out beyond a wall, the overshoot reflected back into the
     /// domain (general schemes; see [`BatchState::resolve_events`]).
     pub(crate) folded: Vec<u64>,
+    /// The impact statistics of each wall, when the run records them (set after the
+    /// burn-in).
+    pub(crate) tally: Option<ImpactTally>,
     pub(in crate::mc::step) rng: LaneRng,
     pub(in crate::mc::step) inc: IncrementStream,
     buf: [Vec<f64>; 6],
@@ -74,6 +78,7 @@ impl BatchState {
             },
             impacts: vec![0; lanes],
             folded: vec![0; lanes],
+            tally: None,
             rng: LaneRng::new(seed, first, lanes),
             inc: IncrementStream::new(increments, lanes),
             buf: std::array::from_fn(|_| vec![0.0; lanes * (2 + 2 * noises)]),
@@ -230,7 +235,7 @@ impl BatchState {
             &mut self.x,
             &mut self.v,
             &mut self.side,
-            &mut self.impacts,
+            &mut ImpactSink::new(&mut self.impacts, self.tally.as_mut()),
             tau,
             bar,
             &mut self.buf[5],
@@ -264,7 +269,7 @@ impl BatchState {
         program.set_time(t, slots);
         let mut start = 0;
         let (x, v, side) = (&self.x[..n], &mut self.v[..n], &mut self.side[..n]);
-        let impacts = &mut self.impacts[..n];
+        let mut impacts = ImpactSink::new(&mut self.impacts[..n], self.tally.as_mut());
         let k = Kinematics { h, sqrt_h, tau, at };
         // The lanes of a chunk that met the barrier get their impacts at once.
         let mut impact =
@@ -273,8 +278,9 @@ impl BatchState {
                     let i = first + met.trailing_zeros() as usize;
                     met &= met - 1;
                     let bar = bar.expect("only a barrier is met");
+                    let before = v[i];
                     impact_in_flight(x[i], &mut xn[i], &mut v[i], &mut side[i], tau, bar);
-                    impacts[i] += 1;
+                    impacts.hit(i, 0, before, v[i]);
                 }
             };
         while start + CHUNK <= n {
@@ -590,8 +596,9 @@ impl BatchState {
                 c[k] = p0[k] + theta * (p1[k] - p0[k]);
             }
             c[s] = bar.at;
+            let before = c[o];
             c[o] = bar.jump(c[0], c[1]);
-            self.impacts[i] += 1;
+            ImpactSink::new(&mut self.impacts, self.tally.as_mut()).hit(i, k, before, c[o]);
             // Past a pass-through law the side follows the barrier state's drift there; a
             // wall keeps its side whatever the step did to the other state (a velocity that
             // changed sign within the step is no reason to live beyond the wall).

@@ -7,6 +7,7 @@ use super::vector::Vector;
 #[cfg(target_arch = "x86_64")]
 use super::vector::{Avx2, Avx512};
 use crate::mc::compile::impact::{impact_in_flight, Barrier};
+use crate::mc::compile::tally::ImpactSink;
 
 /// The barrier as the kernel reads it.
 pub(super) struct Jump<'a> {
@@ -18,13 +19,13 @@ pub(super) struct Jump<'a> {
 /// The flight of `N` vectors of lanes that the out-of-line impact handler
 /// ([`Impacts::impacts`], [`impacts`]) resolves: positions `x0` before it, `x` after it, the
 /// velocities `v` and the sign bits `side` of the barrier sides (−0 for side −1).
-pub(crate) struct Flight<'a, V: Vector, const N: usize> {
+pub(crate) struct Flight<'a, 's, V: Vector, const N: usize> {
     pub(super) jump: &'a Jump<'a>,
     pub(super) x0: &'a [V; N],
     pub(super) x: &'a mut [V; N],
     pub(super) v: &'a mut [V; N],
     pub(super) side: &'a mut [V; N],
-    pub(super) impacts: &'a mut [u64],
+    pub(super) impacts: &'a mut ImpactSink<'s>,
     pub(super) tau: f64,
     /// Bit `k·V::LANES + i` set when lane i of vector k ended its flight on or beyond the
     /// barrier (the vectors without one are skipped).
@@ -45,7 +46,7 @@ pub(super) fn dist<V: Vector>(b: f64, s: V, side: V) -> V {
 /// The lanes of a flight that met the barrier (as `impact::meets`), each given its impact
 /// as `impact_in_flight` does it, and counted.
 #[inline(always)]
-pub(super) fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
+pub(super) fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, '_, V, N>) {
     let (zero, b, w) = (V::splat(0.0), f.jump.bar.at, V::LANES);
     for k in 0..N {
         if (f.near >> (k * w)) & ((1 << w) - 1) == 0 {
@@ -58,6 +59,8 @@ pub(super) fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
         if bits == 0 {
             continue;
         }
+        let mut before = [0.0; 8];
+        f.v[k].store(&mut before);
         match f.jump.gain {
             Some(r) => {
                 // impact_in_flight with the jump r·v, lane-parallel.
@@ -89,8 +92,10 @@ pub(super) fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
                 f.side[k] = V::load(&side).and(V::splat(-0.0));
             }
         }
+        let mut after = [0.0; 8];
+        f.v[k].store(&mut after);
         for i in (0..w).filter(|i| bits >> i & 1 == 1) {
-            f.impacts[k * w + i] += 1;
+            f.impacts.hit(k * w + i, 0, before[i], after[i]);
         }
     }
 }
@@ -99,14 +104,14 @@ pub(super) fn impacts<V: Vector, const N: usize>(f: &mut Flight<'_, V, N>) {
 /// extension.
 pub(crate) trait Impacts: Vector {
     /// Resolves the impacts of `f`.
-    fn impacts<const N: usize>(f: &mut Flight<'_, Self, N>);
+    fn impacts<const N: usize>(f: &mut Flight<'_, '_, Self, N>);
 }
 
 impl Impacts for f64 {
-    fn impacts<const N: usize>(f: &mut Flight<'_, f64, N>) {
+    fn impacts<const N: usize>(f: &mut Flight<'_, '_, f64, N>) {
         #[cold]
         #[inline(never)]
-        fn cold<const N: usize>(f: &mut Flight<'_, f64, N>) {
+        fn cold<const N: usize>(f: &mut Flight<'_, '_, f64, N>) {
             impacts(f)
         }
         cold(f)
@@ -115,11 +120,11 @@ impl Impacts for f64 {
 
 #[cfg(target_arch = "x86_64")]
 impl Impacts for Avx512 {
-    fn impacts<const N: usize>(f: &mut Flight<'_, Avx512, N>) {
+    fn impacts<const N: usize>(f: &mut Flight<'_, '_, Avx512, N>) {
         #[cold]
         #[inline(never)]
         #[target_feature(enable = "avx512f")]
-        fn cold<const N: usize>(f: &mut Flight<'_, Avx512, N>) {
+        fn cold<const N: usize>(f: &mut Flight<'_, '_, Avx512, N>) {
             impacts(f)
         }
         // SAFETY: values of this type exist only in the kernel's entry for its extension, called
@@ -130,11 +135,11 @@ impl Impacts for Avx512 {
 
 #[cfg(target_arch = "x86_64")]
 impl Impacts for Avx2 {
-    fn impacts<const N: usize>(f: &mut Flight<'_, Avx2, N>) {
+    fn impacts<const N: usize>(f: &mut Flight<'_, '_, Avx2, N>) {
         #[cold]
         #[inline(never)]
         #[target_feature(enable = "avx2")]
-        fn cold<const N: usize>(f: &mut Flight<'_, Avx2, N>) {
+        fn cold<const N: usize>(f: &mut Flight<'_, '_, Avx2, N>) {
             impacts(f)
         }
         // SAFETY: values of this type exist only in the kernel's entry for its extension, called

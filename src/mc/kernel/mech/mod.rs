@@ -40,6 +40,7 @@ use crate::mc::compile::eval::Simd;
 use crate::mc::compile::impact::impact_in_flight;
 use crate::mc::compile::impact::Barrier;
 use crate::mc::compile::mech_form::MAX_V_DEGREE;
+use crate::mc::compile::tally::ImpactSink;
 use crate::mc::kernel::rng::THREE_POINT_FIELDS;
 
 mod coef;
@@ -67,7 +68,7 @@ pub(crate) struct Columns<'a> {
     pub(crate) x: &'a mut [f64],
     pub(crate) v: &'a mut [f64],
     pub(crate) side: &'a mut [f64],
-    pub(crate) impacts: &'a mut [u64],
+    pub(crate) impacts: ImpactSink<'a>,
     /// The xoshiro256++ state words of each lane.
     pub(crate) rng: [&'a mut [u64]; 4],
     /// Each lane's last draw, whose fields from [`Steps::field`] on are the next steps'
@@ -93,7 +94,7 @@ impl Columns<'_> {
             x: &mut self.x[r.clone()],
             v: &mut self.v[r.clone()],
             side: &mut self.side[r.clone()],
-            impacts: &mut self.impacts[r.clone()],
+            impacts: self.impacts.slice(r.clone()),
             rng: [
                 &mut s0[r.clone()],
                 &mut s1[r.clone()],
@@ -254,7 +255,7 @@ fn fly<V: Impacts, const N: usize>(
     x: &mut [V; N],
     v: &mut [V; N],
     side: &mut [V; N],
-    impacts: &mut [u64],
+    impacts: &mut ImpactSink<'_>,
     tau: f64,
 ) {
     let t = V::splat(tau);
@@ -409,7 +410,7 @@ fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns
         x: xs,
         v: vs,
         side: sides,
-        impacts,
+        mut impacts,
         mut rng,
         draws,
         mut rows,
@@ -445,7 +446,7 @@ fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns
     let jump = st.jump.as_ref();
     let (h, half) = (st.h, 0.5 * st.h);
     for j in 0..st.samples {
-        fly(jump, &mut x, &mut v, &mut side, impacts, half);
+        fly(jump, &mut x, &mut v, &mut side, &mut impacts, half);
         for step in 0..st.steps {
             let tau = if step + 1 == st.steps { half } else { h };
             // Three variables a draw: its fields in turn, moved to the top bits.
@@ -473,7 +474,7 @@ fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns
             };
             let (coefs, values) = st.coefs.at(j * st.steps + step);
             kick(coefs, values, &x, &mut v, &words);
-            fly(jump, &mut x, &mut v, &mut side, impacts, tau);
+            fly(jump, &mut x, &mut v, &mut side, &mut impacts, tau);
         }
         if let Some(rows) = rows.as_mut() {
             let at = j as usize * rows.stride;

@@ -6,6 +6,7 @@ use crate::mc::compile::eval::compile;
 use crate::mc::compile::mech_form::tests::{plan, plan_named};
 use crate::mc::compile::mech_form::MechForm;
 use crate::mc::compile::scheme::{Dynamics, Plan};
+use crate::mc::compile::tally::ImpactSink;
 use crate::mc::kernel::rng::{stream_state, IncrementStream, Increments};
 use crate::symbolic::Expr;
 
@@ -88,7 +89,7 @@ fn run(plan: &Plan, bar: Option<&Barrier>, simd: Simd, lanes: usize) -> Batch {
             x: &mut x,
             v: &mut v,
             side: &mut side,
-            impacts: &mut impacts,
+            impacts: ImpactSink::new(&mut impacts, None),
             rng: [r0, r1, r2, r3],
             draws: &mut *tp.draws,
             rows: Some(Rows {
@@ -217,7 +218,7 @@ fn vector_impacts_are_impact_in_flight() {
                 x: &mut fx,
                 v: &mut fv,
                 side: &mut fs,
-                impacts: &mut count,
+                impacts: &mut ImpactSink::new(&mut count, None),
                 tau,
                 near: 1,
             });
