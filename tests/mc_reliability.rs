@@ -65,11 +65,13 @@ const F: f64 = 0.2;
 
 /// Elastic wall at y = −0.5 (grid_impact_linear, σ_y = σ_v = √5): the Gaussian restricted
 /// to y > −0.5. Impact rate p_y(yb)·σ_v/√(2π), mean speed σ_v·√(π/2), no power, the speeds
-/// Rayleigh w/σ_v²·exp(−w²/(2σ_v²)), ν⁺(u) = p_y(u)·σ_v/√(2π) above the wall.
+/// Rayleigh w/σ_v²·exp(−w²/(2σ_v²)), ν⁺(u) = p_y(u)·σ_v/√(2π) at and above the wall.
 #[test]
 fn elastic_wall_impacts_and_crossings_are_the_restricted_gaussians() {
     let b = bound("tests/models/grid_impact_linear.sde", &[]);
-    let levels = vec![-0.3, 0.0, 1.0, 2.5, 4.0];
+    // The wall's own level (up-crossed once per impact, Rice's flux leaving the wall) and
+    // levels near it, where paths folded by an impact between samples cross twice.
+    let levels = vec![-0.5, -0.45, -0.3, 0.0, 1.0, 2.5, 4.0];
     let speeds = Grid::new(0.0, 10.0, 10).unwrap();
     let config = McConfig {
         trajectories: 2048,

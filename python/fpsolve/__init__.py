@@ -32,7 +32,7 @@ from ._fpsolve import (
     __version__,
 )
 from ._model import Model
-from ._montecarlo import Histogram, MonteCarlo, MonteCarloShard
+from ._montecarlo import CrossingRates, Histogram, MonteCarlo, MonteCarloShard, WallImpacts
 from ._passage import Passage, PassageMonteCarlo
 from ._solution import Moments, PointMassWarning, Solution
 from ._transient import Transient, TransientHistory
@@ -46,6 +46,7 @@ METHODS = ("epc", "epc-impact", "grid")
 
 __all__ = [
     "METHODS",
+    "CrossingRates",
     "FpsolveError",
     "GridSolveError",
     "Histogram",
@@ -74,6 +75,7 @@ __all__ = [
     "SweepResult",
     "SweepShard",
     "UnknownQuantityError",
+    "WallImpacts",
     "__version__",
     "merge",
     "run_job",

@@ -113,6 +113,8 @@ class _Model:
         trajectories: Optional[int],
         bins: Optional[int],
         grids: Sequence[Tuple[str, float, float, int]],
+        levels: Sequence[Tuple[str, Sequence[float]]] = ...,
+        impact_speeds: Optional[Tuple[float, float, int]] = None,
         set: Optional[Mapping[str, _Value]] = None,
         progress: Optional[Callable[[int, int], Any]] = None,
     ) -> Tuple[str, List[str], List[str]]: ...
@@ -128,6 +130,8 @@ class _Model:
         trajectories: Optional[int],
         bins: Optional[int],
         grids: Sequence[Tuple[str, float, float, int]],
+        levels: Sequence[Tuple[str, Sequence[float]]] = ...,
+        impact_speeds: Optional[Tuple[float, float, int]] = None,
         set: Optional[Mapping[str, _Value]] = None,
     ) -> str: ...
     @property

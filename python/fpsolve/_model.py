@@ -323,6 +323,8 @@ class Model:
         trajectories: Optional[int] = None,
         bins: Optional[int] = None,
         grids: Optional[Mapping[str, Tuple[float, float, int]]] = None,
+        levels: Optional[Mapping[str, Sequence[float]]] = None,
+        impact_speeds: Optional[Tuple[float, float, int]] = None,
         strict: bool = False,
         params: Optional[Mapping[str, Value]] = None,
         shard: Optional[Tuple[int, int]] = None,
@@ -358,6 +360,13 @@ class Model:
         grids : mapping of str to (float, float, int), optional
             A quantity's histogram grid ``(lo, hi, bins)``; the others are chosen from a
             pilot run.
+        levels : mapping of str to sequence of float, optional
+            Levels of a state or observable (finite, ascending) whose mean up-crossing
+            rates the run counts: ``mc.crossings[name]``.
+        impact_speeds : (float, float, int), optional
+            The grid ``(lo, hi, bins)`` of the impact-speed histogram at each wall
+            (``mc.walls[k].speed_density``); the impact rate, mean speed and dissipated power
+            are recorded whenever the model has a wall.
         strict : bool
             Raise :class:`MonteCarloError` for a flagged run instead of warning.
         params : mapping of str to number or str, optional
@@ -415,6 +424,10 @@ class Model:
             trajectories=None if trajectories is None else int(trajectories),
             bins=None if bins is None else int(bins),
             grids=[(name, float(lo), float(hi), int(n)) for name, (lo, hi, n) in (grids or {}).items()],
+            levels=[(name, [float(u) for u in us]) for name, us in (levels or {}).items()],
+            impact_speeds=None
+            if impact_speeds is None
+            else (float(impact_speeds[0]), float(impact_speeds[1]), int(impact_speeds[2])),
             set=set,
         )
         if shard is not None and executor is not None:

@@ -73,6 +73,85 @@ class Histogram:
         )
 
 
+def _est(d: Any) -> Tuple[float, float]:
+    """An ``Estimate`` of the library's JSON as ``(value, stderr)``."""
+    return (_num(d["value"]), _num(d["stderr"]))
+
+
+@dataclass(frozen=True)
+class CrossingRates:
+    """Monte Carlo's mean up-crossing rates of one quantity's ``levels`` (asked with
+    ``Model.simulate(levels=...)``): ``rate`` and its standard error ``stderr`` (up-crossings
+    per unit time per trajectory, counted between sample points and through the impacts in
+    between; at the level of a wall the state stands on, one per impact, Rice's flux there),
+    ``spacing_bias`` (the count on every other sample point minus the count: the sample
+    spacing's bias, first order) and ``time_step_bias`` (from the 2·dt run, or None)."""
+
+    quantity: str
+    levels: np.ndarray
+    rate: np.ndarray
+    stderr: np.ndarray
+    spacing_bias: np.ndarray
+    time_step_bias: Optional[np.ndarray]
+
+    @classmethod
+    def _from_dict(cls, d: Dict[str, Any]) -> "CrossingRates":
+        b = d.get("time_step_bias")
+        return cls(
+            quantity=d["quantity"],
+            levels=_arr(d["levels"]),
+            rate=_arr(e["value"] for e in d["rate"]),
+            stderr=_arr(e["stderr"] for e in d["rate"]),
+            spacing_bias=_arr(e["value"] for e in d["spacing_bias"]),
+            time_step_bias=None if b is None else _arr(e["value"] for e in b),
+        )
+
+
+@dataclass(frozen=True)
+class WallImpacts:
+    """Monte Carlo's impact statistics at one wall, per unit mass: ``rate`` (impacts per unit
+    time per trajectory), ``mean_speed`` (|v| before the impact) and ``mean_power`` (the
+    kinetic energy (v² − v′²)/2 the impacts take per unit time), each ``(value, stderr)``;
+    ``time_step_bias`` their biases from the 2·dt run (or None); with
+    ``Model.simulate(impact_speeds=...)`` the flux-weighted impact-speed density
+    ``speed_density`` with ``speed_stderr`` on the bin centres ``speeds``, else None."""
+
+    state: str
+    at: float
+    above: bool
+    count: int
+    rate: Tuple[float, float]
+    mean_speed: Tuple[float, float]
+    mean_power: Tuple[float, float]
+    time_step_bias: Optional[Tuple[float, float, float]]
+    speeds: Optional[np.ndarray]
+    speed_density: Optional[np.ndarray]
+    speed_stderr: Optional[np.ndarray]
+
+    @classmethod
+    def _from_dict(cls, d: Dict[str, Any]) -> "WallImpacts":
+        b = d.get("time_step_bias")
+        sp = d.get("speeds")
+        x = None
+        if sp is not None:
+            g = sp["grid"]
+            lo, hi, bins = _num(g["lo"]), _num(g["hi"]), int(g["bins"])
+            x = lo + (np.arange(bins) + 0.5) * ((hi - lo) / bins)
+        return cls(
+            state=d["state"],
+            at=_num(d["at"]),
+            above=bool(d["above"]),
+            count=int(d["count"]),
+            rate=_est(d["rate"]),
+            mean_speed=_est(d["mean_speed"]),
+            mean_power=_est(d["mean_power"]),
+            time_step_bias=None if b is None else tuple(_num(e["value"]) for e in b),
+            speeds=x,
+            speed_density=None if sp is None else _arr(sp["density"]),
+            speed_stderr=None if sp is None else _arr(sp["stderr"]),
+        )
+
+
 class MonteCarlo:
     """The result of :meth:`Model.simulate`: a :class:`Histogram` per state and observable
     (``mc["y"]``, ``mc.histograms``), and ``report``, the run as a dict (settings, scheme,
@@ -142,6 +221,21 @@ class MonteCarlo:
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.histograms)
+
+    @property
+    def crossings(self) -> Dict[str, CrossingRates]:
+        """The up-crossing rates of the quantities given levels, by name (empty without
+        ``levels=``)."""
+        return {
+            c["quantity"]: CrossingRates._from_dict(c) for c in self.report.get("crossings") or []
+        }
+
+    @property
+    def walls(self) -> List[WallImpacts]:
+        """The impact statistics of each wall (the model's walls in order; empty without
+        one)."""
+        impacts = self.report.get("impacts") or {}
+        return [WallImpacts._from_dict(w) for w in impacts.get("walls") or []]
 
     @property
     def samples(self) -> int:

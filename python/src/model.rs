@@ -70,11 +70,11 @@ impl PyModel {
         spacing: Option<f64>,
         trajectories: Option<u64>,
         bins: Option<usize>,
-        grids: &[(String, f64, f64, usize)],
+        record: &Record,
         set: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<(BoundModel, McConfig)> {
         let bound = self.bind(py, set)?;
-        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, grids)
+        let config = mc_config(samples, seed, dt, spacing, trajectories, bins, record)
             .map_err(|e| errors::mc_error(py, &e))?;
         config
             .preflight(&bound)
@@ -334,7 +334,7 @@ impl PyModel {
 
     /// Runs the Monte Carlo simulation; returns its result as JSON (the `McResult`'s serde
     /// form). Interruptible: Ctrl-C cancels the run and raises KeyboardInterrupt.
-    #[pyo3(signature = (samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None, progress=None))]
+    #[pyo3(signature = (samples, seed, threads, dt, spacing, trajectories, bins, grids, levels=Vec::new(), impact_speeds=None, set=None, progress=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate(
         &self,
@@ -347,10 +347,17 @@ impl PyModel {
         trajectories: Option<u64>,
         bins: Option<usize>,
         grids: Vec<(String, f64, f64, usize)>,
+        levels: Vec<(String, Vec<f64>)>,
+        impact_speeds: Option<(f64, f64, usize)>,
         set: Option<&Bound<'_, PyDict>>,
         progress: Option<Bound<'_, PyAny>>,
     ) -> PyResult<(String, Vec<String>, Vec<String>)> {
         let pool = crate::pool::thread_pool(threads)?;
+        let record = Record {
+            grids,
+            levels,
+            impact_speeds,
+        };
         let (bound, config) = self.checked_run(
             py,
             samples,
@@ -359,7 +366,7 @@ impl PyModel {
             spacing,
             trajectories,
             bins,
-            &grids,
+            &record,
             set,
         )?;
         // The pilot run that sizes the histograms is parallel too: on the pool, not rayon's
@@ -385,7 +392,7 @@ impl PyModel {
     /// batches); returns the part as JSON (`ShardOutput`'s serde form, the command line's
     /// `shard_K_of_N.json`, with its provenance: the model and the threads it ran with), which
     /// `merge_mc_json` joins with the others.
-    #[pyo3(signature = (index, count, samples, seed, threads, dt, spacing, trajectories, bins, grids, set=None))]
+    #[pyo3(signature = (index, count, samples, seed, threads, dt, spacing, trajectories, bins, grids, levels=Vec::new(), impact_speeds=None, set=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate_shard(
         &self,
@@ -400,10 +407,17 @@ impl PyModel {
         trajectories: Option<u64>,
         bins: Option<usize>,
         grids: Vec<(String, f64, f64, usize)>,
+        levels: Vec<(String, Vec<f64>)>,
+        impact_speeds: Option<(f64, f64, usize)>,
         set: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<String> {
         let pool = crate::pool::thread_pool(threads)?;
         let shard = Shard::new(index, count).map_err(|e| errors::mc_error(py, &e))?;
+        let record = Record {
+            grids,
+            levels,
+            impact_speeds,
+        };
         let (bound, config) = self.checked_run(
             py,
             samples,
@@ -412,7 +426,7 @@ impl PyModel {
             spacing,
             trajectories,
             bins,
-            &grids,
+            &record,
             set,
         )?;
         let part = py
@@ -469,7 +483,7 @@ fn mc_config(
     spacing: Option<f64>,
     trajectories: Option<u64>,
     bins: Option<usize>,
-    grids: &[(String, f64, f64, usize)],
+    record: &Record,
 ) -> Result<McConfig, fpsolve::mc::McError> {
     let default = McConfig::default();
     let lanes = default.lanes as u64;
@@ -478,10 +492,15 @@ fn mc_config(
         .max(1)
         .div_ceil(lanes)
         .saturating_mul(lanes);
-    let grids = grids
+    let grids = record
+        .grids
         .iter()
         .map(|(name, lo, hi, n)| Ok((name.clone(), Grid::new(*lo, *hi, *n)?)))
         .collect::<Result<Vec<_>, fpsolve::mc::McError>>()?;
+    let impact_speeds = match record.impact_speeds {
+        Some((lo, hi, n)) => Some(Grid::new(lo, hi, n)?),
+        None => None,
+    };
     Ok(McConfig {
         dt: dt.unwrap_or(default.dt),
         spacing: spacing.unwrap_or(default.spacing),
@@ -490,6 +509,16 @@ fn mc_config(
         seed,
         bins: bins.unwrap_or(default.bins),
         grids,
+        levels: record.levels.clone(),
+        impact_speeds,
         ..default
     })
+}
+
+/// What a Monte Carlo run records besides its defaults: histogram grids by quantity,
+/// crossing levels by quantity, the impact-speed histogram's grid.
+struct Record {
+    grids: Vec<(String, f64, f64, usize)>,
+    levels: Vec<(String, Vec<f64>)>,
+    impact_speeds: Option<(f64, f64, usize)>,
 }

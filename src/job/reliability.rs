@@ -13,7 +13,8 @@
 //!
 //! With a Monte Carlo run (run by the job, or read with `--mc-from` when its levels and speed
 //! grid are these), its numbers go beside the others: in a crossing table the columns `mc`
-//! (up-crossings counted between sample points per unit time per trajectory), `mc_se` (its
+//! (up-crossings counted between sample points per unit time per trajectory, through the
+//! impacts in between; at a wall's level one per impact, as Rice's flux there), `mc_se` (its
 //! batch-means standard error) and `mc_bias` (its stated bias: the sample spacing's, from
 //! counting on every other sample point, plus the time-step bias from the 2·dt run when the
 //! run estimated one); at a wall a row `mc` in `impacts` with standard errors and time-step

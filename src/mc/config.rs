@@ -352,6 +352,29 @@ impl McConfig {
                 return Err(McError::UnknownQuantity { name: g.clone() });
             }
         }
+        for (q, levels) in &self.levels {
+            if !names.iter().any(|(n, _)| n == q) {
+                return Err(bad(
+                    "levels",
+                    format!("`{q}` is neither a state nor an observable"),
+                ));
+            }
+            let ascending = levels.windows(2).all(|w| w[0] < w[1]);
+            if levels.is_empty() || !ascending || levels.iter().any(|u| !u.is_finite()) {
+                return Err(bad(
+                    "levels",
+                    format!("`{q}`: need finite levels in ascending order, at least one"),
+                ));
+            }
+        }
+        if let Some(g) = &self.impact_speeds {
+            if !g.well_formed() || g.bins > MAX_BINS {
+                return Err(bad(
+                    "impact_speeds",
+                    format!("need finite lo < hi and 1..={MAX_BINS} bins"),
+                ));
+            }
+        }
         let given = |n: &str| self.grids.iter().any(|(g, _)| g == n);
         if !(self.bias_fraction.is_finite() && (0.0..=1.0).contains(&self.bias_fraction)) {
             return Err(bad(

@@ -193,6 +193,23 @@ fn bad_settings_are_errors() {
         ..small(32)
     };
     assert!(matches!(bad(unknown), McError::UnknownQuantity { .. }));
+    // Crossing levels: of a quantity the model has, finite, ascending, not none.
+    for (q, levels) in [
+        ("w", vec![0.0]),
+        ("x", vec![]),
+        ("x", vec![1.0, 0.0]),
+        ("x", vec![0.0, f64::NAN]),
+    ] {
+        let config = McConfig {
+            levels: vec![(q.into(), levels)],
+            ..small(32)
+        };
+        let err = bad(config);
+        assert!(
+            matches!(err, McError::BadSetting { name: "levels", .. }),
+            "{err}"
+        );
+    }
 }
 
 #[test]

@@ -8,6 +8,12 @@
 //! added up in lane order when the batch ends, so that the sums do not depend on the order
 //! the vector widths visit the lanes in: the fused kernel runs all steps of a group of lanes
 //! before the next group, the lane evaluator every lane before the next step.
+//!
+//! When the run counts level crossings of a walled state, the tally also logs which sample
+//! interval (the kernel's row, [`ImpactSink::set_row`]) each impact fell in, and gives them
+//! back per interval and lane as [`ImpactMark`]s: a path that meets a wall between two sample
+//! points folds there, and the crossings of the levels near the wall that the fold makes
+//! cannot be seen from the two samples alone (`record/crossings.rs`).
 
 use serde::{Deserialize, Serialize};
 
@@ -46,6 +52,43 @@ pub(crate) struct ImpactTally {
     active: Vec<bool>,
     walls: Vec<WallTally>,
     speeds: Option<Grid>,
+    /// The impacts since the last [`ImpactTally::take_marks`] as (row, lane, wall), when
+    /// logged ([`ImpactTally::log_rows`]).
+    log: Option<Vec<(u32, u32, u8)>>,
+}
+
+/// The impacts of one lane in one sample interval: none (`ImpactMark::NONE`), or the walls
+/// (indices in the plan's barriers) of the first and the last and how many there were.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct ImpactMark {
+    /// The number of impacts (0: none).
+    pub(crate) count: u32,
+    /// The wall of the first impact.
+    pub(crate) first: u8,
+    /// The wall of the last impact.
+    pub(crate) last: u8,
+}
+
+impl ImpactMark {
+    /// No impact.
+    pub(crate) const NONE: ImpactMark = ImpactMark {
+        count: 0,
+        first: 0,
+        last: 0,
+    };
+
+    /// The impacts of this interval followed by those of `next`.
+    pub(crate) fn then(self, next: ImpactMark) -> ImpactMark {
+        match (self.count, next.count) {
+            (0, _) => next,
+            (_, 0) => self,
+            (a, b) => ImpactMark {
+                count: a + b,
+                first: self.first,
+                last: next.last,
+            },
+        }
+    }
 }
 
 struct WallTally {
@@ -72,15 +115,43 @@ impl ImpactTally {
                 })
                 .collect(),
             speeds,
+            log: None,
         }
     }
 
-    /// Lane `lane` met wall `wall` with velocity `before`, leaving it with `after`.
+    /// Logs from now on the sample interval of every impact, for [`ImpactTally::take_marks`].
+    pub(crate) fn log_rows(&mut self) {
+        self.log = Some(Vec::new());
+    }
+
+    /// The impacts logged since the last call, as one mark per row and lane (`rows` rows of
+    /// `lanes` lanes, row-major); `None` when the tally does not log them.
+    pub(crate) fn take_marks(&mut self, rows: usize, lanes: usize) -> Option<Vec<ImpactMark>> {
+        let log = self.log.as_mut()?;
+        let mut marks = vec![ImpactMark::NONE; rows * lanes];
+        // In time order within a lane: the kernels keep a lane's steps in order.
+        for &(row, lane, wall) in log.iter() {
+            let m = &mut marks[row as usize * lanes + lane as usize];
+            *m = m.then(ImpactMark {
+                count: 1,
+                first: wall,
+                last: wall,
+            });
+        }
+        log.clear();
+        Some(marks)
+    }
+
+    /// Lane `lane` met wall `wall` in sample interval `row` with velocity `before`, leaving
+    /// it with `after`.
     #[cold]
     #[inline(never)]
-    fn record(&mut self, lane: usize, wall: usize, before: f64, after: f64) {
+    fn record(&mut self, row: u32, lane: usize, wall: usize, before: f64, after: f64) {
         if !self.active[lane] {
             return;
+        }
+        if let Some(log) = &mut self.log {
+            log.push((row, lane as u32, wall as u8));
         }
         let w = &mut self.walls[wall];
         let speed = before.abs();
@@ -120,6 +191,8 @@ pub(crate) struct ImpactSink<'a> {
     tally: Option<&'a mut ImpactTally>,
     /// The batch's lane of `counts[0]`.
     first: usize,
+    /// The sample interval the impacts fall in, counted from the kernel call's first.
+    row: u32,
 }
 
 impl<'a> ImpactSink<'a> {
@@ -129,7 +202,14 @@ impl<'a> ImpactSink<'a> {
             counts,
             tally,
             first: 0,
+            row: 0,
         }
+    }
+
+    /// The impacts from now on fall in sample interval `row` of the kernel call.
+    #[inline(always)]
+    pub(crate) fn set_row(&mut self, row: u64) {
+        self.row = row as u32;
     }
 
     /// Lane `lane` (of this sink's range) met wall `wall` (its index in the plan's barriers)
@@ -138,7 +218,7 @@ impl<'a> ImpactSink<'a> {
     pub(crate) fn hit(&mut self, lane: usize, wall: usize, before: f64, after: f64) {
         self.counts[lane] += 1;
         if let Some(t) = self.tally.as_deref_mut() {
-            t.record(self.first + lane, wall, before, after);
+            t.record(self.row, self.first + lane, wall, before, after);
         }
     }
 
@@ -148,6 +228,7 @@ impl<'a> ImpactSink<'a> {
             first: self.first + r.start,
             counts: &mut self.counts[r],
             tally: self.tally.as_deref_mut(),
+            row: self.row,
         }
     }
 
@@ -185,5 +266,25 @@ mod tests {
         assert_eq!(walls[1].count, 1);
         assert_eq!(walls[1].speed_counts, [0, 0, 0, 1]);
         assert_eq!(walls[1].loss_sum, 0.5 * (9.0 - 2.25));
+    }
+
+    /// A logging tally gives each lane's impacts back per sample interval, first and last
+    /// wall and count, and forgets them; one that does not log gives nothing.
+    #[test]
+    fn logged_impacts_come_back_per_interval() {
+        let mut tally = ImpactTally::new(2, vec![true, true], None);
+        let mut counts = vec![0; 2];
+        assert!(tally.take_marks(1, 2).is_none());
+        tally.log_rows();
+        let mut sink = ImpactSink::new(&mut counts, Some(&mut tally));
+        sink.set_row(1);
+        sink.hit(0, 1, 2.0, -2.0);
+        sink.slice(1..2).hit(0, 0, -1.0, 1.0);
+        sink.hit(0, 0, -1.0, 1.0);
+        let marks = tally.take_marks(2, 2).unwrap();
+        let none = ImpactMark::NONE;
+        let m = |count, first, last| ImpactMark { count, first, last };
+        assert_eq!(marks, [none, none, m(2, 1, 0), m(1, 0, 0)]);
+        assert_eq!(tally.take_marks(2, 2).unwrap(), [none; 4]);
     }
 }

@@ -99,14 +99,15 @@ fn run_part_with(
     b.impacts.fill(0);
     b.folded.fill(0);
     let mut record: Vec<bool> = excluded.iter().map(|e| !e).collect();
-    if st.has_barrier {
-        b.tally = Some(ImpactTally::new(
-            plan.barriers.len(),
-            record.clone(),
-            st.impact_speeds,
-        ));
-    }
     let mut histograms = Histograms::new(plan, st, lanes);
+    if st.has_barrier {
+        let mut tally = ImpactTally::new(plan.barriers.len(), record.clone(), st.impact_speeds);
+        // The crossings of a walled state's levels need each impact's sample interval.
+        if histograms.crossings.has_walls() {
+            tally.log_rows();
+        }
+        b.tally = Some(tally);
+    }
     let mut blown: Vec<Blown> = Vec::new();
     // The recording fused with the fast mechanical kernel when it applies (`sample.rs`),
     // the same bits as the general recording.

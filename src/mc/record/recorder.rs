@@ -4,9 +4,11 @@
 
 use crate::base::cancel::Cancel;
 use crate::mc::compile::eval::{BatchKernel, Scratch, NO_TIME};
+use crate::mc::compile::impact::Crossing;
 use crate::mc::compile::scheme::Plan;
+use crate::mc::compile::tally::ImpactMark;
 use crate::mc::record::accumulator::Accumulator;
-use crate::mc::record::crossings::{CrossingBatch, LevelCrossings};
+use crate::mc::record::crossings::{CrossingBatch, LevelCrossings, WallLevel};
 use crate::mc::record::histogram::QuantityBatch;
 use crate::mc::record::sample::{Blown, LastState};
 use crate::mc::settings::RunSettings;
@@ -52,6 +54,10 @@ pub(crate) trait Recorder {
 
     /// The batch's summary, after the last sample point.
     fn finish(self) -> Self::Summary;
+
+    /// Hears, before [`Recorder::sample`], each lane's impacts since the previous sample
+    /// point when the batch logs them; ignored unless the recorder needs them.
+    fn impacts(&mut self, _marks: Option<Vec<ImpactMark>>) {}
 }
 
 /// The stationary run's recorder: each quantity's histogram and power sums, by quarter of
@@ -65,6 +71,24 @@ pub(crate) struct Histograms<'a> {
     lanes: usize,
     /// The up-crossings of the quantities with levels; the fused recording counts them too.
     pub(crate) crossings: LevelCrossings,
+    /// The lanes' impacts since the previous sample point, when logged.
+    marks: Option<Vec<ImpactMark>>,
+}
+
+/// The walls of the plan's states as the crossing counters see them (a pass-through
+/// barrier does not fold a path and is left out).
+pub(crate) fn wall_levels(plan: &Plan) -> Vec<WallLevel> {
+    plan.barriers
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.crossing == Crossing::Reflects)
+        .map(|(k, b)| WallLevel {
+            wall: k as u8,
+            state: b.state,
+            at: b.at,
+            lower: b.side > 0.0,
+        })
+        .collect()
 }
 
 impl<'a> Histograms<'a> {
@@ -82,7 +106,8 @@ impl<'a> Histograms<'a> {
             obs: vec![0.0; n_obs * lanes],
             scratch: Scratch::new(),
             lanes,
-            crossings: LevelCrossings::new(&st.quantities, lanes),
+            crossings: LevelCrossings::new(&st.quantities, lanes, &wall_levels(plan)),
+            marks: None,
         }
     }
 }
@@ -111,9 +136,14 @@ impl Recorder for Histograms<'_> {
                     1 => v,
                     j => &self.obs[(j - 2) * lanes..(j - 1) * lanes],
                 };
-                self.crossings.add(k, at.index, g, record);
+                self.crossings
+                    .add(k, at.index, g, record, self.marks.as_deref());
             }
         }
+    }
+
+    fn impacts(&mut self, marks: Option<Vec<ImpactMark>>) {
+        self.marks = marks;
     }
 
     fn finish(self) -> (Vec<QuantityBatch>, Vec<CrossingBatch>) {
@@ -162,6 +192,8 @@ pub(crate) fn record_samples<R: Recorder>(
             of: st.samples_per_trajectory,
             step,
         };
+        let marks = b.tally.as_mut().and_then(|t| t.take_marks(1, lanes));
+        recorder.impacts(marks);
         recorder.sample(at, &b.x, &b.v, record);
     }
     Some(())

@@ -18,6 +18,7 @@ use crate::mc::compile::eval::Simd;
 use crate::mc::compile::lanes::{LaneOp, LaneProgram};
 use crate::mc::compile::mech_form::sgn;
 use crate::mc::compile::scheme::Plan;
+use crate::mc::compile::tally::ImpactMark;
 use crate::mc::exact;
 use crate::mc::record::accumulator::Accumulator;
 use crate::mc::record::crossings::LevelCrossings;
@@ -156,6 +157,7 @@ pub(crate) fn record_batch(
         let done = b.advance_rows(plan, end - s, st.steps_per_sample, st.dt, xs, vs);
         // The rows are read next: a call that did not run must not pass unnoticed.
         assert!(done, "the fast path was checked (has_fast_rows)");
+        let marks = b.tally.as_mut().and_then(|t| t.take_marks(m, n));
         let chunk = Chunk {
             kinds,
             m,
@@ -166,7 +168,8 @@ pub(crate) fn record_batch(
         };
         let lost = record_chunk(acc, chunk, record, simd);
         if crossings.any() {
-            count_crossings(crossings, kinds, s, n, xs, vs, rec);
+            let rows = SampleRows { xs, vs, rec };
+            count_crossings(crossings, kinds, s, n, rows, marks.as_deref());
         }
         // The lanes lost in the chunk, row by row and in lane order in a row (as `batch.rs`).
         for j in (0..m).filter(|&j| lost >> j & 1 == 1) {
@@ -200,22 +203,30 @@ pub(crate) fn record_batch(
     Some(true)
 }
 
-/// The rows `xs`, `vs` of a chunk from sample point `first` on (`n` lanes a row, `rec` the
-/// lanes recorded) into `crossings`: the states as they are, the observables of `kinds` as
-/// the general recording's tape computes them.
+/// A chunk's sample rows: the states and which lanes are recorded, `n` lanes a row.
+struct SampleRows<'a> {
+    xs: &'a [f64],
+    vs: &'a [f64],
+    rec: &'a [bool],
+}
+
+/// The `rows` of a chunk from sample point `first` on (`n` lanes a row) into `crossings`:
+/// the states as they are, the observables of `kinds` as the general recording's tape
+/// computes them; `marks` the lanes' impacts in each row's interval, when logged.
 fn count_crossings(
     crossings: &mut LevelCrossings,
     kinds: &[Observed],
     first: u64,
     n: usize,
-    xs: &[f64],
-    vs: &[f64],
-    rec: &[bool],
+    rows: SampleRows<'_>,
+    marks: Option<&[ImpactMark]>,
 ) {
     let counted: Vec<usize> = crossings.quantities().collect();
     let mut g = vec![0.0; n];
-    for (j, (x, v)) in xs.chunks_exact(n).zip(vs.chunks_exact(n)).enumerate() {
-        let r = &rec[j * n..(j + 1) * n];
+    let pairs = rows.xs.chunks_exact(n).zip(rows.vs.chunks_exact(n));
+    for (j, (x, v)) in pairs.enumerate() {
+        let r = &rows.rec[j * n..(j + 1) * n];
+        let m = marks.map(|m| &m[j * n..(j + 1) * n]);
         for (k, &q) in counted.iter().enumerate() {
             let values = match q {
                 0 => x,
@@ -227,7 +238,7 @@ fn count_crossings(
                     &g[..]
                 }
             };
-            crossings.add(k, first + j as u64, values, r);
+            crossings.add(k, first + j as u64, values, r, m);
         }
     }
 }

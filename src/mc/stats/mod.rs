@@ -4,6 +4,7 @@
 
 pub(crate) mod impacts;
 pub(crate) mod judge;
+pub(crate) mod pairs;
 pub(crate) mod reliability;
 pub(crate) mod result;
 pub(crate) mod verdict;

@@ -10,12 +10,36 @@ use serde::{Deserialize, Serialize};
 use crate::mc::record::batch::BatchSummary;
 use crate::mc::record::histogram::Grid;
 use crate::mc::settings::RunSettings;
-use crate::mc::stats::judge::{mean_se, paired};
+use crate::mc::stats::pairs::{mean_se, paired};
 use crate::stats::Estimate;
 
 /// The impact statistics at one wall, per unit mass, as the grid's
 /// ([`crate::observe::ImpactStatistics`]) define them: the speed is |v| before the impact,
 /// the power the kinetic energy (v² − v′²)/2 the impacts take per unit time per trajectory.
+///
+/// A run with a wall reports one per wall in [`McResult::impacts`](crate::mc::McResult);
+/// with [`McConfig::impact_speeds`](crate::mc::McConfig) it also histograms the speeds:
+///
+/// ```
+/// use fpsolve::mc::{Grid, McConfig, Simulation};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/grid_impact_linear.sde");
+/// let model = fpsolve::model::load_model(path.as_ref())?.bind(&[])?;
+/// let config = McConfig {
+///     trajectories: 256,
+///     samples: 20_000,
+///     impact_speeds: Some(Grid::new(0.0, 10.0, 10)?),
+///     ..McConfig::default()
+/// };
+/// let res = Simulation::new(&model, &config)?.run()?;
+/// let wall = &res.impacts.as_ref().unwrap().walls[0];
+/// assert!(wall.above && wall.at == -0.5 && wall.count > 0);
+/// // An elastic wall (r = 1) takes no energy.
+/// assert_eq!(wall.mean_power.value, 0.0);
+/// let speeds = wall.speeds.as_ref().unwrap();
+/// let mass: f64 = speeds.density.iter().map(|d| d * speeds.grid.width()).sum();
+/// assert!((mass - 1.0).abs() < 0.01);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WallStats {
     /// The state that meets the wall.
@@ -42,6 +66,23 @@ pub struct WallStats {
 }
 
 /// A histogram of impact speeds as a density over the impacts.
+///
+/// ```
+/// use fpsolve::mc::{Grid, McConfig, Simulation};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/grid_impact_linear.sde");
+/// let model = fpsolve::model::load_model(path.as_ref())?.bind(&[])?;
+/// let speeds = Grid::new(0.0, 12.0, 6)?;
+/// let config = McConfig {
+///     trajectories: 256,
+///     samples: 20_000,
+///     impact_speeds: Some(speeds),
+///     ..McConfig::default()
+/// };
+/// let res = Simulation::new(&model, &config)?.run()?;
+/// let d = res.impacts.as_ref().unwrap().walls[0].speeds.clone().unwrap();
+/// assert_eq!((d.grid, d.density.len(), d.stderr.len()), (speeds, 6, 6));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpeedDensity {
     /// The bins (a bin below 0 counts only its part at or above 0).
@@ -54,7 +95,30 @@ pub struct SpeedDensity {
     pub beyond: u64,
 }
 
-/// The mean up-crossing rates of one quantity's levels.
+/// The mean up-crossing rates of one quantity's levels, counted from the trajectories (see
+/// [`McConfig::levels`](crate::mc::McConfig)): at the level of a wall the state stands on,
+/// one per impact (the rate at which paths leave a lower wall or reach an upper one, Rice's
+/// flux there).
+///
+/// ```
+/// use fpsolve::mc::{McConfig, Simulation};
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/models/grid_impact_linear.sde");
+/// let model = fpsolve::model::load_model(path.as_ref())?.bind(&[])?;
+/// let config = McConfig {
+///     trajectories: 256,
+///     samples: 20_000,
+///     levels: vec![("y".into(), vec![-0.5, 0.0, 1.0])],
+///     ..McConfig::default()
+/// };
+/// let res = Simulation::new(&model, &config)?.run()?;
+/// let c = &res.crossings[0];
+/// assert_eq!((c.quantity.as_str(), c.rate.len()), ("y", 3));
+/// // The wall's level is crossed once per impact (the counts span one sample interval
+/// // fewer than the impacts').
+/// let impacts = res.impacts.as_ref().unwrap().walls[0].rate.value;
+/// assert!((c.rate[0].value - impacts).abs() <= 0.05 * impacts);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CrossingRates {
     /// The state or observable.

@@ -446,6 +446,7 @@ fn group<V: Impacts, const N: usize, C: StepCoefs>(st: &Steps<'_, C>, c: Columns
     let jump = st.jump.as_ref();
     let (h, half) = (st.h, 0.5 * st.h);
     for j in 0..st.samples {
+        impacts.set_row(j);
         fly(jump, &mut x, &mut v, &mut side, &mut impacts, half);
         for step in 0..st.steps {
             let tau = if step + 1 == st.steps { half } else { h };
