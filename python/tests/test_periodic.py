@@ -48,3 +48,14 @@ def test_monte_carlo_refuses_with_its_reason():
     with pytest.raises(fpsolve.MonteCarloError) as info:
         model.simulate(samples=10_000)
     assert info.value.kind == "periodic_state"
+
+
+def test_monte_carlo_transient_and_passage_refuse_too():
+    # They ran before, with the angle unwrapped (a variance of 23.5 on a circle of 2 pi).
+    model = fpsolve.Model.from_text(PENDULUM)
+    with pytest.raises(fpsolve.MonteCarloError) as info:
+        model.transient("0:20:5", method="mc", domain={"theta": (-math.pi, math.pi), "w": (-5, 5)})
+    assert info.value.kind == "periodic_state"
+    with pytest.raises(fpsolve.MonteCarloError) as info:
+        model.passage(safe="abs(w) < 2", method="mc", horizon=50)
+    assert info.value.kind == "periodic_state"

@@ -262,11 +262,7 @@ impl McConfig {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
         crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
-        if let Some(p) = model.periodic() {
-            return Err(McError::PeriodicState {
-                state: model.states()[p.state].to_string(),
-            });
-        }
+        refuse_periodic(model)?;
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
@@ -496,6 +492,17 @@ pub(super) const PILOT_SAMPLES: u64 = 500;
 pub(super) const PILOT_BATCHES: u64 = 2;
 /// Mixed into the seed so the pilot's trajectories are not the run's first ones.
 pub(super) const PILOT_SALT: u64 = 0x5049_4C4F_545F_5255;
+
+/// [`McError::PeriodicState`] for a model with a periodic state: every Monte Carlo run
+/// (stationary, transient, first passage) refuses one before any work.
+pub(super) fn refuse_periodic(model: &BoundModel) -> Result<(), McError> {
+    match model.periodic() {
+        Some(p) => Err(McError::PeriodicState {
+            state: model.states()[p.state].to_string(),
+        }),
+        None => Ok(()),
+    }
+}
 
 pub(super) fn bad(name: &'static str, reason: String) -> McError {
     McError::BadSetting { name, reason }

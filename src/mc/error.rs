@@ -51,9 +51,9 @@ pub enum McError {
     /// The model has a periodic state (`domain theta periodic 2*pi`), whose values the
     /// simulation's histograms and moments do not yet take modulo the period.
     #[error(
-        "`{state}` is periodic, and the simulation does not yet take its values modulo the \
-         period (its histograms and moments would count an angle that has turned as one far \
-         away): the grid solves this model (`--method grid`)"
+        "`{state}` is periodic, and Monte Carlo does not yet take its values modulo the \
+         period (its histograms, moments and safe set would see an angle that has turned as \
+         one far away): the grid solves the stationary density (`--method grid`)"
     )]
     PeriodicState {
         /// The periodic state.

@@ -304,6 +304,7 @@ impl<'a> McTransient<'a> {
     }
 
     fn plan(&self) -> Result<Plan, McTransientError> {
+        crate::mc::config::refuse_periodic(self.model)?;
         let setting = |setting, value: String, expected| McTransientError::Setting {
             setting,
             value,
