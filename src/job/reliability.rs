@@ -172,15 +172,22 @@ pub(super) fn write(
 }
 
 /// The levels of the crossing tables Monte Carlo can count beside the other methods: each of
-/// `names` whose curve the study has and whose rate is finite in the model's coordinates.
+/// `names` whose curve the study has and whose rate is finite in the model's coordinates,
+/// but a periodic state.
 pub(super) fn mc_levels(
     problem: &Problem,
     study: &Study,
     names: &[String],
 ) -> Vec<(String, Vec<f64>)> {
     let model = problem.model();
+    // A periodic state's crossings are not counted by Monte Carlo (its recorded values jump
+    // at the seam).
+    let periodic = model
+        .periodic()
+        .map(|p| model.states()[p.state].to_string());
     names
         .iter()
+        .filter(|name| periodic.as_ref() != Some(*name))
         .filter_map(|name| {
             let curve = study.curves.iter().find(|c| &c.name == name)?;
             let rate = match model.states().iter().position(|s| s.as_ref() == name) {

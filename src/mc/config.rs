@@ -262,7 +262,6 @@ impl McConfig {
         // No stationary law to sample: refused before anything else (issue 9, item 13), by
         // the pre-flight as by `Simulation::new`.
         crate::dynamics::check_with_drift(model, dynamics.ito_drift().ok())?;
-        refuse_periodic(model)?;
         let dt = self.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
@@ -348,7 +347,16 @@ impl McConfig {
                 return Err(McError::UnknownQuantity { name: g.clone() });
             }
         }
+        let periodic = model
+            .periodic()
+            .map(|p| model.states()[p.state].to_string());
         for (q, levels) in &self.levels {
+            if periodic.as_ref() == Some(q) {
+                return Err(bad(
+                    "levels",
+                    format!("`{q}` is periodic; its crossings are not counted"),
+                ));
+            }
             if !names.iter().any(|(n, _)| n == q) {
                 return Err(bad(
                     "levels",
@@ -493,8 +501,9 @@ pub(super) const PILOT_BATCHES: u64 = 2;
 /// Mixed into the seed so the pilot's trajectories are not the run's first ones.
 pub(super) const PILOT_SALT: u64 = 0x5049_4C4F_545F_5255;
 
-/// [`McError::PeriodicState`] for a model with a periodic state: every Monte Carlo run
-/// (stationary, transient, first passage) refuses one before any work.
+/// [`McError::PeriodicState`] for a model with a periodic state: the Monte Carlo transient
+/// and first passage refuse one before any work (the stationary run records the state
+/// modulo its period, [`super::RunSettings::periodic`]).
 pub(super) fn refuse_periodic(model: &BoundModel) -> Result<(), McError> {
     match model.periodic() {
         Some(p) => Err(McError::PeriodicState {

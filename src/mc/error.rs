@@ -48,12 +48,13 @@ pub enum BarrierLayout {
 /// Errors of the Monte Carlo stage.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum McError {
-    /// The model has a periodic state (`domain theta periodic 2*pi`), whose values the
-    /// simulation's histograms and moments do not yet take modulo the period.
+    /// The model has a periodic state (`domain theta periodic 2*pi`), which the transient and
+    /// first-passage runs do not take modulo the period (the stationary run does).
     #[error(
-        "`{state}` is periodic, and Monte Carlo does not yet take its values modulo the \
-         period (its histograms, moments and safe set would see an angle that has turned as \
-         one far away): the grid solves the stationary density (`--method grid`)"
+        "`{state}` is periodic, and Monte Carlo's transients and first passage do not yet \
+         take its values modulo the period (their moments and safe set would see an angle \
+         that has turned as one far away); its stationary density is solved by the grid and \
+         by Monte Carlo"
     )]
     PeriodicState {
         /// The periodic state.

@@ -74,7 +74,7 @@ pub use record::histogram::{
     Grid, NamedGrid, NamedGridError, QuantityHistogram, TimeStepBias, MAX_BINS,
 };
 pub use record::sample::LastState;
-pub use settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
+pub use settings::{BarrierSetting, ParamValue, PeriodicSetting, QuantitySpec, RunSettings};
 pub use shard::digest::ShardDigest;
 pub use shard::index::Shard;
 pub use shard::part::{merge_named, merge_shards, ShardOutput};

@@ -110,6 +110,40 @@ pub struct RunSettings {
     /// the count, the mean speed and the dissipated power without a histogram).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub impact_speeds: Option<Grid>,
+    /// A periodic state, recorded modulo its period in its window [−L/2, L/2) (the
+    /// trajectories themselves run on the line: the coefficients repeat with the period).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub periodic: Option<PeriodicSetting>,
+}
+
+/// The periodic state of a run ([`RunSettings::periodic`]).
+///
+/// ```
+/// let p = fpsolve::mc::PeriodicSetting { state: 0, period: 2.0 };
+/// let mut x = [2.5, -1.0, 0.25];
+/// p.wrap(&mut x);
+/// assert_eq!(x, [0.5, -1.0, 0.25]);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PeriodicSetting {
+    /// The state's index.
+    pub state: usize,
+    /// Its period L.
+    #[serde(with = "exact::number")]
+    pub period: f64,
+}
+
+impl PeriodicSetting {
+    /// Takes the values `x` of the state into its window [−L/2, L/2) (not-a-number stays).
+    pub fn wrap(&self, x: &mut [f64]) {
+        let p = crate::model::BoundPeriodic {
+            state: self.state,
+            period: self.period,
+        };
+        for x in x {
+            *x = p.wrap(*x);
+        }
+    }
 }
 
 impl RunSettings {

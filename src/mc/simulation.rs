@@ -6,7 +6,7 @@ use super::config::{bad, McConfig, Resolved, PILOT_BATCHES, PILOT_SALT, PILOT_SA
 use super::error::McError;
 use super::record::batch::{run_batch_pair, run_batches_to_end};
 use super::record::histogram::{Grid, QuantityHistogram};
-use super::settings::{BarrierSetting, ParamValue, QuantitySpec, RunSettings};
+use super::settings::{BarrierSetting, ParamValue, PeriodicSetting, QuantitySpec, RunSettings};
 use super::shard::index::Shard;
 use super::shard::part::ShardOutput;
 use super::stats::result::{finalize_run, McResult};
@@ -137,6 +137,10 @@ impl Simulation {
             bias_batches,
             evaluator: Some(Evaluator::of(&plan, config.increments)),
             impact_speeds: config.impact_speeds,
+            periodic: model.periodic().map(|p| PeriodicSetting {
+                state: p.state,
+                period: p.period,
+            }),
         };
         let given = |n: &str| config.grids.iter().any(|(g, _)| g == n);
         if settings.quantities.iter().any(|q| !given(&q.name)) {
@@ -175,7 +179,18 @@ impl Simulation {
                 }
                 range
             };
-            for (spec, stats) in settings.quantities.iter_mut().zip(&res.quantities) {
+            let window = model.periodic().map(|p| (p.state, p.window()));
+            for (k, (spec, stats)) in settings
+                .quantities
+                .iter_mut()
+                .zip(&res.quantities)
+                .enumerate()
+            {
+                // A periodic state's grid is its window: no bin straddles the seam.
+                if let Some((_, [lo, hi])) = window.filter(|(s, _)| *s == k && !given(&spec.name)) {
+                    spec.grid = Grid::new(lo, hi, config.bins)?;
+                    continue;
+                }
                 if !given(&spec.name) {
                     let [lo, hi] = if spec.is_state {
                         walls(&spec.name)

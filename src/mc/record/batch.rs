@@ -478,6 +478,7 @@ mod tests {
             batches,
             seed: 9,
             evaluator: None,
+            periodic: None,
             has_barrier: !plan.barriers.is_empty(),
             barriers: vec![],
             quantities: names

@@ -167,6 +167,7 @@ pub(crate) fn record_samples<R: Recorder>(
 ) -> Option<()> {
     let lanes = record.len();
     let (mut prev_x, mut prev_v) = (vec![0.0; lanes], vec![0.0; lanes]);
+    let mut wrapped = vec![0.0; if st.periodic.is_some() { lanes } else { 0 }];
     let mut step = st.burn_in_steps;
     for s in 0..st.samples_per_trajectory {
         if cancel.is_cancelled() {
@@ -194,7 +195,20 @@ pub(crate) fn record_samples<R: Recorder>(
         };
         let marks = b.tally.as_mut().and_then(|t| t.take_marks(1, lanes));
         recorder.impacts(marks);
-        recorder.sample(at, &b.x, &b.v, record);
+        match st.periodic {
+            // The periodic state recorded in its window; the trajectory runs on.
+            Some(p) => {
+                wrapped.copy_from_slice(if p.state == 0 { &b.x } else { &b.v });
+                p.wrap(&mut wrapped);
+                let (x, v) = if p.state == 0 {
+                    (&wrapped[..], &b.v[..])
+                } else {
+                    (&b.x[..], &wrapped[..])
+                };
+                recorder.sample(at, x, v, record);
+            }
+            None => recorder.sample(at, &b.x, &b.v, record),
+        }
     }
     Some(())
 }

@@ -158,6 +158,10 @@ pub(crate) fn record_batch(
         // The rows are read next: a call that did not run must not pass unnoticed.
         assert!(done, "the fast path was checked (has_fast_rows)");
         let marks = b.tally.as_mut().and_then(|t| t.take_marks(m, n));
+        // The periodic state recorded in its window (the rows are copies; the lanes run on).
+        if let Some(p) = st.periodic {
+            p.wrap(if p.state == 0 { xs } else { vs });
+        }
         let chunk = Chunk {
             kinds,
             m,
