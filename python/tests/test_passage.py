@@ -194,6 +194,11 @@ def test_the_model_safe_line_and_a_start(cli, tmp_path):
     assert fpsolve.Model.passage is fpsolve.Model.reliability
     assert py.report["command"] == "fpsolve.Model.reliability"
     summary = json.loads((out / "summary.json").read_text())
+    # Without output times the command line has no figure to draw and says so; Python draws
+    # none, so its report has no such list.
+    unwritten = summary.pop("unwritten")
+    assert [u["file"] for u in unwritten] == ["reliability.png/.svg", "first_passage_pdf.png/.svg"]
+    assert "unwritten" not in py.report
     assert without_timing(py.report) == without_timing(summary)
     assert py.safe == "-1 < z < 1.5" and py.start == (0.5, -0.25)
     assert py.mc is None and "mc" not in py.report
