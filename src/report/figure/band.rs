@@ -12,6 +12,32 @@ const SHADE: f64 = 0.22;
 
 /// A shaded band between `lo` and `hi` over `x`, e.g. Monte Carlo's 95 % interval of a
 /// curve. Drawn under the lines, in a light shade of the colour of curve `colour_of`.
+///
+/// ```
+/// use fpsolve::report::{Band, Curve, PanelFigure};
+///
+/// let x = vec![0.0, 1.0, 2.0];
+/// let r = vec![1.0, 0.6, 0.3];
+/// let figure = PanelFigure {
+///     title: "R(t)".into(),
+///     subtitle: String::new(),
+///     x_label: "t".into(),
+///     y_label: "R(t)".into(),
+///     curves: vec![Curve { label: "R".into(), x: x.clone(), y: r }],
+///     // The band takes curve 0's colour; a NaN edge leaves a gap.
+///     bands: vec![Band {
+///         label: "95 %".into(),
+///         x,
+///         lo: vec![1.0, 0.5, f64::NAN],
+///         hi: vec![1.0, 0.7, 0.4],
+///         colour_of: 0,
+///     }],
+///     points: None,
+///     y_bound: Some(1.0),
+/// };
+/// assert!(figure.render_svg()?.starts_with("<svg"));
+/// # Ok::<(), fpsolve::report::FigureError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Band {
     /// Legend text; the band has no legend entry when it is empty.

@@ -1,5 +1,6 @@
 //! Figures: a PDF comparison (linear and log panels side by side, like the comparison figures of
-//! the EPC papers), the same two panels for any quantity with shaded bands, and a plain line chart for moments against a swept parameter. Part of the
+//! the EPC papers), the same two panels for any quantity with shaded bands (R(t) with its
+//! confidence band), and a plain line chart for moments against a swept parameter. Part of the
 //! report stage, drawn from plain data: each renders to PNG and SVG with the bundled font and
 //! is written through [`OutputDir`].
 
@@ -657,7 +658,14 @@ impl Panels<'_> {
         }
         for (i, curve) in self.curves.iter().enumerate() {
             let pen = Pen::nth(i, k);
-            for run in visible_runs(&curve.x, &curve.y, log_bottom) {
+            // Values above a bound's decade (a rounding over R = 1) run along the top axis
+            // rather than over it; NaN stays a gap.
+            let y: Vec<f64> = curve
+                .y
+                .iter()
+                .map(|&v| if v > log_top { log_top } else { v })
+                .collect();
+            for run in visible_runs(&curve.x, &y, log_bottom) {
                 pen.draw(&mut log, run)?;
             }
         }
