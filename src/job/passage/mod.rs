@@ -310,9 +310,8 @@ impl PassageRun {
         out
     }
 
-    /// `reliability.csv` (`passage.csv` before the command was named `reliability`): `t`,
-    /// then `R_grid,pdf_grid[,R_grid_err]` and `R_mc,R_mc_lo95,R_mc_hi95` for the solves that
-    /// ran, one row per output time.
+    /// `reliability.csv`: `t`, then `R_grid,pdf_grid[,R_grid_err]` and
+    /// `R_mc,R_mc_lo95,R_mc_hi95` for the solves that ran, one row per output time.
     ///
     /// ```
     /// use fpsolve::job::passage::PassageRun;
