@@ -219,14 +219,17 @@ enum Command {
         #[command(flatten)]
         quiet: QuietArg,
     },
-    /// First passage out of the model's safe set (or --safe) on the grid: the mean time and
-    /// its second moment from --start and from the stationary density in the set, and R(t)
-    /// with the first-passage-time density at --times. Writes passage.csv and summary.json.
-    Passage {
+    /// Reliability: first passage out of the model's safe set (or --safe) on the grid and by
+    /// Monte Carlo: the mean time and its second moment from --start and from the stationary
+    /// density in the set, and R(t) with the first-passage-time density at --times. Writes
+    /// reliability.csv, first_passage_pdf.csv, figures and summary.json. `passage` is the same
+    /// command under its former name.
+    #[command(visible_alias = "passage")]
+    Reliability {
         /// The model file (`.sde`).
         model: PathBuf,
         #[command(flatten)]
-        args: cli::passage::PassageArgs,
+        args: cli::reliability::ReliabilityArgs,
         #[command(flatten)]
         quiet: QuietArg,
     },
@@ -438,7 +441,7 @@ enum Plan {
         quiet: bool,
     },
     MergeSweep(Box<fpsolve::sweep::MergedSweep>, PathBuf),
-    Passage(Box<cli::passage::PassagePlan>),
+    Reliability(Box<cli::reliability::ReliabilityPlan>),
     Transient(Box<cli::transient::TransientPlan>),
     Merge {
         result: Box<McResult>,
@@ -469,8 +472,8 @@ fn plan(cli: Cli) -> Result<Planned> {
                 bound,
             }
         }
-        Some(Command::Passage { model, args, .. }) => {
-            Plan::Passage(Box::new(cli::passage::plan(model, args)?))
+        Some(Command::Reliability { model, args, .. }) => {
+            Plan::Reliability(Box::new(cli::reliability::plan(model, args)?))
         }
         Some(Command::Transient { model, args, .. }) => {
             Plan::Transient(Box::new(cli::transient::plan(model, args)?))
@@ -667,7 +670,7 @@ fn execute(plan: Plan) -> Result<(), Failure> {
             }
         }
         Plan::MergeSweep(merged, out) => sweep_flags::write_merged(&merged, &out),
-        Plan::Passage(plan) => Ok(cli::passage::run(*plan)?),
+        Plan::Reliability(plan) => Ok(cli::reliability::run(*plan)?),
         Plan::Transient(plan) => {
             let flags = cli::transient::run(*plan)?;
             if flags.is_empty() {

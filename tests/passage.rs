@@ -339,37 +339,45 @@ fn fpsolve(args: &[&str]) -> (Option<i32>, String) {
     (out.status.code(), text)
 }
 
-/// `fpsolve passage` refuses a start outside the set and a model without one (exit 2), and
-/// writes R(t) from 1 down with the mean in summary.json.
+/// `fpsolve reliability` refuses a start outside the set and a model without one (exit 2),
+/// under its former name `passage` too, and writes R(t) from 1 down with the mean in
+/// summary.json, into out/<model>_reliability by default.
 #[test]
-fn the_passage_command_checks_then_writes() {
+fn the_reliability_command_checks_then_writes() {
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
-    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(z) < 2", "--start", "3,0"]);
-    assert_eq!(code, Some(2), "{text}");
-    assert!(text.contains("not inside the safe set"), "{text}");
-    let (code, text) = fpsolve(&["passage", model]);
-    assert_eq!(code, Some(2), "{text}");
-    assert!(text.contains("no safe set"), "{text}");
-    let (code, text) = fpsolve(&["passage", model, "--safe", "abs(w) < 2"]);
-    assert_eq!(code, Some(2), "{text}");
-    assert!(text.contains("--safe:1:5"), "{text}");
-    let dir = std::env::temp_dir().join(format!("fpsolve_passage_{}", std::process::id()));
-    let out = dir.to_str().unwrap();
-    let (code, text) = fpsolve(&[
-        "passage",
-        model,
-        "--safe",
-        "abs(z) < 2",
-        "--cells",
-        "40,40",
-        "--times",
-        "0:20:5",
-        "--out",
-        out,
-        "--quiet",
-    ]);
-    assert_eq!(code, Some(0), "{text}");
-    let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
+    for command in ["reliability", "passage"] {
+        let (code, text) = fpsolve(&[command, model, "--safe", "abs(z) < 2", "--start", "3,0"]);
+        assert_eq!(code, Some(2), "{text}");
+        assert!(text.contains("not inside the safe set"), "{text}");
+        let (code, text) = fpsolve(&[command, model]);
+        assert_eq!(code, Some(2), "{text}");
+        assert!(text.contains("no safe set"), "{text}");
+        let (code, text) = fpsolve(&[command, model, "--safe", "abs(w) < 2"]);
+        assert_eq!(code, Some(2), "{text}");
+        assert!(text.contains("--safe:1:5"), "{text}");
+    }
+    let cwd = std::env::temp_dir().join(format!("fpsolve_reliability_{}", std::process::id()));
+    std::fs::create_dir_all(&cwd).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args([
+            "reliability",
+            model,
+            "--safe",
+            "abs(z) < 2",
+            "--cells",
+            "40,40",
+            "--times",
+            "0:20:5",
+            "--method",
+            "grid",
+            "--quiet",
+        ])
+        .current_dir(&cwd)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    let dir = cwd.join("out/linear_reliability");
+    let csv = std::fs::read_to_string(dir.join("reliability.csv")).unwrap();
     let rows: Vec<Vec<f64>> = csv
         .lines()
         .skip(1)
@@ -378,9 +386,190 @@ fn the_passage_command_checks_then_writes() {
     assert_eq!(rows.len(), 5);
     assert_eq!(rows[0][1], 1.0);
     assert!(rows[4][1] < rows[1][1]);
+    assert!(!dir.join("passage.csv").exists() && !dir.join("first_passage_pdf.csv").exists());
     let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
     assert!(summary.contains("\"mean_at_start\""), "{summary}");
-    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(!summary.contains("\"unwritten\""), "{summary}");
+    for stem in ["reliability", "first_passage_pdf"] {
+        for ext in ["png", "svg"] {
+            let size = std::fs::metadata(dir.join(format!("{stem}.{ext}")))
+                .unwrap()
+                .len();
+            assert!(size > 1000, "{stem}.{ext}: {size} bytes");
+        }
+    }
+    std::fs::remove_dir_all(&cwd).unwrap();
+}
+
+/// The files of a run, by name, but the run marker (the command line as typed) and
+/// `summary.json` without what differs between two runs of one command line (its provenance,
+/// the command, the wall times).
+fn files_of(dir: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut files = std::collections::BTreeMap::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name == fpsolve::report::MARKER {
+            continue;
+        }
+        let mut bytes = std::fs::read(&path).unwrap();
+        if name == "summary.json" {
+            let mut json: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+            let map = json.as_object_mut().unwrap();
+            map.remove("provenance");
+            map.remove("command");
+            if let Some(report) = map.get_mut("grid").and_then(|g| g.get_mut("report")) {
+                report.as_object_mut().unwrap().remove("total_ms");
+            }
+            bytes = serde_json::to_vec(&json).unwrap();
+        }
+        files.insert(name, bytes);
+    }
+    files
+}
+
+/// Both methods: `reliability.csv`, Monte Carlo's histogram in `first_passage_pdf.csv`
+/// (each bin's mass what R_mc loses over it), both figures; `fpsolve passage` writes the
+/// same files, to the byte but for summary.json's provenance and command line.
+#[test]
+fn the_former_name_writes_the_same_files() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let base = std::env::temp_dir().join(format!("fpsolve_alias_{}", std::process::id()));
+    let mut runs = Vec::new();
+    for command in ["reliability", "passage"] {
+        let dir = base.join(command);
+        let (code, text) = fpsolve(&[
+            command,
+            model,
+            "--safe",
+            "abs(z) < 1.2",
+            "--set",
+            "c=1",
+            "--cells",
+            "40,60",
+            "--times",
+            "0:6:7",
+            "--paths",
+            "512",
+            "--dt",
+            "0.02",
+            "--out",
+            dir.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert_eq!(code, Some(0), "{command}: {text}");
+        runs.push(files_of(&dir));
+    }
+    let names: Vec<&str> = runs[0].keys().map(String::as_str).collect();
+    assert_eq!(
+        names,
+        [
+            "first_passage_pdf.csv",
+            "first_passage_pdf.png",
+            "first_passage_pdf.svg",
+            "quasi_stationary_v.csv",
+            "quasi_stationary_z.csv",
+            "reliability.csv",
+            "reliability.png",
+            "reliability.svg",
+            "summary.json",
+        ]
+    );
+    for (name, bytes) in &runs[0] {
+        assert!(bytes.len() > 100, "{name}: {} bytes", bytes.len());
+        assert!(
+            runs[1][name] == *bytes,
+            "{name} differs between the two names"
+        );
+    }
+    let table = |name: &str| -> Vec<Vec<f64>> {
+        String::from_utf8(runs[0][name].clone())
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect()
+    };
+    let pdf = String::from_utf8(runs[0]["first_passage_pdf.csv"].clone()).unwrap();
+    assert!(
+        pdf.starts_with("t_lo,t_hi,t_mid,pdf_mc,pdf_mc_se\n"),
+        "{pdf}"
+    );
+    let (r, bins) = (table("reliability.csv"), table("first_passage_pdf.csv"));
+    assert_eq!((r.len(), bins.len()), (7, 6));
+    // Columns t,R_grid,pdf_grid,R_grid_err,R_mc,...: bin k spans rows k and k + 1.
+    for (k, b) in bins.iter().enumerate() {
+        assert_eq!((b[0], b[1]), (r[k][0], r[k + 1][0]));
+        let lost = r[k][4] - r[k + 1][4];
+        assert!((b[3] * (b[1] - b[0]) - lost).abs() < 1e-12, "bin {k}");
+        assert!(b[4] >= 0.0);
+    }
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// A run without output times has nothing to draw: the figures are skipped with why, in
+/// summary.json and on the console, and the run succeeds; Monte Carlo alone draws both.
+#[test]
+fn figures_that_cannot_be_drawn_are_skipped_with_a_warning() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let base = std::env::temp_dir().join(format!("fpsolve_nofig_{}", std::process::id()));
+    let dir = base.join("grid");
+    let (code, text) = fpsolve(&[
+        "reliability",
+        model,
+        "--safe",
+        "abs(z) < 2",
+        "--cells",
+        "40,40",
+        "--method",
+        "grid",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(
+        text.contains("warning: reliability.png/.svg was not written: no output times"),
+        "{text}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let unwritten = summary["unwritten"].as_array().unwrap();
+    assert_eq!(unwritten.len(), 2, "{summary}");
+    assert_eq!(unwritten[1]["file"], "first_passage_pdf.png/.svg");
+    assert!(!dir.join("reliability.png").exists());
+    assert!(dir.join("reliability.csv").exists());
+    let dir = base.join("mc");
+    let (code, text) = fpsolve(&[
+        "reliability",
+        model,
+        "--safe",
+        "abs(z) < 1.2",
+        "--set",
+        "c=1",
+        "--method",
+        "mc",
+        "--times",
+        "0:10:6",
+        "--paths",
+        "256",
+        "--dt",
+        "0.02",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(!text.contains("was not written"), "{text}");
+    for file in [
+        "reliability.png",
+        "first_passage_pdf.svg",
+        "first_passage_pdf.csv",
+    ] {
+        assert!(
+            std::fs::metadata(dir.join(file)).unwrap().len() > 100,
+            "{file}"
+        );
+    }
+    std::fs::remove_dir_all(&base).unwrap();
 }
 
 /// fpsolve's own first-passage Monte Carlo (`McPassage`, the stationary kernel's steps with
@@ -490,9 +679,16 @@ fn passage_monte_carlo_flags_censoring() {
 /// methods writes the Monte Carlo's columns beside the grid's and the distance in standard
 /// errors.
 #[test]
-fn the_passage_command_runs_monte_carlo_beside_the_grid() {
+fn the_reliability_command_runs_monte_carlo_beside_the_grid() {
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
-    let base = ["passage", model, "--safe", "abs(z) < 1.2", "--set", "c=1"];
+    let base = [
+        "reliability",
+        model,
+        "--safe",
+        "abs(z) < 1.2",
+        "--set",
+        "c=1",
+    ];
     for (flags, says) in [
         (&["--paths", "1"][..], "--paths"),
         (&["--dt=-1"][..], "--dt"),
@@ -529,7 +725,7 @@ fn the_passage_command_runs_monte_carlo_beside_the_grid() {
         .collect();
     let (code, text) = fpsolve(&args);
     assert_eq!(code, Some(0), "{text}");
-    let csv = std::fs::read_to_string(dir.join("passage.csv")).unwrap();
+    let csv = std::fs::read_to_string(dir.join("reliability.csv")).unwrap();
     assert!(
         csv.starts_with("t,R_grid,pdf_grid,R_grid_err,R_mc,R_mc_lo95,R_mc_hi95\n"),
         "{csv}"

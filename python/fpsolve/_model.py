@@ -453,7 +453,7 @@ class Model:
         mc._judge(bool(strict))
         return mc
 
-    def passage(
+    def reliability(
         self,
         safe: Optional[str] = None,
         start: Union[None, str, Sequence[float]] = None,
@@ -468,12 +468,14 @@ class Model:
         params: Optional[Mapping[str, Value]] = None,
         **set: Value,
     ) -> Passage:
-        """First passage out of the safe set, as ``fpsolve passage``: the mean first-passage
-        time and its second moment (from the start and from the stationary density in the
-        set), the reliability R(t) = P(T > t) and the first-passage-time density, the slowest
-        decay and the quasi-stationary density on the grid; and by Monte Carlo with
-        ``"mc"`` in ``method``. The same checks, defaults and numbers (to the bit) as the
-        command line with the same arguments.
+        """Reliability: first passage out of the safe set, as ``fpsolve reliability``: the
+        mean first-passage time and its second moment (from the start and from the stationary
+        density in the set), the reliability R(t) = P(T > t) and the first-passage-time
+        density, the slowest decay and the quasi-stationary density on the grid; and by Monte
+        Carlo with ``"mc"`` in ``method`` (R(t) with its 95 % band, the first-passage-time
+        density as a histogram on the output times). The same checks, defaults and numbers
+        (to the bit) as the command line with the same arguments. ``Model.passage`` is the
+        same method under its former name.
 
         Parameters
         ----------
@@ -513,8 +515,9 @@ class Model:
         Returns
         -------
         Passage
-            The grid's and Monte Carlo's numbers as NumPy arrays and floats, ``report`` (the
-            command line's ``summary.json`` as a dict) and ``warnings``.
+            The grid's and Monte Carlo's numbers as NumPy arrays and floats (the columns of
+            the command line's ``reliability.csv`` and ``first_passage_pdf.csv``), ``report``
+            (its ``summary.json`` as a dict) and ``warnings``.
 
         Raises
         ------
@@ -547,12 +550,14 @@ class Model:
 
         Examples
         --------
-        >>> p = model.passage(safe="abs(z) < 2", times="0:50:11", c=1)  # doctest: +SKIP
-        >>> p.mean_at_start, p.reliability                               # doctest: +SKIP
+        >>> p = model.reliability(safe="abs(z) < 2", times="0:50:11", c=1)  # doctest: +SKIP
+        >>> p.mean_at_start, p.reliability                                   # doctest: +SKIP
         """
         return _passage_run(
             self, safe, start, times, cells, method, paths, dt, horizon, _seed(seed), threads, _params(params, set)
         )
+
+    passage = reliability
 
     def transient(
         self,

@@ -1,5 +1,5 @@
-"""fpsolve.Passage: first passage out of a safe set (``Model.passage``), as ``fpsolve passage``
-computes it, with NumPy arrays."""
+"""fpsolve.Passage: first passage out of a safe set (``Model.reliability``, alias
+``Model.passage``), as ``fpsolve reliability`` computes it, with NumPy arrays."""
 
 from __future__ import annotations
 
@@ -30,9 +30,9 @@ def _pair(d: Optional[Mapping[str, Any]]) -> Optional[Tuple[float, float]]:
 
 @dataclass(frozen=True)
 class PassageMonteCarlo:
-    """The Monte Carlo half of :meth:`Model.passage` (``method`` with ``"mc"``): the numbers
-    ``fpsolve passage`` writes to ``summary.json``'s ``mc`` and ``passage.csv``'s ``R_mc``
-    columns.
+    """The Monte Carlo half of :meth:`Model.reliability` (``method`` with ``"mc"``): the
+    numbers ``fpsolve reliability`` writes to ``summary.json``'s ``mc``, ``reliability.csv``'s
+    ``R_mc`` columns and ``first_passage_pdf.csv``.
 
     Attributes
     ----------
@@ -63,6 +63,15 @@ class PassageMonteCarlo:
         R(t) = P(T > t), the fraction of paths still inside at each time.
     reliability_lo, reliability_hi : numpy.ndarray
         The 95 % band of R (Wilson's interval).
+    pdf_t_mid : numpy.ndarray
+        The centres of the bins of the first-passage-time histogram: bin k is
+        (``times[k]``, ``times[k + 1]``] (``first_passage_pdf.csv``'s ``t_mid``; one fewer
+        than ``times``, empty for fewer than two times).
+    pdf_binned : numpy.ndarray
+        The first-passage-time density in each bin: the fraction of paths leaving in it over
+        its width (censored paths never count as exits; NaN for a bin of no width).
+    pdf_binned_stderr : numpy.ndarray
+        Its binomial standard errors.
     """
 
     paths: int
@@ -81,11 +90,15 @@ class PassageMonteCarlo:
     reliability: np.ndarray
     reliability_lo: np.ndarray
     reliability_hi: np.ndarray
+    pdf_t_mid: np.ndarray
+    pdf_binned: np.ndarray
+    pdf_binned_stderr: np.ndarray
 
     @classmethod
     def _from_dict(cls, d: Mapping[str, Any]) -> "PassageMonteCarlo":
         lower = _pair(d["mean_lower_bound"])
         assert lower is not None
+        times = _arr(d["times"])
         return cls(
             paths=int(d["paths"]),
             dt=_num(d["dt"]),
@@ -99,17 +112,22 @@ class PassageMonteCarlo:
             mean_lower_bound=lower,
             bias=(_num(d["bias"]["value"]), _num(d["bias"]["stderr"])),
             bias_paths=int(d["bias"]["paths"]),
-            times=_arr(d["times"]),
+            times=times,
             reliability=_arr(d["reliability"]),
             reliability_lo=_arr(d["reliability_lo"]),
             reliability_hi=_arr(d["reliability_hi"]),
+            # As the library computes the centres, (t_lo + t_hi) / 2: the same bits.
+            pdf_t_mid=(times[:-1] + times[1:]) / 2.0,
+            pdf_binned=_arr(d["pdf_binned"]),
+            pdf_binned_stderr=_arr(d["pdf_binned_stderr"]),
         )
 
 
 class Passage:
-    """The result of :meth:`Model.passage`: first passage out of the safe set on the grid
-    and, with ``method="grid,mc"`` or ``"mc"``, by Monte Carlo. The numbers are the ones
-    ``fpsolve passage`` writes with the same arguments, to the bit.
+    """The result of :meth:`Model.reliability` (alias :meth:`Model.passage`): first passage
+    out of the safe set on the grid and, with ``method="grid,mc"`` or ``"mc"``, by Monte
+    Carlo. The numbers are the ones ``fpsolve reliability`` writes with the same arguments,
+    to the bit.
 
     Grid numbers (None, arrays None, when the grid did not run):
 
@@ -132,7 +150,7 @@ class Passage:
     ``mc`` is the :class:`PassageMonteCarlo` (None without it); ``grid_vs_mc_se`` is (Monte
     Carlo's mean − the grid's) / Monte Carlo's standard error, NaN when paths were censored,
     None without both methods. ``report`` is ``summary.json`` as a dict (the library's serde
-    form; ``command`` is ``"fpsolve.Model.passage"``), and ``warnings`` the warnings the
+    form; ``command`` is ``"fpsolve.Model.reliability"``), and ``warnings`` the warnings the
     command line prints (each also raised as a :class:`FpsolveWarning`): the grid and Monte
     Carlo more than 3 standard errors plus the grid's estimated error apart, paths that blew
     up.
@@ -257,7 +275,7 @@ def run(
     threads: Optional[int],
     set: Dict[str, Any],
 ) -> Passage:
-    """Runs ``Model.passage`` (arguments converted, then checked by the native module in the
+    """Runs ``Model.reliability`` (arguments converted, then checked by the native module in the
     command line's order) and warns the command line's warnings."""
     if isinstance(method, str):
         methods: Union[str, List[str]] = method

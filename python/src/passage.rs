@@ -1,7 +1,7 @@
-//! `Model.passage`: first passage out of the safe set on the grid and by Monte Carlo, as
-//! `fpsolve passage` computes it (src/cli/passage.rs): the same checks, in the same order and
-//! before any work, the same defaults, the same library calls, so the same numbers to the
-//! bit. Returns `summary.json`'s JSON, the quasi-stationary marginals and the console's
+//! `Model.reliability` (alias `Model.passage`): first passage out of the safe set on the grid
+//! and by Monte Carlo, as `fpsolve reliability` computes it (src/cli/reliability.rs): the same
+//! checks, in the same order and before any work, the same defaults, the same library calls,
+//! so the same numbers to the bit. Returns `summary.json`'s JSON, the quasi-stationary marginals and the console's
 //! warnings; the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
 
 use fpsolve::grid::PassageError;
@@ -90,7 +90,7 @@ fn passage_error(py: Python<'_>, e: PassageError) -> PyErr {
     }
 }
 
-/// First passage of `model` out of its safe set (or `safe`), as `fpsolve passage`: returns
+/// First passage of `model` out of its safe set (or `safe`), as `fpsolve reliability`: returns
 /// `summary.json`'s JSON, the quasi-stationary marginals (empty when the grid did not run or
 /// found no decay) and the warnings the CLI prints.
 #[pyfunction]
@@ -203,7 +203,7 @@ fn outcome(
         .map_or(String::new(), |p| p.display().to_string());
     let summary = run.summary(
         provenance,
-        "fpsolve.Model.passage".into(),
+        "fpsolve.Model.reliability".into(),
         model_file,
         bound,
         safe,

@@ -1,5 +1,6 @@
-"""Model.passage against `fpsolve passage`: the same numbers to the bit (summary.json and
-passage.csv), the same refusals before any work, and the Monte Carlo's fields."""
+"""Model.reliability against `fpsolve reliability`: the same numbers to the bit (summary.json,
+reliability.csv and first_passage_pdf.csv), the same refusals before any work, and the Monte
+Carlo's fields. `passage`, the former name, is the same command and the same method."""
 
 import json
 import subprocess
@@ -16,9 +17,9 @@ SAFE = "abs(z) < 1.2"
 COMMON = ["--safe", SAFE, "--set", "c=1", "--cells", "60,80"]
 
 
-def run_cli(cli, out, *args):
+def run_cli(cli, out, *args, command="reliability"):
     return subprocess.run(
-        [cli, "passage", MODEL, *COMMON, *args, "--out", out],
+        [cli, command, MODEL, *COMMON, *args, "--out", out],
         check=True,
         capture_output=True,
         text=True,
@@ -37,9 +38,9 @@ def without_timing(summary):
 @pytest.fixture(scope="module")
 def both(cli, linear, tmp_path_factory):
     """The CLI's and Python's grid and Monte Carlo run with the same arguments."""
-    out = tmp_path_factory.mktemp("passage") / "both"
+    out = tmp_path_factory.mktemp("reliability") / "both"
     console = run_cli(cli, out, "--times", "0:20:11", "--method", "grid,mc", "--paths", "2000")
-    py = linear.passage(
+    py = linear.reliability(
         safe=SAFE, c=1, cells=(60, 80), times="0:20:11", method="grid,mc", paths=2000
     )
     return out, console.stdout, py
@@ -74,9 +75,9 @@ def test_summary_is_the_cli_summary(both):
     assert np.isnan(py.grid_vs_mc_se) and cli["grid_vs_mc_se"] is None  # censored: no distance
 
 
-def test_columns_are_the_cli_passage_csv(both):
+def test_columns_are_the_cli_reliability_csv(both):
     out, _, py = both
-    header, cols = read_csv(out / "passage.csv")
+    header, cols = read_csv(out / "reliability.csv")
     assert header == ["t", "R_grid", "pdf_grid", "R_grid_err", "R_mc", "R_mc_lo95", "R_mc_hi95"]
     np.testing.assert_array_equal(py.times, cols["t"])
     np.testing.assert_array_equal(py.reliability, cols["R_grid"])
@@ -90,6 +91,24 @@ def test_columns_are_the_cli_passage_csv(both):
         x, p = py.quasi_stationary[state]
         np.testing.assert_array_equal(x, cols[state])
         np.testing.assert_array_equal(p, cols["quasi_stationary"])
+
+
+def test_monte_carlo_density_is_the_cli_first_passage_pdf_csv(both):
+    out, _, py = both
+    mc = py.mc
+    header, cols = read_csv(out / "first_passage_pdf.csv")
+    assert header == ["t_lo", "t_hi", "t_mid", "pdf_mc", "pdf_mc_se"]
+    np.testing.assert_array_equal(py.times[:-1], cols["t_lo"])
+    np.testing.assert_array_equal(py.times[1:], cols["t_hi"])
+    np.testing.assert_array_equal(mc.pdf_t_mid, cols["t_mid"])
+    np.testing.assert_array_equal(mc.pdf_binned, cols["pdf_mc"])
+    np.testing.assert_array_equal(mc.pdf_binned_stderr, cols["pdf_mc_se"])
+    # Each bin holds what R loses over it; censored paths are no exits, so the bins hold
+    # 1 - R(last time) in all.
+    width = np.diff(py.times)
+    np.testing.assert_allclose(mc.pdf_binned * width, -np.diff(mc.reliability), rtol=0, atol=1e-15)
+    assert np.all(mc.pdf_binned_stderr >= 0) and mc.censored > 0
+    assert np.isclose(np.sum(mc.pdf_binned * width), 1 - mc.reliability[-1], rtol=0, atol=1e-12)
 
 
 def test_monte_carlo_fields(both):
@@ -113,7 +132,7 @@ def test_monte_carlo_alone_and_uncensored(cli, linear, tmp_path):
     # its standard error, R on the times asked, the same bits as the CLI.
     out = tmp_path / "mc"
     run_cli(cli, out, "--method", "mc", "--paths", "1024", "--horizon", "400", "--times", "0:40:5")
-    py = linear.passage(
+    py = linear.reliability(
         safe=SAFE, params={"c": 1}, cells="60,80", method="mc", paths=1024, horizon=400, times=[0, 10, 20, 30, 40]
     )
     summary = json.loads((out / "summary.json").read_text())
@@ -126,15 +145,19 @@ def test_monte_carlo_alone_and_uncensored(cli, linear, tmp_path):
     assert mc.mean[1] > 0 and mc.variance[0] > 0
     assert mc.mean_lower_bound == mc.mean
     np.testing.assert_array_equal(py.times, [0, 10, 20, 30, 40])
-    header, cols = read_csv(out / "passage.csv")
+    header, cols = read_csv(out / "reliability.csv")
     assert header == ["t", "R_mc", "R_mc_lo95", "R_mc_hi95"]
     np.testing.assert_array_equal(mc.reliability, cols["R_mc"])
+    header, cols = read_csv(out / "first_passage_pdf.csv")
+    np.testing.assert_array_equal(mc.pdf_t_mid, [5, 15, 25, 35])
+    np.testing.assert_array_equal(mc.pdf_binned, cols["pdf_mc"])
+    np.testing.assert_array_equal(mc.pdf_binned_stderr, cols["pdf_mc_se"])
 
 
 def test_horizon_defaults_to_twenty_grid_means(cli, linear, tmp_path):
     out = tmp_path / "h"
     run_cli(cli, out, "--method", "grid,mc", "--paths", "512")
-    py = linear.passage(safe=SAFE, c=1, cells=(60, 80), method=["grid", "mc"], paths=512)
+    py = linear.reliability(safe=SAFE, c=1, cells=(60, 80), method=["grid", "mc"], paths=512)
     summary = json.loads((out / "summary.json").read_text())
     assert without_timing(py.report) == without_timing(summary)
     assert py.mc.horizon == 20.0 * py.mean_at_start
@@ -149,7 +172,7 @@ def test_disagreement_warns_as_the_cli(cli, linear, tmp_path):
     console = run_cli(cli, out, *args).stdout
     assert "warning: the grid's mean first-passage time" in console
     with pytest.warns(fpsolve.FpsolveWarning, match="more than 3 standard errors"):
-        py = linear.passage(safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=4000, dt=0.4, horizon=400)
+        py = linear.reliability(safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=4000, dt=0.4, horizon=400)
     assert len(py.warnings) == 1
     gap = py.warnings[0].split(" is ")[1].split(" ")[0]
     assert f"is {gap} from Monte Carlo's" in console
@@ -161,13 +184,21 @@ def test_the_model_safe_line_and_a_start(cli, tmp_path):
     path = tmp_path / "linear_safe.sde"
     path.write_text(text)
     out = tmp_path / "s"
+    # The former names, `fpsolve passage` and Model.passage: the same command and method.
     subprocess.run(
         [cli, "passage", path, "--start", "0.5,-0.25", "--cells", "40,40", "--method", "grid", "--out", out],
         check=True,
         capture_output=True,
     )
     py = fpsolve.Model.load(path).passage(start=(0.5, -0.25), cells=(40, 40))
+    assert fpsolve.Model.passage is fpsolve.Model.reliability
+    assert py.report["command"] == "fpsolve.Model.reliability"
     summary = json.loads((out / "summary.json").read_text())
+    # Without output times the command line has no figure to draw and says so; Python draws
+    # none, so its report has no such list.
+    unwritten = summary.pop("unwritten")
+    assert [u["file"] for u in unwritten] == ["reliability.png/.svg", "first_passage_pdf.png/.svg"]
+    assert "unwritten" not in py.report
     assert without_timing(py.report) == without_timing(summary)
     assert py.safe == "-1 < z < 1.5" and py.start == (0.5, -0.25)
     assert py.mc is None and "mc" not in py.report
@@ -215,45 +246,46 @@ REFUSED = {
 def test_refused_before_any_work_as_the_cli(cli, linear, tmp_path, case):
     args, kwargs, error = REFUSED[case]
     out = tmp_path / "refused"
-    done = subprocess.run(
-        [cli, "passage", MODEL, *args, "--out", out], capture_output=True, text=True
-    )
-    assert done.returncode == 2, done.stderr
-    assert not out.exists()
+    for command in ("reliability", "passage"):
+        done = subprocess.run(
+            [cli, command, MODEL, *args, "--out", out], capture_output=True, text=True
+        )
+        assert done.returncode == 2, done.stderr
+        assert not out.exists()
     with pytest.raises(error):
-        linear.passage(**kwargs)
+        linear.reliability(**kwargs)
 
 
 def test_error_details(linear):
     with pytest.raises(ValueError, match="not inside the safe set `abs"):
-        linear.passage(safe=SAFE, start=(1.3, 0))
+        linear.reliability(safe=SAFE, start=(1.3, 0))
     with pytest.raises(fpsolve.ModelError) as info:
-        linear.passage(safe="c < 2")
+        linear.reliability(safe="c < 2")
     assert "depends on no state" in str(info.value) and "--safe" in str(info.value)
     assert info.value.line == 1
     with pytest.raises(fpsolve.MonteCarloError) as mc:
-        linear.passage(safe=SAFE, method="mc", paths=1, horizon=10)
+        linear.reliability(safe=SAFE, method="mc", paths=1, horizon=10)
     assert mc.value.kind == "bad_setting"
     with pytest.raises(ValueError, match="paths"):
-        linear.passage(safe=SAFE, method="mc", paths=-1, horizon=10)
+        linear.reliability(safe=SAFE, method="mc", paths=-1, horizon=10)
     with pytest.raises(TypeError):
-        linear.passage(safe=SAFE, params={"c": 1}, c=2)
+        linear.reliability(safe=SAFE, params={"c": 1}, c=2)
 
 
 def test_no_probability_in_the_set_is_a_value_error(cli, linear, tmp_path):
     # Found by the grid's stationary solve, not before (as the CLI, which exits 2 for it).
     args = ["--set", "c=1", "--safe", "z > 5", "--start", "5.1,0", "--cells", "40,40", "--method", "grid"]
-    done = subprocess.run([cli, "passage", MODEL, *args, "--out", tmp_path / "n"], capture_output=True, text=True)
+    done = subprocess.run([cli, "reliability", MODEL, *args, "--out", tmp_path / "n"], capture_output=True, text=True)
     assert done.returncode == 2 and "of the stationary probability" in done.stderr
     with pytest.raises(ValueError, match="of the stationary probability"):
-        linear.passage(safe="z > 5", start=(5.1, 0), cells=(40, 40), c=1)
+        linear.reliability(safe="z > 5", start=(5.1, 0), cells=(40, 40), c=1)
 
 
 def test_threads_do_not_change_the_numbers(both, linear):
     _, _, py = both
-    one = linear.passage(
+    one = linear.reliability(
         safe=SAFE, c=1, cells=(60, 80), times="0:20:11", method="grid,mc", paths=2000, threads=1
     )
     assert without_timing(one.report) == without_timing(py.report)
     with pytest.raises(ValueError, match="threads"):
-        linear.passage(safe=SAFE, threads=0)
+        linear.reliability(safe=SAFE, threads=0)

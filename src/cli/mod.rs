@@ -7,8 +7,8 @@ pub(crate) mod console;
 pub(crate) mod domain_flag;
 pub(crate) mod job_plan;
 pub(crate) mod mc_flags;
-pub(crate) mod passage;
 pub(crate) mod progress;
+pub(crate) mod reliability;
 pub(crate) mod sweep_flags;
 #[cfg(test)]
 mod tests;

@@ -40,7 +40,7 @@ pub use crate::model::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use csv::{Cell, PdfTable, TableError, TextTable};
 pub use figure::error::FigureError;
 pub use figure::render::FigureFiles;
-pub use figure::{Curve, CurveStyle, LineFigure, PdfFigure, Points};
+pub use figure::{Band, Curve, CurveStyle, LineFigure, PanelFigure, PdfFigure, Points};
 pub(crate) use json::check_finite;
 pub use json::{
     json_flagging_undefined, undefined_fields, write_json, write_json_flagging_undefined,

@@ -10,6 +10,7 @@
 //! whatever the number of threads. The time-step bias is estimated as for stationary runs:
 //! the first quarter of the batches (at least two) again at 2·dt.
 
+mod density;
 mod summary;
 
 use rayon::prelude::*;

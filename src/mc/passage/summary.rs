@@ -1,8 +1,11 @@
-//! The statistics of a first-passage run's exit times: R(t) with 95 % bands, the mean and
-//! variance of T with standard errors (or, when paths were censored, a lower bound on the
-//! mean and no variance), the time-step bias from the 2·dt paths.
+//! The statistics of a first-passage run's exit times: R(t) with 95 % bands, the
+//! first-passage-time density as a histogram on the same times, the mean and variance of T
+//! with standard errors (or, when paths were censored, a lower bound on the mean and no
+//! variance), the time-step bias from the 2·dt paths.
 
 use serde::Serialize;
+
+use super::density::binned_density;
 
 /// The normal quantile of a two-sided 95 % band.
 const Z95: f64 = 1.959_963_984_540_054;
@@ -64,6 +67,13 @@ pub struct McPassageResult {
     pub reliability_lo: Vec<f64>,
     /// The upper end of R's 95 % band.
     pub reliability_hi: Vec<f64>,
+    /// The first-passage-time density as a histogram on `times`: bin k is (times[k],
+    /// times[k+1]], its value the fraction of paths leaving in it over its width (so the
+    /// bin's mass is exactly R(times[k]) − R(times[k+1])); censored paths never count as
+    /// exits. One fewer than `times`, none for fewer than two; NaN for a bin of no width.
+    pub pdf_binned: Vec<f64>,
+    /// The binomial standard errors of `pdf_binned`: √(p(1 − p)/n) over the bin's width.
+    pub pdf_binned_stderr: Vec<f64>,
 }
 
 /// The exit times of a run (`INFINITY` censored, NaN blown up).
@@ -113,6 +123,7 @@ impl McPassageResult {
             lo.push(l);
             hi.push(h);
         }
+        let binned = binned_density(&valid, &times);
         McPassageResult {
             paths: run.exits.len() as u64,
             dt: run.dt,
@@ -129,6 +140,8 @@ impl McPassageResult {
             reliability,
             reliability_lo: lo,
             reliability_hi: hi,
+            pdf_binned: binned.density,
+            pdf_binned_stderr: binned.stderr,
         }
     }
 }
@@ -212,6 +225,9 @@ mod tests {
         assert_eq!(r.censored, 1);
         assert_eq!(r.mean_lower_bound.value, 4.0);
         assert_eq!(r.reliability, vec![1.0, 0.75, 0.25]);
+        // Exit 1 in (0, 1.5], exits 2 and 3 in (1.5, 10]; the censored path in neither.
+        assert_eq!(r.pdf_binned, vec![0.25 / 1.5, 0.5 / 8.5]);
+        assert_eq!(r.pdf_binned_stderr.len(), 2);
         assert_eq!(r.bias.value, 0.0);
     }
 

@@ -1,5 +1,6 @@
 //! Figures: a PDF comparison (linear and log panels side by side, like the comparison figures of
-//! the EPC papers) and a plain line chart for moments against a swept parameter. Part of the
+//! the EPC papers), the same two panels for any quantity with shaded bands (R(t) with its
+//! confidence band), and a plain line chart for moments against a swept parameter. Part of the
 //! report stage, drawn from plain data: each renders to PNG and SVG with the bundled font and
 //! is written through [`OutputDir`].
 
@@ -100,6 +101,68 @@ pub struct LineFigure {
     pub y_label: String,
     /// The series, each drawn with markers and a line in its own colour and dash pattern.
     pub series: Vec<Curve>,
+}
+
+/// Any quantity against one variable on two panels side by side, linear and log scale, as
+/// [`PdfFigure`] draws a density: lines, shaded [`Band`]s under them (an interval, an
+/// estimated error) and points with error bars. The log panel leaves out values at or below
+/// zero.
+///
+/// ```no_run
+/// use fpsolve::report::{Band, Curve, OutputDir, PanelFigure};
+///
+/// let t: Vec<f64> = (0..=50).map(|i| 0.2 * f64::from(i)).collect();
+/// let r: Vec<f64> = t.iter().map(|t| (-0.5 * t).exp()).collect();
+/// let figure = PanelFigure {
+///     title: "Reliability".into(),
+///     subtitle: String::new(),
+///     x_label: "t".into(),
+///     y_label: "R(t)".into(),
+///     curves: vec![Curve { label: "R".into(), x: t.clone(), y: r.clone() }],
+///     bands: vec![Band {
+///         label: "R ± 5 %".into(),
+///         x: t,
+///         lo: r.iter().map(|r| 0.95 * r).collect(),
+///         hi: r.iter().map(|r| 1.05 * r).collect(),
+///         colour_of: 0,
+///     }],
+///     points: None,
+///     y_bound: Some(1.0),
+/// };
+/// figure.write(&OutputDir::create("out")?, "reliability")?;
+/// # Ok::<(), fpsolve::report::ReportError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct PanelFigure {
+    /// Title above both panels.
+    pub title: String,
+    /// A smaller line under the title; none when empty.
+    pub subtitle: String,
+    /// The horizontal axis' label.
+    pub x_label: String,
+    /// The vertical axes' label.
+    pub y_label: String,
+    /// Lines, each with its own colour and dash pattern.
+    pub curves: Vec<Curve>,
+    /// Shaded bands, drawn under the lines.
+    pub bands: Vec<Band>,
+    /// Points with error bars.
+    pub points: Option<Points>,
+    /// The largest value the quantity can take, if it has one (1 for a probability): the
+    /// log panel then ends at its decade rather than at the decade above the data.
+    pub y_bound: Option<f64>,
+}
+
+/// What the two panels draw, borrowed from a [`PdfFigure`] or a [`PanelFigure`].
+struct Panels<'a> {
+    title: &'a str,
+    subtitle: &'a str,
+    x_label: &'a str,
+    y_label: &'a str,
+    curves: &'a [Curve],
+    bands: &'a [Band],
+    points: Option<&'a Points>,
+    y_bound: Option<f64>,
 }
 
 const PDF_SIZE: (u32, u32) = (1500, 620);
@@ -397,12 +460,16 @@ fn draw_points<'a, DB: DrawingBackend + 'a>(
     Ok(())
 }
 
-impl PdfFigure {
+impl Panels<'_> {
     fn check(&self) -> Result<(), FigureError> {
-        for c in &self.curves {
+        for c in self.curves {
             check_series(&c.label, &c.x, &c.y, None)?;
         }
-        if let Some(p) = &self.points {
+        for b in self.bands {
+            check_series(&b.label, &b.x, &b.lo, None)?;
+            check_series(&b.label, &b.x, &b.hi, None)?;
+        }
+        if let Some(p) = self.points {
             check_series(&p.label, &p.x, &p.y, Some(&p.stderr))?;
         }
         Ok(())
@@ -412,10 +479,12 @@ impl PdfFigure {
         self.curves
             .iter()
             .flat_map(|c| &c.x)
+            .chain(self.bands.iter().flat_map(|b| &b.x))
             .chain(self.points.iter().flat_map(|p| &p.x))
     }
 
-    /// Every value the y axes must show: curve values and the tops of error bars.
+    /// Every value the y axes must show: curve values, band edges and the tops of error
+    /// bars.
     fn all_y(&self) -> impl Iterator<Item = f64> + '_ {
         let tops = self.points.iter().flat_map(|p| {
             p.y.iter()
@@ -425,6 +494,11 @@ impl PdfFigure {
         self.curves
             .iter()
             .flat_map(|c| c.y.iter().copied())
+            .chain(
+                self.bands
+                    .iter()
+                    .flat_map(|b| b.lo.iter().chain(&b.hi).copied()),
+            )
             .chain(self.points.iter().flat_map(|p| p.y.iter().copied()))
             .chain(tops)
     }
@@ -461,20 +535,26 @@ impl PdfFigure {
             .copied()
             .filter(|&v| v > 0.0)
             .fold(f64::INFINITY, f64::min);
-        let log_top = 10f64.powf((y_max * 1.1).log10().ceil());
         let log_bottom = 10f64.powf(smallest.max(y_max * 1e-8).log10().floor());
+        // Up to the decade above the peak, or that of the quantity's bound if lower (R ≤ 1
+        // reaches 1: the decade above it would be empty).
+        let above_peak = 10f64.powf((y_max * 1.1).log10().ceil());
+        let log_top = match self.y_bound.map(|b| 10f64.powf(b.log10().ceil())) {
+            Some(top) if top > log_bottom => top.min(above_peak),
+            _ => above_peak,
+        };
 
         root.fill(&WHITE).map_err(drawing_error)?;
         // The title sits below a small top margin: plotters places glyphs from the font's
         // nominal height, which lets tall capitals touch the image edge.
         let body = root
             .margin(8 * k, 0, 0, 0)
-            .titled(&self.title, font_of(26, k).color(&BLACK))
+            .titled(self.title, font_of(26, k).color(&BLACK))
             .map_err(drawing_error)?;
         let body = if self.subtitle.is_empty() {
             body
         } else {
-            body.titled(&self.subtitle, font_of(17, k).color(&BLACK))
+            body.titled(self.subtitle, font_of(17, k).color(&BLACK))
                 .map_err(drawing_error)?
         };
         let panels = body.split_evenly((1, 2));
@@ -497,12 +577,17 @@ impl PdfFigure {
         let top = spanned("y", (lin_lo, y_max * 1.08))?.1;
         let plot = lin_chart(top)?.plotting_area().dim_in_pixel();
         let mut labels: Vec<&str> = self.curves.iter().map(|c| c.label.as_str()).collect();
+        labels.extend(self.band_labels().map(|(_, label)| label));
         labels.extend(self.points.iter().map(|p| p.label.as_str()));
         let scaled = |x: &[f64], y: &[f64]| place::scaled(x, y, (x_lo, x_hi), (lin_lo, top));
         let mut runs: Vec<Vec<(f64, f64)>> =
             self.curves.iter().map(|c| scaled(&c.x, &c.y)).collect();
+        for b in self.bands {
+            runs.push(scaled(&b.x, &b.hi));
+            runs.push(scaled(&b.x, &b.lo));
+        }
         // Monte Carlo's points and the tops of their error bars, each on its own.
-        if let Some(p) = &self.points {
+        if let Some(p) = self.points {
             let tops: Vec<f64> =
                 p.y.iter()
                     .zip(&p.stderr)
@@ -514,13 +599,16 @@ impl PdfFigure {
         let placement = place::place(&runs, place::legend_size(&labels, k), plot);
         let lin_y = spanned("y", (lin_lo, lin_lo + (top - lin_lo) * placement.grow))?;
         let mut lin = lin_chart(lin_y.1)?;
-        mesh(
-            &mut lin,
-            &self.variable_label,
-            "probability density",
-            false,
-            k,
-        )?;
+        mesh(&mut lin, self.x_label, self.y_label, false, k)?;
+        // Bands under the lines; their legend entries after the lines'.
+        for b in self.bands {
+            band::draw(
+                &mut lin,
+                b,
+                Pen::nth(b.colour_of, k).colour,
+                (f64::NEG_INFINITY, f64::INFINITY),
+            )?;
+        }
         for (i, curve) in self.curves.iter().enumerate() {
             let pen = Pen::nth(i, k);
             for run in visible_runs(&curve.x, &curve.y, f64::NEG_INFINITY) {
@@ -532,7 +620,14 @@ impl PdfFigure {
                 .label(curve.label.as_str());
             pen.legend(anno);
         }
-        if let Some(points) = &self.points {
+        for (colour_of, label) in self.band_labels() {
+            let anno = lin
+                .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+                .map_err(drawing_error)?
+                .label(label);
+            band::legend(anno, Pen::nth(colour_of, k).colour, k);
+        }
+        if let Some(points) = self.points {
             draw_points(&mut lin, points, f64::NEG_INFINITY, f64::INFINITY, k)?;
             let anno = lin
                 .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
@@ -552,23 +647,60 @@ impl PdfFigure {
             .build_cartesian_2d(x_lo..x_hi, (log_bottom..log_top).log_scale())
             .map_err(drawing_error)?;
         log_minor_grid(&mut log, (x_lo, x_hi), (log_bottom, log_top), k)?;
-        mesh(
-            &mut log,
-            &self.variable_label,
-            "probability density",
-            true,
-            k,
-        )?;
+        mesh(&mut log, self.x_label, self.y_label, true, k)?;
+        for b in self.bands {
+            band::draw(
+                &mut log,
+                b,
+                Pen::nth(b.colour_of, k).colour,
+                (log_bottom, log_top),
+            )?;
+        }
         for (i, curve) in self.curves.iter().enumerate() {
             let pen = Pen::nth(i, k);
-            for run in visible_runs(&curve.x, &curve.y, log_bottom) {
+            // Values above a bound's decade (a rounding over R = 1) run along the top axis
+            // rather than over it; NaN stays a gap.
+            let y: Vec<f64> = curve
+                .y
+                .iter()
+                .map(|&v| if v > log_top { log_top } else { v })
+                .collect();
+            for run in visible_runs(&curve.x, &y, log_bottom) {
                 pen.draw(&mut log, run)?;
             }
         }
-        if let Some(points) = &self.points {
+        if let Some(points) = self.points {
             draw_points(&mut log, points, log_bottom, log_top, k)?;
         }
         root.present().map_err(drawing_error)
+    }
+
+    /// The bands that have a legend entry: the curve whose colour each takes, its label.
+    fn band_labels(&self) -> impl Iterator<Item = (usize, &str)> + '_ {
+        self.bands
+            .iter()
+            .filter(|b| !b.label.is_empty())
+            .map(|b| (b.colour_of, b.label.as_str()))
+    }
+}
+
+impl PdfFigure {
+    fn draw<'b, DB: DrawingBackend + 'b>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+        k: u32,
+    ) -> Result<(), FigureError> {
+        Panels {
+            title: &self.title,
+            subtitle: &self.subtitle,
+            x_label: &self.variable_label,
+            y_label: "probability density",
+            curves: &self.curves,
+            bands: &[],
+            points: self.points.as_ref(),
+            y_bound: None,
+        }
+        .draw(root, k)
     }
 
     /// The figure as PNG bytes.
@@ -576,6 +708,50 @@ impl PdfFigure {
     /// # Errors
     /// A [`FigureError`] for invalid data (mismatched lengths, non-finite abscissae, infinite
     /// values, negative standard errors, nothing positive to show) or a drawing failure.
+    pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
+        render_png(PDF_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// The figure as SVG text.
+    ///
+    /// # Errors
+    /// As [`render_png`](Self::render_png).
+    pub fn render_svg(&self) -> Result<String, FigureError> {
+        render_svg(PDF_SIZE, |root, k| self.draw(root, k))
+    }
+
+    /// Writes `<stem>.png` and `<stem>.svg` into `dir`, each atomically.
+    ///
+    /// # Errors
+    /// [`ReportError::Figure`] naming the file, or as [`OutputDir::write_atomic`].
+    pub fn write(&self, dir: &OutputDir, stem: &str) -> Result<FigureFiles, ReportError> {
+        write_both(dir, stem, || self.render_png(), || self.render_svg())
+    }
+}
+
+impl PanelFigure {
+    fn draw<'b, DB: DrawingBackend + 'b>(
+        &self,
+        root: DrawingArea<DB, Shift>,
+        k: u32,
+    ) -> Result<(), FigureError> {
+        Panels {
+            title: &self.title,
+            subtitle: &self.subtitle,
+            x_label: &self.x_label,
+            y_label: &self.y_label,
+            curves: &self.curves,
+            bands: &self.bands,
+            points: self.points.as_ref(),
+            y_bound: self.y_bound,
+        }
+        .draw(root, k)
+    }
+
+    /// The figure as PNG bytes.
+    ///
+    /// # Errors
+    /// As [`PdfFigure::render_png`]; a band's edges are checked as a curve's values.
     pub fn render_png(&self) -> Result<Vec<u8>, FigureError> {
         render_png(PDF_SIZE, |root, k| self.draw(root, k))
     }
@@ -688,6 +864,7 @@ impl LineFigure {
 }
 
 mod axes;
+mod band;
 pub(super) mod error;
 mod place;
 pub(super) mod render;
@@ -695,5 +872,6 @@ pub(super) mod render;
 mod tests;
 
 use axes::{legend, log_minor_grid, mesh};
+pub use band::Band;
 use error::{drawing_error, FigureError};
 use render::{render_png, render_svg, write_both, FigureFiles};

@@ -1,7 +1,9 @@
-//! `fpsolve passage MODEL`: first passage out of the safe set on the grid and by Monte Carlo.
-//! Flags are read and checked (the model, `--safe`, the start inside the set, the times, the
-//! cells, the methods and the Monte Carlo's paths, dt, horizon and seed) before any solve;
-//! writes `passage.csv` and `summary.json`.
+//! `fpsolve reliability MODEL` (alias `fpsolve passage`): first passage out of the safe set
+//! on the grid and by Monte Carlo. Flags are read and checked (the model, `--safe`, the start
+//! inside the set, the times, the cells, the methods and the Monte Carlo's paths, dt, horizon
+//! and seed) before any solve; writes `reliability.csv`, `first_passage_pdf.csv` (with Monte
+//! Carlo), `quasi_stationary_<state>.csv` (when the grid found the decay), the figures
+//! `reliability` and `first_passage_pdf` (PNG and SVG) and `summary.json`.
 
 use std::path::{Path, PathBuf};
 
@@ -12,9 +14,9 @@ use fpsolve::job::passage::{parse_pair, parse_times, McSettings, PassageRun, Pas
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::report::write_json;
 
-/// The flags of `fpsolve passage`.
+/// The flags of `fpsolve reliability`.
 #[derive(Args, Debug)]
-pub(crate) struct PassageArgs {
+pub(crate) struct ReliabilityArgs {
     /// The safe set, overriding the model's `safe` line (`abs(z) < 2.5`, `-2 < z < 3`).
     #[arg(long, value_name = "SET", allow_hyphen_values = true)]
     safe: Option<String>,
@@ -45,13 +47,13 @@ pub(crate) struct PassageArgs {
     seed: u64,
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
-    /// Output directory (default: out/<model name>_passage).
+    /// Output directory (default: out/<model name>_reliability).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
 
-/// A checked `passage` command.
-pub(crate) struct PassagePlan {
+/// A checked `reliability` command.
+pub(crate) struct ReliabilityPlan {
     path: PathBuf,
     bound: BoundModel,
     safe: BoundSafe,
@@ -64,7 +66,7 @@ pub(crate) struct PassagePlan {
 }
 
 /// Reads and checks everything before any solve.
-pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
+pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPlan> {
     let methods: Vec<&str> = args.method.split(',').map(str::trim).collect();
     if methods.is_empty() || methods.iter().any(|m| !matches!(*m, "grid" | "mc")) {
         return Err(anyhow!(
@@ -138,8 +140,8 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
     }
     let out = args
         .out
-        .unwrap_or_else(|| Path::new("out").join(format!("{}_passage", model.name())));
-    Ok(PassagePlan {
+        .unwrap_or_else(|| Path::new("out").join(format!("{}_reliability", model.name())));
+    Ok(ReliabilityPlan {
         path,
         bound,
         safe,
@@ -153,7 +155,7 @@ pub(crate) fn plan(path: PathBuf, args: PassageArgs) -> Result<PassagePlan> {
 }
 
 /// Solves and writes the output directory.
-pub(crate) fn run(plan: PassagePlan) -> Result<()> {
+pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
     let run = crate::begin_output(&plan.out)?;
     let solved = PassageRun::solve(
         &plan.bound,
@@ -170,9 +172,15 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     })
     .with_context(|| plan.path.display().to_string())?;
     run.out()
-        .write_atomic("passage.csv", solved.csv().as_bytes())
+        .write_atomic("reliability.csv", solved.csv().as_bytes())
         .map_err(crate::lib)?;
     let mut files = 2;
+    if let Some(csv) = solved.pdf_csv() {
+        run.out()
+            .write_atomic("first_passage_pdf.csv", csv.as_bytes())
+            .map_err(crate::lib)?;
+        files += 1;
+    }
     if let Some([qx, qv]) = solved
         .grid
         .as_ref()
@@ -190,7 +198,10 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
             files += 1;
         }
     }
-    let summary = solved.summary(
+    // The figures before summary.json, which lists those not drawn.
+    let figures = solved.write_figures(run.out(), &plan.bound, &plan.safe, plan.start);
+    files += figures.files.len();
+    let mut summary = solved.summary(
         fpsolve::report::Provenance::now_bound(&plan.bound),
         crate::command_line(),
         plan.path.display().to_string(),
@@ -198,6 +209,7 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
         &plan.safe,
         plan.start,
     );
+    summary.unwritten = figures.unwritten;
     let (grid, mc) = (&solved.grid, &solved.mc);
     write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
     if let Some(g) = &grid {
@@ -253,6 +265,9 @@ pub(crate) fn run(plan: PassagePlan) -> Result<()> {
     }
     for warning in solved.warnings() {
         crate::cli::console::sayln!("warning: {warning}");
+    }
+    for u in &summary.unwritten {
+        crate::cli::console::sayln!("warning: {} was not written: {}", u.file, u.error);
     }
     crate::commit_output(run, files)
 }

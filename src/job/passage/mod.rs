@@ -1,14 +1,23 @@
-//! First passage as `fpsolve passage` and Python's `Model.passage` run it: the grid and Monte
-//! Carlo solved in one order (Monte Carlo on the grid's times, its horizon 20 grid mean times
-//! unless given), and everything the two front ends report from them — `passage.csv`,
-//! `summary.json`, the warnings — written once, so the two give the same numbers and words.
-//! Each front end checks its own flags or keywords before calling [`PassageRun::solve`].
+//! First passage as `fpsolve reliability` (alias `fpsolve passage`) and Python's
+//! `Model.reliability` (alias `Model.passage`) run it: the grid and Monte Carlo solved in one
+//! order (Monte Carlo on the grid's times, its horizon 20 grid mean times unless given), and
+//! everything the two front ends report from them — `reliability.csv`,
+//! `first_passage_pdf.csv`, `summary.json`, the warnings — written once, so the two give the
+//! same numbers and words; the command line also draws the figures
+//! ([`PassageRun::write_figures`]). Each front end checks its own flags or keywords before
+//! calling [`PassageRun::solve`].
+
+mod figures;
 
 use serde::Serialize;
 
 use crate::grid::{GridPassage, PassageError, PassageSolution};
+use crate::job::Unwritten;
 use crate::mc::{McError, McPassage, McPassageResult};
 use crate::model::{BoundModel, BoundSafe, Provenance};
+use crate::report::{short_number, OutputDir};
+
+pub use figures::PassageFigures;
 
 /// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
 /// Monte Carlo's mean first-passage times may be apart before a warning.
@@ -70,7 +79,7 @@ pub fn parse_pair(s: &str) -> Result<[f64; 2], TextError> {
     }
 }
 
-/// Times `FIRST:LAST:COUNT`, evenly spaced (`--times` of `passage` and `transient`).
+/// Times `FIRST:LAST:COUNT`, evenly spaced (`--times` of `reliability` and `transient`).
 ///
 /// # Errors
 /// [`TextError`] for another shape, parts that are not numbers, or times out of range.
@@ -212,6 +221,10 @@ pub struct PassageSummary<'a> {
     /// censored (the Monte Carlo mean is then only a lower bound); absent without both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_vs_mc_se: Option<Option<f64>>,
+    /// The figures that could not be drawn, each with why (the command line's, from
+    /// [`PassageRun::write_figures`]); absent from the file when there is none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unwritten: Vec<Unwritten>,
 }
 
 impl PassageRun {
@@ -297,8 +310,14 @@ impl PassageRun {
         out
     }
 
-    /// `passage.csv`: `t`, then `R_grid,pdf_grid[,R_grid_err]` and `R_mc,R_mc_lo95,R_mc_hi95`
-    /// for the solves that ran.
+    /// `reliability.csv`: `t`, then `R_grid,pdf_grid[,R_grid_err]` and
+    /// `R_mc,R_mc_lo95,R_mc_hi95` for the solves that ran, one row per output time.
+    ///
+    /// ```
+    /// use fpsolve::job::passage::PassageRun;
+    /// let none = PassageRun { grid: None, mc: None };
+    /// assert_eq!(none.csv(), "t\n");
+    /// ```
     pub fn csv(&self) -> String {
         let (grid, mc) = (&self.grid, &self.mc);
         let times = grid
@@ -341,6 +360,77 @@ impl PassageRun {
         csv
     }
 
+    /// `first_passage_pdf.csv`: Monte Carlo's first-passage-time density as a histogram on
+    /// the output times, one row per bin (t_lo, t_hi]: `t_lo,t_hi,t_mid,pdf_mc,pdf_mc_se`
+    /// ([`McPassageResult::pdf_binned`] and its standard errors). A table of its own because
+    /// its rows are bins between the times of `reliability.csv`, not the times themselves.
+    /// `None` without Monte Carlo or with fewer than two output times.
+    ///
+    /// ```
+    /// use fpsolve::job::passage::PassageRun;
+    /// assert_eq!(PassageRun { grid: None, mc: None }.pdf_csv(), None);
+    /// ```
+    pub fn pdf_csv(&self) -> Option<String> {
+        let m = self.mc.as_ref().filter(|m| !m.pdf_binned.is_empty())?;
+        let mut csv = String::from("t_lo,t_hi,t_mid,pdf_mc,pdf_mc_se\n");
+        for (k, w) in m.times.windows(2).enumerate() {
+            let row = [
+                w[0],
+                w[1],
+                (w[0] + w[1]) / 2.0,
+                m.pdf_binned[k],
+                m.pdf_binned_stderr[k],
+            ];
+            let row: Vec<String> = row.iter().map(f64::to_string).collect();
+            csv.push_str(&(row.join(",") + "\n"));
+        }
+        Some(csv)
+    }
+
+    /// Draws and writes into `dir` `reliability.png/.svg` (R(t) of each method that ran:
+    /// the grid's line with its estimated error as a band, Monte Carlo's with its 95 %
+    /// Wilson band) and `first_passage_pdf.png/.svg` (the grid's density, Monte Carlo's
+    /// histogram with standard errors), each with a linear and a log panel. A figure that
+    /// cannot be drawn (nothing positive to show, no output times) is listed in
+    /// [`PassageFigures::unwritten`] with why; the numbers are not touched.
+    ///
+    /// ```no_run
+    /// # use fpsolve::job::passage::PassageRun;
+    /// # use fpsolve::model::{load_model, Override};
+    /// # use fpsolve::report::OutputDir;
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    /// let model = load_model(path.as_ref())?.with_safe("abs(z) < 1.2")?;
+    /// let bound = model.bind(&[Override::number("c", 1.0)])?;
+    /// let safe = model.safe().unwrap().bind(&bound)?;
+    /// let times: Vec<f64> = (0..=10).map(f64::from).collect();
+    /// let run = PassageRun::solve(&bound, &safe, [0.0, 0.0], &times, [40, 40], true, None)?;
+    /// let figures = run.write_figures(&OutputDir::create("out")?, &bound, &safe, [0.0, 0.0]);
+    /// assert!(figures.unwritten.is_empty());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn write_figures(
+        &self,
+        dir: &OutputDir,
+        bound: &BoundModel,
+        safe: &BoundSafe,
+        start: [f64; 2],
+    ) -> PassageFigures {
+        let mut subtitle = format!(
+            "safe set {}, start ({}, {})",
+            safe.text,
+            short_number(start[0]),
+            short_number(start[1])
+        );
+        for (p, v) in bound.params() {
+            subtitle.push_str(&format!(", {p} = {}", short_number(*v)));
+        }
+        let caption = figures::Caption {
+            title: bound.name().to_string(),
+            subtitle,
+        };
+        figures::write(dir, &caption, self.grid.as_ref(), self.mc.as_ref())
+    }
+
     /// `summary.json` of the run, opening with `provenance`.
     pub fn summary<'a>(
         &'a self,
@@ -362,6 +452,7 @@ impl PassageRun {
             grid: self.grid.as_ref(),
             mc: self.mc.as_ref(),
             grid_vs_mc_se: self.grid_vs_mc_se(),
+            unwritten: Vec::new(),
         }
     }
 }
