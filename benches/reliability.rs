@@ -15,8 +15,10 @@
 //!   model at the same cells. (The whole process, reading the model and writing the files,
 //!   is timed with the command in the closing note's tables.)
 //! * `reliability_r_of_t`: "R(t) to a horizon of 5× the mean time at 1e−4 ≤ 3 s". Case 1's
-//!   R(t) at 51 times from 0 to 5 mean times (150) at the stepper's tolerance 1e−4, 200×400,
-//!   beside the mean times alone.
+//!   R(t) at 51 times from 0 to 5 mean times (150) at the stepper's tolerance 1e−4, beside
+//!   the mean times alone, at 100×200 cells: at 200×400 one run takes about a minute (the
+//!   closing note's tables time it as a whole process), too long for criterion's ten
+//!   samples.
 //! * `reliability_mc_rate`: "first-passage Monte Carlo at the stationary kernel's rate".
 //!   Path-steps per second (criterion's elements/s) of [`McPassage`] on case 1 (`y < 3`,
 //!   dt 0.01, 2048 paths and its 2·dt bias run) against the stationary [`Simulation`] of the
@@ -30,13 +32,22 @@
 use std::path::Path;
 use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throughput};
 use fpsolve::grid::{GridPassage, GridSolution, GridSolver};
 use fpsolve::mc::{BurnIn, Grid, McConfig, McPassage, Simulation};
 use fpsolve::model::{load_model, BoundModel, BoundSafe, Model, Override};
 use fpsolve::observe::{crossing_rate, impact_statistics, LevelRate};
 
 const CELLS: [usize; 2] = [200, 400];
+
+/// Ten samples of one iteration each (criterion's least), after a short warm-up: an
+/// iteration here takes 0.1 to 10 s, and the whole file should run in a few minutes.
+fn flat(g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>) {
+    g.sampling_mode(SamplingMode::Flat)
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(1));
+}
 
 fn model(file: &str, safe: &str) -> Model {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
@@ -104,7 +115,7 @@ fn statistics(b: &BoundModel, sol: &GridSolution) -> (Vec<f64>, Vec<f64>) {
 fn bench_statistics(c: &mut Criterion) {
     let (b, _) = case1();
     let mut g = c.benchmark_group("reliability_statistics");
-    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    flat(&mut g);
     g.bench_function("case1_stationary_200x400", |i| i.iter(|| stationary(&b)));
     g.bench_function("case1_stationary_200x400_plus_crossings_and_impacts", |i| {
         i.iter(|| {
@@ -126,7 +137,7 @@ fn mean_passage(b: &BoundModel, s: &BoundSafe, start: [f64; 2]) -> f64 {
 
 fn bench_mean_passage(c: &mut Criterion) {
     let mut g = c.benchmark_group("reliability_mean_passage");
-    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    flat(&mut g);
     for (name, (b, s), start) in [
         ("linear", linear(), [0.0, 0.0]),
         ("case1", case1(), CASE1_START),
@@ -141,19 +152,31 @@ fn bench_mean_passage(c: &mut Criterion) {
     g.finish();
 }
 
+/// The cells of the R(t) group.
+const CELLS_R: [usize; 2] = [100, 200];
+
 fn bench_reliability(c: &mut Criterion) {
     let (b, s) = case1();
-    let mean = mean_passage(&b, &s, CASE1_START);
+    let [nx, nv] = CELLS_R;
+    let mean_at = |cells: [usize; 2]| {
+        GridPassage::new(&b, &s)
+            .cells(cells[0], cells[1])
+            .start(CASE1_START)
+            .run()
+            .expect("solves")
+            .mean_at_start
+    };
+    let mean = mean_at(CELLS_R);
     let times: Vec<f64> = (0..=50).map(|k| 5.0 * mean * k as f64 / 50.0).collect();
     let mut g = c.benchmark_group("reliability_r_of_t");
-    g.sample_size(10).measurement_time(Duration::from_secs(30));
-    g.bench_function("case1_mean_passage_200x400", |i| {
-        i.iter(|| mean_passage(&b, &s, CASE1_START))
+    flat(&mut g);
+    g.bench_function("case1_mean_passage_100x200", |i| {
+        i.iter(|| mean_at(CELLS_R))
     });
-    g.bench_function("case1_r_to_5_means_tol_1e-4_200x400", |i| {
+    g.bench_function("case1_r_to_5_means_tol_1e-4_100x200", |i| {
         i.iter(|| {
             GridPassage::new(&b, &s)
-                .cells(CELLS[0], CELLS[1])
+                .cells(nx, nv)
                 .start(CASE1_START)
                 .times(times.clone())
                 .tolerance(1e-4)
@@ -193,7 +216,7 @@ fn bench_mc_rate(c: &mut Criterion) {
     };
     let simulation = Simulation::new(&b, &config).expect("a simulation");
     let mut g = c.benchmark_group("reliability_mc_rate");
-    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    flat(&mut g);
     g.throughput(Throughput::Elements(trajectories * samples * per_sample));
     g.bench_function("case1_stationary_kernel", |i| {
         i.iter(|| simulation.run().expect("runs"))

@@ -552,12 +552,9 @@ fn the_free_particle_transition_is_the_closed_form() {
     for h in [1e-4, 0.01, 0.3] {
         let t = transition(0.0, 0.0, 2.0, h);
         let exact = [[2.0 * h.powi(3) / 3.0, h * h], [h * h, 2.0 * h]];
-        for i in 0..2 {
-            for j in 0..2 {
-                assert!(
-                    (t.cov[i][j] / exact[i][j] - 1.0).abs() < 1e-12,
-                    "{h}: {t:?}"
-                );
+        for (row, exact_row) in t.cov.iter().zip(&exact) {
+            for (p, e) in row.iter().zip(exact_row) {
+                assert!((p / e - 1.0).abs() < 1e-12, "{h}: {t:?}");
             }
         }
         assert!((t.phi[0][1] - h).abs() < 1e-14 && (t.phi[1][1] - 1.0).abs() < 1e-14);
