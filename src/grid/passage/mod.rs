@@ -257,7 +257,26 @@ impl<'a> GridPassage<'a> {
         self
     }
 
-    /// The box (as [`crate::grid::GridSolver::domain`]) instead of the automatic one.
+    /// The box (as [`crate::grid::GridSolver::domain`]) instead of the automatic one; a
+    /// model without a stationary density needs it (the automatic box is sized from that
+    /// density), with the safe set ending inside it along x.
+    ///
+    /// ```
+    /// use fpsolve::grid::{Domain, GridPassage, PassageError};
+    /// // The randomly accelerated particle between walls at |x| = 1.
+    /// let text = "model free\nstate x, v\ndrift x: v\ndrift v: 0\nnoise xi: intensity 1\n\
+    ///             diffusion v: xi\nsafe abs(x) < 1\n";
+    /// let model = fpsolve::model::parse_model(text, None)?;
+    /// let bound = model.bind(&[])?;
+    /// let safe = model.safe().unwrap().bind(&bound)?;
+    /// let refused = GridPassage::new(&bound, &safe).cells(40, 80).run();
+    /// assert!(matches!(refused, Err(PassageError::NoBox { .. })));
+    /// let box_ = Domain { x: [-1.1, 1.1], v: [-8.0, 8.0] };
+    /// let p = GridPassage::new(&bound, &safe).cells(40, 80).domain(box_).run()?;
+    /// assert!(p.mean_stationary.is_none() && p.safe_mass.is_none());
+    /// assert!((p.mean_at_start - 2.31).abs() < 0.05, "{}", p.mean_at_start);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn domain(mut self, domain: Domain) -> Self {
         self.domain = Some(domain);
         self
