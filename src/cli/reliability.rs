@@ -215,19 +215,23 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
     if let Some(g) = &grid {
         let pm = |e: Option<f64>| e.map_or(String::new(), |e| format!(" ± {e:.2e}"));
         let e = g.errors.as_ref();
+        let stationary = match g.mean_stationary {
+            Some(m) => format!("{m:.6}{}", pm(e.and_then(|e| e.mean_stationary))),
+            None => "none (no stationary density)".into(),
+        };
         crate::cli::console::sayln!(
-            "mean first-passage time from ({}, {}): {:.6}{} (grid {}x{}{}); stationary start: {:.6}{}",
+            "mean first-passage time from ({}, {}): {:.6}{} (grid {}x{}{}); stationary start: {}",
             plan.start[0],
             plan.start[1],
             g.mean_at_start,
             pm(e.map(|e| e.mean_at_start)),
             plan.cells[0],
             plan.cells[1],
-            g.report
-                .estimate_cells
-                .map_or(String::new(), |c| format!(", errors from {}x{}", c[0], c[1])),
-            g.mean_stationary,
-            pm(e.map(|e| e.mean_stationary))
+            g.report.estimate_cells.map_or(String::new(), |c| format!(
+                ", errors from {}x{}",
+                c[0], c[1]
+            )),
+            stationary
         );
         match &g.decay {
             fpsolve::grid::DecayOutcome::Found(d) => crate::cli::console::sayln!(

@@ -51,6 +51,15 @@ impl Mechanical {
         Mechanical::build(model, dynamics, barriers, !model.time_dependent())
     }
 
+    /// [`Mechanical::new`] for a first passage: none of the checks that only a stationary
+    /// density needs (the first-passage solver decides which of their reasons it accepts);
+    /// the mechanical form, the barriers and the δ terms are checked as for any model.
+    pub(crate) fn first_passage(dynamics: &Dynamics) -> Result<Self, GridError> {
+        let model = dynamics.model();
+        let barriers = dynamics.barriers().map_err(|e| jump_map_error(model, e))?;
+        Mechanical::build(model, dynamics, barriers, false)
+    }
+
     /// The problem, or [`Unsupported::PeriodicProblem`] for `what` (a first passage, a
     /// transient) when its position is periodic: those solvers do not wrap the cells yet.
     pub(crate) fn not_periodic(

@@ -1,6 +1,7 @@
 //! Why a first-passage problem on the grid is refused or fails.
 
 use super::super::{Domain, GridError};
+use crate::dynamics::Inadmissible;
 use crate::numerics::timestep::StepError;
 
 /// The errors of [`GridPassage::run`](super::GridPassage::run).
@@ -49,6 +50,30 @@ pub enum PassageError {
         mass: f64,
         /// Cells whose centre is inside.
         cells: usize,
+    },
+    /// The model has no stationary density and no box was given: the grid's box is sized
+    /// from that density ([`GridPassage::domain`](super::GridPassage::domain) gives one).
+    #[error(
+        "{reason}; a first passage out of a set bounded in the position still has a mean \
+         time, but the grid sizes its box from the stationary density: give the box (the \
+         library's `GridPassage::domain`), or run Monte Carlo alone (`--method mc --horizon T`)"
+    )]
+    NoBox {
+        /// Why the model has no stationary density.
+        reason: Inadmissible,
+    },
+    /// A model without a stationary density whose safe set does not end inside the box
+    /// along the position: the box, not the model, would bound the passage time.
+    #[error(
+        "the model has no stationary density and the safe set `{safe}` reaches the grid's box \
+         at x = {edge}: without one the set must end inside the box along the position on both \
+         sides (out of a set open along it the mean passage time may be infinite)"
+    )]
+    NotBounded {
+        /// The safe set as written.
+        safe: String,
+        /// The box's end in x the set reaches.
+        edge: f64,
     },
     /// The grid could not be built or solved.
     #[error(transparent)]

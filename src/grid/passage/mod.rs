@@ -15,6 +15,13 @@
 //!   rounding; over a finite horizon the difference is the tail R(t_end)/λ.
 //! * **Stationary average.** T averaged over the grid's stationary density (same cells,
 //!   impacts, box) restricted to the safe set and renormalised.
+//! * **Models without a stationary density** whose response grows without bound (no
+//!   damping, as the randomly accelerated particle x' = v, v' = σξ; negative damping; a
+//!   softening spring that lets the paths escape) still have a first passage out of a set
+//!   bounded in the position: the box must then be given ([`GridPassage::domain`]), the set
+//!   must end inside it along x on both sides, and the stationary averages are `None`.
+//!   Models whose paths may come to rest inside the set (no noise, noise vanishing at a
+//!   stable rest point) or that depend on the time stay refused.
 //!
 //! ```
 //! use fpsolve::grid::GridPassage;
@@ -46,8 +53,9 @@ use super::domain;
 use super::mesh::Mesh;
 use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
-use super::{check_cells, Domain, Marginal, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
+use super::{check_cells, Domain, GridError, Marginal, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
 use crate::base::limits::memory_limit_bytes;
+use crate::dynamics::{Dynamics, Inadmissible};
 use crate::model::{BoundModel, BoundSafe};
 use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
 use crate::numerics::sparse::{Check, Factorization};
@@ -85,12 +93,14 @@ pub struct PassageSolution {
     /// E[T] from the start cell's point mass: the forward run's start, so that
     /// ∫R dt = `mean_from_start_cell` (up to the horizon's tail).
     pub mean_from_start_cell: f64,
-    /// E[T] with the start drawn from the stationary density restricted to the safe set.
-    pub mean_stationary: f64,
+    /// E[T] with the start drawn from the stationary density restricted to the safe set;
+    /// `None` for a model without a stationary density.
+    pub mean_stationary: Option<f64>,
     /// E[T²] likewise.
-    pub second_stationary: f64,
-    /// The stationary probability of the safe set (on the grid).
-    pub safe_mass: f64,
+    pub second_stationary: Option<f64>,
+    /// The stationary probability of the safe set (on the grid); `None` without a stationary
+    /// density.
+    pub safe_mass: Option<f64>,
     /// The output times.
     pub times: Vec<f64>,
     /// R(t) = P(T > t) at each time (from the start cell).
@@ -127,10 +137,10 @@ pub struct PassageErrors {
     pub mean_at_start: f64,
     /// Of `second_at_start`.
     pub second_at_start: f64,
-    /// Of `mean_stationary`.
-    pub mean_stationary: f64,
-    /// Of `second_stationary`.
-    pub second_stationary: f64,
+    /// Of `mean_stationary` (`None` when it is).
+    pub mean_stationary: Option<f64>,
+    /// Of `second_stationary` (`None` when it is).
+    pub second_stationary: Option<f64>,
     /// Of R(t) at each output time.
     pub reliability: Vec<f64>,
     /// Of the decay rate λ, when both solves found it.
@@ -141,11 +151,12 @@ impl PassageErrors {
     fn between(fine: &PassageSolution, half: &PassageSolution) -> PassageErrors {
         let factor = super::solution::richardson_factor(super::ASSUMED_ORDER);
         let e = |a: f64, b: f64| factor * (a - b).abs();
+        let both = |a: Option<f64>, b: Option<f64>| Some(e(a?, b?));
         PassageErrors {
             mean_at_start: e(fine.mean_at_start, half.mean_at_start),
             second_at_start: e(fine.second_at_start, half.second_at_start),
-            mean_stationary: e(fine.mean_stationary, half.mean_stationary),
-            second_stationary: e(fine.second_stationary, half.second_stationary),
+            mean_stationary: both(fine.mean_stationary, half.mean_stationary),
+            second_stationary: both(fine.second_stationary, half.second_stationary),
             reliability: fine
                 .reliability
                 .iter()
@@ -246,7 +257,26 @@ impl<'a> GridPassage<'a> {
         self
     }
 
-    /// The box (as [`crate::grid::GridSolver::domain`]) instead of the automatic one.
+    /// The box (as [`crate::grid::GridSolver::domain`]) instead of the automatic one; a
+    /// model without a stationary density needs it (the automatic box is sized from that
+    /// density), with the safe set ending inside it along x.
+    ///
+    /// ```
+    /// use fpsolve::grid::{Domain, GridPassage, PassageError};
+    /// // The randomly accelerated particle between walls at |x| = 1.
+    /// let text = "model free\nstate x, v\ndrift x: v\ndrift v: 0\nnoise xi: intensity 1\n\
+    ///             diffusion v: xi\nsafe abs(x) < 1\n";
+    /// let model = fpsolve::model::parse_model(text, None)?;
+    /// let bound = model.bind(&[])?;
+    /// let safe = model.safe().unwrap().bind(&bound)?;
+    /// let refused = GridPassage::new(&bound, &safe).cells(40, 80).run();
+    /// assert!(matches!(refused, Err(PassageError::NoBox { .. })));
+    /// let box_ = Domain { x: [-1.1, 1.1], v: [-8.0, 8.0] };
+    /// let p = GridPassage::new(&bound, &safe).cells(40, 80).domain(box_).run()?;
+    /// assert!(p.mean_stationary.is_none() && p.safe_mass.is_none());
+    /// assert!((p.mean_at_start - 2.31).abs() < 0.05, "{}", p.mean_at_start);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn domain(mut self, domain: Domain) -> Self {
         self.domain = Some(domain);
         self
@@ -326,13 +356,26 @@ impl<'a> GridPassage<'a> {
     pub fn run(&self) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
         self.check()?;
-        let problem = Mechanical::new(&crate::dynamics::Dynamics::read(self.model))?
-            .not_periodic(self.model, "a first passage")?;
-        let box_ = super::transient::starting_box(self.domain, &problem, self.model)?;
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
+        let without = without_stationary_density(&dynamics)?;
+        let problem = match without {
+            None => Mechanical::new(&dynamics)?,
+            Some(_) => Mechanical::first_passage(&dynamics)?,
+        }
+        .not_periodic(self.model, "a first passage")?;
+        let box_ = match (&without, self.domain) {
+            (Some(reason), None) => {
+                return Err(PassageError::NoBox {
+                    reason: reason.clone(),
+                })
+            }
+            _ => super::transient::starting_box(self.domain, &problem, self.model)?,
+        };
+        let stationary = without.is_none();
         let [nx, nv] = self.cells;
         // The error estimate's solve on half the cells, alongside (the same problem and box,
         // aligned to its own cells); its failure leaves the numbers without an estimate.
-        let at = |cells| self.solve_at(&problem, box_, cells);
+        let at = |cells| self.solve_at(&problem, box_, cells, stationary);
         let (fine, half) = rayon::join(
             || at(self.cells),
             || (self.estimate && nx >= 16 && nv >= 16).then(|| at([nx / 2, nv / 2])),
@@ -347,12 +390,13 @@ impl<'a> GridPassage<'a> {
     }
 
     /// The solution on `cells` of `problem` in `box_` (aligned here to the cells), settings
-    /// checked.
+    /// checked; the stationary averages when the model has a `stationary` density.
     fn solve_at(
         &self,
         problem: &Mechanical,
         box_: Domain,
         cells: [usize; 2],
+        stationary: bool,
     ) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
         let [nx, nv] = cells;
@@ -371,20 +415,37 @@ impl<'a> GridPassage<'a> {
             })
             .collect();
         let area = mesh.hx * mesh.hv;
-        // The stationary density on the same cells, for the average and the safe set's mass.
-        let (p, _) = domain::solve_pinned(&mesh, problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
-        let inside: Vec<f64> = (0..n)
-            .map(|c| if safe[c] { p[c].max(0.0) } else { 0.0 })
-            .collect();
-        let safe_mass = inside.iter().sum::<f64>() * area;
         let safe_cells = safe.iter().filter(|s| **s).count();
-        if safe_mass.is_nan() || safe_mass < MIN_SAFE_MASS || safe_cells == 0 {
-            return Err(PassageError::NoProbability {
-                safe: self.safe.text.clone(),
-                mass: safe_mass,
-                cells: safe_cells,
-            });
-        }
+        // The stationary density on the same cells restricted to the set, and the set's mass.
+        let law = if stationary {
+            let (p, _) = domain::solve_pinned(&mesh, problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
+            let inside: Vec<f64> = (0..n)
+                .map(|c| if safe[c] { p[c].max(0.0) } else { 0.0 })
+                .collect();
+            let mass = inside.iter().sum::<f64>() * area;
+            if mass.is_nan() || mass < MIN_SAFE_MASS || safe_cells == 0 {
+                return Err(PassageError::NoProbability {
+                    safe: self.safe.text.clone(),
+                    mass,
+                    cells: safe_cells,
+                });
+            }
+            Some((inside, mass))
+        } else {
+            // Nothing holds the paths near the start but the set itself: where it is open at
+            // the box's ends in x the box would decide the mean time.
+            let column = |i: usize| (0..nv).any(|j| safe[mesh.index(i, j)]);
+            if let Some(edge) = [(0, d.x[0]), (nx - 1, d.x[1])]
+                .into_iter()
+                .find_map(|(i, x)| column(i).then_some(x))
+            {
+                return Err(PassageError::NotBounded {
+                    safe: self.safe.text.clone(),
+                    edge,
+                });
+            }
+            None
+        };
         let op = assemble(&mesh, problem)?;
         let k = killed::killed(&mesh, problem, &op, &safe)?;
         let m = k.cells.len();
@@ -411,8 +472,11 @@ impl<'a> GridPassage<'a> {
                 .collect()
         };
         let (big1, big2) = (full(&t1), full(&t2));
-        let average =
-            |t: &[f64]| inside.iter().zip(t).map(|(p, t)| p * t).sum::<f64>() * area / safe_mass;
+        let average = |t: &[f64]| {
+            law.as_ref().map(|(inside, mass)| {
+                inside.iter().zip(t).map(|(p, t)| p * t).sum::<f64>() * area / mass
+            })
+        };
         let start_cell = cell_of(&mesh, self.start);
         let start_safe = k.index[start_cell];
         if start_safe == usize::MAX {
@@ -452,7 +516,12 @@ impl<'a> GridPassage<'a> {
             let s = &run.stats;
             (r, f, [s.accepted, s.rejected, s.factorizations])
         };
-        let density: Vec<f64> = k.cells.iter().map(|&c| inside[c]).collect();
+        // The inverse iteration for the quasi-stationary density starts from the stationary
+        // one in the set, else from the uniform density on it.
+        let density: Vec<f64> = match &law {
+            Some((inside, _)) => k.cells.iter().map(|&c| inside[c]).collect(),
+            None => vec![1.0; m],
+        };
         let (decay, quasi_stationary) =
             match decay::decay(&lu, &k.forward, &k.backward, density, &t1, start_safe) {
                 Ok((d, phi)) => {
@@ -470,7 +539,7 @@ impl<'a> GridPassage<'a> {
             mean_from_start_cell: t1[start_safe],
             mean_stationary: average(&big1),
             second_stationary: average(&big2),
-            safe_mass,
+            safe_mass: law.as_ref().map(|(_, mass)| *mass),
             times: self.times.clone(),
             reliability,
             pdf,
@@ -490,6 +559,30 @@ impl<'a> GridPassage<'a> {
                 total_ms: started.elapsed().as_secs_f64() * 1e3,
             },
         })
+    }
+}
+
+/// `None` for a model with a stationary density; else why it has none, when that still
+/// leaves a first passage out of a set bounded in the position well posed: the response
+/// grows without bound, so the paths leave any such set. The reasons that may keep a path
+/// inside for ever (no noise; noise vanishing at a stable rest point) or change the killed
+/// operator in time are refused with the grid's error.
+fn without_stationary_density(dynamics: &Dynamics) -> Result<Option<Inadmissible>, GridError> {
+    use Inadmissible as I;
+    match dynamics.admissible() {
+        Ok(()) => Ok(None),
+        Err(
+            why @ (I::NoDamping { .. }
+            | I::NegativeDamping { .. }
+            | I::EnergyAddingImpact { .. }
+            | I::EnergyAddingImpactTerm { .. }
+            | I::UnstableLinearDrift { .. }
+            | I::Escapes { .. }
+            | I::NoRestoringForce { .. }),
+        ) => Ok(Some(why)),
+        Err(why @ (I::TimeDependent { .. } | I::NoNoise | I::VanishingDiffusionAtRest { .. })) => {
+            Err(GridError::Inadmissible(why))
+        }
     }
 }
 
