@@ -104,7 +104,11 @@ pub struct WallImpacts {
     /// Bound on the error of `mean_power`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mean_power_error: Option<f64>,
-    /// The relative accuracy of the integrals alone (0 for Monte Carlo, which has none).
+    /// The relative accuracy of the quadrature over the method's density alone (0 for Monte
+    /// Carlo, which has none), `quadrature_accuracy` in `summary.json`: not an error bound
+    /// of the numbers (EPC and EPC-impact state none; the grid's are the `*_error` fields,
+    /// Monte Carlo's `stderr` and `time_step_bias`).
+    #[serde(rename = "quadrature_accuracy")]
     pub accuracy: f64,
     /// Monte Carlo's batch-means standard errors of `rate`, `mean_speed`, `mean_power`.
     #[serde(skip_serializing_if = "Option::is_none")]
