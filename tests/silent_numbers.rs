@@ -182,8 +182,10 @@ fn a_grid_solution_that_clipped_too_much_mass_fails() {
     }
 }
 
-/// `simulate --set r=0`: every trajectory sticks at the barrier, the kurtoses have no value.
-/// The run keeps its files, lists them under `undefined`, says so on stderr and exits 1.
+/// `simulate --set r=0`: every trajectory sticks at the barrier, the kurtoses have no value,
+/// nor has the barrier's mean impact speed (no impact recorded: 0/0, with its standard error
+/// and time-step bias). The run keeps its files, lists them under `undefined`, says so on
+/// stderr and exits 1.
 #[test]
 fn simulate_with_undefined_values_exits_1() {
     let out = scratch("simulate-undefined").join("out");
@@ -201,9 +203,12 @@ fn simulate_with_undefined_values_exits_1() {
     assert_eq!(o.status.code(), Some(1), "{}{}", stdout(&o), stderr(&o));
     let summary = json(&out.join("mc_summary.json"));
     let undefined = summary["undefined"].as_array().unwrap();
-    assert_eq!(undefined.len(), 16, "{undefined:?}");
+    assert_eq!(undefined.len(), 20, "{undefined:?}");
+    assert!(undefined
+        .iter()
+        .any(|u| u["field"] == "$.impacts.walls[0].mean_speed.value"));
     assert!(
-        stderr(&o).contains("mc_summary.json: $.quantities[0].moments.kurtosis.value is NaN and 15 more numbers have no finite value"),
+        stderr(&o).contains("mc_summary.json: $.quantities[0].moments.kurtosis.value is NaN and 19 more numbers have no finite value"),
         "{}",
         stderr(&o)
     );
