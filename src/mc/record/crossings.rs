@@ -119,9 +119,8 @@ fn range(diff: &mut [i64], lo: u32, hi: u32, times: i64) {
 #[inline(always)]
 fn step(diff: &mut [i64], prev: &mut u32, now: u32, mark: ImpactMark, walls: &[Edge]) {
     if *prev != NONE && now != NONE {
-        let find = |w: u8| walls.iter().find(|e| e.wall == w);
-        match (mark.count, find(mark.first), find(mark.last)) {
-            (1.., Some(first), Some(last)) => {
+        match fold(mark, walls) {
+            Some((first, last)) => {
                 if !first.lower {
                     range(diff, *prev, first.edge, 1);
                 }
@@ -140,11 +139,21 @@ fn step(diff: &mut [i64], prev: &mut u32, now: u32, mark: ImpactMark, walls: &[E
                     range(diff, k, k + 1, i64::from(mark.count - 1));
                 }
             }
-            _ if now > *prev => range(diff, *prev, now, 1),
-            _ => {}
+            None => range(diff, *prev, now, 1),
         }
     }
     *prev = now;
+}
+
+/// The walls of the interval's first and last impacts when both are the counter's (the
+/// path folded there); `None` without impacts (the walls are then not searched).
+#[inline(always)]
+fn fold(mark: ImpactMark, walls: &[Edge]) -> Option<(&Edge, &Edge)> {
+    if mark.count == 0 {
+        return None;
+    }
+    let find = |w: u8| walls.iter().find(|e| e.wall == w);
+    Some((find(mark.first)?, find(mark.last)?))
 }
 
 /// The up-crossing counters of a batch's quantities that have levels.
