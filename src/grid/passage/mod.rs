@@ -2,7 +2,8 @@
 //! its second moment from the backward (Pontryagin) equations L*T = −1, L*T₂ = −2T on the
 //! transpose of the killed finite-volume generator, and the reliability R(t) = P(T > t) with
 //! the first-passage-time density −R′(t) from the forward equation with killing, time-stepped
-//! by the crate's TR-BDF2 (mass not conserved: the lost mass is the failure probability).
+//! by the crate's ESDIRK4 (fourth order, L-stable; mass not conserved: the lost mass is the failure
+//! probability).
 //!
 //! * **Cells.** Those whose centre is inside the safe set; the rest are removed (absorbing).
 //!   Where the boundary is crossed along x the absorption is at outflow faces only (no
@@ -59,7 +60,7 @@ use crate::dynamics::{Dynamics, Inadmissible};
 use crate::model::{BoundModel, BoundSafe};
 use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
 use crate::numerics::sparse::{Check, Factorization};
-use crate::numerics::timestep::{Tolerance, TrBdf2};
+use crate::numerics::timestep::{Esdirk, Scheme, Tolerance};
 
 /// The least stationary probability a safe set must hold on the grid.
 pub const MIN_SAFE_MASS: f64 = 1e-9;
@@ -498,7 +499,8 @@ impl<'a> GridPassage<'a> {
                 k.cells.iter().map(|&c| all[c]).collect()
             };
             let order = nested_dissection(k.forward.symbolic(), &coords, 1);
-            let run = TrBdf2::new(&k.forward)
+            let run = Esdirk::new(&k.forward)
+                .scheme(Scheme::Esdirk4)
                 .tolerance(Tolerance {
                     relative: self.tolerance,
                     absolute: 0.0,

@@ -60,7 +60,7 @@ use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
 use super::{check_cells, check_domain, domain, Domain, GridError, DEFAULT_CELLS};
 use crate::model::BoundModel;
-use crate::numerics::timestep::{Generator, History, StepError, Tolerance, TrBdf2};
+use crate::numerics::timestep::{Esdirk, Generator, History, StepError, Tolerance};
 use operator::TimeOperator;
 
 /// The largest mass of the initial density that may lie outside the box.
@@ -367,7 +367,7 @@ impl<'a> GridTransient<'a> {
     ) -> Result<History, StepError> {
         let area = mesh.hx * mesh.hv;
         let order = nested_dissection(pattern.symbolic(), &cell_coords(mesh.nx, mesh.nv, false), 1);
-        TrBdf2::new(generator)
+        Esdirk::new(generator)
             .tolerance(Tolerance {
                 relative: self.tolerance,
                 absolute: 0.0,

@@ -1,14 +1,17 @@
 //! Time stepping of linear systems dp/dt = A(t) p whose columns sum to zero (a generator:
-//! mass conserved) by TR-BDF2, the second-order, L-stable one-step method of Bank et al.
-//! (1985) in the form and with the embedded error estimate of Hosea & Shampine (1996).
+//! mass conserved) by singly diagonally implicit Runge–Kutta methods with an explicit first
+//! stage (ESDIRK, [`Scheme`]): TR-BDF2, the second-order, L-stable method of Bank et al.
+//! (1985) in the form and with the embedded error estimate of Hosea & Shampine (1996), or
+//! ESDIRK4(3)6L[2]SA of Kennedy & Carpenter (2003), fourth order and L-stable.
 //!
-//! * **Stages.** With γ = 2 − √2 the trapezoidal stage over γh and the BDF2 stage over the
-//!   rest have the same implicit coefficient d = γ/2 = (1 − γ)/(2 − γ) = 1 − √2/2, so both
-//!   solve with one matrix, I − d h A: one factorisation per distinct step size (and, for a
-//!   generator that depends on t, per stage time).
+//! * **Stages.** Every implicit stage has the same coefficient γ (TR-BDF2: γ = 1 − √2/2,
+//!   the trapezoidal stage over (2 − √2)h and the BDF2 stage over the rest; ESDIRK4:
+//!   γ = 1/4), so all solve with one matrix, I − γ h A: one factorisation per distinct step
+//!   size (and, for a generator that depends on t, per stage time). Both methods are stiffly
+//!   accurate: the step's result is its last stage.
 //! * **Error control.** The local error is estimated by the embedded third-order
-//!   companion (weights ((1 − w)/3, (3w + 1)/3, d/3), w = √2/4), filtered through
-//!   (I − d h A)⁻¹ as Hosea and Shampine advise for stiff problems (the stiff modes, which
+//!   companion (TR-BDF2: weights ((1 − w)/3, (3w + 1)/3, d/3), w = √2/4; ESDIRK4: Kennedy
+//!   and Carpenter's), filtered through (I − γ h A)⁻¹ as Hosea and Shampine advise for stiff problems (the stiff modes, which
 //!   the L-stable method damps, do not shrink the step). Its size is a weighted L1 norm of the
 //!   whole vector against `absolute + relative · ‖y‖₁` ([`Tolerance`]): for a density of cell
 //!   averages, the L1 distance the results are judged by, not a componentwise test that would
@@ -21,24 +24,26 @@
 //! * **Step sizes** are powers of two times the first step: a step grows (doubles or more)
 //!   only when the error would allow at least twice the step, and shrinks by powers of two on
 //!   a rejection, so that few distinct sizes occur and the factorisations of the last few are
-//!   kept ([`TrBdf2::cache`]) and reused.
+//!   kept ([`Esdirk::cache`]) and reused.
 //! * **Outputs** at the requested times are interpolated (cubic Hermite on the values and
 //!   derivatives at both ends of the step, third order, the step sizes untouched by the
 //!   output times); the interpolant is an affine combination of the two end values plus
 //!   derivative terms, so it keeps the mass too. The last step may end past the last output.
-//! * **Mass and sign.** 1ᵀA = 0 gives 1ᵀ(I − d h A) = 1ᵀ, so every stage keeps the mass up
+//! * **Mass and sign.** 1ᵀA = 0 gives 1ᵀ(I − γ h A) = 1ᵀ, so every stage keeps the mass up
 //!   to the residual of its solve; for a generator (`conserve_mass`) that residual's mass
 //!   defect is put back, so mass drifts only by the rounding of sums. Each output reports
 //!   its mass and its negative mass (nothing is clipped).
 
 mod error;
+mod esdirk;
 mod generator;
-mod trbdf2;
+mod tableau;
 
 pub use error::StepError;
+pub(crate) use esdirk::History;
+pub(crate) use esdirk::{Esdirk, Tolerance};
 pub(crate) use generator::Generator;
-pub(crate) use trbdf2::History;
-pub(crate) use trbdf2::{Tolerance, TrBdf2};
+pub(crate) use tableau::Scheme;
 
 #[cfg(test)]
 mod tests;
