@@ -317,7 +317,7 @@ fn the_randomly_accelerated_particle_from_the_command_line() {
     assert!(s.get("crossings").is_none());
     assert!(!names(&out).iter().any(|n| n.starts_with("crossings_")));
     assert!(
-        stdout.contains("not computed (the model has no stationary density"),
+        stdout.contains("impacts: not computed (no stationary density"),
         "{stdout}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

@@ -307,16 +307,25 @@ impl PassageRun {
         safe: &BoundSafe,
         settings: &PassageSettings,
     ) -> Result<PassageRun, PassageRunError> {
-        let grid = if settings.grid {
-            Some(
-                settings
-                    .grid_passage(bound, safe)
-                    .times(settings.times.clone())
-                    .run()?,
-            )
-        } else {
-            None
-        };
+        // The stationary statistics beside the first passage's grid solves (the two share
+        // nothing; on two cores the passage's solve on half the cells leaves room).
+        let (grid, stationary) = rayon::join(
+            || {
+                settings.grid.then(|| {
+                    settings
+                        .grid_passage(bound, safe)
+                        .times(settings.times.clone())
+                        .run()
+                })
+            },
+            || {
+                settings.grid.then(|| {
+                    let mc = settings.mc.map(|m| (m.dt, m.seed));
+                    StationaryStatistics::solve(bound, settings.domain, settings.cells, mc)
+                })
+            },
+        );
+        let grid = grid.transpose()?;
         let mc = match settings.mc {
             None => None,
             Some(m) => {
@@ -339,16 +348,6 @@ impl PassageRun {
                 )
             }
         };
-        let stationary = grid.as_ref().map(|g| {
-            if g.safe_mass.is_none() {
-                StationaryStatistics::not_computed(
-                    "the model has no stationary density: no crossing rates or impact statistics",
-                )
-            } else {
-                let mc = settings.mc.map(|m| (m.dt, m.seed));
-                StationaryStatistics::solve(bound, settings.domain, settings.cells, mc)
-            }
-        });
         Ok(PassageRun {
             grid,
             mc,
