@@ -361,6 +361,91 @@ fn tolerances_and_sweep_boxes() {
     }
 }
 
+/// `reliability --domain` malformed, reversed, naming another state, without the grid,
+/// leaving the start outside, without 0 in the velocity's range, or with the safe set
+/// reaching the box's end along x for a model without a stationary density; and that model
+/// without the flag: each refused before any work, naming the flag.
+#[test]
+fn reliability_boxes() {
+    const FREE: &str = "tests/models/random_acceleration.sde";
+    let linear = [
+        "reliability",
+        LINEAR,
+        "--safe",
+        "abs(z) < 2",
+        "--cells",
+        "40,40",
+    ];
+    let free = ["reliability", FREE, "--method", "grid", "--cells", "40,40"];
+    for (tag, base, extra, msg) in [
+        (
+            "rel-domain-syntax",
+            &linear,
+            vec!["--domain", "z=-9..9"],
+            vec!["--domain", "is not x=LO:HI,v=LO:HI"],
+        ),
+        (
+            "rel-domain-reversed",
+            &linear,
+            vec!["--domain", "z=9:-9,v=-9:9"],
+            vec!["--domain", "lower end must be below"],
+        ),
+        (
+            "rel-domain-name",
+            &linear,
+            vec!["--domain", "q=-9:9,v=-9:9"],
+            vec!["--domain", "`q`"],
+        ),
+        (
+            "rel-domain-nan",
+            &linear,
+            vec!["--domain", "z=nan:9,v=-9:9"],
+            vec!["--domain"],
+        ),
+        (
+            "rel-domain-mc",
+            &linear,
+            vec![
+                "--method",
+                "mc",
+                "--horizon",
+                "5",
+                "--domain",
+                "z=-9:9,v=-9:9",
+            ],
+            vec!["--domain", "only the grid"],
+        ),
+        (
+            "rel-domain-start",
+            &linear,
+            vec!["--domain", "z=1:9,v=-9:9"],
+            vec!["--domain", "start (0, 0) is outside"],
+        ),
+        (
+            "rel-domain-v",
+            &linear,
+            vec!["--domain", "z=-9:9,v=1:9"],
+            vec!["--domain", "v_lo < 0 < v_hi"],
+        ),
+        (
+            "rel-free-nobox",
+            &free,
+            vec![],
+            vec!["no stationary density", "--domain"],
+        ),
+        (
+            "rel-free-open",
+            &free,
+            vec!["--domain", "x=-0.5:1.05,v=-8:8", "--start", "-0.2,0"],
+            vec!["--domain", "reaches the grid's box at x = -0.5"],
+        ),
+    ] {
+        let mut args = base.to_vec();
+        args.extend(extra);
+        refused(tag, &args, &msg);
+    }
+}
+
 /// A vector-extension cap (`FPSOLVE_SIMD`) that names no extension is refused before any
 /// work, whatever the command.
 #[test]

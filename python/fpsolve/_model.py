@@ -466,6 +466,7 @@ class Model:
         seed: Union[int, None, "np.random.Generator", "np.random.SeedSequence"] = 1,
         threads: Optional[int] = None,
         params: Optional[Mapping[str, Value]] = None,
+        domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
         **set: Value,
     ) -> Passage:
         """Reliability: first passage out of the safe set, as ``fpsolve reliability``: the
@@ -473,9 +474,11 @@ class Model:
         density in the set), the reliability R(t) = P(T > t) and the first-passage-time
         density, the slowest decay and the quasi-stationary density on the grid; and by Monte
         Carlo with ``"mc"`` in ``method`` (R(t) with its 95 % band, the first-passage-time
-        density as a histogram on the output times). The same checks, defaults and numbers
-        (to the bit) as the command line with the same arguments. ``Model.passage`` is the
-        same method under its former name.
+        density as a histogram on the output times), the distances between the two; with the
+        grid, for a model with a stationary density, the stationary mean up-crossing rates
+        and the impact statistics at each wall (Monte Carlo's counts beside them with
+        ``"mc"``). The same checks, defaults and numbers (to the bit) as the command line
+        with the same arguments. ``Model.passage`` is the same method under its former name.
 
         Parameters
         ----------
@@ -509,6 +512,12 @@ class Model:
             Worker threads (default: the cores available). The result does not depend on it.
         params : mapping of str to number or str, optional
             Overrides as a dict.
+        domain : str or mapping of str to (float, float), optional
+            The grid's box as ``--domain`` (``"x=-1.05:1.05,v=-8:8"``, the model's state
+            names or ``x``/``v``; or ``{"x": (-1.05, 1.05), "v": (-8, 8)}``) instead of one
+            sized from the stationary density: a model without one (no damping, as the
+            randomly accelerated particle) needs it, with the safe set ending inside it
+            along the position. Only with the grid; checked before any work.
         **set : number or str
             Parameter overrides by keyword (``--set``).
 
@@ -525,7 +534,10 @@ class Model:
             Bad arguments, checked before any work in the command line's order: a method
             other than grid and mc, no safe set, a start outside it, bad times or cells,
             ``horizon`` without Monte Carlo, Monte Carlo alone without a horizon or times, a
-            negative number of paths; and a safe set holding no stationary probability.
+            negative number of paths, a ``domain`` that does not parse, does not fit the
+            model's walls, leaves the start outside or is given without the grid, a model
+            without a stationary density without ``domain``; and a safe set holding no
+            stationary probability.
         ModelError
             A ``safe`` text that does not parse or does not depend on a state (located in
             the text, shown as ``--safe``), or a safe set whose bounds are not finite or
@@ -541,8 +553,10 @@ class Model:
         Warns
         -----
         FpsolveWarning
-            The grid and Monte Carlo means are more than 3 standard errors plus the grid's
-            estimated error apart; Monte Carlo paths blew up (also in ``warnings``).
+            A number (the mean time, R(t) at a time) by the grid and by Monte Carlo more
+            than 3 standard errors plus the grid's estimated error apart;
+            Monte Carlo paths blew up; the stationary Monte Carlo gave no usable result (also
+            in ``warnings``).
 
         Notes
         -----
@@ -554,7 +568,19 @@ class Model:
         >>> p.mean_at_start, p.reliability                                   # doctest: +SKIP
         """
         return _passage_run(
-            self, safe, start, times, cells, method, paths, dt, horizon, _seed(seed), threads, _params(params, set)
+            self,
+            safe,
+            start,
+            times,
+            cells,
+            method,
+            paths,
+            dt,
+            horizon,
+            _seed(seed),
+            threads,
+            _params(params, set),
+            _domain(domain),
         )
 
     passage = reliability

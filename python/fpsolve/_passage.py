@@ -149,11 +149,29 @@ class Passage:
 
     ``mc`` is the :class:`PassageMonteCarlo` (None without it); ``grid_vs_mc_se`` is (Monte
     Carlo's mean − the grid's) / Monte Carlo's standard error, NaN when paths were censored,
-    None without both methods. ``report`` is ``summary.json`` as a dict (the library's serde
-    form; ``command`` is ``"fpsolve.Model.reliability"``), and ``warnings`` the warnings the
-    command line prints (each also raised as a :class:`FpsolveWarning`): the grid and Monte
-    Carlo more than 3 standard errors plus the grid's estimated error apart, paths that blew
-    up.
+    None without both methods; ``method_distances`` is ``summary.json``'s dict of the same
+    name (None without both): for the mean from the start (``mean_at_start``, None when paths
+    were censored) and R(t) at each time (``reliability``, a list), |grid − MC| / (MC's
+    standard error + the grid's stated error), each ``flagged`` when more than
+    ``flag_above_se`` (3) standard errors plus the grid's stated error apart, with the
+    ``worst``.
+
+    Stationary statistics beside the first passage (with the grid, for a model with a
+    stationary density; ``report["stationary"]`` says how they were computed or why not):
+
+    * ``crossings``: ``{quantity: {column: array}}``, the columns of ``crossings_<q>.csv``
+      (``u``, the levels; ``grid`` and ``grid_error``, the mean up-crossing rate ν⁺(u) by
+      Rice's formula and its error bound, NaN where none is stated; with Monte Carlo ``mc``,
+      ``mc_se``, ``mc_bias``, the counted rate, its standard error and bias);
+    * ``impacts``: the impact statistics at each wall, a list of dicts (``method``
+      ``"grid"`` or ``"mc"``, ``state``, ``at``, ``rate``, ``mean_speed``, ``mean_power``,
+      the grid's ``*_error``, Monte Carlo's ``stderr``), ``summary.json``'s ``impacts``.
+
+    ``report`` is ``summary.json`` as a dict (the library's serde form; ``command`` is
+    ``"fpsolve.Model.reliability"``), and ``warnings`` the warnings the command line prints
+    (each also raised as a :class:`FpsolveWarning`): a number (the mean time, R(t) at a time)
+    flagged in ``method_distances``, paths that blew up, a stationary Monte Carlo without a
+    usable result.
     """
 
     __slots__ = (
@@ -174,11 +192,20 @@ class Passage:
         "quasi_stationary",
         "mc",
         "grid_vs_mc_se",
+        "method_distances",
+        "crossings",
+        "impacts",
         "report",
         "warnings",
     )
 
-    def __init__(self, text: str, marginals: List[Tuple[str, List[float], List[float]]], notes: List[str]):
+    def __init__(
+        self,
+        text: str,
+        marginals: List[Tuple[str, List[float], List[float]]],
+        crossings: List[Tuple[str, str]],
+        notes: List[str],
+    ):
         report = json.loads(text)
         self.report: Dict[str, Any] = report
         self.safe: str = report["safe"]
@@ -216,6 +243,9 @@ class Passage:
         }
         d = report.get("grid_vs_mc_se", ...)
         self.grid_vs_mc_se: Optional[float] = None if d is ... else _num(d)
+        self.method_distances: Optional[Dict[str, Any]] = report.get("method_distances")
+        self.crossings: Dict[str, Dict[str, np.ndarray]] = {q: _table(t) for q, t in crossings}
+        self.impacts: List[Dict[str, Any]] = list(report.get("impacts", []))
         self.warnings: List[str] = list(notes)
 
     def __repr__(self) -> str:
@@ -228,6 +258,15 @@ class Passage:
             else:
                 parts.append(f"mc_mean>={self.mc.mean_lower_bound[0]:.6g} (censored)")
         return f"<fpsolve.Passage {' '.join(parts)}>"
+
+
+def _table(text: str) -> Dict[str, np.ndarray]:
+    """A CSV table of the library (a header, numbers, empty fields for no value) as columns."""
+    lines = text.splitlines()
+    header = lines[0].split(",")
+    rows = [[math.nan if f == "" else float(f) for f in line.split(",")] for line in lines[1:]]
+    values = np.array(rows, dtype=np.float64).reshape(len(rows), len(header))
+    return {name: values[:, k].copy() for k, name in enumerate(header)}
 
 
 def _times(times: Union[None, str, Sequence[float], np.ndarray]) -> Union[None, str, List[float]]:
@@ -274,6 +313,7 @@ def run(
     seed: int,
     threads: Optional[int],
     set: Dict[str, Any],
+    domain: Optional[str] = None,
 ) -> Passage:
     """Runs ``Model.reliability`` (arguments converted, then checked by the native module in the
     command line's order) and warns the command line's warnings."""
@@ -283,7 +323,7 @@ def run(
         methods = [str(m) for m in method]
     if isinstance(paths, bool) or not hasattr(paths, "__index__"):
         raise TypeError(f"paths: expected an int, got {type(paths).__name__}")
-    text, marginals, notes = _fpsolve.passage(
+    text, marginals, crossings, notes = _fpsolve.passage(
         model._inner,
         safe,
         _start(start),
@@ -296,8 +336,9 @@ def run(
         seed,
         None if threads is None else int(threads),
         set,
+        domain,
     )
-    result = Passage(text, marginals, notes)
+    result = Passage(text, marginals, crossings, notes)
     for note in notes:
         warnings.warn(note, FpsolveWarning, stacklevel=3)
     return result

@@ -1,11 +1,12 @@
 //! `Model.reliability` (alias `Model.passage`): first passage out of the safe set on the grid
 //! and by Monte Carlo, as `fpsolve reliability` computes it (src/cli/reliability.rs): the same
 //! checks, in the same order and before any work, the same defaults, the same library calls,
-//! so the same numbers to the bit. Returns `summary.json`'s JSON, the quasi-stationary marginals and the console's
-//! warnings; the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
+//! so the same numbers to the bit. Returns `summary.json`'s JSON, the quasi-stationary
+//! marginals, the crossing tables (`crossings_<q>.csv`'s text) and the console's warnings;
+//! the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
 
-use fpsolve::grid::PassageError;
-use fpsolve::job::passage::{parse_pair, McSettings, PassageRun, PassageRunError};
+use fpsolve::grid::{Domain, PassageError};
+use fpsolve::job::passage::{parse_pair, McSettings, PassageRun, PassageRunError, PassageSettings};
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::solve::SolveError as LibSolveError;
 use pyo3::prelude::*;
@@ -19,6 +20,9 @@ use crate::model::PyModel;
 
 /// The quasi-stationary marginals: (state, centres, density) per state.
 type Marginals = Vec<(String, Vec<f64>, Vec<f64>)>;
+
+/// The crossing tables: (quantity, `crossings_<q>.csv`'s text) per quantity.
+type Crossings = Vec<(String, String)>;
 
 /// The start: a pair, or the CLI's `X,V` text; default rest.
 fn start_of(start: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; 2]> {
@@ -92,9 +96,9 @@ fn passage_error(py: Python<'_>, e: PassageError) -> PyErr {
 
 /// First passage of `model` out of its safe set (or `safe`), as `fpsolve reliability`: returns
 /// `summary.json`'s JSON, the quasi-stationary marginals (empty when the grid did not run or
-/// found no decay) and the warnings the CLI prints.
+/// found no decay), the crossing tables and the warnings the CLI prints.
 #[pyfunction]
-#[pyo3(signature = (model, safe, start, times, cells, method, paths, dt, horizon, seed, threads, set=None))]
+#[pyo3(signature = (model, safe, start, times, cells, method, paths, dt, horizon, seed, threads, set=None, domain=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn passage(
     py: Python<'_>,
@@ -110,11 +114,12 @@ pub(crate) fn passage(
     seed: u64,
     threads: Option<usize>,
     set: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(String, Marginals, Vec<String>)> {
+    domain: Option<String>,
+) -> PyResult<(String, Marginals, Crossings, Vec<String>)> {
     let this = model.get();
     let path = this.path.as_deref();
     // The order of the CLI's plan: methods, the model with its overrides and safe set, the
-    // start, the times, the cells, the Monte Carlo's settings.
+    // start, the times, the cells, the box, the Monte Carlo's settings, the grid's checks.
     let (grid, mc) = methods_of(method)?;
     let (amended, bound) = this.bind_amended(py, set, |model| match &safe {
         Some(text) => model.with_safe(text),
@@ -142,6 +147,19 @@ pub(crate) fn passage(
         None => Vec::new(),
     };
     let cells = cells_of(cells)?;
+    let states = bound.states();
+    let domain = match domain {
+        None => None,
+        Some(_) if !grid => {
+            return Err(errors::bad_argument(
+                "domain: only the grid uses a box (method \"grid\" or \"grid,mc\")",
+            ))
+        }
+        Some(text) => Some(
+            Domain::parse_named(&text, [&*states[0], &*states[1]])
+                .map_err(|e| errors::bad_argument(format!("domain: {e}")))?,
+        ),
+    };
     if paths < 0 {
         return Err(errors::bad_argument(format!(
             "paths: {paths}: expected a non-negative whole number"
@@ -168,14 +186,33 @@ pub(crate) fn passage(
             "horizon: only the Monte Carlo uses it (method \"mc\")",
         ));
     }
+    let settings = PassageSettings {
+        start,
+        times,
+        cells,
+        domain,
+        grid,
+        mc,
+    };
+    if grid {
+        // The box against the walls and the start, a model without a stationary density
+        // without a box: refused before any solve, as the CLI.
+        settings
+            .grid_passage(&bound, &safe_set)
+            .check()
+            .map_err(|e| match domain {
+                Some(_) => errors::bad_argument(format!("domain: {e}")),
+                None => passage_error(py, e),
+            })?;
+    }
     let pool = crate::pool::thread_pool(threads)?;
 
     let run = abandonable(py, {
-        let (bound, safe_set, times) = (bound.clone(), safe_set.clone(), times.clone());
+        let (bound, safe_set) = (bound.clone(), safe_set.clone());
         move || {
             // The provenance on the pool the run used (its threads).
             pool.install(|| {
-                let run = PassageRun::solve(&bound, &safe_set, start, &times, cells, grid, mc);
+                let run = PassageRun::solve(&bound, &safe_set, &settings);
                 run.map(|run| (run, fpsolve::report::Provenance::now_bound(&bound)))
             })
         }
@@ -188,7 +225,7 @@ pub(crate) fn passage(
     outcome(this, &bound, &safe_set, start, &run, provenance)
 }
 
-/// The report, the marginals and the warnings of a finished run.
+/// The report, the marginals, the crossing tables and the warnings of a finished run.
 fn outcome(
     model: &PyModel,
     bound: &BoundModel,
@@ -196,7 +233,7 @@ fn outcome(
     start: [f64; 2],
     run: &PassageRun,
     provenance: fpsolve::report::Provenance,
-) -> PyResult<(String, Marginals, Vec<String>)> {
+) -> PyResult<(String, Marginals, Crossings, Vec<String>)> {
     let model_file = model
         .path
         .as_ref()
@@ -217,6 +254,12 @@ fn outcome(
             marginals.push((name.to_string(), q.centres.clone(), q.density.clone()));
         }
     }
+    let crossings = run.stationary.as_ref().map_or(Vec::new(), |s| {
+        s.crossing_tables()
+            .into_iter()
+            .map(|(q, text)| (q.to_string(), text.to_string()))
+            .collect()
+    });
     let warnings = run.warnings().iter().map(ToString::to_string).collect();
-    Ok((json, marginals, warnings))
+    Ok((json, marginals, crossings, warnings))
 }

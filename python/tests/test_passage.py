@@ -32,7 +32,18 @@ def without_timing(summary):
         summary.pop(key)
     if "grid" in summary:
         summary["grid"]["report"].pop("total_ms")
+    stationary = summary.get("stationary", {})
+    stationary.pop("grid_ms", None)
+    stationary.get("mc", {}).pop("wall_ms", None)
     return summary
+
+
+def read_table(path):
+    """A table the CLI wrote whose empty fields (no value) read as NaN."""
+    lines = path.read_text().splitlines()
+    header = lines[0].split(",")
+    rows = [[float(f) if f else np.nan for f in line.split(",")] for line in lines[1:]]
+    return header, {h: np.array([r[k] for r in rows]) for k, h in enumerate(header)}
 
 
 @pytest.fixture(scope="module")
@@ -289,3 +300,78 @@ def test_threads_do_not_change_the_numbers(both, linear):
     assert without_timing(one.report) == without_timing(py.report)
     with pytest.raises(ValueError, match="threads"):
         linear.reliability(safe=SAFE, threads=0)
+
+
+def test_crossings_and_distances_are_the_cli_files(both):
+    # The stationary crossing table of the state beside the first passage: the CLI's
+    # crossings_z.csv, column by column, with Monte Carlo's counts; the method distances of
+    # summary.json.
+    out, console, py = both
+    assert sorted(py.crossings) == ["y", "z"]  # y = z, an observable
+    header, cols = read_table(out / "crossings_z.csv")
+    assert header == ["u", "grid", "grid_error", "mc", "mc_se", "mc_bias"]
+    assert list(py.crossings["z"]) == header
+    for h in header:
+        np.testing.assert_array_equal(py.crossings["z"][h], cols[h])
+    assert py.impacts == []  # no wall
+    cli = json.loads((out / "summary.json").read_text())
+    assert py.method_distances == cli["method_distances"]
+    assert py.method_distances["mean_at_start"] is None  # censored
+    assert len(py.method_distances["reliability"]) == len(py.times)
+    worst = py.method_distances["worst"]["distance"]
+    assert f"worst {worst:.2f}" in console
+
+
+FREE = MODELS.parent / "tests" / "models" / "random_acceleration.sde"
+FREE_BOX = "x=-1.05:1.05,v=-8:8"
+
+
+def test_domain_is_the_cli_domain(cli, tmp_path):
+    # The randomly accelerated particle (no stationary density) needs the grid's box: the
+    # same numbers as `--domain`, the box as text or as a mapping, the mean exit time within
+    # the grid's stated error plus 3 standard errors of the independent reference
+    # (tests/passage.rs, RA_MEAN).
+    out = tmp_path / "free"
+    subprocess.run(
+        [cli, "reliability", FREE, "--method", "grid", "--cells", "100,200", "--domain", FREE_BOX, "--out", out],
+        check=True,
+        capture_output=True,
+    )
+    free = fpsolve.Model.load(FREE)
+    py = free.reliability(cells=(100, 200), domain=FREE_BOX)
+    summary = json.loads((out / "summary.json").read_text())
+    summary.pop("unwritten")  # no times: the CLI's figures are not drawn
+    assert without_timing(py.report) == without_timing(summary)
+    as_mapping = free.reliability(cells=(100, 200), domain={"x": (-1.05, 1.05), "v": (-8, 8)})
+    assert as_mapping.mean_at_start == py.mean_at_start
+    assert abs(py.mean_at_start - 2.312577) <= py.errors["mean_at_start"] + 3 * 0.002819
+    assert np.isnan(py.mean_stationary) and py.crossings == {} and py.impacts == []
+    assert py.report["stationary"]["status"] == "not_computed"
+    box = py.report["grid"]["report"]["domain"]
+    assert abs(box["x"][1] - 1.05) < 2.1 / 100 and box["v"] == [-8.0, 8.0]  # moved < a cell
+
+
+@pytest.mark.parametrize(
+    "domain, says",
+    [
+        ("z=9:-9,v=-9:9", "lower end must be below"),
+        ("q=-9:9,v=-9:9", "`q`"),
+        ("z=-9..9", "is not x=LO:HI"),
+        ("z=1:9,v=-9:9", "outside the grid's box"),
+        ("z=-9:9,v=1:9", "v_lo < 0 < v_hi"),
+    ],
+)
+def test_a_bad_domain_is_refused_before_any_work(linear, domain, says):
+    with pytest.raises(ValueError, match="domain") as e:
+        linear.reliability(safe=SAFE, c=1, cells=(40, 40), domain=domain)
+    assert says in str(e.value)
+
+
+def test_a_domain_needs_the_grid_and_a_free_particle_needs_a_domain():
+    free = fpsolve.Model.load(FREE)
+    with pytest.raises(ValueError, match="only the grid uses a box"):
+        free.reliability(method="mc", horizon=5, domain=FREE_BOX)
+    with pytest.raises(ValueError, match="domain="):
+        free.reliability(cells=(40, 40))
+    with pytest.raises(ValueError, match="reaches the grid's box"):
+        free.reliability(cells=(40, 40), start=(-0.2, 0), domain="x=-0.5:1.05,v=-8:8")

@@ -1,16 +1,21 @@
 //! `fpsolve reliability MODEL` (alias `fpsolve passage`): first passage out of the safe set
 //! on the grid and by Monte Carlo. Flags are read and checked (the model, `--safe`, the start
-//! inside the set, the times, the cells, the methods and the Monte Carlo's paths, dt, horizon
-//! and seed) before any solve; writes `reliability.csv`, `first_passage_pdf.csv` (with Monte
-//! Carlo), `quasi_stationary_<state>.csv` (when the grid found the decay), the figures
-//! `reliability` and `first_passage_pdf` (PNG and SVG) and `summary.json`.
+//! inside the set, the times, the cells, the box, the methods and the Monte Carlo's paths,
+//! dt, horizon and seed) before any solve; writes `reliability.csv`, `first_passage_pdf.csv`
+//! (with Monte Carlo), `quasi_stationary_<state>.csv` (when the grid found the decay), the
+//! stationary crossing tables `crossings_<q>.csv` and impact-speed tables (with the grid, for
+//! a model with a stationary density), the figures `reliability`, `first_passage_pdf` and
+//! `crossings_<q>` (PNG and SVG) and `summary.json`.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
-use fpsolve::grid::Cells;
-use fpsolve::job::passage::{parse_pair, parse_times, McSettings, PassageRun, PassageRunError};
+use fpsolve::grid::{Cells, Domain};
+use fpsolve::job::passage::{
+    parse_pair, parse_times, McSettings, PassageRun, PassageRunError, PassageSettings,
+    StationaryReport,
+};
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::report::write_json;
 
@@ -29,6 +34,11 @@ pub(crate) struct ReliabilityArgs {
     /// Cells of the grid, position and velocity (default 200,400).
     #[arg(long, value_name = "NX,NV")]
     cells: Option<Cells>,
+    /// The grid's box, x=LO:HI,v=LO:HI (or the model's state names), instead of one sized
+    /// from the stationary density; a model without one (no damping) needs it, with the safe
+    /// set ending inside it along the position.
+    #[arg(long, value_name = "x=LO:HI,v=LO:HI", allow_hyphen_values = true)]
+    domain: Option<String>,
     /// Methods: `grid`, `mc` or both (default `grid,mc`).
     #[arg(long, value_name = "M,...", default_value = "grid,mc")]
     method: String,
@@ -57,11 +67,7 @@ pub(crate) struct ReliabilityPlan {
     path: PathBuf,
     bound: BoundModel,
     safe: BoundSafe,
-    start: [f64; 2],
-    times: Vec<f64>,
-    cells: [usize; 2],
-    grid: bool,
-    mc: Option<McSettings>,
+    settings: PassageSettings,
     out: PathBuf,
 }
 
@@ -111,6 +117,19 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
     };
     let cells = args.cells.unwrap_or_default().0;
     fpsolve::grid::check_cells(cells).map_err(|e| anyhow::Error::new(e).context("--cells"))?;
+    let states = bound.states();
+    let domain = match &args.domain {
+        None => None,
+        Some(_) if !grid => {
+            return Err(anyhow!(
+                "--domain: only the grid uses a box (--method grid or grid,mc)"
+            ))
+        }
+        Some(text) => Some(
+            Domain::parse_named(text, [&*states[0], &*states[1]])
+                .map_err(|e| anyhow::Error::new(e).context("--domain"))?,
+        ),
+    };
     let mc = methods.contains(&"mc").then_some(McSettings {
         paths: args.paths,
         dt: args.dt,
@@ -138,6 +157,25 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
             "--horizon: only the Monte Carlo uses it (--method mc)"
         ));
     }
+    let settings = PassageSettings {
+        start,
+        times,
+        cells,
+        domain,
+        grid,
+        mc,
+    };
+    if grid {
+        // The box against the walls and the start, and a model without a stationary density
+        // without a box: refused now, before any solve.
+        settings.grid_passage(&bound, &safe).check().map_err(|e| {
+            let e = anyhow::Error::new(e);
+            match domain {
+                Some(_) => e.context("--domain"),
+                None => e.context(path.display().to_string()),
+            }
+        })?;
+    }
     let out = args
         .out
         .unwrap_or_else(|| Path::new("out").join(format!("{}_reliability", model.name())));
@@ -145,11 +183,7 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
         path,
         bound,
         safe,
-        start,
-        times,
-        cells,
-        grid,
-        mc,
+        settings,
         out,
     })
 }
@@ -157,20 +191,12 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
 /// Solves and writes the output directory.
 pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
     let run = crate::begin_output(&plan.out)?;
-    let solved = PassageRun::solve(
-        &plan.bound,
-        &plan.safe,
-        plan.start,
-        &plan.times,
-        plan.cells,
-        plan.grid,
-        plan.mc,
-    )
-    .map_err(|e| match e {
-        PassageRunError::Grid(e) => anyhow::Error::new(e),
-        PassageRunError::Mc(e) => crate::lib(e),
-    })
-    .with_context(|| plan.path.display().to_string())?;
+    let solved = PassageRun::solve(&plan.bound, &plan.safe, &plan.settings)
+        .map_err(|e| match e {
+            PassageRunError::Grid(e) => anyhow::Error::new(e),
+            PassageRunError::Mc(e) => crate::lib(e),
+        })
+        .with_context(|| plan.path.display().to_string())?;
     run.out()
         .write_atomic("reliability.csv", solved.csv().as_bytes())
         .map_err(crate::lib)?;
@@ -198,8 +224,13 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
             files += 1;
         }
     }
-    // The figures before summary.json, which lists those not drawn.
-    let figures = solved.write_figures(run.out(), &plan.bound, &plan.safe, plan.start);
+    let start = plan.settings.start;
+    // The figures and the stationary tables before summary.json, which lists those not
+    // written.
+    let mut figures = solved.write_figures(run.out(), &plan.bound, &plan.safe, start);
+    let stationary = solved.write_stationary(run.out(), &plan.bound);
+    figures.files.extend(stationary.files);
+    figures.unwritten.extend(stationary.unwritten);
     files += figures.files.len();
     let mut summary = solved.summary(
         fpsolve::report::Provenance::now_bound(&plan.bound),
@@ -207,7 +238,7 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
         plan.path.display().to_string(),
         &plan.bound,
         &plan.safe,
-        plan.start,
+        start,
     );
     summary.unwritten = figures.unwritten;
     let (grid, mc) = (&solved.grid, &solved.mc);
@@ -221,12 +252,12 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
         };
         crate::cli::console::sayln!(
             "mean first-passage time from ({}, {}): {:.6}{} (grid {}x{}{}); stationary start: {}",
-            plan.start[0],
-            plan.start[1],
+            start[0],
+            start[1],
             g.mean_at_start,
             pm(e.map(|e| e.mean_at_start)),
-            plan.cells[0],
-            plan.cells[1],
+            plan.settings.cells[0],
+            plan.settings.cells[1],
             g.report.estimate_cells.map_or(String::new(), |c| format!(
                 ", errors from {}x{}",
                 c[0], c[1]
@@ -265,6 +296,62 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
                 m.mean_lower_bound.value,
                 m.mean_lower_bound.stderr
             ),
+        }
+    }
+    if let Some(s) = &solved.stationary {
+        match &s.report {
+            StationaryReport::Computed { .. } => {
+                let files: Vec<&str> = summary
+                    .reliability
+                    .crossings
+                    .iter()
+                    .map(|c| c.file.as_str())
+                    .collect();
+                if !files.is_empty() {
+                    crate::cli::console::sayln!("stationary crossing rates: {}", files.join(", "));
+                }
+                for w in &summary.reliability.impacts {
+                    let pm = |e: Option<f64>, se: Option<f64>| match (e, se) {
+                        (Some(e), _) => format!(" ± {e:.2e}"),
+                        (None, Some(se)) => format!(" ± {se:.2e} (SE)"),
+                        _ => String::new(),
+                    };
+                    let se = w.stderr.map(|s| s[0]);
+                    let se_speed = w.stderr.map(|s| s[1]);
+                    crate::cli::console::sayln!(
+                        "impacts at {} = {} ({}): rate {:.6}{}, mean speed {:.6}{}",
+                        w.state,
+                        w.at,
+                        w.method,
+                        w.rate,
+                        pm(w.rate_error, se),
+                        w.mean_speed,
+                        pm(w.mean_speed_error, se_speed)
+                    );
+                }
+            }
+            StationaryReport::NotComputed { why } => {
+                crate::cli::console::sayln!(
+                    "stationary crossing rates and impacts: not computed ({why})"
+                )
+            }
+        }
+    }
+    if let Some(d) = &summary.method_distances {
+        if let Some(worst) = d.worst {
+            let flagged = d.flagged().count();
+            crate::cli::console::sayln!(
+                "method distance |grid - MC| / (MC SE + grid error): worst {:.2} ({}){}",
+                worst.distance.unwrap_or(f64::NAN),
+                worst.compared,
+                match flagged {
+                    0 => String::new(),
+                    n => format!(
+                        "; {n} flagged (more than {} SE plus the grid's error apart)",
+                        fpsolve::job::passage::DISAGREE_SE
+                    ),
+                }
+            );
         }
     }
     for warning in solved.warnings() {

@@ -430,7 +430,7 @@ fn run(
     let mut files = written.files;
     let mut unwritten = written.unwritten;
     crate::base::timeline::mark("job: crossings and impacts");
-    let reliability = reliability::write(problem, &study, &names, mc.as_ref(), out);
+    let reliability = reliability::write(problem, &study, &names, mc.as_ref(), spec.figures, out);
     files.extend(reliability.files);
     unwritten.extend(reliability.unwritten);
     let reliability = reliability.summary;

@@ -55,8 +55,9 @@ pub enum PassageError {
     /// from that density ([`GridPassage::domain`](super::GridPassage::domain) gives one).
     #[error(
         "{reason}; a first passage out of a set bounded in the position still has a mean \
-         time, but the grid sizes its box from the stationary density: give the box (the \
-         library's `GridPassage::domain`), or run Monte Carlo alone (`--method mc --horizon T`)"
+         time, but the grid sizes its box from the stationary density: give the box (`--domain \
+         x=LO:HI,v=LO:HI`, Python's `domain=`, the library's `GridPassage::domain`), or run \
+         Monte Carlo alone (`--method mc --horizon T`)"
     )]
     NoBox {
         /// Why the model has no stationary density.

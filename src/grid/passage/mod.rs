@@ -301,7 +301,7 @@ impl<'a> GridPassage<'a> {
         self
     }
 
-    fn check(&self) -> Result<(), PassageError> {
+    fn check_settings(&self) -> Result<(), PassageError> {
         let setting = |setting, value: String, expected| PassageError::Setting {
             setting,
             value,
@@ -337,6 +337,71 @@ impl<'a> GridPassage<'a> {
         Ok(())
     }
 
+    /// Every check that needs no solve, as [`GridPassage::run`] makes them first: the
+    /// settings, the start inside the set, the model (one without a stationary density needs
+    /// the box), the box given against the model's walls and the start inside it, and for a
+    /// model without a stationary density the set ending inside the box along x on the
+    /// cells. Not checked here: the safe set's probability, which needs the stationary solve.
+    ///
+    /// ```
+    /// use fpsolve::grid::{Domain, GridPassage, PassageError};
+    /// let text = "model free\nstate x, v\ndrift x: v\ndrift v: 0\nnoise xi: intensity 1\n\
+    ///             diffusion v: xi\nsafe abs(x) < 1\n";
+    /// let model = fpsolve::model::parse_model(text, None)?;
+    /// let bound = model.bind(&[])?;
+    /// let safe = model.safe().unwrap().bind(&bound)?;
+    /// let p = GridPassage::new(&bound, &safe);
+    /// assert!(matches!(p.check(), Err(PassageError::NoBox { .. })));
+    /// let p = p.domain(Domain { x: [0.5, 1.1], v: [-8.0, 8.0] });
+    /// assert!(matches!(p.check(), Err(PassageError::StartOutsideBox { .. })));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`PassageError::Setting`], [`PassageError::StartOutside`], [`PassageError::NoBox`],
+    /// [`PassageError::StartOutsideBox`], [`PassageError::NotBounded`], [`PassageError::Grid`].
+    pub fn check(&self) -> Result<(), PassageError> {
+        self.prepare().map(|_| ())
+    }
+
+    /// The checks of [`GridPassage::check`]; the model's mechanical form, the box and
+    /// whether the model has a stationary density.
+    fn prepare(&self) -> Result<(Mechanical, Domain, bool), PassageError> {
+        self.check_settings()?;
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
+        let without = without_stationary_density(&dynamics)?;
+        let problem = match without {
+            None => Mechanical::new(&dynamics)?,
+            Some(_) => Mechanical::first_passage(&dynamics)?,
+        }
+        .not_periodic(self.model, "a first passage")?;
+        let box_ = match (&without, self.domain) {
+            (Some(reason), None) => {
+                return Err(PassageError::NoBox {
+                    reason: reason.clone(),
+                })
+            }
+            _ => super::transient::starting_box(self.domain, &problem, self.model)?,
+        };
+        let [x, v] = self.start;
+        if self.domain.is_some()
+            && !(box_.x[0] <= x && x <= box_.x[1] && box_.v[0] <= v && v <= box_.v[1])
+        {
+            return Err(PassageError::StartOutsideBox { x, v, domain: box_ });
+        }
+        if without.is_some() {
+            // On the run's cells, as the solve will find it.
+            let [nx, nv] = self.cells;
+            let aligned = align::aligned(box_, nx, &problem, self.safe, self.model);
+            let mesh = Mesh::new(aligned, nx, nv, &problem.barriers, align::MESH_ALIGN);
+            let safe: Vec<bool> = (0..mesh.cells())
+                .map(|c| self.safe.contains([mesh.xc(c / nv), mesh.vc(c % nv)]))
+                .collect();
+            self.bounded(&mesh, &safe)?;
+        }
+        Ok((problem, box_, without.is_none()))
+    }
+
     /// Solves: every setting, the start and the safe set's probability are checked before
     /// the backward and forward solves.
     ///
@@ -356,23 +421,7 @@ impl<'a> GridPassage<'a> {
     /// [`PassageError::Grid`], [`PassageError::Singular`], [`PassageError::Step`].
     pub fn run(&self) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
-        self.check()?;
-        let dynamics = crate::dynamics::Dynamics::read(self.model);
-        let without = without_stationary_density(&dynamics)?;
-        let problem = match without {
-            None => Mechanical::new(&dynamics)?,
-            Some(_) => Mechanical::first_passage(&dynamics)?,
-        }
-        .not_periodic(self.model, "a first passage")?;
-        let box_ = match (&without, self.domain) {
-            (Some(reason), None) => {
-                return Err(PassageError::NoBox {
-                    reason: reason.clone(),
-                })
-            }
-            _ => super::transient::starting_box(self.domain, &problem, self.model)?,
-        };
-        let stationary = without.is_none();
+        let (problem, box_, stationary) = self.prepare()?;
         let [nx, nv] = self.cells;
         // The error estimate's solve on half the cells, alongside (the same problem and box,
         // aligned to its own cells); its failure leaves the numbers without an estimate.
@@ -433,18 +482,7 @@ impl<'a> GridPassage<'a> {
             }
             Some((inside, mass))
         } else {
-            // Nothing holds the paths near the start but the set itself: where it is open at
-            // the box's ends in x the box would decide the mean time.
-            let column = |i: usize| (0..nv).any(|j| safe[mesh.index(i, j)]);
-            if let Some(edge) = [(0, d.x[0]), (nx - 1, d.x[1])]
-                .into_iter()
-                .find_map(|(i, x)| column(i).then_some(x))
-            {
-                return Err(PassageError::NotBounded {
-                    safe: self.safe.text.clone(),
-                    edge,
-                });
-            }
+            self.bounded(&mesh, &safe)?;
             None
         };
         let op = assemble(&mesh, problem)?;
@@ -561,6 +599,26 @@ impl<'a> GridPassage<'a> {
                 total_ms: started.elapsed().as_secs_f64() * 1e3,
             },
         })
+    }
+}
+
+impl GridPassage<'_> {
+    /// For a model without a stationary density: nothing holds the paths near the start but
+    /// the set itself, so where it is open at the box's ends in x (`safe`: whether each of
+    /// `mesh`'s cells is inside) the box would decide the mean time.
+    fn bounded(&self, mesh: &Mesh, safe: &[bool]) -> Result<(), PassageError> {
+        let d = mesh.domain();
+        let column = |i: usize| (0..mesh.nv).any(|j| safe[mesh.index(i, j)]);
+        match [(0, d.x[0]), (mesh.nx - 1, d.x[1])]
+            .into_iter()
+            .find_map(|(i, x)| column(i).then_some(x))
+        {
+            Some(edge) => Err(PassageError::NotBounded {
+                safe: self.safe.text.clone(),
+                edge,
+            }),
+            None => Ok(()),
+        }
     }
 }
 

@@ -1,26 +1,33 @@
 //! First passage as `fpsolve reliability` (alias `fpsolve passage`) and Python's
 //! `Model.reliability` (alias `Model.passage`) run it: the grid and Monte Carlo solved in one
-//! order (Monte Carlo on the grid's times, its horizon 20 grid mean times unless given), and
-//! everything the two front ends report from them — `reliability.csv`,
-//! `first_passage_pdf.csv`, `summary.json`, the warnings — written once, so the two give the
-//! same numbers and words; the command line also draws the figures
-//! ([`PassageRun::write_figures`]). Each front end checks its own flags or keywords before
+//! order (Monte Carlo on the grid's times, its horizon 20 grid mean times unless given), the
+//! stationary crossing and impact statistics beside them (`stationary`), and everything the
+//! two front ends report from them — `reliability.csv`, `first_passage_pdf.csv`,
+//! `crossings_<q>.csv`, `summary.json` with the methods' distances, the warnings — written
+//! once, so the two give the same numbers and words; the command line also draws the figures
+//! ([`PassageRun::write_figures`]) and writes the stationary tables
+//! ([`PassageRun::write_stationary`]). Each front end checks its own flags or keywords before
 //! calling [`PassageRun::solve`].
 
+mod distance;
 mod figures;
+mod stationary;
 
 use serde::Serialize;
 
-use crate::grid::{GridPassage, PassageError, PassageSolution};
-use crate::job::Unwritten;
+use crate::grid::{Domain, GridPassage, PassageError, PassageSolution};
+use crate::job::{ReliabilitySummary, Unwritten};
 use crate::mc::{McError, McPassage, McPassageResult};
 use crate::model::{BoundModel, BoundSafe, Provenance};
 use crate::report::{short_number, OutputDir};
 
+pub use distance::{Compared, MethodDistance, MethodDistances};
 pub use figures::PassageFigures;
+pub use stationary::{StationaryMc, StationaryReport, StationaryStatistics};
 
 /// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
-/// Monte Carlo's mean first-passage times may be apart before a warning.
+/// Monte Carlo's first-passage numbers (the mean time from the start, R(t) at each output
+/// time) may be apart before a warning ([`MethodDistance::flagged`]).
 pub const DISAGREE_SE: f64 = 3.0;
 
 /// Why a `X,V` or `FIRST:LAST:COUNT` text could not be read.
@@ -150,6 +157,38 @@ impl McSettings {
     }
 }
 
+/// What [`PassageRun::solve`] solves, each setting checked by the front end.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassageSettings {
+    /// The start (x, v).
+    pub start: [f64; 2],
+    /// The output times of R(t).
+    pub times: Vec<f64>,
+    /// The grid's cells (x, v).
+    pub cells: [usize; 2],
+    /// The grid's box; `None` sizes it from the stationary density (a model without one
+    /// needs it).
+    pub domain: Option<Domain>,
+    /// Whether the grid runs.
+    pub grid: bool,
+    /// Monte Carlo's settings, when it runs.
+    pub mc: Option<McSettings>,
+}
+
+impl PassageSettings {
+    /// The grid's problem of `bound` and `safe` with these settings (without its output
+    /// times): what the front ends check before any work ([`GridPassage::check`]).
+    pub fn grid_passage<'a>(&self, bound: &'a BoundModel, safe: &'a BoundSafe) -> GridPassage<'a> {
+        let p = GridPassage::new(bound, safe)
+            .cells(self.cells[0], self.cells[1])
+            .start(self.start);
+        match self.domain {
+            Some(d) => p.domain(d),
+            None => p,
+        }
+    }
+}
+
 /// Which solve failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PassageRunError {
@@ -167,30 +206,41 @@ pub enum PassageWarning {
     /// Monte Carlo paths that blew up.
     #[error("{0} Monte Carlo paths blew up and are left out")]
     Blowups(u64),
-    /// The grid's and Monte Carlo's mean times further apart than [`DISAGREE_SE`] standard
-    /// errors plus the grid's stated error.
+    /// A number (the mean time from the start, R(t) at an output time) by the grid and by
+    /// Monte Carlo further apart than [`DISAGREE_SE`] of Monte Carlo's standard errors plus
+    /// the grid's stated error.
     #[error(
-        "the grid's mean first-passage time is {gap:.3e} from Monte Carlo's, more than \
-         {DISAGREE_SE} standard errors ({stderr:.2e}) plus the grid's estimated error \
-         ({stated:.2e}): compare finer cells, and Monte Carlo at a smaller dt"
+        "the grid's {compared} is {gap:.3e} from Monte Carlo's, more than {DISAGREE_SE} \
+         standard errors ({stderr:.2e}) plus the grid's estimated error ({stated:.2e}): \
+         compare finer cells, and Monte Carlo at a smaller dt"
     )]
     Disagree {
-        /// |MC mean − grid mean|.
+        /// The number.
+        compared: Compared,
+        /// |MC − grid|.
         gap: f64,
         /// Monte Carlo's standard error.
         stderr: f64,
-        /// The grid's stated error of its mean.
+        /// The grid's stated error.
         stated: f64,
     },
+    /// The stationary Monte Carlo beside the crossing tables gave no result, or one whose
+    /// verdict fails.
+    #[error("the stationary Monte Carlo (crossing counts, impacts): {0}")]
+    StationaryMc(String),
 }
 
-/// The grid's and Monte Carlo's solutions of one first-passage problem.
+/// The grid's and Monte Carlo's solutions of one first-passage problem, and the stationary
+/// statistics beside them.
 #[derive(Clone, Debug)]
 pub struct PassageRun {
     /// The grid's, when it ran.
     pub grid: Option<PassageSolution>,
     /// Monte Carlo's, when it ran.
     pub mc: Option<McPassageResult>,
+    /// The stationary crossing and impact statistics, when the grid ran (with why when they
+    /// could not be computed).
+    pub stationary: Option<StationaryStatistics>,
 }
 
 /// `summary.json` of a passage run.
@@ -221,6 +271,17 @@ pub struct PassageSummary<'a> {
     /// censored (the Monte Carlo mean is then only a lower bound); absent without both.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid_vs_mc_se: Option<Option<f64>>,
+    /// |grid − MC| / (MC's standard error + the grid's stated error) of the mean time from
+    /// the start and of R(t) at each output time, with the worst; absent without both.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub method_distances: Option<MethodDistances>,
+    /// How the stationary statistics were computed, or why not; absent without the grid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stationary: Option<&'a StationaryReport>,
+    /// The crossing tables (`crossings`), the quantities without one (`no_crossings`) and
+    /// the walls' impact statistics (`impacts`), as the main job lists them.
+    #[serde(flatten)]
+    pub reliability: ReliabilitySummary,
     /// The figures that could not be drawn, each with why (the command line's, from
     /// [`PassageRun::write_figures`]); absent from the file when there is none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -228,39 +289,49 @@ pub struct PassageSummary<'a> {
 }
 
 impl PassageRun {
-    /// Solves on the grid (`grid`, on `cells`) and by Monte Carlo (`mc`), from `start`, R(t)
-    /// at `times`; Monte Carlo on the grid's output times when the grid ran, to the horizon
-    /// given or 20 grid mean times. Each solve runs on the current rayon pool.
+    /// Solves as `settings` say: on the grid (on its cells, in its box when given) and by
+    /// Monte Carlo, from the start, R(t) at the output times; Monte Carlo on the grid's
+    /// output times when the grid ran, to the horizon given or 20 grid mean times. With the
+    /// grid, the stationary statistics too ([`StationaryStatistics`]: a grid study on the
+    /// same cells and box, and the stationary Monte Carlo at the same dt and seed when Monte
+    /// Carlo runs). Each solve runs on the current rayon pool.
     ///
     /// # Errors
-    /// The failing solve's error.
+    /// The failing first-passage solve's error (the stationary statistics' failure is kept in
+    /// them).
     ///
     /// # Panics
     /// When Monte Carlo runs alone without a horizon (the front ends refuse that first).
     pub fn solve(
         bound: &BoundModel,
         safe: &BoundSafe,
-        start: [f64; 2],
-        times: &[f64],
-        cells: [usize; 2],
-        grid: bool,
-        mc: Option<McSettings>,
+        settings: &PassageSettings,
     ) -> Result<PassageRun, PassageRunError> {
-        let grid = if grid {
-            Some(
-                GridPassage::new(bound, safe)
-                    .cells(cells[0], cells[1])
-                    .start(start)
-                    .times(times.to_vec())
-                    .run()?,
-            )
-        } else {
-            None
-        };
-        let mc = match mc {
+        // The stationary statistics beside the first passage's grid solves (the two share
+        // nothing; on two cores the passage's solve on half the cells leaves room).
+        let (grid, stationary) = rayon::join(
+            || {
+                settings.grid.then(|| {
+                    settings
+                        .grid_passage(bound, safe)
+                        .times(settings.times.clone())
+                        .run()
+                })
+            },
+            || {
+                settings.grid.then(|| {
+                    let mc = settings.mc.map(|m| (m.dt, m.seed));
+                    StationaryStatistics::solve(bound, settings.domain, settings.cells, mc)
+                })
+            },
+        );
+        let grid = grid.transpose()?;
+        let mc = match settings.mc {
             None => None,
             Some(m) => {
-                let times = grid.as_ref().map_or(times.to_vec(), |g| g.times.clone());
+                let times = grid
+                    .as_ref()
+                    .map_or(settings.times.clone(), |g| g.times.clone());
                 let horizon = m
                     .horizon
                     .or_else(|| grid.as_ref().map(|g| 20.0 * g.mean_at_start))
@@ -271,13 +342,26 @@ impl PassageRun {
                         .dt(m.dt)
                         .horizon(horizon)
                         .seed(m.seed)
-                        .start(start)
+                        .start(settings.start)
                         .times(times)
                         .run()?,
                 )
             }
         };
-        Ok(PassageRun { grid, mc })
+        Ok(PassageRun {
+            grid,
+            mc,
+            stationary,
+        })
+    }
+
+    /// The distances between the grid's and Monte Carlo's mean time and R(t) ([`MethodDistances`]);
+    /// `None` without both.
+    pub fn distances(&self) -> Option<MethodDistances> {
+        match (&self.grid, &self.mc) {
+            (Some(g), Some(m)) => Some(MethodDistances::between(g, m)),
+            _ => None,
+        }
     }
 
     /// (Monte Carlo mean − grid mean) / Monte Carlo's standard error: `None` without both,
@@ -289,22 +373,29 @@ impl PassageRun {
         }
     }
 
-    /// The warnings: blown-up paths, and a disagreement beyond [`DISAGREE_SE`] standard
-    /// errors plus the grid's stated error.
+    /// The warnings: blown-up paths, each number the methods give further apart than
+    /// [`DISAGREE_SE`] standard errors plus the grid's stated error, a stationary Monte Carlo
+    /// without a usable result.
     pub fn warnings(&self) -> Vec<PassageWarning> {
         let mut out = Vec::new();
         if let Some(m) = self.mc.as_ref().filter(|m| m.blowups > 0) {
             out.push(PassageWarning::Blowups(m.blowups));
         }
-        if let (Some(g), Some(Some(e))) = (&self.grid, self.mc.as_ref().map(|m| m.mean)) {
-            let gap = (e.value - g.mean_at_start).abs();
-            let stated = g.errors.as_ref().map_or(0.0, |e| e.mean_at_start);
-            if gap > DISAGREE_SE * e.stderr + stated {
+        if let Some(d) = self.distances() {
+            for f in d.flagged() {
                 out.push(PassageWarning::Disagree {
-                    gap,
-                    stderr: e.stderr,
-                    stated,
+                    compared: f.compared,
+                    gap: (f.mc - f.grid).abs(),
+                    stderr: f.mc_stderr,
+                    stated: f.grid_error,
                 });
+            }
+        }
+        if let Some(StationaryReport::Computed { mc: Some(m), .. }) =
+            self.stationary.as_ref().map(|s| &s.report)
+        {
+            if let Some(e) = &m.error {
+                out.push(PassageWarning::StationaryMc(e.clone()));
             }
         }
         out
@@ -315,7 +406,7 @@ impl PassageRun {
     ///
     /// ```
     /// use fpsolve::job::passage::PassageRun;
-    /// let none = PassageRun { grid: None, mc: None };
+    /// let none = PassageRun { grid: None, mc: None, stationary: None };
     /// assert_eq!(none.csv(), "t\n");
     /// ```
     pub fn csv(&self) -> String {
@@ -368,7 +459,8 @@ impl PassageRun {
     ///
     /// ```
     /// use fpsolve::job::passage::PassageRun;
-    /// assert_eq!(PassageRun { grid: None, mc: None }.pdf_csv(), None);
+    /// let none = PassageRun { grid: None, mc: None, stationary: None };
+    /// assert_eq!(none.pdf_csv(), None);
     /// ```
     pub fn pdf_csv(&self) -> Option<String> {
         let m = self.mc.as_ref().filter(|m| !m.pdf_binned.is_empty())?;
@@ -395,15 +487,22 @@ impl PassageRun {
     /// [`PassageFigures::unwritten`] with why; the numbers are not touched.
     ///
     /// ```no_run
-    /// # use fpsolve::job::passage::PassageRun;
+    /// # use fpsolve::job::passage::{PassageRun, PassageSettings};
     /// # use fpsolve::model::{load_model, Override};
     /// # use fpsolve::report::OutputDir;
     /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
     /// let model = load_model(path.as_ref())?.with_safe("abs(z) < 1.2")?;
     /// let bound = model.bind(&[Override::number("c", 1.0)])?;
     /// let safe = model.safe().unwrap().bind(&bound)?;
-    /// let times: Vec<f64> = (0..=10).map(f64::from).collect();
-    /// let run = PassageRun::solve(&bound, &safe, [0.0, 0.0], &times, [40, 40], true, None)?;
+    /// let settings = PassageSettings {
+    ///     start: [0.0, 0.0],
+    ///     times: (0..=10).map(f64::from).collect(),
+    ///     cells: [40, 40],
+    ///     domain: None,
+    ///     grid: true,
+    ///     mc: None,
+    /// };
+    /// let run = PassageRun::solve(&bound, &safe, &settings)?;
     /// let figures = run.write_figures(&OutputDir::create("out")?, &bound, &safe, [0.0, 0.0]);
     /// assert!(figures.unwritten.is_empty());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
@@ -431,6 +530,31 @@ impl PassageRun {
         figures::write(dir, &caption, self.grid.as_ref(), self.mc.as_ref())
     }
 
+    /// Writes into `dir` the stationary tables the main job writes (`crossings_<q>.csv`
+    /// with their figures `crossings_<q>.png/.svg`, `impact_speeds_<state>_<side>.csv`), when
+    /// they were computed. A file that cannot be written is listed in
+    /// [`PassageFigures::unwritten`] with why.
+    pub fn write_stationary(&self, dir: &OutputDir, bound: &BoundModel) -> PassageFigures {
+        let Some(tables) = self
+            .stationary
+            .as_ref()
+            .and_then(StationaryStatistics::tables)
+        else {
+            return PassageFigures::default();
+        };
+        let subtitle = bound
+            .params()
+            .iter()
+            .map(|(p, v)| format!("{p} = {}", short_number(*v)))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let written = tables.write(dir, Some((bound.name(), subtitle.as_str())));
+        PassageFigures {
+            files: written.files,
+            unwritten: written.unwritten,
+        }
+    }
+
     /// `summary.json` of the run, opening with `provenance`.
     pub fn summary<'a>(
         &'a self,
@@ -452,6 +576,13 @@ impl PassageRun {
             grid: self.grid.as_ref(),
             mc: self.mc.as_ref(),
             grid_vs_mc_se: self.grid_vs_mc_se(),
+            method_distances: self.distances(),
+            stationary: self.stationary.as_ref().map(|s| &s.report),
+            reliability: self
+                .stationary
+                .as_ref()
+                .map(StationaryStatistics::summary)
+                .unwrap_or_default(),
             unwritten: Vec::new(),
         }
     }

@@ -1,8 +1,10 @@
-//! The main job's reliability outputs from every stationary method that ran:
+//! The reliability outputs from every stationary method that ran, of the main job and of
+//! `fpsolve reliability` (whose grid study is its own stationary solve):
 //! - `crossings_<q>.csv`: Rice's mean up-crossing rate ν⁺(u) of each reported state and
 //!   observable that has one, on the levels of its PDF curve (`pdf_<q>.csv`'s first column),
 //!   one column per method and degree, the grid's followed by its error bound (empty where
-//!   the rate is below [`TAIL_LEVEL`] of its peak: the estimate is not trusted there);
+//!   the rate is below [`TAIL_LEVEL`] of its peak: the estimate is not trusted there), and
+//!   with figures its figure `crossings_<q>.png/.svg` (linear and log panels);
 //! - at each wall, the impact statistics (rate, mean impact speed, mean dissipated power) in
 //!   `summary.json` under `impacts`, from the methods whose density is in the model's own
 //!   coordinates (the grid, EPC with the exact impact condition), the grid's with their
@@ -21,8 +23,11 @@
 //! biases instead of error bounds, and the columns `mc`, `mc_se` of the impact-speed table
 //! (a histogram whose bins are centred on the table's speeds).
 
+mod figure;
+
 use std::path::PathBuf;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::Unwritten;
@@ -34,7 +39,7 @@ use crate::observe::{
     crossing_rate, crossings_csv, crossings_file_name, impact_statistics, CrossingCurve,
     CrossingError, ImpactStatistics,
 };
-use crate::report::{OutputDir, PdfTable};
+use crate::report::{short_number, OutputDir, PdfTable, ReportError};
 use crate::solve::Problem;
 use crate::study::Study;
 
@@ -122,57 +127,209 @@ pub struct WallImpacts {
 }
 
 /// What writing the reliability outputs gave.
-pub(super) struct Written {
-    pub(super) files: Vec<PathBuf>,
-    pub(super) unwritten: Vec<Unwritten>,
-    pub(super) summary: ReliabilitySummary,
+pub(crate) struct Written {
+    pub(crate) files: Vec<PathBuf>,
+    pub(crate) unwritten: Vec<Unwritten>,
+    pub(crate) summary: ReliabilitySummary,
+}
+
+/// The crossing tables and impact statistics of one study, computed and not yet written
+/// (see the module documentation): what [`ReliabilityTables::write`] writes and
+/// [`ReliabilityTables::summary`] lists, so that a front end without files (Python) reports
+/// the same numbers.
+#[derive(Clone, Debug)]
+pub(crate) struct ReliabilityTables {
+    crossings: Vec<CrossingTable>,
+    no_crossings: Vec<NoCrossings>,
+    walls: Vec<WallTable>,
+}
+
+/// One quantity's crossing table: its CSV text, and the curves and Monte Carlo's counts it
+/// holds (for the figure).
+#[derive(Clone, Debug)]
+pub(crate) struct CrossingTable {
+    /// The state or observable.
+    pub(crate) quantity: String,
+    /// `crossings_<q>.csv`'s text.
+    pub(crate) text: String,
+    /// Each method's curve, by its column's label.
+    curves: Vec<(String, CrossingCurve)>,
+    /// Monte Carlo's counts, when they are on the table's levels.
+    mc: Option<CrossingRates>,
+}
+
+/// One wall's impact statistics: the rows of `summary.json` and the impact-speed table.
+#[derive(Clone, Debug)]
+struct WallTable {
+    file: String,
+    table: PdfTable,
+    rows: Vec<WallImpacts>,
+}
+
+impl ReliabilityTables {
+    /// The crossing tables of `names` and the impact statistics of every wall from
+    /// `study`'s solutions of `problem`, with Monte Carlo's counts beside them when `mc` has
+    /// them.
+    pub(crate) fn of(
+        problem: &Problem,
+        study: &Study,
+        names: &[String],
+        mc: Option<&McResult>,
+    ) -> ReliabilityTables {
+        let mut tables = ReliabilityTables {
+            crossings: Vec::new(),
+            no_crossings: Vec::new(),
+            walls: Vec::new(),
+        };
+        for name in names {
+            match crossing_curves(problem, study, name) {
+                Ok(Some(curves)) => {
+                    let refs: Vec<(&str, &CrossingCurve)> =
+                        curves.iter().map(|(l, c)| (l.as_str(), c)).collect();
+                    let text = match crossings_csv(&refs) {
+                        Ok(text) => text,
+                        Err(e) => {
+                            tables.no_crossings.push(NoCrossings {
+                                quantity: name.clone(),
+                                why: e.to_string(),
+                            });
+                            continue;
+                        }
+                    };
+                    let rates = mc
+                        .and_then(|m| m.crossings.iter().find(|c| &c.quantity == name))
+                        .filter(|r| curves[0].1.levels.len() == r.levels.len());
+                    let text = match rates {
+                        Some(rates) => with_mc_columns(&text, rates),
+                        None => text,
+                    };
+                    tables.crossings.push(CrossingTable {
+                        quantity: name.clone(),
+                        text,
+                        curves,
+                        mc: rates.cloned(),
+                    });
+                }
+                Ok(None) => {}
+                Err(e) => tables.no_crossings.push(NoCrossings {
+                    quantity: name.clone(),
+                    why: e.to_string(),
+                }),
+            }
+        }
+        tables.walls = impacts(problem, study, mc);
+        tables
+    }
+
+    /// The crossing tables.
+    pub(crate) fn crossings(&self) -> &[CrossingTable] {
+        &self.crossings
+    }
+
+    /// What `summary.json` lists: every crossing table, the quantities without one, every
+    /// wall's statistics.
+    pub(crate) fn summary(&self) -> ReliabilitySummary {
+        ReliabilitySummary {
+            crossings: self
+                .crossings
+                .iter()
+                .map(|c| CrossingFile {
+                    quantity: c.quantity.clone(),
+                    file: crossings_file_name(&c.quantity),
+                })
+                .collect(),
+            no_crossings: self.no_crossings.clone(),
+            impacts: self.walls.iter().flat_map(|w| w.rows.clone()).collect(),
+        }
+    }
+
+    /// Writes the tables into `out`, and with a `caption` (the model's name, a subtitle)
+    /// the crossing figures `crossings_<q>.png/.svg` ([`figure::crossing_figure`]); a table
+    /// or figure that cannot be written is listed with why, and a crossing table not written
+    /// is not listed in the summary.
+    pub(crate) fn write(&self, out: &OutputDir, caption: Option<(&str, &str)>) -> Written {
+        let mut written = Written {
+            files: Vec::new(),
+            unwritten: Vec::new(),
+            summary: ReliabilitySummary {
+                no_crossings: self.no_crossings.clone(),
+                ..ReliabilitySummary::default()
+            },
+        };
+        for table in &self.crossings {
+            let file = crossings_file_name(&table.quantity);
+            match out.write_atomic(&file, table.text.as_bytes()) {
+                Ok(path) => {
+                    written.files.push(path);
+                    written.summary.crossings.push(CrossingFile {
+                        quantity: table.quantity.clone(),
+                        file,
+                    });
+                }
+                Err(e) => written.unwritten.push(Unwritten {
+                    file,
+                    error: e.to_string(),
+                }),
+            }
+        }
+        if let Some((model, subtitle)) = caption {
+            // The figures side by side, listed in the tables' order.
+            let drawn: Vec<_> = self
+                .crossings
+                .par_iter()
+                .map(|t| {
+                    let stem = format!("crossings_{}", t.quantity);
+                    let figure = figure::crossing_figure(model, subtitle, t);
+                    (stem.clone(), figure.write(out, &stem))
+                })
+                .collect();
+            for (stem, result) in drawn {
+                match result {
+                    Ok(f) => written.files.extend([f.png, f.svg]),
+                    Err(e) => written.unwritten.push(Unwritten {
+                        file: format!("{stem}.png/.svg"),
+                        error: match e {
+                            ReportError::Figure { source, .. } => source.to_string(),
+                            e => e.to_string(),
+                        },
+                    }),
+                }
+            }
+        }
+        for wall in &self.walls {
+            match wall.table.write_csv(out, &wall.file) {
+                Ok(path) => written.files.push(path),
+                Err(e) => written.unwritten.push(Unwritten {
+                    file: wall.file.clone(),
+                    error: e.to_string(),
+                }),
+            }
+            written.summary.impacts.extend(wall.rows.iter().cloned());
+        }
+        written
+    }
 }
 
 /// Writes the crossing tables of `names` and the impact statistics of every wall (see the
-/// module documentation) from `study`'s solutions of `problem`.
+/// module documentation) from `study`'s solutions of `problem`, with the crossing figures
+/// when `figures`.
 pub(super) fn write(
     problem: &Problem,
     study: &Study,
     names: &[String],
     mc: Option<&McResult>,
+    figures: bool,
     out: &OutputDir,
 ) -> Written {
-    let mut written = Written {
-        files: Vec::new(),
-        unwritten: Vec::new(),
-        summary: ReliabilitySummary::default(),
-    };
-    for name in names {
-        match crossing_text(problem, study, name) {
-            Ok(Some(text)) => {
-                let text = match mc.and_then(|m| m.crossings.iter().find(|c| &c.quantity == name)) {
-                    Some(rates) => with_mc_columns(&text, rates),
-                    None => text,
-                };
-                let file = crossings_file_name(name);
-                match out.write_atomic(&file, text.as_bytes()) {
-                    Ok(path) => {
-                        written.files.push(path);
-                        written.summary.crossings.push(CrossingFile {
-                            quantity: name.clone(),
-                            file,
-                        });
-                    }
-                    Err(e) => written.unwritten.push(Unwritten {
-                        file,
-                        error: e.to_string(),
-                    }),
-                }
-            }
-            Ok(None) => {}
-            Err(e) => written.summary.no_crossings.push(NoCrossings {
-                quantity: name.clone(),
-                why: e.to_string(),
-            }),
-        }
-    }
-    impacts(problem, study, mc, out, &mut written);
-    written
+    let model = problem.model();
+    let subtitle = model
+        .params()
+        .iter()
+        .map(|(p, v)| format!("{p} = {}", short_number(*v)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    ReliabilityTables::of(problem, study, names, mc)
+        .write(out, figures.then_some((model.name(), subtitle.as_str())))
 }
 
 /// The levels of the crossing tables Monte Carlo can count beside the other methods: each of
@@ -256,12 +413,13 @@ fn with_mc_columns(text: &str, rates: &CrossingRates) -> String {
     out
 }
 
-/// The crossing table of `name`, `None` when no method solved or the quantity has no curve.
-fn crossing_text(
+/// The crossing curves of `name` by each method that solved, by their columns' labels;
+/// `None` when no method solved or the quantity has no curve.
+fn crossing_curves(
     problem: &Problem,
     study: &Study,
     name: &str,
-) -> Result<Option<String>, CrossingError> {
+) -> Result<Option<Vec<(String, CrossingCurve)>>, CrossingError> {
     let Some(levels) = study
         .curves
         .iter()
@@ -299,11 +457,7 @@ fn crossing_text(
         };
         curves.push((run.source().label(), curve));
     }
-    if curves.is_empty() {
-        return Ok(None);
-    }
-    let refs: Vec<(&str, &CrossingCurve)> = curves.iter().map(|(l, c)| (l.as_str(), c)).collect();
-    crossings_csv(&refs).map(Some)
+    Ok((!curves.is_empty()).then_some(curves))
 }
 
 /// Levels on each side over which [`envelope`] takes its maximum, as a fraction of the
@@ -338,15 +492,10 @@ fn envelope(errors: &[f64], rate: &[f64]) -> Vec<f64> {
 }
 
 /// The impact statistics at every wall, by every method whose density is in the model's own
-/// coordinates, into `written`.
-fn impacts(
-    problem: &Problem,
-    study: &Study,
-    mc: Option<&McResult>,
-    out: &OutputDir,
-    written: &mut Written,
-) {
+/// coordinates.
+fn impacts(problem: &Problem, study: &Study, mc: Option<&McResult>) -> Vec<WallTable> {
     let model = problem.model();
+    let mut tables = Vec::new();
     for impact in model.impacts() {
         let Some(side) = impact.side else {
             // A pass-through law (the Zhuravlev form's): its state is not the user's position.
@@ -462,16 +611,9 @@ fn impacts(
                 speed_pdf_file: file.clone(),
             });
         }
-        if rows.is_empty() {
-            continue;
+        if !rows.is_empty() {
+            tables.push(WallTable { file, table, rows });
         }
-        match table.write_csv(out, &file) {
-            Ok(path) => written.files.push(path),
-            Err(e) => written.unwritten.push(Unwritten {
-                file,
-                error: e.to_string(),
-            }),
-        }
-        written.summary.impacts.extend(rows);
     }
+    tables
 }
