@@ -1,25 +1,32 @@
 //! First passage by Monte Carlo (issue 35, item 4): paths from a start point until they
-//! leave a safe set, integrated by the stationary run's kernel and impacts
-//! ([`BatchState::advance`], one step at a time), the exit time located within its step,
+//! leave a safe set, integrated by the stationary run's kernel and impacts (a block of steps
+//! per call, the state after each kept: `batch.rs`), the exit time located within its step,
 //! censoring at a horizon.
 //!
 //! The safe set is tested within every step on the cubic Hermite interpolant of the position
 //! (C¹ between impacts) and the linear one of the velocity, at four points; the exit time is
-//! interpolated linearly between the last point inside and the first outside. Batches of [`PASSAGE_LANES`] paths run in parallel (rayon) and are collected in
-//! batch order, each path with its own random stream: a seed gives the same exit times
+//! interpolated linearly between the last point inside and the first outside (`locate.rs`).
+//! A step is tested only where a cheap enclosure of the quantity over the states a part of
+//! a block passes through does not clear it (`screen.rs`): the same exit times as testing
+//! every step. Batches of [`PASSAGE_LANES`] paths run in parallel (rayon) and are collected
+//! in batch order, each path with its own random stream: a seed gives the same exit times
 //! whatever the number of threads. The time-step bias is estimated as for stationary runs:
 //! the first quarter of the batches (at least two) again at 2·dt.
 
+mod batch;
 mod density;
+mod locate;
+mod screen;
 mod summary;
 
 use rayon::prelude::*;
+
+use batch::Exits;
 
 use super::compile::scheme::{walls, Plan, SchemeChoice};
 use super::config::bad;
 use super::error::McError;
 use super::kernel::rng::Increments;
-use super::step::state::BatchState;
 use crate::model::{BoundModel, BoundSafe};
 
 pub use summary::{McPassageResult, PassageBias, PassageEstimate};
@@ -179,19 +186,7 @@ impl<'a> McPassage<'a> {
     /// times.
     pub fn run(&self) -> Result<McPassageResult, McError> {
         self.check()?;
-        let dynamics = crate::dynamics::Dynamics::read(self.model);
-        let observables: Vec<_> = self
-            .model
-            .observables
-            .iter()
-            .map(|o| o.expr.clone())
-            .collect();
-        let plan = Plan::with_impacts(
-            &dynamics,
-            &observables,
-            SchemeChoice::Auto,
-            walls(&dynamics)?,
-        )?;
+        let plan = self.plan()?;
         let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
         let coarse_batches = (batches / 4).max(2).min(batches);
         let fine = self.exit_times(&plan, batches, self.dt);
@@ -215,6 +210,34 @@ impl<'a> McPassage<'a> {
         ))
     }
 
+    /// The stationary run's scheme and impacts for the model.
+    fn plan(&self) -> Result<Plan, McError> {
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
+        let observables: Vec<_> = self
+            .model
+            .observables
+            .iter()
+            .map(|o| o.expr.clone())
+            .collect();
+        Plan::with_impacts(
+            &dynamics,
+            &observables,
+            SchemeChoice::Auto,
+            walls(&dynamics)?,
+        )
+    }
+
+    /// What each batch needs of the run.
+    fn exits(&self) -> Exits<'_> {
+        Exits {
+            safe: self.safe,
+            start: self.start,
+            horizon: self.horizon,
+            seed: self.seed,
+            increments: self.increments,
+        }
+    }
+
     /// The exit times of the paths of `batches` batches at step `h` (`f64::INFINITY`:
     /// censored at the horizon; NaN: blew up), in path order.
     fn exit_times(&self, plan: &Plan, batches: u64, h: f64) -> Vec<f64> {
@@ -223,109 +246,12 @@ impl<'a> McPassage<'a> {
             .map(|k| {
                 let first = k * PASSAGE_LANES as u64;
                 let lanes = self.paths.saturating_sub(first).min(PASSAGE_LANES as u64) as usize;
-                self.batch(plan, first, lanes, h)
+                self.exits().batch(plan, first, lanes, h)
             })
             .collect();
         per.concat()
     }
-
-    /// One batch: paths `first..first + lanes` from the start until they leave.
-    fn batch(&self, plan: &Plan, first: u64, lanes: usize, h: f64) -> Vec<f64> {
-        let spread = plan.initial_spread();
-        let mut b = BatchState::new(plan, &spread, self.seed, first, lanes, self.increments);
-        b.x.fill(self.start[0]);
-        b.v.fill(self.start[1]);
-        let q0 = self.safe.quantity_at(self.start);
-        let mut prev = vec![(self.start, q0); lanes];
-        let mut exit = vec![f64::INFINITY; lanes];
-        let mut alive = lanes;
-        let steps = (self.horizon / h).ceil() as u64;
-        for n in 0..steps {
-            b.advance(plan, 1, h);
-            for i in 0..lanes {
-                if exit[i] != f64::INFINITY {
-                    continue;
-                }
-                let end = [b.x[i], b.v[i]];
-                let q1 = self.safe.quantity_at(end);
-                if q1.is_nan() || !end[0].is_finite() || !end[1].is_finite() {
-                    exit[i] = f64::NAN;
-                    alive -= 1;
-                    continue;
-                }
-                let Some(s) = self.left_within(prev[i], (end, q1), h) else {
-                    prev[i] = (end, q1);
-                    continue;
-                };
-                let t = (n as f64 + s) * h;
-                // A path that leaves after the horizon within the last step is censored.
-                exit[i] = if t <= self.horizon {
-                    t
-                } else {
-                    f64::NEG_INFINITY
-                };
-                alive -= 1;
-            }
-            if alive == 0 {
-                break;
-            }
-        }
-        exit.iter_mut()
-            .filter(|t| **t == f64::NEG_INFINITY)
-            .for_each(|t| *t = f64::INFINITY);
-        exit
-    }
-
-    /// Whether the path left the set within a step from `a` to `b` (states and quantity;
-    /// `a` inside) and where (in [0, 1]). Between the ends the position is the cubic Hermite
-    /// interpolant of the positions and velocities (the position is C¹ between impacts) and
-    /// the velocity linear, sampled at [`SUBSTEPS`] points: an excursion out and back within
-    /// a step is caught, which testing the ends alone would miss (a bias of order √dt in
-    /// the mean time). The exit is interpolated linearly between the last sample inside and
-    /// the first outside.
-    fn left_within(&self, a: ([f64; 2], f64), b: ([f64; 2], f64), h: f64) -> Option<f64> {
-        let ([x0, v0], q0) = a;
-        let ([x1, v1], q1) = b;
-        let mut last = (0.0, q0);
-        for k in 1..=SUBSTEPS {
-            let s = k as f64 / SUBSTEPS as f64;
-            let q = if k == SUBSTEPS {
-                q1
-            } else {
-                let (s2, s3) = (s * s, s * s * s);
-                let x = (2.0 * s3 - 3.0 * s2 + 1.0) * x0
-                    + (s3 - 2.0 * s2 + s) * h * v0
-                    + (-2.0 * s3 + 3.0 * s2) * x1
-                    + (s3 - s2) * h * v1;
-                self.safe.quantity_at([x, v0 + s * (v1 - v0)])
-            };
-            if !self.safe.inside(q) {
-                let f = self.fraction(last.1, q);
-                return Some(last.0 + f / SUBSTEPS as f64);
-            }
-            last = (s, q);
-        }
-        None
-    }
-
-    /// Where between two samples the quantity, `q0` (inside) at the first and `q1`
-    /// (outside) at the second, reached the bound it crossed, linearly interpolated (in
-    /// [0, 1]).
-    fn fraction(&self, q0: f64, q1: f64) -> f64 {
-        let bound = match (self.safe.lower, self.safe.upper) {
-            (_, Some(b)) if q1 >= b => b,
-            (Some(a), _) => a,
-            (None, Some(b)) => b,
-            (None, None) => return 1.0,
-        };
-        let d = q1 - q0;
-        if d == 0.0 || d.is_nan() {
-            1.0
-        } else {
-            ((bound - q0) / d).clamp(0.0, 1.0)
-        }
-    }
 }
 
-/// Samples of the interpolated path per step at which the safe set is tested.
-const SUBSTEPS: usize = 4;
+#[cfg(test)]
+mod tests;
