@@ -6,6 +6,9 @@
 //! a part the screen does not clear are tested one by one (`locate.rs`), in order, as if
 //! every step were.
 
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use super::locate::left_within;
 use super::screen::Spans;
 use crate::mc::compile::scheme::Plan;
@@ -14,9 +17,13 @@ use crate::mc::step::state::BatchState;
 use crate::model::BoundSafe;
 use crate::symbolic::Interval;
 
-/// Steps per block: one kernel call, the state after each kept (128 steps of 64 lanes:
-/// 128 KiB of states, within the second-level cache).
-pub(super) const BLOCK_STEPS: usize = 128;
+/// Lanes per batch of paths (each path with its own random stream).
+pub const PASSAGE_LANES: usize = 64;
+
+/// Steps per block: one kernel call, the state after each kept (126 steps of 64 lanes:
+/// 126 KiB of states, within the second-level cache). A multiple of three, so that every
+/// block starts at a new three-point draw (where a lane may start a new path).
+pub(super) const BLOCK_STEPS: usize = 126;
 
 /// Steps per part of a block: the screen's finer unit where a block's box is not cleared.
 pub(super) const PART_STEPS: usize = 16;
@@ -28,6 +35,29 @@ pub(super) struct Exits<'a> {
     pub(super) horizon: f64,
     pub(super) seed: u64,
     pub(super) increments: Increments,
+}
+
+/// Paths waiting to run, handed out in index order to whichever batch asks first (a path's
+/// exit time depends on its own random stream alone, not on the batch or lane that runs it).
+pub(super) struct Queue {
+    next: AtomicU64,
+    end: u64,
+}
+
+impl Queue {
+    /// Paths `paths`.
+    pub(super) fn new(paths: Range<u64>) -> Queue {
+        Queue {
+            next: AtomicU64::new(paths.start),
+            end: paths.end,
+        }
+    }
+
+    /// The next `n` paths, or fewer when fewer are left; `None` when none is.
+    fn take(&self, n: u64) -> Option<Range<u64>> {
+        let start = self.next.fetch_add(n, Ordering::Relaxed);
+        (start < self.end).then(|| start..(start + n).min(self.end))
+    }
 }
 
 /// How a path's test within a block ended.
@@ -51,11 +81,47 @@ struct Block {
 }
 
 impl Exits<'_> {
-    /// The exit times of paths `first..first + lanes` at step `h` (`f64::INFINITY`:
-    /// censored at the horizon; NaN: blew up), in path order.
-    pub(super) fn batch(&self, plan: &Plan, first: u64, lanes: usize, h: f64) -> Vec<f64> {
+    /// Runs paths taken from `queue` at step `h` until it is empty: their indices and exit
+    /// times (`f64::INFINITY`: censored at the horizon; NaN: blew up), in no set order.
+    ///
+    /// On the fast mechanical path a batch's [`PASSAGE_LANES`] lanes take the paths in
+    /// turn: a lane whose path has ended starts the next one from the queue at the end of
+    /// the block ([`BatchState::restart_lane`]), as that path would start in a batch of its
+    /// own, so no lane idles while paths wait. Elsewhere the paths run in batches of
+    /// [`PASSAGE_LANES`], each until its last path ends.
+    pub(super) fn drain(&self, plan: &Plan, queue: &Queue, h: f64) -> Vec<(u64, f64)> {
+        let mut exits = Vec::new();
         let spread = plan.initial_spread();
-        let mut b = BatchState::new(plan, &spread, self.seed, first, lanes, self.increments);
+        while let Some(first) = queue.take(PASSAGE_LANES as u64) {
+            let lanes = first.end - first.start;
+            let mut b = BatchState::new(
+                plan,
+                &spread,
+                self.seed,
+                first.start,
+                lanes as usize,
+                self.increments,
+            );
+            let refill = b.has_fast_rows(plan);
+            self.batch(&mut b, plan, first, refill.then_some(queue), h, &mut exits);
+        }
+        exits
+    }
+
+    /// Runs batch `b`, lanes started at paths `first`, until its paths end, starting paths
+    /// taken from `queue` (when given) in the lanes of those that ended; their indices and
+    /// exit times to `exits`.
+    fn batch(
+        &self,
+        b: &mut BatchState,
+        plan: &Plan,
+        first: Range<u64>,
+        queue: Option<&Queue>,
+        h: f64,
+        exits: &mut Vec<(u64, f64)>,
+    ) {
+        let spread = plan.initial_spread();
+        let lanes = b.x.len();
         b.x.fill(self.start[0]);
         b.v.fill(self.start[1]);
         let mut blk = Block {
@@ -67,41 +133,62 @@ impl Exits<'_> {
             quantity: Vec::new(),
             enclosure: Vec::new(),
         };
-        let mut exit = vec![f64::INFINITY; lanes];
-        let mut open = lanes;
+        // Each lane's path and the batch's step it started at (`None`: no path left).
+        let mut path: Vec<Option<(u64, u64)>> = first.map(|p| Some((p, 0))).collect();
+        // Whether paths may wait in the queue.
+        let mut waiting = queue.is_some();
         let steps = (self.horizon / h).ceil() as u64;
         let mut done = 0;
-        while done < steps && open > 0 {
-            let n = (steps - done).min(BLOCK_STEPS as u64) as usize;
-            blk.step(&mut b, plan, n, h);
-            for (i, e) in exit.iter_mut().enumerate() {
-                if *e != f64::INFINITY {
-                    continue;
-                }
-                let Some(outcome) = self.lane(&mut blk, i, n, h) else {
-                    continue;
-                };
-                open -= 1;
-                *e = match outcome {
-                    Outcome::BlewUp => f64::NAN,
-                    Outcome::Left { step, at } => {
-                        let t = ((done + step as u64) as f64 + at) * h;
+        loop {
+            // Whole blocks while paths may wait (a multiple of three steps, so the lanes
+            // restart at a new three-point draw), then up to the last path's horizon.
+            let left = path
+                .iter()
+                .flatten()
+                .map(|&(_, s)| steps - (done - s))
+                .max();
+            let Some(left) = left else { break };
+            let n = if waiting {
+                BLOCK_STEPS
+            } else {
+                left.min(BLOCK_STEPS as u64) as usize
+            };
+            blk.step(b, plan, n, h);
+            for (i, lane) in path.iter_mut().enumerate() {
+                let Some((p, s)) = *lane else { continue };
+                // This path's steps before the block, and its steps within it.
+                let own = done - s;
+                let m = (steps - own).min(n as u64) as usize;
+                let t = match self.lane(&mut blk, i, m, h) {
+                    Some(Outcome::BlewUp) => f64::NAN,
+                    Some(Outcome::Left { step, at }) => {
+                        let t = ((own + step as u64) as f64 + at) * h;
                         // A path that leaves after the horizon within the last step is
-                        // censored (marked apart until the end: it is no longer open).
+                        // censored.
                         if t <= self.horizon {
                             t
                         } else {
-                            f64::NEG_INFINITY
+                            f64::INFINITY
                         }
                     }
+                    None if own + m as u64 == steps => f64::INFINITY,
+                    None => continue,
                 };
+                exits.push((p, t));
+                *lane = None;
+                let Some(next) = queue.filter(|_| waiting).and_then(|q| q.take(1)) else {
+                    waiting = false;
+                    continue;
+                };
+                // Only the fast path has paths waiting, and blocks of whole draws.
+                let restarted = b.restart_lane(plan, &spread, self.seed, next.start, i);
+                assert!(restarted, "a lane restarts at the start of a block");
+                b.x[i] = self.start[0];
+                b.v[i] = self.start[1];
+                *lane = Some((next.start, done + n as u64));
             }
             done += n as u64;
         }
-        exit.iter_mut()
-            .filter(|t| **t == f64::NEG_INFINITY)
-            .for_each(|t| *t = f64::INFINITY);
-        exit
     }
 
     /// Lane `i`'s test over the `n` steps of the block: whether and where it left.

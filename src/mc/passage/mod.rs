@@ -8,9 +8,11 @@
 //! interpolated linearly between the last point inside and the first outside (`locate.rs`).
 //! A step is tested only where a cheap enclosure of the quantity over the states a part of
 //! a block passes through does not clear it (`screen.rs`): the same exit times as testing
-//! every step. Batches of [`PASSAGE_LANES`] paths run in parallel (rayon) and are collected
-//! in batch order, each path with its own random stream: a seed gives the same exit times
-//! whatever the number of threads. The time-step bias is estimated as for stationary runs:
+//! every step. Each path has its own random stream, so its exit time does not depend on the
+//! batch or lane that runs it: one task per thread (rayon) runs batches of [`PASSAGE_LANES`]
+//! lanes that take paths from a shared queue, a lane starting the next path when its own
+//! ends (on the fast mechanical path), and a seed gives the same exit times whatever the
+//! number of threads. The time-step bias is estimated as for stationary runs:
 //! the first quarter of the batches (at least two) again at 2·dt.
 
 mod batch;
@@ -21,7 +23,8 @@ mod summary;
 
 use rayon::prelude::*;
 
-use batch::Exits;
+pub use batch::PASSAGE_LANES;
+use batch::{Exits, Queue};
 
 use super::compile::scheme::{walls, Plan, SchemeChoice};
 use super::config::bad;
@@ -30,9 +33,6 @@ use super::kernel::rng::Increments;
 use crate::model::{BoundModel, BoundSafe};
 
 pub use summary::{McPassageResult, PassageBias, PassageEstimate};
-
-/// Paths per batch (one random stream each, one task of the thread pool).
-pub const PASSAGE_LANES: usize = 64;
 
 /// At most this many paths in one run.
 pub const MAX_PASSAGE_PATHS: u64 = 100_000_000;
@@ -189,8 +189,17 @@ impl<'a> McPassage<'a> {
         let plan = self.plan()?;
         let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
         let coarse_batches = (batches / 4).max(2).min(batches);
-        let fine = self.exit_times(&plan, batches, self.dt);
-        let coarse = self.exit_times(&plan, coarse_batches, 2.0 * self.dt);
+        let coarse_paths = (coarse_batches * PASSAGE_LANES as u64).min(self.paths);
+        let mut runs = self
+            .exit_times(
+                &plan,
+                &[(self.paths, self.dt), (coarse_paths, 2.0 * self.dt)],
+            )
+            .into_iter();
+        let (fine, coarse) = (
+            runs.next().unwrap_or_default(),
+            runs.next().unwrap_or_default(),
+        );
         let times = if self.times.is_empty() {
             (0..=100).map(|k| self.horizon * k as f64 / 100.0).collect()
         } else {
@@ -238,18 +247,38 @@ impl<'a> McPassage<'a> {
         }
     }
 
-    /// The exit times of the paths of `batches` batches at step `h` (`f64::INFINITY`:
-    /// censored at the horizon; NaN: blew up), in path order.
-    fn exit_times(&self, plan: &Plan, batches: u64, h: f64) -> Vec<f64> {
-        let per: Vec<Vec<f64>> = (0..batches)
+    /// The exit times of the first `paths` paths at step `h` (`f64::INFINITY`: censored
+    /// at the horizon; NaN: blew up), in path order, for each `(paths, h)` of `runs`: one
+    /// task per thread, each running paths from a queue of each run in turn, so that all
+    /// stay busy to the end of each (a path's exit time depends on its own stream alone,
+    /// not on the task that runs it).
+    fn exit_times(&self, plan: &Plan, runs: &[(u64, f64)]) -> Vec<Vec<f64>> {
+        let queues: Vec<Queue> = runs
+            .iter()
+            .map(|&(paths, _)| Queue::new(0..paths))
+            .collect();
+        let done: Vec<Vec<Vec<(u64, f64)>>> = (0..rayon::current_num_threads())
             .into_par_iter()
-            .map(|k| {
-                let first = k * PASSAGE_LANES as u64;
-                let lanes = self.paths.saturating_sub(first).min(PASSAGE_LANES as u64) as usize;
-                self.exits().batch(plan, first, lanes, h)
+            .map(|_| {
+                let exits = self.exits();
+                runs.iter()
+                    .zip(&queues)
+                    .map(|(&(_, h), q)| exits.drain(plan, q, h))
+                    .collect()
             })
             .collect();
-        per.concat()
+        let mut out: Vec<Vec<f64>> = runs
+            .iter()
+            .map(|&(paths, _)| vec![f64::NAN; paths as usize])
+            .collect();
+        for task in done {
+            for (run, exits) in out.iter_mut().zip(task) {
+                for (p, t) in exits {
+                    run[p as usize] = t;
+                }
+            }
+        }
+        out
     }
 }
 

@@ -1,6 +1,7 @@
 //! The blocked, screened batch (`batch.rs`) against the plain one it replaced: every step
 //! advanced by itself and tested at its four samples. The exit times must agree to the bit.
 
+use super::batch::Queue;
 use super::locate::{left_within, SUBSTEPS};
 use super::screen::Spans;
 use super::*;
@@ -173,16 +174,29 @@ fn the_screened_blocks_give_the_plain_exit_times_to_the_bit() {
         let mut exits = 0;
         // At h = 0.1 an excursion out and back within a step, caught only by the samples
         // between its ends, is common.
-        for (first, lanes, h) in [(0, 64, 0.01), (64, 64, 0.01), (128, 22, 0.01), (0, 64, 0.1)] {
-            let want = plain(&run, &plan, first, lanes, h);
-            let got = run.exits().batch(&plan, first, lanes, h);
-            for (i, (w, g)) in want.iter().zip(&got).enumerate() {
-                assert_eq!(
-                    w.to_bits(),
-                    g.to_bits(),
-                    "{name}, h = {h}: path {}: {w} vs {g}",
-                    first + i as u64
-                );
+        for h in [0.01, 0.1] {
+            let want: Vec<f64> = [(0, 64), (64, 64), (128, 22)]
+                .into_iter()
+                .flat_map(|(first, lanes)| plain(&run, &plan, first, lanes, h))
+                .collect();
+            // All the paths in one task (on the fast path its lanes take them in turn), then
+            // from the second batch on, then a batch of its own.
+            for (first, count) in [(0, 150), (64, 86), (128, 22)] {
+                let mut got = run
+                    .exits()
+                    .drain(&plan, &Queue::new(first..first + count), h);
+                got.sort_by_key(|e| e.0);
+                let indices: Vec<u64> = got.iter().map(|e| e.0).collect();
+                assert_eq!(indices, (first..first + count).collect::<Vec<_>>());
+                for (p, g) in got {
+                    let p = p as usize;
+                    let w = want[p];
+                    assert_eq!(
+                        w.to_bits(),
+                        g.to_bits(),
+                        "{name}, h = {h}: path {p}: {w} vs {g}"
+                    );
+                }
             }
             exits += want.iter().filter(|t| t.is_finite()).count();
             censored += want.iter().filter(|t| **t == f64::INFINITY).count();
