@@ -30,8 +30,12 @@
 //! Measured on 2 shared cores under a load of 6–10 from other builds (medians of 10): the
 //! statistics add 5 % (0.587 against 0.558 s); the mean times take 0.85 s (linear) and
 //! 1.00 s (case 1) against the stationary solve's 0.47 and 0.53 s; R(t) to 5 means at
-//! 100×200 3.9 s against 0.14 s for the mean times; the passage Monte Carlo 8.7 M
-//! path-steps/s against the stationary kernel's 1.0 G steps/s (116 times slower).
+//! 100×200 3.9 s against 0.14 s for the mean times. The passage Monte Carlo, first 8.7 M
+//! path-steps/s against the stationary kernel's 1.0 G steps/s (116 times slower), now runs
+//! 541–547 M/s against 1.46–1.50 G/s in the same runs (2.7 times slower; load 7.5–15): its
+//! kernel takes two half flights per step where the stationary one takes one, the screen
+//! of the safe set reads every step's state, and a lane idles once the queue is empty and
+//! its path has ended.
 //!
 //! `cargo bench --bench reliability` (or `-- reliability_mc_rate` for one group)
 

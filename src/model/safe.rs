@@ -4,7 +4,7 @@
 //! passage is the first time q leaves the open interval they bound. [`SafeSet::bind`] gives
 //! the numbers and a compiled quantity ([`BoundSafe`]).
 
-use crate::symbolic::{DeltaPolicy, Expr, Tape};
+use crate::symbolic::{DeltaPolicy, Expr, Interval, Tape};
 
 use super::{number, BoundModel, DomainBound};
 
@@ -162,9 +162,31 @@ impl BoundSafe {
     /// assert_eq!(safe.quantity_at([1.0, 1.0]), 2.0);
     /// ```
     pub fn quantity_at(&self, x: [f64; 2]) -> f64 {
+        self.quantity_with(x, &mut Vec::new())
+    }
+
+    /// [`BoundSafe::quantity_at`] with working memory `scratch` reused between calls (the
+    /// same number, without allocating).
+    pub(crate) fn quantity_with(&self, x: [f64; 2], scratch: &mut Vec<f64>) -> f64 {
         let mut out = [0.0];
-        self.tape.eval(&x, &mut Vec::new(), &mut out);
+        self.tape.eval(&x, scratch, &mut out);
         out[0]
+    }
+
+    /// Whether every state of the box `x` × `v` is surely inside: its quantity, as
+    /// [`BoundSafe::quantity_at`] computes it, a number strictly between the bounds
+    /// (`false` also when the quantity's enclosure over the box is not cheap, see
+    /// [`Tape::enclose`]). `scratch` is reused between calls.
+    pub(crate) fn surely_inside(
+        &self,
+        x: Interval,
+        v: Interval,
+        scratch: &mut Vec<Interval>,
+    ) -> bool {
+        let mut q = [Interval { lo: 0.0, hi: 0.0 }];
+        self.tape.enclose(&[x, v], scratch, &mut q)
+            && self.lower.is_none_or(|a| q[0].lo > a)
+            && self.upper.is_none_or(|b| q[0].hi < b)
     }
 
     /// Whether the state `x` is strictly inside the set (the boundary belongs to the

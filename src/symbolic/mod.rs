@@ -16,5 +16,6 @@ pub use error::SymbolicError;
 pub use expr::{powf, sgn, DeltaPolicy, EvalError, Expr, Func, Symbol};
 pub use sift::sift;
 pub use simplify::{expand, simplify};
+pub(crate) use tape::Interval;
 pub(crate) use tape::{Op as TapeOp, Unary as TapeUnary};
 pub use tape::{Tape, TapeScratch};

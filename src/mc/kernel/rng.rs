@@ -64,6 +64,13 @@ impl LaneRng {
         r
     }
 
+    /// Lane `i`'s generator started over as trajectory `index`'s of the run seeded with
+    /// `seed` ([`LaneRng::new`] gives lane i of a batch that starts at `index − i` this state).
+    pub(crate) fn reseed_lane(&mut self, seed: u64, index: u64, i: usize) {
+        let s = stream_state(seed, index);
+        (self.s0[i], self.s1[i], self.s2[i], self.s3[i]) = (s[0], s[1], s[2], s[3]);
+    }
+
     /// The next output of lane `i`'s generator alone (for rare per-lane events).
     pub(crate) fn next_lane(&mut self, i: usize) -> u64 {
         let (a, b, c, d) = (self.s0[i], self.s1[i], self.s2[i], self.s3[i]);

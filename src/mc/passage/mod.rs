@@ -1,31 +1,38 @@
 //! First passage by Monte Carlo (issue 35, item 4): paths from a start point until they
-//! leave a safe set, integrated by the stationary run's kernel and impacts
-//! ([`BatchState::advance`], one step at a time), the exit time located within its step,
+//! leave a safe set, integrated by the stationary run's kernel and impacts (a block of steps
+//! per call, the state after each kept: `batch.rs`), the exit time located within its step,
 //! censoring at a horizon.
 //!
 //! The safe set is tested within every step on the cubic Hermite interpolant of the position
 //! (C¹ between impacts) and the linear one of the velocity, at four points; the exit time is
-//! interpolated linearly between the last point inside and the first outside. Batches of [`PASSAGE_LANES`] paths run in parallel (rayon) and are collected in
-//! batch order, each path with its own random stream: a seed gives the same exit times
-//! whatever the number of threads. The time-step bias is estimated as for stationary runs:
+//! interpolated linearly between the last point inside and the first outside (`locate.rs`).
+//! A step is tested only where a cheap enclosure of the quantity over the states a part of
+//! a block passes through does not clear it (`screen.rs`): the same exit times as testing
+//! every step. Each path has its own random stream, so its exit time does not depend on the
+//! batch or lane that runs it: one task per thread (rayon) runs batches of [`PASSAGE_LANES`]
+//! lanes that take paths from a shared queue, a lane starting the next path when its own
+//! ends (on the fast mechanical path), and a seed gives the same exit times whatever the
+//! number of threads. The time-step bias is estimated as for stationary runs:
 //! the first quarter of the batches (at least two) again at 2·dt.
 
+mod batch;
 mod density;
+mod locate;
+mod screen;
 mod summary;
 
 use rayon::prelude::*;
+
+pub use batch::PASSAGE_LANES;
+use batch::{Exits, Queue};
 
 use super::compile::scheme::{walls, Plan, SchemeChoice};
 use super::config::bad;
 use super::error::McError;
 use super::kernel::rng::Increments;
-use super::step::state::BatchState;
 use crate::model::{BoundModel, BoundSafe};
 
 pub use summary::{McPassageResult, PassageBias, PassageEstimate};
-
-/// Paths per batch (one random stream each, one task of the thread pool).
-pub const PASSAGE_LANES: usize = 64;
 
 /// At most this many paths in one run.
 pub const MAX_PASSAGE_PATHS: u64 = 100_000_000;
@@ -179,23 +186,20 @@ impl<'a> McPassage<'a> {
     /// times.
     pub fn run(&self) -> Result<McPassageResult, McError> {
         self.check()?;
-        let dynamics = crate::dynamics::Dynamics::read(self.model);
-        let observables: Vec<_> = self
-            .model
-            .observables
-            .iter()
-            .map(|o| o.expr.clone())
-            .collect();
-        let plan = Plan::with_impacts(
-            &dynamics,
-            &observables,
-            SchemeChoice::Auto,
-            walls(&dynamics)?,
-        )?;
+        let plan = self.plan()?;
         let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
         let coarse_batches = (batches / 4).max(2).min(batches);
-        let fine = self.exit_times(&plan, batches, self.dt);
-        let coarse = self.exit_times(&plan, coarse_batches, 2.0 * self.dt);
+        let coarse_paths = (coarse_batches * PASSAGE_LANES as u64).min(self.paths);
+        let mut runs = self
+            .exit_times(
+                &plan,
+                &[(self.paths, self.dt), (coarse_paths, 2.0 * self.dt)],
+            )
+            .into_iter();
+        let (fine, coarse) = (
+            runs.next().unwrap_or_default(),
+            runs.next().unwrap_or_default(),
+        );
         let times = if self.times.is_empty() {
             (0..=100).map(|k| self.horizon * k as f64 / 100.0).collect()
         } else {
@@ -215,117 +219,68 @@ impl<'a> McPassage<'a> {
         ))
     }
 
-    /// The exit times of the paths of `batches` batches at step `h` (`f64::INFINITY`:
-    /// censored at the horizon; NaN: blew up), in path order.
-    fn exit_times(&self, plan: &Plan, batches: u64, h: f64) -> Vec<f64> {
-        let per: Vec<Vec<f64>> = (0..batches)
+    /// The stationary run's scheme and impacts for the model.
+    fn plan(&self) -> Result<Plan, McError> {
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
+        let observables: Vec<_> = self
+            .model
+            .observables
+            .iter()
+            .map(|o| o.expr.clone())
+            .collect();
+        Plan::with_impacts(
+            &dynamics,
+            &observables,
+            SchemeChoice::Auto,
+            walls(&dynamics)?,
+        )
+    }
+
+    /// What each batch needs of the run.
+    fn exits(&self) -> Exits<'_> {
+        Exits {
+            safe: self.safe,
+            start: self.start,
+            horizon: self.horizon,
+            seed: self.seed,
+            increments: self.increments,
+        }
+    }
+
+    /// The exit times of the first `paths` paths at step `h` (`f64::INFINITY`: censored
+    /// at the horizon; NaN: blew up), in path order, for each `(paths, h)` of `runs`: one
+    /// task per thread, each running paths from a queue of each run in turn, so that all
+    /// stay busy to the end of each (a path's exit time depends on its own stream alone,
+    /// not on the task that runs it).
+    fn exit_times(&self, plan: &Plan, runs: &[(u64, f64)]) -> Vec<Vec<f64>> {
+        let queues: Vec<Queue> = runs
+            .iter()
+            .map(|&(paths, _)| Queue::new(0..paths))
+            .collect();
+        let done: Vec<Vec<Vec<(u64, f64)>>> = (0..rayon::current_num_threads())
             .into_par_iter()
-            .map(|k| {
-                let first = k * PASSAGE_LANES as u64;
-                let lanes = self.paths.saturating_sub(first).min(PASSAGE_LANES as u64) as usize;
-                self.batch(plan, first, lanes, h)
+            .map(|_| {
+                let exits = self.exits();
+                runs.iter()
+                    .zip(&queues)
+                    .map(|(&(_, h), q)| exits.drain(plan, q, h))
+                    .collect()
             })
             .collect();
-        per.concat()
-    }
-
-    /// One batch: paths `first..first + lanes` from the start until they leave.
-    fn batch(&self, plan: &Plan, first: u64, lanes: usize, h: f64) -> Vec<f64> {
-        let spread = plan.initial_spread();
-        let mut b = BatchState::new(plan, &spread, self.seed, first, lanes, self.increments);
-        b.x.fill(self.start[0]);
-        b.v.fill(self.start[1]);
-        let q0 = self.safe.quantity_at(self.start);
-        let mut prev = vec![(self.start, q0); lanes];
-        let mut exit = vec![f64::INFINITY; lanes];
-        let mut alive = lanes;
-        let steps = (self.horizon / h).ceil() as u64;
-        for n in 0..steps {
-            b.advance(plan, 1, h);
-            for i in 0..lanes {
-                if exit[i] != f64::INFINITY {
-                    continue;
+        let mut out: Vec<Vec<f64>> = runs
+            .iter()
+            .map(|&(paths, _)| vec![f64::NAN; paths as usize])
+            .collect();
+        for task in done {
+            for (run, exits) in out.iter_mut().zip(task) {
+                for (p, t) in exits {
+                    run[p as usize] = t;
                 }
-                let end = [b.x[i], b.v[i]];
-                let q1 = self.safe.quantity_at(end);
-                if q1.is_nan() || !end[0].is_finite() || !end[1].is_finite() {
-                    exit[i] = f64::NAN;
-                    alive -= 1;
-                    continue;
-                }
-                let Some(s) = self.left_within(prev[i], (end, q1), h) else {
-                    prev[i] = (end, q1);
-                    continue;
-                };
-                let t = (n as f64 + s) * h;
-                // A path that leaves after the horizon within the last step is censored.
-                exit[i] = if t <= self.horizon {
-                    t
-                } else {
-                    f64::NEG_INFINITY
-                };
-                alive -= 1;
-            }
-            if alive == 0 {
-                break;
             }
         }
-        exit.iter_mut()
-            .filter(|t| **t == f64::NEG_INFINITY)
-            .for_each(|t| *t = f64::INFINITY);
-        exit
-    }
-
-    /// Whether the path left the set within a step from `a` to `b` (states and quantity;
-    /// `a` inside) and where (in [0, 1]). Between the ends the position is the cubic Hermite
-    /// interpolant of the positions and velocities (the position is C¹ between impacts) and
-    /// the velocity linear, sampled at [`SUBSTEPS`] points: an excursion out and back within
-    /// a step is caught, which testing the ends alone would miss (a bias of order √dt in
-    /// the mean time). The exit is interpolated linearly between the last sample inside and
-    /// the first outside.
-    fn left_within(&self, a: ([f64; 2], f64), b: ([f64; 2], f64), h: f64) -> Option<f64> {
-        let ([x0, v0], q0) = a;
-        let ([x1, v1], q1) = b;
-        let mut last = (0.0, q0);
-        for k in 1..=SUBSTEPS {
-            let s = k as f64 / SUBSTEPS as f64;
-            let q = if k == SUBSTEPS {
-                q1
-            } else {
-                let (s2, s3) = (s * s, s * s * s);
-                let x = (2.0 * s3 - 3.0 * s2 + 1.0) * x0
-                    + (s3 - 2.0 * s2 + s) * h * v0
-                    + (-2.0 * s3 + 3.0 * s2) * x1
-                    + (s3 - s2) * h * v1;
-                self.safe.quantity_at([x, v0 + s * (v1 - v0)])
-            };
-            if !self.safe.inside(q) {
-                let f = self.fraction(last.1, q);
-                return Some(last.0 + f / SUBSTEPS as f64);
-            }
-            last = (s, q);
-        }
-        None
-    }
-
-    /// Where between two samples the quantity, `q0` (inside) at the first and `q1`
-    /// (outside) at the second, reached the bound it crossed, linearly interpolated (in
-    /// [0, 1]).
-    fn fraction(&self, q0: f64, q1: f64) -> f64 {
-        let bound = match (self.safe.lower, self.safe.upper) {
-            (_, Some(b)) if q1 >= b => b,
-            (Some(a), _) => a,
-            (None, Some(b)) => b,
-            (None, None) => return 1.0,
-        };
-        let d = q1 - q0;
-        if d == 0.0 || d.is_nan() {
-            1.0
-        } else {
-            ((bound - q0) / d).clamp(0.0, 1.0)
-        }
+        out
     }
 }
 
-/// Samples of the interpolated path per step at which the safe set is tested.
-const SUBSTEPS: usize = 4;
+#[cfg(test)]
+mod tests;

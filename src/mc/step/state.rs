@@ -97,22 +97,58 @@ impl BatchState {
             simd: Simd::detect(),
         };
         for i in 0..lanes {
-            let (z0, z1) = (st.lane_normal(i), st.lane_normal(i));
-            let mut p = [spread[0][0] * z0, spread[1][0] * z0 + spread[1][1] * z1];
-            match plan.barriers.as_slice() {
-                [] => {}
-                [bar] => {
-                    let s = &mut p[bar.state];
-                    if (*s - bar.at) * side0 < 0.0 {
-                        *s = 2.0 * bar.at - *s;
-                    }
-                }
-                [lo, hi, ..] => p[lo.state] = fold_into(p[lo.state], lo.at, hi.at),
-            }
-            st.x[i] = p[0];
-            st.v[i] = p[1];
+            st.start_lane(plan, spread, i);
         }
         st
+    }
+
+    /// Lane `i`'s start, from its generator: the linearised stationary Gaussian (two
+    /// normals), reflected or folded into the barriers' side.
+    fn start_lane(&mut self, plan: &Plan, spread: &[[f64; 2]; 2], i: usize) {
+        let side0 = plan.barriers.first().map_or(1.0, |b| b.side);
+        let (z0, z1) = (self.lane_normal(i), self.lane_normal(i));
+        let mut p = [spread[0][0] * z0, spread[1][0] * z0 + spread[1][1] * z1];
+        match plan.barriers.as_slice() {
+            [] => {}
+            [bar] => {
+                let s = &mut p[bar.state];
+                if (*s - bar.at) * side0 < 0.0 {
+                    *s = 2.0 * bar.at - *s;
+                }
+            }
+            [lo, hi, ..] => p[lo.state] = fold_into(p[lo.state], lo.at, hi.at),
+        }
+        self.x[i] = p[0];
+        self.v[i] = p[1];
+    }
+
+    /// Lane `i` started over as trajectory `index` of the run seeded with `seed` starts in a
+    /// new batch ([`BatchState::new`]): its generator, start, barrier sides and impact count.
+    /// `false` (nothing done) unless the increment stream is three-point at a new draw
+    /// (after a multiple of three steps), where its next numbers depend on the generator
+    /// alone; a plan whose coefficients depend on the time must not restart lanes (the
+    /// batch's time is shared).
+    pub(crate) fn restart_lane(
+        &mut self,
+        plan: &Plan,
+        spread: &[[f64; 2]; 2],
+        seed: u64,
+        index: u64,
+        i: usize,
+    ) -> bool {
+        if self.inc.three_point_mut().is_none_or(|tp| *tp.field != 0) {
+            return false;
+        }
+        let n = self.x.len();
+        self.rng.reseed_lane(seed, index, i);
+        self.side[i] = plan.barriers.first().map_or(1.0, |b| b.side);
+        for (k, bar) in plan.barriers.iter().enumerate().skip(1) {
+            self.side[k * n + i] = bar.side;
+        }
+        self.impacts[i] = 0;
+        self.folded[i] = 0;
+        self.start_lane(plan, spread, i);
+        true
     }
 
     /// Advances every trajectory by `steps` steps of size `h`, from the time [`BatchState::t`]

@@ -10,8 +10,11 @@
 //! into modules, the point evaluator measured 10–20% slower in `benches/tape.rs` (the code lands
 //! in other codegen units), with the same source.
 
+mod interval;
 #[cfg(test)]
 mod tests;
+
+pub(crate) use interval::Interval;
 
 use std::collections::HashMap;
 
