@@ -60,7 +60,7 @@ use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
 use super::{check_cells, check_domain, domain, Domain, GridError, DEFAULT_CELLS};
 use crate::model::BoundModel;
-use crate::numerics::timestep::{Esdirk, Generator, History, StepError, Tolerance};
+use crate::numerics::timestep::{Esdirk, Generator, History, Scheme, StepError, Tolerance};
 use operator::TimeOperator;
 
 /// The largest mass of the initial density that may lie outside the box.
@@ -367,7 +367,18 @@ impl<'a> GridTransient<'a> {
     ) -> Result<History, StepError> {
         let area = mesh.hx * mesh.hv;
         let order = nested_dissection(pattern.symbolic(), &cell_coords(mesh.nx, mesh.nv, false), 1);
+        // ESDIRK4 where the generator is time-invariant (one factorisation per step size);
+        // TR-BDF2 where it depends on t (a factorisation per stage time: two per step, not
+        // five). On models/linear.sde from rest, 128x128, 161 times to 80, tolerance 1e-4:
+        // 170 steps instead of 548, var z at t = 39.5 off the Lyapunov ODE by 4e-4 instead
+        // of 3.4e-3.
+        let scheme = if generator.time_invariant() {
+            Scheme::Esdirk4
+        } else {
+            Scheme::TrBdf2
+        };
         Esdirk::new(generator)
+            .scheme(scheme)
             .tolerance(Tolerance {
                 relative: self.tolerance,
                 absolute: 0.0,
