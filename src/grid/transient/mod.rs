@@ -1,7 +1,8 @@
 //! The transient density on the grid: dp/dt = G(t) p with G the stationary solver's
 //! finite-volume operator (transport, outflow through a barrier and its re-injection; every
-//! column sums to zero), from an initial density to the requested times, by the TR-BDF2
-//! stepper of [`crate::numerics::timestep`].
+//! column sums to zero), from an initial density to the requested times, by the ESDIRK
+//! stepper of [`crate::numerics::timestep`]: ESDIRK4 (fourth order) for a time-invariant
+//! operator, TR-BDF2 (second order) for one that depends on t.
 //!
 //! * **Time in the model.** A model whose drift or diffusion mentions the time `t`
 //!   (modulated noise, a periodic force) has its operator assembled anew at every stage
