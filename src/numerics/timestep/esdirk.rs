@@ -405,8 +405,7 @@ impl<'a, G: Generator> Esdirk<'a, G> {
             } else {
                 self.norm(&work.est) / scale
             };
-            let y1 = &work.y1;
-            let finite = err.is_finite() && y1.iter().all(|v| v.is_finite());
+            let finite = err.is_finite() && work.y1.iter().all(|v| v.is_finite());
             if self.fixed || (finite && err <= 1.0) {
                 stats.accepted += 1;
                 while next < times.len() && times[next] <= t + h {
@@ -417,7 +416,8 @@ impl<'a, G: Generator> Esdirk<'a, G> {
                 }
                 t += h;
                 std::mem::swap(&mut y, &mut work.y1);
-                f.copy_from_slice(work.f1());
+                // f₁ becomes f; the old f fills the last stage's slot, rewritten next step.
+                std::mem::swap(&mut f, work.f.last_mut().expect("an implicit stage"));
                 if !self.fixed {
                     // Grow only when the error allows twice the step (h stays on its level,
                     // and its factorisation in the cache, as long as it can).
@@ -617,12 +617,12 @@ impl<'a, G: Generator> Esdirk<'a, G> {
 /// longer than the interval (see the cap in [`Esdirk::run`]) is then the whole interval
 /// rather than the largest power-of-two fraction of it below, which may be barely over half.
 fn aligned(h: f64, t0: f64, times: &[f64]) -> f64 {
-    let first = std::iter::once(t0)
-        .chain(times.iter().copied())
-        .collect::<Vec<f64>>()
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .find(|&gap| gap > 0.0);
+    let mut previous = t0;
+    let first = times.iter().find_map(|&t| {
+        let gap = t - previous;
+        previous = t;
+        (gap > 0.0).then_some(gap)
+    });
     match first {
         Some(gap) if h.is_finite() && h > 0.0 => {
             let halvings = (gap / h).log2().ceil().max(0.0);
