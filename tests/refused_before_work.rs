@@ -109,3 +109,53 @@ fn a_tolerance_the_grid_cannot_serve_is_refused_before_work() {
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn monte_carlo_from_a_start_held_still_is_refused_by_every_command() {
+    // Rest in the Zhuravlev form: drift and noise vanish (sgn(0) = 0), every path would stay.
+    let m = model("vibro_duffing.sde");
+    let words = ["every path would stay at its start", "start beside it"];
+    refused("held", &["reliability", &m, "--safe", "y < 3"], &words);
+    refused(
+        "held",
+        &[
+            "reliability",
+            &m,
+            "--safe",
+            "y < 3",
+            "--method",
+            "mc",
+            "--horizon",
+            "10",
+        ],
+        &words,
+    );
+    refused(
+        "held",
+        &[
+            "transient",
+            &m,
+            "--times",
+            "0:1:2",
+            "--method",
+            "mc",
+            "--domain",
+            "z=-8:8,v=-12:12",
+        ],
+        &words,
+    );
+    refused(
+        "held",
+        &[
+            "transient",
+            &m,
+            "--times",
+            "0:1:2",
+            "--method",
+            "grid,mc",
+            "--initial",
+            "point z = 0, v = 0",
+        ],
+        &words,
+    );
+}

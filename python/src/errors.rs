@@ -552,6 +552,7 @@ pub(crate) fn mc_error(py: Python<'_>, e: &McError) -> PyErr {
         McError::BadSetting { .. } => ("bad_setting", vec![]),
         McError::Inadmissible(_) => ("inadmissible", vec![]),
         McError::PeriodicState { .. } => ("periodic_state", vec![]),
+        McError::StartHeldStill { .. } => ("start_held_still", vec![]),
         McError::UnknownQuantity { .. } => ("unknown_quantity", vec![]),
         McError::AllBlewUp { .. } => ("all_blew_up", vec![]),
         McError::TooManyBlowUps { .. } => ("too_many_blow_ups", vec![]),

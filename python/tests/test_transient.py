@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import fpsolve
-from conftest import MODELS, read_csv
+from conftest import MODELS, REPO, read_csv
 
 # The runs are small: the grid warns that its cells do not resolve the start; the tests that
 # are about the warnings record them themselves.
@@ -219,14 +219,30 @@ def test_a_time_dependent_model_as_the_cli(cli, tmp_path):
     np.testing.assert_array_equal(py.mc.variance["v"], cols["v_variance_mc"])
 
 
-def test_a_stuck_ensemble_is_flagged_as_the_cli(cli, vibro, tmp_path):
-    # The Zhuravlev form at rest: every Monte Carlo trajectory stays (sgn(0) = 0); the CLI
-    # writes its files and exits 1 with the flag, Python warns it and lists it in `flags`.
-    args = ["--times", "0:1:2", "--cells", "30,60", "--method", "grid,mc", "--trajectories", "640"]
-    done = run_cli(cli, MODELS / "vibro_duffing.sde", tmp_path / "stuck", *args, check=False)
+def test_a_start_held_still_is_refused_as_the_cli(cli, vibro, tmp_path):
+    # The Zhuravlev form at rest: drift and noise vanish (sgn(0) = 0), every Monte Carlo
+    # trajectory would stay; refused before any work by both.
+    args = ["--times", "0:1:2", "--method", "grid,mc"]
+    done = run_cli(cli, MODELS / "vibro_duffing.sde", tmp_path / "held", *args, check=False)
+    assert done.returncode == 2 and "every path would stay at its start" in done.stderr
+    assert not (tmp_path / "held").exists()
+    with pytest.raises(fpsolve.MonteCarloError, match="every path would stay at its start") as e:
+        vibro.transient("0:1:2", method="grid,mc")
+    assert e.value.kind == "start_held_still"
+
+
+def test_a_stuck_ensemble_is_flagged_as_the_cli(cli, tmp_path):
+    # Noise sgn(z)*xi fading in time: the check before work cannot decide (the coefficients
+    # depend on t), every Monte Carlo trajectory stays at rest; the CLI writes its files and
+    # exits 1 with the flag, Python warns it and lists it in `flags`.
+    path = REPO / "tests" / "models" / "zhuravlev_timed.sde"
+    box = "z=-8:8,v=-8:8"
+    args = ["--times", "0:1:2", "--cells", "30,60", "--domain", box, "--method", "grid,mc", "--trajectories", "640"]
+    done = run_cli(cli, path, tmp_path / "stuck", *args, check=False)
     assert done.returncode == 1
+    model = fpsolve.Model.load(path)
     with pytest.warns(fpsolve.FpsolveWarning, match="still at its start at t = 1"):
-        py = vibro.transient("0:1:2", cells=(30, 60), method="grid,mc", trajectories=640)
+        py = model.transient("0:1:2", cells=(30, 60), domain=box, method="grid,mc", trajectories=640)
     assert len(py.flags) == 1 and py.flags[0] in done.stderr and py.warnings[-1] == py.flags[0]
     assert py.warnings[:-1] == console_warnings(done.stdout)
     summary = json.loads((tmp_path / "stuck" / "summary.json").read_text())

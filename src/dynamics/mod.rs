@@ -51,6 +51,7 @@ mod jump;
 mod probe;
 mod rest;
 mod sde;
+mod still;
 #[cfg(test)]
 mod tests;
 

@@ -513,6 +513,22 @@ pub(super) fn refuse_periodic(model: &BoundModel) -> Result<(), McError> {
     }
 }
 
+/// [`McError::StartHeldStill`] for a point start where the drift and the noise both vanish
+/// ([`crate::dynamics::Dynamics::holds_still`]): every path would stay there.
+pub(super) fn refuse_held_still(
+    dynamics: &crate::dynamics::Dynamics,
+    [x, v]: [f64; 2],
+) -> Result<(), McError> {
+    if dynamics.holds_still([x, v]) {
+        return Err(McError::StartHeldStill {
+            x,
+            v,
+            beside: x + 1e-6,
+        });
+    }
+    Ok(())
+}
+
 pub(super) fn bad(name: &'static str, reason: String) -> McError {
     McError::BadSetting { name, reason }
 }

@@ -60,6 +60,25 @@ pub enum McError {
         /// The periodic state.
         state: String,
     },
+    /// Every path would stay at its start: the drift and the noise both vanish there
+    /// exactly ([`crate::dynamics::Dynamics::holds_still`]), as at rest in a Zhuravlev form
+    /// (sgn(0) = 0 in its noise sgn(z)·ξ). The numbers would be a point mass's, not the
+    /// limit of starts beside it that the grid answers for.
+    #[error(
+        "Monte Carlo from ({x}, {v}): the drift and the noise both vanish there (e.g. sgn(0) = \
+         0 in a Zhuravlev form, whose noise is sgn(z)*xi), so every path would stay at its \
+         start for ever and its numbers would not be the law's of starts beside it; start \
+         beside it (e.g. position {beside} instead of {x}), or use the grid alone (its cell \
+         around the start answers for the starts beside it)"
+    )]
+    StartHeldStill {
+        /// The start's position.
+        x: f64,
+        /// The start's velocity.
+        v: f64,
+        /// A position beside it, suggested.
+        beside: f64,
+    },
     /// A configuration value is out of range (`dt ≤ 0`, no trajectories, …).
     #[error("invalid Monte Carlo setting `{name}`: {reason}")]
     BadSetting {

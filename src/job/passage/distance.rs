@@ -23,6 +23,10 @@ const Z95: f64 = 1.959_963_984_540_054;
 pub enum Compared {
     /// The mean first-passage time from the start.
     MeanAtStart,
+    /// The grid's mean first-passage time from the start against Monte Carlo's lower bound
+    /// on it, the mean of min(T, horizon) when paths were censored: one-sided, only a grid
+    /// mean below the bound is a gap.
+    MeanLowerBound,
     /// R(t) at an output time.
     Reliability {
         /// The time.
@@ -34,6 +38,10 @@ impl std::fmt::Display for Compared {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Compared::MeanAtStart => write!(f, "mean first-passage time from the start"),
+            Compared::MeanLowerBound => write!(
+                f,
+                "mean first-passage time from the start against Monte Carlo's lower bound"
+            ),
             Compared::Reliability { t } => write!(f, "R(t) at t = {t}"),
         }
     }
@@ -62,7 +70,11 @@ pub struct MethodDistance {
 
 impl MethodDistance {
     fn new(compared: Compared, grid: f64, grid_error: f64, mc: f64, mc_stderr: f64) -> Self {
-        let gap = (grid - mc).abs();
+        let gap = match compared {
+            // A grid mean at or above the bound does not contradict it.
+            Compared::MeanLowerBound => (mc - grid).max(0.0),
+            _ => (grid - mc).abs(),
+        };
         let d = gap / (mc_stderr + grid_error);
         MethodDistance {
             compared,
@@ -83,6 +95,9 @@ pub struct MethodDistances {
     /// The mean time from the start; `None` when Monte Carlo censored paths (its mean is
     /// then only a lower bound).
     pub mean_at_start: Option<MethodDistance>,
+    /// When Monte Carlo censored paths: the grid's mean time from the start against Monte
+    /// Carlo's lower bound on it ([`Compared::MeanLowerBound`], one-sided); `None` otherwise.
+    pub mean_lower_bound: Option<MethodDistance>,
     /// R(t) at each output time.
     pub reliability: Vec<MethodDistance>,
     /// The largest distance of them all.
@@ -122,6 +137,15 @@ impl MethodDistances {
                 m.stderr,
             )
         });
+        let mean_lower_bound = mc.mean.is_none().then(|| {
+            MethodDistance::new(
+                Compared::MeanLowerBound,
+                grid.mean_at_start,
+                errors.map_or(0.0, |e| e.mean_at_start),
+                mc.mean_lower_bound.value,
+                mc.mean_lower_bound.stderr,
+            )
+        });
         let n = grid.times.len().min(mc.times.len());
         let reliability: Vec<MethodDistance> = (0..n)
             .map(|k| {
@@ -136,12 +160,14 @@ impl MethodDistances {
             .collect();
         let worst = mean_at_start
             .iter()
+            .chain(&mean_lower_bound)
             .chain(&reliability)
             .filter(|d| d.distance.is_some())
             .copied()
             .max_by(|a, b| a.distance.partial_cmp(&b.distance).expect("finite"));
         MethodDistances {
             mean_at_start,
+            mean_lower_bound,
             reliability,
             worst,
             flag_above_se: DISAGREE_SE,
@@ -152,6 +178,7 @@ impl MethodDistances {
     pub fn flagged(&self) -> impl Iterator<Item = &MethodDistance> {
         self.mean_at_start
             .iter()
+            .chain(&self.mean_lower_bound)
             .chain(&self.reliability)
             .filter(|d| d.flagged)
     }
@@ -169,6 +196,12 @@ mod tests {
         // 2.1 apart: beyond 3 standard errors (1.5) plus the grid's error (0.5).
         let far = MethodDistance::new(Compared::MeanAtStart, 10.0, 0.5, 12.1, 0.5);
         assert!(far.flagged && far.distance.unwrap() < 3.0);
+        // Against a lower bound only a grid mean below it is a gap.
+        let above = MethodDistance::new(Compared::MeanLowerBound, 30.0, 0.1, 20.0, 0.5);
+        assert_eq!(above.distance, Some(0.0));
+        assert!(!above.flagged);
+        let below = MethodDistance::new(Compared::MeanLowerBound, 30.0, 0.1, 100.0, 0.0);
+        assert!(below.flagged && below.distance.unwrap() > 100.0);
         let same = MethodDistance::new(Compared::Reliability { t: 0.0 }, 1.0, 0.0, 1.0, 0.0);
         assert_eq!(same.distance, None);
         assert!(!same.flagged);

@@ -179,7 +179,10 @@ impl<'a> McPassage<'a> {
                 ),
             ));
         }
-        Ok(())
+        crate::mc::config::refuse_held_still(
+            &crate::dynamics::Dynamics::read(self.model),
+            self.start,
+        )
     }
 
     /// Runs the paths at dt and the bias estimate's at 2·dt; the statistics of the exit
