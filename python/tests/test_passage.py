@@ -150,6 +150,9 @@ def test_monte_carlo_alone_and_uncensored(cli, linear, tmp_path):
     assert without_timing(py.report) == without_timing(summary)
     assert "grid" not in py.report and py.mean_at_start is None and py.reliability is None
     assert py.grid_vs_mc_se is None and py.quasi_stationary == {}
+    # No crossing or impact statistics without the grid, and the report says why.
+    assert summary["stationary"]["status"] == "not_computed"
+    assert "--method grid,mc" in summary["stationary"]["why"] and py.crossings == {}
     mc = py.mc
     assert mc.censored == 0 and mc.censored_fraction == 0.0
     assert mc.mean == (summary["mc"]["mean"]["value"], summary["mc"]["mean"]["stderr"])

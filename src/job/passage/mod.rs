@@ -238,8 +238,9 @@ pub struct PassageRun {
     pub grid: Option<PassageSolution>,
     /// Monte Carlo's, when it ran.
     pub mc: Option<McPassageResult>,
-    /// The stationary crossing and impact statistics, when the grid ran (with why when they
-    /// could not be computed).
+    /// The stationary crossing and impact statistics, or why they were not computed (the
+    /// grid not run, a model without a stationary density, a failed solve); `None` only
+    /// where a caller built the run by hand.
     pub stationary: Option<StationaryStatistics>,
 }
 
@@ -319,9 +320,17 @@ impl PassageRun {
                 })
             },
             || {
-                settings.grid.then(|| {
+                Some(if settings.grid {
                     let mc = settings.mc.map(|m| (m.dt, m.seed));
                     StationaryStatistics::solve(bound, settings.domain, settings.cells, mc)
+                } else {
+                    // Said, not silently absent: Monte Carlo's counts go beside the grid's
+                    // tables, on the levels of its curves.
+                    StationaryStatistics::not_computed(
+                        "the crossing rates and impact statistics are computed from a grid \
+                         study, with Monte Carlo's counts beside it: run with --method grid,mc \
+                         (or grid)",
+                    )
                 })
             },
         );
