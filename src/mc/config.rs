@@ -15,7 +15,9 @@ use crate::symbolic::Expr;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BurnIn {
-    /// A multiple of the slowest decay time 1/λ of the drift linearised at the origin.
+    /// A multiple of the slowest decay time 1/λ of the drift linearised at the origin; where
+    /// that does not decay (an unstable origin), of the decay time a pilot ensemble's
+    /// moments show (`mc/relax.rs`).
     DecayTimes(f64),
     /// A fixed time.
     Time(f64),
@@ -400,10 +402,19 @@ impl McConfig {
             BurnIn::Time(t) if t.is_finite() && t >= 0.0 => t,
             BurnIn::DecayTimes(k) if k.is_finite() && k >= 0.0 => {
                 let rate = plan.slowest_decay_rate();
-                if !(rate.is_finite() && rate > 0.0) {
-                    return Err(McError::NoDecay { rate });
+                if rate.is_finite() && rate > 0.0 {
+                    k / rate
+                } else {
+                    // No decay at the origin: a pilot ensemble's relaxation.
+                    super::relax::pilot_burn_in(
+                        model,
+                        plan.initial_spread(),
+                        dt,
+                        self.seed,
+                        k,
+                        rate,
+                    )?
                 }
-                k / rate
             }
             other => {
                 return Err(bad(

@@ -120,15 +120,20 @@ pub enum McError {
         /// Its value.
         value: f64,
     },
-    /// The burn-in could not be estimated because the linearised drift at the origin has no
-    /// decaying mode; set it explicitly.
+    /// The burn-in could not be estimated: the linearised drift at the origin does not
+    /// decay, and a pilot ensemble did not settle either (see `mc/relax.rs`).
     #[error(
         "cannot estimate the burn-in: the linearised drift at the origin decays at rate {rate:?} \
-         (not > 0); set the burn-in time explicitly"
+         (not > 0), and a pilot ensemble did not settle by t = {horizon}: {why}; set the \
+         burn-in time explicitly"
     )]
-    NoDecay {
-        /// The slowest decay rate found (≤ 0 or not finite).
+    NoRelaxation {
+        /// The origin's decay rate (≤ 0 or not finite).
         rate: f64,
+        /// The pilot's last horizon.
+        horizon: f64,
+        /// What the pilot saw.
+        why: String,
     },
     /// A histogram grid refers to a quantity the model does not have.
     #[error("a grid is given for `{name}`, which is neither a state nor an observable")]
