@@ -174,6 +174,7 @@ pub(crate) fn transient(
         domain,
         tolerance: tol,
         mc,
+        period: None,
     };
     let checked = settings.check(&bound).map_err(|e| setup_error(py, &e))?;
     let pool = crate::pool::thread_pool(threads)?;

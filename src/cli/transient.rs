@@ -50,6 +50,11 @@ pub(crate) struct TransientArgs {
     /// Monte Carlo: the seed of the random streams.
     #[arg(long, value_name = "SEED", default_value_t = 1)]
     seed: u64,
+    /// The coefficients' period P: the grid's periodic steady state (by the period map)
+    /// instead of a history from the start; --times are then phases in [0, P], and the
+    /// start is the first guess (rest: a broad Gaussian at the box's centre).
+    #[arg(long, value_name = "P")]
+    period: Option<f64>,
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
     /// Output directory (default: out/<model name>_transient).
@@ -103,6 +108,7 @@ pub(crate) fn plan(path: PathBuf, args: TransientArgs) -> Result<TransientPlan> 
             dt: args.dt,
             seed: args.seed,
         },
+        period: args.period,
     };
     let checked = settings.check(&bound).map_err(|e| match e.setting() {
         Some(flag) => anyhow::Error::new(e).context(format!("--{flag}")),
@@ -157,6 +163,17 @@ pub(crate) fn run(plan: TransientPlan) -> Result<Vec<String>> {
 
 /// One line per method on the console.
 fn say(h: &TransientRun, state: &str) {
+    if let Some(p) = &h.periodic {
+        crate::cli::console::sayln!(
+            "grid periodic state, period {}: {} ({} steps per period, {} of {} stage \
+             factorisations kept)",
+            p.period,
+            p.outcome,
+            p.steps_per_period,
+            p.cached_stages,
+            5 * p.steps_per_period
+        );
+    }
     if let Some(g) = &h.grid {
         let r = &g.report;
         let peak = g

@@ -95,8 +95,10 @@ pub use tolerance::{
     DEFAULT_TOLERANCE, MAX_TOLERANCE, MAX_TOLERANCE_CELLS, MAX_TOLERANCE_SOLVES,
 };
 pub use transient::{
-    GridTransient, Initial, Moments, Snapshot, SnapshotErrors, TransientError, TransientHistory,
-    TransientReport, INITIAL_MASS_LOSS, POINT_CELLS, TRANSIENT_TOLERANCE, UNRESOLVED_L1,
+    GridPeriodic, GridTransient, Initial, Moments, PeriodicOutcome, PeriodicReport, PeriodicState,
+    Snapshot, SnapshotErrors, TransientError, TransientHistory, TransientReport, INITIAL_MASS_LOSS,
+    MAX_PERIOD_MAPS, PERIODIC_RESIDUAL, PERIOD_STEPS, POINT_CELLS, TRANSIENT_TOLERANCE,
+    UNRESOLVED_L1,
 };
 
 use crate::base::run::RunControl;

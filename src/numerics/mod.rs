@@ -2,6 +2,7 @@
 //! Levenberg–Marquardt, and sparse LU factorisations behind one trait. Nothing here knows a
 //! model or a method; the methods build on it.
 
+pub(crate) mod krylov;
 pub mod newton;
 pub(crate) mod poly2d;
 pub(crate) mod quadrature;

@@ -17,7 +17,8 @@ pub enum TransientError {
     /// A setting is out of range; nothing was computed.
     #[error("grid transient setting `{setting}` = {value} is invalid: {expected}")]
     Setting {
-        /// The setting (`times`, `tolerance`, `initial`, `domain`).
+        /// The setting (`times`, `tolerance`, `initial`, `domain`; for a periodic state
+        /// `period`, `residual`, `steps`, `max_maps`).
         setting: &'static str,
         /// The value given, printed.
         value: String,
@@ -39,6 +40,39 @@ pub enum TransientError {
         allowed: f64,
         /// The box.
         domain: Domain,
+    },
+    /// A periodic state was asked of a model whose coefficients do not mention the time
+    /// ([`crate::grid::GridTransient::periodic`]): its long-time density is the stationary
+    /// one.
+    #[error(
+        "the coefficients of `{model}` do not depend on t, so there is no periodic state \
+         apart from the stationary density: the stationary solver applies (fpsolve solve)"
+    )]
+    NotTimeDependent {
+        /// The model's name.
+        model: String,
+    },
+    /// A coefficient differs at t and t + period: the period given is not the
+    /// coefficients' ([`crate::grid::GridTransient::periodic`]).
+    #[error(
+        "{coefficient} is not periodic with period {period}: {at_t} at t = {t} but \
+         {at_next} at t + {period} (x = {x}, v = {v}); give the period of the coefficients"
+    )]
+    NotPeriodic {
+        /// Which coefficient (`the drift of `v``, `the diffusion of `v``).
+        coefficient: String,
+        /// The period given.
+        period: f64,
+        /// The probe's time.
+        t: f64,
+        /// The probe's position.
+        x: f64,
+        /// The probe's velocity.
+        v: f64,
+        /// The coefficient at t.
+        at_t: f64,
+        /// The coefficient at t + period.
+        at_next: f64,
     },
     /// The grid refused the model or could not build its operator.
     #[error(transparent)]

@@ -46,6 +46,7 @@ mod error;
 mod history;
 mod initial;
 mod operator;
+mod periodic;
 
 use std::time::Instant;
 
@@ -54,6 +55,10 @@ pub use history::{
     Moments, Snapshot, SnapshotErrors, TransientHistory, TransientReport, UNRESOLVED_L1,
 };
 pub use initial::{Initial, POINT_CELLS};
+pub use periodic::{
+    GridPeriodic, PeriodicOutcome, PeriodicReport, PeriodicState, MAX_PERIOD_MAPS,
+    PERIODIC_RESIDUAL, PERIOD_STEPS,
+};
 
 use super::assemble::{assemble, generator};
 use super::mesh::Mesh;
@@ -335,26 +340,35 @@ impl<'a> GridTransient<'a> {
     ) -> Vec<Snapshot> {
         run.outputs
             .into_iter()
-            .map(|o| {
-                let observables = observed
-                    .iter()
-                    .map(|q| Moments::weighted(q, &o.y))
-                    .collect();
-                let marginals = [mesh.marginal(&o.y, 0), mesh.marginal(&o.y, 1)];
-                let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
-                Snapshot {
-                    t: o.t,
-                    edge_mass: history::edge_mass(mesh, &o.y),
-                    marginals,
-                    moments,
-                    observables,
-                    mass: o.mass,
-                    negative_mass: o.negative_mass,
-                    joint: joint.then_some(o.y),
-                    estimate: None,
-                }
-            })
+            .map(|o| self.snapshot(mesh, o.t, o.y, observed, joint))
             .collect()
+    }
+
+    /// The output at time `t` of the cell averages `y` on `mesh` (see
+    /// [`GridTransient::snapshots`]).
+    fn snapshot(
+        &self,
+        mesh: &Mesh,
+        t: f64,
+        y: Vec<f64>,
+        observed: &[Vec<f64>],
+        joint: bool,
+    ) -> Snapshot {
+        let area = mesh.hx * mesh.hv;
+        let observables = observed.iter().map(|q| Moments::weighted(q, &y)).collect();
+        let marginals = [mesh.marginal(&y, 0), mesh.marginal(&y, 1)];
+        let moments = [Moments::of(&marginals[0]), Moments::of(&marginals[1])];
+        Snapshot {
+            t,
+            edge_mass: history::edge_mass(mesh, &y),
+            marginals,
+            moments,
+            observables,
+            mass: area * y.iter().sum::<f64>(),
+            negative_mass: area * y.iter().filter(|v| **v < 0.0).map(|v| -v).sum::<f64>(),
+            joint: joint.then_some(y),
+            estimate: None,
+        }
     }
 
     /// Runs the stepper on `generator` from `p0` on `mesh`, the stage matrices ordered by

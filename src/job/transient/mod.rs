@@ -14,7 +14,9 @@ mod warnings;
 use std::fmt;
 use std::str::FromStr;
 
-use crate::grid::{Domain, GridError, GridTransient, TransientError, TransientHistory};
+use crate::grid::{
+    Domain, GridError, GridTransient, PeriodicReport, TransientError, TransientHistory,
+};
 use crate::mc::{McError, McTransient, McTransientError, McTransientHistory};
 use crate::model::{BoundModel, InitialError, InitialState, Model};
 
@@ -135,6 +137,9 @@ pub struct TransientSettings {
     pub tolerance: Option<f64>,
     /// Monte Carlo's settings (used when [`Methods::mc`]).
     pub mc: McSettings,
+    /// The coefficients' period: the grid's periodic steady state instead of a history
+    /// from the start ([`crate::grid::GridPeriodic`]), `times` then phases in [0, period].
+    pub period: Option<f64>,
 }
 
 /// Why a transient was refused before any work.
@@ -169,6 +174,12 @@ pub enum TransientSetupError {
     /// Monte Carlo's refusal (a setting, the model, a start beyond a wall).
     #[error(transparent)]
     Mc(McTransientError),
+    /// A period with Monte Carlo: the periodic state is the grid's alone.
+    #[error(
+        "the periodic state (--period) is the grid's alone: run --method grid, or Monte \
+         Carlo without --period to the times whose phases you want"
+    )]
+    PeriodWithMc,
 }
 
 impl TransientSetupError {
@@ -187,6 +198,10 @@ impl TransientSetupError {
                 Some("domain")
             }
             TransientSetupError::Tolerance(_) => Some("tol"),
+            TransientSetupError::PeriodWithMc => Some("period"),
+            TransientSetupError::Grid(TransientError::Setting {
+                setting: "period", ..
+            }) => Some("period"),
             TransientSetupError::Grid(_) | TransientSetupError::Mc(_) => None,
         }
     }
@@ -245,6 +260,7 @@ impl TransientSettings {
             domain: None,
             tolerance: None,
             mc: McSettings::default(),
+            period: None,
         }
     }
 
@@ -281,7 +297,16 @@ impl TransientSettings {
             return Err(TransientSetupError::Tolerance(tolerance));
         }
         self.tolerance = Some(tolerance);
-        if self.methods.grid() {
+        if let Some(period) = self.period {
+            if self.methods.mc() {
+                return Err(TransientSetupError::PeriodWithMc);
+            }
+            let domain = grid_run(bound, &self)
+                .periodic(period)
+                .check()
+                .map_err(TransientSetupError::Grid)?;
+            self.domain = Some(domain);
+        } else if self.methods.grid() {
             let domain = grid_run(bound, &self)
                 .check()
                 .map_err(TransientSetupError::Grid)?;
@@ -355,10 +380,20 @@ impl CheckedTransient {
     /// The failing method's [`TransientRunError`].
     pub fn run(&self, bound: &BoundModel) -> Result<TransientRun, TransientRunError> {
         let s = &self.settings;
-        let grid = if s.methods.grid() {
-            Some(grid_run(bound, s).run().map_err(TransientRunError::Grid)?)
-        } else {
-            None
+        let mut periodic = None;
+        let grid = match s.period {
+            Some(period) => {
+                let state = grid_run(bound, s)
+                    .periodic(period)
+                    .run()
+                    .map_err(TransientRunError::Grid)?;
+                periodic = Some(state.report);
+                Some(state.history)
+            }
+            None if s.methods.grid() => {
+                Some(grid_run(bound, s).run().map_err(TransientRunError::Grid)?)
+            }
+            None => None,
         };
         let mc = if s.methods.mc() {
             // The grid's bins (its cells on its box), so that the columns line up.
@@ -392,6 +427,7 @@ impl CheckedTransient {
             settings: s.clone(),
             grid,
             mc,
+            periodic,
         })
     }
 }
@@ -412,6 +448,9 @@ pub struct TransientRun {
     pub grid: Option<TransientHistory>,
     /// Monte Carlo's, when it ran.
     pub mc: Option<McTransientHistory>,
+    /// How the periodic state was found, when a period was given (the grid's snapshots
+    /// are then at phases).
+    pub periodic: Option<PeriodicReport>,
 }
 
 impl TransientRun {

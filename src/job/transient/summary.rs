@@ -95,6 +95,10 @@ struct Summary<'a> {
     grid: Option<&'a crate::grid::TransientReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     mc: Option<McSummary<'a>>,
+    /// The period map's residual and counts, when a period was given (outputs' `t` are
+    /// then phases).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    periodic: Option<&'a crate::grid::PeriodicReport>,
     outputs: Vec<Output<'a>>,
 }
 
@@ -212,6 +216,7 @@ impl TransientRun {
             mc: self.mc.as_ref().map(|m| McSummary {
                 settings: &m.settings,
             }),
+            periodic: self.periodic.as_ref(),
             outputs,
         }
     }

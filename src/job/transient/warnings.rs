@@ -66,25 +66,36 @@ pub enum TransientWarning {
         /// The first such output time.
         t: f64,
     },
+    /// The period map did not reach its residual: the outputs are the last iterate's.
+    #[error("{0}")]
+    PeriodicNotConverged(crate::grid::PeriodicOutcome),
 }
 
 impl TransientWarning {
     /// Whether the run's numbers are not to be trusted (the command line exits 1 with its
-    /// files written): a Monte Carlo ensemble stuck at its start.
+    /// files written): a Monte Carlo ensemble stuck at its start, a periodic state not
+    /// converged.
     pub fn flags(&self) -> bool {
-        matches!(self, TransientWarning::StuckAtStart { .. })
+        matches!(
+            self,
+            TransientWarning::StuckAtStart { .. } | TransientWarning::PeriodicNotConverged(_)
+        )
     }
 }
 
 impl TransientRun {
     /// The warnings: each state's uncertain grid variance, then each state's unresolved grid
-    /// marginal, then a Monte Carlo ensemble stuck at its start.
+    /// marginal, then a periodic state not converged, then a Monte Carlo ensemble stuck at
+    /// its start.
     pub fn warnings(&self, model: &BoundModel) -> Vec<TransientWarning> {
         let states: Vec<String> = model.states().iter().map(|s| s.to_string()).collect();
         let mut out = Vec::new();
         if let Some(g) = &self.grid {
             out.extend(uncertain_variances(g, &states));
             out.extend(unresolved_marginals(g, &states));
+        }
+        if let Some(p) = self.periodic.as_ref().filter(|p| !p.outcome.converged()) {
+            out.push(TransientWarning::PeriodicNotConverged(p.outcome));
         }
         if let Some(t) = self.mc.as_ref().and_then(|m| m.stuck_at_start()) {
             out.push(TransientWarning::StuckAtStart { t });

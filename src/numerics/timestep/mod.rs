@@ -42,7 +42,7 @@ mod tableau;
 pub use error::StepError;
 pub(crate) use esdirk::History;
 pub(crate) use esdirk::{Esdirk, Tolerance};
-pub(crate) use generator::Generator;
+pub(crate) use generator::{apply, shifted, Generator};
 pub(crate) use tableau::Scheme;
 
 #[cfg(test)]

@@ -227,7 +227,6 @@ impl PatternLu {
     }
 
     /// Entries of L and U (the stored values, explicit zeros of the supernodes included).
-    #[cfg(test)]
     pub(crate) fn entries(&self) -> usize {
         2 * self.sym().len_val()
     }
