@@ -373,8 +373,9 @@ impl GridPeriodic<'_> {
     }
 
     /// Finds the periodic state and returns it at the requested phases, with a second
-    /// solve on half the cells for the outputs' error estimates when the transient's
-    /// [`GridTransient::estimate`] is on (it covers the cells, not the steps per period).
+    /// solve on half the cells and half the steps per period for the outputs' error
+    /// estimates when the transient's [`GridTransient::estimate`] is on (so that they cover
+    /// both the cells and the steps).
     ///
     /// # Errors
     /// [`TransientError::Setting`] (`period`, `residual`, `steps`, `max_maps`, phases
@@ -397,11 +398,14 @@ impl GridPeriodic<'_> {
             let q0: Vec<f64> = q0.iter().map(|q| q / mass).collect();
             (half, q0)
         });
+        // The estimate's solve halves the steps per period with the cells, so that its
+        // difference from this one carries the steps' error too (the same steps on both would
+        // cancel it: a period of too few steps would go unseen).
         let (main, coarse) = rayon::join(
-            || self.solve_on(&problem, &mesh, &p0),
+            || self.solve_on(&problem, &mesh, &p0, self.steps),
             || {
                 half.as_ref()
-                    .map(|(half, q0)| self.solve_on(&problem, half, q0))
+                    .map(|(half, q0)| self.solve_on(&problem, half, q0, (self.steps / 2).max(2)))
             },
         );
         let main = main?;
@@ -460,8 +464,9 @@ impl GridPeriodic<'_> {
         problem: &Mechanical,
         mesh: &Mesh,
         p0: &[f64],
+        steps: usize,
     ) -> Result<Solved, TransientError> {
-        let map = PeriodMap::new(mesh, problem, self.period, self.steps)?;
+        let map = PeriodMap::new(mesh, problem, self.period, steps)?;
         let area = mesh.hx * mesh.hv;
         let target = self.residual;
         let phases = &self.transient.times;
