@@ -43,6 +43,7 @@ mod record;
 #[cfg(any(test, feature = "test-support"))]
 #[doc(hidden)]
 pub mod reference;
+mod refuse;
 mod relax;
 mod settings;
 mod shard;

@@ -139,7 +139,7 @@ impl<'a> McPassage<'a> {
     /// assert!(McPassage::new(&bound, &safe).dt(-1.0).check().is_err());
     /// ```
     pub fn check(&self) -> Result<(), McError> {
-        crate::mc::config::refuse_periodic(self.model)?;
+        crate::mc::refuse::refuse_periodic(self.model)?;
         let (dt, h) = (self.dt, self.horizon);
         if !(dt.is_finite() && dt > 0.0) {
             return Err(bad("dt", format!("must be a positive number, got {dt:?}")));
@@ -179,7 +179,7 @@ impl<'a> McPassage<'a> {
                 ),
             ));
         }
-        crate::mc::config::refuse_held_still(
+        crate::mc::refuse::refuse_held_still(
             &crate::dynamics::Dynamics::read(self.model),
             self.start,
         )

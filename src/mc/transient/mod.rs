@@ -308,7 +308,7 @@ impl<'a> McTransient<'a> {
     }
 
     fn plan(&self) -> Result<Plan, McTransientError> {
-        crate::mc::config::refuse_periodic(self.model)?;
+        crate::mc::refuse::refuse_periodic(self.model)?;
         let setting = |setting, value: String, expected| McTransientError::Setting {
             setting,
             value,
@@ -369,8 +369,8 @@ impl<'a> McTransient<'a> {
         }
         let dynamics = crate::dynamics::Dynamics::read(self.model);
         match self.initial {
-            InitialState::Rest => crate::mc::config::refuse_held_still(&dynamics, [0.0, 0.0])?,
-            InitialState::Point(p) => crate::mc::config::refuse_held_still(&dynamics, p)?,
+            InitialState::Rest => crate::mc::refuse::refuse_held_still(&dynamics, [0.0, 0.0])?,
+            InitialState::Point(p) => crate::mc::refuse::refuse_held_still(&dynamics, p)?,
             InitialState::Gaussian { .. } => {}
         }
         let observables: Vec<_> = self
