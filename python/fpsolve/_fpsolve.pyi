@@ -207,6 +207,7 @@ def transient(
     seed: int,
     threads: Optional[int],
     set: Optional[Mapping[str, _Value]] = None,
+    period: Optional[float] = None,
 ) -> _Transient: ...
 def merge_mc_json(shards: Sequence[str]) -> Tuple[str, List[str], List[str]]: ...
 def run_job(

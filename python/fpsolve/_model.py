@@ -598,6 +598,7 @@ class Model:
         seed: Union[int, None, "np.random.Generator", "np.random.SeedSequence"] = 1,
         threads: Optional[int] = None,
         params: Optional[Mapping[str, Value]] = None,
+        period: Optional[float] = None,
         **set: Value,
     ) -> Transient:
         """The density as it evolves from the start, as ``fpsolve transient``: on the grid
@@ -639,6 +640,11 @@ class Model:
             Worker threads (default: the cores available). The result does not depend on it.
         params : mapping of str to number or str, optional
             Overrides as a dict.
+        period : float, optional
+            As ``--period``: the coefficients' period P, for the grid's periodic steady state
+            (by the period map) instead of a history from the start; ``times`` are then
+            phases in [0, P], ``domain`` is required, ``method`` must be ``"grid"``;
+            ``report["periodic"]`` holds the fixed point's outcome (residual, period maps).
         **set : number or str
             Parameter overrides by keyword (``--set``).
 
@@ -698,6 +704,7 @@ class Model:
             _seed(seed),
             threads,
             _params(params, set),
+            None if period is None else float(period),
         )
 
     def __repr__(self) -> str:

@@ -220,6 +220,7 @@ def run(
     seed: int,
     threads: Optional[int],
     set: Dict[str, Any],
+    period: Optional[float] = None,
 ) -> Transient:
     """Runs ``Model.transient`` (arguments converted, then checked by the native module in
     the command line's order) and warns the command line's warnings."""
@@ -239,6 +240,7 @@ def run(
         seed,
         None if threads is None else int(threads),
         set,
+        period,
     )
     result = Transient(native)
     for note in result.warnings:

@@ -114,7 +114,7 @@ fn setup_error(py: Python<'_>, e: &TransientSetupError) -> PyErr {
 /// The transient of `model` as `fpsolve transient`: checks every argument in the CLI's
 /// order, runs, and returns the finished run.
 #[pyfunction]
-#[pyo3(signature = (model, times, cells, domain, tol, initial, method, trajectories, dt, seed, threads, set=None))]
+#[pyo3(signature = (model, times, cells, domain, tol, initial, method, trajectories, dt, seed, threads, set=None, period=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn transient(
     py: Python<'_>,
@@ -130,6 +130,7 @@ pub(crate) fn transient(
     seed: u64,
     threads: Option<usize>,
     set: Option<&Bound<'_, PyDict>>,
+    period: Option<f64>,
 ) -> PyResult<PyTransient> {
     let this = model.get();
     // The CLI's order: the cells (read with the flags), the methods, the times, the model
@@ -174,7 +175,7 @@ pub(crate) fn transient(
         domain,
         tolerance: tol,
         mc,
-        period: None,
+        period,
     };
     let checked = settings.check(&bound).map_err(|e| setup_error(py, &e))?;
     let pool = crate::pool::thread_pool(threads)?;

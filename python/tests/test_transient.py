@@ -352,3 +352,41 @@ def test_error_details(linear):
         linear.transient("0:1:3", trajectories=1.5)
     with pytest.raises(TypeError):
         linear.transient("0:1:3", params={"c": 1}, c=2)
+
+
+FORCED = """model forced "forced linear oscillator"
+param c = 0.2, k = 1, a = 1, w = 0.8
+state z, v
+drift z: v
+drift v: -c*v - k*z + a*cos(w*t)
+noise xi: intensity 0.2
+diffusion v: xi
+"""
+
+
+def test_the_periodic_state_as_the_cli(cli, tmp_path):
+    # The period map from Python: the CLI's report and numbers, the mean the harmonic
+    # response within its stated error, and the refusals of the CLI.
+    path = tmp_path / "forced.sde"
+    path.write_text(FORCED)
+    period = 2 * np.pi / 0.8
+    box = "z=-8:8,v=-8:8"
+    times = f"0:{period!r}:5"
+    run_cli(cli, path, tmp_path / "cli", "--period", repr(period), "--times", times, "--cells", "32,32", "--domain", box)
+    model = fpsolve.Model.load(path)
+    py = model.transient(times, cells=(32, 32), domain=box, period=period)
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(summary)
+    periodic = py.report["periodic"]
+    assert periodic["outcome"]["stop"] == "converged", periodic
+    assert periodic["outcome"]["residual"] <= 1e-8
+    c, k, w = 0.2, 1.0, 0.8
+    den = (k - w * w) ** 2 + (c * w) ** 2
+    exact = ((k - w * w) * np.cos(w * py.t) + c * w * np.sin(w * py.t)) / den
+    header, cols = read_csv(tmp_path / "cli" / "moments_vs_t.csv")
+    np.testing.assert_array_equal(py.grid.mean["z"], cols["z_mean"])
+    assert np.all(np.abs(cols["z_mean"] - exact) <= cols["z_mean_err"]), (cols["z_mean"], exact, cols["z_mean_err"])
+    with pytest.raises(ValueError, match="period"):
+        model.transient(times, cells=(32, 32), domain=box, period=-1.0)
+    with pytest.raises(ValueError):
+        model.transient(times, cells=(32, 32), domain=box, period=period, method="grid,mc")
