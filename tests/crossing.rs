@@ -336,3 +336,50 @@ fn the_main_job_writes_crossing_rates_and_impacts_whose_errors_cover_the_exact_o
     assert!(walled.join(&wall.speed_pdf_file).is_file());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_method_without_an_error_says_so_at_the_wall_and_is_measured_against_the_grid() {
+    // EPC-impact's impact numbers carry no error bound: the row says so and gives its
+    // distance from the grid's row.
+    let model = format!(
+        "{}/models/vibro_impact_duffing.sde",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let out = std::env::temp_dir().join(format!("fpsolve-crossing-epc-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_fpsolve"))
+        .args([
+            model.as_str(),
+            "--method",
+            "epc-impact,grid",
+            "--cells",
+            "64,128",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let rows = summary["impacts"].as_array().unwrap();
+    let grid = rows.iter().find(|r| r["method"] == "grid").unwrap();
+    assert!(grid.get("no_error_bound").is_none() && grid["rate_error"].as_f64().unwrap() > 0.0);
+    let epc: Vec<_> = rows
+        .iter()
+        .filter(|r| r["method"].as_str().unwrap().starts_with("epc_impact"))
+        .collect();
+    assert!(!epc.is_empty());
+    for r in epc {
+        assert!(r["no_error_bound"]
+            .as_str()
+            .unwrap()
+            .contains("states no error"));
+        assert!(r.get("rate_error").is_none());
+        let d = r["minus_grid"][0].as_f64().unwrap();
+        let want = r["rate"].as_f64().unwrap() - grid["rate"].as_f64().unwrap();
+        assert_eq!(d, want);
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

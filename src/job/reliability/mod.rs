@@ -122,9 +122,22 @@ pub struct WallImpacts {
     /// `mean_power`, when the run estimated them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time_step_bias: Option<[f64; 3]>,
+    /// For a method that states no error (EPC, EPC-impact: an approximation), its `rate`,
+    /// `mean_speed` and `mean_power` minus the grid's at the same wall, when the grid ran:
+    /// the one measure of its error the run has; `no_error_bound` in `summary.json` says so.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub minus_grid: Option<[f64; 3]>,
+    /// Why the row has no error bound (a method that states none), `None` for the grid's and
+    /// Monte Carlo's rows.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_error_bound: Option<&'static str>,
     /// The file holding the impact-speed PDF.
     pub speed_pdf_file: String,
 }
+
+/// Why a method's impact row has no error bound.
+const NO_ERROR_BOUND: &str = "an approximation that states no error (the closure's); its \
+     distance from the grid's numbers is `minus_grid` when the grid ran";
 
 /// What writing the reliability outputs gave.
 pub(crate) struct Written {
@@ -561,8 +574,19 @@ fn impacts(problem: &Problem, study: &Study, mc: Option<&McResult>) -> Vec<WallT
                 accuracy: stats.accuracy,
                 stderr: None,
                 time_step_bias: None,
+                minus_grid: None,
+                no_error_bound: errors.is_none().then_some(NO_ERROR_BOUND),
                 speed_pdf_file: file.clone(),
             });
+        }
+        if let Some(grid) = rows.iter().find(|r| r.method == "grid").cloned() {
+            for r in rows.iter_mut().filter(|r| r.no_error_bound.is_some()) {
+                r.minus_grid = Some([
+                    r.rate - grid.rate,
+                    r.mean_speed - grid.mean_speed,
+                    r.mean_power - grid.mean_power,
+                ]);
+            }
         }
         let above = side == BarrierSide::Above;
         let walls = mc
@@ -608,6 +632,8 @@ fn impacts(problem: &Problem, study: &Study, mc: Option<&McResult>) -> Vec<WallT
                 time_step_bias: w
                     .time_step_bias
                     .map(|b| [b[0].value, b[1].value, b[2].value]),
+                minus_grid: None,
+                no_error_bound: None,
                 speed_pdf_file: file.clone(),
             });
         }
