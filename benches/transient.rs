@@ -119,13 +119,13 @@ fn bench_exact_case(c: &mut Criterion) {
     );
     let times: Vec<f64> = (0..161).map(|i| 0.5 * i as f64).collect();
     let domain = Domain {
-        x: [-9.0, 9.0],
-        v: [-9.0, 9.0],
+        x: [-7.5, 7.5],
+        v: [-7.5, 7.5],
     };
-    let n = 128;
+    let n = 208;
     let mut group = c.benchmark_group("transient_exact_case");
     group.sample_size(10);
-    group.bench_function("history_0_80_128x128", |b| {
+    group.bench_function("history_0_80_208x208", |b| {
         b.iter(|| {
             GridTransient::new(&modulated)
                 .cells(n, n)
@@ -137,7 +137,7 @@ fn bench_exact_case(c: &mut Criterion) {
                 .expect("runs")
         })
     });
-    group.bench_function("peer_stationary_128x128", |b| {
+    group.bench_function("peer_stationary_208x208", |b| {
         b.iter(|| {
             GridSolver::new(&limit)
                 .cells(n, n)
