@@ -15,21 +15,23 @@
 //!
 //! * `transient_exact_case`: the linear oscillator from rest under modulated white noise
 //!   (`tests/models/linear_modulated.sde`, e(t) = 1 + e^{−t/4} − 2e^{−t}), 0 → 80 at 161
-//!   output times, box ±9, tolerance 1e−4, with the error estimate's half-cells run (the
-//!   CLI's default), at 128x128 cells (late L1 against the exact law 1.5e−4 / 1.7e−4; the
-//!   issue's 1e−4 needs about 220 cells per axis, see `tests/transient_modulated.rs`).
+//!   output times, tolerance 1e−4, with the error estimate's half-cells run (the CLI's
+//!   default), at 208x208 cells on the box ±7.5: the resolution at which every output from
+//!   t = 20 is within 1e−4 of the exact law (`tests/transient_modulated_rest.rs`).
 //! * `transient_case1_from_rest`: the paper's case 1 (`models/vibro_duffing.sde`) from
 //!   (z, v) = (1e−6, 0) to t = 80 (161 outputs) at 200x400 cells, automatic box, tolerance
 //!   1e−4.
 //!
-//! Measured on 2 shared cores under a load of 5–8 from other builds (so the absolute times
-//! are inflated; the ratios less so): `transient_exact_case` median 39.3 s (10 samples,
-//! 34.4–43.8 s) against its peer's 51.0 ms, a ratio of 770 (the target, 2 s, would be a
-//! ratio of about 40); `transient_case1_from_rest` one iteration about 181 s (criterion's
+//! Measured on 2 shared cores under a load of 2–26 from other builds (so the absolute times
+//! are inflated; the ratios less so): `transient_exact_case` median 55.3 s (10 samples, CI
+//! 54.7–55.7 s) against its peer's 106 ms, a ratio of 520 (the target, 2 s, would be a
+//! ratio of about 19; at 128x128 on ±9 with TR-BDF2 it was 39.3 s against 51.0 ms, 770);
+//! `transient_case1_from_rest` one iteration about 181 s (criterion's
 //! estimate from its warm-up; the 10 samples, 30 min at that load, were not completed)
 //! against its peer's 570 ms, a ratio of about 320 (the target, 5 s, about 9). Where the
-//! time goes (`perf`): in the exact case two factorisations per step (a stage matrix per
-//! stage time), 55 %, and the triangular solves; in case 1 the triangular solves, 87 %
+//! time goes (`perf`): in the exact case the triangular solves, two thirds (six solves a
+//! step and 1.5 corrections per solve of a stage time not factorised), and the operator's
+//! assembly at each stage time, a fifth; in case 1 the triangular solves, 87 %
 //! (three per step, 709 steps, 548 of them before t = 5 while the two-cell start spreads;
 //! 18 factorisations, 4 %).
 //!
@@ -119,13 +121,13 @@ fn bench_exact_case(c: &mut Criterion) {
     );
     let times: Vec<f64> = (0..161).map(|i| 0.5 * i as f64).collect();
     let domain = Domain {
-        x: [-9.0, 9.0],
-        v: [-9.0, 9.0],
+        x: [-7.5, 7.5],
+        v: [-7.5, 7.5],
     };
-    let n = 128;
+    let n = 208;
     let mut group = c.benchmark_group("transient_exact_case");
     group.sample_size(10);
-    group.bench_function("history_0_80_128x128", |b| {
+    group.bench_function("history_0_80_208x208", |b| {
         b.iter(|| {
             GridTransient::new(&modulated)
                 .cells(n, n)
@@ -137,7 +139,7 @@ fn bench_exact_case(c: &mut Criterion) {
                 .expect("runs")
         })
     });
-    group.bench_function("peer_stationary_128x128", |b| {
+    group.bench_function("peer_stationary_208x208", |b| {
         b.iter(|| {
             GridSolver::new(&limit)
                 .cells(n, n)

@@ -19,7 +19,9 @@ mod transient_exact;
 
 use std::path::Path;
 
-use fpsolve::grid::{Domain, GridSolver, GridTransient, Initial, TransientHistory, UNRESOLVED_L1};
+use fpsolve::grid::{
+    Domain, GridSolver, GridTransient, Initial, TransientHistory, POINT_CELLS, UNRESOLVED_L1,
+};
 use fpsolve::model::{load_model, parse_model, BoundModel};
 use transient_exact::{l1_gaussian, lyapunov};
 
@@ -130,7 +132,8 @@ fn rest_under_modulated_noise_within_its_estimate() {
 
 /// Long after the envelope has settled (t = 200) the transient is the stationary solver's
 /// density of e = 1 on the same cells (48x48): what remains is the time stepping's error.
-/// Measured L1 3.0e−6 (tolerance 1e−5, 948 steps).
+/// Measured L1 6.5e−6 (tolerance 1e−6, 179 steps; at 1e−5, 83 steps of ESDIRK4 and
+/// 6.5e−5: the stepper's error, in proportion to the tolerance).
 #[test]
 fn long_time_limit_under_modulated_noise_is_the_stationary_density() {
     let limit = parse_model(
@@ -145,7 +148,7 @@ fn long_time_limit_under_modulated_noise_is_the_stationary_density() {
     let h = GridTransient::new(&modulated())
         .cells(n, n)
         .domain(BOX)
-        .tolerance(1e-5)
+        .tolerance(1e-6)
         .joint(true)
         .estimate(false)
         .times(vec![200.0])
@@ -197,4 +200,57 @@ fn a_fine_history_stays_near_the_law() {
         .max_by(|a, b| a.moments[0].variance.total_cmp(&b.moments[0].variance))
         .unwrap();
     assert_eq!(peak.t, 9.5);
+}
+
+/// Issue 36's check at the resolution that meets it: the whole history (0 → 80, 161
+/// outputs, tolerance 1e−4) at 208x208 cells on the box ±7.5 (4.3 standard deviations of
+/// the displacement at its peak), each marginal against the exact law from the grid's own
+/// start (the Gaussian of [`POINT_CELLS`] cells that stands for rest). L1 ≤ 1e−4 at every
+/// output from t = 20 (measured at most 8.7e−5, at t = 21.5; 6.8e−5 from t = 40), and
+/// ≤ 2e−4 from t = 5 (1.6e−4 at t = 5.5). Before t = 5 the law is a few cells wide and the
+/// target is out of reach of a uniform grid: at t = 0.5 the displacement's standard
+/// deviation is 0.05 from the point, 0.15 from the start, two cells (measured L1 6.2e−3).
+/// The error is spatial: at tolerance 3e−5 the worst from t = 10 moves from 1.14e−4 to
+/// 1.09e−4. About 45 s of CPU (`cargo test --release --test transient_modulated_rest --
+/// --ignored`).
+#[test]
+#[ignore]
+fn the_whole_history_within_1e_4_of_the_law() {
+    let (n, half) = (208, 7.5);
+    let times: Vec<f64> = (0..161).map(|i| 0.5 * i as f64).collect();
+    let h = GridTransient::new(&modulated())
+        .cells(n, n)
+        .domain(Domain {
+            x: [-half, half],
+            v: [-half, half],
+        })
+        .initial(Initial::Rest)
+        .tolerance(1e-4)
+        .estimate(false)
+        .times(times.clone())
+        .run()
+        .unwrap();
+    let s0 = (POINT_CELLS * 2.0 * half / n as f64).powi(2);
+    let laws = lyapunov(
+        C,
+        K,
+        envelope_squared,
+        [0.0; 2],
+        [[s0, 0.0], [0.0, s0]],
+        &times,
+    );
+    for (s, (_, cov)) in h.snapshots.iter().zip(&laws) {
+        let l1: [f64; 2] =
+            std::array::from_fn(|axis| l1_gaussian(&s.marginals[axis], 0.0, cov[axis][axis]));
+        eprintln!("t={:4.1}: L1 z {:.2e}, v {:.2e}", s.t, l1[0], l1[1]);
+        let bound = if s.t >= 20.0 {
+            1e-4
+        } else if s.t >= 5.0 {
+            2e-4
+        } else {
+            continue;
+        };
+        assert!(l1[0].max(l1[1]) <= bound, "t={}: {l1:?}", s.t);
+    }
+    eprintln!("{:?}", h.report);
 }

@@ -602,7 +602,7 @@ class Model:
         **set: Value,
     ) -> Transient:
         """The density as it evolves from the start, as ``fpsolve transient``: on the grid
-        (TR-BDF2 steps on the stationary solver's operator, with error control) and, with
+        (ESDIRK4 steps on the stationary solver's operator, with error control) and, with
         ``"mc"`` in ``method``, by a Monte Carlo ensemble on the grid's cells as bins; the
         mean, variance and kurtosis of every state (and observable, on the grid) and each
         state's marginal PDF at every output time. The same checks, defaults and numbers (to

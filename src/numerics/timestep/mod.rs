@@ -7,8 +7,9 @@
 //! * **Stages.** Every implicit stage has the same coefficient γ (TR-BDF2: γ = 1 − √2/2,
 //!   the trapezoidal stage over (2 − √2)h and the BDF2 stage over the rest; ESDIRK4:
 //!   γ = 1/4), so all solve with one matrix, I − γ h A: one factorisation per distinct step
-//!   size (and, for a generator that depends on t, per stage time). Both methods are stiffly
-//!   accurate: the step's result is its last stage.
+//!   size (and, for a generator that depends on t, per stage time, unless
+//!   [`Esdirk::reuse_across_times`] lets a nearby time's factor precondition the solve).
+//!   Both methods are stiffly accurate: the step's result is its last stage.
 //! * **Error control.** The local error is estimated by the embedded third-order
 //!   companion (TR-BDF2: weights ((1 − w)/3, (3w + 1)/3, d/3), w = √2/4; ESDIRK4: Kennedy
 //!   and Carpenter's), filtered through (I − γ h A)⁻¹ as Hosea and Shampine advise for stiff problems (the stiff modes, which

@@ -259,20 +259,32 @@ fn a_generator_that_depends_on_time() {
     }
     let times = [0.5, 1.0, 2.0, 3.0];
     for scheme in [Scheme::TrBdf2, Scheme::Esdirk4] {
-        let h = Esdirk::new(&Ramp)
-            .scheme(scheme)
-            .tolerance(tol(1e-9))
-            .run(&[1.0], 0.0, &times)
-            .unwrap();
-        for o in &h.outputs {
-            let exact = (-o.t * o.t / 2.0).exp();
-            assert!(
-                (o.y[0] - exact).abs() < 1e-8,
-                "{scheme:?} t={}: {} vs {exact}",
-                o.t,
-                o.y[0]
-            );
+        let mut factorizations = Vec::new();
+        for across in [false, true] {
+            let stepper = Esdirk::new(&Ramp).scheme(scheme).tolerance(tol(1e-9));
+            let stepper = if across {
+                stepper.reuse_across_times()
+            } else {
+                stepper
+            };
+            let h = stepper.run(&[1.0], 0.0, &times).unwrap();
+            for o in &h.outputs {
+                let exact = (-o.t * o.t / 2.0).exp();
+                assert!(
+                    (o.y[0] - exact).abs() < 1e-8,
+                    "{scheme:?} across {across} t={}: {} vs {exact}",
+                    o.t,
+                    o.y[0]
+                );
+            }
+            assert_eq!(h.stats.sweeps > 0, across, "{scheme:?} {:?}", h.stats);
+            factorizations.push(h.stats.factorizations);
         }
+        // Another time's factor preconditions most stage solves.
+        assert!(
+            4 * factorizations[1] < factorizations[0],
+            "{scheme:?}: {factorizations:?}"
+        );
     }
 }
 
