@@ -42,7 +42,7 @@ pub(super) fn pilot_burn_in(
     rate: f64,
 ) -> Result<f64, McError> {
     // The start the stationary run draws from: N(0, L Lᵀ).
-    let l = start;
+    let l = &start;
     let covariance = [
         [l[0][0] * l[0][0], l[0][0] * l[1][0]],
         [l[0][0] * l[1][0], l[1][0] * l[1][0] + l[1][1] * l[1][1]],
@@ -98,8 +98,7 @@ pub(super) fn pilot_burn_in(
             })
             .collect();
         if let Some(tau) = relaxation(&times, &series) {
-            let settled = tau.settled;
-            return Ok((decay_times * tau.decay).max(settled));
+            return Ok((decay_times * tau.decay).max(tau.settled));
         }
         horizon *= 2.0;
     }

@@ -139,6 +139,11 @@ impl<'a> McPassage<'a> {
     /// assert!(McPassage::new(&bound, &safe).dt(-1.0).check().is_err());
     /// ```
     pub fn check(&self) -> Result<(), McError> {
+        self.check_read(&crate::dynamics::Dynamics::read(self.model))
+    }
+
+    /// [`McPassage::check`] of the model already read.
+    fn check_read(&self, dynamics: &crate::dynamics::Dynamics) -> Result<(), McError> {
         crate::mc::refuse::refuse_periodic(self.model)?;
         let (dt, h) = (self.dt, self.horizon);
         if !(dt.is_finite() && dt > 0.0) {
@@ -179,17 +184,16 @@ impl<'a> McPassage<'a> {
                 ),
             ));
         }
-        crate::mc::refuse::refuse_held_still(
-            &crate::dynamics::Dynamics::read(self.model),
-            self.start,
-        )
+        crate::mc::refuse::refuse_held_still(dynamics, self.start)
     }
 
     /// Runs the paths at dt and the bias estimate's at 2·dt; the statistics of the exit
     /// times.
     pub fn run(&self) -> Result<McPassageResult, McError> {
-        self.check()?;
-        let plan = self.plan()?;
+        // One reading of the model for the checks and the plan.
+        let dynamics = crate::dynamics::Dynamics::read(self.model);
+        self.check_read(&dynamics)?;
+        let plan = self.plan(&dynamics)?;
         let batches = self.paths.div_ceil(PASSAGE_LANES as u64);
         let coarse_batches = (batches / 4).max(2).min(batches);
         let coarse_paths = (coarse_batches * PASSAGE_LANES as u64).min(self.paths);
@@ -223,20 +227,14 @@ impl<'a> McPassage<'a> {
     }
 
     /// The stationary run's scheme and impacts for the model.
-    fn plan(&self) -> Result<Plan, McError> {
-        let dynamics = crate::dynamics::Dynamics::read(self.model);
+    fn plan(&self, dynamics: &crate::dynamics::Dynamics) -> Result<Plan, McError> {
         let observables: Vec<_> = self
             .model
             .observables
             .iter()
             .map(|o| o.expr.clone())
             .collect();
-        Plan::with_impacts(
-            &dynamics,
-            &observables,
-            SchemeChoice::Auto,
-            walls(&dynamics)?,
-        )
+        Plan::with_impacts(dynamics, &observables, SchemeChoice::Auto, walls(dynamics)?)
     }
 
     /// What each batch needs of the run.

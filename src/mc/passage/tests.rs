@@ -170,7 +170,7 @@ fn the_screened_blocks_give_the_plain_exit_times_to_the_bit() {
             .paths(150)
             .seed(5)
             .increments(increments);
-        let plan = run.plan().unwrap();
+        let plan = run.plan(&crate::dynamics::Dynamics::read(&bound)).unwrap();
         let mut exits = 0;
         // At h = 0.1 an excursion out and back within a step, caught only by the samples
         // between its ends, is common.
@@ -215,7 +215,7 @@ fn the_screen_clears_no_step_that_leaves() {
     let bound = model.bind(&[]).unwrap();
     let safe = model.safe().unwrap().bind(&bound).unwrap();
     let run = McPassage::new(&bound, &safe);
-    let plan = run.plan().unwrap();
+    let plan = run.plan(&crate::dynamics::Dynamics::read(&bound)).unwrap();
     let lanes = 64;
     let (mut cleared, mut refused) = (0, 0);
     for h in [0.01, 0.1, 0.5] {
