@@ -982,10 +982,11 @@ fn the_former_name_writes_the_same_files() {
     std::fs::remove_dir_all(&base).unwrap();
 }
 
-/// A run without output times has nothing to draw: the figures are skipped with why, in
-/// summary.json and on the console, and the run succeeds; Monte Carlo alone draws both.
+/// A run without output times gets R(t) at 101 times to 5 of the grid's mean times, and
+/// draws it (before, it had nothing to draw and skipped the figures with a warning); Monte
+/// Carlo alone draws both at its times.
 #[test]
-fn figures_that_cannot_be_drawn_are_skipped_with_a_warning() {
+fn a_run_without_times_gets_r_to_five_mean_times() {
     let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
     let base = std::env::temp_dir().join(format!("fpsolve_nofig_{}", std::process::id()));
     let dir = base.join("grid");
@@ -1002,17 +1003,23 @@ fn figures_that_cannot_be_drawn_are_skipped_with_a_warning() {
         dir.to_str().unwrap(),
     ]);
     assert_eq!(code, Some(0), "{text}");
-    assert!(
-        text.contains("warning: reliability.png/.svg was not written: no output times"),
-        "{text}"
-    );
+    assert!(!text.contains("was not written"), "{text}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    let unwritten = summary["unwritten"].as_array().unwrap();
-    assert_eq!(unwritten.len(), 2, "{summary}");
-    assert_eq!(unwritten[1]["file"], "first_passage_pdf.png/.svg");
-    assert!(!dir.join("reliability.png").exists());
-    assert!(dir.join("reliability.csv").exists());
+    assert!(summary.get("unwritten").is_none(), "{summary}");
+    let mean = summary["grid"]["mean_at_start"].as_f64().unwrap();
+    let times = summary["grid"]["times"].as_array().unwrap();
+    assert_eq!(times.len(), 101);
+    assert_eq!(times[0].as_f64(), Some(0.0));
+    assert!((times[100].as_f64().unwrap() - 5.0 * mean).abs() < 1e-9 * mean);
+    let csv = std::fs::read_to_string(dir.join("reliability.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 102);
+    for file in ["reliability.png", "first_passage_pdf.svg"] {
+        assert!(
+            std::fs::metadata(dir.join(file)).unwrap().len() > 100,
+            "{file}"
+        );
+    }
     let dir = base.join("mc");
     let (code, text) = fpsolve(&[
         "reliability",

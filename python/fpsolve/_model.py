@@ -492,7 +492,8 @@ class Model:
         times : str or sequence of float, optional
             The output times of R(t): ``"FIRST:LAST:COUNT"`` as ``--times`` (0 <= FIRST <
             LAST, 2 <= COUNT <= 100000, evenly spaced), or the times themselves (finite,
-            non-negative, non-decreasing). Default none (the mean times only).
+            non-negative, non-decreasing). Default 101 evenly spaced times from 0 to
+            ``horizon`` when given, else to 5 of the grid's mean times from the start.
         cells : (int, int) or str, optional
             The grid's cells ``(nx, nv)`` (even, at least 8 per axis); default (200, 400).
         method : str or sequence of str

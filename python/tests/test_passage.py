@@ -176,7 +176,9 @@ def test_horizon_defaults_to_twenty_grid_means(cli, linear, tmp_path):
     assert without_timing(py.report) == without_timing(summary)
     assert py.mc.horizon == 20.0 * py.mean_at_start
     assert py.grid_vs_mc_se == summary["grid_vs_mc_se"]
-    assert len(py.times) == 0  # no times asked: the mean times only
+    # No times asked: 101 times to 5 of the grid's mean times (not to the horizon).
+    assert len(py.times) == 101 and py.times[0] == 0
+    assert py.times[-1] == pytest.approx(5.0 * py.mean_at_start, rel=1e-12)
 
 
 def test_disagreement_warns_as_the_cli(cli, linear, tmp_path):
@@ -187,7 +189,10 @@ def test_disagreement_warns_as_the_cli(cli, linear, tmp_path):
     assert "warning: the grid's mean first-passage time" in console
     with pytest.warns(fpsolve.FpsolveWarning, match="more than 3 standard errors"):
         py = linear.reliability(safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=4000, dt=0.4, horizon=400)
-    assert len(py.warnings) == 1
+    # The mean's warning first, then R(t)'s at the default output times (as biased).
+    assert len(py.warnings) >= 1
+    assert all("more than 3 standard errors" in w for w in py.warnings)
+    assert py.warnings[0].startswith("the grid's mean first-passage time")
     gap = py.warnings[0].split(" is ")[1].split(" ")[0]
     assert f"is {gap} from Monte Carlo's" in console
     assert py.grid_vs_mc_se == json.loads((out / "summary.json").read_text())["grid_vs_mc_se"]
@@ -208,11 +213,10 @@ def test_the_model_safe_line_and_a_start(cli, tmp_path):
     assert fpsolve.Model.passage is fpsolve.Model.reliability
     assert py.report["command"] == "fpsolve.Model.reliability"
     summary = json.loads((out / "summary.json").read_text())
-    # Without output times the command line has no figure to draw and says so; Python draws
-    # none, so its report has no such list.
-    unwritten = summary.pop("unwritten")
-    assert [u["file"] for u in unwritten] == ["reliability.png/.svg", "first_passage_pdf.png/.svg"]
-    assert "unwritten" not in py.report
+    # Without output times both get R(t) at 101 times to 5 grid mean times; the command
+    # line draws it (nothing left unwritten).
+    assert "unwritten" not in summary and "unwritten" not in py.report
+    assert len(py.times) == 101
     assert without_timing(py.report) == without_timing(summary)
     assert py.safe == "-1 < z < 1.5" and py.start == (0.5, -0.25)
     assert py.mc is None and "mc" not in py.report
@@ -343,7 +347,6 @@ def test_domain_is_the_cli_domain(cli, tmp_path):
     free = fpsolve.Model.load(FREE)
     py = free.reliability(cells=(100, 200), domain=FREE_BOX)
     summary = json.loads((out / "summary.json").read_text())
-    summary.pop("unwritten")  # no times: the CLI's figures are not drawn
     assert without_timing(py.report) == without_timing(summary)
     as_mapping = free.reliability(cells=(100, 200), domain={"x": (-1.05, 1.05), "v": (-8, 8)})
     assert as_mapping.mean_at_start == py.mean_at_start

@@ -28,7 +28,8 @@ pub(crate) struct ReliabilityArgs {
     /// The start (position, velocity); default rest, 0,0.
     #[arg(long, value_name = "X,V", allow_hyphen_values = true)]
     start: Option<String>,
-    /// Output times of R(t): FIRST:LAST:COUNT (COUNT >= 2, 0 <= FIRST < LAST).
+    /// Output times of R(t): FIRST:LAST:COUNT (COUNT >= 2, 0 <= FIRST < LAST); default 101
+    /// times to --horizon, else to 5 of the grid's mean times from the start.
     #[arg(long, value_name = "A:B:N")]
     times: Option<String>,
     /// Cells of the grid, position and velocity (default 200,400).

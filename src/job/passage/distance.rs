@@ -6,16 +6,16 @@
 //! standard errors plus the grid's stated error, as the main job flags two methods further
 //! apart than their tolerance plus the reference's stated error: the statistical error
 //! scaled to a confidence, the grid's error (a bound already, with its safety factor) once.
+//! R(t)'s standard error is taken on the grid's side from Wilson's score interval at
+//! [`DISAGREE_SE`] ([`McPassageResult::reliability_stderr_toward`]): with a few paths left
+//! in the tail the binomial law is skewed, and R is flagged exactly when the grid's value
+//! less its error lies outside that interval.
 
 use serde::Serialize;
 
 use super::DISAGREE_SE;
 use crate::grid::PassageSolution;
 use crate::mc::McPassageResult;
-
-/// Half the width of a 95 % interval in standard errors: Monte Carlo's R(t) standard error
-/// is its Wilson band's width / (2 · 1.96).
-const Z95: f64 = 1.959_963_984_540_054;
 
 /// What a distance compares.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -42,7 +42,9 @@ impl std::fmt::Display for Compared {
                 f,
                 "mean first-passage time from the start against Monte Carlo's lower bound"
             ),
-            Compared::Reliability { t } => write!(f, "R(t) at t = {t}"),
+            Compared::Reliability { t } => {
+                write!(f, "R(t) at t = {}", crate::report::short_number(*t))
+            }
         }
     }
 }
@@ -154,7 +156,7 @@ impl MethodDistances {
                     grid.reliability[k],
                     errors.map_or(0.0, |e| e.reliability[k]),
                     mc.reliability[k],
-                    (mc.reliability_hi[k] - mc.reliability_lo[k]) / (2.0 * Z95),
+                    mc.reliability_stderr_toward(k, grid.reliability[k], DISAGREE_SE),
                 )
             })
             .collect();

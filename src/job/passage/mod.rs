@@ -1,6 +1,8 @@
 //! First passage as `fpsolve reliability` (alias `fpsolve passage`) and Python's
 //! `Model.reliability` (alias `Model.passage`) run it: the grid and Monte Carlo solved in one
-//! order (Monte Carlo on the grid's times, its horizon 20 grid mean times unless given), the
+//! order (R(t) at the times given, else at [`DEFAULT_TIMES`] to Monte Carlo's horizon or
+//! [`DEFAULT_MEANS`] grid mean times; Monte Carlo on the grid's times, its horizon 20 grid
+//! mean times unless given), the
 //! stationary crossing and impact statistics beside them (`stationary`), and everything the
 //! two front ends report from them — `reliability.csv`, `first_passage_pdf.csv`,
 //! `crossings_<q>.csv`, `summary.json` with the methods' distances, the warnings — written
@@ -29,6 +31,14 @@ pub use stationary::{StationaryMc, StationaryReport, StationaryStatistics};
 /// Monte Carlo's first-passage numbers (the mean time from the start, R(t) at each output
 /// time) may be apart before a warning ([`MethodDistance::flagged`]).
 pub const DISAGREE_SE: f64 = 3.0;
+
+/// How many output times R(t) gets when none are given ([`PassageSettings::times`] empty).
+pub const DEFAULT_TIMES: usize = 101;
+
+/// Where R(t) ends when no output times and no Monte Carlo horizon are given: this many of
+/// the grid's mean times from the start (R is then about e^{−5}, the first-passage PDF's
+/// tail resolved; issue 35's reference horizon).
+pub const DEFAULT_MEANS: f64 = 5.0;
 
 /// Why a `X,V` or `FIRST:LAST:COUNT` text could not be read.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -162,7 +172,9 @@ impl McSettings {
 pub struct PassageSettings {
     /// The start (x, v).
     pub start: [f64; 2],
-    /// The output times of R(t).
+    /// The output times of R(t); empty: [`DEFAULT_TIMES`] evenly spaced times from 0 to
+    /// Monte Carlo's horizon when it is given, else to [`DEFAULT_MEANS`] times the grid's
+    /// mean time from the start ([`PassageSettings::output_times`]).
     pub times: Vec<f64>,
     /// The grid's cells (x, v).
     pub cells: [usize; 2],
@@ -176,6 +188,36 @@ pub struct PassageSettings {
 }
 
 impl PassageSettings {
+    /// The output times of R(t): [`PassageSettings::times`] when given, else
+    /// [`DEFAULT_TIMES`] evenly spaced from 0 to Monte Carlo's horizon when given, else to
+    /// [`DEFAULT_MEANS`] times `mean` (the grid's mean time from the start); `None` when
+    /// neither is known (Monte Carlo alone without a horizon, which the front ends refuse).
+    ///
+    /// ```
+    /// use fpsolve::job::passage::{McSettings, PassageSettings};
+    /// let mut s = PassageSettings {
+    ///     start: [0.0, 0.0], times: vec![], cells: [20, 20], domain: None, grid: true, mc: None,
+    /// };
+    /// let t = s.output_times(Some(2.0)).unwrap();
+    /// assert_eq!((t.len(), t[0], t[100]), (101, 0.0, 10.0));
+    /// s.mc = Some(McSettings { paths: 100, dt: 0.01, horizon: Some(4.0), seed: 1 });
+    /// assert_eq!(s.output_times(Some(2.0)).unwrap()[100], 4.0);
+    /// s.times = vec![1.0, 3.0];
+    /// assert_eq!(s.output_times(None).unwrap(), [1.0, 3.0]);
+    /// ```
+    pub fn output_times(&self, mean: Option<f64>) -> Option<Vec<f64>> {
+        if !self.times.is_empty() {
+            return Some(self.times.clone());
+        }
+        let end = self
+            .mc
+            .and_then(|m| m.horizon)
+            .or_else(|| mean.map(|m| DEFAULT_MEANS * m))
+            .filter(|e| e.is_finite() && *e > 0.0)?;
+        let n = DEFAULT_TIMES - 1;
+        Some((0..=n).map(|k| end * k as f64 / n as f64).collect())
+    }
+
     /// The grid's problem of `bound` and `safe` with these settings (without its output
     /// times): what the front ends check before any work ([`GridPassage::check`]).
     pub fn grid_passage<'a>(&self, bound: &'a BoundModel, safe: &'a BoundSafe) -> GridPassage<'a> {
@@ -313,10 +355,21 @@ impl PassageRun {
         let (grid, stationary) = rayon::join(
             || {
                 settings.grid.then(|| {
-                    settings
-                        .grid_passage(bound, safe)
-                        .times(settings.times.clone())
-                        .run()
+                    let passage = settings.grid_passage(bound, safe);
+                    let times = match settings.output_times(None) {
+                        Some(times) => times,
+                        // The mean time first (its solve is repeated with the times: a
+                        // fraction of the time-stepping's cost), then R(t) to
+                        // DEFAULT_MEANS of it.
+                        None => {
+                            let mean = passage.clone().estimate(false).run()?.mean_at_start;
+                            match settings.output_times(Some(mean)) {
+                                Some(times) => times,
+                                None => return passage.run(),
+                            }
+                        }
+                    };
+                    passage.times(times).run()
                 })
             },
             || {
@@ -338,9 +391,10 @@ impl PassageRun {
         let mc = match settings.mc {
             None => None,
             Some(m) => {
-                let times = grid
-                    .as_ref()
-                    .map_or(settings.times.clone(), |g| g.times.clone());
+                let times = match &grid {
+                    Some(g) => g.times.clone(),
+                    None => settings.output_times(None).unwrap_or_default(),
+                };
                 let horizon = m
                     .horizon
                     .or_else(|| grid.as_ref().map(|g| 20.0 * g.mean_at_start))

@@ -118,7 +118,7 @@ impl McPassageResult {
         let (mut lo, mut hi) = (Vec::new(), Vec::new());
         for &t in &times {
             let alive = valid.iter().filter(|&&e| e > t).count() as f64;
-            let (l, h) = wilson(alive, n);
+            let (l, h) = wilson(alive, n, Z95);
             reliability.push(if n > 0.0 { alive / n } else { f64::NAN });
             lo.push(l);
             hi.push(h);
@@ -169,16 +169,49 @@ fn variance_se(x: &[f64]) -> PassageEstimate {
     }
 }
 
-/// Wilson's 95 % interval for `k` successes in `n` trials (never outside [0, 1], not empty
-/// at 0 or n).
-fn wilson(k: f64, n: f64) -> (f64, f64) {
+impl McPassageResult {
+    /// Monte Carlo's standard error of R at output time `k` on the side of `value`: the
+    /// distance from R to the end of Wilson's score interval at `z` standard errors on that
+    /// side, over `z`. Near 0 or 1 (a few paths left, or a few gone) the binomial law is
+    /// skewed: the interval reaches further on the side away from the boundary, and a
+    /// symmetric error would flag a value that the counts do not contradict.
+    ///
+    /// ```
+    /// # use fpsolve::model::load_model;
+    /// # use fpsolve::mc::McPassage;
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = load_model(&path)?.with_safe("abs(z) < 1.2")?;
+    /// # let bound = model.bind(&[])?;
+    /// # let safe = model.safe().unwrap().bind(&bound)?;
+    /// let r = McPassage::new(&bound, &safe).paths(256).dt(0.02).horizon(200.0)
+    ///     .times(vec![0.0, 100.0]).run()?;
+    /// // No path is left at t = 100: R = 0, and only a value above it has an error.
+    /// assert_eq!(r.reliability[1], 0.0);
+    /// assert_eq!(r.reliability_stderr_toward(1, -1.0, 3.0), 0.0);
+    /// assert!(r.reliability_stderr_toward(1, 0.01, 3.0) > 0.0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn reliability_stderr_toward(&self, k: usize, value: f64, z: f64) -> f64 {
+        let n = (self.paths - self.blowups) as f64;
+        let (lo, hi) = wilson(self.reliability[k] * n, n, z);
+        if value >= self.reliability[k] {
+            (hi - self.reliability[k]) / z
+        } else {
+            (self.reliability[k] - lo) / z
+        }
+    }
+}
+
+/// Wilson's score interval at `z` standard errors for `k` successes in `n` trials (never
+/// outside [0, 1], not empty at 0 or n).
+fn wilson(k: f64, n: f64, z: f64) -> (f64, f64) {
     if n <= 0.0 {
         return (f64::NAN, f64::NAN);
     }
     let p = k / n;
-    let z2 = Z95 * Z95;
+    let z2 = z * z;
     let centre = (p + z2 / (2.0 * n)) / (1.0 + z2 / n);
-    let half = Z95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / (1.0 + z2 / n);
+    let half = z * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / (1.0 + z2 / n);
     // At k = 0 (k = n) the lower (upper) end is 0 (1) exactly; the formula leaves rounding.
     let lo = if k <= 0.0 {
         0.0
@@ -199,14 +232,40 @@ mod tests {
 
     #[test]
     fn wilson_brackets_the_fraction_and_stays_in_the_unit_interval() {
-        let (l, h) = wilson(0.0, 100.0);
+        let (l, h) = wilson(0.0, 100.0, Z95);
         assert_eq!(l, 0.0);
         assert!(h > 0.03 && h < 0.04, "{h}");
-        let (l, h) = wilson(50.0, 100.0);
+        let (l, h) = wilson(50.0, 100.0, Z95);
         assert!(
             (l - 0.4038).abs() < 1e-3 && (h - 0.5962).abs() < 1e-3,
             "{l} {h}"
         );
+    }
+
+    #[test]
+    fn the_error_of_a_tail_count_is_on_the_side_asked() {
+        // One path of 4000 still inside at t = 2 (R = 2.5e-4): 6.7 expected from the grid's
+        // 1.68e-3 is a p = 0.019 two-sided draw, not a 3-sigma one; the symmetric 95 %
+        // band's error (3.5e-4) put it 3.2 errors away.
+        let mut exits = vec![1.0; 3999];
+        exits.push(f64::INFINITY);
+        let run = Run {
+            exits: &exits,
+            coarse: &exits,
+            coarse_fine: &exits,
+            horizon: 10.0,
+            dt: 0.1,
+            seed: 1,
+        };
+        let r = McPassageResult::new(run, vec![0.0, 2.0]);
+        assert_eq!(r.reliability[1], 2.5e-4);
+        let up = r.reliability_stderr_toward(1, 1.68e-3, 3.0);
+        let down = r.reliability_stderr_toward(1, 0.0, 3.0);
+        assert!(up > 4e-4 && down < 1e-4, "{up} {down}");
+        // 3 of these errors above R is the end of Wilson's interval at 3: 2.72e-3.
+        assert!((r.reliability[1] + 3.0 * up - 2.72e-3).abs() < 1e-5);
+        // All paths inside at t = 0: no error above R = 1.
+        assert_eq!(r.reliability_stderr_toward(0, 1.0, 3.0), 0.0);
     }
 
     #[test]
