@@ -96,9 +96,9 @@ pub use tolerance::{
 };
 pub use transient::{
     GridPeriodic, GridTransient, Initial, Moments, PeriodicOutcome, PeriodicReport, PeriodicState,
-    Snapshot, SnapshotErrors, TransientError, TransientHistory, TransientReport, INITIAL_MASS_LOSS,
-    MAX_PERIOD_MAPS, PERIODIC_RESIDUAL, PERIOD_STEPS, POINT_CELLS, TRANSIENT_TOLERANCE,
-    UNRESOLVED_L1,
+    Snapshot, SnapshotErrors, TransientError, TransientHistory, TransientReport, EDGE_SDS,
+    INITIAL_MASS_LOSS, MAX_PERIOD_MAPS, PERIODIC_RESIDUAL, PERIOD_STEPS, POINT_CELLS,
+    TRANSIENT_TOLERANCE, UNRESOLVED_L1,
 };
 
 use crate::base::run::RunControl;

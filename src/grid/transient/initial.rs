@@ -14,7 +14,8 @@ use crate::numerics::quadrature::gauss_legendre;
 pub enum Initial {
     /// At rest, (x, v) = (0, 0): a Gaussian of [`POINT_CELLS`] cells' standard deviation on
     /// each axis (a point is not a cell density; this is the narrowest start the cells
-    /// resolve, and its exact evolution is that Gaussian's).
+    /// resolve, and its exact evolution is that Gaussian's), narrower on an axis where the
+    /// box's edge (a wall) is closer than [`EDGE_SDS`] of them, so that the box holds it.
     Rest,
     /// A point (x, v), as [`Initial::Rest`] is at the origin.
     Point([f64; 2]),
@@ -35,6 +36,12 @@ pub enum Initial {
 /// The standard deviation, in cells of each axis, of the Gaussian that stands for a point.
 pub const POINT_CELLS: f64 = 2.0;
 
+/// A point's Gaussian keeps this many standard deviations between its centre and the box's
+/// edges (a wall) on each axis, narrower than [`POINT_CELLS`] where it must: its mass
+/// beyond an edge is then below 1.3e−12 (a point at y = 1 beside a wall at 0 on cells
+/// 0.1 wide lost 2.9e−7 through it at 2 cells and was refused as outside the box).
+pub const EDGE_SDS: f64 = 7.0;
+
 /// Gauss–Legendre points per panel and axis; a cell is cut into panels no wider than half
 /// the Gaussian's (conditional) standard deviation along the axis, so that the rule's error
 /// on a cell integral stays below 1e−12 of its mass even for a start narrower than a cell.
@@ -47,8 +54,19 @@ const MAX_PANELS: usize = 64;
 impl Initial {
     /// The Gaussian this start stands for on `mesh` (`None` for cell values).
     pub(crate) fn gaussian(&self, mesh: &Mesh) -> Option<([f64; 2], [[f64; 2]; 2])> {
+        let d = mesh.domain();
         let point = |at: [f64; 2]| {
-            let (sx, sv) = (POINT_CELLS * mesh.hx, POINT_CELLS * mesh.hv);
+            // A point on or beyond an edge keeps the full width: the mass check refuses it.
+            let width = |h: f64, p: f64, [lo, hi]: [f64; 2]| {
+                let room = (p - lo).min(hi - p);
+                let full = POINT_CELLS * h;
+                if room > 0.0 {
+                    full.min(room / EDGE_SDS)
+                } else {
+                    full
+                }
+            };
+            let (sx, sv) = (width(mesh.hx, at[0], d.x), width(mesh.hv, at[1], d.v));
             (at, [[sx * sx, 0.0], [0.0, sv * sv]])
         };
         match self {
@@ -136,5 +154,45 @@ impl From<crate::model::InitialState> for Initial {
             InitialState::Point(at) => Initial::Point(at),
             InitialState::Gaussian { mean, covariance } => Initial::Gaussian { mean, covariance },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::mesh::Domain;
+
+    /// The mass and mean x of a start's cells.
+    fn mass_and_mean(mesh: &Mesh, start: &Initial) -> (f64, f64) {
+        let (mean, c) = start.gaussian(mesh).expect("a Gaussian start");
+        let p = gaussian_cells(mesh, mean, c);
+        let area = mesh.hx * mesh.hv;
+        let mass = p.iter().sum::<f64>() * area;
+        let mx = (0..mesh.cells())
+            .map(|k| p[k] * mesh.xc(k / mesh.nv))
+            .sum::<f64>()
+            * area;
+        (mass, mx / mass)
+    }
+
+    #[test]
+    fn a_point_beside_the_box_edge_stays_in_the_box() {
+        // Cells 0.1 wide in x from 0: two cells' width put 2.9e-7 of the mass below 0.
+        let d = Domain {
+            x: [0.0, 10.0],
+            v: [-10.0, 10.0],
+        };
+        let mesh = Mesh::new(d, 100, 200, &[], 1);
+        let (mass, mean) = mass_and_mean(&mesh, &Initial::Point([1.0, 0.0]));
+        assert!((mass - 1.0).abs() < 1e-11, "{mass}");
+        assert!((mean - 1.0).abs() < 1e-9, "{mean}");
+        // Far from the edges the point keeps its two cells.
+        let (mean, c) = Initial::Point([5.0, 0.0]).gaussian(&mesh).unwrap();
+        assert_eq!(mean, [5.0, 0.0]);
+        assert!((c[0][0].sqrt() - POINT_CELLS * mesh.hx).abs() < 1e-15);
+        // On the edge: the full width, and the mass check refuses it.
+        let (_, c) = Initial::Point([0.0, 0.0]).gaussian(&mesh).unwrap();
+        assert!((c[0][0].sqrt() - POINT_CELLS * mesh.hx).abs() < 1e-15);
+        assert!(mass_and_mean(&mesh, &Initial::Point([0.0, 0.0])).0 < 0.6);
     }
 }

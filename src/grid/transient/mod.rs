@@ -56,7 +56,7 @@ pub use error::TransientError;
 pub use history::{
     Moments, Snapshot, SnapshotErrors, TransientHistory, TransientReport, UNRESOLVED_L1,
 };
-pub use initial::{Initial, POINT_CELLS};
+pub use initial::{Initial, EDGE_SDS, POINT_CELLS};
 pub use periodic::{
     GridPeriodic, PeriodicOutcome, PeriodicReport, PeriodicState, MAX_PERIOD_MAPS,
     PERIODIC_RESIDUAL, PERIOD_STEPS,
