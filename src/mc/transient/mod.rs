@@ -16,7 +16,9 @@
 //! periodic force) is simulated with its coefficients at the times each scheme takes within
 //! a step (see `BatchState::advance`): the mechanical splitting's velocity update at the
 //! step's midpoint and Platen's scheme at the step's ends keep weak order 2, so the bias
-//! estimate's p is the scheme's order as for a model without the time.
+//! estimate's p is the scheme's order as for a model without the time. For coefficients of
+//! period P, [`McTransient::periodic`] samples the periodic steady state at phases instead
+//! ([`McPeriodic`]).
 //!
 //! ```
 //! use fpsolve::mc::McTransient;
