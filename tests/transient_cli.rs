@@ -291,3 +291,112 @@ fn a_monte_carlo_ensemble_stuck_at_its_start_is_flagged() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// `--period` with `--method grid,mc` on the forced linear oscillator (c = 0.2, k = 1,
+/// A = cos(0.8 t), intensity 0.2, as tests/transient_periodic.rs): both periodic states at
+/// four phases, Monte Carlo's columns beside the grid's in both files, the discarded and
+/// recorded periods in `summary.json`, and the grid's distance from Monte Carlo
+/// (`grid_vs_mc_in_se`) within 4 standard errors in every mean and variance; the
+/// Monte Carlo means and variances within 4 of the exact ones. A bad period with Monte Carlo
+/// alone is refused before any work.
+#[test]
+fn a_periodic_state_runs_on_both_methods_and_they_agree() {
+    let forced = fresh_path("transient_cli_forced.sde");
+    std::fs::write(
+        &forced,
+        "model forced\nparam c = 0.2, k = 1, A = 1, w = 0.8\nstate z, v\ndrift z: v\n\
+         drift v: -c*v - k*z + A*cos(w*t)\nnoise xi: intensity 0.2\ndiffusion v: xi\n",
+    )
+    .unwrap();
+    let period = 2.0 * std::f64::consts::PI / 0.8;
+    let p = format!("{period}");
+    let times = format!("0:{}:4", 0.75 * period);
+    let out = fresh_path("transient_cli_periodic_both");
+    let base = [
+        "transient",
+        forced.to_str().unwrap(),
+        "--period",
+        &p,
+        "--times",
+        &times,
+        "--cells",
+        "64,64",
+        "--domain",
+        "z=-7:7,v=-7:7",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&[
+        "--method",
+        "grid,mc",
+        "--trajectories",
+        "4096",
+        "--dt",
+        "0.02",
+        "--seed",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let o = fpsolve(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let s = json(&out.join("summary.json"));
+    assert_eq!(s["periodic"]["outcome"]["stop"], "converged");
+    let mc = &s["mc_periodic"];
+    let discarded = mc["discarded_periods"].as_u64().unwrap();
+    assert!(discarded >= 1, "{mc}");
+    assert_eq!(mc["recorded_periods"], 8);
+    let outputs = s["outputs"].as_array().unwrap();
+    assert_eq!(outputs.len(), 4);
+    for o in outputs {
+        for d in o["grid_vs_mc_in_se"].as_array().unwrap() {
+            for what in ["mean", "variance"] {
+                let z = d[what].as_f64().unwrap();
+                eprintln!(
+                    "phase {}: {} {what} grid - mc = {z:+.2} se; pdf worst {}",
+                    o["t"], d["state"], d["pdf_worst"]
+                );
+                assert!(
+                    z.abs() <= 4.0,
+                    "phase {} {} {what}: {z}",
+                    o["t"],
+                    d["state"]
+                );
+            }
+        }
+    }
+    let moments = std::fs::read_to_string(out.join("moments_vs_t.csv")).unwrap();
+    let mut lines = moments.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (c, k, w) = (0.2, 1.0, 0.8);
+    let den: f64 = (k - w * w) * (k - w * w) + (c * w) * (c * w);
+    for l in lines {
+        let r: Vec<f64> = l.split(',').map(|u| u.parse().unwrap()).collect();
+        let t = r[0];
+        let exact = ((k - w * w) * (w * t).cos() + c * w * (w * t).sin()) / den;
+        let (mean, se) = (r[col("z_mean_mc")], r[col("z_mean_mc_se")]);
+        assert!(
+            (mean - exact).abs() <= 4.0 * se,
+            "phase {t}: {mean} ± {se} vs {exact}"
+        );
+        let (var, se) = (r[col("z_variance_mc")], r[col("z_variance_mc_se")]);
+        assert!(
+            (var - 0.5).abs() <= 4.0 * se,
+            "phase {t}: {var} ± {se} vs 0.5"
+        );
+    }
+    let pdf = std::fs::read_to_string(out.join("pdf_z_t.csv")).unwrap();
+    assert!(pdf.starts_with("t,x,grid,mc,mc_se\n"), "{}", &pdf[..40]);
+    let _ = std::fs::remove_dir_all(&out);
+    // Monte Carlo alone checks the period before any work, as the grid does.
+    let refused = fresh_path("transient_cli_periodic_refused");
+    let mut args = base.to_vec();
+    args[3] = "7";
+    args.extend_from_slice(&["--method", "mc", "--out", refused.to_str().unwrap()]);
+    let o = fpsolve(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("not periodic with period 7"), "{stderr}");
+    assert!(!refused.exists());
+}

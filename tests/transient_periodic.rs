@@ -5,7 +5,8 @@
 //!   x_p(t) = A((k − w²) cos wt + c w sin wt)/((k − w²)² + (c w)²), the covariance the
 //!   unforced stationary one (var x = S/(2ck), var v = S/(2c), uncorrelated);
 //! - the Duffing oscillator under the same force against a Monte Carlo ensemble run for
-//!   many periods and sampled at fixed phases;
+//!   many periods and sampled at fixed phases, and against Monte Carlo's own periodic state
+//!   (`McTransient::periodic`);
 //! - the refusals before any work.
 
 mod transient_exact;
@@ -220,6 +221,68 @@ fn duffing_periodic_state_matches_monte_carlo_at_fixed_phases() {
                 assert!(
                     off.abs() <= 4.0 * est.stderr + bias(k) + grid_error,
                     "phase {} {what}[{axis}]",
+                    g.t
+                );
+            }
+        }
+        assert_eq!(s.blown_up, 0);
+    }
+    // Monte Carlo's own periodic state (the pilot's discarded periods, 8 recorded periods
+    // with batch-means errors) judged the same way.
+    let state = McTransient::new(&m)
+        .initial(InitialState::Rest)
+        .times(phases.clone())
+        .trajectories(16_384)
+        .dt(0.01)
+        .seed(17)
+        .periodic(period)
+        .run()
+        .unwrap();
+    eprintln!(
+        "mc periodic: {:?}, {:.0} ms",
+        state.report, state.history.settings.total_ms
+    );
+    for ((g, h), s) in fine
+        .history
+        .snapshots
+        .iter()
+        .zip(&coarse.history.snapshots)
+        .zip(&state.history.snapshots)
+    {
+        assert_eq!(g.t, s.t);
+        for axis in 0..2 {
+            let mm = &s.moments[axis];
+            let bias = |k: usize| mm.bias.map_or(0.0, |b| b[k].value.abs() + b[k].stderr);
+            for (what, grid, grid_coarse, est, k) in [
+                (
+                    "mean",
+                    g.moments[axis].mean,
+                    h.moments[axis].mean,
+                    mm.mean,
+                    0,
+                ),
+                (
+                    "var",
+                    g.moments[axis].variance,
+                    h.moments[axis].variance,
+                    mm.variance,
+                    1,
+                ),
+            ] {
+                let grid_error = 1.5 * (grid - grid_coarse).abs();
+                let off = grid - est.value;
+                eprintln!(
+                    "periodic mc, phase {:.3} {what}[{axis}]: grid {grid:+.5}, mc {:+.5} ± \
+                     {:.1e} (bias {:.1e}): {:+.2} se",
+                    g.t,
+                    est.value,
+                    est.stderr,
+                    bias(k),
+                    off / est.stderr
+                );
+                assert!(
+                    off.abs() <= 4.0 * est.stderr + bias(k) + grid_error,
+                    "periodic mc, phase {} {what}[{axis}]",
                     g.t
                 );
             }

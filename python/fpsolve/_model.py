@@ -642,10 +642,12 @@ class Model:
         params : mapping of str to number or str, optional
             Overrides as a dict.
         period : float, optional
-            As ``--period``: the coefficients' period P, for the grid's periodic steady state
-            (by the period map) instead of a history from the start; ``times`` are then
-            phases in [0, P], ``domain`` is required, ``method`` must be ``"grid"``;
-            ``report["periodic"]`` holds the fixed point's outcome (residual, period maps).
+            As ``--period``: the coefficients' period P, for the periodic steady state
+            instead of a history from the start (the grid's by the period map; Monte
+            Carlo's, with ``method="grid,mc"`` or ``"mc"``, over the periods after those its
+            pilot discards); ``times`` are then phases in [0, P] and ``domain`` is required;
+            ``report["periodic"]`` holds the grid's fixed point's outcome (residual, period
+            maps), ``report["mc_periodic"]`` Monte Carlo's discarded and recorded periods.
         **set : number or str
             Parameter overrides by keyword (``--set``).
 

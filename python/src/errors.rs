@@ -566,12 +566,15 @@ pub(crate) fn mc_error(py: Python<'_>, e: &McError) -> PyErr {
     raise::<MonteCarloError>(py, e.to_string(), kind, &attrs)
 }
 
-/// A Monte Carlo transient refused or failed: its settings, a start beyond a wall, or the
-/// stationary run's refusals.
+/// A Monte Carlo transient refused or failed: its settings, a start beyond a wall, a period
+/// that is not the coefficients' (a `ValueError`, as the grid's), a periodic state its pilot
+/// never saw settle, or the stationary run's refusals.
 pub(crate) fn mc_transient_error(py: Python<'_>, e: &McTransientError) -> PyErr {
     let kind = match e {
         McTransientError::Setting { .. } => "bad_setting",
         McTransientError::StartBeyondWall { .. } => "start_beyond_wall",
+        McTransientError::Period(_) => return bad_argument(e.to_string()),
+        McTransientError::NoPeriodicState { .. } => "no_periodic_state",
         McTransientError::Mc(e) => return mc_error(py, e),
     };
     raise::<MonteCarloError>(py, e.to_string(), kind, &[])

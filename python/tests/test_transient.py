@@ -388,5 +388,36 @@ def test_the_periodic_state_as_the_cli(cli, tmp_path):
     assert np.all(np.abs(cols["z_mean"] - exact) <= cols["z_mean_err"]), (cols["z_mean"], exact, cols["z_mean_err"])
     with pytest.raises(ValueError, match="period"):
         model.transient(times, cells=(32, 32), domain=box, period=-1.0)
-    with pytest.raises(ValueError):
-        model.transient(times, cells=(32, 32), domain=box, period=period, method="grid,mc")
+    with pytest.raises(ValueError, match="not periodic with period 7"):
+        model.transient(times, domain=box, period=7.0, method="mc")
+
+
+def test_the_periodic_state_on_both_methods_as_the_cli(cli, tmp_path):
+    # Monte Carlo's periodic state beside the grid's: the CLI's numbers to the bit, the
+    # discarded and recorded periods in the report, the MC means the harmonic response
+    # within 4 standard errors, and the grid's distance from MC within 4 of them.
+    path = tmp_path / "forced.sde"
+    path.write_text(FORCED)
+    period = 2 * np.pi / 0.8
+    box = "z=-8:8,v=-8:8"
+    times = f"0:{0.75 * period!r}:4"
+    args = ["--period", repr(period), "--times", times, "--cells", "48,48", "--domain", box]
+    mc = ["--method", "grid,mc", "--trajectories", "2048", "--dt", "0.02", "--seed", "4"]
+    run_cli(cli, path, tmp_path / "cli", *args, *mc)
+    model = fpsolve.Model.load(path)
+    py = model.transient(
+        times, cells=(48, 48), domain=box, period=period, method="grid,mc", trajectories=2048, dt=0.02, seed=4
+    )
+    summary = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(summary)
+    sampled = py.report["mc_periodic"]
+    assert sampled["discarded_periods"] >= 1 and sampled["recorded_periods"] == 8, sampled
+    header, cols = read_csv(tmp_path / "cli" / "moments_vs_t.csv")
+    np.testing.assert_array_equal(py.mc.mean["z"], cols["z_mean_mc"])
+    c, k, w = 0.2, 1.0, 0.8
+    den = (k - w * w) ** 2 + (c * w) ** 2
+    exact = ((k - w * w) * np.cos(w * py.t) + c * w * np.sin(w * py.t)) / den
+    assert np.all(np.abs(py.mc.mean["z"] - exact) <= 4 * py.mc.mean_se["z"]), (py.mc.mean["z"], exact)
+    for out in py.report["outputs"]:
+        for d in out["grid_vs_mc_in_se"]:
+            assert abs(d["mean"]) <= 4 and abs(d["variance"]) <= 4, (out["t"], d)

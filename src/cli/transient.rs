@@ -50,9 +50,10 @@ pub(crate) struct TransientArgs {
     /// Monte Carlo: the seed of the random streams.
     #[arg(long, value_name = "SEED", default_value_t = 1)]
     seed: u64,
-    /// The coefficients' period P: the grid's periodic steady state (by the period map)
-    /// instead of a history from the start; --times are then phases in [0, P], and the
-    /// start is the first guess (rest: a broad Gaussian at the box's centre).
+    /// The coefficients' period P: the periodic steady state instead of a history from the
+    /// start (the grid's by the period map, Monte Carlo's over the periods after those its
+    /// pilot discards); --times are then phases in [0, P], and the start is the grid's
+    /// first guess (rest: a broad Gaussian at the box's centre) and Monte Carlo's start.
     #[arg(long, value_name = "P")]
     period: Option<f64>,
     #[arg(long = "set", value_name = "NAME=VALUE")]
@@ -196,6 +197,19 @@ fn say(h: &TransientRun, state: &str) {
                 r.negative_mass
             );
         }
+    }
+    if let Some(p) = &h.mc_periodic {
+        crate::cli::console::sayln!(
+            "mc periodic state, period {}: {} periods discarded (pilot of {} trajectories over \
+             {} periods: settled after {:.1}, decay time {:.2} periods), {} recorded at each phase",
+            p.period,
+            p.discarded_periods,
+            p.pilot.trajectories,
+            p.pilot.periods,
+            p.pilot.settled_periods,
+            p.pilot.decay_periods,
+            p.recorded_periods
+        );
     }
     if let Some(m) = &h.mc {
         let s = &m.settings;

@@ -89,7 +89,7 @@ pub use stats::verdict::{
     MIN_STATIONARITY_BATCHES, OUTSIDE_GRID_TOLERANCE,
 };
 pub use transient::{
-    McDensity, McSnapshot, McStateMoments, McTransient, McTransientError, McTransientHistory,
-    McTransientSettings, MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, TRANSIENT_LANES,
-    WALL_SDS,
+    McDensity, McPeriodic, McPeriodicPilot, McPeriodicReport, McPeriodicState, McSnapshot,
+    McStateMoments, McTransient, McTransientError, McTransientHistory, McTransientSettings,
+    MAX_TRANSIENT_STEPS, MAX_TRANSIENT_TRAJECTORIES, RECORDED_PERIODS, TRANSIENT_LANES, WALL_SDS,
 };

@@ -109,17 +109,17 @@ const RELAX_SALT: u64 = 0x5245_4C41_585F_504C;
 
 /// What the pilot's moments show.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Relaxation {
+pub(super) struct Relaxation {
     /// t*: every statistic within [`SETTLED_SE`] of its level from then on.
-    settled: f64,
+    pub(super) settled: f64,
     /// One decay time τ.
-    decay: f64,
+    pub(super) decay: f64,
 }
 
 /// The relaxation of the statistics' `series` ((value, standard error) at each of `times`),
 /// `None` while the last quarter still drifts from the one before. A statistic with no
 /// finite value at some time (a kurtosis at a point start) is judged on its finite ones.
-fn relaxation(times: &[f64], series: &[Vec<(f64, f64)>]) -> Option<Relaxation> {
+pub(super) fn relaxation(times: &[f64], series: &[Vec<(f64, f64)>]) -> Option<Relaxation> {
     let n = times.len();
     let q = n / 4;
     let mut settled: f64 = 0.0;

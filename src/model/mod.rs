@@ -34,6 +34,7 @@ pub use periodic::{BoundPeriodic, Periodic};
 pub use provenance::{set_command, ModelSource, Provenance, SCHEMA_VERSION};
 pub use safe::{BoundSafe, SafeError, SafeSet};
 pub use set::SetError;
+pub use time::PeriodError;
 pub use validate::{DeltaMisuse, SemanticError, MAX_PARAMETER_CHAIN};
 
 use crate::symbolic::{Expr, Symbol};

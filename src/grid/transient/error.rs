@@ -81,3 +81,36 @@ pub enum TransientError {
     #[error("time stepping failed: {0}")]
     Step(#[from] StepError),
 }
+
+impl From<crate::model::PeriodError> for TransientError {
+    /// The shared period check's refusal as the grid words it (a period that is not
+    /// positive is the `period` setting).
+    fn from(e: crate::model::PeriodError) -> TransientError {
+        use crate::model::PeriodError;
+        match e {
+            PeriodError::NotPositive { period } => TransientError::Setting {
+                setting: "period",
+                value: format!("{period}"),
+                expected: "finite, positive",
+            },
+            PeriodError::NotTimeDependent { model } => TransientError::NotTimeDependent { model },
+            PeriodError::NotPeriodic {
+                coefficient,
+                period,
+                t,
+                x,
+                v,
+                at_t,
+                at_next,
+            } => TransientError::NotPeriodic {
+                coefficient,
+                period,
+                t,
+                x,
+                v,
+                at_t,
+                at_next,
+            },
+        }
+    }
+}

@@ -23,7 +23,8 @@
 //! * **Checks before any work.** A finite period > 0; a model whose coefficients mention t
 //!   (otherwise [`TransientError::NotTimeDependent`]: the stationary solver applies); the
 //!   drift and diffusion equal at t and t + P at probe points of the box
-//!   ([`TransientError::NotPeriodic`] names the coefficient); the transient's own checks.
+//!   ([`TransientError::NotPeriodic`] names the coefficient: the check every method shares,
+//!   [`crate::model::BoundModel::check_period`]); the transient's own checks.
 
 use std::cell::{Cell, RefCell};
 use std::fmt;
@@ -39,6 +40,7 @@ use crate::base::limits::memory_limit_bytes;
 use crate::grid::mesh::{Domain, Mesh};
 use crate::grid::nested::{cell_coords, nested_dissection};
 use crate::grid::problem::Mechanical;
+use crate::model::PeriodError;
 use crate::numerics::krylov::gmres;
 use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
 use crate::numerics::sparse::pattern_lu::PatternLu;
@@ -62,10 +64,6 @@ const SCHEME: Scheme = Scheme::Esdirk4;
 
 /// Krylov vectors kept before GMRES restarts from the true residual.
 const RESTART: usize = 40;
-
-/// A coefficient counts as periodic when its values at t and t + P differ by at most this
-/// times its largest magnitude over the probes.
-const PERIODICITY: f64 = 1e-9;
 
 /// The share of the memory limit the kept stage factorisations may use.
 const CACHE_SHARE: f64 = 0.75;
@@ -326,8 +324,10 @@ impl GridPeriodic<'_> {
             expected,
         };
         let p = self.period;
-        if !(p.is_finite() && p > 0.0) {
-            return Err(setting("period", format!("{p}"), "finite, positive"));
+        let model = self.transient.model;
+        // The period's own value first, then this run's settings, then the model's time.
+        if let Err(e @ PeriodError::NotPositive { .. }) = model.check_period(p, None) {
+            return Err(e.into());
         }
         if !(self.residual.is_finite() && self.residual > 0.0) {
             return Err(setting(
@@ -346,12 +346,7 @@ impl GridPeriodic<'_> {
                 "at least 1",
             ));
         }
-        let model = self.transient.model;
-        if !model.time_dependent() {
-            return Err(TransientError::NotTimeDependent {
-                model: model.name().to_string(),
-            });
-        }
+        model.check_period(p, None)?;
         if self.transient.times.iter().any(|t| *t > p) {
             return Err(setting(
                 "times",
@@ -368,7 +363,8 @@ impl GridPeriodic<'_> {
             };
         }
         let (problem, mesh, p0, inside) = transient.prepare()?;
-        probe_period(&problem, mesh.domain(), p, &model.states()[1])?;
+        let d = mesh.domain();
+        model.check_period(p, Some([d.x, d.v]))?;
         Ok((problem, mesh, p0, inside, transient))
     }
 
@@ -530,47 +526,6 @@ struct Solved {
     factorizations: usize,
     assemblies: usize,
     cached_stages: usize,
-}
-
-/// Refuses a period the drift or the diffusion of `velocity` does not have: both compared at
-/// t and t + `period` on 3×3 points of `domain` at four phases.
-fn probe_period(
-    problem: &Mechanical,
-    domain: Domain,
-    period: f64,
-    velocity: &str,
-) -> Result<(), TransientError> {
-    let at = |range: [f64; 2], f: f64| range[0] + f * (range[1] - range[0]);
-    let fractions = [0.19, 0.52, 0.83];
-    let (mut xs, mut vs) = (Vec::new(), Vec::new());
-    for fx in fractions {
-        for fv in fractions {
-            xs.push(at(domain.x, fx));
-            vs.push(at(domain.v, fv));
-        }
-    }
-    for phase in [0.0, 0.29, 0.61, 0.88] {
-        let t = phase * period;
-        let now = problem.at_time(t).eval(&xs, &vs)?;
-        let next = problem.at_time(t + period).eval(&xs, &vs)?;
-        for (what, a, b) in [("drift", &now.m, &next.m), ("diffusion", &now.b, &next.b)] {
-            let scale = a.iter().chain(b).fold(0.0f64, |m, v| m.max(v.abs()));
-            for k in 0..xs.len() {
-                if (a[k] - b[k]).abs() > PERIODICITY * scale {
-                    return Err(TransientError::NotPeriodic {
-                        coefficient: format!("the {what} of `{velocity}`"),
-                        period,
-                        t,
-                        x: xs[k],
-                        v: vs[k],
-                        at_t: a[k],
-                        at_next: b[k],
-                    });
-                }
-            }
-        }
-    }
-    Ok(())
 }
 
 /// A factorised stage matrix.

@@ -17,8 +17,8 @@ use std::str::FromStr;
 use crate::grid::{
     Domain, GridError, GridTransient, PeriodicReport, TransientError, TransientHistory,
 };
-use crate::mc::{McError, McTransient, McTransientError, McTransientHistory};
-use crate::model::{BoundModel, InitialError, InitialState, Model};
+use crate::mc::{McError, McPeriodicReport, McTransient, McTransientError, McTransientHistory};
+use crate::model::{BoundModel, InitialError, InitialState, Model, PeriodError};
 
 pub use tables::Columns;
 pub use warnings::TransientWarning;
@@ -137,8 +137,10 @@ pub struct TransientSettings {
     pub tolerance: Option<f64>,
     /// Monte Carlo's settings (used when [`Methods::mc`]).
     pub mc: McSettings,
-    /// The coefficients' period: the grid's periodic steady state instead of a history
-    /// from the start ([`crate::grid::GridPeriodic`]), `times` then phases in [0, period].
+    /// The coefficients' period: the periodic steady state instead of a history from the
+    /// start (the grid's by the period map, [`crate::grid::GridPeriodic`]; Monte Carlo's
+    /// after the periods its pilot discards, [`crate::mc::McPeriodic`]), `times` then phases
+    /// in [0, period].
     pub period: Option<f64>,
 }
 
@@ -171,15 +173,10 @@ pub enum TransientSetupError {
     /// The grid's refusal (a setting, the model, the start outside the box).
     #[error(transparent)]
     Grid(TransientError),
-    /// Monte Carlo's refusal (a setting, the model, a start beyond a wall).
+    /// Monte Carlo's refusal (a setting, the model, a start beyond a wall, a period that is
+    /// not the coefficients').
     #[error(transparent)]
     Mc(McTransientError),
-    /// A period with Monte Carlo: the periodic state is the grid's alone.
-    #[error(
-        "the periodic state (--period) is the grid's alone: run --method grid, or Monte \
-         Carlo without --period to the times whose phases you want"
-    )]
-    PeriodWithMc,
 }
 
 impl TransientSetupError {
@@ -198,10 +195,12 @@ impl TransientSetupError {
                 Some("domain")
             }
             TransientSetupError::Tolerance(_) => Some("tol"),
-            TransientSetupError::PeriodWithMc => Some("period"),
             TransientSetupError::Grid(TransientError::Setting {
                 setting: "period", ..
-            }) => Some("period"),
+            })
+            | TransientSetupError::Mc(McTransientError::Period(PeriodError::NotPositive {
+                ..
+            })) => Some("period"),
             TransientSetupError::Grid(_) | TransientSetupError::Mc(_) => None,
         }
     }
@@ -297,16 +296,13 @@ impl TransientSettings {
             return Err(TransientSetupError::Tolerance(tolerance));
         }
         self.tolerance = Some(tolerance);
-        if let Some(period) = self.period {
-            if self.methods.mc() {
-                return Err(TransientSetupError::PeriodWithMc);
-            }
+        if let (Some(period), true) = (self.period, self.methods.grid()) {
             let domain = grid_run(bound, &self)
                 .periodic(period)
                 .check()
                 .map_err(TransientSetupError::Grid)?;
             self.domain = Some(domain);
-        } else if self.methods.grid() {
+        } else if self.period.is_none() && self.methods.grid() {
             let domain = grid_run(bound, &self)
                 .check()
                 .map_err(TransientSetupError::Grid)?;
@@ -316,9 +312,18 @@ impl TransientSettings {
             if self.domain.is_none() {
                 return Err(TransientSetupError::McWithoutBox);
             }
-            mc_run(bound, &self)
-                .check()
-                .map_err(TransientSetupError::Mc)?;
+            let run = mc_run(bound, &self);
+            match self.period {
+                // The period is probed on the box the histograms will cover.
+                Some(period) => match self.domain.map(|d| domain_bins(d, self.cells)) {
+                    Some([Ok(x), Ok(v)]) => run.bins([x, v]),
+                    _ => run,
+                }
+                .periodic(period)
+                .check(),
+                None => run.check(),
+            }
+            .map_err(TransientSetupError::Mc)?;
         }
         Ok(CheckedTransient { settings: self })
     }
@@ -360,7 +365,7 @@ impl CheckedTransient {
     }
 
     /// Runs the grid, then Monte Carlo on its cells as bins (on the box's `cells` without
-    /// it), each on the current rayon pool.
+    /// it), each on the current rayon pool; with a period, each method's periodic state.
     ///
     /// ```
     /// use fpsolve::grid::Domain;
@@ -382,7 +387,7 @@ impl CheckedTransient {
         let s = &self.settings;
         let mut periodic = None;
         let grid = match s.period {
-            Some(period) => {
+            Some(period) if s.methods.grid() => {
                 let state = grid_run(bound, s)
                     .periodic(period)
                     .run()
@@ -393,8 +398,9 @@ impl CheckedTransient {
             None if s.methods.grid() => {
                 Some(grid_run(bound, s).run().map_err(TransientRunError::Grid)?)
             }
-            None => None,
+            _ => None,
         };
+        let mut mc_periodic = None;
         let mc = if s.methods.mc() {
             // The grid's bins (its cells on its box), so that the columns line up.
             let [bx, bv] = match &grid {
@@ -402,24 +408,24 @@ impl CheckedTransient {
                     let m = &g.snapshots[0].marginals;
                     [bins_of(&m[0]), bins_of(&m[1])]
                 }
-                None => {
-                    let d = s.domain.expect("checked: Monte Carlo alone has a box");
-                    [
-                        crate::mc::Grid::new(d.x[0], d.x[1], s.cells[0]),
-                        crate::mc::Grid::new(d.v[0], d.v[1], s.cells[1]),
-                    ]
-                }
+                None => domain_bins(
+                    s.domain.expect("checked: Monte Carlo alone has a box"),
+                    s.cells,
+                ),
             };
             let bins = [
                 bx.map_err(TransientRunError::Bins)?,
                 bv.map_err(TransientRunError::Bins)?,
             ];
-            Some(
-                mc_run(bound, s)
-                    .bins(bins)
-                    .run()
-                    .map_err(TransientRunError::Mc)?,
-            )
+            let run = mc_run(bound, s).bins(bins);
+            Some(match s.period {
+                Some(period) => {
+                    let state = run.periodic(period).run().map_err(TransientRunError::Mc)?;
+                    mc_periodic = Some(state.report);
+                    state.history
+                }
+                None => run.run().map_err(TransientRunError::Mc)?,
+            })
         } else {
             None
         };
@@ -428,8 +434,17 @@ impl CheckedTransient {
             grid,
             mc,
             periodic,
+            mc_periodic,
         })
     }
+}
+
+/// The bins of `cells` on the box `d`.
+fn domain_bins(d: Domain, cells: [usize; 2]) -> [Result<crate::mc::Grid, McError>; 2] {
+    [
+        crate::mc::Grid::new(d.x[0], d.x[1], cells[0]),
+        crate::mc::Grid::new(d.v[0], d.v[1], cells[1]),
+    ]
 }
 
 /// The bins of a grid marginal's cells.
@@ -448,9 +463,12 @@ pub struct TransientRun {
     pub grid: Option<TransientHistory>,
     /// Monte Carlo's, when it ran.
     pub mc: Option<McTransientHistory>,
-    /// How the periodic state was found, when a period was given (the grid's snapshots
-    /// are then at phases).
+    /// How the grid's periodic state was found, when a period was given and the grid ran
+    /// (its snapshots are then at phases).
     pub periodic: Option<PeriodicReport>,
+    /// How Monte Carlo sampled the periodic state (the periods discarded and recorded), when
+    /// a period was given and Monte Carlo ran (its snapshots are then at phases).
+    pub mc_periodic: Option<McPeriodicReport>,
 }
 
 impl TransientRun {

@@ -99,6 +99,10 @@ struct Summary<'a> {
     /// then phases).
     #[serde(skip_serializing_if = "Option::is_none")]
     periodic: Option<&'a crate::grid::PeriodicReport>,
+    /// Monte Carlo's periodic state, when a period was given: the periods discarded (the
+    /// pilot's choice) and recorded at each phase.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mc_periodic: Option<&'a crate::mc::McPeriodicReport>,
     outputs: Vec<Output<'a>>,
 }
 
@@ -217,6 +221,7 @@ impl TransientRun {
                 settings: &m.settings,
             }),
             periodic: self.periodic.as_ref(),
+            mc_periodic: self.mc_periodic.as_ref(),
             outputs,
         }
     }

@@ -101,3 +101,49 @@ fn the_tables_hold_every_quantity_and_cell() {
     assert_eq!(pdf.csv().lines().count(), 1 + 3 * 32);
     assert!(run.warnings(&bound).iter().all(|w| !w.flags()));
 }
+
+/// A period with Monte Carlo alone: the period checked before any work (its value the
+/// `period` setting, a period the force does not have naming the coefficient), then the
+/// periodic state at the phases with Monte Carlo's report and no grid.
+#[test]
+fn a_period_runs_on_monte_carlo_alone() {
+    let bound = parse_model(
+        "model f\nstate x, v\ndrift x: v\ndrift v: -0.5*v - x + cos(t)\n\
+         noise xi: intensity 0.5\ndiffusion v: xi\n",
+        None,
+    )
+    .unwrap()
+    .bind(&[])
+    .unwrap();
+    let period = 2.0 * std::f64::consts::PI;
+    let mut s = small(Methods::Mc);
+    s.times = vec![0.0, 0.5 * period];
+    s.period = Some(-1.0);
+    let e = s.clone().check(&bound).unwrap_err();
+    assert_eq!(e.setting(), Some("period"), "{e}");
+    s.period = Some(3.0);
+    let e = s.clone().check(&bound).unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            TransientSetupError::Mc(McTransientError::Period(PeriodError::NotPeriodic { .. }))
+        ),
+        "{e}"
+    );
+    s.period = Some(period);
+    let run = s.check(&bound).unwrap().run(&bound).unwrap();
+    assert!(run.grid.is_none() && run.periodic.is_none());
+    assert_eq!(run.times(), vec![0.0, 0.5 * period]);
+    let report = run.mc_periodic.expect("Monte Carlo's periodic report");
+    assert!(report.discarded_periods >= 1 && report.recorded_periods == 8);
+    // In resonance the response is 2 sin t: the velocity's mean 2 cos t is 2 at phase 0
+    // and −2 half a period later.
+    let mean = |k: usize| run.mc.as_ref().unwrap().snapshots[k].moments[1].mean;
+    for (k, exact) in [(0, 2.0), (1, -2.0)] {
+        let m = mean(k);
+        assert!(
+            (m.value - exact).abs() < 5.0 * m.stderr + 0.02,
+            "{k}: {m:?}"
+        );
+    }
+}

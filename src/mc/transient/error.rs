@@ -2,8 +2,9 @@
 
 use crate::mc::McError;
 
-/// Why [`crate::mc::McTransient::run`] returned no history; every variant is raised before
-/// any trajectory is stepped.
+/// Why [`crate::mc::McTransient::run`] or [`crate::mc::McPeriodic::run`] returned no
+/// history; every variant but [`McTransientError::NoPeriodicState`] (which a pilot ensemble
+/// finds) is raised before any trajectory is stepped.
 ///
 /// ```
 /// use fpsolve::mc::McTransientError;
@@ -39,6 +40,25 @@ pub enum McTransientError {
         state: String,
         /// Where the wall is.
         at: f64,
+    },
+    /// The period given is not the coefficients' (the check every method shares,
+    /// [`crate::model::BoundModel::check_period`]).
+    #[error(transparent)]
+    Period(#[from] crate::model::PeriodError),
+    /// The pilot's stroboscopic statistics (at t = kP) still drifted when the next doubling
+    /// of its horizon would have passed its budget of trajectory steps.
+    #[error(
+        "no periodic state found: the pilot's moments at phase 0 (t = kP, P = {period}) still          drift after {periods} periods ({spent:e} trajectory steps, the next doubling would          pass {budget:e}); the damping may be too light for Monte Carlo to forget the start"
+    )]
+    NoPeriodicState {
+        /// The period.
+        period: f64,
+        /// The pilot's last horizon, in periods.
+        periods: u64,
+        /// Trajectory steps the pilot took.
+        spent: f64,
+        /// Its budget.
+        budget: f64,
     },
     /// The model cannot be simulated, or dt is unstable for it (the stationary run's checks).
     #[error(transparent)]

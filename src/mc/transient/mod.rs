@@ -16,7 +16,9 @@
 //! periodic force) is simulated with its coefficients at the times each scheme takes within
 //! a step (see `BatchState::advance`): the mechanical splitting's velocity update at the
 //! step's midpoint and Platen's scheme at the step's ends keep weak order 2, so the bias
-//! estimate's p is the scheme's order as for a model without the time.
+//! estimate's p is the scheme's order as for a model without the time. For coefficients of
+//! period P, [`McTransient::periodic`] samples the periodic steady state at phases instead
+//! ([`McPeriodic`]).
 //!
 //! ```
 //! use fpsolve::mc::McTransient;
@@ -52,6 +54,7 @@
 //! ```
 
 mod error;
+mod periodic;
 mod sums;
 
 use std::time::Instant;
@@ -70,6 +73,9 @@ use crate::stats::Estimate;
 use sums::PowerSums;
 
 pub use error::McTransientError;
+pub use periodic::{
+    McPeriodic, McPeriodicPilot, McPeriodicReport, McPeriodicState, RECORDED_PERIODS,
+};
 
 /// Trajectories per batch: the unit of the error bars and of the bias run's pairing.
 pub const TRANSIENT_LANES: usize = 64;
@@ -568,19 +574,13 @@ impl<'a> McTransient<'a> {
         vec![[vec![0; n(0)], vec![0; n(1)]]; self.times.len()]
     }
 
-    /// The batches `batches` stepped side by side in one state, from the start through
-    /// every output time: each batch's power sums per time and state pushed to `pass` (in
-    /// batch order), its counts added there (those of a batch below `pairs` also to the
-    /// paired counts).
-    fn block(
+    /// The state of the batches `batches` side by side at their start (drawn from the
+    /// initial law, each lane from its own stream), and each batch's lanes in it.
+    fn start(
         &self,
         plan: &Plan,
-        spans: &[Option<SpanTable>],
         batches: std::ops::Range<u64>,
-        pairs: u64,
-        dt: f64,
-        pass: &mut Pass,
-    ) {
+    ) -> (BatchState, Vec<(u64, std::ops::Range<usize>)>) {
         let width = TRANSIENT_LANES as u64;
         let first = batches.start * width;
         let lanes = self
@@ -632,6 +632,23 @@ impl<'a> McTransient<'a> {
                 (k, lo.min(lanes)..(lo + TRANSIENT_LANES).min(lanes))
             })
             .collect();
+        (b, members)
+    }
+
+    /// The batches `batches` stepped side by side in one state, from the start through
+    /// every output time: each batch's power sums per time and state pushed to `pass` (in
+    /// batch order), its counts added there (those of a batch below `pairs` also to the
+    /// paired counts).
+    fn block(
+        &self,
+        plan: &Plan,
+        spans: &[Option<SpanTable>],
+        batches: std::ops::Range<u64>,
+        pairs: u64,
+        dt: f64,
+        pass: &mut Pass,
+    ) {
+        let (mut b, members) = self.start(plan, batches);
         let mut sums = vec![Vec::with_capacity(self.times.len()); members.len()];
         let mut now = 0.0;
         for (k, &t) in self.times.iter().enumerate() {

@@ -7,7 +7,7 @@ use crate::stats::Estimate;
 
 /// Groups of batches the jackknife deletes one at a time (fewer when there are fewer
 /// batches).
-const GROUPS: usize = 32;
+pub(super) const GROUPS: usize = 32;
 
 /// Power sums of q − `shift` over the `n` finite samples of one batch.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -36,6 +36,22 @@ impl PowerSums {
             }
         }
         PowerSums { n, shift, s }
+    }
+
+    /// The sums of both samples together, about their common mean (a trajectory's values
+    /// at one phase over several periods are one batch's samples).
+    pub(super) fn merge(&self, other: &PowerSums) -> PowerSums {
+        let n = self.n + other.n;
+        if n == 0.0 {
+            return PowerSums::default();
+        }
+        let shift = (self.n * self.shift + other.n * other.shift) / n;
+        let (a, b) = (self.about(shift), other.about(shift));
+        PowerSums {
+            n,
+            shift,
+            s: std::array::from_fn(|k| a[k + 1] + b[k + 1]),
+        }
     }
 
     /// [n, Σ(q − c), …, Σ(q − c)⁴].
@@ -190,6 +206,19 @@ mod tests {
             "{} {se}",
             mean.stderr
         );
+        // Merging the batches one by one is the whole sample too.
+        let merged = batches[1..].iter().fold(batches[0], |acc, b| acc.merge(b));
+        let whole = PowerSums::of(&all);
+        assert_eq!(merged.n, whole.n);
+        assert!((merged.shift - whole.shift).abs() < 1e-12 * m);
+        for k in 1..4 {
+            let (a, b) = (merged.s[k], whole.s[k]);
+            // Σd³ of a symmetric sample is near 0: judged on the scale of Σd⁴.
+            assert!(
+                (a - b).abs() < 1e-9 * whole.s[3].max(b.abs()),
+                "{k}: {a} {b}"
+            );
+        }
         // The same batches at both steps: no bias, exactly.
         let b = bias(&batches, &batches, 1);
         assert!(b.iter().all(|e| e.value == 0.0 && e.stderr == 0.0), "{b:?}");
