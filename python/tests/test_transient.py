@@ -126,7 +126,13 @@ def test_shapes(both):
 
 def test_warnings_are_the_cli_warnings(both):
     _, console, py, caught = both
-    assert py.warnings == console_warnings(console) and len(py.warnings) == 3
+    assert py.warnings == console_warnings(console)
+    # The grid's three resolution warnings (40x40 cells), then where the two methods are
+    # apart: here Monte Carlo's variance of z at t = 3 with 2048 paths, 0.4424 ± 0.0102,
+    # against the grid's 0.4903 ± 0.0076 (the Lyapunov equation's 0.4834).
+    assert len(py.warnings) >= 3
+    assert all("Monte Carlo's" in w and "further apart than 3" in w for w in py.warnings[3:])
+    assert not any("Monte Carlo's" in w for w in py.warnings[:3])
     assert caught == py.warnings and py.flags == []
 
 

@@ -21,7 +21,7 @@ use crate::mc::{McError, McPeriodicReport, McTransient, McTransientError, McTran
 use crate::model::{BoundModel, InitialError, InitialState, Model, PeriodError};
 
 pub use tables::Columns;
-pub use warnings::TransientWarning;
+pub use warnings::{TransientWarning, DISAGREE_SE};
 
 /// Which methods run: the grid, Monte Carlo or both.
 ///

@@ -69,7 +69,38 @@ pub enum TransientWarning {
     /// The period map did not reach its residual: the outputs are the last iterate's.
     #[error("{0}")]
     PeriodicNotConverged(crate::grid::PeriodicOutcome),
+    /// A state's mean or variance by the grid and by Monte Carlo further apart, at some
+    /// output after the start, than [`DISAGREE_SE`] of Monte Carlo's standard errors plus the
+    /// grid's estimated error (the worst output, by |grid − MC| over that sum).
+    #[error(
+        "the grid's {moment} of {state} at t = {} is {grid:.6}, Monte Carlo's {mc:.6} ± \
+         {stderr:.2e} (SE): further apart than {DISAGREE_SE} standard errors plus the grid's \
+         estimated error ({grid_error:.2e}); compare finer --cells, and Monte Carlo at a \
+         smaller --dt",
+        crate::report::short_number(*t)
+    )]
+    Disagree {
+        /// The state.
+        state: String,
+        /// `mean` or `variance`.
+        moment: &'static str,
+        /// The output time.
+        t: f64,
+        /// The grid's value.
+        grid: f64,
+        /// Its estimated error (0 without the estimate's run).
+        grid_error: f64,
+        /// Monte Carlo's value.
+        mc: f64,
+        /// Its standard error.
+        stderr: f64,
+    },
 }
+
+/// How many Monte Carlo standard errors, beyond the grid's estimated error, the grid's and
+/// Monte Carlo's mean or variance of a state may be apart before a warning
+/// ([`TransientWarning::Disagree`]), as in the first-passage and stationary jobs.
+pub const DISAGREE_SE: f64 = 3.0;
 
 impl TransientWarning {
     /// Whether the run's numbers are not to be trusted (the command line exits 1 with its
@@ -86,7 +117,8 @@ impl TransientWarning {
 impl TransientRun {
     /// The warnings: each state's uncertain grid variance, then each state's unresolved grid
     /// marginal, then a periodic state not converged, then a Monte Carlo ensemble stuck at
-    /// its start.
+    /// its start, then each state's mean and variance where the grid and Monte Carlo
+    /// disagree.
     pub fn warnings(&self, model: &BoundModel) -> Vec<TransientWarning> {
         let states: Vec<String> = model.states().iter().map(|s| s.to_string()).collect();
         let mut out = Vec::new();
@@ -97,10 +129,78 @@ impl TransientRun {
         if let Some(p) = self.periodic.as_ref().filter(|p| !p.outcome.converged()) {
             out.push(TransientWarning::PeriodicNotConverged(p.outcome));
         }
-        if let Some(t) = self.mc.as_ref().and_then(|m| m.stuck_at_start()) {
+        let stuck = self.mc.as_ref().and_then(|m| m.stuck_at_start());
+        if let Some(t) = stuck {
             out.push(TransientWarning::StuckAtStart { t });
         }
+        // A stuck ensemble is flagged already; its distances say nothing more.
+        if let (Some(g), Some(m), None) = (&self.grid, &self.mc, stuck) {
+            out.extend(disagreements(g, m, &states));
+        }
         out
+    }
+}
+
+/// Per state and moment (mean, variance), the worst output after the start where the grid
+/// and Monte Carlo are further apart than [`DISAGREE_SE`] standard errors plus the grid's
+/// estimated error.
+fn disagreements(
+    g: &TransientHistory,
+    m: &crate::mc::McTransientHistory,
+    states: &[String],
+) -> Vec<TransientWarning> {
+    let mut out = Vec::new();
+    for (a, state) in states.iter().enumerate() {
+        for moment in ["mean", "variance"] {
+            let worst = g
+                .snapshots
+                .iter()
+                .zip(&m.snapshots)
+                .filter(|(gs, _)| gs.t > 0.0)
+                .filter_map(|(gs, ms)| {
+                    let (grid, est, mc) = match moment {
+                        "mean" => (
+                            gs.moments[a].mean,
+                            gs.estimate.as_ref().map(|e| e.moments[a].mean),
+                            ms.moments[a].mean,
+                        ),
+                        _ => (
+                            gs.moments[a].variance,
+                            gs.estimate.as_ref().map(|e| e.moments[a].variance),
+                            ms.moments[a].variance,
+                        ),
+                    };
+                    let grid_error = est.filter(|e| e.is_finite()).unwrap_or(0.0);
+                    let gap = (grid - mc.value).abs();
+                    let over = gap - DISAGREE_SE * mc.stderr - grid_error;
+                    (over > 0.0 && gap.is_finite()).then_some(TransientWarning::Disagree {
+                        state: state.clone(),
+                        moment,
+                        t: gs.t,
+                        grid,
+                        grid_error,
+                        mc: mc.value,
+                        stderr: mc.stderr,
+                    })
+                })
+                .max_by(|a, b| distance(a).total_cmp(&distance(b)));
+            out.extend(worst);
+        }
+    }
+    out
+}
+
+/// |grid − MC| / (SE + the grid's error) of a [`TransientWarning::Disagree`].
+fn distance(w: &TransientWarning) -> f64 {
+    match w {
+        TransientWarning::Disagree {
+            grid,
+            grid_error,
+            mc,
+            stderr,
+            ..
+        } => (grid - mc).abs() / (stderr + grid_error),
+        _ => 0.0,
     }
 }
 
