@@ -187,7 +187,7 @@ fn bench_case1(c: &mut Criterion) {
 /// The periodic steady state of the forced linear oscillator of
 /// `tests/transient_periodic.rs` (c = 0.2, k = 1, A = 1, w = 0.8, intensity 0.2, box ±7) at
 /// 64x64, 8 phases, without the error estimate's half-cells solve: 14 period maps of 32
-/// ESDIRK4 steps, 16 stage factors kept.
+/// ESDIRK4 steps, 12 stage factors kept.
 fn bench_periodic(c: &mut Criterion) {
     let model = bound(
         "model forced\nparam c = 0.2, k = 1, A = 1, w = 0.8\nstate x, v\ndrift x: v\n\

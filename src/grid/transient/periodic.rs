@@ -8,14 +8,15 @@
 //!   stepper's tableau) on a fixed lattice of [`GridPeriodic::steps`] equal steps, so that
 //!   Φ is one linear map — GMRES needs that; the error-controlled steps of the transient
 //!   would change with the vector the map is applied to — and so that every period visits
-//!   the same stage times. Only 16 of the 5 × steps stage matrices, at times spread evenly
+//!   the same stage times. Only 12 of the 5 × steps stage matrices, at times spread evenly
 //!   over the period, are factorised and kept; every other stage solve iterates with the
 //!   factor of the kept stage nearest in time as the preconditioner of its own exact matrix
 //!   (x ← x + M⁻¹(b − S x), to the backward error of a direct solve, as the stepper's
 //!   `Esdirk::reuse_across_times`), or is factorised for that solve when the iteration
-//!   stalls. On the forced linear oscillator (tests/transient_periodic.rs) at 64x64, keeping
-//!   16 of 160 took the peak memory from 1.25 GB to 0.24 GB and the wall time did not grow
-//!   (about 5 corrections per stage solve). The stages themselves are the stepper's
+//!   stalls. On the forced linear oscillator (tests/transient_periodic.rs) at 128x128,
+//!   keeping 12 of 160 instead of as many as 3/4 of the memory limit held took the peak
+//!   memory from 4.0 GB to 0.86 GB (16 kept: 1.01 GB and 7 % less CPU time), about 5
+//!   corrections per stage solve. The stages themselves are the stepper's
 //!   (`timestep::implicit_stages`); only their solves differ.
 //! * **Mass.** Φ conserves mass (the operator's columns sum to zero), so the residual
 //!   Φ p₀ − p₀ and the Krylov space have zero mass and p* keeps p₀'s: 1.
@@ -35,7 +36,7 @@ use std::cell::{Cell, RefCell};
 use std::fmt;
 use std::time::Instant;
 
-use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
+use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMatRef};
 use serde::Serialize;
 
 use super::operator::TimeOperator;
@@ -75,8 +76,10 @@ const RESTART: usize = 40;
 /// times its largest magnitude over the probes.
 const PERIODICITY: f64 = 1e-9;
 
-/// Stage factorisations kept per period; the other stages iterate with the nearest one's.
-const KEPT_STAGES: usize = 16;
+/// Stage factorisations kept per period; the other stages iterate with the nearest one's
+/// (at 128x128 on the forced linear oscillator: 12 kept, 0.86 GB and 48.6 s of CPU; 16,
+/// 1.01 GB and 45.0 s).
+const KEPT_STAGES: usize = 12;
 
 /// The most corrections of a stage solve iterating with another stage's factor before that
 /// stage is factorised itself.
@@ -656,9 +659,6 @@ struct PeriodMap<'m> {
     times: Vec<f64>,
     /// The kept stage whose factor solves each stage: itself, or the nearest in time.
     anchor: Vec<usize>,
-    /// The pattern and the factorisation whose symbolic analysis a new one of the same
-    /// pattern reuses.
-    analysis: RefCell<Option<(SymbolicSparseColMat<usize>, PatternLu)>>,
     factorizations: Cell<usize>,
     corrections: Cell<usize>,
     steps_taken: Cell<usize>,
@@ -691,7 +691,6 @@ impl<'m> PeriodMap<'m> {
             kept: RefCell::new(times.iter().map(|_| None).collect()),
             times,
             anchor,
-            analysis: RefCell::new(None),
             factorizations: Cell::new(0),
             corrections: Cell::new(0),
             steps_taken: Cell::new(0),
@@ -869,29 +868,22 @@ impl<'m> PeriodMap<'m> {
             detail: e.to_string(),
         };
         let limit = memory_limit_bytes();
-        let same = |p: &SymbolicSparseColMat<usize>| {
+        let same = |p: SymbolicSparseColMatRef<'_, usize>| {
             let q = s.symbolic();
             p.col_ptr() == q.col_ptr() && p.row_idx() == q.row_idx()
         };
-        let reused = match self.analysis.borrow().as_ref() {
-            Some((pattern, lu)) if same(pattern) => Some(lu.refactor(s.as_ref(), limit)),
-            _ => None,
-        };
-        let pattern = match reused {
-            Some(lu) => lu,
-            None => {
-                let lu = PatternLu::factor(s.as_ref(), self.order.clone(), limit);
-                if let Ok(lu) = &lu {
-                    let symbolic = s
-                        .symbolic()
-                        .to_owned()
-                        .map_err(|e| failed(FactorError::Analysis(format!("{e:?}"))))?;
-                    let template = lu.refactor(s.as_ref(), limit).map_err(failed)?;
-                    *self.analysis.borrow_mut() = Some((symbolic, template));
-                }
-                lu
-            }
-        };
+        // A kept factor of the same pattern lends its symbolic analysis.
+        let reused = self
+            .kept
+            .borrow()
+            .iter()
+            .flatten()
+            .find_map(|k| match &k.lu {
+                Lu::Pattern(lu) if same(k.s.symbolic()) => Some(lu.refactor(s.as_ref(), limit)),
+                _ => None,
+            });
+        let pattern =
+            reused.unwrap_or_else(|| PatternLu::factor(s.as_ref(), self.order.clone(), limit));
         self.factorizations.set(self.factorizations.get() + 1);
         let lu = match pattern {
             Ok(lu) => Lu::Pattern(lu),
