@@ -35,8 +35,11 @@
 //! (three per step, 709 steps, 548 of them before t = 5 while the two-cell start spreads;
 //! 18 factorisations, 4 %).
 //!
-//! `cargo bench --bench transient` (`-- transient_exact_case` or
-//! `-- transient_case1_from_rest` for one group)
+//! `transient_periodic`: the periodic steady state of the forced linear oscillator at 64x64
+//! (`tests/transient_periodic.rs`'s case, without the error estimate).
+//!
+//! `cargo bench --bench transient` (`-- transient_exact_case`,
+//! `-- transient_case1_from_rest` or `-- transient_periodic` for one group)
 
 use std::path::Path;
 
@@ -181,11 +184,40 @@ fn bench_case1(c: &mut Criterion) {
     group.finish();
 }
 
+/// The periodic steady state of the forced linear oscillator of
+/// `tests/transient_periodic.rs` (c = 0.2, k = 1, A = 1, w = 0.8, intensity 0.2, box ±7) at
+/// 64x64, 8 phases, without the error estimate's half-cells solve: 14 period maps of 32
+/// ESDIRK4 steps, 12 stage factors kept.
+fn bench_periodic(c: &mut Criterion) {
+    let model = bound(
+        "model forced\nparam c = 0.2, k = 1, A = 1, w = 0.8\nstate x, v\ndrift x: v\n\
+         drift v: -c*v - k*x + A*cos(w*t)\nnoise xi: intensity 0.2\ndiffusion v: xi\n",
+    );
+    let period = 2.0 * std::f64::consts::PI / 0.8;
+    let phases: Vec<f64> = (0..8).map(|i| i as f64 * period / 8.0).collect();
+    let run = GridTransient::new(&model)
+        .cells(64, 64)
+        .domain(Domain {
+            x: [-7.0, 7.0],
+            v: [-7.0, 7.0],
+        })
+        .times(phases)
+        .estimate(false)
+        .periodic(period);
+    let mut group = c.benchmark_group("transient_periodic");
+    group.sample_size(10);
+    group.bench_function("forced_linear_64x64", |b| {
+        b.iter(|| run.run().expect("runs"))
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
     bench,
     bench_modulated,
     bench_exact_case,
-    bench_case1
+    bench_case1,
+    bench_periodic
 );
 criterion_main!(benches);

@@ -496,20 +496,18 @@ impl<'a, G: Generator> Esdirk<'a, G> {
     ) -> Result<(), StepError> {
         let tableau = self.scheme.tableau();
         let Work { y1, f: stages, est } = work;
-        for (i, row) in tableau.a.iter().enumerate() {
-            // Stage i + 1: (I − γ h A(t + c h)) Y = y + h Σ_j a_j f_j.
-            let (done, rest) = stages.split_at_mut(i);
-            for (k, o) in y1.iter_mut().enumerate() {
-                let explicit = done
-                    .iter()
-                    .zip(&row[1..])
-                    .fold(row[0] * f[k], |acc, (g, a)| acc + a * g[k]);
-                *o = y[k] + h * explicit;
-            }
-            let at = t + tableau.c[i + 1] * h;
-            self.solve(cache, stats, h, at, y1)?;
-            apply(&*self.generator.at(at)?, y1, &mut rest[0]);
-        }
+        implicit_stages(
+            self.scheme,
+            (t, h),
+            (y, f),
+            y1,
+            stages,
+            |_, at, b| self.solve(cache, stats, h, at, b),
+            |_, at, y, out| {
+                apply(&*self.generator.at(at)?, y, out);
+                Ok(())
+            },
+        )?;
         // The embedded estimate, filtered by (I − γ h A(t+h))⁻¹.
         let (e0, e) = tableau.error.split_first().expect("stages");
         for (k, o) in est.iter_mut().enumerate() {
@@ -685,6 +683,39 @@ impl<'a, G: Generator> Esdirk<'a, G> {
             Err(_) => faer(),
         }
     }
+}
+
+/// The implicit stages of one step of `scheme` of length h from (t, y, f = A(t) y): stage
+/// i + 1 solves (I − γ h A(t + cᵢ₊₁ h)) Y = y + h Σⱼ aᵢⱼ fⱼ by `solve(i, time, b)` (b in, Y
+/// out) and stores A Y in `stages[i]` by `derivative(i, time, Y, out)`; `y1` ends as the
+/// last stage, the step's result (the methods are stiffly accurate), and the last of
+/// `stages` as f₁ = A(t + h) y₁. The stepper and the periodic state's fixed lattice both
+/// step with it, each with its own way of solving a stage.
+pub(crate) fn implicit_stages(
+    scheme: Scheme,
+    (t, h): (f64, f64),
+    (y, f): (&[f64], &[f64]),
+    y1: &mut [f64],
+    stages: &mut [Vec<f64>],
+    mut solve: impl FnMut(usize, f64, &mut [f64]) -> Result<(), StepError>,
+    mut derivative: impl FnMut(usize, f64, &[f64], &mut [f64]) -> Result<(), StepError>,
+) -> Result<(), StepError> {
+    let tableau = scheme.tableau();
+    for (i, row) in tableau.a.iter().enumerate() {
+        // Stage i + 1: (I − γ h A(t + c h)) Y = y + h Σ_j a_j f_j.
+        let (done, rest) = stages.split_at_mut(i);
+        for (k, o) in y1.iter_mut().enumerate() {
+            let explicit = done
+                .iter()
+                .zip(&row[1..])
+                .fold(row[0] * f[k], |acc, (g, a)| acc + a * g[k]);
+            *o = y[k] + h * explicit;
+        }
+        let at = t + tableau.c[i + 1] * h;
+        solve(i, at, y1)?;
+        derivative(i, at, y1, &mut rest[0])?;
+    }
+    Ok(())
 }
 
 /// The first step `h` shortened to the first output interval over a power of two, so that

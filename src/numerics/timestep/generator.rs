@@ -3,7 +3,7 @@
 
 use std::borrow::Cow;
 
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 
 use super::error::StepError;
 
@@ -34,6 +34,11 @@ impl Generator for SparseColMat<usize, f64> {
 
 /// out = A y.
 pub(crate) fn apply(a: &SparseColMat<usize, f64>, y: &[f64], out: &mut [f64]) {
+    apply_ref(a.as_ref(), y, out);
+}
+
+/// out = A y, for A by reference (values in another matrix's pattern, say).
+pub(crate) fn apply_ref(a: SparseColMatRef<'_, usize, f64>, y: &[f64], out: &mut [f64]) {
     out.iter_mut().for_each(|o| *o = 0.0);
     for (c, &yc) in y.iter().enumerate() {
         if yc == 0.0 {
@@ -49,10 +54,15 @@ pub(crate) fn apply(a: &SparseColMat<usize, f64>, y: &[f64], out: &mut [f64]) {
 /// I − c A, with a diagonal entry in every column (A's columns sorted by row, as faer keeps
 /// them).
 pub(crate) fn shifted(a: &SparseColMat<usize, f64>, c: f64) -> SparseColMat<usize, f64> {
+    shifted_ref(a.as_ref(), c)
+}
+
+/// I − c A for A by reference, as [`shifted`].
+pub(crate) fn shifted_ref(a: SparseColMatRef<'_, usize, f64>, c: f64) -> SparseColMat<usize, f64> {
     let n = a.ncols();
     let mut ptr = Vec::with_capacity(n + 1);
-    let mut rows = Vec::with_capacity(a.compute_nnz() + n);
-    let mut vals = Vec::with_capacity(a.compute_nnz() + n);
+    let mut rows = Vec::with_capacity(a.symbolic().compute_nnz() + n);
+    let mut vals = Vec::with_capacity(a.symbolic().compute_nnz() + n);
     ptr.push(0);
     for col in 0..n {
         let mut diagonal = false;

@@ -42,8 +42,8 @@ mod tableau;
 
 pub use error::StepError;
 pub(crate) use esdirk::History;
-pub(crate) use esdirk::{Esdirk, Tolerance};
-pub(crate) use generator::{apply, shifted, Generator};
+pub(crate) use esdirk::{implicit_stages, Esdirk, Tolerance};
+pub(crate) use generator::{apply, apply_ref, shifted, shifted_ref, Generator};
 pub(crate) use tableau::Scheme;
 
 #[cfg(test)]

@@ -227,6 +227,7 @@ impl PatternLu {
     }
 
     /// Entries of L and U (the stored values, explicit zeros of the supernodes included).
+    #[cfg(test)]
     pub(crate) fn entries(&self) -> usize {
         2 * self.sym().len_val()
     }
