@@ -465,12 +465,9 @@ impl<'a> McTransient<'a> {
             .enumerate()
             .map(|(k, &t)| {
                 let moments = std::array::from_fn(|a| {
-                    let all: Vec<PowerSums> = fine.sums.iter().map(|b| b[k][a]).collect();
-                    let [mean, variance, kurtosis] = sums::estimate(&all);
-                    let bias = coarse.as_ref().map(|c| {
-                        let co: Vec<PowerSums> = c.sums.iter().map(|b| b[k][a]).collect();
-                        sums::bias(&all[..co.len()], &co, order)
-                    });
+                    let coarse = coarse.as_ref().map(|c| &c.sums[..]);
+                    let ([mean, variance, kurtosis], bias) =
+                        sums::moments(&fine.sums, coarse, k, a, order);
                     McStateMoments {
                         mean,
                         variance,

@@ -172,6 +172,24 @@ pub(super) fn bias(fine: &[PowerSums], coarse: &[PowerSums], order: u32) -> [Est
     })
 }
 
+/// A state's mean, variance and kurtosis at one output from the per-batch sums of a pass
+/// at dt (`fine`), with their time-step bias when the first batches ran again at 2·dt
+/// (`coarse`): output `k`, state `a`, the scheme's weak `order`.
+pub(super) fn moments(
+    fine: &[Vec<[PowerSums; 2]>],
+    coarse: Option<&[Vec<[PowerSums; 2]>]>,
+    k: usize,
+    a: usize,
+    order: u32,
+) -> ([Estimate; 3], Option<[Estimate; 3]>) {
+    let all: Vec<PowerSums> = fine.iter().map(|b| b[k][a]).collect();
+    let bias = coarse.map(|c| {
+        let co: Vec<PowerSums> = c.iter().map(|b| b[k][a]).collect();
+        bias(&all[..co.len()], &co, order)
+    });
+    (estimate(&all), bias)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
