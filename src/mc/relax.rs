@@ -84,19 +84,7 @@ pub(super) fn pilot_burn_in(
             .bias(false)
             .run()
             .map_err(|e| no_relaxation(horizon, format!("the pilot failed: {e}")))?;
-        let series: Vec<Vec<(f64, f64)>> = (0..6)
-            .map(|s| {
-                history
-                    .snapshots
-                    .iter()
-                    .map(|snap| {
-                        let m = &snap.moments[s / 3];
-                        let e = [m.mean, m.variance, m.kurtosis][s % 3];
-                        (e.value, e.stderr)
-                    })
-                    .collect()
-            })
-            .collect();
+        let series = history.moment_series();
         if let Some(tau) = relaxation(&times, &series) {
             return Ok((decay_times * tau.decay).max(tau.settled));
         }

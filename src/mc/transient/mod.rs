@@ -186,6 +186,24 @@ pub struct McTransientHistory {
 }
 
 impl McTransientHistory {
+    /// The six series (value, standard error) over the outputs of each state's mean,
+    /// variance and kurtosis, state by state: what a pilot judges settled
+    /// (`mc::relax::relaxation`).
+    pub(crate) fn moment_series(&self) -> Vec<Vec<(f64, f64)>> {
+        (0..6)
+            .map(|s| {
+                self.snapshots
+                    .iter()
+                    .map(|snap| {
+                        let m = &snap.moments[s / 3];
+                        let e = [m.mean, m.variance, m.kurtosis][s % 3];
+                        (e.value, e.stderr)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The first output time after 0 at which every trajectory is still exactly at its
     /// start (both states' variances 0): the sampled drift and noise vanish at a point start,
     /// as sgn(0) = 0 does to a Zhuravlev form's noise sgn(z)·ξ at rest, and the ensemble's

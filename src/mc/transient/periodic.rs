@@ -372,19 +372,7 @@ impl McPeriodic<'_> {
                 .seed(self.run.seed ^ PERIODIC_SALT)
                 .bias(false)
                 .run()?;
-            let series: Vec<Vec<(f64, f64)>> = (0..6)
-                .map(|s| {
-                    history
-                        .snapshots
-                        .iter()
-                        .map(|snap| {
-                            let m = &snap.moments[s / 3];
-                            let e = [m.mean, m.variance, m.kurtosis][s % 3];
-                            (e.value, e.stderr)
-                        })
-                        .collect()
-                })
-                .collect();
+            let series = history.moment_series();
             if let Some(r) = relaxation(&times, &series) {
                 let burn_in = (DECAY_TIMES * r.decay).max(r.settled);
                 let discard = ((burn_in / p) * (1.0 - 1e-12)).ceil().max(1.0) as u64;
