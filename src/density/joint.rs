@@ -51,8 +51,8 @@ pub trait JointDensity: Sync {
         }
     }
     /// The points along axis `axis` (sorted, the extent's ends first and last) between which
-    /// p is a polynomial of degree ≤ 1 in that coordinate at every value of the other, as a
-    /// piecewise-bilinear interpolant is: a fixed Gauss rule on each piece of both axes then
+    /// p is a polynomial of degree ≤ 3 in that coordinate at every value of the other, as a
+    /// piecewise-bicubic interpolant is: a fixed Gauss rule on each piece of both axes then
     /// integrates p times a polynomial exactly, where a composite rule that ignores the kinks
     /// would not. `None` (the default): p is not piecewise polynomial.
     ///

@@ -72,6 +72,7 @@ mod passage;
 mod pilot;
 pub(crate) mod problem;
 mod read;
+mod reconstruct;
 mod solution;
 #[cfg(test)]
 mod strip_tests;
@@ -445,26 +446,17 @@ impl<'a> GridSolver<'a> {
                 total_ms: 0.0,
             },
         };
-        let mut solution = GridSolution {
-            mesh,
-            density: p,
-            report: report.clone(),
-            coarse: None,
-        };
+        let mut solution = GridSolution::new(mesh, p, report.clone(), None);
         if let Some(((coarse, q), quarter, estimate_ms)) = coarse.transpose()? {
             let t = Instant::now();
             let clipped = |mesh: Mesh, mut q: Vec<f64>| {
                 let negative_mass = clip(&mut q, mesh.hx * mesh.hv);
-                GridSolution {
-                    report: GridReport {
-                        cells: [mesh.nx, mesh.nv],
-                        negative_mass,
-                        ..report.clone()
-                    },
-                    mesh,
-                    density: q,
-                    coarse: None,
-                }
+                let report = GridReport {
+                    cells: [mesh.nx, mesh.nv],
+                    negative_mass,
+                    ..report.clone()
+                };
+                GridSolution::new(mesh, q, report, None)
             };
             let half = clipped(coarse, q);
             let quarter = quarter.map(|(mesh, q)| clipped(mesh, q));

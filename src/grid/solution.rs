@@ -6,6 +6,7 @@ use std::fmt;
 use serde::Serialize;
 
 use super::mesh::{Domain, Marginal, Mesh};
+use super::reconstruct::{self, Reconstruction};
 use crate::density::JointDensity;
 
 /// The discretisation error of what a solution writes, estimated from a second solve on half
@@ -205,6 +206,8 @@ pub struct GridSolution {
     pub(crate) mesh: Mesh,
     /// Cell averages, velocity fastest, negative values clipped, unit mass.
     pub(crate) density: Vec<f64>,
+    /// The point values and bicubic quads the interpolant reads ([`GridSolution::pdf`]).
+    recon: Reconstruction,
     /// How it was obtained.
     pub report: GridReport,
     /// The half-resolution solve of the error estimate, kept so that any number derived from
@@ -223,6 +226,35 @@ pub(super) fn richardson_factor(order: f64) -> f64 {
 }
 
 impl GridSolution {
+    /// The solution of cell averages `density` (velocity fastest, none negative, unit mass)
+    /// on `mesh`, with its reconstruction.
+    pub(crate) fn new(
+        mesh: Mesh,
+        density: Vec<f64>,
+        report: GridReport,
+        coarse: Option<Box<GridSolution>>,
+    ) -> GridSolution {
+        let recon = Reconstruction::new(&mesh, &density);
+        GridSolution {
+            mesh,
+            density,
+            recon,
+            report,
+            coarse,
+        }
+    }
+
+    /// The point value at the centre of cell (i, j) the interpolant passes through.
+    fn point(&self, i: usize, j: usize) -> f64 {
+        self.recon.point[self.mesh.index(i, j)]
+    }
+
+    /// The first cells of the x and v stencils of the quad between centres (i, j) and
+    /// (i + 1, j + 1) when it is bicubic.
+    fn cubic(&self, i: usize, j: usize) -> Option<[usize; 2]> {
+        self.recon.cubic[i * self.mesh.nv + j].map(|[a, b]| [a as usize, b as usize])
+    }
+
     /// The estimated discretisation error of a number `f` derives from the density (a
     /// crossing rate, an impact rate, a moment), as the error estimate takes it for the
     /// curves it writes: `f` on the half-resolution solve differs from `f` on this one by
@@ -324,8 +356,11 @@ impl GridSolution {
         self.mesh.marginal(&self.density, axis)
     }
 
-    /// The joint density at (x, v): bilinear between cell centres, never across the barrier
-    /// (the density may jump there); from the last centre to a wall (or another edge of a run
+    /// The joint density at (x, v), through the fourth-order point values at the cell
+    /// centres (the averages less h²/24 of their second differences): bicubic between the
+    /// centres where the 4×4 stencil around them is positive and within a factor 2 (the
+    /// interpolant is then positive), bilinear elsewhere (the far tails, beside clipped
+    /// cells); never across the barrier (the density may jump there); from the last centre to a wall (or another edge of a run
     /// of cells in x) the line through the last two centres, clipped at 0, where those agree
     /// within a factor 2 (else the last value held), so that the value
     /// at a wall is its one-sided limit from inside (second order, where holding the last
@@ -353,13 +388,25 @@ impl GridSolution {
         let (i0, i1, tx) = reach(x, m.x0, m.hx, seg);
         let (j0, j1, tv) = bracket(v, m.v0, m.hv, [0, m.nv]);
         if (0.0..=1.0).contains(&tx) {
-            let row = |i: usize| (1.0 - tv) * self.cell(i, j0) + tv * self.cell(i, j1);
+            if let Some([sx, sv]) = (j1 > j0).then(|| self.cubic(i0, j0)).flatten() {
+                let wx = reconstruct::weights((x - m.xc(sx)) / m.hx);
+                let wv = reconstruct::weights((v - m.vc(sv)) / m.hv);
+                return (0..4)
+                    .map(|a| {
+                        wx[a]
+                            * (0..4)
+                                .map(|b| wv[b] * self.point(sx + a, sv + b))
+                                .sum::<f64>()
+                    })
+                    .sum();
+            }
+            let row = |i: usize| (1.0 - tv) * self.point(i, j0) + tv * self.point(i, j1);
             return (1.0 - tx) * row(i0) + tx * row(i1);
         }
         // Beyond the last centre of the run: each velocity node's line through the last
         // two centres, clipped at 0, then linear in v (what `line_integral` integrates).
         let column = |j: usize| {
-            let (a, b) = (self.cell(i0, j), self.cell(i1, j));
+            let (a, b) = (self.point(i0, j), self.point(i1, j));
             let (near, next) = if tx < 0.0 { (a, b) } else { (b, a) };
             if resolved(near, next) {
                 ((1.0 - tx) * a + tx * b).max(0.0)
@@ -385,7 +432,7 @@ impl GridSolution {
             let (i0, i1, tx) = reach(at, m.x0, m.hx, m.segment_of(i));
             // Clipping is a no-op between centres (convex weights of values ≥ 0).
             let f = |j: usize| {
-                let (a, b) = (self.cell(i0, j), self.cell(i1, j));
+                let (a, b) = (self.point(i0, j), self.point(i1, j));
                 let (near, next) = if tx < 0.0 { (a, b) } else { (b, a) };
                 if (0.0..=1.0).contains(&tx) || resolved(near, next) {
                     ((1.0 - tx) * a + tx * b).max(0.0)
@@ -393,20 +440,60 @@ impl GridSolution {
                     near
                 }
             };
-            run_integral(&[(1.0, &f)], m.v0, m.hv, [0, m.nv], d.v, [a, b], false)
+            let linear = run_integral(&[(1.0, &f)], m.v0, m.hv, [0, m.nv], d.v, [a, b], false);
+            if !(0.0..=1.0).contains(&tx) || i1 != i0 + 1 {
+                return linear;
+            }
+            // The bicubic quads along the line: their cubic in v less the linear piece
+            // `run_integral` took.
+            let mut cubic = 0.0;
+            for j in 0..m.nv.saturating_sub(1) {
+                let Some([sx, sv]) = self.cubic(i0, j) else {
+                    continue;
+                };
+                let wx = reconstruct::weights((at - m.xc(sx)) / m.hx);
+                let g = [0, 1, 2, 3].map(|b| {
+                    (0..4)
+                        .map(|a| wx[a] * self.point(sx + a, sv + b))
+                        .sum::<f64>()
+                });
+                cubic +=
+                    m.hv * cubic_less_linear(g, j - sv, [f(j), f(j + 1)], m.vc(j), m.hv, [a, b]);
+            }
+            linear + cubic
         } else {
             if !(d.v[0] <= at && at <= d.v[1]) {
                 return 0.0;
             }
             let (j0, j1, tv) = bracket(at, m.v0, m.hv, [0, m.nv]);
-            let (f0, f1) = (|i: usize| self.cell(i, j0), |i: usize| self.cell(i, j1));
+            let (f0, f1) = (|i: usize| self.point(i, j0), |i: usize| self.point(i, j1));
             let columns: [(f64, &dyn Fn(usize) -> f64); 2] = [(1.0 - tv, &f0), (tv, &f1)];
-            self.runs()
+            let linear: f64 = self
+                .runs()
                 .into_iter()
                 .map(|(cells, edges)| {
                     run_integral(&columns, m.x0, m.hx, cells, edges, [a, b], true)
                 })
-                .sum()
+                .sum();
+            if j1 != j0 + 1 {
+                return linear;
+            }
+            let row = |i: usize| (1.0 - tv) * f0(i) + tv * f1(i);
+            let mut cubic = 0.0;
+            for i in 0..m.nx.saturating_sub(1) {
+                let Some([sx, sv]) = self.cubic(i, j0) else {
+                    continue;
+                };
+                let wv = reconstruct::weights((at - m.vc(sv)) / m.hv);
+                let g = [0, 1, 2, 3].map(|a| {
+                    (0..4)
+                        .map(|b| wv[b] * self.point(sx + a, sv + b))
+                        .sum::<f64>()
+                });
+                cubic += m.hx
+                    * cubic_less_linear(g, i - sx, [row(i), row(i + 1)], m.xc(i), m.hx, [a, b]);
+            }
+            linear + cubic
         }
     }
 }
@@ -515,6 +602,33 @@ fn run_integral(
     total
 }
 
+/// ∫ (cubic − linear) over the interval between the centres `k` and `k + 1` of a cubic's
+/// stencil (nodes 0…3, `values` there), in cells, within [a, b]: the centre of node `k` is
+/// at `from`, the nodes `h` apart, and the linear piece runs between `ends` at the two
+/// centres.
+fn cubic_less_linear(
+    values: [f64; 4],
+    k: usize,
+    ends: [f64; 2],
+    from: f64,
+    h: f64,
+    [a, b]: [f64; 2],
+) -> f64 {
+    let t0 = ((a - from) / h).max(0.0);
+    let t1 = ((b - from) / h).min(1.0);
+    if t1 <= t0 {
+        return 0.0;
+    }
+    let linear = (t1 - t0) * (ends[0] + (ends[1] - ends[0]) * 0.5 * (t0 + t1));
+    let k = k as f64;
+    let cubic = if t0 == 0.0 && t1 == 1.0 {
+        reconstruct::segment_integral(values, k as usize)
+    } else {
+        reconstruct::integral(values, k + t0, k + t1)
+    };
+    cubic - linear
+}
+
 /// Whether the density is resolved at the end of a run, so that the line through its last
 /// two centres (values `near`, then `next`) may be continued to the edge: both positive and
 /// within a factor 2 of each other. Elsewhere (a solution that is not resolved there, as one
@@ -559,15 +673,15 @@ impl JointDensity for GridSolution {
         GridSolution::pdf(self, x[0], x[1])
     }
 
-    /// Exact: along a line the interpolant of [`GridSolution::pdf`] is piecewise linear
-    /// between cell centres (constant from the last centre to the run's edge), so its
-    /// integral is a sum of trapezoids; adaptive quadrature of this kinked function would
-    /// subdivide at every cell.
+    /// Exact: along a line the interpolant of [`GridSolution::pdf`] is piecewise cubic or
+    /// linear between cell centres (constant from the last centre to the run's edge), so its
+    /// integral is a sum of trapezoids and two-point Gauss rules; adaptive quadrature of this
+    /// kinked function would subdivide at every cell.
     fn line_integral(&self, axis: usize, at: f64, range: [f64; 2]) -> Option<f64> {
         Some(self.line_integral(axis, at, range))
     }
 
-    /// The interpolant is linear between cell centres along each axis, and from the end
+    /// The interpolant is cubic or linear between cell centres along each axis, and from the end
     /// centres to the edges of a run (a line through two centres, or a held value, never
     /// clipped: the line is continued only between values within a factor 2, which stays
     /// above half the end value over the half cell to the edge): the breakpoints are the

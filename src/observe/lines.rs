@@ -143,9 +143,9 @@ pub(crate) fn half_line_moments<const K: usize>(
     lines
 }
 
-/// The moments of [`half_line_moments`] over `range` for a density linear in t between
-/// `breaks` ([`JointDensity::breakpoints`] of the line's axis): the 3-point Gauss rule on each
-/// piece (split at 0), exact for t^j times a linear function up to j = 4.
+/// The moments of [`half_line_moments`] over `range` for a density cubic in t between
+/// `breaks` ([`JointDensity::breakpoints`] of the line's axis): the 4-point Gauss rule on each
+/// piece (split at 0), exact for t^j times a cubic up to j = 4.
 fn polynomial_line<const K: usize>(
     density: &dyn JointDensity,
     axis: usize,
@@ -153,11 +153,21 @@ fn polynomial_line<const K: usize>(
     breaks: &[f64],
     range: [f64; 2],
 ) -> [f64; K] {
-    const NODES: [f64; 3] = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
-    const WEIGHTS: [f64; 3] = [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0];
-    debug_assert!(K <= 5, "3-point Gauss is exact for t^j·linear up to j = 4");
-    let mut t = Vec::with_capacity(3 * breaks.len());
-    let mut w = Vec::with_capacity(3 * breaks.len());
+    const NODES: [f64; 4] = [
+        -0.861_136_311_594_052_6,
+        -0.339_981_043_584_856_3,
+        0.339_981_043_584_856_3,
+        0.861_136_311_594_052_6,
+    ];
+    const WEIGHTS: [f64; 4] = [
+        0.347_854_845_137_453_9,
+        0.652_145_154_862_546_1,
+        0.652_145_154_862_546_1,
+        0.347_854_845_137_453_9,
+    ];
+    debug_assert!(K <= 5, "4-point Gauss is exact for t^j·cubic up to j = 4");
+    let mut t = Vec::with_capacity(4 * breaks.len());
+    let mut w = Vec::with_capacity(4 * breaks.len());
     let mut piece = |a: f64, b: f64| {
         let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
         for (x, wt) in NODES.iter().zip(WEIGHTS) {

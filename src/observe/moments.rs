@@ -69,15 +69,18 @@ fn axis_rule(lo: f64, hi: f64, rule: Rule) -> Vec<(f64, f64)> {
 }
 
 /// Gauss–Legendre rules on [−1, 1] as (node ≥ 0, weight) pairs, each node but 0 standing for
-/// ±node: 8 points, 3 points and 2 points.
+/// ±node: 8 points, 4 points and 3 points.
 const GAUSS_8: [(f64, f64); 4] = [
     (GL_X[0], GL_W[0]),
     (GL_X[1], GL_W[1]),
     (GL_X[2], GL_W[2]),
     (GL_X[3], GL_W[3]),
 ];
+const GAUSS_4: [(f64, f64); 2] = [
+    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+];
 const GAUSS_3: [(f64, f64); 2] = [(0.0, 8.0 / 9.0), (0.774_596_669_241_483_4, 5.0 / 9.0)];
-const GAUSS_2: [(f64, f64); 1] = [(0.577_350_269_189_625_8, 1.0)];
 
 /// Appends the nodes and weights of the Gauss rule `gauss` on the panel [pa, pb], or, for a
 /// panel with an end at 0, of the 8-point rule on `graded` geometric levels (ratio 0.2)
@@ -113,7 +116,7 @@ fn graded_panel(pa: f64, pb: f64, graded: usize, gauss: &[(f64, f64)], out: &mut
 }
 
 /// Nodes and weights of a rule on the pieces between `breaks` (sorted, the axis's ends
-/// first and last) where a density is polynomial of degree ≤ 1 along the axis
+/// first and last) where a density is polynomial of degree ≤ 3 along the axis
 /// ([`JointDensity::breakpoints`]): `gauss` on each piece, pieces split at 0 and graded
 /// towards it as in [`axis_rule`] (where a map has its kinks and singularities). Exact for
 /// the density times any polynomial of degree up to 2·points − 2 on a piece.
@@ -200,8 +203,8 @@ pub fn moments_of_all(
         let fine = Grid::new(
             density,
             [
-                piece_rule(b0, FINE.graded, &GAUSS_3),
-                piece_rule(b1, FINE.graded, &GAUSS_3),
+                piece_rule(b0, FINE.graded, &GAUSS_4),
+                piece_rule(b1, FINE.graded, &GAUSS_4),
             ],
         );
         let check = maps
@@ -211,8 +214,8 @@ pub fn moments_of_all(
                 Grid::new(
                     density,
                     [
-                        piece_rule(b0, CHECK.graded, &GAUSS_2),
-                        piece_rule(b1, CHECK.graded, &GAUSS_2),
+                        piece_rule(b0, CHECK.graded, &GAUSS_3),
+                        piece_rule(b1, CHECK.graded, &GAUSS_3),
                     ],
                 )
             });
