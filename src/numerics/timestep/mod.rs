@@ -26,10 +26,17 @@
 //!   only when the error would allow at least twice the step, and shrinks by powers of two on
 //!   a rejection, so that few distinct sizes occur and the factorisations of the last few are
 //!   kept ([`Esdirk::cache`]) and reused.
-//! * **Outputs** at the requested times are interpolated (cubic Hermite on the values and
-//!   derivatives at both ends of the step, third order, the step sizes untouched by the
-//!   output times); the interpolant is an affine combination of the two end values plus
-//!   derivative terms, so it keeps the mass too. The last step may end past the last output.
+//! * **Outputs** at the requested times are interpolated. For a time-invariant A, quintic
+//!   Hermite on the values, A y and A²y at both ends of the step (sixth order), whose
+//!   estimated error (its distance from the quartics that drop A²y at one end, O(h⁵)) may
+//!   be at most the step's own estimated error (or a thousandth of the step's allowance,
+//!   where that is larger) wherever an output falls inside a step: a step may serve many
+//!   outputs, each as good as the step's ends, and is rejected when its interpolant is not. For an A
+//!   that depends on t (A²y is not y″ there), no step is longer than the interval between
+//!   the outputs it serves, and they are cubic Hermite (third order) on the values and
+//!   derivatives. Both interpolants are affine combinations of the end values plus
+//!   derivative terms, so they keep the mass too. The last step may end past the last
+//!   output.
 //! * **Mass and sign.** 1ᵀA = 0 gives 1ᵀ(I − γ h A) = 1ᵀ, so every stage keeps the mass up
 //!   to the residual of its solve; for a generator (`conserve_mass`) that residual's mass
 //!   defect is put back, so mass drifts only by the rounding of sums. Each output reports
