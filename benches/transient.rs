@@ -33,7 +33,9 @@
 //! step and 1.5 corrections per solve of a stage time not factorised), and the operator's
 //! assembly at each stage time, a fifth; in case 1 the triangular solves, 87 %
 //! (three per step, 709 steps, 548 of them before t = 5 while the two-cell start spreads;
-//! 18 factorisations, 4 %).
+//! 18 factorisations, 4 %). Later, measured with the CLI (not this bench): the case took 194
+//! steps and 32.1 s before the stepper's dense output, 114 steps and 22.3 s after it (one
+//! run each at a load of about 28; CHANGELOG).
 //!
 //! `transient_periodic`: the periodic steady state of the forced linear oscillator at 64x64
 //! (`tests/transient_periodic.rs`'s case, without the error estimate).
