@@ -28,9 +28,9 @@ pub(crate) const RATIO: f64 = 2.0;
 pub(crate) struct Reconstruction {
     /// The point value at each cell centre (velocity fastest, as the cell averages).
     pub(crate) point: Vec<f64>,
-    /// For the quad between the centres (i, j), (i + 1, j + 1) at `i·nv + j`: the first
-    /// cells of its x and v stencils when it is bicubic.
-    pub(crate) cubic: Vec<Option<[u32; 2]>>,
+    /// For the quad between the centres (i, j), (i + 1, j + 1) at `i·nv + j`: whether it is
+    /// bicubic (on the stencils [`stencil`] gives i in its run and j in [0, nv)).
+    pub(crate) cubic: Vec<bool>,
 }
 
 /// The first of the four cells of the cubic stencil around the interval between centres `k`
@@ -113,7 +113,7 @@ impl Reconstruction {
                 }
             }
         }
-        let mut cubic = vec![None; nx * nv];
+        let mut cubic = vec![false; nx * nv];
         for i in 0..nx.saturating_sub(1) {
             let run = mesh.segment_of(i);
             if i + 1 >= run[1] {
@@ -135,7 +135,7 @@ impl Reconstruction {
                     }
                 }
                 if lo > 0.0 && hi <= RATIO * lo {
-                    cubic[i * nv + j] = Some([sx as u32, sv as u32]);
+                    cubic[i * nv + j] = true;
                 }
             }
         }

@@ -252,7 +252,32 @@ impl GridSolution {
     /// The first cells of the x and v stencils of the quad between centres (i, j) and
     /// (i + 1, j + 1) when it is bicubic.
     fn cubic(&self, i: usize, j: usize) -> Option<[usize; 2]> {
-        self.recon.cubic[i * self.mesh.nv + j].map(|[a, b]| [a as usize, b as usize])
+        let m = &self.mesh;
+        if !self.recon.cubic[i * m.nv + j] {
+            return None;
+        }
+        Some([
+            reconstruct::stencil(i, m.segment_of(i))?,
+            reconstruct::stencil(j, [0, m.nv])?,
+        ])
+    }
+
+    /// The 4×4 stencil of point values from cells `[sx, sv]` collapsed along `axis` by the
+    /// cubic weights `w`: the values at the other axis's four nodes.
+    fn collapse(&self, [sx, sv]: [usize; 2], axis: usize, w: [f64; 4]) -> [f64; 4] {
+        if axis == 0 {
+            [0, 1, 2, 3].map(|b| {
+                (0..4)
+                    .map(|a| w[a] * self.point(sx + a, sv + b))
+                    .sum::<f64>()
+            })
+        } else {
+            [0, 1, 2, 3].map(|a| {
+                (0..4)
+                    .map(|b| w[b] * self.point(sx + a, sv + b))
+                    .sum::<f64>()
+            })
+        }
     }
 
     /// The estimated discretisation error of a number `f` derives from the density (a
@@ -391,14 +416,8 @@ impl GridSolution {
             if let Some([sx, sv]) = (j1 > j0).then(|| self.cubic(i0, j0)).flatten() {
                 let wx = reconstruct::weights((x - m.xc(sx)) / m.hx);
                 let wv = reconstruct::weights((v - m.vc(sv)) / m.hv);
-                return (0..4)
-                    .map(|a| {
-                        wx[a]
-                            * (0..4)
-                                .map(|b| wv[b] * self.point(sx + a, sv + b))
-                                .sum::<f64>()
-                    })
-                    .sum();
+                let rows = self.collapse([sx, sv], 1, wv);
+                return (0..4).map(|a| wx[a] * rows[a]).sum();
             }
             let row = |i: usize| (1.0 - tv) * self.point(i, j0) + tv * self.point(i, j1);
             return (1.0 - tx) * row(i0) + tx * row(i1);
@@ -446,17 +465,15 @@ impl GridSolution {
             }
             // The bicubic quads along the line: their cubic in v less the linear piece
             // `run_integral` took.
+            // The x stencil and its weights are those of the line's x interval in every quad.
             let mut cubic = 0.0;
+            let mut wx = None;
             for j in 0..m.nv.saturating_sub(1) {
                 let Some([sx, sv]) = self.cubic(i0, j) else {
                     continue;
                 };
-                let wx = reconstruct::weights((at - m.xc(sx)) / m.hx);
-                let g = [0, 1, 2, 3].map(|b| {
-                    (0..4)
-                        .map(|a| wx[a] * self.point(sx + a, sv + b))
-                        .sum::<f64>()
-                });
+                let wx = *wx.get_or_insert_with(|| reconstruct::weights((at - m.xc(sx)) / m.hx));
+                let g = self.collapse([sx, sv], 0, wx);
                 cubic +=
                     m.hv * cubic_less_linear(g, j - sv, [f(j), f(j + 1)], m.vc(j), m.hv, [a, b]);
             }
@@ -479,17 +496,15 @@ impl GridSolution {
                 return linear;
             }
             let row = |i: usize| (1.0 - tv) * f0(i) + tv * f1(i);
+            // The v stencil and its weights are those of the line's v interval in every quad.
             let mut cubic = 0.0;
+            let mut wv = None;
             for i in 0..m.nx.saturating_sub(1) {
                 let Some([sx, sv]) = self.cubic(i, j0) else {
                     continue;
                 };
-                let wv = reconstruct::weights((at - m.vc(sv)) / m.hv);
-                let g = [0, 1, 2, 3].map(|a| {
-                    (0..4)
-                        .map(|b| wv[b] * self.point(sx + a, sv + b))
-                        .sum::<f64>()
-                });
+                let wv = *wv.get_or_insert_with(|| reconstruct::weights((at - m.vc(sv)) / m.hv));
+                let g = self.collapse([sx, sv], 1, wv);
                 cubic += m.hx
                     * cubic_less_linear(g, i - sx, [row(i), row(i + 1)], m.xc(i), m.hx, [a, b]);
             }
