@@ -233,10 +233,12 @@ fn elastic_wall_restricts_the_free_density() {
     }
 }
 
-/// L1 of the Duffing marginals at 50×100, 100×200 and 200×400 cells: the measured order
-/// (least-squares slope of log2 L1) is at least 2.
+/// L1 of the Duffing marginals behind an elastic wall at 40×80, 80×160 and 160×320 cells:
+/// the measured order is at least 2.7 (the face-averaged fluxes are third order: measured
+/// 2.93 and 2.97, L1 3.1e−3, 4.1e−4, 5.3e−5; with midpoint fluxes it was about 2, and 1.5
+/// to 1.8 at finer cells).
 #[test]
-fn convergence_order_is_at_least_two() {
+fn convergence_order_is_third() {
     let b = bound(
         "tests/models/grid_impact_duffing.sde",
         &[("r", 1.0), ("eps", 0.0)],
@@ -258,7 +260,10 @@ fn convergence_order_is_at_least_two() {
             .map(|e| format!("{e:.2e}"))
             .collect::<Vec<_>>()
     );
-    assert!(order >= 2.0, "order {order}: {errors:?}");
+    assert!(
+        orders.iter().all(|&p| p >= 2.7),
+        "orders {orders:?}: {errors:?}"
+    );
 }
 
 /// The paper's case 1 (r = 0.95, eps = 0.1) solved in Zhuravlev form and in original

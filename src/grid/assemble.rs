@@ -59,6 +59,7 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                     push(&mut t, mesh.index(i, j), col, -a * w);
                     push(&mut t, mesh.index((i + 1) % nx, j), col, a * w);
                 }
+                x_face_moment(&mut t, mesh, [i, (i + 1) % nx], j);
             }
         }
     }
@@ -71,6 +72,7 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                     push(&mut t, mesh.index(i, j), col, -a * w);
                     push(&mut t, mesh.index(i + 1, j), col, a * w);
                 }
+                x_face_moment(&mut t, mesh, [i, i + 1], j);
             }
         }
     }
@@ -96,32 +98,36 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                 push(&mut t, lo, col, -a * w);
                 push(&mut t, hi, col, a * w);
             }
-            // −D (p_hi − p_lo): leaves `lo` when p_hi < p_lo.
-            push(&mut t, lo, hi, d);
-            push(&mut t, lo, lo, -d);
-            push(&mut t, hi, hi, -d);
-            push(&mut t, hi, lo, d);
+            // −D ∂v p·hv: leaves `lo` when p_hi < p_lo; the face derivative to fourth order
+            // from four cells where they exist.
+            for (cell, w) in derivative_weights(j, nv) {
+                let col = mesh.index(i, cell);
+                push(&mut t, lo, col, d * w);
+                push(&mut t, hi, col, -d * w);
+            }
         }
     }
+    v_face_averages(&mut t, mesh, &coef)?;
     let (mut outflow, mut reinjection) = (Vec::new(), Vec::new());
     for exit in &mesh.exits {
         let barrier = &problem.barriers[exit.barrier];
-        for j in (0..nv).filter(|&j| mesh.vc(j) * exit.direction > 0.0) {
-            // Outflow |v| p_face / hx, p_face extrapolated linearly from the two cells on
-            // the outgoing side (the other side may have a jump).
-            let rate = mesh.vc(j).abs() / mesh.hx;
-            let (from, inner) = (mesh.index(exit.from, j), mesh.index(exit.inner, j));
+        let columns = exit_columns(mesh, exit);
+        let rows: Vec<usize> = (0..nv)
+            .filter(|&j| mesh.vc(j) * exit.direction > 0.0)
+            .collect();
+        for (k, &j) in rows.iter().enumerate() {
+            let from = mesh.index(exit.from, j);
             let (e0, e1) = (
                 mesh.v0 + j as f64 * mesh.hv,
                 mesh.v0 + (j + 1) as f64 * mesh.hv,
             );
             let (m0, m1) = (barrier.jump(e0), barrier.jump(e1));
             let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
-            for (col, w) in [(from, 1.5), (inner, -0.5)] {
-                push(&mut outflow, from, col, -rate * w);
+            for (col, w) in exit_flux(mesh, &columns, &rows, k) {
+                push(&mut outflow, from, col, -w);
                 for &(jd, share) in &targets {
                     let into = mesh.index(exit.into, jd);
-                    push(&mut reinjection, into, col, rate * w * share);
+                    push(&mut reinjection, into, col, w * share);
                 }
             }
         }
@@ -131,6 +137,167 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
         outflow,
         reinjection,
     })
+}
+
+/// The wall's face value from the cells of one row on the outgoing side, nearest first: the
+/// quadratic through three cell averages, (11, −7, 2)/6 (third order), where the run has
+/// three cells, else the line through two, (3, −1)/2 (the other side of the wall may
+/// have a jump, so no cell beyond it is used).
+fn exit_columns(mesh: &Mesh, exit: &super::mesh::Exit) -> Vec<(usize, f64)> {
+    let step = exit.inner as isize - exit.from as isize;
+    let third = exit.inner as isize + step;
+    let [s, e] = mesh.segment_of(exit.from);
+    if third >= s as isize && third < e as isize {
+        vec![
+            (exit.from, 11.0 / 6.0),
+            (exit.inner, -7.0 / 6.0),
+            (third as usize, 2.0 / 6.0),
+        ]
+    } else {
+        vec![(exit.from, 1.5), (exit.inner, -0.5)]
+    }
+}
+
+/// The rate at which row `rows[k]` leaves through the wall, as weights on cells:
+/// (1/hv)∫ |v| p dv over the row, per hx, which is |v_j| p̄ + (hv²/12) ∂|v| p at the wall;
+/// p̄ and the face values of the neighbouring rows from `columns`, ∂v p by their centred
+/// difference inside the outgoing rows (one-sided at v = 0, where the density at a wall
+/// may jump, and at the box's edge).
+fn exit_flux(mesh: &Mesh, columns: &[(usize, f64)], rows: &[usize], k: usize) -> Vec<(usize, f64)> {
+    let j = rows[k];
+    let (hx, hv) = (mesh.hx, mesh.hv);
+    let mut out: Vec<(usize, f64)> = columns
+        .iter()
+        .map(|&(i, w)| (mesh.index(i, j), mesh.vc(j).abs() / hx * w))
+        .collect();
+    if rows.len() >= 2 {
+        let (a, b) = (k.saturating_sub(1), (k + 1).min(rows.len() - 1));
+        // d|v| = sign(v)·dv; rows are in increasing v.
+        let sign = mesh.vc(j).signum();
+        let g = sign * hv / (12.0 * (b - a) as f64 * hx);
+        for (row, s) in [(rows[b], g), (rows[a], -g)] {
+            for &(i, w) in columns {
+                out.push((mesh.index(i, row), s * w));
+            }
+        }
+    }
+    out
+}
+
+/// Weights of hv·∂v p at the face between cells `j` and `j + 1` of `n` from the cell
+/// averages: (1, −15, 15, −1)/12 on cells j − 1 … j + 2 (fourth order) where all four
+/// exist, else the difference of the two (second order, at the edges of the box).
+fn derivative_weights(j: usize, n: usize) -> Vec<(usize, f64)> {
+    if j >= 1 && j + 2 < n {
+        vec![
+            (j - 1, 1.0 / 12.0),
+            (j, -15.0 / 12.0),
+            (j + 1, 15.0 / 12.0),
+            (j + 2, -1.0 / 12.0),
+        ]
+    } else {
+        vec![(j, -1.0), (j + 1, 1.0)]
+    }
+}
+
+/// The x-flux through a face of row j is (1/hv)∫ v p dv over the row, which is
+/// v_j p̄ + (hv²/12) ∂v p: the second term, ∂v p at the face from the face values
+/// (the mean of the two cells) of the rows above and below (one-sided at the box's edge).
+fn x_face_moment(
+    t: &mut Vec<Triplet<usize, usize, f64>>,
+    mesh: &Mesh,
+    [left, right]: [usize; 2],
+    j: usize,
+) {
+    let nv = mesh.nv;
+    let (below, above) = (j.saturating_sub(1), (j + 1).min(nv - 1));
+    // (hv²/12)·(q_above − q_below)/((above − below)·hv), per hx of the cell.
+    let g = mesh.hv / (12.0 * (above - below) as f64 * mesh.hx);
+    let (lo, hi) = (mesh.index(left, j), mesh.index(right, j));
+    for (row, w) in [(above, 0.5 * g), (below, -0.5 * g)] {
+        for side in [left, right] {
+            let col = mesh.index(side, row);
+            push(t, lo, col, -w);
+            push(t, hi, col, w);
+        }
+    }
+}
+
+/// The v-flux through a face of column i is the x-average over the column of
+/// a p − ½ b ∂v p (a = m − ½ ∂v b), which is a(x_i) p̄ − ½ b(x_i) ∂v p̄ plus
+/// (hx²/12)(a′ p′ − ½ b′ ∂v p′) + (hx²/24)(a″ p − ½ b″ ∂v p) (′ = ∂x): those terms, with
+/// a′, a″, b′, b″ from the coefficients at the neighbouring columns' faces and p, p′ from
+/// the cells beside the face (differences inside the column's run of cells between walls,
+/// one-sided at its ends).
+fn v_face_averages(
+    t: &mut Vec<Triplet<usize, usize, f64>>,
+    mesh: &Mesh,
+    coef: &super::problem::Coefficients,
+) -> Result<(), GridError> {
+    let (nx, nv, hx, hv) = (mesh.nx, mesh.nv, mesh.hx, mesh.hv);
+    let faces = nv - 1;
+    for i in 0..nx {
+        let (l, r) = if mesh.wrap {
+            ((i + nx - 1) % nx, (i + 1) % nx)
+        } else {
+            let [s, e] = mesh.segment_of(i);
+            if e - s < 3 {
+                continue;
+            }
+            if i == s {
+                (i, i + 1)
+            } else if i + 1 == e {
+                (i - 1, i)
+            } else {
+                (i - 1, i + 1)
+            }
+        };
+        let span = if mesh.wrap { 2.0 } else { (r - l) as f64 };
+        // The second difference's three columns (shifted inwards at the ends of the run).
+        let (c0, c1, c2) = if mesh.wrap || span == 2.0 {
+            (l, i, r)
+        } else if l == i {
+            (i, i + 1, i + 2)
+        } else {
+            (i - 2, i - 1, i)
+        };
+        for j in 0..faces {
+            let at = |c: usize| c * faces + j;
+            let a = |c: usize| coef.m[at(c)] - 0.5 * coef.db[at(c)];
+            let b = |c: usize| coef.b[at(c)];
+            let da = (a(r) - a(l)) / (span * hx);
+            let db = (b(r) - b(l)) / (span * hx);
+            let dda = (a(c0) - 2.0 * a(c1) + a(c2)) / (hx * hx);
+            let ddb = (b(c0) - 2.0 * b(c1) + b(c2)) / (hx * hx);
+            if da == 0.0 && db == 0.0 && dda == 0.0 && ddb == 0.0 {
+                continue;
+            }
+            let (lo, hi) = (mesh.index(i, j), mesh.index(i, j + 1));
+            let k = hx * hx / hv;
+            let mut add = |col: usize, w: f64| {
+                push(t, lo, col, -w);
+                push(t, hi, col, w);
+            };
+            // p and p′ at the face: the two rows' mean; ∂v p: their difference / hv.
+            for row in [j, j + 1] {
+                add(mesh.index(i, row), k * dda / 48.0);
+                add(mesh.index(r, row), k * da / (24.0 * span * hx));
+                add(mesh.index(l, row), -k * da / (24.0 * span * hx));
+            }
+            for (row, s) in [(j + 1, 1.0), (j, -1.0)] {
+                add(mesh.index(i, row), -s * 0.5 * k * ddb / (24.0 * hv));
+                add(
+                    mesh.index(r, row),
+                    -s * 0.5 * k * db / (12.0 * span * hx * hv),
+                );
+                add(
+                    mesh.index(l, row),
+                    s * 0.5 * k * db / (12.0 * span * hx * hv),
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The matrix of operator · p = 0 with the equation of cell `pin` replaced by p_pin = 1, in
@@ -398,6 +565,49 @@ mod tests {
                 assert!(leaving < 0.0);
                 assert!((leaving + returning).abs() <= 1e-13 * leaving.abs());
             }
+        }
+    }
+
+    /// The face derivative is exact on cell averages of a cubic (fourth order), and the
+    /// difference of the two cells at the edges of the box exact on a quadratic's.
+    #[test]
+    fn face_derivatives_are_exact_on_cubics() {
+        let h = 0.3;
+        let (lo, n) = (-1.2, 8);
+        // Cell averages of p(v) = 2 − v + 0.5 v² + 0.7 v³ (its antiderivative P).
+        let big_p = |v: f64| 2.0 * v - v * v / 2.0 + v.powi(3) / 6.0 + 0.7 * v.powi(4) / 4.0;
+        let avg: Vec<f64> = (0..n)
+            .map(|k| {
+                let a = lo + k as f64 * h;
+                (big_p(a + h) - big_p(a)) / h
+            })
+            .collect();
+        let dp = |v: f64| -1.0 + v + 2.1 * v * v;
+        for j in 1..n - 2 {
+            let face = lo + (j + 1) as f64 * h;
+            let got: f64 = derivative_weights(j, n)
+                .iter()
+                .map(|&(c, w)| w * avg[c])
+                .sum();
+            assert!(
+                (got - h * dp(face)).abs() < 1e-13,
+                "face {j}: {got} vs {}",
+                h * dp(face)
+            );
+        }
+        let quadratic: Vec<f64> = (0..n)
+            .map(|k| {
+                let a = lo + k as f64 * h;
+                let q = |v: f64| 2.0 * v - v * v / 2.0 + v.powi(3) / 6.0;
+                (q(a + h) - q(a)) / h
+            })
+            .collect();
+        for j in [0, n - 2] {
+            let face = lo + (j + 1) as f64 * h;
+            let w = derivative_weights(j, n);
+            assert_eq!(w.len(), 2);
+            let got: f64 = w.iter().map(|&(c, w)| w * quadratic[c]).sum();
+            assert!((got - h * (-1.0 + face)).abs() < 1e-13);
         }
     }
 

@@ -35,40 +35,65 @@ const POINTS_PER_CELL: usize = 8;
 /// The level, relative to a marginal's peak, above which its tails are compared.
 pub const TAIL_LEVEL: f64 = 1e-5;
 
-/// The orders an L1 estimate may take from three solves: at most 3/2, the order the cell
-/// masses show at fine resolutions (the point values and bicubic interpolant of
-/// [`GridSolution::pdf`] read them to fourth order, so that the curves converge as the masses
-/// do, and more slowly as the cells shrink than three coarse solves show: the linear
-/// oscillator's position masses are 3.1e−4, 1.1e−4, 3.7e−5, 2.0e−5 from exact at 100×200,
-/// 200×400, 400×800 and 560×1120 cells, orders 1.5, 1.6, 1.8; the elastic wall at the rest
-/// position has its velocity masses 3.7e−4, 1.0e−4, 3.5e−5, 1.05e−5 at 50×100 to 400×800,
-/// orders 1.9, 1.5, 1.75; at order 2 the estimate was 0.7 and 0.86 of their true errors), and
-/// at least 1/2 (a quarter solve closer to the half than the fine one is makes the estimate
-/// three times the fine–half difference, more cautious than order 1).
+/// The orders an L1 estimate may take from three solves where the scheme is second order
+/// or the density has a singular corner: at most 3/2, and at least 1/2 (a quarter solve
+/// closer to the half than the fine one is makes the estimate three times the fine–half
+/// difference, more cautious than order 1). Second order: the general form's operator
+/// ([`Problem::General`](super::read::Problem)); its cell masses converge more slowly as the
+/// cells shrink than three coarse solves show (the mechanical operator before its fluxes were
+/// made third order: the linear oscillator's position masses 3.1e−4, 1.1e−4, 3.7e−5, 2.0e−5
+/// from exact at 100×200 … 560×1120 cells, orders 1.5, 1.6, 1.8; at order 2 the estimate was
+/// 0.7 of the true error). The corner: a wall whose law is not elastic (the density jumps at
+/// the wall's v = 0), where the mechanical operator's masses converge at about 1.6 (r = 0.8:
+/// differences 6.2e−4, 1.9e−4, 6.4e−5 between successive doublings from 64×128).
 pub const CURVE_ORDERS: [f64; 2] = [0.5, 1.5];
 
+/// The highest order an L1 estimate may take on the mechanical form without a singular
+/// corner, whose fluxes are third order: its cell masses converge at 3.0 from 128×256 to
+/// 512×1024 on every exact case (errors fall eightfold per doubling: the linear oscillator's
+/// position 3.8e−4, 4.9e−5, 6.1e−6; the elastic wall at rest 4.4e−5, 5.6e−6, 7.1e−7), so an
+/// estimate at 5/2 states about twice the true error.
+pub const SMOOTH_CURVE_ORDER: f64 = 2.5;
+
+/// The fewest cells on an axis of the quarter solve for an order above
+/// [`COARSE_CURVE_ORDER`] to be trusted: on coarser cells the interpolant is bilinear on
+/// more of the quads (their point values differ by more than the bicubic's factor), and the
+/// curves converge more slowly than the masses. Measured: with quarter solves of 23 to 29
+/// cells in x (fine 92 to 116, the tolerance 1e−3) order 5/2 stated 0.78 to 1.05 of the true
+/// error (the cubic-damping case, velocity: 3.4e−4 stated, 4.4e−4 true); order 2 states 1.6
+/// times more.
+const RESOLVED_QUARTER: usize = 48;
+
+/// The highest order an L1 estimate takes when the quarter solve has fewer than
+/// [`RESOLVED_QUARTER`] cells on an axis.
+const COARSE_CURVE_ORDER: f64 = 2.0;
+
 /// The order of convergence an L1 difference `fine_half` of the fine and half solves and
-/// `half_quarter` of the half and quarter ones show, within [`CURVE_ORDERS`].
-fn observed_order(fine_half: f64, half_quarter: f64) -> f64 {
+/// `half_quarter` of the half and quarter ones show, at least `CURVE_ORDERS[0]` and at most
+/// `cap`.
+fn observed_order(fine_half: f64, half_quarter: f64, cap: f64) -> f64 {
     let p = (half_quarter / fine_half).log2();
     if p.is_nan() {
         CURVE_ORDERS[0]
     } else {
-        p.clamp(CURVE_ORDERS[0], CURVE_ORDERS[1])
+        p.clamp(CURVE_ORDERS[0], cap)
     }
 }
 
 /// The estimate of `fine`'s errors from the solution `coarse` of the same problem on half the
 /// cells per axis (both clipped and of unit mass), assuming convergence of order `order`;
 /// with `quarter`, the solution on a quarter of the cells per axis, the curves' L1 estimates
-/// take the order the three show.
+/// take the order the three show, at most `cap`.
 pub(super) fn estimate(
     fine: &GridSolution,
     coarse: &GridSolution,
     quarter: Option<&GridSolution>,
     order: f64,
+    cap: f64,
 ) -> DiscretisationEstimate {
     let factor = richardson_factor(order);
+    let coarse_quarter =
+        quarter.is_some_and(|q| q.report.cells.iter().any(|&n| n < RESOLVED_QUARTER));
     let d = fine.domain();
     let mut out = DiscretisationEstimate {
         x: 0.0,
@@ -80,6 +105,7 @@ pub(super) fn estimate(
         coarse_cells: coarse.report.cells,
         order,
         curve_order: [order; 2],
+        shown_order: [order; 2],
         quarter_cells: quarter.map(|q| q.report.cells),
     };
     for axis in 0..2 {
@@ -97,9 +123,14 @@ pub(super) fn estimate(
             a.iter().zip(b).map(|(a, b)| (a - b).abs()).sum::<f64>() * h
         };
         let l1 = distance(&f, &c);
-        let curve_order = match quarter {
-            Some(q) => observed_order(l1, distance(&c, &curve(q))),
+        let shown = match quarter {
+            Some(q) => observed_order(l1, distance(&c, &curve(q)), cap),
             None => order,
+        };
+        let curve_order = if coarse_quarter {
+            shown.min(COARSE_CURVE_ORDER)
+        } else {
+            shown
         };
         let moments = |p: &[f64]| {
             let mass: f64 = p.iter().sum::<f64>() * h;
@@ -136,6 +167,7 @@ pub(super) fn estimate(
             out.v = l1;
         }
         out.curve_order[axis] = curve_order;
+        out.shown_order[axis] = shown;
         out.mean[axis] = (mf - mc).abs() * factor;
         out.std[axis] = (sf - sc).abs() * factor;
         out.tail[axis] = tail * SAFETY;
@@ -149,13 +181,16 @@ mod tests {
 
     #[test]
     fn the_observed_order_is_the_ratio_of_differences_within_bounds() {
-        assert!((observed_order(1e-3, 2.5e-3) - 2.5f64.log2()).abs() < 1e-12);
-        // A lucky pair is not trusted beyond order 3/2; a quarter solve closer to the half
+        let cap = CURVE_ORDERS[1];
+        assert!((observed_order(1e-3, 2.5e-3, cap) - 2.5f64.log2()).abs() < 1e-12);
+        // A lucky pair is not trusted beyond the cap; a quarter solve closer to the half
         // than the fine one gives the most cautious order.
-        assert_eq!(observed_order(1e-3, 4e-3), 1.5);
-        assert_eq!(observed_order(1e-3, 1e-1), 1.5);
-        assert_eq!(observed_order(1e-3, 5e-4), 0.5);
-        assert_eq!(observed_order(0.0, 0.0), 0.5);
-        assert_eq!(observed_order(0.0, 1e-3), 1.5);
+        assert_eq!(observed_order(1e-3, 4e-3, cap), 1.5);
+        assert_eq!(observed_order(1e-3, 1e-1, cap), 1.5);
+        assert_eq!(observed_order(1e-3, 1e-1, SMOOTH_CURVE_ORDER), 2.5);
+        assert!((observed_order(1e-3, 4e-3, SMOOTH_CURVE_ORDER) - 2.0).abs() < 1e-12);
+        assert_eq!(observed_order(1e-3, 5e-4, cap), 0.5);
+        assert_eq!(observed_order(0.0, 0.0, cap), 0.5);
+        assert_eq!(observed_order(0.0, 1e-3, cap), 1.5);
     }
 }

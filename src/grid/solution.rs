@@ -38,9 +38,16 @@ pub struct DiscretisationEstimate {
     /// the density ([`GridSolution::estimate_of`]).
     pub order: f64,
     /// The convergence order the L1 estimates `x` and `v` take: the order the fine, half and
-    /// quarter solves show, within [`CURVE_ORDERS`](super::CURVE_ORDERS), or `order`
+    /// quarter solves show, at least `CURVE_ORDERS[0]` and at most the problem's cap
+    /// ([`SMOOTH_CURVE_ORDER`](super::SMOOTH_CURVE_ORDER) on the mechanical form without a
+    /// singular corner, else `CURVE_ORDERS[1]`, see [`CURVE_ORDERS`](super::CURVE_ORDERS)),
+    /// and at most 2 when the quarter solve has fewer than 48 cells on an axis; `order`
     /// without a quarter solve (cells not a multiple of 4, or fewer than 64 on an axis).
     pub curve_order: [f64; 2],
+    /// The order the three solves show within the problem's cap, before the limit for a
+    /// coarse quarter solve: what a tolerance's next cells aim at (equal to `curve_order`
+    /// when that limit does not apply).
+    pub shown_order: [f64; 2],
     /// The cells of the quarter solve, when there was one.
     pub quarter_cells: Option<[usize; 2]>,
 }
@@ -386,11 +393,12 @@ impl GridSolution {
     /// centres where the 4×4 stencil around them is positive and within a factor 2 (the
     /// interpolant is then positive), bilinear elsewhere (the far tails, beside clipped
     /// cells); never across the barrier (the density may jump there); from the last centre to a wall (or another edge of a run
-    /// of cells in x) the line through the last two centres, clipped at 0, where those agree
-    /// within a factor 2 (else the last value held), so that the value
-    /// at a wall is its one-sided limit from inside (second order, where holding the last
-    /// centre's value is first order: 4.5e−3 off the exact wall density of
-    /// `barrier_caughey_lower` at 200 cells, against 1e−4); constant from the last centre to
+    /// of cells in x) the quadratic through the last three centres where each two agree
+    /// within a factor 2 and it stays positive, else the line through the last two, clipped
+    /// at 0, where those agree (else the last value held), so that the value at a wall is
+    /// its one-sided limit from inside (third order; holding the last centre's value is first
+    /// order: 4.5e−3 off the exact wall density of `barrier_caughey_lower` at 200 cells,
+    /// against 1e−4 for the line); constant from the last centre to
     /// an edge in v (the far field); zero outside the domain.
     ///
     /// ```
@@ -424,15 +432,7 @@ impl GridSolution {
         }
         // Beyond the last centre of the run: each velocity node's line through the last
         // two centres, clipped at 0, then linear in v (what `line_integral` integrates).
-        let column = |j: usize| {
-            let (a, b) = (self.point(i0, j), self.point(i1, j));
-            let (near, next) = if tx < 0.0 { (a, b) } else { (b, a) };
-            if resolved(near, next) {
-                ((1.0 - tx) * a + tx * b).max(0.0)
-            } else {
-                near
-            }
-        };
+        let column = |j: usize| self.edge(seg, tx < 0.0, j).at(beyond(tx));
         (1.0 - tv) * column(j0) + tv * column(j1)
     }
 }
@@ -448,15 +448,15 @@ impl GridSolution {
                 return 0.0;
             }
             let i = (((at - m.x0) / m.hx).floor().max(0.0) as usize).min(m.nx - 1);
-            let (i0, i1, tx) = reach(at, m.x0, m.hx, m.segment_of(i));
+            let seg = m.segment_of(i);
+            let (i0, i1, tx) = reach(at, m.x0, m.hx, seg);
             // Clipping is a no-op between centres (convex weights of values ≥ 0).
             let f = |j: usize| {
-                let (a, b) = (self.point(i0, j), self.point(i1, j));
-                let (near, next) = if tx < 0.0 { (a, b) } else { (b, a) };
-                if (0.0..=1.0).contains(&tx) || resolved(near, next) {
+                if (0.0..=1.0).contains(&tx) {
+                    let (a, b) = (self.point(i0, j), self.point(i1, j));
                     ((1.0 - tx) * a + tx * b).max(0.0)
                 } else {
-                    near
+                    self.edge(seg, tx < 0.0, j).at(beyond(tx))
                 }
             };
             let linear = run_integral(&[(1.0, &f)], m.v0, m.hv, [0, m.nv], d.v, [a, b], false);
@@ -514,6 +514,19 @@ impl GridSolution {
 }
 
 impl GridSolution {
+    /// The interpolant in x beyond the first (`low`) or last centre of the run `seg`, on
+    /// velocity row `j`.
+    fn edge(&self, [start, end]: [usize; 2], low: bool, j: usize) -> Edge {
+        let at = |k: usize| self.point(k, j);
+        let n = end - start;
+        let (near, next, third) = if low {
+            (at(start), at(start + 1), (n >= 3).then(|| at(start + 2)))
+        } else {
+            (at(end - 1), at(end - 2), (n >= 3).then(|| at(end - 3)))
+        };
+        Edge::new(near, next, third)
+    }
+
     /// The runs of cells in x the interpolant does not cross (one, or two either side of a
     /// barrier), each with its edges: the domain's ends or the barrier's face.
     fn runs(&self) -> Vec<([usize; 2], [f64; 2])> {
@@ -588,21 +601,19 @@ fn run_integral(
     let mut total = 0.0;
     if extrapolate && end - start >= 2 {
         let (c0, c1) = (centre(start), centre(end - 1));
+        let third = end - start >= 3;
         for (w, g) in columns {
-            let (g0, g1) = (g(start), g(start + 1));
-            let edge = if resolved(g0, g1) {
-                g0 + (g0 - g1) * (c0 - e0) / h
-            } else {
-                g0
-            };
-            total += w * piece(e0, edge, c0.max(e0), g0);
-            let (g0, g1) = (g(end - 1), g(end - 2));
-            let edge = if resolved(g0, g1) {
-                g0 + (g0 - g1) * (e1 - c1) / h
-            } else {
-                g0
-            };
-            total += w * piece(c1.min(e1), g0, e1, edge);
+            // [u, w] ∩ [a, b] in cells beyond the end centre.
+            let lower = Edge::new(g(start), g(start + 1), third.then(|| g(start + 2)));
+            let (u, v) = (a.max(e0), b.min(c0));
+            if v > u {
+                total += w * h * lower.integral((c0 - v) / h, (c0 - u) / h);
+            }
+            let upper = Edge::new(g(end - 1), g(end - 2), third.then(|| g(end - 3)));
+            let (u, v) = (a.max(c1), b.min(e1));
+            if v > u {
+                total += w * h * upper.integral((u - c1) / h, (v - c1) / h);
+            }
         }
     } else {
         total += piece(e0, first, centre(start).max(e0), first);
@@ -642,6 +653,85 @@ fn cubic_less_linear(
         reconstruct::integral(values, k + t0, k + t1)
     };
     cubic - linear
+}
+
+/// How far beyond the end centre of a run, in cells, is the point at weight `tx` of
+/// [`reach`] (below 0 or above 1).
+fn beyond(tx: f64) -> f64 {
+    if tx < 0.0 {
+        -tx
+    } else {
+        tx - 1.0
+    }
+}
+
+/// The interpolant between a run's end centre and its edge, as a function of the distance
+/// s ≥ 0 beyond that centre in cells: the quadratic through the run's last three point
+/// values where each pair is [`resolved`] and it stays positive up to the edge (s = ½),
+/// third order, so that the value at a wall, its one-sided limit from inside, is off by
+/// O(h³) (the line through two centres is off by 3h²p″/8: 1.2e−3 of the exact density at
+/// the Zhuravlev barrier of the elastic Duffing case at 168×336 cells); else the line
+/// through the last two, clipped at 0, where they are resolved; else the end value held.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Edge {
+    /// p0 + b·s + c·s².
+    Quadratic { p0: f64, b: f64, c: f64 },
+    /// (p0 + b·s)⁺.
+    Linear { p0: f64, b: f64 },
+    /// p0.
+    Held(f64),
+}
+
+impl Edge {
+    /// From the end centre's point value `near`, the next one inwards and, when the run
+    /// has three cells, the one after.
+    fn new(near: f64, next: f64, third: Option<f64>) -> Edge {
+        if !resolved(near, next) {
+            return Edge::Held(near);
+        }
+        if let Some(p2) = third.filter(|&p2| resolved(next, p2)) {
+            let b = 0.5 * (3.0 * near - 4.0 * next + p2);
+            let c = 0.5 * (near - 2.0 * next + p2);
+            let q = Edge::Quadratic { p0: near, b, c };
+            // Positive on [0, ½]: at the edge and, for a minimum inside, at the vertex.
+            let vertex = if c > 0.0 { -b / (2.0 * c) } else { -1.0 };
+            if q.at(0.5) > 0.0 && !((0.0..0.5).contains(&vertex) && q.at(vertex) <= 0.0) {
+                return q;
+            }
+        }
+        Edge::Linear {
+            p0: near,
+            b: near - next,
+        }
+    }
+
+    /// The value at `s` cells beyond the end centre.
+    fn at(&self, s: f64) -> f64 {
+        match *self {
+            Edge::Quadratic { p0, b, c } => p0 + s * (b + s * c),
+            Edge::Linear { p0, b } => (p0 + b * s).max(0.0),
+            Edge::Held(p0) => p0,
+        }
+    }
+
+    /// ∫ over [s0, s1] (in cells, 0 ≤ s0 ≤ s1) of the value.
+    fn integral(&self, s0: f64, s1: f64) -> f64 {
+        match *self {
+            Edge::Quadratic { p0, b, c } => {
+                let f = |s: f64| s * (p0 + s * (b / 2.0 + s * c / 3.0));
+                f(s1) - f(s0)
+            }
+            Edge::Linear { p0, b } => {
+                // Clipped at 0 beyond s = −p0/b when the line falls.
+                let end = if b < 0.0 { s1.min(-p0 / b) } else { s1 };
+                if end <= s0 {
+                    return 0.0;
+                }
+                (end - s0) * (p0 + b * 0.5 * (s0 + end))
+            }
+            Edge::Held(p0) => p0 * (s1 - s0),
+        }
+    }
 }
 
 /// Whether the density is resolved at the end of a run, so that the line through its last
@@ -734,6 +824,28 @@ impl JointDensity for GridSolution {
 
 #[cfg(test)]
 mod tests {
+    /// Beyond a run's end: the quadratic through three resolved values is exact on a
+    /// quadratic, its integral that of its values; a quadratic that would dip below 0 gives
+    /// way to the line, and values more than a factor 2 apart to the end value held.
+    #[test]
+    fn the_edge_is_quadratic_where_resolved() {
+        let q = |s: f64| 1.0 + 0.2 * s - 0.05 * s * s;
+        let e = Edge::new(q(0.0), q(-1.0), Some(q(-2.0)));
+        assert!(matches!(e, Edge::Quadratic { .. }));
+        for s in [0.0, 0.2, 0.5] {
+            assert!((e.at(s) - q(s)).abs() < 1e-15);
+        }
+        let exact = |s: f64| s + 0.1 * s * s - 0.05 * s.powi(3) / 3.0;
+        assert!((e.integral(0.1, 0.5) - (exact(0.5) - exact(0.1))).abs() < 1e-15);
+        // Falling fast to the edge: 1, 1.9, 1.2 make a quadratic at −0.05 at s = ½.
+        let steep = Edge::new(1.0, 1.9, Some(1.2));
+        assert!(matches!(steep, Edge::Linear { .. }), "{steep:?}");
+        assert!(steep.at(0.5) >= 0.0);
+        assert_eq!(Edge::new(1.0, 3.0, Some(3.0)), Edge::Held(1.0));
+        assert_eq!(Edge::new(1.0, 1.5, None), Edge::Linear { p0: 1.0, b: -0.5 });
+    }
+
+    use super::Edge;
     use crate::density::JointDensity;
     use crate::grid::GridSolver;
     use crate::model::parse_model;
