@@ -13,7 +13,9 @@
 //!   estimate on the lightly damped linear oscillator (ζ = 0.05, |z| < 2.5σ, from rest) and
 //!   on case 1 (`y < 3` from y = 1e−6 at rest), each beside the stationary solve of the same
 //!   model at the same cells. (The whole process, reading the model and writing the files,
-//!   is timed with the command in the closing note's tables.)
+//!   is timed with the command in the closing note's tables: without `--times` the command
+//!   also steps R(t) to 5 mean times, from the same one solve of the mean times, and makes
+//!   the stationary study of the crossing tables.)
 //! * `reliability_r_of_t`: "R(t) to a horizon of 5× the mean time at 1e−4 ≤ 3 s". Case 1's
 //!   R(t) at 51 times from 0 to 5 mean times (150) at the stepper's tolerance 1e−4, beside
 //!   the mean times alone, at 100×200 cells: at 200×400 one run takes about a minute (the
@@ -28,8 +30,11 @@
 //!   path within its last step, so the count is exact to a step per path).
 //!
 //! Measured on 2 shared cores under a load of 6–10 from other builds (medians of 10): the
-//! statistics add 5 % (0.587 against 0.558 s); the mean times take 0.85 s (linear) and
-//! 1.00 s (case 1) against the stationary solve's 0.47 and 0.53 s; R(t) to 5 means at
+//! statistics add 5 % (0.587 against 0.558 s); the mean times take 0.51 s (linear) and
+//! 0.55 s (case 1) against the stationary solve's 0.31 and 0.40 s (load 2.3–3.9, medians of
+//! four runs); `fpsolve reliability --method grid` at 200×400 without `--times` takes 10.6 s
+//! (linear) and 4.6 s (case 1 as `vibro_duffing.sde`, |z| < 2.5) as a whole process, R(t)
+//! on the fine cells most of it (load 3.8–4.9, medians of 5); R(t) to 5 means at
 //! 100×200 3.9 s against 0.14 s for the mean times. The passage Monte Carlo, first 8.7 M
 //! path-steps/s against the stationary kernel's 1.0 G steps/s (116 times slower), now runs
 //! 541–547 M/s against 1.46–1.50 G/s in the same runs (2.7 times slower; load 7.5–15): its

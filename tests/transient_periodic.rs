@@ -15,7 +15,7 @@ use std::f64::consts::PI;
 
 use fpsolve::grid::{Domain, GridTransient, PeriodicState, TransientError};
 use fpsolve::mc::McTransient;
-use fpsolve::model::{parse_model, BoundModel, InitialState};
+use fpsolve::model::{parse_model, BoundModel, InitialState, PeriodError};
 use transient_exact::l1_gaussian;
 
 /// c, k, A, w, S of the linear case.
@@ -305,7 +305,7 @@ fn wrong_periods_and_models_are_refused_before_work() {
         .times(vec![0.0, 1.0]);
     let period = 2.0 * PI / LINEAR[3];
     match run.clone().periodic(0.99 * period).check() {
-        Err(TransientError::NotPeriodic { coefficient, .. }) => {
+        Err(TransientError::Period(PeriodError::NotPeriodic { coefficient, .. })) => {
             assert_eq!(coefficient, "the drift of `v`")
         }
         other => panic!("{other:?}"),
@@ -325,7 +325,7 @@ fn wrong_periods_and_models_are_refused_before_work() {
         .check()
         .unwrap_err();
     assert!(
-        matches!(&err, TransientError::NotPeriodic { coefficient, .. } if coefficient == "the diffusion of `v`"),
+        matches!(&err, TransientError::Period(PeriodError::NotPeriodic { coefficient, .. }) if coefficient == "the diffusion of `v`"),
         "{err}"
     );
     let still = model(
@@ -337,7 +337,10 @@ fn wrong_periods_and_models_are_refused_before_work() {
         .periodic(1.0)
         .check()
         .unwrap_err();
-    assert!(matches!(err, TransientError::NotTimeDependent { .. }));
+    assert!(matches!(
+        err,
+        TransientError::Period(PeriodError::NotTimeDependent { .. })
+    ));
     assert!(err.to_string().contains("stationary"), "{err}");
     for p in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         let err = run.clone().periodic(p).check().unwrap_err();

@@ -596,8 +596,7 @@ pub(crate) fn transient_error(py: Python<'_>, e: &TransientError) -> PyErr {
         TransientError::Step(_) => grid_solve_error(py, "step", e.to_string(), vec![]),
         TransientError::Setting { .. }
         | TransientError::InitialOutsideDomain { .. }
-        | TransientError::NotTimeDependent { .. }
-        | TransientError::NotPeriodic { .. } => bad_argument(e.to_string()),
+        | TransientError::Period(_) => bad_argument(e.to_string()),
     }
 }
 

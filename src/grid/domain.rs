@@ -3,7 +3,7 @@
 //! is not negligible at an edge, cut where it falls below `CUT` of its peak, until the cut
 //! settles.
 
-use super::assemble::{solve, Discretise};
+use super::assemble::{solve, Discretise, Operator};
 use super::error::GridError;
 use super::mesh::{Domain, Mesh};
 use super::problem::Mechanical;
@@ -33,18 +33,27 @@ pub(crate) fn solve_pinned<P: Discretise>(
     let t = std::time::Instant::now();
     let op = problem.operator(mesh)?;
     let assemble_ms = t.elapsed().as_secs_f64() * 1e3;
+    Ok((solve_pinned_op(mesh, &op, guess)?, assemble_ms))
+}
+
+/// [`solve_pinned`] with the operator `op` of the problem on `mesh` already assembled.
+pub(crate) fn solve_pinned_op(
+    mesh: &Mesh,
+    op: &Operator,
+    guess: [f64; 2],
+) -> Result<Vec<f64>, GridError> {
     let cell =
         |u: f64, lo: f64, h: f64, n: usize| ((((u - lo) / h).floor()).max(0.0) as usize).min(n - 1);
     let pin = mesh.index(
         cell(guess[0], mesh.x0, mesh.hx, mesh.nx),
         cell(guess[1], mesh.v0, mesh.hv, mesh.nv),
     );
-    let p = solve(mesh, &op, pin)?;
+    let p = solve(mesh, op, pin)?;
     let (arg, max) = argmax(&p);
     if p[pin] >= 1e-3 * max {
-        return Ok((p, assemble_ms));
+        return Ok(p);
     }
-    Ok((solve(mesh, &op, arg)?, assemble_ms))
+    solve(mesh, op, arg)
 }
 
 fn argmax(p: &[f64]) -> (usize, f64) {

@@ -91,6 +91,7 @@ pub use domain_flag::DomainError;
 pub use error::{GridError, Unsupported};
 pub use estimate::{CURVE_ORDERS, SMOOTH_CURVE_ORDER, TAIL_LEVEL};
 pub use mesh::{Domain, Marginal};
+pub(crate) use passage::evenly_spaced;
 pub use passage::{
     Decay, DecayFailure, DecayOutcome, GridPassage, PassageError, PassageErrors, PassageReport,
     PassageSolution, DECAY_RESIDUAL, MAX_DECAY_ITERATIONS, MIN_SAFE_MASS,

@@ -41,6 +41,7 @@ mod align;
 mod decay;
 mod error;
 mod killed;
+mod on_mesh;
 
 use std::time::Instant;
 
@@ -49,18 +50,12 @@ use serde::Serialize;
 pub use decay::{Decay, DecayFailure, DECAY_RESIDUAL, MAX_DECAY_ITERATIONS};
 pub use error::PassageError;
 
-use super::assemble::assemble;
-use super::domain;
 use super::mesh::Mesh;
-use super::nested::{cell_coords, nested_dissection};
 use super::problem::Mechanical;
 use super::{check_cells, Domain, GridError, Marginal, DEFAULT_CELLS, TRANSIENT_TOLERANCE};
-use crate::base::limits::memory_limit_bytes;
 use crate::dynamics::{Dynamics, Inadmissible};
 use crate::model::{BoundModel, BoundSafe};
-use crate::numerics::sparse::faer_lu::{FaerLu, Ordering};
-use crate::numerics::sparse::{Check, Factorization};
-use crate::numerics::timestep::{Esdirk, Scheme, Tolerance};
+use crate::numerics::sparse::Check;
 
 /// The least stationary probability a safe set must hold on the grid.
 pub const MIN_SAFE_MASS: f64 = 1e-9;
@@ -79,9 +74,28 @@ pub struct GridPassage<'a> {
     cells: [usize; 2],
     domain: Option<Domain>,
     start: [f64; 2],
-    times: Vec<f64>,
+    times: Times,
     tolerance: f64,
     estimate: bool,
+}
+
+/// Where R(t) is computed.
+#[derive(Clone, Debug, PartialEq)]
+enum Times {
+    /// At these times (none: the mean times only).
+    At(Vec<f64>),
+    /// At `count` times evenly spaced to `means` mean times from the start.
+    InMeans { means: f64, count: usize },
+}
+
+/// `count` times evenly spaced from 0 to `end`, the k-th `end·k/(count − 1)`; `None` unless
+/// `end` is positive and finite and `count` at least 2.
+pub(crate) fn evenly_spaced(end: f64, count: usize) -> Option<Vec<f64>> {
+    if !(end.is_finite() && end > 0.0 && count >= 2) {
+        return None;
+    }
+    let n = count - 1;
+    Some((0..=n).map(|k| end * k as f64 / n as f64).collect())
 }
 
 /// What [`GridPassage::run`] found.
@@ -227,7 +241,7 @@ impl<'a> GridPassage<'a> {
             cells: DEFAULT_CELLS,
             domain: None,
             start: [0.0, 0.0],
-            times: Vec::new(),
+            times: Times::At(Vec::new()),
             tolerance: TRANSIENT_TOLERANCE,
             estimate: true,
         }
@@ -291,7 +305,28 @@ impl<'a> GridPassage<'a> {
 
     /// Output times of R(t): finite, non-decreasing, none negative.
     pub fn times(mut self, times: Vec<f64>) -> Self {
-        self.times = times;
+        self.times = Times::At(times);
+        self
+    }
+
+    /// Output times of R(t) set by the mean first-passage time T̄ from the start on the run's
+    /// cells: `count` (at least 2) evenly spaced from 0 to `means`·T̄ (finite, positive),
+    /// none when that end is not a positive finite time. The mean times are solved once,
+    /// the forward run starting from that solve (the half cells' estimate at the same times).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = fpsolve::model::load_model(&path).unwrap().with_safe("abs(z) < 2").unwrap();
+    /// # let bound = model.bind(&[]).unwrap();
+    /// # let safe = model.safe().unwrap().bind(&bound).unwrap();
+    /// use fpsolve::grid::GridPassage;
+    /// let p = GridPassage::new(&bound, &safe).cells(40, 40).times_in_means(5.0, 11).run()?;
+    /// assert_eq!(p.times.len(), 11);
+    /// assert!((p.times[10] - 5.0 * p.mean_at_start).abs() < 1e-12 * p.times[10]);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn times_in_means(mut self, means: f64, count: usize) -> Self {
+        self.times = Times::InMeans { means, count };
         self
     }
 
@@ -308,13 +343,26 @@ impl<'a> GridPassage<'a> {
             expected,
         };
         check_cells(self.cells)?;
-        let t = &self.times;
-        if !(t.iter().all(|t| t.is_finite() && *t >= 0.0) && t.windows(2).all(|w| w[0] <= w[1])) {
-            return Err(setting(
-                "times",
-                format!("{t:?}"),
-                "finite, non-decreasing, none negative",
-            ));
+        match &self.times {
+            Times::At(t) => {
+                if !(t.iter().all(|t| t.is_finite() && *t >= 0.0)
+                    && t.windows(2).all(|w| w[0] <= w[1]))
+                {
+                    return Err(setting(
+                        "times",
+                        format!("{t:?}"),
+                        "finite, non-decreasing, none negative",
+                    ));
+                }
+            }
+            Times::InMeans { means, count } => {
+                if !(means.is_finite() && *means > 0.0) {
+                    return Err(setting("means", format!("{means}"), "finite, positive"));
+                }
+                if *count < 2 {
+                    return Err(setting("count", format!("{count}"), "at least 2"));
+                }
+            }
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return Err(setting(
@@ -424,12 +472,28 @@ impl<'a> GridPassage<'a> {
         let (problem, box_, stationary) = self.prepare()?;
         let [nx, nv] = self.cells;
         // The error estimate's solve on half the cells, alongside (the same problem and box,
-        // aligned to its own cells); its failure leaves the numbers without an estimate.
-        let at = |cells| self.solve_at(&problem, box_, cells, stationary);
-        let (fine, half) = rayon::join(
-            || at(self.cells),
-            || (self.estimate && nx >= 16 && nv >= 16).then(|| at([nx / 2, nv / 2])),
-        );
+        // aligned to its own cells, R(t) at the same times); its failure leaves the numbers
+        // without an estimate.
+        let backward = |cells| self.backward_at(&problem, box_, cells, stationary);
+        let half_cells = (self.estimate && nx >= 16 && nv >= 16).then_some([nx / 2, nv / 2]);
+        let (fine, half) = match &self.times {
+            Times::At(times) => rayon::join(
+                || backward(self.cells)?.finish(self, times),
+                || half_cells.map(|c| backward(c)?.finish(self, times)),
+            ),
+            Times::InMeans { means, count } => {
+                // The times wait for the fine cells' mean time only.
+                let (fine, half) =
+                    rayon::join(|| backward(self.cells), || half_cells.map(backward));
+                let fine = fine?;
+                let times =
+                    evenly_spaced(means * fine.mean_at(self.start), *count).unwrap_or_default();
+                rayon::join(
+                    || fine.finish(self, &times),
+                    || half.map(|h| h?.finish(self, &times)),
+                )
+            }
+        };
         let mut fine = fine?;
         if let Some(Ok(half)) = half {
             fine.errors = Some(PassageErrors::between(&fine, &half));
@@ -437,168 +501,6 @@ impl<'a> GridPassage<'a> {
         }
         fine.report.total_ms = started.elapsed().as_secs_f64() * 1e3;
         Ok(fine)
-    }
-
-    /// The solution on `cells` of `problem` in `box_` (aligned here to the cells), settings
-    /// checked; the stationary averages when the model has a `stationary` density.
-    fn solve_at(
-        &self,
-        problem: &Mechanical,
-        box_: Domain,
-        cells: [usize; 2],
-        stationary: bool,
-    ) -> Result<PassageSolution, PassageError> {
-        let started = Instant::now();
-        let [nx, nv] = cells;
-        let box_ = align::aligned(box_, nx, problem, self.safe, self.model);
-        let mesh = Mesh::new(box_, nx, nv, &problem.barriers, align::MESH_ALIGN);
-        let d = mesh.domain();
-        let [x, v] = self.start;
-        if !(d.x[0] <= x && x <= d.x[1] && d.v[0] <= v && v <= d.v[1]) {
-            return Err(PassageError::StartOutsideBox { x, v, domain: d });
-        }
-        let n = mesh.cells();
-        let safe: Vec<bool> = (0..n)
-            .map(|c| {
-                let (i, j) = (c / nv, c % nv);
-                self.safe.contains([mesh.xc(i), mesh.vc(j)])
-            })
-            .collect();
-        let area = mesh.hx * mesh.hv;
-        let safe_cells = safe.iter().filter(|s| **s).count();
-        // The stationary density on the same cells restricted to the set, and the set's mass.
-        let law = if stationary {
-            let (p, _) = domain::solve_pinned(&mesh, problem, [0.5 * (d.x[0] + d.x[1]), 0.0])?;
-            let inside: Vec<f64> = (0..n)
-                .map(|c| if safe[c] { p[c].max(0.0) } else { 0.0 })
-                .collect();
-            let mass = inside.iter().sum::<f64>() * area;
-            if mass.is_nan() || mass < MIN_SAFE_MASS || safe_cells == 0 {
-                return Err(PassageError::NoProbability {
-                    safe: self.safe.text.clone(),
-                    mass,
-                    cells: safe_cells,
-                });
-            }
-            Some((inside, mass))
-        } else {
-            self.bounded(&mesh, &safe)?;
-            None
-        };
-        let op = assemble(&mesh, problem)?;
-        let k = killed::killed(&mesh, problem, &op, &safe)?;
-        let m = k.cells.len();
-        let singular = |detail: String| PassageError::Singular { nx, nv, detail };
-        let lu = FaerLu::factor(k.backward.as_ref(), Ordering::Colamd, memory_limit_bytes())
-            .map_err(|e| singular(e.to_string()))?;
-        let t1 = lu
-            .checked_solve(k.backward.as_ref(), &vec![-1.0; m], CHECK)
-            .map_err(|e| singular(e.to_string()))?;
-        let rhs: Vec<f64> = t1.iter().map(|t| -2.0 * t).collect();
-        let t2 = lu
-            .checked_solve(k.backward.as_ref(), &rhs, CHECK)
-            .map_err(|e| singular(e.to_string()))?;
-        let full = |t: &[f64]| -> Vec<f64> {
-            (0..n)
-                .map(|c| {
-                    let s = k.index[c];
-                    if s == usize::MAX {
-                        0.0
-                    } else {
-                        t[s]
-                    }
-                })
-                .collect()
-        };
-        let (big1, big2) = (full(&t1), full(&t2));
-        let average = |t: &[f64]| {
-            law.as_ref().map(|(inside, mass)| {
-                inside.iter().zip(t).map(|(p, t)| p * t).sum::<f64>() * area / mass
-            })
-        };
-        let start_cell = cell_of(&mesh, self.start);
-        let start_safe = k.index[start_cell];
-        if start_safe == usize::MAX {
-            // The start is inside the set but its cell's centre is not: the cells do not
-            // resolve the set near the start.
-            return Err(PassageError::StartOutside {
-                x,
-                v,
-                safe: format!("{} (on the grid's cells)", self.safe.text),
-            });
-        }
-        let (reliability, pdf, steps) = if self.times.is_empty() {
-            (Vec::new(), Vec::new(), [0; 3])
-        } else {
-            let mut p0 = vec![0.0; m];
-            p0[start_safe] = 1.0 / area;
-            let coords: Vec<[u32; 2]> = {
-                let all = cell_coords(nx, nv, false);
-                k.cells.iter().map(|&c| all[c]).collect()
-            };
-            let order = nested_dissection(k.forward.symbolic(), &coords, 1);
-            let run = Esdirk::new(&k.forward)
-                .scheme(Scheme::Esdirk4)
-                .tolerance(Tolerance {
-                    relative: self.tolerance,
-                    absolute: 0.0,
-                })
-                .weight(area)
-                .order(order)
-                .run(&p0, 0.0, &self.times)?;
-            let mut ky = vec![0.0; m];
-            let (mut r, mut f) = (Vec::new(), Vec::new());
-            for o in &run.outputs {
-                apply(&k.forward, &o.y, &mut ky);
-                r.push(o.y.iter().sum::<f64>() * area);
-                f.push(-ky.iter().sum::<f64>() * area);
-            }
-            let s = &run.stats;
-            (r, f, [s.accepted, s.rejected, s.factorizations])
-        };
-        // The inverse iteration for the quasi-stationary density starts from the stationary
-        // one in the set, else from the uniform density on it.
-        let density: Vec<f64> = match &law {
-            Some((inside, _)) => k.cells.iter().map(|&c| inside[c]).collect(),
-            None => vec![1.0; m],
-        };
-        let (decay, quasi_stationary) =
-            match decay::decay(&lu, &k.forward, &k.backward, density, &t1, start_safe) {
-                Ok((d, phi)) => {
-                    // φ sums to 1 over the cells: its cell averages are φ / area.
-                    let p: Vec<f64> = full(&phi).iter().map(|w| w / area).collect();
-                    let q = [mesh.marginal(&p, 0), mesh.marginal(&p, 1)];
-                    (DecayOutcome::Found(d), Some(q))
-                }
-                Err(reason) => (DecayOutcome::NotFound { reason }, None),
-            };
-        let integral = hermite_integral(&self.times, &reliability, &pdf);
-        Ok(PassageSolution {
-            mean_at_start: bilinear(&mesh, &big1, self.start),
-            second_at_start: bilinear(&mesh, &big2, self.start),
-            mean_from_start_cell: t1[start_safe],
-            mean_stationary: average(&big1),
-            second_stationary: average(&big2),
-            safe_mass: law.as_ref().map(|(_, mass)| *mass),
-            times: self.times.clone(),
-            reliability,
-            pdf,
-            integral_of_reliability: integral,
-            decay,
-            quasi_stationary,
-            errors: None,
-            report: PassageReport {
-                cells: [nx, nv],
-                domain: d,
-                safe_cells,
-                start: self.start,
-                safe: self.safe.text.clone(),
-                tolerance: self.tolerance,
-                steps,
-                estimate_cells: None,
-                total_ms: started.elapsed().as_secs_f64() * 1e3,
-            },
-        })
     }
 }
 

@@ -1,6 +1,7 @@
 //! Why a grid transient was refused or failed.
 
 use crate::grid::{Domain, GridError};
+use crate::model::PeriodError;
 use crate::numerics::timestep::StepError;
 
 /// Why [`crate::grid::GridTransient::run`] returned no history: a setting out of range or an
@@ -41,39 +42,13 @@ pub enum TransientError {
         /// The box.
         domain: Domain,
     },
-    /// A periodic state was asked of a model whose coefficients do not mention the time
-    /// ([`crate::grid::GridTransient::periodic`]): its long-time density is the stationary
-    /// one.
-    #[error(
-        "the coefficients of `{model}` do not depend on t, so there is no periodic state \
-         apart from the stationary density: the stationary solver applies (fpsolve solve)"
-    )]
-    NotTimeDependent {
-        /// The model's name.
-        model: String,
-    },
-    /// A coefficient differs at t and t + period: the period given is not the
-    /// coefficients' ([`crate::grid::GridTransient::periodic`]).
-    #[error(
-        "{coefficient} is not periodic with period {period}: {at_t} at t = {t} but \
-         {at_next} at t + {period} (x = {x}, v = {v}); give the period of the coefficients"
-    )]
-    NotPeriodic {
-        /// Which coefficient (`the drift of `v``, `the diffusion of `v``).
-        coefficient: String,
-        /// The period given.
-        period: f64,
-        /// The probe's time.
-        t: f64,
-        /// The probe's position.
-        x: f64,
-        /// The probe's velocity.
-        v: f64,
-        /// The coefficient at t.
-        at_t: f64,
-        /// The coefficient at t + period.
-        at_next: f64,
-    },
+    /// A periodic state was asked of a model whose coefficients do not mention the time,
+    /// or with a period that is not theirs ([`crate::grid::GridTransient::periodic`]; the
+    /// check every method shares, [`crate::model::BoundModel::check_period`]). Never
+    /// [`PeriodError::NotPositive`]: a period that is not positive is the `period`
+    /// [`TransientError::Setting`].
+    #[error(transparent)]
+    Period(PeriodError),
     /// The grid refused the model or could not build its operator.
     #[error(transparent)]
     Grid(#[from] GridError),
@@ -82,35 +57,17 @@ pub enum TransientError {
     Step(#[from] StepError),
 }
 
-impl From<crate::model::PeriodError> for TransientError {
+impl From<PeriodError> for TransientError {
     /// The shared period check's refusal as the grid words it (a period that is not
     /// positive is the `period` setting).
-    fn from(e: crate::model::PeriodError) -> TransientError {
-        use crate::model::PeriodError;
+    fn from(e: PeriodError) -> TransientError {
         match e {
             PeriodError::NotPositive { period } => TransientError::Setting {
                 setting: "period",
                 value: format!("{period}"),
                 expected: "finite, positive",
             },
-            PeriodError::NotTimeDependent { model } => TransientError::NotTimeDependent { model },
-            PeriodError::NotPeriodic {
-                coefficient,
-                period,
-                t,
-                x,
-                v,
-                at_t,
-                at_next,
-            } => TransientError::NotPeriodic {
-                coefficient,
-                period,
-                t,
-                x,
-                v,
-                at_t,
-                at_next,
-            },
+            other => TransientError::Period(other),
         }
     }
 }

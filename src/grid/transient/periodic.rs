@@ -28,10 +28,13 @@
 //!   residual's period: a phase between lattice times is reached by one step of its own
 //!   length from the lattice time before it.
 //! * **Checks before any work.** A finite period > 0; a model whose coefficients mention t
-//!   (otherwise [`TransientError::NotTimeDependent`]: the stationary solver applies); the
+//!   (otherwise [`PeriodError::NotTimeDependent`]: the stationary solver applies); the
 //!   drift and diffusion equal at t and t + P at probe points of the box
-//!   ([`TransientError::NotPeriodic`] names the coefficient: the check every method shares,
+//!   ([`PeriodError::NotPeriodic`] names the coefficient: the check every method shares,
 //!   [`crate::model::BoundModel::check_period`]); the transient's own checks.
+//!
+//! [`PeriodError::NotTimeDependent`]: crate::model::PeriodError::NotTimeDependent
+//! [`PeriodError::NotPeriodic`]: crate::model::PeriodError::NotPeriodic
 
 use std::cell::{Cell, RefCell};
 use std::fmt;
@@ -275,9 +278,10 @@ impl<'a> GridTransient<'a> {
     /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
     /// # let bound = fpsolve::model::load_model(&path).unwrap().bind(&[]).unwrap();
     /// use fpsolve::grid::{GridTransient, TransientError};
+    /// use fpsolve::model::PeriodError;
     /// // models/linear.sde has no t: its long-time density is the stationary one.
     /// let err = GridTransient::new(&bound).times(vec![0.0]).periodic(1.0).run().unwrap_err();
-    /// assert!(matches!(err, TransientError::NotTimeDependent { .. }));
+    /// assert!(matches!(err, TransientError::Period(PeriodError::NotTimeDependent { .. })));
     /// ```
     pub fn periodic(self, period: f64) -> GridPeriodic<'a> {
         GridPeriodic {
@@ -339,6 +343,7 @@ impl GridPeriodic<'_> {
     ///
     /// ```
     /// use fpsolve::grid::{Domain, GridTransient, TransientError};
+    /// use fpsolve::model::PeriodError;
     /// let text = "model f\nstate x, v\ndrift x: v\ndrift v: -v - x + cos(2*t)\n\
     ///     noise xi: intensity 1\ndiffusion v: xi\n";
     /// let bound = fpsolve::model::parse_model(text, None)?.bind(&[])?;
@@ -346,7 +351,7 @@ impl GridPeriodic<'_> {
     ///     .domain(Domain { x: [-5.0, 5.0], v: [-5.0, 5.0] }).times(vec![0.0, 1.0]);
     /// // cos(2t) has period pi, not 3.
     /// let err = run.clone().periodic(3.0).check().unwrap_err();
-    /// assert!(matches!(err, TransientError::NotPeriodic { .. }), "{err}");
+    /// assert!(matches!(err, TransientError::Period(PeriodError::NotPeriodic { .. })), "{err}");
     /// assert!(run.periodic(std::f64::consts::PI).check().is_ok());
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
@@ -421,8 +426,8 @@ impl GridPeriodic<'_> {
     ///
     /// # Errors
     /// [`TransientError::Setting`] (`period`, `residual`, `steps`, `max_maps`, phases
-    /// beyond the period, and the transient's), [`TransientError::NotTimeDependent`],
-    /// [`TransientError::NotPeriodic`], the transient's refusals of the model and the box,
+    /// beyond the period, and the transient's), [`TransientError::Period`] (not time
+    /// dependent, not periodic), the transient's refusals of the model and the box,
     /// [`TransientError::Step`] when a stage matrix cannot be built or solved. A run that
     /// does not reach its residual is not an error: its [`PeriodicOutcome`] says so.
     pub fn run(&self) -> Result<PeriodicState, TransientError> {

@@ -212,10 +212,8 @@ impl PassageSettings {
         let end = self
             .mc
             .and_then(|m| m.horizon)
-            .or_else(|| mean.map(|m| DEFAULT_MEANS * m))
-            .filter(|e| e.is_finite() && *e > 0.0)?;
-        let n = DEFAULT_TIMES - 1;
-        Some((0..=n).map(|k| end * k as f64 / n as f64).collect())
+            .or_else(|| mean.map(|m| DEFAULT_MEANS * m))?;
+        crate::grid::evenly_spaced(end, DEFAULT_TIMES)
     }
 
     /// The grid's problem of `bound` and `safe` with these settings (without its output
@@ -356,20 +354,13 @@ impl PassageRun {
             || {
                 settings.grid.then(|| {
                     let passage = settings.grid_passage(bound, safe);
-                    let times = match settings.output_times(None) {
-                        Some(times) => times,
-                        // The mean time first (its solve is repeated with the times: a
-                        // fraction of the time-stepping's cost), then R(t) to
-                        // DEFAULT_MEANS of it.
-                        None => {
-                            let mean = passage.clone().estimate(false).run()?.mean_at_start;
-                            match settings.output_times(Some(mean)) {
-                                Some(times) => times,
-                                None => return passage.run(),
-                            }
-                        }
-                    };
-                    passage.times(times).run()
+                    match settings.output_times(None) {
+                        Some(times) => passage.times(times),
+                        // R(t) to DEFAULT_MEANS of the grid's mean time, which the passage's
+                        // one solve of the mean times sets.
+                        None => passage.times_in_means(DEFAULT_MEANS, DEFAULT_TIMES),
+                    }
+                    .run()
                 })
             },
             || {

@@ -230,6 +230,18 @@ fn wilson(k: f64, n: f64, z: f64) -> (f64, f64) {
 mod tests {
     use super::*;
 
+    /// A run to the horizon 10 at dt 0.1 whose bias run gave the same `exits`.
+    fn run_of(exits: &[f64]) -> Run<'_> {
+        Run {
+            exits,
+            coarse: exits,
+            coarse_fine: exits,
+            horizon: 10.0,
+            dt: 0.1,
+            seed: 1,
+        }
+    }
+
     #[test]
     fn wilson_brackets_the_fraction_and_stays_in_the_unit_interval() {
         let (l, h) = wilson(0.0, 100.0, Z95);
@@ -249,14 +261,7 @@ mod tests {
         // band's error (3.5e-4) put it 3.2 errors away.
         let mut exits = vec![1.0; 3999];
         exits.push(f64::INFINITY);
-        let run = Run {
-            exits: &exits,
-            coarse: &exits,
-            coarse_fine: &exits,
-            horizon: 10.0,
-            dt: 0.1,
-            seed: 1,
-        };
+        let run = run_of(&exits);
         let r = McPassageResult::new(run, vec![0.0, 2.0]);
         assert_eq!(r.reliability[1], 2.5e-4);
         let up = r.reliability_stderr_toward(1, 1.68e-3, 3.0);
@@ -271,14 +276,7 @@ mod tests {
     #[test]
     fn a_censored_path_turns_the_mean_into_a_lower_bound() {
         let exits = [1.0, 2.0, 3.0, f64::INFINITY];
-        let run = Run {
-            exits: &exits,
-            coarse: &exits,
-            coarse_fine: &exits,
-            horizon: 10.0,
-            dt: 0.1,
-            seed: 1,
-        };
+        let run = run_of(&exits);
         let r = McPassageResult::new(run, vec![0.0, 1.5, 10.0]);
         assert!(r.mean.is_none() && r.variance.is_none());
         assert_eq!(r.censored, 1);
@@ -294,12 +292,9 @@ mod tests {
     fn exit_times_without_censoring_give_mean_and_variance() {
         let exits = [1.0, 2.0, 3.0, 4.0, f64::NAN];
         let run = Run {
-            exits: &exits,
             coarse: &exits[..2],
             coarse_fine: &exits[..2],
-            horizon: 10.0,
-            dt: 0.1,
-            seed: 1,
+            ..run_of(&exits)
         };
         let r = McPassageResult::new(run, vec![2.5]);
         let m = r.mean.unwrap();
