@@ -13,7 +13,7 @@ use faer::sparse::{SparseColMat, SymbolicSparseColMat, Triplet};
 
 use super::error::GridError;
 use super::mesh::{face_weights, overlaps, wrapped_face_weights, Mesh};
-use super::problem::Mechanical;
+use super::problem::{Fluxes, Mechanical};
 use crate::base::limits::memory_limit_bytes;
 
 /// The operator as (row, column, value) entries, duplicates summed by the sparse matrix.
@@ -48,6 +48,7 @@ impl Discretise for Mechanical {
 /// Builds the operator of `problem` on `mesh`.
 pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, GridError> {
     let (nx, nv) = (mesh.nx, mesh.nv);
+    let averaged = problem.fluxes() == Fluxes::Averaged;
     let mut t = Vec::with_capacity(mesh.cells() * 16);
     // x faces: velocity v_j (the face midpoint), third-order upwind-biased face values.
     if mesh.wrap {
@@ -59,7 +60,9 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                     push(&mut t, mesh.index(i, j), col, -a * w);
                     push(&mut t, mesh.index((i + 1) % nx, j), col, a * w);
                 }
-                x_face_moment(&mut t, mesh, [i, (i + 1) % nx], j);
+                if averaged {
+                    x_face_moment(&mut t, mesh, [i, (i + 1) % nx], j);
+                }
             }
         }
     }
@@ -72,7 +75,9 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
                     push(&mut t, mesh.index(i, j), col, -a * w);
                     push(&mut t, mesh.index(i + 1, j), col, a * w);
                 }
-                x_face_moment(&mut t, mesh, [i, i + 1], j);
+                if averaged {
+                    x_face_moment(&mut t, mesh, [i, i + 1], j);
+                }
             }
         }
     }
@@ -100,18 +105,20 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
             }
             // −D ∂v p·hv: leaves `lo` when p_hi < p_lo; the face derivative to fourth order
             // from four cells where they exist.
-            for (cell, w) in derivative_weights(j, nv) {
+            for (cell, w) in derivative_weights(j, nv, averaged) {
                 let col = mesh.index(i, cell);
                 push(&mut t, lo, col, d * w);
                 push(&mut t, hi, col, -d * w);
             }
         }
     }
-    v_face_averages(&mut t, mesh, &coef)?;
+    if averaged {
+        v_face_averages(&mut t, mesh, &coef)?;
+    }
     let (mut outflow, mut reinjection) = (Vec::new(), Vec::new());
     for exit in &mesh.exits {
         let barrier = &problem.barriers[exit.barrier];
-        let columns = exit_columns(mesh, exit);
+        let columns = exit_columns(mesh, exit, averaged);
         let rows: Vec<usize> = (0..nv)
             .filter(|&j| mesh.vc(j) * exit.direction > 0.0)
             .collect();
@@ -123,7 +130,7 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
             );
             let (m0, m1) = (barrier.jump(e0), barrier.jump(e1));
             let targets = overlaps(mesh, m0.min(m1), m0.max(m1));
-            for (col, w) in exit_flux(mesh, &columns, &rows, k) {
+            for (col, w) in exit_flux(mesh, &columns, &rows, k, averaged) {
                 push(&mut outflow, from, col, -w);
                 for &(jd, share) in &targets {
                     let into = mesh.index(exit.into, jd);
@@ -139,15 +146,15 @@ pub(crate) fn assemble(mesh: &Mesh, problem: &Mechanical) -> Result<Operator, Gr
     })
 }
 
-/// The wall's face value from the cells of one row on the outgoing side, nearest first: the
-/// quadratic through three cell averages, (11, −7, 2)/6 (third order), where the run has
-/// three cells, else the line through two, (3, −1)/2 (the other side of the wall may
-/// have a jump, so no cell beyond it is used).
-fn exit_columns(mesh: &Mesh, exit: &super::mesh::Exit) -> Vec<(usize, f64)> {
+/// The wall's face value from the cells of one row on the outgoing side, nearest first: with
+/// `averaged` fluxes the quadratic through three cell averages, (11, −7, 2)/6 (third order),
+/// where the run has three cells, else the line through two, (3, −1)/2 (the other side of
+/// the wall may have a jump, so no cell beyond it is used).
+fn exit_columns(mesh: &Mesh, exit: &super::mesh::Exit, averaged: bool) -> Vec<(usize, f64)> {
     let step = exit.inner as isize - exit.from as isize;
     let third = exit.inner as isize + step;
     let [s, e] = mesh.segment_of(exit.from);
-    if third >= s as isize && third < e as isize {
+    if averaged && third >= s as isize && third < e as isize {
         vec![
             (exit.from, 11.0 / 6.0),
             (exit.inner, -7.0 / 6.0),
@@ -159,18 +166,24 @@ fn exit_columns(mesh: &Mesh, exit: &super::mesh::Exit) -> Vec<(usize, f64)> {
 }
 
 /// The rate at which row `rows[k]` leaves through the wall, as weights on cells:
-/// (1/hv)∫ |v| p dv over the row, per hx, which is |v_j| p̄ + (hv²/12) ∂|v| p at the wall;
-/// p̄ and the face values of the neighbouring rows from `columns`, ∂v p by their centred
-/// difference inside the outgoing rows (one-sided at v = 0, where the density at a wall
-/// may jump, and at the box's edge).
-fn exit_flux(mesh: &Mesh, columns: &[(usize, f64)], rows: &[usize], k: usize) -> Vec<(usize, f64)> {
+/// (1/hv)∫ |v| p dv over the row, per hx, which is |v_j| p̄ + (hv²/12) ∂|v| p at the wall
+/// (the second term with `averaged` fluxes only); p̄ and the face values of the neighbouring
+/// rows from `columns`, ∂v p by their centred difference inside the outgoing rows
+/// (one-sided at v = 0, where the density at a wall may jump, and at the box's edge).
+fn exit_flux(
+    mesh: &Mesh,
+    columns: &[(usize, f64)],
+    rows: &[usize],
+    k: usize,
+    averaged: bool,
+) -> Vec<(usize, f64)> {
     let j = rows[k];
     let (hx, hv) = (mesh.hx, mesh.hv);
     let mut out: Vec<(usize, f64)> = columns
         .iter()
         .map(|&(i, w)| (mesh.index(i, j), mesh.vc(j).abs() / hx * w))
         .collect();
-    if rows.len() >= 2 {
+    if averaged && rows.len() >= 2 {
         let (a, b) = (k.saturating_sub(1), (k + 1).min(rows.len() - 1));
         // d|v| = sign(v)·dv; rows are in increasing v.
         let sign = mesh.vc(j).signum();
@@ -185,10 +198,10 @@ fn exit_flux(mesh: &Mesh, columns: &[(usize, f64)], rows: &[usize], k: usize) ->
 }
 
 /// Weights of hv·∂v p at the face between cells `j` and `j + 1` of `n` from the cell
-/// averages: (1, −15, 15, −1)/12 on cells j − 1 … j + 2 (fourth order) where all four
-/// exist, else the difference of the two (second order, at the edges of the box).
-fn derivative_weights(j: usize, n: usize) -> Vec<(usize, f64)> {
-    if j >= 1 && j + 2 < n {
+/// averages: with `averaged` fluxes (1, −15, 15, −1)/12 on cells j − 1 … j + 2 (fourth
+/// order) where all four exist, else the difference of the two (second order).
+fn derivative_weights(j: usize, n: usize, averaged: bool) -> Vec<(usize, f64)> {
+    if averaged && j >= 1 && j + 2 < n {
         vec![
             (j - 1, 1.0 / 12.0),
             (j, -15.0 / 12.0),
@@ -585,7 +598,7 @@ mod tests {
         let dp = |v: f64| -1.0 + v + 2.1 * v * v;
         for j in 1..n - 2 {
             let face = lo + (j + 1) as f64 * h;
-            let got: f64 = derivative_weights(j, n)
+            let got: f64 = derivative_weights(j, n, true)
                 .iter()
                 .map(|&(c, w)| w * avg[c])
                 .sum();
@@ -604,7 +617,7 @@ mod tests {
             .collect();
         for j in [0, n - 2] {
             let face = lo + (j + 1) as f64 * h;
-            let w = derivative_weights(j, n);
+            let w = derivative_weights(j, n, true);
             assert_eq!(w.len(), 2);
             let got: f64 = w.iter().map(|&(c, w)| w * quadratic[c]).sum();
             assert!((got - h * (-1.0 + face)).abs() < 1e-13);

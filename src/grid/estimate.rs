@@ -39,7 +39,7 @@ pub const TAIL_LEVEL: f64 = 1e-5;
 /// or the density has a singular corner: at most 3/2, and at least 1/2 (a quarter solve
 /// closer to the half than the fine one is makes the estimate three times the fine–half
 /// difference, more cautious than order 1). Second order: the general form's operator
-/// ([`Problem::General`](super::read::Problem)); its cell masses converge more slowly as the
+/// (the general form); its cell masses converge more slowly as the
 /// cells shrink than three coarse solves show (the mechanical operator before its fluxes were
 /// made third order: the linear oscillator's position masses 3.1e−4, 1.1e−4, 3.7e−5, 2.0e−5
 /// from exact at 100×200 … 560×1120 cells, orders 1.5, 1.6, 1.8; at order 2 the estimate was

@@ -22,8 +22,9 @@
 //! * each flux the average over its face, to third order: a row's x-flux is
 //!   v_j p̄ + (hv²/12) ∂v p, a column's v-flux carries the x-variation of its coefficients
 //!   across the column ((hx²/12) a′p′ + (hx²/24) a″p); so the cell masses converge at order
-//!   3 (order 1.5 to 2 with midpoint fluxes), except next to a wall whose law is not
-//!   elastic, where the density jumps at v = 0 (order about 1.6);
+//!   3 (order 1.5 to 2 with midpoint fluxes); a model with a wall whose law is not elastic
+//!   (the density jumps at the wall's v = 0, order about 1.6 whichever the fluxes) keeps
+//!   the midpoint fluxes, as accurate there and cheaper;
 //! * the impact law as a re-injection: what leaves through the barrier at velocity v comes
 //!   back in the cells at the mapped velocity (r·v across z = 0 in the Zhuravlev form, −r·v
 //!   off a wall in original coordinates), split over the cells the mapped interval covers,

@@ -37,12 +37,14 @@ impl Problem {
 
     /// The highest order the curves' L1 estimates may take from three solves: the mechanical
     /// operator's fluxes are third order, and its cell masses converge so unless a wall's law
-    /// is not elastic (the density then jumps at the wall's v = 0, a singular corner; see
-    /// [`elastic`]); the
+    /// is not elastic (the density then jumps at the wall's v = 0, a singular corner, where its fluxes are
+    /// taken at the faces' midpoints: [`super::problem::Fluxes`]); the
     /// general form's operator is second order (see [`super::CURVE_ORDERS`]).
     pub(crate) fn curve_order_cap(&self) -> f64 {
         match self {
-            Problem::Mechanical(m) if m.barriers.iter().all(elastic) => super::SMOOTH_CURVE_ORDER,
+            Problem::Mechanical(m) if m.fluxes() == super::problem::Fluxes::Averaged => {
+                super::SMOOTH_CURVE_ORDER
+            }
             _ => super::CURVE_ORDERS[1],
         }
     }
@@ -143,17 +145,4 @@ impl Discretise for Problem {
             Problem::General(g) => g.operator(mesh),
         }
     }
-}
-
-/// Whether `barrier` leaves the density smooth: a wall whose law is v → −v (elastic), or a
-/// pass-through barrier whose law is v → v (no impact: the Zhuravlev form with r = 1),
-/// checked at velocities across the range a density reaches, to rounding.
-fn elastic(barrier: &crate::dynamics::Barrier) -> bool {
-    let sign = match barrier.kind() {
-        crate::dynamics::BarrierKind::Reflecting(_) => -1.0,
-        crate::dynamics::BarrierKind::PassThrough => 1.0,
-    };
-    [-20.0, -3.0, -0.5, 0.25, 1.0, 7.0, 30.0]
-        .iter()
-        .all(|&v: &f64| (barrier.jump(v) - sign * v).abs() <= 1e-12 * v.abs())
 }
