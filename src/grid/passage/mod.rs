@@ -422,7 +422,8 @@ impl<'a> GridPassage<'a> {
             None => Mechanical::new(&dynamics)?,
             Some(_) => Mechanical::first_passage(&dynamics)?,
         }
-        .not_periodic(self.model, "a first passage")?;
+        .not_periodic(self.model, "a first passage")?
+        .with_midpoint_fluxes();
         let box_ = match (&without, self.domain) {
             (Some(reason), None) => {
                 return Err(PassageError::NoBox {
