@@ -111,7 +111,10 @@ fn phases() -> Vec<f64> {
 /// 256 TR-BDF2 steps; 6.2e-2 with 16 ESDIRK4 steps, 5.2e-2 with 64 TR-BDF2 steps, so the bound
 /// catches a time step twice as long); variances within 1.04e-3 of their value; amplitude
 /// 2.53839 against 2.53837, lag 0.41823 against 0.41822 rad (TR-BDF2 at 32 steps: the mean
-/// 1.3e-2 off). At 128x128 the L1 is 5.6e-3 and 5.2e-3.
+/// 1.3e-2 off). At 128x128 the L1 is 5.6e-3 and 5.2e-3. With the face-averaged fluxes the
+/// worst L1 at 64x64 is 2.71e-2 (x) and 2.56e-2 (v): at 2.8 cells per standard deviation
+/// their differences see an unresolved density (the stationary solves gain from them from
+/// about 100 cells per axis).
 #[test]
 fn linear_periodic_state_is_the_exact_gaussian() {
     let [c, k, a, w, s] = LINEAR;
@@ -143,7 +146,7 @@ fn linear_periodic_state_is_the_exact_gaussian() {
         assert!((snap.moments[0].variance - var_x).abs() < 2e-3 * var_x);
         assert!((snap.moments[1].variance - var_v).abs() < 2e-3 * var_v);
     }
-    assert!(worst[0] < 2.6e-2 && worst[1] < 2.6e-2, "{worst:?}");
+    assert!(worst[0] < 3e-2 && worst[1] < 3e-2, "{worst:?}");
     let means: Vec<f64> = state
         .history
         .snapshots

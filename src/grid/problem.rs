@@ -111,11 +111,12 @@ impl Mechanical {
         self.time_dependent
     }
 
-    /// The same problem with the midpoint fluxes whatever its barriers: for a first passage,
+    /// The same problem with the midpoint fluxes whatever its barriers. For a first passage,
     /// whose absorbing boundary makes a corner where the outflow meets v = 0 as an inelastic
-    /// wall does. Measured: with averaged fluxes the mean times of the linear oscillator
-    /// (c = 1, |z| < 1.2) converged unevenly from 30×40 to 60×80 to 240×320, and E[T²] at
-    /// 60×80 was 2.92 from the 240×320 value where its half-cells estimate said 2.64.
+    /// wall does: with averaged fluxes the mean times of the linear oscillator (c = 1,
+    /// |z| < 1.2) converged unevenly from 30×40 to 60×80 to 240×320, and E[T²] at 60×80 was
+    /// 2.92 from the 240×320 value where its half-cells estimate said 2.64.(A transient keeps the stationary solver's fluxes,
+    /// so that its long-time limit is that solver's density.)
     pub(crate) fn with_midpoint_fluxes(self) -> Mechanical {
         Mechanical {
             midpoint: true,
