@@ -139,8 +139,8 @@ pub use crate::model::BarrierSide;
 /// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
 /// let bound = fpsolve::model::load_model(&path)?.bind(&[])?;
 /// let box_ = Domain { x: [-15.0, 15.0], v: [-15.0, 15.0] };
-/// let sol = GridSolver::new(&bound).cells(40, 40).domain(box_).estimate(false).solve()?;
-/// assert_eq!(sol.report.cells, [40, 40]);
+/// let sol = GridSolver::new(&bound).cells(60, 60).domain(box_).estimate(false).solve()?;
+/// assert_eq!(sol.report.cells, [60, 60]);
 /// assert_eq!(sol.report.domain, box_);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
