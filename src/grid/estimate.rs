@@ -44,8 +44,11 @@ pub const TAIL_LEVEL: f64 = 1e-5;
 /// made third order: the linear oscillator's position masses 3.1e−4, 1.1e−4, 3.7e−5, 2.0e−5
 /// from exact at 100×200 … 560×1120 cells, orders 1.5, 1.6, 1.8; at order 2 the estimate was
 /// 0.7 of the true error). The corner: a wall whose law is not elastic (the density jumps at
-/// the wall's v = 0), where the mechanical operator's masses converge at about 1.6 (r = 0.8:
-/// differences 6.2e−4, 1.9e−4, 6.4e−5 between successive doublings from 64×128).
+/// the wall's v = 0), where the mechanical operator's masses converge at about 2 away from
+/// the corner and at 1.2–1.3 beside it (the paper's case 1, masses within 0.5 of the corner
+/// 9.1e−5, 3.9e−5, 1.5e−5 from a 768×1536 solve at 96×192, 192×384, 384×768), so that the
+/// corner sets the order as the cells shrink; at 1.5 the estimate states 3–5 times the true
+/// error there (192×384: 4.2e−4 against 9.1e−5).
 pub const CURVE_ORDERS: [f64; 2] = [0.5, 1.5];
 
 /// The highest order an L1 estimate may take on the mechanical form without a singular

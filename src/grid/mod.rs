@@ -587,7 +587,13 @@ impl<'a> GridSolver<'a> {
                     }
                 }
             }
-            match next_cells(cells, e, tol, order, limit) {
+            let max_factor = if solves.len() == 1 {
+                tolerance::FIRST_MAX_FACTOR
+            } else {
+                tolerance::MAX_FACTOR
+            };
+            let aim = tolerance::aim_order(&solves, order);
+            match next_cells(cells, e, tol, aim, max_factor, limit) {
                 NextCells::Free(next) | NextCells::Capped(next) => cells = next,
                 NextCells::AtLimit => break Some(Shortfall::CellLimit { limit }),
             }

@@ -41,11 +41,13 @@ pub(crate) struct Coefficients {
 pub(crate) enum Fluxes {
     /// The value at the face's midpoint (second order), and a wall's outflow from the line
     /// through the two cells beside it. Where a wall's law is not elastic the density jumps
-    /// at the wall's v = 0 and its cell masses converge at about 1.6 whichever the fluxes;
-    /// there the averaged fluxes were no more accurate (the paper's case 1 at 256×512:
-    /// 1.4e−4 against 1.1e−4 from a 512×1024 reference, z marginal) and cost 1.5 times the
-    /// factor's memory (740 against 500 MB) and about 1.4 times the solve. A first passage
-    /// takes these too ([`Mechanical::with_midpoint_fluxes`]).
+    /// at the wall's v = 0, a singular corner whose error falls at order 1.2–1.3 in its
+    /// neighbourhood whichever the fluxes. There the averaged fluxes are more accurate per
+    /// cell but not per second: the paper's case 1 at 192×384, marginal masses 6.3e−5 /
+    /// 6.4e−5 (z / v) against 9.1e−5 / 6.9e−5 from a 768×1536 solve of each scheme, took
+    /// 0.77 s against 0.28 s with the estimate's partners (the corner's couplings fill the
+    /// factor), and the midpoint fluxes on 256×512 (5.4e−5 / 3.9e−5) cost less than that.
+    /// A first passage takes these too ([`Mechanical::with_midpoint_fluxes`]).
     Midpoint,
     /// Each flux averaged over its face to third order ([`super::assemble`]): the cell
     /// masses converge at order 3 on every exact case.
