@@ -141,10 +141,13 @@ fn bench_statistics(c: &mut Criterion) {
     g.finish();
 }
 
+/// The mean times as `fpsolve reliability --mean-only` solves them: no output times, no
+/// slowest decay, the half-cells estimate.
 fn mean_passage(b: &BoundModel, s: &BoundSafe, start: [f64; 2]) -> f64 {
     GridPassage::new(b, s)
         .cells(CELLS[0], CELLS[1])
         .start(start)
+        .decay(false)
         .run()
         .expect("solves")
         .mean_at_start
