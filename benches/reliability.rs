@@ -12,10 +12,11 @@
 //!   process". [`GridPassage`]'s mean times (no R(t)) at 200×400 with its half-cells
 //!   estimate on the lightly damped linear oscillator (ζ = 0.05, |z| < 2.5σ, from rest) and
 //!   on case 1 (`y < 3` from y = 1e−6 at rest), each beside the stationary solve of the same
-//!   model at the same cells. (The whole process, reading the model and writing the files,
-//!   is timed with the command in the closing note's tables: without `--times` the command
-//!   also steps R(t) to 5 mean times, from the same one solve of the mean times, and makes
-//!   the stationary study of the crossing tables.)
+//!   model at the same cells: what `fpsolve reliability --mean-only` solves (no output
+//!   times, no slowest decay). (The whole process, reading the model and writing
+//!   `summary.json`, is timed with the command: without `--mean-only` the command also
+//!   steps R(t) to 5 mean times, finds the slowest decay and makes the stationary study of
+//!   the crossing tables.)
 //! * `reliability_r_of_t`: "R(t) to a horizon of 5× the mean time at 1e−4 ≤ 3 s". Case 1's
 //!   R(t) at 51 times from 0 to 5 mean times (150) at the stepper's tolerance 1e−4, beside
 //!   the mean times alone, at 100×200 cells: at 200×400 one run takes about a minute (the
@@ -30,11 +31,16 @@
 //!   path within its last step, so the count is exact to a step per path).
 //!
 //! Measured on 2 shared cores under a load of 6–10 from other builds (medians of 10): the
-//! statistics add 5 % (0.587 against 0.558 s); the mean times take 0.51 s (linear) and
+//! statistics add 5 % (0.587 against 0.558 s); the mean times took 0.51 s (linear) and
 //! 0.55 s (case 1) against the stationary solve's 0.31 and 0.40 s (load 2.3–3.9, medians of
-//! four runs); `fpsolve reliability --method grid` at 200×400 without `--times` takes 10.6 s
+//! four runs), and without the slowest decay (as `--mean-only`) 0.68 s and 0.84 s against
+//! 0.70 and 0.73 s in the same run (load 6.5, criterion's medians of 10); `fpsolve reliability --method grid` at 200×400 without `--times` takes 10.6 s
 //! (linear) and 4.6 s (case 1 as `vibro_duffing.sde`, |z| < 2.5) as a whole process, R(t)
-//! on the fine cells most of it (load 3.8–4.9, medians of 5); R(t) to 5 means at
+//! on the fine cells most of it (load 3.8–4.9, medians of 5), and with `--mean-only`
+//! 1.24 s and 0.73 s against 17.5 s and 7.6 s for the full run in the same alternated
+//! runs (load 6.5–7.1, medians of 5; single runs at a load of about 5: 0.62 and 0.49 s),
+//! the fine cells' stationary solve for the stationary start's average the longest part
+//! (the killed generator's factorisation and the half cells' solves run beside it); R(t) to 5 means at
 //! 100×200 3.9 s against 0.14 s for the mean times. The passage Monte Carlo, first 8.7 M
 //! path-steps/s against the stationary kernel's 1.0 G steps/s (116 times slower), now runs
 //! 541–547 M/s against 1.46–1.50 G/s in the same runs (2.7 times slower; load 7.5–15): its
@@ -141,10 +147,13 @@ fn bench_statistics(c: &mut Criterion) {
     g.finish();
 }
 
+/// The mean times as `fpsolve reliability --mean-only` solves them: no output times, no
+/// slowest decay, the half-cells estimate.
 fn mean_passage(b: &BoundModel, s: &BoundSafe, start: [f64; 2]) -> f64 {
     GridPassage::new(b, s)
         .cells(CELLS[0], CELLS[1])
         .start(start)
+        .decay(false)
         .run()
         .expect("solves")
         .mean_at_start

@@ -446,6 +446,38 @@ fn reliability_boxes() {
     }
 }
 
+/// `reliability --mean-only` with output times (which it would not compute), and with
+/// Monte Carlo alone but no horizon (no grid mean to set it from, no times allowed): refused
+/// before any work, naming the flags.
+#[test]
+fn reliability_mean_only() {
+    let base = [
+        "reliability",
+        LINEAR,
+        "--safe",
+        "abs(z) < 2",
+        "--cells",
+        "40,40",
+        "--mean-only",
+    ];
+    for (tag, extra, msg) in [
+        (
+            "rel-mean-only-times",
+            vec!["--times", "0:10:11"],
+            vec!["--mean-only", "--times", "cannot be used with"],
+        ),
+        (
+            "rel-mean-only-mc",
+            vec!["--method", "mc"],
+            vec!["--method mc --mean-only", "give --horizon"],
+        ),
+    ] {
+        let mut args = base.to_vec();
+        args.extend(extra);
+        refused(tag, &args, &msg);
+    }
+}
+
 /// A vector-extension cap (`FPSOLVE_SIMD`) that names no extension is refused before any
 /// work, whatever the command.
 #[test]

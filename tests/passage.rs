@@ -36,10 +36,10 @@ fn forward_reliability_integrates_to_the_backward_mean() {
     let times: Vec<f64> = (0..=600).map(|k| horizon * k as f64 / 600.0).collect();
     let p = passage(c, safe, [60, 80], times);
     let tail = p.reliability.last().unwrap() * mean;
-    let gap = (p.integral_of_reliability - p.mean_from_start_cell).abs();
+    let integral = p.integral_of_reliability.expect("output times");
+    let gap = (integral - p.mean_from_start_cell).abs();
     println!(
-        "mean {mean:.6}, ∫R {:.6}, R(H) {:.2e}, gap {gap:.2e}",
-        p.integral_of_reliability,
+        "mean {mean:.6}, ∫R {integral:.6}, R(H) {:.2e}, gap {gap:.2e}",
         p.reliability.last().unwrap()
     );
     assert!(gap < tail + 2e-3 * mean, "gap {gap:e}, tail {tail:e}");
@@ -1236,4 +1236,111 @@ fn the_reliability_command_runs_monte_carlo_beside_the_grid() {
         assert!(summary.contains(key), "{key}: {summary}");
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--mean-only`: the mean times alone, in `summary.json` (which says what was not computed
+/// and why) and no other file; the grid's mean times and their errors are those of the full
+/// run on the same cells to the bit (the same solves, without R(t), the decay and the
+/// stationary study), and Monte Carlo's mean is the full run's (the same paths: the output
+/// times do not draw from the streams).
+#[test]
+fn the_mean_times_alone() {
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/linear.sde");
+    let base = std::env::temp_dir().join(format!("fpsolve_mean_only_{}", std::process::id()));
+    let args = |dir: &std::path::Path| -> Vec<String> {
+        [
+            "reliability",
+            model,
+            "--safe",
+            "abs(z) < 1.2",
+            "--set",
+            "c=1",
+            "--cells",
+            "40,60",
+            "--paths",
+            "256",
+            "--dt",
+            "0.02",
+            "--horizon",
+            "40",
+            "--out",
+            dir.to_str().unwrap(),
+            "--quiet",
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let (means, full) = (base.join("means"), base.join("full"));
+    let mut a = args(&means);
+    a.push("--mean-only".into());
+    let (code, text) = fpsolve(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, Some(0), "{text}");
+    assert!(
+        text.contains("not computed (the run asked for the mean first-passage times only)"),
+        "{text}"
+    );
+    let (code, text) = fpsolve(&args(&full).iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, Some(0), "{text}");
+    let written = files_of(&means);
+    assert_eq!(
+        written.keys().map(String::as_str).collect::<Vec<_>>(),
+        ["summary.json"]
+    );
+    let json = |dir: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    let (m, f) = (json(&means), json(&full));
+    assert_eq!(m["scope"], "mean_times");
+    assert_eq!(f["scope"], "full");
+    assert!(f.get("not_computed").is_none(), "{f}");
+    let parts: Vec<(&str, &str)> = m["not_computed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| (n["what"].as_str().unwrap(), n["why"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        parts,
+        [
+            ("reliability", "mean_times_only"),
+            ("decay", "mean_times_only"),
+            ("stationary_statistics", "mean_times_only")
+        ]
+    );
+    let g = &m["grid"];
+    assert_eq!(g["decay"]["status"], "not_computed");
+    assert!(g["integral_of_reliability"].is_null());
+    assert_eq!(g["times"].as_array().unwrap().len(), 0);
+    assert_eq!(m["stationary"]["status"], "not_computed");
+    assert!(m.get("crossings").is_none() && m.get("impacts").is_none());
+    for key in [
+        "mean_at_start",
+        "second_at_start",
+        "mean_from_start_cell",
+        "mean_stationary",
+        "second_stationary",
+        "safe_mass",
+    ] {
+        assert!(g[key].as_f64().unwrap() > 0.0, "{key}");
+        assert_eq!(g[key], f["grid"][key], "{key}");
+    }
+    for key in [
+        "mean_at_start",
+        "second_at_start",
+        "mean_stationary",
+        "second_stationary",
+    ] {
+        assert_eq!(g["errors"][key], f["grid"]["errors"][key], "{key}");
+    }
+    assert!(g["errors"]["rate"].is_null() && f["grid"]["errors"]["rate"].as_f64().is_some());
+    for key in ["mean", "variance", "mean_lower_bound", "bias", "censored"] {
+        assert_eq!(m["mc"][key], f["mc"][key], "mc {key}");
+    }
+    assert_eq!(m["mc"]["times"].as_array().unwrap().len(), 0);
+    let d = &m["method_distances"];
+    assert_eq!(
+        d["mean_at_start"]["distance"],
+        f["method_distances"]["mean_at_start"]["distance"]
+    );
+    std::fs::remove_dir_all(&base).unwrap();
 }

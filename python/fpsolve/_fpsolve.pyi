@@ -185,6 +185,7 @@ def passage(
     threads: Optional[int],
     set: Optional[Mapping[str, _Value]] = None,
     domain: Optional[str] = None,
+    mean_only: bool = False,
 ) -> Tuple[str, List[Tuple[str, List[float], List[float]]], List[Tuple[str, str]], List[str]]: ...
 class _Transient:
     def summary_json(self) -> str: ...

@@ -467,6 +467,7 @@ class Model:
         threads: Optional[int] = None,
         params: Optional[Mapping[str, Value]] = None,
         domain: Union[None, str, Mapping[str, Sequence[float]]] = None,
+        mean_only: bool = False,
         **set: Value,
     ) -> Passage:
         """Reliability: first passage out of the safe set, as ``fpsolve reliability``: the
@@ -519,6 +520,12 @@ class Model:
             sized from the stationary density: a model without one (no damping, as the
             randomly accelerated particle) needs it, with the safe set ending inside it
             along the position. Only with the grid; checked before any work.
+        mean_only : bool
+            Only the mean first-passage times, as ``--mean-only``: E[T] and E[T²] from the
+            start and from the stationary density in the set with their estimated errors
+            (Monte Carlo's mean and variance with ``"mc"``); no R(t), decay or stationary
+            crossing and impact statistics (``scope`` is ``"mean_times"``, ``not_computed``
+            lists what was left out and why). Not with ``times``.
         **set : number or str
             Parameter overrides by keyword (``--set``).
 
@@ -534,7 +541,8 @@ class Model:
         ValueError
             Bad arguments, checked before any work in the command line's order: a method
             other than grid and mc, no safe set, a start outside it, bad times or cells,
-            ``horizon`` without Monte Carlo, Monte Carlo alone without a horizon or times, a
+            ``horizon`` without Monte Carlo, Monte Carlo alone without a horizon or times,
+            ``mean_only`` with ``times``, a
             negative number of paths, a ``domain`` that does not parse, does not fit the
             model's walls, leaves the start outside or is given without the grid, a model
             without a stationary density without ``domain``; and a safe set holding no
@@ -582,6 +590,7 @@ class Model:
             threads,
             _params(params, set),
             _domain(domain),
+            mean_only,
         )
 
     passage = reliability

@@ -136,6 +136,7 @@ class Passage:
       ∫R dt equals it up to the horizon's tail, ``integral_of_reliability``);
     * ``mean_stationary``, ``second_stationary``: from the stationary density restricted to
       the safe set; ``safe_mass``: that set's stationary probability;
+    * ``integral_of_reliability``: ∫R dt over the output times (None without them);
     * ``reliability`` (R(t) = P(T > t)) and ``pdf`` (the first-passage-time density) at
       ``times``;
     * ``errors``: their estimated discretisation errors from a solve on half the cells (a
@@ -143,7 +144,8 @@ class Passage:
       ``second_stationary``, ``reliability`` (an array over ``times``), ``rate``), or None;
     * ``decay``: the slowest decay, R(t) ≈ A e^{−λt}, as a dict: ``status`` (``"found"``,
       then ``rate`` λ, ``amplitude`` A, ``rate_backward``, ``mean_from_quasi_stationary``,
-      ``iterations``, ``residuals``; or ``"not_found"`` with ``reason``);
+      ``iterations``, ``residuals``; or ``"not_found"`` with ``reason``; or
+      ``"not_computed"`` with ``mean_only``);
     * ``quasi_stationary``: ``{state: (x, p)}``, the quasi-stationary density's marginals on
       the cell centres (empty when the decay was not found).
 
@@ -167,6 +169,13 @@ class Passage:
       ``"grid"`` or ``"mc"``, ``state``, ``at``, ``rate``, ``mean_speed``, ``mean_power``,
       the grid's ``*_error``, Monte Carlo's ``stderr``), ``summary.json``'s ``impacts``.
 
+    ``scope`` is ``"full"``, or ``"mean_times"`` with ``mean_only=True``: then only the mean
+    times were computed (and Monte Carlo's mean and variance): ``times``, ``reliability`` and
+    ``pdf`` are empty, ``decay`` is ``{"status": "not_computed"}``, ``crossings`` and
+    ``impacts`` are empty, and ``not_computed`` lists each part left out with why, as
+    ``summary.json`` does (``[{"what": "reliability", "why": "mean_times_only"}, ...]``;
+    empty for a full run).
+
     ``report`` is ``summary.json`` as a dict (the library's serde form; ``command`` is
     ``"fpsolve.Model.reliability"``), and ``warnings`` the warnings the command line prints
     (each also raised as a :class:`FpsolveWarning`): a number (the mean time, R(t) at a time)
@@ -185,6 +194,8 @@ class Passage:
         "second_stationary",
         "safe_mass",
         "integral_of_reliability",
+        "scope",
+        "not_computed",
         "reliability",
         "pdf",
         "errors",
@@ -220,7 +231,12 @@ class Passage:
         self.mean_stationary: Optional[float] = scalar("mean_stationary")
         self.second_stationary: Optional[float] = scalar("second_stationary")
         self.safe_mass: Optional[float] = scalar("safe_mass")
-        self.integral_of_reliability: Optional[float] = scalar("integral_of_reliability")
+        # None without output times (``mean_only``), as the library's null.
+        self.integral_of_reliability: Optional[float] = (
+            None if g is None or g["integral_of_reliability"] is None else _num(g["integral_of_reliability"])
+        )
+        self.scope: str = report["scope"]
+        self.not_computed: List[Dict[str, str]] = list(report.get("not_computed", []))
         if g is not None:
             self.times: np.ndarray = _arr(g["times"])
         elif self.mc is not None:
@@ -314,6 +330,7 @@ def run(
     threads: Optional[int],
     set: Dict[str, Any],
     domain: Optional[str] = None,
+    mean_only: bool = False,
 ) -> Passage:
     """Runs ``Model.reliability`` (arguments converted, then checked by the native module in the
     command line's order) and warns the command line's warnings."""
@@ -323,6 +340,8 @@ def run(
         methods = [str(m) for m in method]
     if isinstance(paths, bool) or not hasattr(paths, "__index__"):
         raise TypeError(f"paths: expected an int, got {type(paths).__name__}")
+    if not isinstance(mean_only, (bool, np.bool_)):
+        raise TypeError(f"mean_only: expected a bool, got {type(mean_only).__name__}")
     text, marginals, crossings, notes = _fpsolve.passage(
         model._inner,
         safe,
@@ -337,6 +356,7 @@ def run(
         None if threads is None else int(threads),
         set,
         domain,
+        bool(mean_only),
     )
     result = Passage(text, marginals, crossings, notes)
     for note in notes:

@@ -6,7 +6,9 @@
 //! the pure-Python layer (`fpsolve/_passage.py`) makes them arrays.
 
 use fpsolve::grid::{Domain, PassageError};
-use fpsolve::job::passage::{parse_pair, McSettings, PassageRun, PassageRunError, PassageSettings};
+use fpsolve::job::passage::{
+    parse_pair, McSettings, PassageRun, PassageRunError, PassageScope, PassageSettings,
+};
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::solve::SolveError as LibSolveError;
 use pyo3::prelude::*;
@@ -96,9 +98,10 @@ fn passage_error(py: Python<'_>, e: PassageError) -> PyErr {
 
 /// First passage of `model` out of its safe set (or `safe`), as `fpsolve reliability`: returns
 /// `summary.json`'s JSON, the quasi-stationary marginals (empty when the grid did not run or
-/// found no decay), the crossing tables and the warnings the CLI prints.
+/// found no decay), the crossing tables and the warnings the CLI prints. `mean_only`: the mean
+/// times alone, as `--mean-only` (not with `times`).
 #[pyfunction]
-#[pyo3(signature = (model, safe, start, times, cells, method, paths, dt, horizon, seed, threads, set=None, domain=None))]
+#[pyo3(signature = (model, safe, start, times, cells, method, paths, dt, horizon, seed, threads, set=None, domain=None, mean_only=false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn passage(
     py: Python<'_>,
@@ -115,8 +118,15 @@ pub(crate) fn passage(
     threads: Option<usize>,
     set: Option<&Bound<'_, PyDict>>,
     domain: Option<String>,
+    mean_only: bool,
 ) -> PyResult<(String, Marginals, Crossings, Vec<String>)> {
     let this = model.get();
+    // What clap refuses first on the command line (--mean-only with --times).
+    if mean_only && times.is_some() {
+        return Err(errors::bad_argument(
+            "mean_only: not with times= (the mean times alone have no output times)",
+        ));
+    }
     let path = this.path.as_deref();
     // The order of the CLI's plan: methods, the model with its overrides and safe set, the
     // start, the times, the cells, the box, the Monte Carlo's settings, the grid's checks.
@@ -173,10 +183,13 @@ pub(crate) fn passage(
     });
     if let Some(m) = &mc {
         if m.horizon.is_none() && !grid {
-            return Err(errors::bad_argument(
+            return Err(errors::bad_argument(if mean_only {
+                "method \"mc\", mean_only: give horizon= (without the grid there is no mean \
+                 time to set the horizon from)"
+            } else {
                 "method \"mc\": give horizon= or times= (without the grid there is no mean time \
-                 to set the horizon from)",
-            ));
+                 to set the horizon from)"
+            }));
         }
         // A placeholder horizon when it comes from the grid's mean time, as the CLI.
         m.check(&bound, &safe_set, start)
@@ -193,6 +206,11 @@ pub(crate) fn passage(
         domain,
         grid,
         mc,
+        scope: if mean_only {
+            PassageScope::MeanTimes
+        } else {
+            PassageScope::Full
+        },
     };
     if grid {
         // The box against the walls and the start, a model without a stationary density

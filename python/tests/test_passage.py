@@ -257,6 +257,16 @@ REFUSED = {
     ),
     "mc without horizon": (["--safe", SAFE, "--method", "mc"], dict(safe=SAFE, method="mc"), ValueError),
     "bad override": (["--safe", SAFE, "--set", "nope=1"], dict(safe=SAFE, nope=1), fpsolve.ParameterError),
+    "mean only with times": (
+        ["--safe", SAFE, "--mean-only", "--times", "0:10:11"],
+        dict(safe=SAFE, mean_only=True, times="0:10:11"),
+        ValueError,
+    ),
+    "mean only, mc without horizon": (
+        ["--safe", SAFE, "--mean-only", "--method", "mc"],
+        dict(safe=SAFE, mean_only=True, method="mc"),
+        ValueError,
+    ),
 }
 
 
@@ -381,3 +391,38 @@ def test_a_domain_needs_the_grid_and_a_free_particle_needs_a_domain():
         free.reliability(cells=(40, 40))
     with pytest.raises(ValueError, match="reaches the grid's box"):
         free.reliability(cells=(40, 40), start=(-0.2, 0), domain="x=-0.5:1.05,v=-8:8")
+
+
+def test_mean_only_is_the_cli_mean_only(cli, linear, tmp_path):
+    """``mean_only=True`` as ``--mean-only``: the same summary.json (the mean times alone,
+    what was not computed and why), nothing else written by the CLI, and the grid's and
+    Monte Carlo's means those of the full run."""
+    out = tmp_path / "means"
+    run_cli(cli, out, "--mean-only", "--method", "grid,mc", "--paths", "500", "--horizon", "40")
+    py = linear.reliability(
+        safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=500, horizon=40, mean_only=True
+    )
+    cli_summary = json.loads((out / "summary.json").read_text())
+    assert without_timing(py.report) == without_timing(cli_summary)
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["summary.json"]
+    assert py.scope == "mean_times"
+    assert py.not_computed == [
+        {"what": "reliability", "why": "mean_times_only"},
+        {"what": "decay", "why": "mean_times_only"},
+        {"what": "stationary_statistics", "why": "mean_times_only"},
+    ]
+    assert py.integral_of_reliability is None
+    assert py.times.size == 0 and py.reliability.size == 0 and py.mc.times.size == 0
+    assert py.decay == {"status": "not_computed"}
+    assert py.crossings == {} and py.impacts == []
+    with warnings.catch_warnings():
+        # R(t) at 60x80 against 500 paths may be flagged; the means are what is compared.
+        warnings.simplefilter("ignore", fpsolve.FpsolveWarning)
+        full = linear.reliability(safe=SAFE, c=1, cells=(60, 80), method="grid,mc", paths=500, horizon=40)
+    assert full.scope == "full" and full.not_computed == []
+    for key in ("mean_at_start", "second_at_start", "mean_stationary", "second_stationary", "safe_mass"):
+        assert getattr(py, key) == getattr(full, key), key
+    assert py.errors["mean_at_start"] == full.errors["mean_at_start"]
+    assert py.mc.mean == full.mc.mean and py.mc.variance == full.mc.variance
+    with pytest.raises(TypeError, match="mean_only"):
+        linear.reliability(safe=SAFE, mean_only="yes")

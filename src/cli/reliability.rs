@@ -5,7 +5,8 @@
 //! (with Monte Carlo), `quasi_stationary_<state>.csv` (when the grid found the decay), the
 //! stationary crossing tables `crossings_<q>.csv` and impact-speed tables (with the grid, for
 //! a model with a stationary density), the figures `reliability`, `first_passage_pdf` and
-//! `crossings_<q>` (PNG and SVG) and `summary.json`.
+//! `crossings_<q>` (PNG and SVG) and `summary.json`; with `--mean-only`, the mean
+//! first-passage times alone, in `summary.json` (which lists what was not computed and why).
 
 use std::path::{Path, PathBuf};
 
@@ -13,8 +14,8 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use fpsolve::grid::{Cells, Domain};
 use fpsolve::job::passage::{
-    parse_pair, parse_times, McSettings, PassageRun, PassageRunError, PassageSettings,
-    StationaryReport,
+    parse_pair, parse_times, McSettings, PassageRun, PassageRunError, PassageScope,
+    PassageSettings, StationaryReport,
 };
 use fpsolve::model::{BoundModel, BoundSafe};
 use fpsolve::report::write_json;
@@ -32,6 +33,12 @@ pub(crate) struct ReliabilityArgs {
     /// times to --horizon, else to 5 of the grid's mean times from the start.
     #[arg(long, value_name = "A:B:N")]
     times: Option<String>,
+    /// Only the mean first-passage times: E[T] and E[T²] from the start and from the
+    /// stationary density in the set, with their estimated errors (Monte Carlo's mean and
+    /// variance with `mc`), in summary.json; no R(t), decay, figures or stationary crossing
+    /// tables (listed under `not_computed`). Not with --times.
+    #[arg(long = "mean-only", conflicts_with = "times")]
+    mean_only: bool,
     /// Cells of the grid, position and velocity (default 200,400).
     #[arg(long, value_name = "NX,NV")]
     cells: Option<Cells>,
@@ -139,10 +146,17 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
     });
     if let Some(m) = &mc {
         if m.horizon.is_none() && !grid {
-            return Err(anyhow!(
-                "--method mc: give --horizon or --times (without the grid there is no mean \
-                 time to set the horizon from)"
-            ));
+            return Err(if args.mean_only {
+                anyhow!(
+                    "--method mc --mean-only: give --horizon (without the grid there is no \
+                     mean time to set the horizon from)"
+                )
+            } else {
+                anyhow!(
+                    "--method mc: give --horizon or --times (without the grid there is no \
+                     mean time to set the horizon from)"
+                )
+            });
         }
         // Every setting checked now, before any work (a placeholder horizon when it comes
         // from the grid's mean time).
@@ -165,6 +179,11 @@ pub(crate) fn plan(path: PathBuf, args: ReliabilityArgs) -> Result<ReliabilityPl
         domain,
         grid,
         mc,
+        scope: if args.mean_only {
+            PassageScope::MeanTimes
+        } else {
+            PassageScope::Full
+        },
     };
     if grid {
         // The box against the walls and the start, and a model without a stationary density
@@ -198,13 +217,38 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
             PassageRunError::Mc(e) => crate::lib(e),
         })
         .with_context(|| plan.path.display().to_string())?;
-    run.out()
-        .write_atomic("reliability.csv", solved.csv().as_bytes())
+    let start = plan.settings.start;
+    let mut summary = solved.summary(
+        fpsolve::report::Provenance::now_bound(&plan.bound),
+        crate::command_line(),
+        plan.path.display().to_string(),
+        &plan.bound,
+        &plan.safe,
+        start,
+    );
+    let mut files = 1;
+    if plan.settings.scope == PassageScope::Full {
+        files += write_tables(&plan, &solved, run.out(), &mut summary)?;
+    }
+    write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
+    say(&plan, &solved, &summary);
+    crate::commit_output(run, files)
+}
+
+/// Writes the tables and figures of a full run (R(t), the first-passage-time density, the
+/// quasi-stationary density, the stationary crossing and impact tables), noting in `summary`
+/// those that could not be written; returns the count written.
+fn write_tables(
+    plan: &ReliabilityPlan,
+    solved: &PassageRun,
+    out: &fpsolve::report::OutputDir,
+    summary: &mut fpsolve::job::passage::PassageSummary<'_>,
+) -> Result<usize> {
+    out.write_atomic("reliability.csv", solved.csv().as_bytes())
         .map_err(crate::lib)?;
-    let mut files = 2;
+    let mut files = 1;
     if let Some(csv) = solved.pdf_csv() {
-        run.out()
-            .write_atomic("first_passage_pdf.csv", csv.as_bytes())
+        out.write_atomic("first_passage_pdf.csv", csv.as_bytes())
             .map_err(crate::lib)?;
         files += 1;
     }
@@ -219,31 +263,30 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
             for (x, p) in q.centres.iter().zip(&q.density) {
                 csv.push_str(&format!("{x},{p}\n"));
             }
-            run.out()
-                .write_atomic(&format!("quasi_stationary_{name}.csv"), csv.as_bytes())
+            out.write_atomic(&format!("quasi_stationary_{name}.csv"), csv.as_bytes())
                 .map_err(crate::lib)?;
             files += 1;
         }
     }
-    let start = plan.settings.start;
     // The figures and the stationary tables before summary.json, which lists those not
     // written.
-    let mut figures = solved.write_figures(run.out(), &plan.bound, &plan.safe, start);
-    let stationary = solved.write_stationary(run.out(), &plan.bound);
+    let mut figures = solved.write_figures(out, &plan.bound, &plan.safe, plan.settings.start);
+    let stationary = solved.write_stationary(out, &plan.bound);
     figures.files.extend(stationary.files);
     figures.unwritten.extend(stationary.unwritten);
     files += figures.files.len();
-    let mut summary = solved.summary(
-        fpsolve::report::Provenance::now_bound(&plan.bound),
-        crate::command_line(),
-        plan.path.display().to_string(),
-        &plan.bound,
-        &plan.safe,
-        start,
-    );
     summary.unwritten = figures.unwritten;
+    Ok(files)
+}
+
+/// The console's report of a finished run.
+fn say(
+    plan: &ReliabilityPlan,
+    solved: &PassageRun,
+    summary: &fpsolve::job::passage::PassageSummary<'_>,
+) {
+    let start = plan.settings.start;
     let (grid, mc) = (&solved.grid, &solved.mc);
-    write_json(run.out(), "summary.json", &summary).map_err(crate::lib)?;
     if let Some(g) = &grid {
         let pm = |e: Option<f64>| e.map_or(String::new(), |e| format!(" ± {e:.2e}"));
         let e = g.errors.as_ref();
@@ -276,6 +319,8 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
             fpsolve::grid::DecayOutcome::NotFound { reason } => {
                 crate::cli::console::sayln!("slowest decay: not found ({reason})")
             }
+            // Said once below, with the other parts not computed.
+            fpsolve::grid::DecayOutcome::NotComputed => {}
         }
     }
     if let Some(m) = &mc {
@@ -361,5 +406,12 @@ pub(crate) fn run(plan: ReliabilityPlan) -> Result<()> {
     for u in &summary.unwritten {
         crate::cli::console::sayln!("warning: {} was not written: {}", u.file, u.error);
     }
-    crate::commit_output(run, files)
+    if let Some(first) = summary.not_computed.first() {
+        let parts: Vec<String> = summary
+            .not_computed
+            .iter()
+            .map(|n| n.what.to_string())
+            .collect();
+        crate::cli::console::sayln!("not computed ({}): {}", first.why, parts.join("; "));
+    }
 }

@@ -77,6 +77,7 @@ pub struct GridPassage<'a> {
     times: Times,
     tolerance: f64,
     estimate: bool,
+    decay: bool,
 }
 
 /// Where R(t) is computed.
@@ -123,10 +124,11 @@ pub struct PassageSolution {
     /// The first-passage-time density −R′(t) at each time.
     pub pdf: Vec<f64>,
     /// ∫ R dt from 0 to the last time (trapezoid on the outputs' R and R′, i.e. the cubic
-    /// Hermite rule), for the consistency check against `mean_from_start_cell`.
-    pub integral_of_reliability: f64,
+    /// Hermite rule), for the consistency check against `mean_from_start_cell`; `None`
+    /// without output times.
+    pub integral_of_reliability: Option<f64>,
     /// The slowest decay of the survival probability, R(t) ≈ A e^{−λt} beyond the horizon,
-    /// or why it was not found.
+    /// or why it was not found, or that it was not asked ([`GridPassage::decay`]).
     pub decay: DecayOutcome,
     /// The quasi-stationary density's marginals (position, velocity), when the decay was
     /// found: the law of the paths not yet absorbed, long after the start.
@@ -197,6 +199,8 @@ pub enum DecayOutcome {
         /// Why.
         reason: DecayFailure,
     },
+    /// Not computed: the run did not ask for it ([`GridPassage::decay`] off).
+    NotComputed,
 }
 
 /// How a [`PassageSolution`] was computed.
@@ -244,6 +248,7 @@ impl<'a> GridPassage<'a> {
             times: Times::At(Vec::new()),
             tolerance: TRANSIENT_TOLERANCE,
             estimate: true,
+            decay: true,
         }
     }
 
@@ -263,6 +268,29 @@ impl<'a> GridPassage<'a> {
     /// ```
     pub fn estimate(mut self, on: bool) -> Self {
         self.estimate = on;
+        self
+    }
+
+    /// Whether the slowest decay (λ, the amplitude A and the quasi-stationary density) is
+    /// found, by inverse iteration on the mean times' factorisation (default on). Off, the
+    /// solution's [`PassageSolution::decay`] is [`DecayOutcome::NotComputed`] and
+    /// [`PassageSolution::quasi_stationary`] `None`: with no output times the run is then
+    /// the mean times alone.
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = fpsolve::model::load_model(&path).unwrap().with_safe("abs(z) < 2").unwrap();
+    /// # let bound = model.bind(&[]).unwrap();
+    /// # let safe = model.safe().unwrap().bind(&bound).unwrap();
+    /// use fpsolve::grid::{DecayOutcome, GridPassage};
+    /// let p = GridPassage::new(&bound, &safe).cells(40, 40).decay(false).run()?;
+    /// assert_eq!(p.decay, DecayOutcome::NotComputed);
+    /// assert!(p.quasi_stationary.is_none() && p.integral_of_reliability.is_none());
+    /// assert!(p.mean_at_start > 0.0 && p.errors.unwrap().rate.is_none());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn decay(mut self, on: bool) -> Self {
+        self.decay = on;
         self
     }
 
@@ -470,7 +498,9 @@ impl<'a> GridPassage<'a> {
     /// [`PassageError::Grid`], [`PassageError::Singular`], [`PassageError::Step`].
     pub fn run(&self) -> Result<PassageSolution, PassageError> {
         let started = Instant::now();
+        crate::base::timeline::mark("passage: run start");
         let (problem, box_, stationary) = self.prepare()?;
+        crate::base::timeline::mark("passage: prepared");
         let [nx, nv] = self.cells;
         // The error estimate's solve on half the cells, alongside (the same problem and box,
         // aligned to its own cells, R(t) at the same times); its failure leaves the numbers
@@ -501,6 +531,7 @@ impl<'a> GridPassage<'a> {
             fine.report.estimate_cells = Some(half.report.cells);
         }
         fine.report.total_ms = started.elapsed().as_secs_f64() * 1e3;
+        crate::base::timeline::mark("passage: run end");
         Ok(fine)
     }
 }

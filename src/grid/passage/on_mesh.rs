@@ -84,7 +84,9 @@ impl GridPassage<'_> {
             || {
                 stationary.then(|| {
                     let guess = [0.5 * (d.x[0] + d.x[1]), 0.0];
-                    domain::solve_pinned_op(&mesh, &op, guess)
+                    let p = domain::solve_pinned_op(&mesh, &op, guess);
+                    crate::base::timeline::mark("passage: stationary solved");
+                    p
                 })
             },
             || -> Result<_, PassageError> {
@@ -100,6 +102,7 @@ impl GridPassage<'_> {
                 let t2 = lu
                     .checked_solve(k.backward.as_ref(), &rhs, CHECK)
                     .map_err(|e| singular(e.to_string()))?;
+                crate::base::timeline::mark("passage: mean times solved");
                 Ok((k, lu, t1, t2))
             },
         );
@@ -205,23 +208,34 @@ impl Backward {
         // The inverse iteration for the quasi-stationary density starts from the stationary
         // one in the set, else from the uniform density on it.
         let slowest = || {
+            if !passage.decay {
+                return None;
+            }
             let density: Vec<f64> = match &law {
                 Some((inside, _)) => k.cells.iter().map(|&c| inside[c]).collect(),
                 None => vec![1.0; m],
             };
-            decay::decay(&self.lu, &k.forward, &k.backward, density, t1, start_safe)
+            Some(decay::decay(
+                &self.lu,
+                &k.forward,
+                &k.backward,
+                density,
+                t1,
+                start_safe,
+            ))
         };
         let (forward, slowest) = rayon::join(forward_run, slowest);
         let (reliability, pdf, steps) = forward?;
         let full = |t: &[f64]| on_all_cells(&k.index, t);
         let (decay, quasi_stationary) = match slowest {
-            Ok((d, phi)) => {
+            None => (DecayOutcome::NotComputed, None),
+            Some(Ok((d, phi))) => {
                 // φ sums to 1 over the cells: its cell averages are φ / area.
                 let p: Vec<f64> = full(&phi).iter().map(|w| w / area).collect();
                 let q = [mesh.marginal(&p, 0), mesh.marginal(&p, 1)];
                 (DecayOutcome::Found(d), Some(q))
             }
-            Err(reason) => (DecayOutcome::NotFound { reason }, None),
+            Some(Err(reason)) => (DecayOutcome::NotFound { reason }, None),
         };
         let (big1, big2) = (full(t1), full(&self.t2));
         let average = |t: &[f64]| {
@@ -229,7 +243,7 @@ impl Backward {
                 inside.iter().zip(t).map(|(p, t)| p * t).sum::<f64>() * area / mass
             })
         };
-        let integral = hermite_integral(times, &reliability, &pdf);
+        let integral = (!times.is_empty()).then(|| hermite_integral(times, &reliability, &pdf));
         Ok(PassageSolution {
             mean_at_start: bilinear(mesh, &big1, passage.start),
             second_at_start: bilinear(mesh, &big2, passage.start),

@@ -132,6 +132,65 @@ pub fn parse_times(s: &str) -> Result<Vec<f64>, TextError> {
         .collect())
 }
 
+/// What a passage run computes ([`PassageSettings::scope`]; `scope` in `summary.json`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PassageScope {
+    /// The mean times, R(t) with the first-passage-time density, the slowest decay and the
+    /// stationary statistics (crossing rates, impacts).
+    #[default]
+    Full,
+    /// The mean first-passage times only: E[T] and E[T²] from the start and from the
+    /// stationary density in the set on the grid, with their estimated errors (the solve on
+    /// half the cells); Monte Carlo's mean and variance of T. Everything else is listed in
+    /// `not_computed` ([`PassageRun::not_computed`]).
+    MeanTimes,
+}
+
+/// A part of a reliability run that was not computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PassagePart {
+    /// R(t) at output times, by every method that ran, with the first-passage-time density
+    /// (the grid's −R′(t), Monte Carlo's histogram) and their figures.
+    Reliability,
+    /// The grid's slowest decay (λ, the amplitude A) and the quasi-stationary density.
+    Decay,
+    /// The stationary crossing rates and impact statistics, with their stationary Monte
+    /// Carlo.
+    StationaryStatistics,
+}
+
+impl std::fmt::Display for PassagePart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PassagePart::Reliability => "R(t) and the first-passage-time density",
+            PassagePart::Decay => "the slowest decay and the quasi-stationary density",
+            PassagePart::StationaryStatistics => {
+                "the stationary crossing rates and impact statistics"
+            }
+        })
+    }
+}
+
+/// Why a part of a reliability run was not computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[serde(rename_all = "snake_case")]
+pub enum NotComputedWhy {
+    /// The run asked for the mean times only ([`PassageScope::MeanTimes`]).
+    #[error("the run asked for the mean first-passage times only")]
+    MeanTimesOnly,
+}
+
+/// A part of a reliability run not computed, and why (`not_computed` in `summary.json`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct NotComputed {
+    /// The part.
+    pub what: PassagePart,
+    /// Why.
+    pub why: NotComputedWhy,
+}
+
 /// The Monte Carlo's settings, checked by the front end.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct McSettings {
@@ -174,7 +233,8 @@ pub struct PassageSettings {
     pub start: [f64; 2],
     /// The output times of R(t); empty: [`DEFAULT_TIMES`] evenly spaced times from 0 to
     /// Monte Carlo's horizon when it is given, else to [`DEFAULT_MEANS`] times the grid's
-    /// mean time from the start ([`PassageSettings::output_times`]).
+    /// mean time from the start ([`PassageSettings::output_times`]); none with
+    /// [`PassageScope::MeanTimes`] (the front ends refuse times with it).
     pub times: Vec<f64>,
     /// The grid's cells (x, v).
     pub cells: [usize; 2],
@@ -185,6 +245,8 @@ pub struct PassageSettings {
     pub grid: bool,
     /// Monte Carlo's settings, when it runs.
     pub mc: Option<McSettings>,
+    /// What the run computes.
+    pub scope: PassageScope,
 }
 
 impl PassageSettings {
@@ -192,11 +254,14 @@ impl PassageSettings {
     /// [`DEFAULT_TIMES`] evenly spaced from 0 to Monte Carlo's horizon when given, else to
     /// [`DEFAULT_MEANS`] times `mean` (the grid's mean time from the start); `None` when
     /// neither is known (Monte Carlo alone without a horizon, which the front ends refuse).
+    /// With [`PassageScope::MeanTimes`], none.
     ///
     /// ```
     /// use fpsolve::job::passage::{McSettings, PassageSettings};
+    /// use fpsolve::job::passage::PassageScope;
     /// let mut s = PassageSettings {
     ///     start: [0.0, 0.0], times: vec![], cells: [20, 20], domain: None, grid: true, mc: None,
+    ///     scope: PassageScope::Full,
     /// };
     /// let t = s.output_times(Some(2.0)).unwrap();
     /// assert_eq!((t.len(), t[0], t[100]), (101, 0.0, 10.0));
@@ -206,6 +271,9 @@ impl PassageSettings {
     /// assert_eq!(s.output_times(None).unwrap(), [1.0, 3.0]);
     /// ```
     pub fn output_times(&self, mean: Option<f64>) -> Option<Vec<f64>> {
+        if self.scope == PassageScope::MeanTimes {
+            return Some(Vec::new());
+        }
         if !self.times.is_empty() {
             return Some(self.times.clone());
         }
@@ -217,11 +285,13 @@ impl PassageSettings {
     }
 
     /// The grid's problem of `bound` and `safe` with these settings (without its output
-    /// times): what the front ends check before any work ([`GridPassage::check`]).
+    /// times; without the slowest decay for [`PassageScope::MeanTimes`]): what the front
+    /// ends check before any work ([`GridPassage::check`]).
     pub fn grid_passage<'a>(&self, bound: &'a BoundModel, safe: &'a BoundSafe) -> GridPassage<'a> {
         let p = GridPassage::new(bound, safe)
             .cells(self.cells[0], self.cells[1])
-            .start(self.start);
+            .start(self.start)
+            .decay(self.scope == PassageScope::Full);
         match self.domain {
             Some(d) => p.domain(d),
             None => p,
@@ -279,9 +349,11 @@ pub struct PassageRun {
     /// Monte Carlo's, when it ran.
     pub mc: Option<McPassageResult>,
     /// The stationary crossing and impact statistics, or why they were not computed (the
-    /// grid not run, a model without a stationary density, a failed solve); `None` only
-    /// where a caller built the run by hand.
+    /// grid not run, a model without a stationary density, a failed solve, the mean times
+    /// only); `None` only where a caller built the run by hand.
     pub stationary: Option<StationaryStatistics>,
+    /// What the run computed.
+    pub scope: PassageScope,
 }
 
 /// `summary.json` of a passage run.
@@ -302,6 +374,11 @@ pub struct PassageSummary<'a> {
     pub safe: &'a str,
     /// The start.
     pub start: [f64; 2],
+    /// What the run computed: `full`, or `mean_times` (the mean first-passage times only).
+    pub scope: PassageScope,
+    /// The parts of the run not computed, each with why (`what`, `why`); absent when none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub not_computed: Vec<NotComputed>,
     /// The grid's solution.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid: Option<&'a PassageSolution>,
@@ -350,6 +427,7 @@ impl PassageRun {
     ) -> Result<PassageRun, PassageRunError> {
         // The stationary statistics beside the first passage's grid solves (the two share
         // nothing; on two cores the passage's solve on half the cells leaves room).
+        let mean_times_only = settings.scope == PassageScope::MeanTimes;
         let (grid, stationary) = rayon::join(
             || {
                 settings.grid.then(|| {
@@ -364,7 +442,9 @@ impl PassageRun {
                 })
             },
             || {
-                Some(if settings.grid {
+                Some(if settings.grid && mean_times_only {
+                    StationaryStatistics::not_computed(NotComputedWhy::MeanTimesOnly.to_string())
+                } else if settings.grid {
                     let mc = settings.mc.map(|m| (m.dt, m.seed));
                     StationaryStatistics::solve(bound, settings.domain, settings.cells, mc)
                 } else {
@@ -398,6 +478,7 @@ impl PassageRun {
                         .seed(m.seed)
                         .start(settings.start)
                         .times(times)
+                        .reliability(!mean_times_only)
                         .run()?,
                 )
             }
@@ -406,7 +487,40 @@ impl PassageRun {
             grid,
             mc,
             stationary,
+            scope: settings.scope,
         })
+    }
+
+    /// The parts the run's scope left out, for the methods that ran (`not_computed` in
+    /// `summary.json`): with [`PassageScope::MeanTimes`], R(t) with the first-passage-time
+    /// density, and with the grid the slowest decay and the stationary statistics.
+    ///
+    /// ```
+    /// use fpsolve::job::passage::{NotComputedWhy, PassagePart, PassageRun, PassageScope};
+    /// let none = PassageRun { grid: None, mc: None, stationary: None, scope: PassageScope::Full };
+    /// assert!(none.not_computed().is_empty());
+    /// let means = PassageRun { scope: PassageScope::MeanTimes, ..none };
+    /// let parts = means.not_computed();
+    /// assert_eq!(parts.len(), 1);
+    /// assert_eq!((parts[0].what, parts[0].why), (PassagePart::Reliability, NotComputedWhy::MeanTimesOnly));
+    /// ```
+    pub fn not_computed(&self) -> Vec<NotComputed> {
+        match self.scope {
+            PassageScope::Full => Vec::new(),
+            PassageScope::MeanTimes => {
+                let mut parts = vec![PassagePart::Reliability];
+                if self.grid.is_some() {
+                    parts.extend([PassagePart::Decay, PassagePart::StationaryStatistics]);
+                }
+                parts
+                    .into_iter()
+                    .map(|what| NotComputed {
+                        what,
+                        why: NotComputedWhy::MeanTimesOnly,
+                    })
+                    .collect()
+            }
+        }
     }
 
     /// The distances between the grid's and Monte Carlo's mean time and R(t) ([`MethodDistances`]);
@@ -460,7 +574,8 @@ impl PassageRun {
     ///
     /// ```
     /// use fpsolve::job::passage::PassageRun;
-    /// let none = PassageRun { grid: None, mc: None, stationary: None };
+    /// use fpsolve::job::passage::PassageScope;
+    /// let none = PassageRun { grid: None, mc: None, stationary: None, scope: PassageScope::Full };
     /// assert_eq!(none.csv(), "t\n");
     /// ```
     pub fn csv(&self) -> String {
@@ -513,7 +628,8 @@ impl PassageRun {
     ///
     /// ```
     /// use fpsolve::job::passage::PassageRun;
-    /// let none = PassageRun { grid: None, mc: None, stationary: None };
+    /// use fpsolve::job::passage::PassageScope;
+    /// let none = PassageRun { grid: None, mc: None, stationary: None, scope: PassageScope::Full };
     /// assert_eq!(none.pdf_csv(), None);
     /// ```
     pub fn pdf_csv(&self) -> Option<String> {
@@ -555,6 +671,7 @@ impl PassageRun {
     ///     domain: None,
     ///     grid: true,
     ///     mc: None,
+    ///     scope: fpsolve::job::passage::PassageScope::Full,
     /// };
     /// let run = PassageRun::solve(&bound, &safe, &settings)?;
     /// let figures = run.write_figures(&OutputDir::create("out")?, &bound, &safe, [0.0, 0.0]);
@@ -627,6 +744,8 @@ impl PassageRun {
             model_file,
             safe: &safe.text,
             start,
+            scope: self.scope,
+            not_computed: self.not_computed(),
             grid: self.grid.as_ref(),
             mc: self.mc.as_ref(),
             grid_vs_mc_se: self.grid_vs_mc_se(),

@@ -64,6 +64,7 @@ pub struct McPassage<'a> {
     paths: u64,
     seed: u64,
     times: Vec<f64>,
+    reliability: bool,
     increments: Increments,
 }
 
@@ -80,6 +81,7 @@ impl<'a> McPassage<'a> {
             paths: 10_000,
             seed: 1,
             times: Vec::new(),
+            reliability: true,
             increments: Increments::default(),
         }
     }
@@ -117,6 +119,30 @@ impl<'a> McPassage<'a> {
     /// The times of R(t) (default: 101 from 0 to the horizon).
     pub fn times(mut self, times: Vec<f64>) -> Self {
         self.times = times;
+        self
+    }
+
+    /// Whether R(t) and the first-passage-time histogram are reported at the output times
+    /// (default on). Off, the result's `times`, `reliability` (with its band) and
+    /// `pdf_binned` are empty: the mean and variance of T alone, from the same paths (the
+    /// output times are read off the exit times after the run, so the paths and the mean do
+    /// not depend on them).
+    ///
+    /// ```
+    /// # let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/linear.sde");
+    /// # let model = fpsolve::model::load_model(&path)?.with_safe("abs(z) < 1")?;
+    /// # let bound = model.bind(&[fpsolve::model::Override::number("c", 1.0)])?;
+    /// # let safe = model.safe().unwrap().bind(&bound)?;
+    /// use fpsolve::mc::McPassage;
+    /// let run = || McPassage::new(&bound, &safe).paths(256).horizon(100.0);
+    /// let (with, without) = (run().run()?, run().reliability(false).run()?);
+    /// assert_eq!(with.times.len(), 101);
+    /// assert!(without.times.is_empty() && without.reliability.is_empty());
+    /// assert_eq!(with.mean, without.mean);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn reliability(mut self, on: bool) -> Self {
+        self.reliability = on;
         self
     }
 
@@ -207,7 +233,9 @@ impl<'a> McPassage<'a> {
             runs.next().unwrap_or_default(),
             runs.next().unwrap_or_default(),
         );
-        let times = if self.times.is_empty() {
+        let times = if !self.reliability {
+            Vec::new()
+        } else if self.times.is_empty() {
             (0..=100).map(|k| self.horizon * k as f64 / 100.0).collect()
         } else {
             self.times.clone()
