@@ -37,6 +37,25 @@
 //! steps and 32.1 s before the stepper's dense output, 114 steps and 22.3 s after it (one
 //! run each at a load of about 28; CHANGELOG).
 //!
+//! Measured again with the CLI (`fpsolve transient models/vibro_duffing.sde --cells 200,400
+//! --times 0:80:161`, error estimate on, load 5–6: 29.9–30.3 s wall, 18.8–19.2 s user,
+//! 0.8 GB): the main run's 114 steps are 21 before t = 0.5, 25 more before t = 5 and 68
+//! after; 14 factorisations; six solves a step (five stages and the estimate's filter), none
+//! refined; each solve reads the 22.5 M stored entries of L and U (180 MB) in 21–27 ms,
+//! three quarters of the run (`perf`). From t = 5 to 29 the step stays at 0.5 while its
+//! estimated error falls from 0.39 to 6e−5 of the allowance: the quintic outputs' estimated
+//! error, about 0.67 of the step's, holds it there. The quintic's distance from the septic
+//! (A³y at both ends too), its own leading error term, read 1.35 times that estimate at
+//! 100x200 from t = 5 to 29, so the quintic's error is not overstated; controlled by the
+//! smaller of the two (the septic's doubled), case 1 at 200x400 took 114 steps as before.
+//! The substitutions on two tasks (the halves below the top separator) took 17.4 ms against
+//! 21–22 ms per solve in isolation, but the whole process gained nothing at that load
+//! (32.0, 32.1 s). The exact case as a command (`--cells
+//! 208,208 --domain z=-7.5:7.5,v=-7.5:7.5`, load 4): 119.5 s wall, 62.2 s user; 194 steps
+//! and 70 factorisations, 154 of the steps at the outputs' spacing of 0.5 from t = 3 on
+//! (the cap for an A that depends on t) while their estimated error falls to 5e−8 of the
+//! allowance.
+//!
 //! `transient_periodic`: the periodic steady state of the forced linear oscillator at 64x64
 //! (`tests/transient_periodic.rs`'s case, without the error estimate).
 //!

@@ -826,7 +826,10 @@ fn hermite(s: f64, h: f64, y: &[f64], f: &[f64], y1: &[f64], f1: &[f64]) -> Vec<
 /// quartics' error and bounds the quintic's (at most 2.2e−5·h⁶‖y⁽⁶⁾‖) while the step
 /// resolves the solution's variation (h‖y⁽⁶⁾‖ < 13‖y⁽⁵⁾‖), as the embedded estimate bounds the
 /// step's. The estimate also sees a g spoiled by stiff components of y that A² amplifies
-/// (they differ between the two ends: the L-stable step damps them).
+/// (they differ between the two ends: the L-stable step damps them). It does not overstate
+/// the quintic's error where it limits the steps: the quintic's distance from the septic
+/// (A³y at both ends too), its own leading error term, read 1.35 times this estimate on
+/// case 1 at 100x200 from t = 5 to 29, steps of 0.5.
 struct Dense {
     /// A²y at the step's start.
     g: Vec<f64>,
