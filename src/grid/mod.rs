@@ -367,13 +367,7 @@ impl<'a> GridSolver<'a> {
         let start = Instant::now();
         let [nx, nv] = self.cells;
         check_cells(self.cells)?;
-        let dynamics = self.dynamics();
-        let problem = match &self.barriers {
-            Some(barriers) => {
-                Problem::Mechanical(Mechanical::with_barriers(self.model, &dynamics, barriers)?)
-            }
-            None => Problem::read(&dynamics)?,
-        };
+        let problem = self.problem()?;
         let (mut domain, mut passes, guess) = match self.domain {
             Some(d) => {
                 let d = checked_domain(&d, &problem, self.model)?;
@@ -505,6 +499,17 @@ impl<'a> GridSolver<'a> {
         Ok(solution)
     }
 
+    /// The problem this solver solves: the model's, or with the barriers given in its place.
+    fn problem(&self) -> Result<Problem, GridError> {
+        let dynamics = self.dynamics();
+        match &self.barriers {
+            Some(barriers) => Ok(Problem::Mechanical(Mechanical::with_barriers(
+                self.model, &dynamics, barriers,
+            )?)),
+            None => Problem::read(&dynamics),
+        }
+    }
+
     /// A tolerance is positive and finite, and excludes [`cells`](Self::cells).
     fn check_tolerance(&self, tol: f64) -> Result<(), GridError> {
         tolerance::check_tolerance(tol)?;
@@ -527,7 +532,9 @@ impl<'a> GridSolver<'a> {
         let mut solves: Vec<([usize; 2], f64)> = Vec::new();
         let mut best: Option<GridSolution> = None;
         let mut last_error = None;
-        let mut order = ASSUMED_ORDER;
+        // The first refinement aims at the scheme's order: the first solve's own observed
+        // order comes from a quarter solve of 16x32 cells.
+        let order = self.problem()?.scheme_order();
         let mut not_falling = 0;
         // No refinement beyond what this machine's memory lets a solve on given cells use.
         let limit = tolerance_cell_limit(crate::base::limits::memory_limit_bytes());
@@ -547,10 +554,6 @@ impl<'a> GridSolver<'a> {
             let e = match one.solve() {
                 Ok(sol) => {
                     let e = achieved(&sol);
-                    // The next cells aim at the order this solve's curves show.
-                    if let Some(est) = &sol.report.discretisation_estimate {
-                        order = est.shown_order[0].min(est.shown_order[1]);
-                    }
                     if sol.report.edges.cuts_density {
                         cut = 2.0 * sol.report.edges.beyond.iter().sum::<f64>();
                     }
@@ -587,13 +590,8 @@ impl<'a> GridSolver<'a> {
                     }
                 }
             }
-            let max_factor = if solves.len() == 1 {
-                tolerance::FIRST_MAX_FACTOR
-            } else {
-                tolerance::MAX_FACTOR
-            };
             let aim = tolerance::aim_order(&solves, order);
-            match next_cells(cells, e, tol, aim, max_factor, limit) {
+            match next_cells(cells, e, tol, aim, limit) {
                 NextCells::Free(next) | NextCells::Capped(next) => cells = next,
                 NextCells::AtLimit => break Some(Shortfall::CellLimit { limit }),
             }

@@ -35,6 +35,16 @@ impl Problem {
         }
     }
 
+    /// The order at which the operator's cell masses converge where the density is smooth:
+    /// 3 with averaged fluxes, 2 with midpoint fluxes and on the general form (what a
+    /// tolerance's first refinement aims by).
+    pub(crate) fn scheme_order(&self) -> f64 {
+        match self {
+            Problem::Mechanical(m) if m.fluxes() == super::problem::Fluxes::Averaged => 3.0,
+            _ => 2.0,
+        }
+    }
+
     /// The highest order the curves' L1 estimates may take from three solves: the mechanical
     /// operator's fluxes are third order, and its cell masses converge so unless a wall's law
     /// is not elastic (the density then jumps at the wall's v = 0, a singular corner, where its fluxes are

@@ -159,40 +159,34 @@ pub fn check_tolerance(tol: f64) -> Result<(), GridError> {
     }
 }
 
-/// The largest factor per axis of the first refinement: the first solve's order comes from
-/// its own coarse partners (a quarter solve of 16x32 cells), too coarse to aim far by; the
-/// second solve gives the estimate's measured rate ([`aim_order`]), which later steps
-/// (at most [`MAX_FACTOR`]) aim by.
-pub(super) const FIRST_MAX_FACTOR: f64 = 2.5;
-
-/// The largest factor per axis of a refinement after the first.
+/// The largest factor per axis of a refinement.
 pub(super) const MAX_FACTOR: f64 = 4.0;
 
 /// The order the next cells aim at: the rate at which the estimate itself fell between the
-/// last two solves (finite estimates, more cells, a lower estimate), within 1 and 3, or
-/// `shown` (the last solve's own observed order) before there are two. Only where the
-/// cells land depends on it: whether the tolerance is reached is the estimate's to say.
+/// last two solves (finite estimates, more cells, a lower estimate), within 1 and 4, or
+/// `first` (the scheme's order) before there are two. Only where the cells land depends on
+/// it: whether the tolerance is reached is the estimate's to say.
 ///
 /// The paper's case 1: 64x128 (7.2e-3) then 256x512 (1.8e-4) fell at order 2.66, where
-/// the shown order is held to 1.5 for the estimate's sake; aiming by 1.5 overshot the
-/// next solve to 540x1076 (3.7e-5 for a tolerance of 1e-4).
-pub(super) fn aim_order(solves: &[([usize; 2], f64)], shown: f64) -> f64 {
+/// the order its estimate shows is held to 1.5 for the estimate's sake; aiming by 1.5
+/// overshot the next solve to 540x1076 (3.7e-5 for a tolerance of 1e-4).
+pub(super) fn aim_order(solves: &[([usize; 2], f64)], first: f64) -> f64 {
     match solves {
         [.., (c1, e1), (c2, e2)] if e1.is_finite() && e2.is_finite() && *e2 > 0.0 => {
             let (n1, n2) = (c1[0] as f64, c2[0] as f64);
             if n2 > n1 && e2 < e1 {
-                ((e1 / e2).ln() / (n2 / n1).ln()).clamp(1.0, 3.0)
+                ((e1 / e2).ln() / (n2 / n1).ln()).clamp(1.0, 4.0)
             } else {
-                shown
+                first
             }
         }
-        _ => shown,
+        _ => first,
     }
 }
 
 /// The cells of the next solve after `cells` gave `estimate`: the factor per axis that
 /// brings the estimate to `MARGIN × tol` at convergence order `order`, at least 1.25
-/// (a smaller step costs a solve for little), at most `max_factor`, counts that are multiples of 4
+/// (a smaller step costs a solve for little), at most [`MAX_FACTOR`], counts that are multiples of 4
 /// (so that the solve has the quarter solve of its observed order), the aspect kept, at most
 /// `limit` cells in all. `None` when even the capped factor leaves the cells at the limit
 /// already.
@@ -201,13 +195,12 @@ pub(super) fn next_cells(
     estimate: f64,
     tol: f64,
     order: f64,
-    max_factor: f64,
     limit: usize,
 ) -> NextCells {
     let factor = if estimate.is_finite() {
         (estimate / (MARGIN * tol))
             .powf(1.0 / order)
-            .clamp(1.25, max_factor)
+            .clamp(1.25, MAX_FACTOR)
     } else {
         2.0
     };
@@ -244,60 +237,53 @@ mod tests {
     #[test]
     fn next_cells_aims_below_the_tolerance_at_the_observed_order() {
         // Estimate 4e-3 wanted 1e-3 at order 2: factor sqrt(4 / 0.6) = 2.58.
-        match next_cells([50, 100], 4e-3, 1e-3, 2.0, MAX_FACTOR, MAX_TOLERANCE_CELLS) {
+        match next_cells([50, 100], 4e-3, 1e-3, 2.0, MAX_TOLERANCE_CELLS) {
             NextCells::Free(c) => assert_eq!(c, [132, 260]),
             other => panic!("{other:?}"),
         }
         // A tiny step is raised to 1.25.
         assert_eq!(
-            next_cells(
-                [100, 200],
-                6.1e-4,
-                1e-3,
-                2.0,
-                MAX_FACTOR,
-                MAX_TOLERANCE_CELLS
-            ),
+            next_cells([100, 200], 6.1e-4, 1e-3, 2.0, MAX_TOLERANCE_CELLS),
             NextCells::Free([128, 252])
         );
         // Beyond the limit: capped, then at the limit.
         assert!(matches!(
-            next_cells([600, 1200], 1.0, 1e-4, 1.0, MAX_FACTOR, MAX_TOLERANCE_CELLS),
+            next_cells([600, 1200], 1.0, 1e-4, 1.0, MAX_TOLERANCE_CELLS),
             NextCells::Capped(_)
         ));
         assert_eq!(
-            next_cells([720, 1440], 1.0, 1e-4, 1.0, MAX_FACTOR, MAX_TOLERANCE_CELLS),
+            next_cells([720, 1440], 1.0, 1e-4, 1.0, MAX_TOLERANCE_CELLS),
             NextCells::AtLimit
         );
         // A machine with less memory: capped at its own limit.
         let limit = 300 * 600;
-        match next_cells([200, 400], 1.0, 1e-4, 1.0, MAX_FACTOR, limit) {
+        match next_cells([200, 400], 1.0, 1e-4, 1.0, limit) {
             NextCells::Capped(c) => assert!(c[0] * c[1] <= limit && c[0] > 200, "{c:?}"),
             other => panic!("{other:?}"),
         }
         assert_eq!(
-            next_cells([300, 600], 1.0, 1e-4, 1.0, MAX_FACTOR, limit),
+            next_cells([300, 600], 1.0, 1e-4, 1.0, limit),
             NextCells::AtLimit
         );
     }
 
     #[test]
     fn the_next_cells_aim_by_the_rate_the_estimate_fell_at() {
-        // One solve: its own order.
+        // One solve: the scheme's order.
         assert_eq!(aim_order(&[([64, 128], 7.2e-3)], 1.5), 1.5);
         // Case 1: 7.2e-3 at 64 cells, 6.6e-4 at 160: order ln(10.9)/ln(2.5) = 2.61.
         let q = aim_order(&[([64, 128], 7.2e-3), ([160, 320], 6.6e-4)], 1.5);
         assert!((q - 2.607).abs() < 1e-3, "{q}");
-        // Within 1 and 3.
+        // Within 1 and 4 (the cubic damping case fell at 4.7 from 160x320 to 460x916).
         assert_eq!(
             aim_order(&[([64, 128], 1e-2), ([128, 256], 1e-4)], 1.5),
-            3.0
+            4.0
         );
         assert_eq!(
             aim_order(&[([64, 128], 1e-3), ([128, 256], 9e-4)], 1.5),
             1.0
         );
-        // No fall, or a failed solve: the shown order.
+        // No fall, or a failed solve: the scheme's order.
         assert_eq!(
             aim_order(&[([64, 128], 1e-3), ([128, 256], 2e-3)], 2.5),
             2.5
@@ -305,18 +291,6 @@ mod tests {
         assert_eq!(
             aim_order(&[([64, 128], f64::INFINITY), ([128, 256], 2e-3)], 2.5),
             2.5
-        );
-        // The first step is held to FIRST_MAX_FACTOR.
-        assert_eq!(
-            next_cells(
-                [64, 128],
-                7.2e-3,
-                1e-3,
-                1.5,
-                FIRST_MAX_FACTOR,
-                MAX_TOLERANCE_CELLS
-            ),
-            NextCells::Free([160, 320])
         );
     }
 
