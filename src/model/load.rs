@@ -168,7 +168,7 @@ impl super::Model {
     /// ```
     ///
     /// # Errors
-    /// A [`ModelError`](super::ModelError): a syntax error, an unknown name, a quantity
+    /// A [`ModelError`]: a syntax error, an unknown name, a quantity
     /// without a state, a bound that is not a constant.
     pub fn with_safe(&self, text: &str) -> Result<super::Model, super::ModelError> {
         let shown = Some("--safe");

@@ -1,8 +1,8 @@
 //! One damped Newton and one Levenberg–Marquardt for square systems R(a) = 0 given with their
-//! Jacobian ([`Equations`]): the nonlinear solver of both closure methods. Each run reports
+//! Jacobian (`Equations`): the nonlinear solver of both closure methods. Each run reports
 //! its end point, ‖R‖ there, the iterations taken and why it stopped.
 //!
-//! Newton's details that the methods choose differently are [`NewtonOptions`]: the iteration
+//! Newton's details that the methods choose differently are `NewtonOptions`: the iteration
 //! limit, polishing past the threshold, whether a non-finite step counts as singular, and
 //! whether the line search evaluates the Jacobian with each trial residual.
 

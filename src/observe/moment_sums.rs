@@ -10,13 +10,13 @@ use crate::stats::Moments;
 /// each axis at 0, where `abs` and `sgn` of a state have their kinks, and the panels next to 0
 /// graded geometrically down to 1e−14 of their width, for singularities such as log|z|).
 ///
-/// ± a state under an analytic density ([`JointDensity::analytic`]) takes instead a tensor
+/// ± a state under an analytic density ([`JointDensity::analytic`](crate::density::JointDensity::analytic)) takes instead a tensor
 /// Clenshaw–Curtis rule (129 nodes per half-axis) on each quadrant, accepted where it agrees
 /// with its half-rule to 1e−10 (on the scale of E\[g⁴\]^(k/4)), the composite rule otherwise;
-/// under a density smooth piecewise along lines ([`JointDensity::smooth_pieces`], EPC inside a
+/// under a density smooth piecewise along lines ([`JointDensity::smooth_pieces`](crate::density::JointDensity::smooth_pieces), EPC inside a
 /// ridge) line integrals under an outer Clenshaw–Curtis rule (128 intervals per half-axis, 256
 /// when that fails its check), accepted at the density's rule tolerance (a tenth of
-/// [`JointDensity::stated_accuracy`]), the composite rule otherwise.
+/// [`JointDensity::stated_accuracy`](crate::density::JointDensity::stated_accuracy)), the composite rule otherwise.
 ///
 /// Accuracy: where p and g are smooth the rule is exact to rounding (relative 1e−12 on the
 /// tests' Gaussian and double-well densities); a kink of g away from the axes costs O(h²) with

@@ -137,7 +137,7 @@ fn piece_rule(breaks: &[f64], graded: usize, gauss: &[(f64, f64)]) -> Vec<(f64, 
     out
 }
 
-/// The moments of `map` under `density` (see [`Moments`](crate::moments::Moments)).
+/// The moments of `map` under `density` (see [`Moments`](crate::stats::Moments)).
 ///
 /// ```
 /// use fpsolve::density::JointDensity;

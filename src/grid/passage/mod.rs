@@ -102,17 +102,17 @@ pub(crate) fn evenly_spaced(end: f64, count: usize) -> Option<Vec<f64>> {
 /// What [`GridPassage::run`] found.
 #[derive(Clone, Debug, Serialize)]
 pub struct PassageSolution {
-    /// E[T] from the start (T interpolated bilinearly between cell centres).
+    /// E\[T\] from the start (T interpolated bilinearly between cell centres).
     pub mean_at_start: f64,
-    /// E[T²] from the start.
+    /// E\[T²\] from the start.
     pub second_at_start: f64,
-    /// E[T] from the start cell's point mass: the forward run's start, so that
+    /// E\[T\] from the start cell's point mass: the forward run's start, so that
     /// ∫R dt = `mean_from_start_cell` (up to the horizon's tail).
     pub mean_from_start_cell: f64,
-    /// E[T] with the start drawn from the stationary density restricted to the safe set;
+    /// E\[T\] with the start drawn from the stationary density restricted to the safe set;
     /// `None` for a model without a stationary density.
     pub mean_stationary: Option<f64>,
-    /// E[T²] likewise.
+    /// E\[T²\] likewise.
     pub second_stationary: Option<f64>,
     /// The stationary probability of the safe set (on the grid); `None` without a stationary
     /// density.

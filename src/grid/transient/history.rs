@@ -10,7 +10,7 @@ use crate::grid::Marginal;
 /// estimator, from a marginal's cell averages with Sheppard's corrections.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Moments {
-    /// E[q].
+    /// E\[q\].
     pub mean: f64,
     /// E[(q − mean)²].
     pub variance: f64,

@@ -140,7 +140,7 @@ pub enum PassageScope {
     /// stationary statistics (crossing rates, impacts).
     #[default]
     Full,
-    /// The mean first-passage times only: E[T] and E[T²] from the start and from the
+    /// The mean first-passage times only: E\[T\] and E\[T²\] from the start and from the
     /// stationary density in the set on the grid, with their estimated errors (the solve on
     /// half the cells); Monte Carlo's mean and variance of T. Everything else is listed in
     /// `not_computed` ([`PassageRun::not_computed`]).

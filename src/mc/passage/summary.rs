@@ -67,9 +67,9 @@ pub struct McPassageResult {
     pub reliability_lo: Vec<f64>,
     /// The upper end of R's 95 % band.
     pub reliability_hi: Vec<f64>,
-    /// The first-passage-time density as a histogram on `times`: bin k is (times[k],
+    /// The first-passage-time density as a histogram on `times`: bin k is (times\[k\],
     /// times[k+1]], its value the fraction of paths leaving in it over its width (so the
-    /// bin's mass is exactly R(times[k]) − R(times[k+1])); censored paths never count as
+    /// bin's mass is exactly R(times\[k\]) − R(times\[k+1\])); censored paths never count as
     /// exits. One fewer than `times`, none for fewer than two; NaN for a bin of no width.
     pub pdf_binned: Vec<f64>,
     /// The binomial standard errors of `pdf_binned`: √(p(1 − p)/n) over the bin's width.

@@ -118,9 +118,9 @@ pub struct McTransient<'a> {
 /// their time-step bias.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct McStateMoments {
-    /// E[q].
+    /// E\[q\].
     pub mean: Estimate,
-    /// Var[q] (unbiased).
+    /// Var\[q\] (unbiased).
     pub variance: Estimate,
     /// E[(q − mean)⁴]/Var² (NaN where the variance is zero, as at a point start).
     pub kurtosis: Estimate,
