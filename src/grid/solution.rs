@@ -45,8 +45,9 @@ pub struct DiscretisationEstimate {
     /// without a quarter solve (cells not a multiple of 4, or fewer than 64 on an axis).
     pub curve_order: [f64; 2],
     /// The order the three solves show within the problem's cap, before the limit for a
-    /// coarse quarter solve: what a tolerance's next cells aim at (equal to `curve_order`
-    /// when that limit does not apply).
+    /// coarse quarter solve (equal to `curve_order` when that limit does not apply). A
+    /// tolerance's next cells aim by the scheme's order and then by the rate its estimates
+    /// fell, not by this.
     pub shown_order: [f64; 2],
     /// The cells of the quarter solve, when there was one.
     pub quarter_cells: Option<[usize; 2]>,
